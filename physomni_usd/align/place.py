@@ -1,0 +1,142 @@
+"""Keeping objects apart on the ground, and centring the scene on the origin.
+
+Objects stand on z = 0, so two of them can only overlap where their
+footprints do. An object's depth is the one dimension a single photo does not
+show, so an overlap is first resolved by making the nearer object shallower
+(its front, which the camera sees, stays where it is); only what that cannot
+fix is resolved by moving objects apart, which shifts them in the image.
+
+Footprints Footprints are the convex hulls of the meshes' vertices
+projected on the ground; the separating-axis test gives, for each
+overlapping pair, the shortest horizontal move that separates them, and each
+object takes half of it. Because the test runs on convex hulls that contain
+the meshes, separated footprints mean separated meshes, and nothing is ever
+moved vertically, so nothing is pushed into the ground.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import ConvexHull
+
+MAX_PASSES = 200
+
+
+def footprint(vertices: np.ndarray) -> np.ndarray:
+    """Counter-clockwise convex hull (n, 2) of the vertices' ground projection."""
+    xy = np.asarray(vertices)[:, :2]
+    try:
+        hull = ConvexHull(xy)
+        return xy[hull.vertices]
+    except Exception:  # degenerate (flat) footprint: keep its extreme points
+        lo, hi = xy.min(0), xy.max(0)
+        return np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
+
+
+def separation(a: np.ndarray, b: np.ndarray) -> np.ndarray | None:
+    """Shortest move (2,) of polygon ``b`` that ends its overlap with ``a``; None if they do not overlap."""
+    best, best_axis = np.inf, None
+    for poly in (a, b):
+        edges = np.roll(poly, -1, axis=0) - poly
+        normals = np.stack([edges[:, 1], -edges[:, 0]], 1)
+        lengths = np.linalg.norm(normals, axis=1)
+        normals = normals[lengths > 1e-12] / lengths[lengths > 1e-12, None]
+        for n in normals:
+            pa, pb = a @ n, b @ n
+            overlap = min(pa.max(), pb.max()) - max(pa.min(), pb.min())
+            if overlap <= 0:
+                return None
+            if overlap < best:
+                best = overlap
+                best_axis = n if pb.mean() >= pa.mean() else -n
+    return best * best_axis
+
+
+def separate(vertex_sets: list[np.ndarray], gap: float = 0.002) -> list[np.ndarray]:
+    """Horizontal offsets (k, 3) that leave every pair of footprints at least ``gap`` apart.
+
+    Each overlapping pair moves apart by half the needed distance each; passes
+    repeat until no pair overlaps.
+    """
+    k = len(vertex_sets)
+    offsets = np.zeros((k, 2))
+    base = [footprint(v) for v in vertex_sets]
+    for _ in range(MAX_PASSES):
+        moved = False
+        for i in range(k):
+            for j in range(i + 1, k):
+                pa = base[i] + offsets[i]
+                pb = base[j] + offsets[j]
+                mtv = separation(pa + gap * _outward_dirs(pa), pb + gap * _outward_dirs(pb))
+                if mtv is None:
+                    continue
+                step = mtv * (0.5 + 1e-3) + 1e-6 * np.sign(mtv)
+                offsets[i] -= step
+                offsets[j] += step
+                moved = True
+        if not moved:
+            break
+    return [np.array([o[0], o[1], 0.0]) for o in offsets]
+
+
+#: An object is never made shallower than this fraction of its lifted depth.
+MIN_DEPTH_SCALE = 0.25
+
+
+def squash_depth(vertices: np.ndarray, front: np.ndarray, direction: np.ndarray, scale: float) -> np.ndarray:
+    """Vertices with their depth behind the plane through ``front`` (normal ``direction``) scaled by ``scale``."""
+    d = (vertices - front) @ direction
+    return vertices - np.outer((1.0 - scale) * np.maximum(d, 0.0), direction)
+
+
+def make_room(vertex_sets: list[np.ndarray], fronts: list[np.ndarray], camera_origin: np.ndarray,
+              gap: float = 0.002) -> tuple[list[np.ndarray], list[float]]:
+    """Make nearer objects shallower where their back overlaps an object behind them.
+
+    ``fronts`` (3,) are the points where each object meets the ground at its
+    front. Returns the new vertex sets and each object's depth scale.
+    """
+    verts = [np.asarray(v, float).copy() for v in vertex_sets]
+    scales = [1.0] * len(verts)
+    dirs = []
+    for f in fronts:
+        d = np.asarray(f, float) - camera_origin
+        d[2] = 0.0
+        dirs.append(d / max(np.linalg.norm(d), 1e-12))
+    dist = [np.linalg.norm((np.asarray(f) - camera_origin)[:2]) for f in fronts]
+    order = np.argsort(dist)
+    for a in order:
+        squashed = lambda k: squash_depth(vertex_sets[a], fronts[a], dirs[a], k)  # noqa: E731
+        for b in order:
+            if dist[b] <= dist[a] or _apart(verts[a], verts[b], gap):
+                continue
+            if not _apart(squashed(MIN_DEPTH_SCALE), verts[b], gap):
+                scale = MIN_DEPTH_SCALE  # depth alone cannot fix it; moving apart does the rest
+            else:  # largest depth that clears b: bisect between clear (lo) and overlapping (hi)
+                lo, hi = MIN_DEPTH_SCALE, scales[a]
+                for _ in range(20):
+                    mid = 0.5 * (lo + hi)
+                    lo, hi = (mid, hi) if _apart(squashed(mid), verts[b], gap) else (lo, mid)
+                scale = lo
+            scales[a] = scale
+            verts[a] = squashed(scale)
+    return verts, scales
+
+
+def _apart(va: np.ndarray, vb: np.ndarray, gap: float) -> bool:
+    pa, pb = footprint(va), footprint(vb)
+    return separation(pa + gap * _outward_dirs(pa), pb + gap * _outward_dirs(pb)) is None
+
+
+def _outward_dirs(poly: np.ndarray) -> np.ndarray:
+    c = poly.mean(0)
+    d = poly - c
+    n = np.linalg.norm(d, axis=1, keepdims=True)
+    return d / np.maximum(n, 1e-12) * 0.5
+
+
+def centring_offset(vertex_sets: list[np.ndarray]) -> np.ndarray:
+    """Horizontal offset (3,) that puts the middle of all footprints at the origin."""
+    xy = np.vstack([np.asarray(v)[:, :2] for v in vertex_sets])
+    mid = 0.5 * (xy.min(0) + xy.max(0))
+    return np.array([-mid[0], -mid[1], 0.0])

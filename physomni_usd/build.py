@@ -1,0 +1,177 @@
+"""``build``: photo → ``scene.usda`` + ``physics.usda`` + ``shot.usda`` (+ an empty ``edits.usda``).
+
+Runs perceive (masks, plate, lifting), align (camera, ground contact,
+separation) and the default estimate (rigid materials from the label table).
+All input is read and checked before anything is written.
+"""
+
+from __future__ import annotations
+
+import pathlib
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from ._files import write_bytes
+from .align.camera import PinholeCamera, pick_pitch
+from .align.place import centring_offset, make_room, separate
+from .errors import InputError
+from .materials.defaults import GROUND, rigid_material
+from .perceive.lift import fill_holes, foot_pixel, lift_silhouette
+from .perceive.masks import collect_masks, read_photo
+from .perceive.plate import background_plate, object_texture
+from .report import Timer, update_report
+from .settings import BuildSettings
+from .usd import layers
+from .usd.author import PhysicsObject, SceneObject, write_physics_layer, write_scene_layer
+
+TEXTURES = "textures"
+#: Solver defaults written to the physics layer (the physics benchmark revisits them).
+DEFAULT_SOLVER = "xpbd"
+DEFAULT_SUBSTEPS = 10
+DEFAULT_ITERATIONS = 5
+
+
+@dataclass
+class BuildResult:
+    folder: pathlib.Path
+    shot: pathlib.Path
+    objects: list[dict]
+    seconds: dict
+
+
+def prepare_output(folder) -> pathlib.Path:
+    """The output folder, created if needed; refuses a path that is a file."""
+    out = pathlib.Path(folder)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"output {out} exists and is not a directory")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create output directory {out}: {exc.strerror}") from None
+    return out
+
+
+def parse_pushes(pushes, labels_to_names: dict[str, str]) -> dict[str, tuple[float, float, float]]:
+    """``['cup=1,0,0']`` → ``{'cup_0': (1, 0, 0)}``; LABEL may be a label or a prim name."""
+    out = {}
+    for spec in pushes or ():
+        label, sep, vec = spec.partition("=")
+        if not sep:
+            raise InputError(f"--push {spec!r}: expected LABEL=VX,VY,VZ")
+        try:
+            v = tuple(float(x) for x in vec.split(","))
+        except ValueError:
+            v = ()
+        if len(v) != 3 or not all(np.isfinite(v)):
+            raise InputError(f"--push {spec!r}: expected three finite numbers VX,VY,VZ in m/s")
+        if max(abs(x) for x in v) > 1000:
+            raise InputError(f"--push {spec!r}: speeds above 1000 m/s are not physical here")
+        name = labels_to_names.get(label.strip())
+        if name is None:
+            known = ", ".join(sorted(labels_to_names)) or "none"
+            raise InputError(f"--push {spec!r}: no object labelled {label!r} (known: {known})")
+        out[name] = v
+    return out
+
+
+def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings = BuildSettings(),
+               pushes=(), echo=lambda msg: None) -> BuildResult:
+    timer = Timer()
+    with timer.step("read"):
+        out = prepare_output(out_dir)
+        photo = read_photo(photo_path)
+        objects = collect_masks(photo, masks, boxes)
+        names = {}
+        for o in objects:
+            names.setdefault(o.label, o.name)
+            names[o.name] = o.name
+        push = parse_pushes(pushes, names)
+    h, w = photo.shape[:2]
+    echo(f"perceive: {len(objects)} object(s) in a {w}×{h} photo")
+
+    with timer.step("perceive.plate"):
+        plate = background_plate(photo, [o.mask for o in objects], settings.plate_dilation)
+
+    with timer.step("align.camera"):
+        feet = [foot_pixel(fill_holes(o.mask))[1] for o in objects]
+        pitch = pick_pitch(settings.camera.fov_deg, h, feet, settings.camera.pitch_deg)
+        camera = PinholeCamera(w, h, settings.camera.fov_deg, pitch, (0.0, 0.0, settings.camera.height_m))
+
+    with timer.step("perceive.lift"):
+        lifted = [lift_silhouette(o.mask, camera, settings.lift) for o in objects]
+
+    with timer.step("align.place"):
+        verts, depth_scales = make_room([m.vertices for m in lifted], [m.contact for m in lifted],
+                                        camera.origin, settings.gap_m)
+        moves = separate(verts, settings.gap_m)
+        verts = [v + d for v, d in zip(verts, moves)]
+        centre = centring_offset(verts)
+        verts = [v + centre for v in verts]
+        camera = camera.moved(centre)
+
+    with timer.step("perceive.texture"):
+        import trimesh
+
+        tex_dir = out / TEXTURES
+        tex_dir.mkdir(exist_ok=True)
+        scene_objects, report_objects = [], []
+        for o, m, v, d, k in zip(objects, lifted, verts, moves, depth_scales):
+            rgba, (x0, y0) = object_texture(photo, o.mask)
+            # texture coordinates: the photo projected from the camera, before any separation move
+            uv, _ = camera.project(v - d)
+            st = np.stack([(uv[:, 0] - x0) / rgba.shape[1], 1.0 - (uv[:, 1] - y0) / rgba.shape[0]], 1)
+            tm = trimesh.Trimesh(v, m.faces, process=False)
+            origin = tm.center_mass if tm.is_volume else v.mean(0)
+            rel = f"{TEXTURES}/{o.name}.png"
+            _write_png(out / rel, rgba)
+            scene_objects.append(SceneObject(o.name, o.label, o.index, v - origin, m.faces,
+                                             np.asarray(tm.vertex_normals), st, origin, f"./{rel}", m.shape))
+            report_objects.append({
+                "name": o.name, "label": o.label, "mask_index": o.index, "source": o.source,
+                "shape": m.shape, "pixels": int(o.mask.sum()),
+                "size_m": np.ptp(v, axis=0).round(4).tolist(), "position_m": origin.round(4).tolist(),
+                "depth_scale": round(k, 4), "moved_apart_m": round(float(np.linalg.norm(d)), 4), "watertight": bool(tm.is_watertight),
+            })
+        _write_png(out / TEXTURES / "plate.png", plate)
+
+    with timer.step("estimate"):
+        physics_objects = []
+        for o, rep in zip(objects, report_objects):
+            mat = rigid_material(o.label)
+            physics_objects.append(PhysicsObject(o.name, mat.density, mat.static_friction, mat.dynamic_friction,
+                                                 mat.restitution, velocity=push.get(o.name)))
+            rep["material"] = {"type": "rigid", "entry": mat.name, "density": mat.density,
+                               "static_friction": mat.static_friction, "dynamic_friction": mat.dynamic_friction,
+                               "restitution": mat.restitution, "source": "rules"}
+            if o.name in push:
+                rep["push_m_s"] = list(push[o.name])
+
+    with timer.step("write"):
+        extent = max(np.abs(np.vstack(verts)[:, :2]).max() * 4.0, 20.0 * settings.camera.height_m)
+        write_scene_layer(out / layers.SCENE, fps=settings.fps, image_size=(w, h), camera=camera,
+                          plate=f"./{TEXTURES}/plate.png", objects=scene_objects, ground_size=float(extent),
+                          extra={"physomni:photo": str(pathlib.Path(photo_path).name)})
+        write_physics_layer(out / layers.PHYSICS, out / layers.SCENE, fps=settings.fps, objects=physics_objects,
+                            ground=GROUND, solver=DEFAULT_SOLVER, substeps=DEFAULT_SUBSTEPS,
+                            iterations=DEFAULT_ITERATIONS)
+        layers.reset_sim_layer(out, settings.fps)
+        layers.ensure_edits_layer(out)
+        shot = layers.write_shot_layer(out, settings.fps)
+    echo("build: wrote " + ", ".join([layers.SCENE, layers.PHYSICS, layers.SHOT]))
+    update_report(out, objects=report_objects, shot={"photo": str(photo_path), "width": w, "height": h,
+                                                    "fov_deg": settings.camera.fov_deg, "pitch_deg": pitch,
+                                                    "camera_height_m": settings.camera.height_m,
+                                                    "fps": settings.fps},
+                  build={"seconds": timer.seconds, "total_seconds": timer.total})
+    return BuildResult(out, shot, report_objects, timer.seconds)
+
+
+def _write_png(path: pathlib.Path, image: np.ndarray) -> None:
+    """Write an RGB(A) image as PNG through a temporary file and a rename."""
+    code = cv2.COLOR_RGBA2BGRA if image.shape[2] == 4 else cv2.COLOR_RGB2BGR
+    ok, data = cv2.imencode(".png", cv2.cvtColor(image, code))
+    if not ok:
+        raise OSError(f"cannot encode {path.name}")
+    write_bytes(path, data.tobytes())

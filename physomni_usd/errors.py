@@ -1,0 +1,22 @@
+"""The one exception type users see: a message that fits on one line."""
+
+
+class PhysOmniError(Exception):
+    """Bad input or a failed stage, said in one line for a person.
+
+    The CLI prints ``error: <message>`` and exits with ``exit_code``; nothing
+    else of the traceback reaches the terminal.
+    """
+
+    exit_code = 1
+
+    def __init__(self, message: str, exit_code: int | None = None):
+        super().__init__(" ".join(str(message).split()))
+        if exit_code is not None:
+            self.exit_code = exit_code
+
+
+class InputError(PhysOmniError):
+    """The user's input cannot be used (exit code 2, as for usage errors)."""
+
+    exit_code = 2

@@ -1,0 +1,1 @@
+"""Estimate: the physical material of each object (built in: a keyword table)."""

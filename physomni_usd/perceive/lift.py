@@ -1,0 +1,214 @@
+"""Lifting an object's silhouette into a closed, watertight triangle mesh.
+
+The built-in lifter needs no model. It assumes the object stands on the
+ground, seen roughly from the side (camera pitch up to ~35°):
+
+1. The object's foot is the bottom of its silhouette; the camera ray through
+   it meets the ground at the contact point.
+2. Each sampled image row of the silhouette is cast onto the vertical plane
+   through the object (facing the camera), which gives the row's height and
+   metric width: the scale at which the silhouette matches the photo.
+3. Each row becomes a cross-section and the sections are lofted into a tube
+   with flat caps:
+   - ``round`` (outline mirror-symmetric): circles, a surface of revolution
+     whose axis follows the silhouette's mid-line — cups, bottles, balls;
+   - ``extrude`` (otherwise): a slab of the outline whose depth is
+     ``depth_ratio`` times the smaller of its width and height, with sides
+     along the camera's rays so that it hides behind its own front —
+     boxes, vehicles, furniture.
+
+Rows are spanned from the leftmost to the rightmost pixel, so concavities
+(a handle's hole, the gap between wheels) are filled; the mesh's texture
+carries the mask as alpha and renderers cut those pixels away.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from ..align.camera import PinholeCamera
+from ..settings import LiftSettings
+
+#: Superellipse exponent of round cross-sections (2: a circle).
+ROUND_EXPONENT = 2.0
+
+
+@dataclass
+class LiftedMesh:
+    vertices: np.ndarray  # (N, 3) float64, world metres
+    faces: np.ndarray  # (M, 3) int32, outward-facing
+    shape: str  # 'round' | 'extrude'
+    contact: np.ndarray  # (3,) where the silhouette's foot meets the ground
+    foot_row: float  # image row of the foot
+
+    @property
+    def height(self) -> float:
+        return float(np.ptp(self.vertices[:, 2]))
+
+
+def fill_holes(mask: np.ndarray) -> np.ndarray:
+    """Mask with every enclosed hole filled (background reachable from the border stays)."""
+    m = mask.astype(np.uint8)
+    padded = np.pad(m, 1)
+    flood = padded.copy()
+    cv2.floodFill(flood, None, (0, 0), 1)
+    holes = (flood[1:-1, 1:-1] == 0)
+    return mask.astype(bool) | holes
+
+
+def foot_pixel(mask: np.ndarray) -> tuple[float, float]:
+    """(u, v) of the object's foot: the middle of its lowest pixels, at their bottom edge."""
+    rows = np.nonzero(mask.any(axis=1))[0]
+    bottom = rows[-1]
+    band = max(1, int(round(0.02 * (bottom - rows[0] + 1))))
+    cols = np.nonzero(mask[bottom - band + 1:bottom + 1].any(axis=0))[0]
+    return float(np.median(cols)) + 0.5, float(bottom + 1)
+
+
+def mirror_iou(mask: np.ndarray) -> float:
+    """IoU of the silhouette with its mirror image about its own vertical mid-line."""
+    ys, xs = np.nonzero(mask)
+    crop = mask[ys.min():ys.max() + 1, xs.min():xs.max() + 1]
+    flipped = crop[:, ::-1]
+    return float((crop & flipped).sum() / max(1, (crop | flipped).sum()))
+
+
+def row_spans(mask: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Left and right pixel edges (len(rows), 2) of the silhouette on each of ``rows``.
+
+    Rows without pixels take the span interpolated from their neighbours.
+    """
+    has = mask.any(axis=1)
+    all_rows = np.nonzero(has)[0]
+    left = np.array([np.argmax(mask[r]) for r in all_rows], float)
+    right = np.array([mask.shape[1] - np.argmax(mask[r, ::-1]) for r in all_rows], float)
+    return np.stack([np.interp(rows, all_rows, left), np.interp(rows, all_rows, right)], axis=1)
+
+
+def superellipse(n: int, exponent: float) -> np.ndarray:
+    """(n, 2) points (x, y) of the unit superellipse |x|^p + |y|^p = 1, counter-clockwise."""
+    t = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
+    c, s = np.cos(t), np.sin(t)
+    e = 2.0 / exponent
+    return np.stack([np.sign(c) * np.abs(c) ** e, np.sign(s) * np.abs(s) ** e], axis=1)
+
+
+def loft(rings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Closed tube through cross-sections ``rings`` (K, n, 3), top first, with a fan cap at each end.
+
+    Every ring must list its n points in the same rotational order. Returns
+    vertices (K·n + 2, 3) and outward triangles (M, 3).
+    """
+    k, sections = rings.shape[:2]
+    verts = rings.reshape(-1, 3)
+    top, bottom = len(verts), len(verts) + 1
+    verts = np.vstack([verts, rings[0].mean(0), rings[-1].mean(0)])
+    faces = []
+    j = np.arange(sections)
+    jn = (j + 1) % sections
+    for i in range(k - 1):
+        a, b = i * sections + j, i * sections + jn
+        c, d = (i + 1) * sections + j, (i + 1) * sections + jn
+        faces.append(np.stack([a, c, b], 1))
+        faces.append(np.stack([b, c, d], 1))
+    faces.append(np.stack([np.full(sections, top), j, jn], 1))
+    last = (k - 1) * sections
+    faces.append(np.stack([np.full(sections, bottom), last + jn, last + j], 1))
+    faces = np.concatenate(faces).astype(np.int32)
+    return verts, _outward(verts, faces)
+
+
+def round_rings(centres, radii, tangent, normal, sections: int) -> np.ndarray:
+    """Circles (K, n, 3) of ``radii`` about ``centres`` in the horizontal plane spanned by tangent and normal."""
+    ring = superellipse(sections, ROUND_EXPONENT)
+    return (centres[:, None, :] + ring[None, :, 0:1] * radii[:, None, None] * tangent
+            + ring[None, :, 1:2] * radii[:, None, None] * normal)
+
+
+def ray_slab_rings(front_left, front_right, dir_left, dir_right, normal, depth: float, sections: int) -> np.ndarray:
+    """Quadrilateral sections (K, n, 3) whose sides follow the camera rays through the outline, seen from above.
+
+    The front edge of each section is the outline's row on the front plane and
+    the back edge lies ``depth`` further along ``normal`` at the same height;
+    the sides run along the rays' horizontal directions, so from the camera
+    they hide behind the front face's edges instead of widening the outline.
+    """
+    dir_left = dir_left * np.array([1.0, 1.0, 0.0])
+    dir_right = dir_right * np.array([1.0, 1.0, 0.0])
+    back_left = front_left + dir_left * (depth / (dir_left @ normal))[:, None]
+    back_right = front_right + dir_right * (depth / (dir_right @ normal))[:, None]
+    side = max(1, sections // 6)
+    face = max(1, (sections - 2 * side) // 2)
+    corners = [front_left, front_right, back_right, back_left]
+    counts = [face, side, sections - face - 2 * side, side]
+    parts = []
+    for c, (a, b) in zip(counts, zip(corners, corners[1:] + corners[:1])):
+        t = (np.arange(c) / c)[None, :, None]
+        parts.append(a[:, None, :] * (1 - t) + b[:, None, :] * t)
+    return np.concatenate(parts, axis=1)
+
+
+def _outward(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Flip every face if the signed volume is negative (the tube's handedness depends on the axes)."""
+    a, b, c = verts[faces[:, 0]], verts[faces[:, 1]], verts[faces[:, 2]]
+    volume = np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0
+    return faces[:, ::-1].copy() if volume < 0 else faces
+
+
+def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSettings = LiftSettings()) -> LiftedMesh:
+    """Closed mesh of the object whose silhouette is ``mask`` (H, W) bool, standing on z = 0."""
+    solid = fill_holes(mask)
+    u_foot, v_foot = foot_pixel(solid)
+    contact = camera.ground_points(u_foot, v_foot)
+    if not np.all(np.isfinite(contact)):
+        raise ValueError("the object's foot is above the horizon")
+    ys = np.nonzero(solid.any(axis=1))[0]
+    top, bottom = float(ys[0]), float(ys[-1] + 1)  # pixel edges
+    k = int(min(settings.rows, max(4, ys[-1] - ys[0] + 2)))
+    edges = np.linspace(top, bottom, k)
+    spans = row_spans(solid, np.clip(np.round(edges - 0.5), ys[0], ys[-1]))
+    shape = settings.shape
+    if shape == "auto":
+        shape = "round" if mirror_iou(solid) >= settings.symmetry_iou else "extrude"
+
+    origin = camera.origin
+    # The object's plane faces the camera's horizontal forward direction; with a camera
+    # that only pitches, every pixel of an image row then lands at the same height on it.
+    normal = camera.world_from_camera[:, 2].copy()
+    normal[2] = 0.0
+    normal /= np.linalg.norm(normal)  # horizontal, away from the camera
+    tangent = np.cross(normal, [0.0, 0.0, 1.0])  # horizontal, to the image's right
+
+    def on_plane(u, v, point):
+        d = camera.rays(u, v)
+        s = ((point - origin) @ normal) / (d @ normal)
+        return origin + s[..., None] * d
+
+    # The foot is the object's front edge, so rows are first cast onto the vertical
+    # plane through the contact: that gives each row's height (the foot row lands
+    # exactly on z = 0) and its metric width.
+    left = on_plane(spans[:, 0], edges, contact)
+    right = on_plane(spans[:, 1], edges, contact)
+    z = on_plane(0.5 * spans.sum(axis=1), edges, contact)[:, 2]
+    if shape == "round":
+        # a circle's widest points lie one radius behind the front plane: measure the width there
+        radius = 0.5 * np.linalg.norm(right - left, axis=1)
+        for _ in range(2):
+            behind = contact + radius[:, None] * normal
+            left = np.stack([on_plane(spans[i, 0], edges[i], behind[i]) for i in range(k)])
+            right = np.stack([on_plane(spans[i, 1], edges[i], behind[i]) for i in range(k)])
+            radius = np.maximum(0.5 * np.linalg.norm(right - left, axis=1), 1e-4)
+        centres = 0.5 * (left + right)
+        centres[:, 2] = z
+        rings = round_rings(centres, radius, tangent, normal, settings.sections)
+    else:
+        width = float(np.linalg.norm(right - left, axis=1).max())
+        depth = settings.depth_ratio * min(width, float(z.max() - z.min()) or width)
+        rings = ray_slab_rings(left, right, camera.rays(spans[:, 0], edges), camera.rays(spans[:, 1], edges),
+                               normal, depth, settings.sections)
+    verts, faces = loft(rings)
+    verts[:, 2] -= verts[:, 2].min()  # rounding only: the foot row is already at z = 0
+    return LiftedMesh(verts, faces, shape, contact, v_foot)

@@ -1,0 +1,194 @@
+"""Rigid-body simulation of a shot with Newton, recorded as one sample per video frame."""
+
+from __future__ import annotations
+
+import math
+import pathlib
+import sys
+import time
+
+import numpy as np
+from pxr import Usd, UsdPhysics
+
+from .._warp import load_warp, pick_device
+from ..errors import InputError, PhysOmniError
+from ..report import update_report
+from ..settings import SimulateSettings
+from ..usd import layers
+from ..usd.author import OBJECTS, write_sim_layer
+from .checks import MAX_SPEED, check_rigid_inputs
+
+SUPPORTED_SOLVERS = ("xpbd",)
+#: How often a diverging run is retried, each time with twice the substeps.
+MAX_RETRIES = 2
+#: Motion below these is "did not move": such prims get no time samples.
+STILL_METRES = 1e-5
+STILL_RADIANS = 1e-4
+
+
+def rigid_bodies(stage: Usd.Stage) -> list[Usd.Prim]:
+    """Prims under /World/Objects that carry PhysicsRigidBodyAPI, in stage order."""
+    root = stage.GetPrimAtPath(OBJECTS)
+    if not root:
+        return []
+    return [p for p in Usd.PrimRange(root) if p.HasAPI(UsdPhysics.RigidBodyAPI)]
+
+
+def scene_settings(stage: Usd.Stage, settings: SimulateSettings) -> dict:
+    """Solver, substeps, iterations and fps: the command line's where given, else the stage's."""
+    scene = next((p for p in stage.Traverse() if p.IsA(UsdPhysics.Scene)), None)
+
+    def attr(name, default):
+        a = scene.GetAttribute(name) if scene else None
+        v = a.Get() if a and a.HasAuthoredValue() else None
+        return default if v is None else v
+
+    fps = settings.fps or stage.GetTimeCodesPerSecond() or 30.0
+    out = {
+        "solver": str(attr("physomni:solver", "xpbd")),
+        "substeps": int(settings.substeps or attr("physomni:substeps", 10)),
+        "iterations": int(settings.iterations or attr("physomni:iterations", 5)),
+        "fps": float(fps),
+    }
+    if out["solver"] not in SUPPORTED_SOLVERS:
+        raise InputError(f"physomni:solver = {out['solver']!r} is not available; use one of {SUPPORTED_SOLVERS}")
+    if not 1 <= out["substeps"] <= 1000 or not 1 <= out["iterations"] <= 100:
+        raise InputError("physomni:substeps must be in [1, 1000] and physomni:iterations in [1, 100]")
+    return out
+
+
+def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progress=None, echo=lambda m: None) -> dict:
+    """Simulate the composed stage of ``shot`` and write ``sim.usdc`` beside it; returns the report section."""
+    t_start = time.perf_counter()
+    folder = layers.shot_folder(shot)
+    stage = layers.open_shot(shot, mute_sim=True)
+    cfg = scene_settings(stage, settings)
+    bodies = rigid_bodies(stage)
+    if not bodies:
+        raise InputError(f"{shot}: no rigid bodies under {OBJECTS}; nothing to simulate")
+    check_rigid_inputs(stage, bodies)
+    frames = int(round(settings.seconds * cfg["fps"])) + 1
+
+    substeps = cfg["substeps"]
+    for attempt in range(MAX_RETRIES + 1):
+        run = _run(stage, cfg | {"substeps": substeps}, frames, settings.device, progress)
+        if run["ok"]:
+            break
+        if attempt == MAX_RETRIES:
+            raise PhysOmniError(f"simulation diverged at frame {run['frame']} even with {substeps} substeps per "
+                                "frame; check the masses, speeds and friction in the shot")
+        echo(f"simulate: diverged at frame {run['frame']}; restarting with {substeps * 2} substeps per frame")
+        substeps *= 2
+
+    t_write = time.perf_counter()
+    q = run["body_q"]  # (F, B, 7): x, y, z, qx, qy, qz, qw
+    tracks, moved = {}, []
+    for path, b in run["path_body"].items():
+        pos = q[:, b, :3].astype(np.float64)
+        quat = q[:, b, [6, 3, 4, 5]].astype(np.float64)  # → w, x, y, z
+        quat /= np.linalg.norm(quat, axis=1, keepdims=True)
+        if _moved(pos, quat):
+            tracks[path] = (pos, quat)
+            moved.append(path)
+    dt = 1.0 / (cfg["fps"] * substeps)
+    meta = {"physomni:solver": cfg["solver"], "physomni:substeps": substeps, "physomni:dt": dt,
+            "physomni:iterations": cfg["iterations"], "physomni:seconds": settings.seconds}
+    write_sim_layer(folder / layers.SIM, fps=cfg["fps"], frames=frames, tracks=tracks, metadata=meta)
+    layers.set_shot_time(folder, cfg["fps"], frames)
+    t_end = time.perf_counter()
+
+    section = {
+        "solver": cfg["solver"], "device": run["device"], "fps": cfg["fps"], "frames": frames,
+        "substeps": substeps, "dt": dt, "iterations": cfg["iterations"], "simulated_seconds": settings.seconds,
+        "bodies": len(run["path_body"]), "moving_prims": moved, "retries": attempt,
+        "final_lowest_z_m": run["lowest_z"], "max_speed_m_s": run["max_speed"],
+        "modules": {"torch": "torch" in sys.modules},
+        "seconds": {"read": round(run["t_build"] - t_start, 4), "build_model": round(run["t_model"], 4),
+                    "step": round(run["t_step"], 4), "write": round(t_end - t_write, 4)},
+        "total_seconds": round(t_end - t_start, 4),
+        "seconds_per_simulated_second": round(run["t_step"] / max(settings.seconds, 1e-9), 4),
+    }
+    update_report(folder, simulate=section)
+    return section
+
+
+def _moved(pos: np.ndarray, quat: np.ndarray) -> bool:
+    if np.abs(pos - pos[0]).max() > STILL_METRES:
+        return True
+    dots = np.abs(quat @ quat[0])
+    return float(2 * np.arccos(np.clip(dots.min(), -1, 1))) > STILL_RADIANS
+
+
+def _run(stage, cfg, frames, device, progress) -> dict:
+    """One attempt: build the model, step it, record ``body_q`` each frame; stop at the first non-finite state."""
+    t0 = time.perf_counter()
+    wp = load_warp()
+    device = pick_device(device)
+    import newton
+
+    builder = newton.ModelBuilder(up_axis=newton.Axis.Z)
+    result = builder.add_usd(stage, load_visual_shapes=False, load_sites=False, verbose=False)
+    path_body = {p: b for p, b in result["path_body_map"].items() if p.startswith(OBJECTS + "/")}
+    with wp.ScopedDevice(device):
+        model = builder.finalize(device=device)
+        solver = newton.solvers.SolverXPBD(model, iterations=cfg["iterations"])
+        state_a, state_b = model.state(), model.state()
+        control = model.control()
+        pipeline = newton.CollisionPipeline(model)
+        contacts = pipeline.contacts()
+        t_model = time.perf_counter() - t0
+        dt = 1.0 / (cfg["fps"] * cfg["substeps"])
+        n_bodies = model.body_count
+        record = np.zeros((frames, n_bodies, 7), np.float32)
+        record[0] = state_a.body_q.numpy()
+        max_speed = float(np.abs(state_a.body_qd.numpy()[:, :3]).max()) if n_bodies else 0.0
+        t1 = time.perf_counter()
+        for f in range(1, frames):
+            for _ in range(cfg["substeps"]):
+                state_a.clear_forces()
+                pipeline.collide(state_a, contacts)
+                solver.step(state_a, state_b, control, contacts, dt)
+                state_a, state_b = state_b, state_a
+            q = state_a.body_q.numpy()
+            qd = state_a.body_qd.numpy()
+            speed = float(np.linalg.norm(qd[:, :3], axis=1).max()) if n_bodies else 0.0
+            if not (np.isfinite(q).all() and np.isfinite(qd).all()) or speed > MAX_SPEED:
+                return {"ok": False, "frame": f}
+            max_speed = max(max_speed, speed)
+            record[f] = q
+            if progress:
+                progress(f, frames - 1)
+        t_step = time.perf_counter() - t1
+        lowest = _lowest_points(model, state_a, path_body)
+    return {"ok": True, "body_q": record, "path_body": path_body, "device": str(device), "t_build": t0,
+            "t_model": t_model, "t_step": t_step, "max_speed": round(max_speed, 4), "lowest_z": lowest}
+
+
+def _lowest_points(model, state, path_body) -> dict:
+    """Lowest z of each body's collision vertices at the final state (metres)."""
+    out = {}
+    body_q = state.body_q.numpy()
+    shape_body = model.shape_body.numpy()
+    src = getattr(model, "shape_source", None)
+    for path, b in path_body.items():
+        zs = []
+        for s in np.nonzero(shape_body == b)[0]:
+            mesh = src[s] if src is not None else None
+            verts = getattr(mesh, "vertices", None)
+            if verts is None:
+                continue
+            scale = model.shape_scale.numpy()[s]
+            xf = model.shape_transform.numpy()[s]
+            pts = _apply(xf, np.asarray(verts) * scale)
+            zs.append(_apply(body_q[b], pts)[:, 2].min())
+        out[path] = round(float(min(zs)), 5) if zs else None
+    return out
+
+
+def _apply(xf, pts: np.ndarray) -> np.ndarray:
+    """Apply a warp transform (x, y, z, qx, qy, qz, qw) to points (N, 3)."""
+    p, (x, y, z, w) = np.asarray(xf[:3]), xf[3:7]
+    r = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                  [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                  [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    return pts @ r.T + p

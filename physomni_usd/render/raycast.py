@@ -1,0 +1,99 @@
+"""warp kernels of the renderer: primary rays with alpha cut-out, and vertical shadow rays."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from .._warp import load_warp
+
+#: Surfaces a primary ray may pass through where the texture is transparent.
+MAX_LAYERS = 8
+
+
+@lru_cache(maxsize=1)
+def kernels():
+    """Compile (once, cached on disk by warp) and return the two kernels."""
+    wp = load_warp()
+
+    @wp.kernel
+    def primary(mesh: wp.uint64, origin: wp.vec3, rays: wp.array(dtype=wp.vec3),
+                corner_px: wp.array(dtype=wp.vec2), alpha: wp.array2d(dtype=wp.float32), max_t: float,
+                out_px: wp.array(dtype=wp.vec2), out_face: wp.array(dtype=wp.int32)):
+        i = wp.tid()
+        d = rays[i]
+        o = origin
+        out_face[i] = -1
+        h = alpha.shape[0]
+        w = alpha.shape[1]
+        for _layer in range(MAX_LAYERS):
+            q = wp.mesh_query_ray(mesh, o, d, max_t)
+            if not q.result:
+                break
+            f = q.face
+            px = corner_px[f * 3] * q.u + corner_px[f * 3 + 1] * q.v + corner_px[f * 3 + 2] * (1.0 - q.u - q.v)
+            ix = wp.clamp(int(px[0]), 0, w - 1)
+            iy = wp.clamp(int(px[1]), 0, h - 1)
+            if alpha[iy, ix] >= 0.5:
+                out_face[i] = f
+                out_px[i] = px
+                break
+            o = o + d * (q.t + 1.0e-5)
+
+    @wp.kernel
+    def shadow(mesh: wp.uint64, origin: wp.vec3, rays: wp.array(dtype=wp.vec3), max_h: float,
+               out_h: wp.array(dtype=wp.float32)):
+        i = wp.tid()
+        d = rays[i]
+        out_h[i] = -1.0
+        if d[2] < -1.0e-6:
+            t = -origin[2] / d[2]
+            g = origin + d * t + wp.vec3(0.0, 0.0, 1.0e-4)
+            q = wp.mesh_query_ray(mesh, g, wp.vec3(0.0, 0.0, 1.0), max_h)
+            if q.result:
+                out_h[i] = q.t
+
+    return primary, shadow
+
+
+class RayCaster:
+    """All objects' triangles in one BVH; points are updated each frame, topology never changes."""
+
+    def __init__(self, points: np.ndarray, faces: np.ndarray, corner_px: np.ndarray, alpha: np.ndarray,
+                 device: str):
+        wp = load_warp()
+        self.wp = wp
+        self.device = device
+        self.points = wp.array(points.astype(np.float32), dtype=wp.vec3, device=device)
+        self.indices = wp.array(faces.astype(np.int32).ravel(), dtype=wp.int32, device=device)
+        self.mesh = wp.Mesh(points=self.points, indices=self.indices)
+        self.corner_px = wp.array(corner_px.astype(np.float32), dtype=wp.vec2, device=device)
+        self.alpha = wp.array(alpha.astype(np.float32), dtype=wp.float32, device=device)
+        self._rays = None
+        self._key = None
+
+    def update(self, points: np.ndarray) -> None:
+        self.points.assign(self.wp.array(points.astype(np.float32), dtype=self.wp.vec3, device=self.device))
+        self.mesh.refit()
+
+    def cast(self, origin, rays: np.ndarray, max_t: float, max_shadow: float):
+        """Per pixel: face index (−1 for none), atlas pixel coordinates, and height of the object above it."""
+        wp = self.wp
+        primary, shadow = kernels()
+        n = rays.shape[0] * rays.shape[1]
+        key = (rays.ctypes.data, rays.shape)
+        if self._key != key:
+            self._rays = wp.array(rays.reshape(-1, 3), dtype=wp.vec3, device=self.device)
+            self._px = wp.zeros(n, dtype=wp.vec2, device=self.device)
+            self._face = wp.zeros(n, dtype=wp.int32, device=self.device)
+            self._h = wp.zeros(n, dtype=wp.float32, device=self.device)
+            self._key = key
+        o = wp.vec3(*map(float, origin))
+        wp.launch(primary, dim=n, inputs=[self.mesh.id, o, self._rays, self.corner_px, self.alpha, float(max_t)],
+                  outputs=[self._px, self._face], device=self.device)
+        wp.launch(shadow, dim=n, inputs=[self.mesh.id, o, self._rays, float(max_shadow)], outputs=[self._h],
+                  device=self.device)
+        shape = rays.shape[:2]
+        return (self._face.numpy().reshape(shape), self._px.numpy().reshape(shape + (2,)),
+                self._h.numpy().reshape(shape))

@@ -1,0 +1,125 @@
+"""Reading what the renderer needs from a composed stage: camera, plate, textured meshes, per time code."""
+
+from __future__ import annotations
+
+import pathlib
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from pxr import Usd, UsdGeom, UsdShade
+
+from ..align.camera import RenderCamera, camera_from_usd
+from ..errors import InputError
+from ..usd.author import OBJECTS
+
+
+@dataclass
+class RenderObject:
+    path: str
+    faces: np.ndarray  # (M, 3)
+    st: np.ndarray  # (N, 2)
+    texture: np.ndarray  # (h, w, 4) uint8 RGBA
+    points_attr: Usd.Attribute
+    static_points: np.ndarray | None  # (N, 3) when points are not animated
+    height: float  # metres, from the extent
+
+
+def texture_file(prim: Usd.Prim) -> pathlib.Path | None:
+    """Resolved file of the UsdUVTexture feeding the surface bound to ``prim`` (default purpose)."""
+    mat, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
+    if not mat:
+        return None
+    for shader_prim in Usd.PrimRange(mat.GetPrim()):
+        shader = UsdShade.Shader(shader_prim)
+        if shader and shader.GetIdAttr().Get() == "UsdUVTexture":
+            asset = shader.GetInput("file").Get()
+            if asset is not None and (asset.resolvedPath or asset.path):
+                p = pathlib.Path(asset.resolvedPath or asset.path)
+                if not p.is_absolute():
+                    p = pathlib.Path(prim.GetStage().GetRootLayer().realPath).parent / p
+                return p
+    return None
+
+
+def read_image(path: pathlib.Path, what: str, rgba: bool) -> np.ndarray:
+    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED) if path and path.is_file() else None
+    if img is None:
+        raise InputError(f"cannot read the {what} texture {path}; was the shot folder moved without textures/?")
+    if img.ndim == 2:
+        img = cv2.cvtColor(img, cv2.COLOR_GRAY2BGR)
+    if img.shape[2] == 3:
+        img = cv2.cvtColor(img, cv2.COLOR_BGR2RGB)
+        if rgba:
+            img = np.dstack([img, np.full(img.shape[:2], 255, np.uint8)])
+    else:
+        img = cv2.cvtColor(img, cv2.COLOR_BGRA2RGBA)
+        if not rgba:
+            img = img[..., :3]
+    return np.ascontiguousarray(img)
+
+
+def read_plate(stage: Usd.Stage) -> np.ndarray:
+    prim = stage.GetPrimAtPath("/World/Background")
+    if not prim:
+        raise InputError("the shot has no /World/Background plate to render over")
+    return read_image(texture_file(prim), "background", rgba=False)
+
+
+def read_objects(stage: Usd.Stage) -> list[RenderObject]:
+    """Every visible Mesh under /World/Objects with its texture (objects without one render grey)."""
+    root = stage.GetPrimAtPath(OBJECTS)
+    out = []
+    if not root:
+        return out
+    for prim in Usd.PrimRange(root):
+        if not prim.IsA(UsdGeom.Mesh):
+            continue
+        mesh = UsdGeom.Mesh(prim)
+        if mesh.ComputeVisibility() == UsdGeom.Tokens.invisible:
+            continue
+        counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get(), np.int64)
+        indices = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(), np.int64)
+        faces = triangulate(counts, indices)
+        pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar("st")
+        points_attr = mesh.GetPointsAttr()
+        n = len(points_attr.Get())
+        st = np.asarray(pv.ComputeFlattened(), np.float64) if pv and pv.HasValue() else np.zeros((n, 2))
+        if st.shape[0] != n:  # faceVarying or other layouts: no projection, sample one texel
+            st = np.full((n, 2), 0.5)
+        tex_path = texture_file(prim)
+        texture = read_image(tex_path, prim.GetName(), rgba=True) if tex_path else np.full((2, 2, 4), 160, np.uint8)
+        static = None if points_attr.GetNumTimeSamples() > 0 else np.asarray(points_attr.Get(), np.float64)
+        ext = mesh.GetExtentAttr().Get()
+        height = float(ext[1][2] - ext[0][2]) if ext else 1.0
+        out.append(RenderObject(str(prim.GetPath()), faces, st, texture, points_attr, static, height))
+    return out
+
+
+def triangulate(counts: np.ndarray, indices: np.ndarray) -> np.ndarray:
+    """Fan-triangulate polygons given USD's faceVertexCounts / faceVertexIndices → (M, 3)."""
+    if counts.size and np.all(counts == 3):
+        return indices.reshape(-1, 3)
+    tris = []
+    start = 0
+    for c in counts:
+        for k in range(1, c - 1):
+            tris.append((indices[start], indices[start + k], indices[start + k + 1]))
+        start += c
+    return np.asarray(tris, np.int64).reshape(-1, 3)
+
+
+def read_camera(stage: Usd.Stage, time: Usd.TimeCode, width: int, height: int) -> RenderCamera:
+    prim = stage.GetPrimAtPath("/World/Camera")
+    if not prim or not prim.IsA(UsdGeom.Camera):
+        raise InputError("the shot has no /World/Camera")
+    cam = UsdGeom.Camera(prim)
+    m = UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(time)
+    return camera_from_usd(cam.GetFocalLengthAttr().Get(time), cam.GetHorizontalApertureAttr().Get(time),
+                           cam.GetVerticalApertureAttr().Get(time), np.array(m), width, height)
+
+
+def world_points(obj: RenderObject, cache: UsdGeom.XformCache, stage: Usd.Stage, time: Usd.TimeCode) -> np.ndarray:
+    pts = obj.static_points if obj.static_points is not None else np.asarray(obj.points_attr.Get(time), np.float64)
+    m = np.array(cache.GetLocalToWorldTransform(stage.GetPrimAtPath(obj.path)))
+    return pts @ m[:3, :3] + m[3, :3]

@@ -1,0 +1,63 @@
+"""Every tunable of the pipeline, with its default, unit and valid range.
+
+Defaults follow the paper where it gives one (``shared`` REFERENCE table);
+where it is silent the choice is ours and written beside the field.
+"""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class _Settings(BaseModel):
+    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+
+
+class CameraSettings(_Settings):
+    fov_deg: float = Field(50.0, gt=5.0, lt=150.0,
+                           description="Vertical field of view of the photo, degrees. 50° suits a phone's main camera.")
+    pitch_deg: float | None = Field(None, ge=0.0, le=80.0,
+                                    description="Downward tilt of the camera, degrees; None picks the smallest tilt "
+                                                "≥ 10° that puts every object's foot below the horizon.")
+    height_m: float = Field(1.0, gt=0.01, le=1000.0,
+                            description="Height of the camera above the ground, metres; it sets the scene's scale.")
+
+
+class LiftSettings(_Settings):
+    rows: int = Field(32, ge=4, le=256, description="Cross-sections sampled along an object's silhouette.")
+    sections: int = Field(24, ge=8, le=128, description="Vertices around each cross-section.")
+    shape: str = Field("auto", pattern="^(auto|round|extrude)$",
+                       description="round: surface of revolution; extrude: slab of the outline; "
+                                   "auto: round when the outline is mirror-symmetric.")
+    depth_ratio: float = Field(0.4, gt=0.01, le=2.0,
+                               description="Depth of an extruded object as a fraction of the smaller of its "
+                                           "width and height.")
+    symmetry_iou: float = Field(0.88, ge=0.0, le=1.0,
+                                description="Mirror IoU of the outline above which auto picks round.")
+
+
+class BuildSettings(_Settings):
+    camera: CameraSettings = CameraSettings()
+    lift: LiftSettings = LiftSettings()
+    fps: float = Field(30.0, ge=1.0, le=1000.0, description="Frames per second of the shot.")
+    plate_dilation: float = Field(0.015, ge=0.0, le=0.2,
+                                  description="Mask dilation before inpainting, as a fraction of the image diagonal.")
+    gap_m: float = Field(0.002, ge=0.0, le=1.0, description="Clearance left between objects' footprints, metres.")
+
+
+class SimulateSettings(_Settings):
+    seconds: float = Field(3.0, gt=0.0, le=600.0, description="Simulated seconds.")
+    fps: float | None = Field(None, ge=1.0, le=1000.0, description="Frames per second; None keeps the shot's.")
+    substeps: int | None = Field(None, ge=1, le=1000, description="Solver steps per frame; None keeps the shot's.")
+    iterations: int | None = Field(None, ge=1, le=100, description="Solver iterations; None keeps the shot's.")
+    device: str | None = Field(None, description="warp device ('cpu', 'cuda:0'); None picks cuda when present.")
+
+
+class RenderSettings(_Settings):
+    shadow_strength: float = Field(0.45, ge=0.0, le=1.0, description="Darkening right under an object's contact.")
+    shadow_falloff: float = Field(0.15, gt=0.0, le=10.0,
+                                  description="Height above the ground, as a fraction of the object's size, "
+                                              "at which its shadow has faded to 1/e.")
+    shadow_blur: float = Field(0.012, ge=0.0, le=0.2, description="Shadow softness, fraction of the image diagonal.")
+    quality: int = Field(8, ge=1, le=10, description="H.264 quality, 10 is best.")
+    device: str | None = Field(None, description="warp device; None picks cuda when present.")

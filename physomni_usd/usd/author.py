@@ -1,0 +1,264 @@
+"""Authoring helpers: the one place that turns arrays into USD prims and layers.
+
+Each ``write_*_layer`` function builds one stage layer in memory and saves it
+with :func:`~physomni_usd.usd.layers.save_layer` (temporary file + rename).
+"""
+
+from __future__ import annotations
+
+import pathlib
+from dataclasses import dataclass, field
+
+import numpy as np
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics, UsdShade, Vt
+
+from . import layers
+
+OBJECTS = "/World/Objects"
+PHYSICS_MATERIALS = "/World/Materials/Physics"
+LOOKS = "/World/Materials/Looks"
+FORCE_FIELDS = "/World/ForceFields"
+
+
+@dataclass
+class SceneObject:
+    """What the scene layer holds of one object (all arrays in metres, local to ``translate``)."""
+
+    name: str
+    label: str
+    mask_index: int
+    points: np.ndarray  # (N, 3) local
+    faces: np.ndarray  # (M, 3)
+    normals: np.ndarray  # (N, 3)
+    st: np.ndarray  # (N, 2)
+    translate: np.ndarray  # (3,) world position of the prim's origin
+    texture: str  # path relative to the layer
+    shape: str = "round"
+
+
+@dataclass
+class PhysicsObject:
+    """What the physics layer holds of one object."""
+
+    name: str
+    density: float
+    static_friction: float
+    dynamic_friction: float
+    restitution: float
+    material_type: str = "rigid"
+    source: str = "rules"
+    velocity: tuple[float, float, float] | None = None
+    angular_velocity: tuple[float, float, float] | None = None
+    extra: dict = field(default_factory=dict)
+
+
+def _new_stage(fps: float, frames: int | None = None) -> Usd.Stage:
+    stage = Usd.Stage.CreateInMemory()
+    layers.set_stage_metadata(stage.GetRootLayer(), fps, frames)
+    return stage
+
+
+def _texture_material(stage: Usd.Stage, path: str, texture: str, opacity_from_alpha: bool) -> UsdShade.Material:
+    """A UsdPreviewSurface material whose colour (and cut-out alpha) comes from ``texture`` via ``st``."""
+    mat = UsdShade.Material.Define(stage, path)
+    shader = UsdShade.Shader.Define(stage, f"{path}/Surface")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.8)
+    reader = UsdShade.Shader.Define(stage, f"{path}/st")
+    reader.CreateIdAttr("UsdPrimvarReader_float2")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("st")
+    tex = UsdShade.Shader.Define(stage, f"{path}/Texture")
+    tex.CreateIdAttr("UsdUVTexture")
+    tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(texture))
+    tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "result")
+    tex.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set("clamp")
+    tex.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set("clamp")
+    tex.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("sRGB")
+    rgb = tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(rgb)
+    if opacity_from_alpha:
+        a = tex.CreateOutput("a", Sdf.ValueTypeNames.Float)
+        shader.CreateInput("opacity", Sdf.ValueTypeNames.Float).ConnectToSource(a)
+        shader.CreateInput("opacityThreshold", Sdf.ValueTypeNames.Float).Set(0.5)
+    else:
+        shader.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(rgb)
+    mat.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    return mat
+
+
+def _bind(prim: Usd.Prim, material: UsdShade.Material, purpose: str = UsdShade.Tokens.allPurpose) -> None:
+    UsdShade.MaterialBindingAPI.Apply(prim).Bind(material, UsdShade.Tokens.weakerThanDescendants, purpose)
+
+
+def write_scene_layer(path: pathlib.Path, *, fps: float, image_size: tuple[int, int], camera,
+                      plate: str, objects: list[SceneObject], ground_size: float, extra: dict | None = None) -> None:
+    """``scene.usda``: camera, ground, background card and one textured mesh per object.
+
+    ``camera`` is a :class:`~physomni_usd.align.camera.PinholeCamera`.
+    """
+    stage = _new_stage(fps)
+    world = UsdGeom.Xform.Define(stage, "/World")
+    stage.SetDefaultPrim(world.GetPrim())
+
+    scene = UsdPhysics.Scene.Define(stage, "/World/PhysicsScene")
+    scene.CreateGravityDirectionAttr(Gf.Vec3f(0, 0, -1))
+    scene.CreateGravityMagnitudeAttr(9.81)
+
+    cam = UsdGeom.Camera.Define(stage, "/World/Camera")
+    focal, h_ap, v_ap = camera.usd_apertures()
+    cam.CreateFocalLengthAttr(focal)
+    cam.CreateHorizontalApertureAttr(h_ap)
+    cam.CreateVerticalApertureAttr(v_ap)
+    cam.CreateClippingRangeAttr(Gf.Vec2f(0.01, 10000.0))
+    cam.CreateProjectionAttr(UsdGeom.Tokens.perspective)
+    cam.AddTransformOp().Set(Gf.Matrix4d(*camera.usd_matrix().ravel().tolist()))
+    cam_prim = cam.GetPrim()
+    cam_prim.SetCustomDataByKey("physomni:imageSize", Gf.Vec2i(*image_size))
+    cam_prim.SetCustomDataByKey("physomni:pitchDegrees", float(camera.pitch_deg))
+
+    ground = UsdGeom.Plane.Define(stage, "/World/Ground")
+    ground.CreateAxisAttr(UsdGeom.Tokens.z)
+    ground.CreateWidthAttr(ground_size)
+    ground.CreateLengthAttr(ground_size)
+    ground.CreatePurposeAttr(UsdGeom.Tokens.guide)
+    half = 0.5 * ground_size
+    ground.CreateExtentAttr([(-half, -half, 0.0), (half, half, 0.0)])
+    UsdPhysics.CollisionAPI.Apply(ground.GetPrim())
+
+    _background_card(stage, camera, plate)
+
+    UsdGeom.Scope.Define(stage, "/World/Materials")
+    UsdGeom.Scope.Define(stage, LOOKS)
+    UsdGeom.Xform.Define(stage, OBJECTS)
+    for obj in objects:
+        mesh = UsdGeom.Mesh.Define(stage, f"{OBJECTS}/{obj.name}")
+        mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(obj.points, np.float32)))
+        mesh.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(obj.faces), 3, np.int32)))
+        mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(np.ascontiguousarray(obj.faces.ravel(), np.int32)))
+        mesh.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(obj.normals, np.float32)))
+        mesh.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
+        mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+        mesh.CreateExtentAttr(UsdGeom.PointBased.ComputeExtent(mesh.GetPointsAttr().Get()))
+        st = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray,
+                                                      UsdGeom.Tokens.vertex)
+        st.Set(Vt.Vec2fArray.FromNumpy(np.ascontiguousarray(obj.st, np.float32)))
+        mesh.AddTranslateOp().Set(Gf.Vec3d(*map(float, obj.translate)))
+        mesh.AddOrientOp().Set(Gf.Quatf(1.0, 0.0, 0.0, 0.0))
+        prim = mesh.GetPrim()
+        prim.ApplyAPI("PhysOmniObjectAPI")
+        prim.GetAttribute("physomni:label").Set(obj.label)
+        prim.GetAttribute("physomni:maskIndex").Set(int(obj.mask_index))
+        prim.SetCustomDataByKey("physomni:liftedShape", obj.shape)
+        look = _texture_material(stage, f"{LOOKS}/{obj.name}", obj.texture, opacity_from_alpha=True)
+        _bind(prim, look)
+    if extra:
+        stage.GetRootLayer().customLayerData = extra
+    layers.save_layer(stage.GetRootLayer(), path)
+
+
+def _background_card(stage: Usd.Stage, camera, plate: str) -> None:
+    """The plate on a card that exactly fills the camera's view, far behind the objects."""
+    w, h = camera.width, camera.height
+    distance = 50.0 * camera.origin[2] + 50.0
+    corners = np.array([[0, h], [w, h], [w, 0], [0, 0]], float)  # bottom-left, ccw as seen
+    d = camera.rays(corners[:, 0], corners[:, 1])
+    fwd = camera.world_from_camera[:, 2]
+    pts = camera.origin + d * (distance / (d @ fwd))[:, None]
+    card = UsdGeom.Mesh.Define(stage, "/World/Background")
+    card.CreatePointsAttr([Gf.Vec3f(*map(float, p)) for p in pts])
+    card.CreateFaceVertexCountsAttr([4])
+    card.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    card.CreateExtentAttr(UsdGeom.PointBased.ComputeExtent(card.GetPointsAttr().Get()))
+    card.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    card.CreateDoubleSidedAttr(True)
+    card.CreatePurposeAttr(UsdGeom.Tokens.render)
+    st = UsdGeom.PrimvarsAPI(card).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex)
+    st.Set([Gf.Vec2f(0, 0), Gf.Vec2f(1, 0), Gf.Vec2f(1, 1), Gf.Vec2f(0, 1)])
+    look = _texture_material(stage, f"{LOOKS}/Background", plate, opacity_from_alpha=False)
+    _bind(card.GetPrim(), look)
+
+
+def write_physics_layer(path: pathlib.Path, scene_path: pathlib.Path, *, fps: float, objects: list[PhysicsObject],
+                        ground, solver: str, substeps: int, iterations: int) -> None:
+    """``physics.usda``: physics materials, rigid-body APIs and solver settings, as overs on the scene."""
+    physics = Sdf.Layer.CreateAnonymous(".usda")
+    root = Sdf.Layer.CreateAnonymous(".usda")
+    root.subLayerPaths[:] = [physics.identifier, str(scene_path)]
+    stage = Usd.Stage.Open(root)
+    stage.SetEditTarget(Usd.EditTarget(physics))
+
+    scene = stage.GetPrimAtPath("/World/PhysicsScene")
+    scene.ApplyAPI("PhysOmniSceneAPI")
+    scene.GetAttribute("physomni:solver").Set(solver)
+    scene.GetAttribute("physomni:substeps").Set(int(substeps))
+    scene.GetAttribute("physomni:iterations").Set(int(iterations))
+
+    UsdGeom.Scope.Define(stage, PHYSICS_MATERIALS)
+    ground_mat = _physics_material(stage, "Ground", ground.density, ground.static_friction,
+                                   ground.dynamic_friction, ground.restitution, "rigid", "rules")
+    _bind(stage.GetPrimAtPath("/World/Ground"), ground_mat, "physics")
+
+    for obj in objects:
+        prim = stage.GetPrimAtPath(f"{OBJECTS}/{obj.name}")
+        body = UsdPhysics.RigidBodyAPI.Apply(prim)
+        if obj.velocity is not None:
+            body.CreateVelocityAttr(Gf.Vec3f(*obj.velocity))
+        if obj.angular_velocity is not None:
+            body.CreateAngularVelocityAttr(Gf.Vec3f(*obj.angular_velocity))
+        UsdPhysics.CollisionAPI.Apply(prim)
+        UsdPhysics.MeshCollisionAPI.Apply(prim).CreateApproximationAttr(UsdPhysics.Tokens.convexHull)
+        UsdPhysics.MassAPI.Apply(prim)
+        mat = _physics_material(stage, obj.name, obj.density, obj.static_friction, obj.dynamic_friction,
+                                obj.restitution, obj.material_type, obj.source)
+        _bind(prim, mat, "physics")
+    physics.defaultPrim = "World"
+    layers.set_stage_metadata(physics, fps)
+    layers.save_layer(physics, path)
+
+
+def _physics_material(stage, name, density, static_friction, dynamic_friction, restitution, material_type, source):
+    mat = UsdShade.Material.Define(stage, f"{PHYSICS_MATERIALS}/{name}")
+    api = UsdPhysics.MaterialAPI.Apply(mat.GetPrim())
+    api.CreateDensityAttr(float(density))
+    api.CreateStaticFrictionAttr(float(static_friction))
+    api.CreateDynamicFrictionAttr(float(dynamic_friction))
+    api.CreateRestitutionAttr(float(restitution))
+    prim = mat.GetPrim()
+    prim.ApplyAPI("PhysOmniMaterialAPI")
+    prim.GetAttribute("physomni:materialType").Set(material_type)
+    prim.GetAttribute("physomni:source").Set(source)
+    return mat
+
+
+def write_sim_layer(path: pathlib.Path, *, fps: float, frames: int, tracks: dict, metadata: dict) -> None:
+    """``sim.usdc``: overs with time samples only.
+
+    ``tracks`` maps a prim path to ``(translations (F, 3), orientations (F, 4) as w, x, y, z)``; one sample
+    per frame, time code = frame index. Prims that do not move must not be in ``tracks``.
+    """
+    layer = Sdf.Layer.CreateAnonymous(".usdc")
+    layer.timeCodesPerSecond = float(fps)
+    layer.framesPerSecond = float(fps)
+    layer.startTimeCode = 0.0
+    layer.endTimeCode = float(max(frames - 1, 0))
+    layer.customLayerData = metadata
+    with Sdf.ChangeBlock():
+        for prim_path, (translations, orients) in tracks.items():
+            spec = Sdf.CreatePrimInLayer(layer, prim_path)
+            spec.specifier = Sdf.SpecifierOver
+            t_attr = Sdf.AttributeSpec(spec, "xformOp:translate", Sdf.ValueTypeNames.Double3)
+            o_attr = Sdf.AttributeSpec(spec, "xformOp:orient", Sdf.ValueTypeNames.Quatf)
+            for f in range(len(translations)):
+                layer.SetTimeSample(t_attr.path, float(f), Gf.Vec3d(*map(float, translations[f])))
+                w, x, y, z = map(float, orients[f])
+                layer.SetTimeSample(o_attr.path, float(f), Gf.Quatf(w, x, y, z))
+    # every ancestor of an over is an over too, so the layer defines nothing
+    for spec_path in _all_prim_paths(layer):
+        layer.GetPrimAtPath(spec_path).specifier = Sdf.SpecifierOver
+    layers.save_layer(layer, path)
+
+
+def _all_prim_paths(layer: Sdf.Layer) -> list[Sdf.Path]:
+    out = []
+    layer.Traverse(Sdf.Path.absoluteRootPath, lambda p: out.append(p) if p.IsPrimPath() else None)
+    return out
