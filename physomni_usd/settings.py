@@ -24,8 +24,8 @@ class CameraSettings(_Settings):
 
 
 class LiftSettings(_Settings):
-    rows: int = Field(32, ge=4, le=256, description="Cross-sections sampled along an object's silhouette.")
-    sections: int = Field(24, ge=8, le=128, description="Vertices around each cross-section.")
+    rows: int = Field(16, ge=4, le=256, description="Cross-sections sampled along an object's silhouette.")
+    sections: int = Field(16, ge=8, le=128, description="Vertices around each cross-section.")
     shape: str = Field("auto", pattern="^(auto|round|extrude)$",
                        description="round: surface of revolution; extrude: slab of the outline; "
                                    "auto: round when the outline is mirror-symmetric.")
@@ -59,5 +59,5 @@ class RenderSettings(_Settings):
                                   description="Height above the ground, as a fraction of the object's size, "
                                               "at which its shadow has faded to 1/e.")
     shadow_blur: float = Field(0.012, ge=0.0, le=0.2, description="Shadow softness, fraction of the image diagonal.")
-    quality: int = Field(8, ge=1, le=10, description="H.264 quality, 10 is best.")
+    quality: int = Field(9, ge=1, le=10, description="H.264 quality, 10 is best.")
     device: str | None = Field(None, description="warp device; None picks cuda when present.")

@@ -10,8 +10,10 @@ ground, seen roughly from the side (camera pitch up to ~35°):
    metric width: the scale at which the silhouette matches the photo.
 3. Each row becomes a cross-section and the sections are lofted into a tube
    with flat caps:
-   - ``round`` (outline mirror-symmetric): circles, a surface of revolution
-     whose axis follows the silhouette's mid-line — cups, bottles, balls;
+   - ``round`` (outline mirror-symmetric and not ending in a straight
+     bottom edge): circles, a surface of revolution whose axis follows the
+     silhouette's mid-line — cups, bottles, balls; all but balls get a flat
+     base;
    - ``extrude`` (otherwise): a slab of the outline whose depth is
      ``depth_ratio`` times the smaller of its width and height, with sides
      along the camera's rays so that it hides behind its own front —
@@ -31,6 +33,14 @@ import numpy as np
 
 from ..align.camera import PinholeCamera
 from ..settings import LiftSettings
+
+#: Fraction of a round object's height that forms its flat base (balls excepted).
+BASE_BAND = 0.15
+#: A bottom band of this fraction of the height, at least this fraction of the widest row wide, is flat.
+FLAT_BOTTOM_BAND = 0.04
+FLAT_BOTTOM_WIDTH = 0.85
+#: A silhouette this close to a circle (IoU with its fitted circle) is a ball and keeps a round bottom.
+BALL_IOU = 0.9
 
 #: Superellipse exponent of round cross-sections (2: a circle).
 ROUND_EXPONENT = 2.0
@@ -74,6 +84,28 @@ def mirror_iou(mask: np.ndarray) -> float:
     crop = mask[ys.min():ys.max() + 1, xs.min():xs.max() + 1]
     flipped = crop[:, ::-1]
     return float((crop & flipped).sum() / max(1, (crop | flipped).sum()))
+
+
+def flat_bottom(mask: np.ndarray) -> bool:
+    """Whether the silhouette ends in a straight bottom edge as wide as the object (a box seen front-on).
+
+    A round object seen from above ends in the front arc of its base instead,
+    whose lowest rows are much narrower than the object.
+    """
+    ys = np.nonzero(mask.any(axis=1))[0]
+    height = ys[-1] - ys[0] + 1
+    widths = mask[ys[0]:ys[-1] + 1].sum(axis=1)
+    lowest = widths[-max(1, int(round(FLAT_BOTTOM_BAND * height))):]
+    return lowest.min() >= FLAT_BOTTOM_WIDTH * widths.max()
+
+
+def is_ball(mask: np.ndarray) -> bool:
+    """Whether the silhouette is nearly a disc (IoU ≥ 0.9 with the disc of the same area and centroid)."""
+    ys, xs = np.nonzero(mask)
+    r = np.sqrt(len(xs) / np.pi)
+    disc = (xs - xs.mean()) ** 2 + (ys - ys.mean()) ** 2 <= r * r
+    inside = int(disc.sum())
+    return inside / (len(xs) + (np.pi * r * r - inside)) >= BALL_IOU
 
 
 def row_spans(mask: np.ndarray, rows: np.ndarray) -> np.ndarray:
@@ -172,7 +204,7 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
     spans = row_spans(solid, np.clip(np.round(edges - 0.5), ys[0], ys[-1]))
     shape = settings.shape
     if shape == "auto":
-        shape = "round" if mirror_iou(solid) >= settings.symmetry_iou else "extrude"
+        shape = "round" if mirror_iou(solid) >= settings.symmetry_iou and not flat_bottom(solid) else "extrude"
 
     origin = camera.origin
     # The object's plane faces the camera's horizontal forward direction; with a camera
@@ -201,7 +233,15 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
             left = np.stack([on_plane(spans[i, 0], edges[i], behind[i]) for i in range(k)])
             right = np.stack([on_plane(spans[i, 1], edges[i], behind[i]) for i in range(k)])
             radius = np.maximum(0.5 * np.linalg.norm(right - left, axis=1), 1e-4)
+        if not is_ball(solid):
+            # Seen from above, a round base shows as an ellipse whose lowest rows are
+            # narrow; they are the base's front, not a tapering bottom. The bottom band
+            # takes its widest section, so cups and bottles stand on a flat base.
+            band = z <= z.min() + BASE_BAND * (z.max() - z.min())
+            radius[band] = radius[band].max()
         centres = 0.5 * (left + right)
+        # each circle touches the front plane with its nearest point
+        centres += ((contact - centres) @ normal + radius)[:, None] * normal
         centres[:, 2] = z
         rings = round_rings(centres, radius, tangent, normal, settings.sections)
     else:

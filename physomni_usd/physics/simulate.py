@@ -19,6 +19,9 @@ from ..usd.author import OBJECTS, write_sim_layer
 from .checks import MAX_SPEED, check_rigid_inputs
 
 SUPPORTED_SOLVERS = ("xpbd",)
+#: Newton simplifies convex hulls to this many vertices; its default (64) cuts the corners of
+#: lofted meshes by centimetres, which shows as objects sinking into the ground.
+MAX_HULL_VERTICES = 256
 #: How often a diverging run is retried, each time with twice the substeps.
 MAX_RETRIES = 2
 #: Motion below these is "did not move": such prims get no time samples.
@@ -127,7 +130,8 @@ def _run(stage, cfg, frames, device, progress) -> dict:
     import newton
 
     builder = newton.ModelBuilder(up_axis=newton.Axis.Z)
-    result = builder.add_usd(stage, load_visual_shapes=False, load_sites=False, verbose=False)
+    result = builder.add_usd(stage, load_visual_shapes=False, load_sites=False, verbose=False,
+                             mesh_maxhullvert=MAX_HULL_VERTICES)
     path_body = {p: b for p, b in result["path_body_map"].items() if p.startswith(OBJECTS + "/")}
     with wp.ScopedDevice(device):
         model = builder.finalize(device=device)

@@ -112,7 +112,7 @@ def render_shot(shot, output=None, settings: RenderSettings = RenderSettings(), 
     with atomic_path(out) as tmp:
         writer = imageio.get_writer(str(tmp), format="FFMPEG", mode="I", fps=fps, codec="libx264",
                                     quality=settings.quality, macro_block_size=1,
-                                    ffmpeg_params=["-pix_fmt", "yuv420p"], ffmpeg_log_level="error")
+                                    pixelformat="yuv420p", ffmpeg_log_level="error")
         try:
             for k, t in enumerate(range(start, end + 1)):
                 writer.append_data(_even(renderer.frame(float(t))))

@@ -66,7 +66,7 @@ def _texture_material(stage: Usd.Stage, path: str, texture: str, opacity_from_al
     shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.8)
     reader = UsdShade.Shader.Define(stage, f"{path}/st")
     reader.CreateIdAttr("UsdPrimvarReader_float2")
-    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("st")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("st")
     tex = UsdShade.Shader.Define(stage, f"{path}/Texture")
     tex.CreateIdAttr("UsdUVTexture")
     tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(texture))

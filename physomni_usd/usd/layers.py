@@ -116,8 +116,8 @@ def open_shot(shot_path: os.PathLike | str, *, mute_sim: bool = False) -> Usd.St
     for name in SUBLAYERS:
         layer_path = p.parent / name
         if name != SIM and layer_path.exists():
-            _check_layer(layer_path)
-    _check_layer(p)
+            check_layer(layer_path)
+    check_layer(p)
     stage = Usd.Stage.Open(str(p), Usd.Stage.LoadAll)
     if stage is None:
         raise InputError(f"{p} is not a readable USD stage")
@@ -131,7 +131,7 @@ def open_shot(shot_path: os.PathLike | str, *, mute_sim: bool = False) -> Usd.St
     return stage
 
 
-def _check_layer(path: pathlib.Path) -> None:
+def check_layer(path: pathlib.Path) -> None:
     """Open one layer file and turn USD's parse errors into one line."""
     from pxr import Tf
 

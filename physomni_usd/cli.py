@@ -1,0 +1,261 @@
+"""The ``physomni-usd`` command: one subcommand per stage, plus ``run`` and ``validate``.
+
+Exit codes: 0 success, 1 a stage failed or validation found errors,
+2 bad input or usage, 3 an internal error (a bug: please report it).
+"""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import sys
+import time
+from contextlib import contextmanager
+
+import click
+from pydantic import ValidationError
+
+from .errors import InputError, PhysOmniError
+
+EPILOG_BUILD = """
+\b
+Examples:
+  physomni-usd build photo.png -o shot/ --mask cup.png:cup --mask saucer.png
+  physomni-usd build photo.png -o shot/ --box 120,40,380,300:box --fov 60
+"""
+
+
+def _fail(message: str, code: int) -> None:
+    click.echo(f"error: {message}", err=True)
+    sys.exit(code)
+
+
+@contextmanager
+def _errors():
+    """Turn our exceptions and pydantic's into one line and an exit code."""
+    try:
+        yield
+    except PhysOmniError as exc:
+        _fail(str(exc), exc.exit_code)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(str(x) for x in first.get("loc", ()))
+        _fail(f"{where}: {first.get('msg')}", 2)
+    except KeyboardInterrupt:
+        _fail("interrupted; files already written are complete, the one in progress was not written", 130)
+    except Exception as exc:  # a bug, not bad input
+        if os.environ.get("PHYSOMNI_DEBUG"):
+            raise
+        _fail(f"internal error: {type(exc).__name__}: {exc} (set PHYSOMNI_DEBUG=1 for the traceback)", 3)
+
+
+@contextmanager
+def _progress(label: str, enabled: bool = True):
+    """A click progress bar on stderr; yields a callback ``(done, total)``."""
+    state = {"bar": None, "done": 0}
+
+    def update(done, total):
+        if not enabled:
+            return
+        if state["bar"] is None:
+            state["bar"] = click.progressbar(length=total, label=label, file=sys.stderr, show_pos=True)
+            state["bar"].__enter__()
+        state["bar"].update(done - state["done"])
+        state["done"] = done
+
+    try:
+        yield update
+    finally:
+        if state["bar"] is not None:
+            state["bar"].__exit__(None, None, None)
+
+
+def _say(quiet: bool):
+    return (lambda msg: None) if quiet else (lambda msg: click.echo(msg, err=True))
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+@click.version_option(package_name="physomni-usd")
+def main():
+    """Turn one photograph into a physically simulated, layered USD shot and a video.
+
+    \b
+    A shot folder holds one layer per stage under a root shot.usda:
+      shot.usda = [edits.usda, sim.usdc, physics.usda, scene.usda]  (strongest first)
+    edits.usda is yours: it is created empty and never rewritten, and what you
+    author there (a heavier object, a push, a moved prop) counts in the next
+    `simulate`.
+
+    \b
+    Quick start:
+      physomni-usd run photo.png -o shot/ --mask cup.png:cup --push cup=0.5,0,0
+      physomni-usd validate shot/shot.usda
+    """
+
+
+def build_options(f):
+    opts = [
+        click.option("--mask", "masks", multiple=True, metavar="PNG[:LABEL]",
+                     help="Object mask at the photo's resolution; non-zero pixels are the object. "
+                          "Repeat per object; LABEL defaults to the file's name."),
+        click.option("--box", "boxes", multiple=True, metavar="X0,Y0,X1,Y1[:LABEL]",
+                     help="Pixel box around an object; OpenCV GrabCut cuts its mask. Repeatable."),
+        click.option("--fov", type=float, default=50.0, show_default=True,
+                     help="Vertical field of view of the photo in degrees."),
+        click.option("--pitch", type=float, default=None,
+                     help="Downward camera tilt in degrees [default: smallest ≥ 10° that puts every "
+                          "object's foot below the horizon]."),
+        click.option("--camera-height", type=float, default=1.0, show_default=True,
+                     help="Camera height above the ground in metres; sets the scene's scale."),
+        click.option("--shape", type=click.Choice(["auto", "round", "extrude"]), default="auto", show_default=True,
+                     help="How silhouettes become meshes: surface of revolution, extrusion, or by symmetry."),
+        click.option("--fps", type=float, default=30.0, show_default=True, help="Frames per second of the shot."),
+    ]
+    for opt in reversed(opts):
+        f = opt(f)
+    return f
+
+
+def _build_settings(fov, pitch, camera_height, shape, fps):
+    from .settings import BuildSettings, CameraSettings, LiftSettings
+
+    return BuildSettings(camera=CameraSettings(fov_deg=fov, pitch_deg=pitch, height_m=camera_height),
+                         lift=LiftSettings(shape=shape), fps=fps)
+
+
+@main.command(epilog=EPILOG_BUILD)
+@click.argument("photo", type=click.Path(dir_okay=False, path_type=pathlib.Path))
+@click.option("-o", "--output", "out_dir", required=True, type=click.Path(path_type=pathlib.Path),
+              help="Shot folder to write (created if missing).")
+@build_options
+@click.option("--push", "pushes", multiple=True, metavar="LABEL=VX,VY,VZ",
+              help="Initial velocity of an object in m/s (world axes: Z up, +Y away from the camera).")
+@click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
+def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, pushes, quiet):
+    """Photo → scene.usda, physics.usda and the root shot.usda (perceive, align, estimate)."""
+    with _errors():
+        from .build import build_shot
+
+        settings = _build_settings(fov, pitch, camera_height, shape, fps)
+        result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet))
+        if not quiet:
+            total = sum(result.seconds.values())
+            click.echo(f"wrote {result.shot} ({len(result.objects)} objects, {total:.2f} s)", err=True)
+
+
+def _simulate(shot, seconds, fps, substeps, quiet):
+    from .physics.simulate import simulate_shot
+    from .settings import SimulateSettings
+
+    settings = SimulateSettings(seconds=seconds, fps=fps, substeps=substeps)
+    with _progress("simulate", not quiet) as bar:
+        section = simulate_shot(shot, settings, progress=bar, echo=_say(quiet))
+    if not quiet:
+        click.echo(f"simulate: {section['frames']} frames, {section['bodies']} bodies, "
+                   f"{len(section['moving_prims'])} moving, dt {section['dt'] * 1000:.2f} ms, "
+                   f"{section['total_seconds']:.2f} s", err=True)
+    return section
+
+
+def _render(shot, output, quiet):
+    from .render.video import render_shot
+
+    with _progress("render  ", not quiet) as bar:
+        section = render_shot(shot, output, progress=bar)
+    if not quiet:
+        click.echo(f"render: {section['video']} ({section['frames']} frames, "
+                   f"{section['frames_per_second']:.1f} frames/s)", err=True)
+    return section
+
+
+@main.command()
+@click.argument("shot", type=click.Path(path_type=pathlib.Path))
+@click.option("--seconds", type=float, default=3.0, show_default=True, help="Simulated seconds.")
+@click.option("--fps", type=float, default=None, help="Frames per second [default: the shot's].")
+@click.option("--substeps", type=int, default=None, help="Solver steps per frame [default: the shot's].")
+@click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
+def simulate(shot, seconds, fps, substeps, quiet):
+    """Simulate the composed shot (edits.usda included) and write sim.usdc.
+
+    \b
+    Example: make the box heavier and throw it, then simulate again:
+      # in shot/edits.usda
+      over "World" { over "Objects" { over "box_0" {
+          float physics:density = 2000
+          vector3f physics:velocity = (0, 2, 1)
+      } } }
+      physomni-usd simulate shot/shot.usda --seconds 4
+    """
+    with _errors():
+        _simulate(shot, seconds, fps, substeps, quiet)
+
+
+@main.command()
+@click.argument("shot", type=click.Path(path_type=pathlib.Path))
+@click.option("-o", "--output", type=click.Path(path_type=pathlib.Path), default=None,
+              help="Video file (.mp4) [default: video.mp4 beside the shot].")
+@click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
+def render(shot, output, quiet):
+    """Render the composed shot over its background plate into an H.264 MP4."""
+    with _errors():
+        _render(shot, output, quiet)
+
+
+@main.command()
+@click.argument("photo", type=click.Path(dir_okay=False, path_type=pathlib.Path))
+@click.option("-o", "--output", "out_dir", required=True, type=click.Path(path_type=pathlib.Path),
+              help="Shot folder to write (created if missing).")
+@build_options
+@click.option("--seconds", type=float, default=3.0, show_default=True, help="Simulated seconds.")
+@click.option("--push", "pushes", multiple=True, metavar="LABEL=VX,VY,VZ",
+              help="Initial velocity of an object in m/s (world axes: Z up, +Y away from the camera).")
+@click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
+def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, seconds, pushes, quiet):
+    """build + simulate + render in one go; writes DIR/shot.usda, DIR/video.mp4, DIR/report.json.
+
+    \b
+    Example:
+      physomni-usd run examples/motorcycle/photo.png -o out/ \\
+          --mask examples/motorcycle/motorcycle.png --push motorcycle=0,0.8,0
+    """
+    with _errors():
+        from .build import build_shot
+        from .report import update_report
+        from .settings import SimulateSettings
+
+        SimulateSettings(seconds=seconds)  # refuse absurd values before any work
+        t0 = time.perf_counter()
+        settings = _build_settings(fov, pitch, camera_height, shape, fps)
+        result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet))
+        _simulate(result.shot, seconds, None, None, quiet)
+        section = _render(result.shot, None, quiet)
+        total = round(time.perf_counter() - t0, 3)
+        update_report(result.folder, run={"total_seconds": total})
+        if not quiet:
+            click.echo(f"done in {total:.1f} s: {result.shot}, {section['video']}, "
+                       f"{result.folder / 'report.json'}", err=True)
+
+
+@main.command()
+@click.argument("stage", type=click.Path(path_type=pathlib.Path))
+@click.option("--warnings/--no-warnings", default=True, show_default=True, help="Also print warnings.")
+def validate(stage, warnings):
+    """Check a stage with every pxr.UsdValidation validator and our USD contract.
+
+    Prints one finding per line; exits 1 if any is an error.
+    """
+    with _errors():
+        from .validate import validate_stage
+
+        findings = validate_stage(stage)
+        errors = [f for f in findings if f.severity == "error"]
+        for f in findings:
+            if f.severity == "error" or warnings:
+                click.echo(str(f))
+        click.echo(f"{stage}: {len(errors)} error(s), {len(findings) - len(errors)} warning(s)", err=True)
+        if errors:
+            sys.exit(1)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

@@ -1,0 +1,66 @@
+"""Shared fixtures: a tiny synthetic photo with known objects, and a shot built from it once per session."""
+
+from __future__ import annotations
+
+import pathlib
+import subprocess
+import sys
+
+import cv2
+import numpy as np
+import pytest
+
+W, H = 240, 180
+
+
+def synthetic_photo(folder: pathlib.Path) -> dict:
+    """A wall-and-floor photo with a round 'cup' and a 'box' standing on the floor; writes photo and masks."""
+    folder.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(0)
+    img = np.zeros((H, W, 3), np.float32)
+    horizon = 70
+    img[:horizon] = np.linspace(150, 190, horizon)[:, None, None] * np.array([0.9, 0.95, 1.0])
+    img[horizon:] = np.linspace(120, 80, H - horizon)[:, None, None] * np.array([1.0, 0.85, 0.7])
+    img += rng.normal(0, 4, (H, W, 1))  # sensor-like (luma) grain, so that SSIM has structure to compare
+    cup = np.zeros((H, W), np.uint8)
+    cv2.ellipse(cup, (70, 80), (24, 10), 0, 0, 360, 1, -1)  # rim
+    cv2.ellipse(cup, (70, 128), (20, 8), 0, 0, 360, 1, -1)  # base
+    cv2.rectangle(cup, (46, 80), (94, 110), 1, -1)
+    cv2.fillConvexPoly(cup, np.array([[46, 110], [94, 110], [90, 128], [50, 128]]), 1)
+    box = np.zeros((H, W), np.uint8)
+    cv2.rectangle(box, (130, 75), (200, 140), 1, -1)
+    shade_x = np.linspace(0.7, 1.1, W)[None, :, None]
+    img = np.where(cup[..., None] > 0, np.array([200, 60, 50]) * shade_x, img)
+    img = np.where(box[..., None] > 0, np.array([70, 110, 190]) * shade_x, img)
+    img[box > 0] += rng.normal(0, 6, (int(box.sum()), 1))
+    photo = np.clip(img, 0, 255).astype(np.uint8)
+    paths = {"photo": folder / "photo.png", "cup": folder / "cup.png", "box": folder / "box.png"}
+    cv2.imwrite(str(paths["photo"]), cv2.cvtColor(photo, cv2.COLOR_RGB2BGR))
+    cv2.imwrite(str(paths["cup"]), cup * 255)
+    cv2.imwrite(str(paths["box"]), box * 255)
+    return paths
+
+
+def cli(*args, check=False, env=None) -> subprocess.CompletedProcess:
+    """Run ``physomni-usd ARGS`` in a fresh interpreter; returns the completed process."""
+    code = ("import sys\nfrom physomni_usd.cli import main\n"
+            "try:\n    main(sys.argv[1:], prog_name='physomni-usd')\n"
+            "finally:\n    print('TORCH_IMPORTED=' + str('torch' in sys.modules), file=sys.stderr)\n")
+    proc = subprocess.run([sys.executable, "-c", code, *map(str, args)], capture_output=True, text=True, env=env)
+    if check and proc.returncode != 0:
+        raise AssertionError(f"physomni-usd {' '.join(map(str, args))} failed:\n{proc.stdout}\n{proc.stderr}")
+    return proc
+
+
+@pytest.fixture(scope="session")
+def photo(tmp_path_factory) -> dict:
+    return synthetic_photo(tmp_path_factory.mktemp("photo"))
+
+
+@pytest.fixture(scope="session")
+def shot(tmp_path_factory, photo) -> dict:
+    """A shot run end to end once: build + simulate (1.5 s) + render, through the CLI."""
+    out = tmp_path_factory.mktemp("shot")
+    proc = cli("run", photo["photo"], "-o", out, "--mask", f"{photo['cup']}:cup", "--mask", f"{photo['box']}:box",
+               "--push", "box=0.6,0,0", "--seconds", "1.5", "--fps", "20", check=True)
+    return {"dir": out, "shot": out / "shot.usda", "proc": proc, **photo}
