@@ -132,15 +132,18 @@ def open_shot(shot_path: os.PathLike | str, *, mute_sim: bool = False) -> Usd.St
 
 
 def check_layer(path: pathlib.Path) -> None:
-    """Open one layer file and turn USD's parse errors into one line."""
+    """Open one layer file and turn USD's parse errors into one line with the file, line and column."""
+    import re
+
     from pxr import Tf
 
     try:
         layer = Sdf.Layer.FindOrOpen(str(path))
     except Tf.ErrorException as exc:
-        first = str(exc).strip().splitlines()
-        detail = next((ln.strip() for ln in first if "line" in ln.lower() or "syntax" in ln.lower()), "")
-        raise InputError(f"{path.name} is not a valid USD layer{': ' + detail if detail else ''}") from None
+        text = " ".join(str(exc).split())
+        where = re.search(r"\.usd[ac]?:(\d+):(\d+): (.*?)(?: in <[^>]*>)?'?\s*$", text)
+        detail = f" (line {where.group(1)}, column {where.group(2)}: {where.group(3)})" if where else ""
+        raise InputError(f"{path.name} is not a valid USD layer{detail}") from None
     if layer is None:
         raise InputError(f"{path.name} is not a valid USD layer")
 
