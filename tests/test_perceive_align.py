@@ -47,7 +47,7 @@ def test_lifted_mesh_is_closed_on_the_ground_and_matches_its_silhouette(shape, d
     seen = _silhouette(lifted.vertices, lifted.faces, camera)
     # the mesh must cover the mask (the texture's alpha cuts away any excess) and not much more
     assert (seen & mask).sum() >= 0.99 * mask.sum()
-    assert mask_iou(seen, mask) >= 0.85
+    assert mask_iou(seen, mask) >= 0.8  # a slab seen from above also shows its top
 
 
 def test_auto_shape_tells_boxes_cups_and_balls_apart():

@@ -108,16 +108,28 @@ def is_ball(mask: np.ndarray) -> bool:
     return inside / (len(xs) + (np.pi * r * r - inside)) >= BALL_IOU
 
 
-def row_spans(mask: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """Left and right pixel edges (len(rows), 2) of the silhouette on each of ``rows``.
+def row_spans(mask: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Left and right pixel edges (len(edges), 2) of the silhouette around each sampled row.
 
-    Rows without pixels take the span interpolated from their neighbours.
+    ``edges`` are increasing image rows (pixel edges). Each sample takes the
+    widest span over the rows half-way to its neighbours, so that the lofted
+    surface between two samples also covers the outline's bulges there.
+    Rows without pixels take spans interpolated from their neighbours.
     """
-    has = mask.any(axis=1)
-    all_rows = np.nonzero(has)[0]
-    left = np.array([np.argmax(mask[r]) for r in all_rows], float)
-    right = np.array([mask.shape[1] - np.argmax(mask[r, ::-1]) for r in all_rows], float)
-    return np.stack([np.interp(rows, all_rows, left), np.interp(rows, all_rows, right)], axis=1)
+    rows = np.nonzero(mask.any(axis=1))[0]
+    left = np.array([np.argmax(mask[r]) for r in rows], float)
+    right = np.array([mask.shape[1] - np.argmax(mask[r, ::-1]) for r in rows], float)
+    every = np.arange(rows[0], rows[-1] + 1)
+    left, right = np.interp(every, rows, left), np.interp(every, rows, right)
+    out = np.empty((len(edges), 2))
+    for k in range(len(edges)):
+        lo = 0.5 * (edges[max(k - 1, 0)] + edges[k])
+        hi = 0.5 * (edges[min(k + 1, len(edges) - 1)] + edges[k])
+        sel = (every + 1 > lo) & (every < hi)
+        if not sel.any():
+            sel = every == np.clip(int(edges[k]), rows[0], rows[-1])
+        out[k] = left[sel].min(), right[sel].max()
+    return out
 
 
 def superellipse(n: int, exponent: float) -> np.ndarray:
@@ -154,8 +166,8 @@ def loft(rings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def round_rings(centres, radii, tangent, normal, sections: int) -> np.ndarray:
-    """Circles (K, n, 3) of ``radii`` about ``centres`` in the horizontal plane spanned by tangent and normal."""
-    ring = superellipse(sections, ROUND_EXPONENT)
+    """Polygons (K, n, 3) circumscribing circles of ``radii`` about ``centres``, in the horizontal plane."""
+    ring = superellipse(sections, ROUND_EXPONENT) / np.cos(np.pi / sections)
     return (centres[:, None, :] + ring[None, :, 0:1] * radii[:, None, None] * tangent
             + ring[None, :, 1:2] * radii[:, None, None] * normal)
 
@@ -201,7 +213,7 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
     top, bottom = float(ys[0]), float(ys[-1] + 1)  # pixel edges
     k = int(min(settings.rows, max(4, ys[-1] - ys[0] + 2)))
     edges = np.linspace(top, bottom, k)
-    spans = row_spans(solid, np.clip(np.round(edges - 0.5), ys[0], ys[-1]))
+    spans = row_spans(solid, edges)
     shape = settings.shape
     if shape == "auto":
         shape = "round" if mirror_iou(solid) >= settings.symmetry_iou and not flat_bottom(solid) else "extrude"
