@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import importlib.resources
+import importlib.util
 import pathlib
 
 from pxr import Plug
@@ -18,12 +18,10 @@ def schema_dir() -> pathlib.Path:
     Installed, it is the ``physomni_usd._schema`` package; run from a source
     checkout, it is ``schemas/physomni`` beside the package.
     """
-    try:
-        folder = pathlib.Path(str(importlib.resources.files("physomni_usd._schema")))
-        if (folder / "plugInfo.json").is_file():
-            return folder
-    except ModuleNotFoundError:
-        pass
+    spec = importlib.util.find_spec("physomni_usd._schema")
+    for location in (spec.submodule_search_locations or []) if spec else []:
+        if (pathlib.Path(location) / "plugInfo.json").is_file():
+            return pathlib.Path(location)
     return pathlib.Path(__file__).resolve().parents[2] / "schemas" / "physomni"
 
 
