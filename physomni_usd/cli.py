@@ -257,5 +257,34 @@ def validate(stage, warnings):
             sys.exit(1)
 
 
+@main.group()
+def bench():
+    """Benchmarks: each prints a table and can write the same numbers as JSON."""
+
+
+@bench.command("pipeline")
+@click.option("--example", type=click.Path(file_okay=False, path_type=pathlib.Path),
+              default=pathlib.Path("examples/motorcycle"), show_default=True,
+              help="Example folder with example.json, a photo and its masks.")
+@click.option("--size", type=click.IntRange(64, 8192), default=880, show_default=True,
+              help="Longer side of the photo, pixels.")
+@click.option("--repeats", type=click.IntRange(1, 50), default=3, show_default=True, help="Builds to time.")
+@click.option("--seconds", type=float, default=2.0, show_default=True, help="Simulated seconds in the run.")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
+              help="Also write the numbers to this JSON file.")
+def bench_pipeline_command(example, size, repeats, seconds, json_path):
+    """Wall time of build and of a whole run on a bundled example (run twice for warm kernel caches)."""
+    with _errors():
+        import json
+
+        from .bench.pipeline import bench_pipeline
+
+        numbers = bench_pipeline(example, size=size, repeats=repeats, seconds=seconds, echo=click.echo)
+        if json_path:
+            from ._files import write_bytes
+
+            write_bytes(json_path, (json.dumps(numbers, indent=2) + "\n").encode())
+
+
 if __name__ == "__main__":  # pragma: no cover
     main()

@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-import math
-import pathlib
 import sys
 import time
+import warnings
 
 import numpy as np
 from pxr import Usd, UsdPhysics
@@ -103,7 +102,7 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     section = {
         "solver": cfg["solver"], "device": run["device"], "fps": cfg["fps"], "frames": frames,
         "substeps": substeps, "dt": dt, "iterations": cfg["iterations"], "simulated_seconds": settings.seconds,
-        "bodies": len(run["path_body"]), "moving_prims": moved, "retries": attempt,
+        "bodies": len(run["path_body"]), "moving_prims": moved, "retries": attempt, "newton_notes": run["notes"],
         "final_lowest_z_m": run["lowest_z"], "max_speed_m_s": run["max_speed"],
         "modules": {"torch": "torch" in sys.modules},
         "seconds": {"read": round(run["t_build"] - t_start, 4), "build_model": round(run["t_model"], 4),
@@ -133,7 +132,8 @@ def _run(stage, cfg, frames, device, progress) -> dict:
     result = builder.add_usd(stage, load_visual_shapes=False, load_sites=False, verbose=False,
                              mesh_maxhullvert=MAX_HULL_VERTICES)
     path_body = {p: b for p, b in result["path_body_map"].items() if p.startswith(OBJECTS + "/")}
-    with wp.ScopedDevice(device):
+    with wp.ScopedDevice(device), warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
         model = builder.finalize(device=device)
         solver = newton.solvers.SolverXPBD(model, iterations=cfg["iterations"])
         state_a, state_b = model.state(), model.state()
@@ -164,7 +164,8 @@ def _run(stage, cfg, frames, device, progress) -> dict:
                 progress(f, frames - 1)
         t_step = time.perf_counter() - t1
         lowest = _lowest_points(model, state_a, path_body)
-    return {"ok": True, "body_q": record, "path_body": path_body, "device": str(device), "t_build": t0,
+    notes = sorted({str(w.message) for w in caught})
+    return {"ok": True, "notes": notes, "body_q": record, "path_body": path_body, "device": str(device), "t_build": t0,
             "t_model": t_model, "t_step": t_step, "max_speed": round(max_speed, 4), "lowest_z": lowest}
 
 

@@ -1,0 +1,1 @@
+"""Benchmarks behind ``physomni-usd bench``: they print a table and write the same numbers as JSON."""
