@@ -107,3 +107,12 @@ def test_frame_zero_reproduces_the_photo(shot):
 @pytest.mark.parametrize("layer", ["scene.usda", "physics.usda"])
 def test_each_generated_layer_validates(shot, layer):
     assert [f for f in validate_stage(shot["dir"] / layer) if f.severity == "error"] == []
+
+
+def test_only_moving_prims_get_time_samples(shot):
+    from pxr import Sdf
+
+    sim = Sdf.Layer.FindOrOpen(str(shot["dir"] / "sim.usdc"))
+    assert sim.GetPrimAtPath("/World/Objects/box_1")  # pushed
+    assert not sim.GetPrimAtPath("/World/Objects/cup_0")  # left alone: it rests where it stands
+    assert not sim.GetPrimAtPath("/World/Camera") and not sim.GetPrimAtPath("/World/Ground")
