@@ -151,7 +151,7 @@ def _simulate(shot, seconds, fps, substeps, quiet):
     with _progress("simulate", not quiet) as bar:
         section = simulate_shot(shot, settings, progress=bar, echo=_say(quiet))
     if not quiet:
-        click.echo(f"simulate: {section['frames']} frames, {section['bodies']} bodies, "
+        click.echo(f"simulate: {section['frames']} frames, {section['bodies']} rigid bodies, "
                    f"{len(section['moving_prims'])} moving, dt {section['dt'] * 1000:.2f} ms, "
                    f"{section['total_seconds']:.2f} s", err=True)
     return section

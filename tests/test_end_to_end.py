@@ -7,10 +7,9 @@ import json
 import imageio.v2 as imageio
 import numpy as np
 import pytest
-import trimesh
-from pxr import Usd, UsdGeom
+from pxr import Usd
 
-from physomni_usd.metrics import ssim
+from physomni_usd.metrics import max_penetration, ssim, world_meshes
 from physomni_usd.perceive.masks import read_photo
 from physomni_usd.validate import validate_stage
 
@@ -55,37 +54,17 @@ def test_newton_add_usd_loads_the_rigid_bodies(shot):
     assert all(m > 0 for m in builder.body_mass)
 
 
-def _world_meshes(stage, t):
-    cache = UsdGeom.XformCache(t)
-    out = {}
-    for prim in stage.GetPrimAtPath("/World/Objects").GetChildren():
-        mesh = UsdGeom.Mesh(prim)
-        pts = np.asarray(mesh.GetPointsAttr().Get(t), float)
-        m = np.array(cache.GetLocalToWorldTransform(prim))
-        faces = np.asarray(mesh.GetFaceVertexIndicesAttr().Get()).reshape(-1, 3)
-        out[prim.GetName()] = trimesh.Trimesh(pts @ m[:3, :3] + m[3, :3], faces, process=False)
-    return out
-
-
 def test_objects_end_at_rest_on_the_ground_without_interpenetration(shot):
     stage = Usd.Stage.Open(str(shot["shot"]))
     end = stage.GetEndTimeCode()
     assert end == 30  # 1.5 s at 20 fps: frames 0..30
-    worst = 0.0
-    for t in range(0, int(end) + 1, 3):
-        meshes = _world_meshes(stage, t)
-        names = sorted(meshes)
-        for i, a in enumerate(names):
-            for b in names[i + 1:]:
-                for x, y in ((a, b), (b, a)):
-                    depth = trimesh.proximity.signed_distance(meshes[y], meshes[x].vertices)  # > 0 inside
-                    worst = max(worst, float(depth.max()))
+    worst = max(max_penetration(world_meshes(stage, t)) for t in range(int(end) + 1))
     assert worst <= 0.002, f"meshes interpenetrate by {worst * 1000:.1f} mm"
-    final = _world_meshes(stage, end)
+    final = world_meshes(stage, end)
     for name, mesh in final.items():
         assert abs(mesh.vertices[:, 2].min()) <= 0.005, name
     # at rest: the last two frames barely differ
-    before = _world_meshes(stage, end - 1)
+    before = world_meshes(stage, end - 1)
     for name in final:
         assert np.abs(final[name].vertices - before[name].vertices).max() < 0.002, name
 

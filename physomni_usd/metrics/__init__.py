@@ -1,5 +1,6 @@
 """Metrics of the paper and of our own checks, as plain functions over arrays."""
 
+from .geometry import max_penetration, world_meshes
 from .image import mask_iou, ssim
 
-__all__ = ["mask_iou", "ssim"]
+__all__ = ["mask_iou", "max_penetration", "ssim", "world_meshes"]

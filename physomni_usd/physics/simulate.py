@@ -11,6 +11,7 @@ from pxr import Usd, UsdPhysics
 
 from .._warp import load_warp, pick_device
 from ..errors import InputError, PhysOmniError
+from ..metrics.geometry import max_penetration, world_meshes
 from ..report import update_report
 from ..settings import SimulateSettings
 from ..usd import layers
@@ -98,13 +99,14 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
             "physomni:iterations": cfg["iterations"], "physomni:seconds": settings.seconds}
     write_sim_layer(folder / layers.SIM, fps=cfg["fps"], frames=frames, tracks=tracks, metadata=meta)
     layers.set_shot_time(folder, cfg["fps"], frames)
+    checks = _checks(layers.open_shot(folder), frames)
     t_end = time.perf_counter()
 
     section = {
         "solver": cfg["solver"], "device": run["device"], "fps": cfg["fps"], "frames": frames,
         "substeps": substeps, "dt": dt, "iterations": cfg["iterations"], "simulated_seconds": settings.seconds,
         "bodies": len(run["path_body"]), "moving_prims": moved, "retries": attempt, "newton_notes": run["notes"],
-        "final_lowest_z_m": run["lowest_z"], "max_speed_m_s": run["max_speed"],
+        "max_speed_m_s": run["max_speed"], **checks,
         "modules": {"torch": "torch" in sys.modules},
         "seconds": {"read": round(run["t_build"] - t_start, 4), "build_model": round(run["t_model"], 4),
                     "step": round(run["t_step"], 4), "write": round(t_end - t_write, 4)},
@@ -166,37 +168,15 @@ def _run(stage, cfg, frames, device, progress) -> dict:
             if progress:
                 progress(f, frames - 1)
         t_step = time.perf_counter() - t1
-        lowest = _lowest_points(model, state_a, path_body)
     notes = sorted({str(w.message) for w in caught})
     return {"ok": True, "notes": notes, "body_q": record, "path_body": path_body, "device": str(device), "t_build": t0,
-            "t_model": t_model, "t_step": t_step, "max_speed": round(max_speed, 4), "lowest_z": lowest}
+            "t_model": t_model, "t_step": t_step, "max_speed": round(max_speed, 4)}
 
 
-def _lowest_points(model, state, path_body) -> dict:
-    """Lowest z of each body's collision vertices at the final state (metres)."""
-    out = {}
-    body_q = state.body_q.numpy()
-    shape_body = model.shape_body.numpy()
-    src = getattr(model, "shape_source", None)
-    for path, b in path_body.items():
-        zs = []
-        for s in np.nonzero(shape_body == b)[0]:
-            mesh = src[s] if src is not None else None
-            verts = getattr(mesh, "vertices", None)
-            if verts is None:
-                continue
-            scale = model.shape_scale.numpy()[s]
-            xf = model.shape_transform.numpy()[s]
-            pts = _apply(xf, np.asarray(verts) * scale)
-            zs.append(_apply(body_q[b], pts)[:, 2].min())
-        out[path] = round(float(min(zs)), 5) if zs else None
-    return out
-
-
-def _apply(xf, pts: np.ndarray) -> np.ndarray:
-    """Apply a warp transform (x, y, z, qx, qy, qz, qw) to points (N, 3)."""
-    p, (x, y, z, w) = np.asarray(xf[:3]), xf[3:7]
-    r = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                  [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                  [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
-    return pts @ r.T + p
+def _checks(stage, frames: int) -> dict:
+    """What a user asks of a finished run: where objects end up, and whether meshes ever overlap."""
+    final = world_meshes(stage, frames - 1)
+    return {
+        "final_lowest_z_m": {name: round(float(m.vertices[:, 2].min()), 5) for name, m in final.items()},
+        "max_penetration_m": round(max(max_penetration(world_meshes(stage, t)) for t in range(frames)), 5),
+    }
