@@ -7,7 +7,7 @@ import time
 import warnings
 
 import numpy as np
-from pxr import Usd, UsdPhysics
+from pxr import Usd, UsdGeom, UsdPhysics
 
 from .._warp import load_warp, pick_device
 from ..errors import InputError, PhysOmniError
@@ -17,6 +17,7 @@ from ..settings import SimulateSettings
 from ..usd import layers
 from ..usd.author import OBJECTS, write_sim_layer
 from .checks import MAX_SPEED, check_rigid_inputs
+from .forces import FieldSet, body_samples, read_force_fields
 
 SUPPORTED_SOLVERS = ("xpbd",)
 #: Newton simplifies convex hulls to this many vertices; its default (64) cuts the corners of
@@ -106,6 +107,7 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
         "solver": cfg["solver"], "device": run["device"], "fps": cfg["fps"], "frames": frames,
         "substeps": substeps, "dt": dt, "iterations": cfg["iterations"], "simulated_seconds": settings.seconds,
         "bodies": len(run["path_body"]), "moving_prims": moved, "retries": attempt, "newton_notes": run["notes"],
+        "force_fields": run["fields"],
         "max_speed_m_s": run["max_speed"], **checks,
         "modules": {"torch": "torch" in sys.modules},
         "seconds": {"read": round(run["t_build"] - t_start, 4), "build_model": round(run["t_model"], 4),
@@ -135,6 +137,13 @@ def _run(stage, cfg, frames, device, progress) -> dict:
     result = builder.add_usd(stage, load_visual_shapes=False, load_sites=False, verbose=False,
                              mesh_maxhullvert=MAX_HULL_VERTICES)
     path_body = {p: b for p, b in result["path_body_map"].items() if p.startswith(OBJECTS + "/")}
+    fields = FieldSet(read_force_fields(stage), device)
+    if fields:
+        points = [np.zeros((1, 3))] * builder.body_count
+        for path, b in path_body.items():
+            mesh = UsdGeom.Mesh(stage.GetPrimAtPath(path))
+            points[b] = np.asarray(mesh.GetPointsAttr().Get(), float) if mesh else np.zeros((1, 3))
+        fields.set_body_samples(body_samples(points))
     with wp.ScopedDevice(device), warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         model = builder.finalize(device=device)
@@ -152,9 +161,12 @@ def _run(stage, cfg, frames, device, progress) -> dict:
         record[0] = state_a.body_q.numpy()
         max_speed = float(np.abs(state_a.body_qd.numpy()[:, :3]).max()) if n_bodies else 0.0
         t1 = time.perf_counter()
+        step = 0
         for f in range(1, frames):
             for _ in range(cfg["substeps"]):
                 state_a.clear_forces()
+                fields.apply(model, state_a, step * dt, step)
+                step += 1
                 pipeline.collide(state_a, contacts)
                 solver.step(state_a, state_b, control, contacts, dt)
                 state_a, state_b = state_b, state_a
@@ -169,7 +181,7 @@ def _run(stage, cfg, frames, device, progress) -> dict:
                 progress(f, frames - 1)
         t_step = time.perf_counter() - t1
     notes = sorted({str(w.message) for w in caught})
-    return {"ok": True, "notes": notes, "body_q": record, "path_body": path_body, "device": str(device), "t_build": t0,
+    return {"ok": True, "notes": notes, "fields": [f"{x.kind} {x.path}" for x in fields.fields], "body_q": record, "path_body": path_body, "device": str(device), "t_build": t0,
             "t_model": t_model, "t_step": t_step, "max_speed": round(max_speed, 4)}
 
 
