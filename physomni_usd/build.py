@@ -76,8 +76,25 @@ def parse_pushes(pushes, labels_to_names: dict[str, str]) -> dict[str, tuple[flo
     return out
 
 
+def parse_forces(specs) -> list:
+    """``--force KIND:key=value,...`` options → force fields; bad ones stop with one line."""
+    from .physics.forces import doubles_gravity, parse_force_spec
+
+    fields = []
+    for spec in specs or ():
+        try:
+            f = parse_force_spec(spec)
+        except ValueError as exc:
+            raise InputError(f"--force {spec!r}: {exc}") from None
+        if doubles_gravity(f):
+            raise InputError(f"--force {spec!r} repeats gravity, which the scene already applies; "
+                             "change /World/PhysicsScene's gravity instead")
+        fields.append(f)
+    return fields
+
+
 def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings = BuildSettings(),
-               pushes=(), echo=lambda msg: None) -> BuildResult:
+               pushes=(), echo=lambda msg: None, forces=()) -> BuildResult:
     timer = Timer()
     with timer.step("read"):
         out = prepare_output(out_dir)
@@ -88,6 +105,7 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
             names.setdefault(o.label, o.name)
             names[o.name] = o.name
         push = parse_pushes(pushes, names)
+        fields = parse_forces(forces)
     h, w = photo.shape[:2]
     echo(f"perceive: {len(objects)} object(s) in a {w}×{h} photo")
 
@@ -155,7 +173,7 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
                           extra={"physomni:photo": str(pathlib.Path(photo_path).name)})
         write_physics_layer(out / layers.PHYSICS, out / layers.SCENE, fps=settings.fps, objects=physics_objects,
                             ground=GROUND, solver=DEFAULT_SOLVER, substeps=DEFAULT_SUBSTEPS,
-                            iterations=DEFAULT_ITERATIONS)
+                            iterations=DEFAULT_ITERATIONS, forces=fields)
         layers.reset_sim_layer(out, settings.fps)
         layers.ensure_edits_layer(out)
         shot = layers.write_shot_layer(out, settings.fps)

@@ -110,6 +110,9 @@ def build_options(f):
         click.option("--shape", type=click.Choice(["auto", "round", "extrude"]), default="auto", show_default=True,
                      help="How silhouettes become meshes: surface of revolution, extrusion, or by symmetry."),
         click.option("--fps", type=float, default=30.0, show_default=True, help="Frames per second of the shot."),
+        click.option("--force", "forces", multiple=True, metavar="KIND:key=value,...",
+                     help="A force field (constant, wind, point, drag, vortex, turbulence, noise), e.g. "
+                          "'wind:direction=1,0,0,strength=30'. Accelerations in m/s²; times in seconds. Repeatable."),
     ]
     for opt in reversed(opts):
         f = opt(f)
@@ -131,13 +134,13 @@ def _build_settings(fov, pitch, camera_height, shape, fps):
 @click.option("--push", "pushes", multiple=True, metavar="LABEL=VX,VY,VZ",
               help="Initial velocity of an object in m/s (world axes: Z up, +Y away from the camera).")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
-def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, pushes, quiet):
+def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, forces, pushes, quiet):
     """Photo → scene.usda, physics.usda and the root shot.usda (perceive, align, estimate)."""
     with _errors():
         from .build import build_shot
 
         settings = _build_settings(fov, pitch, camera_height, shape, fps)
-        result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet))
+        result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces)
         if not quiet:
             total = sum(result.seconds.values())
             click.echo(f"wrote {result.shot} ({len(result.objects)} objects, {total:.2f} s)", err=True)
@@ -210,7 +213,7 @@ def render(shot, output, quiet):
 @click.option("--push", "pushes", multiple=True, metavar="LABEL=VX,VY,VZ",
               help="Initial velocity of an object in m/s (world axes: Z up, +Y away from the camera).")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
-def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, seconds, pushes, quiet):
+def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, forces, seconds, pushes, quiet):
     """build + simulate + render in one go; writes DIR/shot.usda, DIR/video.mp4, DIR/report.json.
 
     \b
@@ -226,7 +229,7 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, sec
         SimulateSettings(seconds=seconds)  # refuse absurd values before any work
         t0 = time.perf_counter()
         settings = _build_settings(fov, pitch, camera_height, shape, fps)
-        result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet))
+        result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces)
         _simulate(result.shot, seconds, None, None, quiet)
         section = _render(result.shot, None, quiet)
         total = round(time.perf_counter() - t0, 3)

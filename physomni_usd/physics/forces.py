@@ -71,7 +71,8 @@ class ForceField:
         n = np.linalg.norm(d)
         if not np.isfinite(n) or n == 0:
             raise ValueError(f"force field {self.path or self.kind}: direction must be a non-zero vector")
-        self.direction = tuple(d / n)
+        self.direction = tuple(float(x) for x in d / n)
+        self.position = tuple(float(x) for x in self.position)
 
     def active(self, t: float) -> bool:
         return self.enabled and t >= self.start_time and (self.end_time < 0 or t < self.end_time)
@@ -86,6 +87,98 @@ ATTRS = {
     "physomni:radialStrength": "radial_strength", "physomni:innerRadius": "inner_radius",
     "physomni:damping": "damping", "physomni:frequency": "frequency", "physomni:seed": "seed",
 }
+
+
+#: Spellings accepted in ``--force KIND:key=value,...`` and VLM replies → dataclass field.
+SPEC_KEYS = {
+    "strength": "strength", "s": "strength", "magnitude": "strength", "direction": "direction", "dir": "direction",
+    "position": "position", "pos": "position", "center": "position", "centre": "position", "radius": "radius",
+    "range": "radius", "falloff": "falloff", "pow": "falloff", "start": "start_time", "start_time": "start_time",
+    "end": "end_time", "end_time": "end_time", "enabled": "enabled", "flow": "flow", "k1": "linear_drag",
+    "linear": "linear_drag", "linear_drag": "linear_drag", "k2": "quadratic_drag", "quadratic": "quadratic_drag",
+    "quadratic_drag": "quadratic_drag", "radial": "radial_strength", "radial_strength": "radial_strength",
+    "inner_radius": "inner_radius", "r_min": "inner_radius", "damping": "damping", "frequency": "frequency",
+    "freq": "frequency", "seed": "seed",
+}
+VECTOR_FIELDS = ("direction", "position")
+#: Defaults that differ per kind (the paper's), applied before the given values.
+KIND_DEFAULTS = {
+    "constant": {"strength": 1.0, "direction": (1.0, 0.0, 0.0)},
+    "wind": {"strength": 1.0, "direction": (1.0, 0.0, 0.0)},
+    "point": {"strength": 1.0},
+    "drag": {},
+    "vortex": {"strength": 20.0, "direction": (0.0, 0.0, 1.0), "falloff": 2.0},
+    "turbulence": {"strength": 1.0, "frequency": 3.0},
+    "noise": {"strength": 1.0},
+}
+
+
+def parse_bool(value) -> bool:
+    """'true'/'1'/'yes'/'on' → True, 'false'/'0'/'no'/'off' → False; anything else is refused."""
+    if isinstance(value, bool):
+        return value
+    if isinstance(value, (int, float)) and value in (0, 1):
+        return bool(value)
+    text = str(value).strip().lower()
+    if text in ("true", "1", "yes", "on"):
+        return True
+    if text in ("false", "0", "no", "off"):
+        return False
+    raise ValueError(f"{value!r} is not a boolean (true/false)")
+
+
+def field_from_values(kind: str, values: dict, path: str = "") -> "ForceField":
+    """A field of ``kind`` from loosely typed values (strings, lists, numbers), checked and converted."""
+    kind = str(kind).strip().lower()
+    if kind not in KINDS:
+        raise ValueError(f"unknown force field kind {kind!r}; one of {', '.join(KINDS)}")
+    out = dict(KIND_DEFAULTS[kind])
+    for key, value in values.items():
+        name = SPEC_KEYS.get(str(key).strip().lower())
+        if name is None:
+            raise ValueError(f"{kind} has no parameter {key!r}")
+        if name in VECTOR_FIELDS:
+            parts = value.split(",") if isinstance(value, str) else list(value)
+            vec = tuple(float(x) for x in parts)
+            if len(vec) != 3 or not all(np.isfinite(vec)):
+                raise ValueError(f"{key} must be three finite numbers, got {value!r}")
+            out[name] = vec
+        elif name == "enabled":
+            out[name] = parse_bool(value)
+        elif name == "seed":
+            out[name] = int(float(value))
+        else:
+            number = float(value)
+            if not np.isfinite(number):
+                raise ValueError(f"{key} must be finite, got {value!r}")
+            out[name] = number
+    if abs(out.get("strength", 1.0)) > 1e4:
+        raise ValueError(f"strength {out['strength']:g} m/s² is beyond 1e4 m/s²")
+    return ForceField(kind, path=path, **out)
+
+
+def doubles_gravity(f: "ForceField", gravity=(0.0, 0.0, -9.81)) -> bool:
+    """Whether a constant field just repeats gravity (the paper's configs did, silently doubling it)."""
+    g = np.asarray(gravity, float)
+    if f.kind != "constant" or not np.linalg.norm(g):
+        return False
+    a = f.strength * np.asarray(f.direction)
+    return bool(np.linalg.norm(a - g) < 0.1 * np.linalg.norm(g))
+
+
+def parse_force_spec(spec: str) -> "ForceField":
+    """``'wind:direction=1,0,0,strength=30'`` → a :class:`ForceField`; vectors keep their commas."""
+    kind, _, rest = spec.partition(":")
+    values, key = {}, None
+    for token in filter(None, (t.strip() for t in rest.split(","))):
+        if "=" in token:
+            key, _, value = token.partition("=")
+            values[key.strip()] = value.strip()
+        elif key is not None:
+            values[key] += "," + token
+        else:
+            raise ValueError(f"expected key=value after '{kind}:', got {token!r}")
+    return field_from_values(kind, values)
 
 
 def read_force_fields(stage: Usd.Stage, time=Usd.TimeCode.Default()) -> list[ForceField]:

@@ -179,7 +179,8 @@ def _background_card(stage: Usd.Stage, camera, plate: str) -> None:
 
 
 def write_physics_layer(path: pathlib.Path, scene_path: pathlib.Path, *, fps: float, objects: list[PhysicsObject],
-                        ground, solver: str, substeps: int, iterations: int) -> None:
+                        ground, solver: str, substeps: int, iterations: int, forces=(),
+                        force_source: str = "user") -> None:
     """``physics.usda``: physics materials, rigid-body APIs and solver settings, as overs on the scene."""
     physics = Sdf.Layer.CreateAnonymous(".usda")
     root = Sdf.Layer.CreateAnonymous(".usda")
@@ -211,9 +212,42 @@ def write_physics_layer(path: pathlib.Path, scene_path: pathlib.Path, *, fps: fl
         mat = _physics_material(stage, obj.name, obj.density, obj.static_friction, obj.dynamic_friction,
                                 obj.restitution, obj.material_type, obj.source)
         _bind(prim, mat, "physics")
+    if forces:
+        author_force_fields(stage, forces, force_source)
     physics.defaultPrim = "World"
     layers.set_stage_metadata(physics, fps)
     layers.save_layer(physics, path)
+
+
+def author_force_fields(stage: Usd.Stage, fields, source: str = "user") -> list[str]:
+    """Define ``/World/ForceFields/<kind>_<n>`` prims with PhysOmniForceFieldAPI; returns their paths.
+
+    Only attributes that differ from the schema's fallbacks are authored, plus
+    the kind, strength and direction, which a reader always wants to see.
+    """
+    from ..physics.forces import ATTRS, ForceField
+
+    UsdGeom.Scope.Define(stage, FORCE_FIELDS)
+    fallback = ForceField("wind")
+    paths = []
+    taken = {p.GetName() for p in stage.GetPrimAtPath(FORCE_FIELDS).GetChildren()}
+    for f in fields:
+        n = 0
+        while f"{f.kind}_{n}" in taken:
+            n += 1
+        name = f"{f.kind}_{n}"
+        taken.add(name)
+        prim = UsdGeom.Xform.Define(stage, f"{FORCE_FIELDS}/{name}").GetPrim()
+        prim.ApplyAPI("PhysOmniForceFieldAPI")
+        for attr_name, key in ATTRS.items():
+            value = getattr(f, key)
+            if key not in ("kind", "strength", "direction") and value == getattr(fallback, key):
+                continue
+            attr = prim.GetAttribute(attr_name)
+            attr.Set(Gf.Vec3f(*map(float, value)) if key in ("direction", "position") else value)
+        prim.GetAttribute("physomni:source").Set(source)
+        paths.append(str(prim.GetPath()))
+    return paths
 
 
 def _physics_material(stage, name, density, static_friction, dynamic_friction, restitution, material_type, source):

@@ -1,0 +1,60 @@
+"""Force fields and controls given on the command line act in the simulated shot."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pxr import Usd
+
+from .conftest import cli
+
+G = 9.81
+
+
+def _x_travel(folder, name, seconds):
+    stage = Usd.Stage.Open(str(folder / "shot.usda"))
+    attr = stage.GetPrimAtPath(f"/World/Objects/{name}").GetAttribute("xformOp:translate")
+    end = stage.GetEndTimeCode()
+    return np.array(attr.Get(end)) - np.array(attr.Get(0)), end
+
+
+def _build(tmp_path, shot, *extra):
+    out = tmp_path / "shot"
+    cli("build", shot["photo"], "-o", out, "--mask", f"{shot['box']}:box", "-q", *extra, check=True)
+    return out
+
+
+def test_strong_wind_slides_the_box_against_friction(tmp_path, shot):
+    out = _build(tmp_path, shot, "--force", "wind:direction=1,0,0,strength=30")
+    cli("simulate", out / "shot.usda", "--seconds", "0.5", "-q", check=True)
+    move, _ = _x_travel(out, "box_0", 0.5)
+    mu = 0.45  # the table's cardboard dynamic friction ('box')
+    expected = 0.5 * (30 - mu * G) * 0.5 ** 2
+    assert move[0] == pytest.approx(expected, rel=0.1)
+    assert abs(move[1]) < 0.05 * move[0]
+
+
+def test_weak_wind_does_not_beat_static_friction(tmp_path, shot):
+    out = _build(tmp_path, shot, "--force", "wind:direction=1,0,0,strength=3")
+    cli("simulate", out / "shot.usda", "--seconds", "0.5", "-q", check=True)
+    stage = Usd.Stage.Open(str(out / "shot.usda"))
+    attr = stage.GetPrimAtPath("/World/Objects/box_0").GetAttribute("xformOp:translate")
+    assert attr.GetNumTimeSamples() == 0  # it never moved
+
+
+def test_disabled_field_does_nothing(tmp_path, shot):
+    out = _build(tmp_path, shot, "--force", "wind:direction=1,0,0,strength=30,enabled=false")
+    cli("simulate", out / "shot.usda", "--seconds", "0.3", "-q", check=True)
+    stage = Usd.Stage.Open(str(out / "shot.usda"))
+    assert stage.GetPrimAtPath("/World/Objects/box_0").GetAttribute("xformOp:translate").GetNumTimeSamples() == 0
+
+
+@pytest.mark.parametrize("spec, needle", [
+    ("tornado:strength=3", "unknown force field kind"),
+    ("wind:direction=1,0", "three finite numbers"),
+    ("constant:direction=0,0,-1,strength=9.81", "repeats gravity"),
+    ("wind:colour=red", "no parameter"),
+])
+def test_bad_force_specs_are_refused(tmp_path, shot, spec, needle):
+    proc = cli("build", shot["photo"], "-o", tmp_path / "o", "--mask", shot["box"], "--force", spec)
+    assert proc.returncode == 2 and needle in proc.stderr and "Traceback" not in proc.stderr
