@@ -53,13 +53,31 @@ def prepare_output(folder) -> pathlib.Path:
     return out
 
 
-def parse_pushes(pushes, labels_to_names: dict[str, str]) -> dict[str, tuple[float, float, float]]:
-    """``['cup=1,0,0']`` → ``{'cup_0': (1, 0, 0)}``; LABEL may be a label or a prim name."""
+def _object_name(option: str, spec: str, label: str, labels_to_names: dict[str, str]) -> str:
+    name = labels_to_names.get(label.strip())
+    if name is None:
+        known = ", ".join(sorted(labels_to_names)) or "none"
+        raise InputError(f"{option} {spec!r}: no object labelled {label.strip()!r} (known: {known})")
+    return name
+
+
+def parse_pushes(pushes, labels_to_names: dict[str, str]) -> dict[str, tuple[tuple[float, float, float], float]]:
+    """``['cup=1,0,0@0.5']`` → ``{'cup_0': ((1, 0, 0), 0.5)}``; LABEL may be a label or a prim name.
+
+    The velocity (m/s) is given to the object at the time after ``@`` (seconds, default 0).
+    """
     out = {}
     for spec in pushes or ():
         label, sep, vec = spec.partition("=")
         if not sep:
-            raise InputError(f"--push {spec!r}: expected LABEL=VX,VY,VZ")
+            raise InputError(f"--push {spec!r}: expected LABEL=VX,VY,VZ[@SECONDS]")
+        vec, _, when = vec.partition("@")
+        try:
+            at = float(when) if when else 0.0
+        except ValueError:
+            at = float("nan")
+        if not np.isfinite(at) or at < 0:
+            raise InputError(f"--push {spec!r}: the time after @ must be a number of seconds ≥ 0")
         try:
             v = tuple(float(x) for x in vec.split(","))
         except ValueError:
@@ -68,12 +86,13 @@ def parse_pushes(pushes, labels_to_names: dict[str, str]) -> dict[str, tuple[flo
             raise InputError(f"--push {spec!r}: expected three finite numbers VX,VY,VZ in m/s")
         if max(abs(x) for x in v) > 1000:
             raise InputError(f"--push {spec!r}: speeds above 1000 m/s are not physical here")
-        name = labels_to_names.get(label.strip())
-        if name is None:
-            known = ", ".join(sorted(labels_to_names)) or "none"
-            raise InputError(f"--push {spec!r}: no object labelled {label!r} (known: {known})")
-        out[name] = v
+        out[_object_name("--push", spec, label, labels_to_names)] = (v, at)
     return out
+
+
+def parse_fixed(labels, labels_to_names: dict[str, str]) -> set[str]:
+    """``--fix LABEL`` options → prim names of objects that must not move."""
+    return {_object_name("--fix", label, label, labels_to_names) for label in labels or ()}
 
 
 def parse_forces(specs) -> list:
@@ -94,7 +113,7 @@ def parse_forces(specs) -> list:
 
 
 def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings = BuildSettings(),
-               pushes=(), echo=lambda msg: None, forces=()) -> BuildResult:
+               pushes=(), echo=lambda msg: None, forces=(), fixed=()) -> BuildResult:
     timer = Timer()
     with timer.step("read"):
         out = prepare_output(out_dir)
@@ -106,6 +125,7 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
             names[o.name] = o.name
         push = parse_pushes(pushes, names)
         fields = parse_forces(forces)
+        fixed_names = parse_fixed(fixed, names)
     h, w = photo.shape[:2]
     echo(f"perceive: {len(objects)} object(s) in a {w}×{h} photo")
 
@@ -158,13 +178,18 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
         physics_objects = []
         for o, rep in zip(objects, report_objects):
             mat = rigid_material(o.label)
-            physics_objects.append(PhysicsObject(o.name, mat.density, mat.static_friction, mat.dynamic_friction,
-                                                 mat.restitution, velocity=push.get(o.name)))
+            velocity, at = push.get(o.name, (None, 0.0))
+            physics_objects.append(PhysicsObject(
+                o.name, mat.density, mat.static_friction, mat.dynamic_friction, mat.restitution,
+                velocity=velocity if at == 0 else None, fixed=o.name in fixed_names,
+                delayed_velocity=(velocity, at) if velocity is not None and at > 0 else None))
             rep["material"] = {"type": "rigid", "entry": mat.name, "density": mat.density,
                                "static_friction": mat.static_friction, "dynamic_friction": mat.dynamic_friction,
                                "restitution": mat.restitution, "source": "rules"}
             if o.name in push:
-                rep["push_m_s"] = list(push[o.name])
+                rep["push"] = {"velocity_m_s": list(push[o.name][0]), "at_s": push[o.name][1]}
+            if o.name in fixed_names:
+                rep["fixed"] = True
 
     with timer.step("write"):
         extent = max(np.abs(np.vstack(verts)[:, :2]).max() * 4.0, 20.0 * settings.camera.height_m)

@@ -110,6 +110,8 @@ def build_options(f):
         click.option("--shape", type=click.Choice(["auto", "round", "extrude"]), default="auto", show_default=True,
                      help="How silhouettes become meshes: surface of revolution, extrusion, or by symmetry."),
         click.option("--fps", type=float, default=30.0, show_default=True, help="Frames per second of the shot."),
+        click.option("--fix", "fixed", multiple=True, metavar="LABEL",
+                     help="Keep this object where it is (it still collides). Repeatable."),
         click.option("--force", "forces", multiple=True, metavar="KIND:key=value,...",
                      help="A force field (constant, wind, point, drag, vortex, turbulence, noise), e.g. "
                           "'wind:direction=1,0,0,strength=30'. Accelerations in m/s²; times in seconds. Repeatable."),
@@ -131,16 +133,17 @@ def _build_settings(fov, pitch, camera_height, shape, fps):
 @click.option("-o", "--output", "out_dir", required=True, type=click.Path(path_type=pathlib.Path),
               help="Shot folder to write (created if missing).")
 @build_options
-@click.option("--push", "pushes", multiple=True, metavar="LABEL=VX,VY,VZ",
-              help="Initial velocity of an object in m/s (world axes: Z up, +Y away from the camera).")
+@click.option("--push", "pushes", multiple=True, metavar="LABEL=VX,VY,VZ[@T]",
+              help="Give an object this velocity in m/s at T seconds (default 0); world axes: Z up, "
+                   "+Y away from the camera, +X to the image's right. Repeatable.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
-def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, forces, pushes, quiet):
+def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, fixed, forces, pushes, quiet):
     """Photo → scene.usda, physics.usda and the root shot.usda (perceive, align, estimate)."""
     with _errors():
         from .build import build_shot
 
         settings = _build_settings(fov, pitch, camera_height, shape, fps)
-        result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces)
+        result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces, fixed=fixed)
         if not quiet:
             total = sum(result.seconds.values())
             click.echo(f"wrote {result.shot} ({len(result.objects)} objects, {total:.2f} s)", err=True)
@@ -210,10 +213,11 @@ def render(shot, output, quiet):
               help="Shot folder to write (created if missing).")
 @build_options
 @click.option("--seconds", type=float, default=3.0, show_default=True, help="Simulated seconds.")
-@click.option("--push", "pushes", multiple=True, metavar="LABEL=VX,VY,VZ",
-              help="Initial velocity of an object in m/s (world axes: Z up, +Y away from the camera).")
+@click.option("--push", "pushes", multiple=True, metavar="LABEL=VX,VY,VZ[@T]",
+              help="Give an object this velocity in m/s at T seconds (default 0); world axes: Z up, "
+                   "+Y away from the camera, +X to the image's right. Repeatable.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
-def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, forces, seconds, pushes, quiet):
+def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, fixed, forces, seconds, pushes, quiet):
     """build + simulate + render in one go; writes DIR/shot.usda, DIR/video.mp4, DIR/report.json.
 
     \b
@@ -229,7 +233,7 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, for
         SimulateSettings(seconds=seconds)  # refuse absurd values before any work
         t0 = time.perf_counter()
         settings = _build_settings(fov, pitch, camera_height, shape, fps)
-        result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces)
+        result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces, fixed=fixed)
         _simulate(result.shot, seconds, None, None, quiet)
         section = _render(result.shot, None, quiet)
         total = round(time.perf_counter() - t0, 3)

@@ -58,3 +58,20 @@ def test_disabled_field_does_nothing(tmp_path, shot):
 def test_bad_force_specs_are_refused(tmp_path, shot, spec, needle):
     proc = cli("build", shot["photo"], "-o", tmp_path / "o", "--mask", shot["box"], "--force", spec)
     assert proc.returncode == 2 and needle in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_fixed_object_stays_under_wind(tmp_path, shot):
+    out = _build(tmp_path, shot, "--force", "wind:direction=1,0,0,strength=30", "--fix", "box")
+    cli("simulate", out / "shot.usda", "--seconds", "0.3", "-q", check=True)
+    stage = Usd.Stage.Open(str(out / "shot.usda"))
+    assert stage.GetPrimAtPath("/World/Objects/box_0").GetAttribute("xformOp:translate").GetNumTimeSamples() == 0
+
+
+def test_push_at_a_time_starts_the_motion_then(tmp_path, shot):
+    out = _build(tmp_path, shot, "--push", "box=1.5,0,0@0.5", "--fps", "20")
+    cli("simulate", out / "shot.usda", "--seconds", "1.0", "-q", check=True)
+    stage = Usd.Stage.Open(str(out / "shot.usda"))
+    attr = stage.GetPrimAtPath("/World/Objects/box_0").GetAttribute("xformOp:translate")
+    x = np.array([attr.Get(t)[0] for t in range(21)])
+    assert np.abs(x[:10] - x[0]).max() < 1e-3  # still before 0.5 s
+    assert x[-1] - x[10] > 0.05  # moving after

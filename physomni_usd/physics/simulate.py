@@ -137,6 +137,11 @@ def _run(stage, cfg, frames, device, progress) -> dict:
     result = builder.add_usd(stage, load_visual_shapes=False, load_sites=False, verbose=False,
                              mesh_maxhullvert=MAX_HULL_VERTICES)
     path_body = {p: b for p, b in result["path_body_map"].items() if p.startswith(OBJECTS + "/")}
+    fixed, delayed = read_controls(stage, path_body)
+    for b in fixed:
+        # a kinematic body with no velocity stays put and still collides with everything else
+        builder.body_flags[b] = int(newton.BodyFlags.KINEMATIC)
+        builder.body_qd[b] = wp.spatial_vector(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     fields = FieldSet(read_force_fields(stage), device)
     if fields:
         points = [np.zeros((1, 3))] * builder.body_count
@@ -162,8 +167,11 @@ def _run(stage, cfg, frames, device, progress) -> dict:
         max_speed = float(np.abs(state_a.body_qd.numpy()[:, :3]).max()) if n_bodies else 0.0
         t1 = time.perf_counter()
         step = 0
+        pending = sorted(delayed, key=lambda d: d[1])
         for f in range(1, frames):
             for _ in range(cfg["substeps"]):
+                if pending and pending[0][1] <= step * dt + 1e-9:
+                    pending = _give_velocities(state_a, pending, step * dt)
                 state_a.clear_forces()
                 fields.apply(model, state_a, step * dt, step)
                 step += 1
@@ -183,6 +191,41 @@ def _run(stage, cfg, frames, device, progress) -> dict:
     notes = sorted({str(w.message) for w in caught})
     return {"ok": True, "notes": notes, "fields": [f"{x.kind} {x.path}" for x in fields.fields], "body_q": record, "path_body": path_body, "device": str(device), "t_build": t0,
             "t_model": t_model, "t_step": t_step, "max_speed": round(max_speed, 4)}
+
+
+def read_controls(stage: Usd.Stage, path_body: dict) -> tuple[set, list]:
+    """Fixed bodies, and velocities given after t = 0: ``(body, seconds, linear m/s, angular rad/s)``."""
+    fixed, delayed = set(), []
+    for path, b in path_body.items():
+        prim = stage.GetPrimAtPath(path)
+        attr = prim.GetAttribute("physomni:fixed")
+        if attr and attr.Get():
+            fixed.add(b)
+            continue
+        lin = prim.GetAttribute("physomni:initialVelocity")
+        ang = prim.GetAttribute("physomni:initialAngularVelocity")
+        lin = lin.Get() if lin and lin.HasAuthoredValue() else None
+        ang = ang.Get() if ang and ang.HasAuthoredValue() else None
+        if lin is None and ang is None:
+            continue
+        at = prim.GetAttribute("physomni:velocityStartTime")
+        at = float(at.Get() or 0.0) if at else 0.0
+        spin = np.radians(np.asarray(ang, float)) if ang is not None else None
+        delayed.append((b, max(at, 0.0), None if lin is None else np.asarray(lin, float), spin))
+    return fixed, delayed
+
+
+def _give_velocities(state, pending: list, t: float) -> list:
+    """Set the velocities that are due at ``t``; returns those still pending."""
+    qd = state.body_qd.numpy()
+    due = [d for d in pending if d[1] <= t + 1e-9]
+    for b, _, lin, ang in due:
+        if lin is not None:
+            qd[b, :3] = lin
+        if ang is not None:
+            qd[b, 3:] = ang
+    state.body_qd.assign(qd)
+    return [d for d in pending if d[1] > t + 1e-9]
 
 
 def _checks(stage, frames: int) -> dict:

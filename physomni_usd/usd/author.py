@@ -49,6 +49,8 @@ class PhysicsObject:
     source: str = "rules"
     velocity: tuple[float, float, float] | None = None
     angular_velocity: tuple[float, float, float] | None = None
+    fixed: bool = False
+    delayed_velocity: tuple | None = None  # ((vx, vy, vz), seconds): given at that time, not at 0
     extra: dict = field(default_factory=dict)
 
 
@@ -206,6 +208,12 @@ def write_physics_layer(path: pathlib.Path, scene_path: pathlib.Path, *, fps: fl
             body.CreateVelocityAttr(Gf.Vec3f(*obj.velocity))
         if obj.angular_velocity is not None:
             body.CreateAngularVelocityAttr(Gf.Vec3f(*obj.angular_velocity))
+        if obj.fixed:
+            prim.GetAttribute("physomni:fixed").Set(True)
+        if obj.delayed_velocity is not None:
+            velocity, at = obj.delayed_velocity
+            prim.GetAttribute("physomni:initialVelocity").Set(Gf.Vec3f(*map(float, velocity)))
+            prim.GetAttribute("physomni:velocityStartTime").Set(float(at))
         UsdPhysics.CollisionAPI.Apply(prim)
         UsdPhysics.MeshCollisionAPI.Apply(prim).CreateApproximationAttr(UsdPhysics.Tokens.convexHull)
         UsdPhysics.MassAPI.Apply(prim)
