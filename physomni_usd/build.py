@@ -17,7 +17,9 @@ from ._files import write_bytes
 from .align.camera import PinholeCamera, pick_pitch
 from .align.place import centring_offset, make_room, separate
 from .errors import InputError
-from .materials.defaults import GROUND, rigid_material
+from .materials.defaults import GROUND
+from .materials.report import material_report
+from .materials.rules import estimate_rules
 from .perceive.lift import fill_holes, foot_pixel, lift_silhouette
 from .perceive.masks import collect_masks, read_photo
 from .perceive.plate import background_plate, object_texture
@@ -26,7 +28,12 @@ from .settings import BuildSettings
 from .usd import layers
 from .usd.author import PhysicsObject, SceneObject, write_physics_layer, write_scene_layer
 
+GROUND_MATERIAL = PhysicsObject("Ground", "rigid", {"density": GROUND.density, "static_friction": GROUND.static_friction,
+                                                    "dynamic_friction": GROUND.dynamic_friction,
+                                                    "restitution": GROUND.restitution}, "rules")
+
 TEXTURES = "textures"
+INPUTS = "inputs"
 #: Solver defaults written to the physics layer (the physics benchmark revisits them).
 DEFAULT_SOLVER = "xpbd"
 DEFAULT_SUBSTEPS = 10
@@ -173,19 +180,22 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
                 "depth_scale": round(k, 4), "moved_apart_m": round(float(np.linalg.norm(d)), 4), "watertight": bool(tm.is_watertight),
             })
         _write_png(out / TEXTURES / "plate.png", plate)
+        # the inputs, so that later stages (estimate's crops) work from the shot folder alone
+        (out / INPUTS / "masks").mkdir(parents=True, exist_ok=True)
+        _write_png(out / INPUTS / "photo.png", photo)
+        for o in objects:
+            _write_png(out / INPUTS / "masks" / f"{o.name}.png", np.repeat(o.mask[..., None] * 255, 3, 2).astype(np.uint8))
 
     with timer.step("estimate"):
+        config = estimate_rules([o.label for o in objects], photo, [o.mask for o in objects])
         physics_objects = []
-        for o, rep in zip(objects, report_objects):
-            mat = rigid_material(o.label)
+        for o, cfg in zip(objects, config.objects):
             velocity, at = push.get(o.name, (None, 0.0))
             physics_objects.append(PhysicsObject(
-                o.name, mat.density, mat.static_friction, mat.dynamic_friction, mat.restitution,
-                velocity=velocity if at == 0 else None, fixed=o.name in fixed_names,
+                o.name, cfg.material, cfg.params, "rules", velocity=velocity if at == 0 else None,
+                fixed=o.name in fixed_names,
                 delayed_velocity=(velocity, at) if velocity is not None and at > 0 else None))
-            rep["material"] = {"type": "rigid", "entry": mat.name, "density": mat.density,
-                               "static_friction": mat.static_friction, "dynamic_friction": mat.dynamic_friction,
-                               "restitution": mat.restitution, "source": "rules"}
+        for o, rep in zip(objects, report_objects):
             if o.name in push:
                 rep["push"] = {"velocity_m_s": list(push[o.name][0]), "at_s": push[o.name][1]}
             if o.name in fixed_names:
@@ -197,13 +207,13 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
                           plate=f"./{TEXTURES}/plate.png", objects=scene_objects, ground_size=float(extent),
                           extra={"physomni:photo": str(pathlib.Path(photo_path).name)})
         write_physics_layer(out / layers.PHYSICS, out / layers.SCENE, fps=settings.fps, objects=physics_objects,
-                            ground=GROUND, solver=DEFAULT_SOLVER, substeps=DEFAULT_SUBSTEPS,
+                            ground=GROUND_MATERIAL, solver=DEFAULT_SOLVER, substeps=DEFAULT_SUBSTEPS,
                             iterations=DEFAULT_ITERATIONS, forces=fields)
         layers.reset_sim_layer(out, settings.fps)
         layers.ensure_edits_layer(out)
         shot = layers.write_shot_layer(out, settings.fps)
     echo("build: wrote " + ", ".join([layers.SCENE, layers.PHYSICS, layers.SHOT]))
-    update_report(out, objects=report_objects, shot={"photo": str(photo_path), "width": w, "height": h,
+    update_report(out, objects=report_objects, estimate=material_report(layers.open_shot(out), "rules"), shot={"photo": str(photo_path), "width": w, "height": h,
                                                     "fov_deg": settings.camera.fov_deg, "pitch_deg": pitch,
                                                     "camera_height_m": settings.camera.height_m,
                                                     "fps": settings.fps},

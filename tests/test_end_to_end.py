@@ -34,7 +34,9 @@ def test_report_has_per_stage_times(shot):
     for stage in ("build", "simulate", "render"):
         assert report["stages"][stage]["total_seconds"] > 0
     assert {o["label"] for o in report["objects"]} == {"cup", "box"}
-    assert all(o["material"]["source"] == "rules" for o in report["objects"])
+    materials = report["stages"]["estimate"]["objects"]
+    assert materials["cup_0"]["material"] == "rigid" and materials["cup_0"]["params"]["density"]["value"] == 700
+    assert all(v["source"] == "rules" for m in materials.values() for v in m["params"].values())
 
 
 def test_validate_passes(shot):

@@ -38,20 +38,17 @@ class SceneObject:
 
 @dataclass
 class PhysicsObject:
-    """What the physics layer holds of one object."""
+    """What the physics layer holds of one object: its material and its controls."""
 
     name: str
-    density: float
-    static_friction: float
-    dynamic_friction: float
-    restitution: float
-    material_type: str = "rigid"
+    material_type: str
+    params: dict  # canonical catalog keys → values (see materials.catalog)
     source: str = "rules"
     velocity: tuple[float, float, float] | None = None
-    angular_velocity: tuple[float, float, float] | None = None
+    angular_velocity: tuple[float, float, float] | None = None  # degrees/s, as UsdPhysics
     fixed: bool = False
     delayed_velocity: tuple | None = None  # ((vx, vy, vz), seconds): given at that time, not at 0
-    extra: dict = field(default_factory=dict)
+    delayed_angular_velocity: tuple | None = None  # (wx, wy, wz) degrees/s, at the same time
 
 
 def _new_stage(fps: float, frames: int | None = None) -> Usd.Stage:
@@ -181,9 +178,14 @@ def _background_card(stage: Usd.Stage, camera, plate: str) -> None:
 
 
 def write_physics_layer(path: pathlib.Path, scene_path: pathlib.Path, *, fps: float, objects: list[PhysicsObject],
-                        ground, solver: str, substeps: int, iterations: int, forces=(),
-                        force_source: str = "user") -> None:
-    """``physics.usda``: physics materials, rigid-body APIs and solver settings, as overs on the scene."""
+                        ground: PhysicsObject, solver: str, substeps: int, iterations: int, forces=(),
+                        force_source: str = "user", extra_forces=()) -> None:
+    """``physics.usda``: physics materials, body APIs, controls, solver settings and force fields.
+
+    Objects of material ``rigid`` become UsdPhysics rigid bodies with convex-hull
+    colliders; other materials only bind their material (their solvers read it).
+    ``extra_forces`` are ``(field, source)`` pairs kept from an earlier layer.
+    """
     physics = Sdf.Layer.CreateAnonymous(".usda")
     root = Sdf.Layer.CreateAnonymous(".usda")
     root.subLayerPaths[:] = [physics.identifier, str(scene_path)]
@@ -197,31 +199,36 @@ def write_physics_layer(path: pathlib.Path, scene_path: pathlib.Path, *, fps: fl
     scene.GetAttribute("physomni:iterations").Set(int(iterations))
 
     UsdGeom.Scope.Define(stage, PHYSICS_MATERIALS)
-    ground_mat = _physics_material(stage, "Ground", ground.density, ground.static_friction,
-                                   ground.dynamic_friction, ground.restitution, "rigid", "rules")
+    ground_mat = _physics_material(stage, "Ground", ground.material_type, ground.params, ground.source)
     _bind(stage.GetPrimAtPath("/World/Ground"), ground_mat, "physics")
 
     for obj in objects:
         prim = stage.GetPrimAtPath(f"{OBJECTS}/{obj.name}")
-        body = UsdPhysics.RigidBodyAPI.Apply(prim)
-        if obj.velocity is not None:
-            body.CreateVelocityAttr(Gf.Vec3f(*obj.velocity))
-        if obj.angular_velocity is not None:
-            body.CreateAngularVelocityAttr(Gf.Vec3f(*obj.angular_velocity))
+        if obj.material_type == "rigid":
+            body = UsdPhysics.RigidBodyAPI.Apply(prim)
+            if obj.velocity is not None:
+                body.CreateVelocityAttr(Gf.Vec3f(*map(float, obj.velocity)))
+            if obj.angular_velocity is not None:
+                body.CreateAngularVelocityAttr(Gf.Vec3f(*map(float, obj.angular_velocity)))
+            UsdPhysics.CollisionAPI.Apply(prim)
+            UsdPhysics.MeshCollisionAPI.Apply(prim).CreateApproximationAttr(UsdPhysics.Tokens.convexHull)
+            UsdPhysics.MassAPI.Apply(prim)
         if obj.fixed:
             prim.GetAttribute("physomni:fixed").Set(True)
         if obj.delayed_velocity is not None:
             velocity, at = obj.delayed_velocity
-            prim.GetAttribute("physomni:initialVelocity").Set(Gf.Vec3f(*map(float, velocity)))
+            if velocity is not None:
+                prim.GetAttribute("physomni:initialVelocity").Set(Gf.Vec3f(*map(float, velocity)))
+            if obj.delayed_angular_velocity is not None:
+                prim.GetAttribute("physomni:initialAngularVelocity").Set(
+                    Gf.Vec3f(*map(float, obj.delayed_angular_velocity)))
             prim.GetAttribute("physomni:velocityStartTime").Set(float(at))
-        UsdPhysics.CollisionAPI.Apply(prim)
-        UsdPhysics.MeshCollisionAPI.Apply(prim).CreateApproximationAttr(UsdPhysics.Tokens.convexHull)
-        UsdPhysics.MassAPI.Apply(prim)
-        mat = _physics_material(stage, obj.name, obj.density, obj.static_friction, obj.dynamic_friction,
-                                obj.restitution, obj.material_type, obj.source)
+        mat = _physics_material(stage, obj.name, obj.material_type, obj.params, obj.source)
         _bind(prim, mat, "physics")
     if forces:
         author_force_fields(stage, forces, force_source)
+    for field_, source in extra_forces:
+        author_force_fields(stage, [field_], source)
     physics.defaultPrim = "World"
     layers.set_stage_metadata(physics, fps)
     layers.save_layer(physics, path)
@@ -258,18 +265,32 @@ def author_force_fields(stage: Usd.Stage, fields, source: str = "user") -> list[
     return paths
 
 
-def _physics_material(stage, name, density, static_friction, dynamic_friction, restitution, material_type, source):
+def _physics_material(stage, name: str, material_type: str, params: dict, source: str) -> UsdShade.Material:
+    """A physics material: UsdPhysics attributes where they exist, ``physomni:`` ones otherwise.
+
+    Every value carries ``physomni:source`` in its customData.
+    """
+    from ..materials.catalog import PARAMS
+
     mat = UsdShade.Material.Define(stage, f"{PHYSICS_MATERIALS}/{name}")
-    api = UsdPhysics.MaterialAPI.Apply(mat.GetPrim())
-    api.CreateDensityAttr(float(density))
-    api.CreateStaticFrictionAttr(float(static_friction))
-    api.CreateDynamicFrictionAttr(float(dynamic_friction))
-    api.CreateRestitutionAttr(float(restitution))
     prim = mat.GetPrim()
+    UsdPhysics.MaterialAPI.Apply(prim)
     prim.ApplyAPI("PhysOmniMaterialAPI")
     prim.GetAttribute("physomni:materialType").Set(material_type)
     prim.GetAttribute("physomni:source").Set(source)
+    for key, value in params.items():
+        set_param(prim, PARAMS[key].attr, value, source)
     return mat
+
+
+def set_param(prim: Usd.Prim, attr_name: str, value, source: str) -> None:
+    """Author one material parameter on ``prim`` (through the current edit target) with its source."""
+    attr = prim.GetAttribute(attr_name)
+    if not attr:  # only physomni: attributes outside the schema would land here
+        type_name = Sdf.ValueTypeNames.Token if isinstance(value, str) else Sdf.ValueTypeNames.Float
+        attr = prim.CreateAttribute(attr_name, type_name)
+    attr.Set(value if isinstance(value, str) else float(value))
+    attr.SetCustomDataByKey("physomni:source", source)
 
 
 def write_sim_layer(path: pathlib.Path, *, fps: float, frames: int, tracks: dict, metadata: dict) -> None:
