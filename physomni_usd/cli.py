@@ -244,6 +244,49 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, fix
 
 
 @main.command()
+@click.argument("shot", type=click.Path(path_type=pathlib.Path))
+@click.option("--estimator", type=click.Choice(["rules", "vlm"]), default="rules", show_default=True,
+              help="rules: label keywords (built in). vlm: ask an OpenAI-compatible vision-language model.")
+@click.option("--vlm-url", envvar="PHYSOMNI_VLM_URL", default=None,
+              help="API root of the VLM server, e.g. http://localhost:8000/v1 [env: PHYSOMNI_VLM_URL].")
+@click.option("--vlm-model", envvar="PHYSOMNI_VLM_MODEL", default=None,
+              help="Model name on that server [env: PHYSOMNI_VLM_MODEL].")
+@click.option("--vlm-api-key", envvar="PHYSOMNI_VLM_API_KEY", default=None,
+              help="Bearer token, if the server wants one [env: PHYSOMNI_VLM_API_KEY].")
+@click.option("--vlm-timeout", type=click.FloatRange(1, 3600), default=120.0, show_default=True,
+              help="Seconds to wait for one answer.")
+@click.option("--set", "sets", multiple=True, metavar="NAME.KEY=VALUE",
+              help="Your value for an object's material (KEY 'material') or parameter (density, friction, "
+                   "youngs_modulus, poissons_ratio, …); written to edits.usda. Repeatable.")
+@click.option("--force", "forces", multiple=True, metavar="KIND:key=value,...",
+              help="Add a force field of yours (kept across later estimates). Repeatable.")
+@click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
+def estimate(shot, estimator, vlm_url, vlm_model, vlm_api_key, vlm_timeout, sets, forces, quiet):
+    """Estimate physical materials (and force fields) and write physics.usda; --set goes to edits.usda.
+
+    \b
+    Examples:
+      physomni-usd estimate shot/shot.usda --set cup.material=mpm_elastic --set cup.youngs_modulus=2e4
+      physomni-usd estimate shot/shot.usda --estimator vlm --vlm-url http://localhost:8000/v1 \\
+          --vlm-model Qwen2.5-VL-72B-Instruct
+    """
+    with _errors():
+        from .materials.estimate import estimate_shot
+
+        vlm = None
+        if estimator == "vlm":
+            from .materials.vlm import VLMSettings
+
+            vlm = VLMSettings.resolve(vlm_url, vlm_model, vlm_api_key, timeout_s=vlm_timeout)
+        section = estimate_shot(shot, estimator, vlm, sets, forces, echo=_say(quiet))
+        if not quiet:
+            for name, obj in section["objects"].items():
+                params = ", ".join(f"{k}={v['value']:g}" if isinstance(v["value"], float) else f"{k}={v['value']}"
+                                   for k, v in obj["params"].items())
+                click.echo(f"{name}: {obj['material']} ({obj['source']}) {params}", err=True)
+
+
+@main.command()
 @click.argument("stage", type=click.Path(path_type=pathlib.Path))
 @click.option("--warnings/--no-warnings", default=True, show_default=True, help="Also print warnings.")
 def validate(stage, warnings):

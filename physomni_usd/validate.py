@@ -75,12 +75,33 @@ def contract_checks(stage: Usd.Stage) -> list[Finding]:
     ground = stage.GetPrimAtPath("/World/Ground")
     if not ground or not ground.HasAPI(UsdPhysics.CollisionAPI):
         bad("/World/Ground", "missing, or not a collider")
+    out += material_checks(stage)
     objects = stage.GetPrimAtPath(OBJECTS)
     if not objects:
         bad(OBJECTS, "missing")
         return out
     for prim in objects.GetChildren():
         out += _object_checks(prim)
+    return out
+
+
+def material_checks(stage: Usd.Stage) -> list[Finding]:
+    """Every PhysOmni material: a known type, and each authored parameter inside its range."""
+    from .materials.catalog import CATALOG, PARAMS
+
+    out = []
+    for prim in stage.Traverse():
+        if not prim.HasAPI("PhysOmniMaterialAPI"):
+            continue
+        kind = prim.GetAttribute("physomni:materialType").Get()
+        if kind not in CATALOG:
+            out.append(Finding("error", str(prim.GetPath()), f"unknown physomni:materialType {kind!r}",
+                               "physomni:materials"))
+        for p in PARAMS.values():
+            attr = prim.GetAttribute(p.attr)
+            if attr and attr.HasAuthoredValue() and not p.accepts(attr.Get()):
+                out.append(Finding("error", f"{prim.GetPath()}.{p.attr}",
+                                   f"{attr.Get()!r} is outside {p.describe_range()}", "physomni:materials"))
     return out
 
 

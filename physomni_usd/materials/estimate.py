@@ -1,0 +1,209 @@
+"""``estimate``: the physics configuration of a shot, from rules, a VLM, or the user.
+
+Generated values (rules, vlm) replace ``physics.usda``; what a user gave on
+the command line before — pushes, fixed objects, force fields of source
+``user``, solver settings — is carried over. ``--set`` values go to the
+artist's ``edits.usda``, added next to whatever is there.
+"""
+
+from __future__ import annotations
+
+import pathlib
+
+import cv2
+from pxr import Sdf, Usd, UsdPhysics
+
+from ..errors import InputError
+from ..physics.forces import read_force_fields
+from ..report import Timer, update_report
+from ..usd import layers
+from ..usd.author import PhysicsObject, set_param, write_physics_layer
+from .catalog import CATALOG, PARAMS, canonical_key, check_params, keys_of
+from .report import bound_material, material_report, object_prims
+from .rules import estimate_rules
+
+INPUTS = "inputs"
+
+
+def parse_sets(specs, objects: list[Usd.Prim]) -> list[tuple[Usd.Prim, str, object]]:
+    """``NAME.KEY=VALUE`` → (object prim, canonical key or 'material', value); NAME is a label or prim name."""
+    by_name = {}
+    for prim in objects:
+        by_name.setdefault(prim.GetAttribute("physomni:label").Get(), prim)
+        by_name[prim.GetName()] = prim
+    out = []
+    for spec in specs or ():
+        target, eq, value = spec.partition("=")
+        name, dot, key = target.rpartition(".")
+        if not eq or not dot or not name or not key or not value.strip():
+            raise InputError(f"--set {spec!r}: expected NAME.KEY=VALUE, e.g. cup.density=800 or cup.material=mpm_sand")
+        prim = by_name.get(name.strip())
+        if prim is None:
+            raise InputError(f"--set {spec!r}: no object named {name.strip()!r} (known: {', '.join(sorted(by_name))})")
+        key = key.strip().lower()
+        if key in ("material", "material_type", "type"):
+            if value.strip() not in CATALOG:
+                raise InputError(f"--set {spec!r}: unknown material {value.strip()!r}; one of {', '.join(CATALOG)}")
+            out.append((prim, "material", value.strip()))
+            continue
+        k = canonical_key(key)
+        if k is None:
+            raise InputError(f"--set {spec!r}: unknown parameter {key!r}; one of friction, {', '.join(PARAMS)}")
+        p = PARAMS["static_friction" if k == "friction" else k]
+        if p.choices:
+            v = value.strip()
+        else:
+            try:
+                v = float(value)
+            except ValueError:
+                raise InputError(f"--set {spec!r}: {value!r} is not a number") from None
+        if not p.accepts(v):
+            raise InputError(f"--set {spec!r}: {k} must be in {p.describe_range()}")
+        out.append((prim, k, v))
+    return out
+
+
+def apply_sets(folder: pathlib.Path, sets) -> list[str]:
+    """Author ``--set`` values in ``edits.usda`` on the objects' bound physics materials; returns what was set.
+
+    The edits layer is changed through USD's own authoring, so every opinion
+    already in it stays; the file is replaced atomically.
+    """
+    if not sets:
+        return []
+    layers.ensure_edits_layer(folder)
+    stage = layers.open_shot(folder)
+    edits = Sdf.Layer.FindOrOpen(str(folder / layers.EDITS))
+    stage.SetEditTarget(Usd.EditTarget(edits))
+    done = []
+    # material types first, so that parameters are checked against the type they will have
+    for prim, key, value in sorted(sets, key=lambda s: s[1] != "material"):
+        prim = stage.GetPrimAtPath(prim.GetPath())
+        mat = bound_material(prim)
+        if mat is None:
+            raise InputError(f"{prim.GetPath()} has no physics material; run `physomni-usd build` again")
+        where = f"{mat.GetPath()}"
+        if key == "material":
+            attr = mat.GetAttribute("physomni:materialType")
+            attr.Set(value)
+            attr.SetCustomDataByKey("physomni:source", "user")
+            done.append(f"{prim.GetName()}.material = {value}")
+            continue
+        material = mat.GetAttribute("physomni:materialType").Get() or "rigid"
+        targets = ("static_friction", "dynamic_friction") if key == "friction" else (key,)
+        for t in targets:
+            if t not in keys_of(material):
+                raise InputError(f"{where}: a {material} material has no {t}; it takes {', '.join(keys_of(material))}")
+            set_param(mat, PARAMS[t].attr, value, "user")
+            done.append(f"{prim.GetName()}.{t} = {value}")
+    copy = Sdf.Layer.CreateAnonymous(".usda")
+    copy.ImportFromString(edits.ExportToString())
+    edits.Reload(force=True)  # the on-disk file is replaced below; nothing in memory may differ from it
+    layers.save_layer(copy, folder / layers.EDITS)
+    return done
+
+
+def _carried_controls(folder: pathlib.Path) -> tuple[dict, dict, list]:
+    """Per object: velocities and flags from the current physics layer; scene solver settings; user fields."""
+    physics_path = folder / layers.PHYSICS
+    if not physics_path.exists():
+        return {}, {}, []
+    layers.check_layer(physics_path)
+    root = Sdf.Layer.CreateAnonymous(".usda")
+    root.subLayerPaths[:] = [str(physics_path), str(folder / layers.SCENE)]
+    stage = Usd.Stage.Open(root)
+    physics = Sdf.Layer.FindOrOpen(str(physics_path))
+
+    def own(attr):  # a value authored in the physics layer itself
+        return attr.Get() if attr and physics.GetAttributeAtPath(attr.GetPath()) is not None else None
+
+    controls = {}
+    for prim in object_prims(stage):
+        body = UsdPhysics.RigidBodyAPI(prim)
+        controls[prim.GetName()] = {
+            "velocity": own(body.GetVelocityAttr()), "angular_velocity": own(body.GetAngularVelocityAttr()),
+            "fixed": bool(own(prim.GetAttribute("physomni:fixed"))),
+            "initial_velocity": own(prim.GetAttribute("physomni:initialVelocity")),
+            "initial_angular_velocity": own(prim.GetAttribute("physomni:initialAngularVelocity")),
+            "start": own(prim.GetAttribute("physomni:velocityStartTime")),
+        }
+    scene = stage.GetPrimAtPath("/World/PhysicsScene")
+    solver = {k: own(scene.GetAttribute(f"physomni:{k}")) for k in ("solver", "substeps", "iterations")}
+    user_fields = []
+    for f in read_force_fields(stage):
+        source = stage.GetPrimAtPath(f.path).GetAttribute("physomni:source").Get()
+        if source == "user":
+            user_fields.append(f)
+    return controls, solver, user_fields
+
+
+def _inputs(folder: pathlib.Path, names: list[str]):
+    photo_path = folder / INPUTS / "photo.png"
+    photo = cv2.imread(str(photo_path), cv2.IMREAD_COLOR)
+    if photo is None:
+        raise InputError(f"{photo_path} is missing; the shot was built by an older version: run build again")
+    masks = []
+    for name in names:
+        mask = cv2.imread(str(folder / INPUTS / "masks" / f"{name}.png"), cv2.IMREAD_GRAYSCALE)
+        if mask is None:
+            raise InputError(f"the mask of {name} is missing from {folder / INPUTS / 'masks'}")
+        masks.append(mask > 0)
+    return cv2.cvtColor(photo, cv2.COLOR_BGR2RGB), masks
+
+
+def estimate_shot(shot, estimator: str = "rules", vlm=None, sets=(), force_specs=(), echo=lambda m: None) -> dict:
+    """Run one estimator over a shot (and apply ``--set`` / ``--force``); returns the report section."""
+    from ..build import GROUND_MATERIAL, parse_forces
+
+    timer = Timer()
+    folder = layers.shot_folder(shot)
+    with timer.step("read"):
+        stage = layers.open_shot(folder, mute_sim=True)
+        prims = object_prims(stage)
+        if not prims:
+            raise InputError(f"{folder}: no objects under /World/Objects to estimate")
+        set_values = parse_sets(sets, prims)
+        new_fields = parse_forces(force_specs)
+        names = [p.GetName() for p in prims]
+        labels = [p.GetAttribute("physomni:label").Get() or p.GetName() for p in prims]
+        photo, masks = _inputs(folder, names)
+        controls, solver, user_fields = _carried_controls(folder)
+    with timer.step(estimator):
+        if estimator == "rules":
+            config = estimate_rules(labels, photo, masks)
+        elif estimator == "vlm":
+            from .vlm import estimate_vlm
+
+            config = estimate_vlm(vlm, photo, masks, labels, stage.GetTimeCodesPerSecond() or 30.0)
+        else:
+            raise InputError(f"unknown estimator {estimator!r}; use rules or vlm")
+    for w in config.warnings:
+        echo(f"estimate: {w}")
+    with timer.step("write"):
+        objects = []
+        for name, cfg in zip(names, config.objects):
+            c = controls.get(name, {})
+            delayed = None
+            if c.get("initial_velocity") is not None or c.get("initial_angular_velocity") is not None:
+                delayed = (c.get("initial_velocity"), c.get("start") or 0.0)
+            objects.append(PhysicsObject(
+                name, cfg.material, check_params(cfg.material, cfg.params), config.source,
+                velocity=c.get("velocity"), angular_velocity=c.get("angular_velocity"),
+                fixed=bool(c.get("fixed")) or cfg.fixed, delayed_velocity=delayed,
+                delayed_angular_velocity=c.get("initial_angular_velocity")))
+        kept = [(f, "user") for f in user_fields]
+        write_physics_layer(folder / layers.PHYSICS, folder / layers.SCENE,
+                            fps=stage.GetTimeCodesPerSecond() or 30.0, objects=objects, ground=GROUND_MATERIAL,
+                            solver=solver.get("solver") or "xpbd", substeps=solver.get("substeps") or 10,
+                            iterations=solver.get("iterations") or 5, forces=config.forces,
+                            force_source=config.source, extra_forces=kept + [(f, "user") for f in new_fields])
+        done = apply_sets(folder, set_values)
+    for line in done:
+        echo(f"estimate: set {line} in edits.usda")
+    section = material_report(layers.open_shot(folder, mute_sim=True), estimator)
+    section.update({"warnings": config.warnings, "set": done, "seconds": timer.seconds,
+                    "total_seconds": timer.total,
+                    "force_fields": [f"{f.kind} ({config.source})" for f in config.forces]
+                    + [f"{f.kind} (user)" for f in user_fields + new_fields]})
+    update_report(folder, estimate=section)
+    return section
