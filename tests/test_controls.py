@@ -25,8 +25,9 @@ def _build(tmp_path, shot, *extra):
 
 
 def test_strong_wind_slides_the_box_against_friction(tmp_path, shot):
-    out = _build(tmp_path, shot, "--force", "wind:direction=1,0,0,strength=30")
-    cli("simulate", out / "shot.usda", "--seconds", "0.5", "-q", check=True)
+    out = tmp_path / "shot"
+    cli("run", shot["photo"], "-o", out, "--mask", f"{shot['box']}:box", "-q", "--seconds", "0.5",
+        "--force", "wind:direction=1,0,0,strength=30", check=True)
     move, _ = _x_travel(out, "box_0", 0.5)
     mu = 0.45  # the table's cardboard dynamic friction ('box')
     expected = 0.5 * (30 - mu * G) * 0.5 ** 2
