@@ -163,11 +163,12 @@ def _simulate(shot, seconds, fps, substeps, quiet):
     return section
 
 
-def _render(shot, output, quiet):
+def _render(shot, output, quiet, max_size=1920):
     from .render.video import render_shot
+    from .settings import RenderSettings
 
     with _progress("render  ", not quiet) as bar:
-        section = render_shot(shot, output, progress=bar)
+        section = render_shot(shot, output, RenderSettings(max_size=max_size), progress=bar)
     if not quiet:
         click.echo(f"render: {section['video']} ({section['frames']} frames, "
                    f"{section['frames_per_second']:.1f} frames/s)", err=True)
@@ -200,11 +201,13 @@ def simulate(shot, seconds, fps, substeps, quiet):
 @click.argument("shot", type=click.Path(path_type=pathlib.Path))
 @click.option("-o", "--output", type=click.Path(path_type=pathlib.Path), default=None,
               help="Video file (.mp4) [default: video.mp4 beside the shot].")
+@click.option("--max-size", type=int, default=1920, show_default=True,
+              help="Longest side of the video in pixels; larger photos are rendered smaller.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
-def render(shot, output, quiet):
+def render(shot, output, max_size, quiet):
     """Render the composed shot over its background plate into an H.264 MP4."""
     with _errors():
-        _render(shot, output, quiet)
+        _render(shot, output, quiet, max_size)
 
 
 @main.command()

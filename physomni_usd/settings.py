@@ -60,4 +60,6 @@ class RenderSettings(_Settings):
                                               "at which its shadow has faded to 1/e.")
     shadow_blur: float = Field(0.012, ge=0.0, le=0.2, description="Shadow softness, fraction of the image diagonal.")
     quality: int = Field(9, ge=1, le=10, description="H.264 quality, 10 is best.")
+    max_size: int = Field(1920, ge=64, le=8192,
+                          description="Longest side of the video in pixels; larger photos are rendered smaller.")
     device: str | None = Field(None, description="warp device; None picks cuda when present.")

@@ -161,10 +161,10 @@ class RenderCamera:
     origin: np.ndarray
     axes: np.ndarray  # rows: camera x (right), y (down), z (forward) in world
 
-    def rays(self) -> np.ndarray:
-        """Unit directions (H, W, 3) through every pixel centre."""
-        u = (np.arange(self.width) + 0.5 - 0.5 * self.width) / self.fx
-        v = (np.arange(self.height) + 0.5 - 0.5 * self.height) / self.fy
+    def rays(self, step: int = 1) -> np.ndarray:
+        """Unit directions (H/step, W/step, 3) through the centres of step×step pixel blocks."""
+        u = (np.arange(0, self.width, step) + 0.5 * step - 0.5 * self.width) / self.fx
+        v = (np.arange(0, self.height, step) + 0.5 * step - 0.5 * self.height) / self.fy
         uu, vv = np.meshgrid(u, v)
         d = np.stack([uu, vv, np.ones_like(uu)], axis=-1) @ self.axes
         return (d / np.linalg.norm(d, axis=-1, keepdims=True)).astype(np.float32)

@@ -77,23 +77,27 @@ class RayCaster:
         self.points.assign(self.wp.array(points.astype(np.float32), dtype=self.wp.vec3, device=self.device))
         self.mesh.refit()
 
-    def cast(self, origin, rays: np.ndarray, max_t: float, max_shadow: float):
-        """Per pixel: face index (−1 for none), atlas pixel coordinates, and height of the object above it."""
+    def cast(self, origin, rays: np.ndarray, shadow_rays: np.ndarray, max_t: float, max_shadow: float):
+        """Per pixel of ``rays``: face index (−1 for none) and atlas pixel coordinates; per pixel of
+        ``shadow_rays`` (a coarser grid, shadows are soft): height of the object above the ground seen there."""
         wp = self.wp
         primary, shadow = kernels()
-        n = rays.shape[0] * rays.shape[1]
-        key = (rays.ctypes.data, rays.shape)
+        key = (rays.ctypes.data, rays.shape, shadow_rays.ctypes.data, shadow_rays.shape)
         if self._key != key:
+            n, m = rays.shape[0] * rays.shape[1], shadow_rays.shape[0] * shadow_rays.shape[1]
             self._rays = wp.array(rays.reshape(-1, 3), dtype=wp.vec3, device=self.device)
+            self._shadow_rays = wp.array(shadow_rays.reshape(-1, 3), dtype=wp.vec3, device=self.device)
             self._px = wp.zeros(n, dtype=wp.vec2, device=self.device)
             self._face = wp.zeros(n, dtype=wp.int32, device=self.device)
-            self._h = wp.zeros(n, dtype=wp.float32, device=self.device)
+            self._h = wp.zeros(m, dtype=wp.float32, device=self.device)
             self._key = key
         o = wp.vec3(*map(float, origin))
-        wp.launch(primary, dim=n, inputs=[self.mesh.id, o, self._rays, self.corner_px, self.alpha, float(max_t)],
+        wp.launch(primary, dim=self._rays.shape[0],
+                  inputs=[self.mesh.id, o, self._rays, self.corner_px, self.alpha, float(max_t)],
                   outputs=[self._px, self._face], device=self.device)
-        wp.launch(shadow, dim=n, inputs=[self.mesh.id, o, self._rays, float(max_shadow)], outputs=[self._h],
-                  device=self.device)
+        wp.launch(shadow, dim=self._shadow_rays.shape[0], inputs=[self.mesh.id, o, self._shadow_rays,
+                                                                   float(max_shadow)],
+                  outputs=[self._h], device=self.device)
         shape = rays.shape[:2]
         return (self._face.numpy().reshape(shape), self._px.numpy().reshape(shape + (2,)),
-                self._h.numpy().reshape(shape))
+                self._h.numpy().reshape(shadow_rays.shape[:2]))

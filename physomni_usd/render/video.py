@@ -19,13 +19,23 @@ from .raycast import RayCaster
 from .stage import read_camera, read_objects, read_plate, world_points
 
 
+#: Shadows are soft, so their rays are cast on a grid this many times coarser in each direction.
+SHADOW_STEP = 4
+
+
 class ShotRenderer:
     """Renders frames of one composed stage; build once, call :meth:`frame` per time code."""
 
     def __init__(self, stage: Usd.Stage, settings: RenderSettings = RenderSettings()):
         self.stage = stage
         self.settings = settings
-        self.plate = read_plate(stage).astype(np.float32)
+        plate = read_plate(stage)
+        h, w = plate.shape[:2]
+        scale = min(1.0, settings.max_size / max(h, w))
+        if scale < 1.0:
+            size = (max(2, round(w * scale)), max(2, round(h * scale)))
+            plate = cv2.resize(plate, size, interpolation=cv2.INTER_AREA)
+        self.plate = plate.astype(np.float32)
         self.height, self.width = self.plate.shape[:2]
         self.objects = read_objects(stage)
         self.device = pick_device(settings.device)
@@ -69,17 +79,20 @@ class ShotRenderer:
         key = (tuple(np.round(cam.axes.ravel(), 9)), cam.fx, cam.fy)
         if key != self._rays_key:
             self._rays = cam.rays()
+            self._shadow_rays = cam.rays(SHADOW_STEP)
             self._rays_key = key
         out = self.plate
         if self.caster is None:
             return np.clip(out + 0.5, 0, 255).astype(np.uint8)
         self.caster.update(self._points(time_code))
-        face, px, h = self.caster.cast(cam.origin, self._rays, 1e6, 10.0 * self.size)
+        face, px, h = self.caster.cast(cam.origin, self._rays, self._shadow_rays, 1e6, 10.0 * self.size)
         s = self.settings
         shadow = np.where(h >= 0, s.shadow_strength * np.exp(-np.maximum(h, 0) / (s.shadow_falloff * self.size)), 0)
-        blur = s.shadow_blur * float(np.hypot(self.width, self.height))
+        blur = s.shadow_blur * float(np.hypot(self.width, self.height)) / SHADOW_STEP
+        shadow = shadow.astype(np.float32)
         if blur > 0.5:
-            shadow = cv2.GaussianBlur(shadow.astype(np.float32), (0, 0), blur)
+            shadow = cv2.GaussianBlur(shadow, (0, 0), blur)
+        shadow = cv2.resize(shadow, (self.width, self.height), interpolation=cv2.INTER_LINEAR)
         out = self.plate * (1.0 - shadow[..., None])
         hit = face >= 0
         mx = np.where(hit, px[..., 0] - 0.5, -10).astype(np.float32)
