@@ -15,6 +15,7 @@ import numpy as np
 
 from ._files import write_bytes
 from .align.camera import PinholeCamera, pick_pitch
+from .align.external import load_poses, place_external
 from .align.place import centring_offset, make_room, separate
 from .errors import InputError
 from .materials.defaults import GROUND
@@ -120,7 +121,7 @@ def parse_forces(specs) -> list:
 
 
 def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings = BuildSettings(),
-               pushes=(), echo=lambda msg: None, forces=(), fixed=()) -> BuildResult:
+               pushes=(), echo=lambda msg: None, forces=(), fixed=(), meshes_dir=None) -> BuildResult:
     timer = Timer()
     with timer.step("read"):
         out = prepare_output(out_dir)
@@ -139,22 +140,35 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
     with timer.step("perceive.plate"):
         plate = background_plate(photo, [o.mask for o in objects], settings.plate_dilation)
 
-    with timer.step("align.camera"):
-        feet = [foot_pixel(fill_holes(o.mask))[1] for o in objects]
-        pitch = pick_pitch(settings.camera.fov_deg, h, feet, settings.camera.pitch_deg)
-        camera = PinholeCamera(w, h, settings.camera.fov_deg, pitch, (0.0, 0.0, settings.camera.height_m))
-
-    with timer.step("perceive.lift"):
-        lifted = [lift_silhouette(o.mask, camera, settings.lift) for o in objects]
-
-    with timer.step("align.place"):
-        verts, depth_scales = make_room([m.vertices for m in lifted], [m.contact for m in lifted],
-                                        camera.origin, settings.gap_m)
-        moves = separate(verts, settings.gap_m)
-        verts = [v + d for v, d in zip(verts, moves)]
-        centre = centring_offset(verts)
-        verts = [v + centre for v in verts]
-        camera = camera.moved(centre)
+    if meshes_dir is not None:
+        with timer.step("align.external"):
+            placed = place_external(load_poses(meshes_dir, [o.label for o in objects]), w, h,
+                                    settings.camera.fov_deg, settings.alignment,
+                                    masks=[o.mask for o in objects])
+        camera, faces, verts, projected = placed.camera, placed.faces, placed.vertices, placed.projected
+        shapes = ["external"] * len(objects)
+        notes = placed.info["mesh_notes"]
+        align_info = placed.info
+    else:
+        with timer.step("align.camera"):
+            feet = [foot_pixel(fill_holes(o.mask))[1] for o in objects]
+            pitch = pick_pitch(settings.camera.fov_deg, h, feet, settings.camera.pitch_deg)
+            camera = PinholeCamera(w, h, settings.camera.fov_deg, pitch, (0.0, 0.0, settings.camera.height_m))
+        with timer.step("perceive.lift"):
+            lifted = [lift_silhouette(o.mask, camera, settings.lift) for o in objects]
+        with timer.step("align.place"):
+            projected, depth_scales = make_room([m.vertices for m in lifted], [m.contact for m in lifted],
+                                                camera.origin, settings.gap_m)
+            moves = separate(projected, settings.gap_m)
+            verts = [v + d for v, d in zip(projected, moves)]
+        faces, shapes = [m.faces for m in lifted], [m.shape for m in lifted]
+        notes = [[] for _ in objects]
+        align_info = {"variant": "silhouette", "depth_scales": [round(k, 4) for k in depth_scales],
+                      "moved_apart_m": [round(float(np.linalg.norm(d)), 4) for d in moves]}
+    centre = centring_offset(verts)
+    verts = [v + centre for v in verts]
+    projected = [v + centre for v in projected]
+    camera = camera.moved(centre)
 
     with timer.step("perceive.texture"):
         import trimesh
@@ -162,29 +176,29 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
         tex_dir = out / TEXTURES
         tex_dir.mkdir(exist_ok=True)
         scene_objects, report_objects = [], []
-        for o, m, v, d, k in zip(objects, lifted, verts, moves, depth_scales):
+        for o, v, seen, f, shape, note in zip(objects, verts, projected, faces, shapes, notes):
             rgba, (x0, y0) = object_texture(photo, o.mask)
-            # texture coordinates: the photo projected from the camera, before any separation move
-            uv, _ = camera.project(v - d)
+            # texture coordinates: the photo projected from the camera onto the object where it was seen
+            uv, _ = camera.project(seen)
             st = np.stack([(uv[:, 0] - x0) / rgba.shape[1], 1.0 - (uv[:, 1] - y0) / rgba.shape[0]], 1)
-            tm = trimesh.Trimesh(v, m.faces, process=False)
+            tm = trimesh.Trimesh(v, f, process=False)
             origin = tm.center_mass if tm.is_volume else v.mean(0)
             rel = f"{TEXTURES}/{o.name}.png"
             _write_png(out / rel, rgba)
-            scene_objects.append(SceneObject(o.name, o.label, o.index, v - origin, m.faces,
-                                             np.asarray(tm.vertex_normals), st, origin, f"./{rel}", m.shape))
+            scene_objects.append(SceneObject(o.name, o.label, o.index, v - origin, f,
+                                             np.asarray(tm.vertex_normals), st, origin, f"./{rel}", shape))
             report_objects.append({
                 "name": o.name, "label": o.label, "mask_index": o.index, "source": o.source,
-                "shape": m.shape, "pixels": int(o.mask.sum()),
-                "size_m": np.ptp(v, axis=0).round(4).tolist(), "position_m": origin.round(4).tolist(),
-                "depth_scale": round(k, 4), "moved_apart_m": round(float(np.linalg.norm(d)), 4), "watertight": bool(tm.is_watertight),
+                "shape": shape, "pixels": int(o.mask.sum()), "size_m": np.ptp(v, axis=0).round(4).tolist(),
+                "position_m": origin.round(4).tolist(), "watertight": bool(tm.is_watertight), "notes": note,
             })
         _write_png(out / TEXTURES / "plate.png", plate)
         # the inputs, so that later stages (estimate's crops) work from the shot folder alone
         (out / INPUTS / "masks").mkdir(parents=True, exist_ok=True)
         _write_png(out / INPUTS / "photo.png", photo)
         for o in objects:
-            _write_png(out / INPUTS / "masks" / f"{o.name}.png", np.repeat(o.mask[..., None] * 255, 3, 2).astype(np.uint8))
+            _write_png(out / INPUTS / "masks" / f"{o.name}.png",
+                       np.repeat(o.mask[..., None] * 255, 3, 2).astype(np.uint8))
 
     with timer.step("estimate"):
         config = estimate_rules([o.label for o in objects], photo, [o.mask for o in objects])
@@ -214,7 +228,8 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
         shot = layers.write_shot_layer(out, settings.fps)
     echo("build: wrote " + ", ".join([layers.SCENE, layers.PHYSICS, layers.SHOT]))
     update_report(out, objects=report_objects, estimate=material_report(layers.open_shot(out), "rules"), shot={"photo": str(photo_path), "width": w, "height": h,
-                                                    "fov_deg": settings.camera.fov_deg, "pitch_deg": pitch,
+                                                    "fov_deg": settings.camera.fov_deg,
+                                                    "pitch_deg": round(camera.pitch_deg, 4), "alignment": align_info,
                                                     "camera_height_m": settings.camera.height_m,
                                                     "fps": settings.fps},
                   build={"seconds": timer.seconds, "total_seconds": timer.total})

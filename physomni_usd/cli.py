@@ -100,6 +100,10 @@ def build_options(f):
                           "Repeat per object; LABEL defaults to the file's name."),
         click.option("--box", "boxes", multiple=True, metavar="X0,Y0,X1,Y1[:LABEL]",
                      help="Pixel box around an object; OpenCV GrabCut cuts its mask. Repeatable."),
+        click.option("--meshes", "meshes_dir", type=click.Path(file_okay=False, path_type=pathlib.Path),
+                     default=None, help="Folder with one mesh per object (OBJ, GLB, PLY) and poses.json "
+                                        "(label → mesh, rotation_wxyz, translation, scale in OpenCV camera "
+                                        "coordinates); replaces silhouette lifting."),
         click.option("--fov", type=float, default=50.0, show_default=True,
                      help="Vertical field of view of the photo in degrees."),
         click.option("--pitch", type=float, default=None,
@@ -137,13 +141,14 @@ def _build_settings(fov, pitch, camera_height, shape, fps):
               help="Give an object this velocity in m/s at T seconds (default 0); world axes: Z up, "
                    "+Y away from the camera, +X to the image's right. Repeatable.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
-def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, fixed, forces, pushes, quiet):
+def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, meshes_dir, fixed, forces, pushes, quiet):
     """Photo → scene.usda, physics.usda and the root shot.usda (perceive, align, estimate)."""
     with _errors():
         from .build import build_shot
 
         settings = _build_settings(fov, pitch, camera_height, shape, fps)
-        result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces, fixed=fixed)
+        result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces, fixed=fixed,
+                            meshes_dir=meshes_dir)
         if not quiet:
             total = sum(result.seconds.values())
             click.echo(f"wrote {result.shot} ({len(result.objects)} objects, {total:.2f} s)", err=True)
@@ -220,7 +225,7 @@ def render(shot, output, max_size, quiet):
               help="Give an object this velocity in m/s at T seconds (default 0); world axes: Z up, "
                    "+Y away from the camera, +X to the image's right. Repeatable.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
-def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, fixed, forces, seconds, pushes, quiet):
+def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, meshes_dir, fixed, forces, seconds, pushes, quiet):
     """build + simulate + render in one go; writes DIR/shot.usda, DIR/video.mp4, DIR/report.json.
 
     \b
@@ -236,7 +241,8 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, fix
         SimulateSettings(seconds=seconds)  # refuse absurd values before any work
         t0 = time.perf_counter()
         settings = _build_settings(fov, pitch, camera_height, shape, fps)
-        result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces, fixed=fixed)
+        result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces, fixed=fixed,
+                            meshes_dir=meshes_dir)
         _simulate(result.shot, seconds, None, None, quiet)
         section = _render(result.shot, None, quiet)
         total = round(time.perf_counter() - t0, 3)

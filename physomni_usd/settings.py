@@ -42,6 +42,8 @@ class BuildSettings(_Settings):
     fps: float = Field(30.0, ge=1.0, le=1000.0, description="Frames per second of the shot.")
     plate_dilation: float = Field(0.015, ge=0.0, le=0.2,
                                   description="Mask dilation before inpainting, as a fraction of the image diagonal.")
+    alignment: str = Field("agmf", pattern="^(none|canonical|ransac|agmf)$",
+                           description="Scene alignment of external meshes (--meshes): the paper's ablation variants.")
     gap_m: float = Field(0.002, ge=0.0, le=1.0, description="Clearance left between objects' footprints, metres.")
 
 

@@ -29,14 +29,28 @@ class PinholeCamera:
     fov_deg: float
     pitch_deg: float
     position: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    rotation: tuple | None = None  # rows: camera x, y, z in world; None = level camera pitched by pitch_deg
     _axes: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
-        p = math.radians(self.pitch_deg)
-        right = np.array([1.0, 0.0, 0.0])
-        forward = np.array([0.0, math.cos(p), -math.sin(p)])
-        down = np.cross(forward, right)
-        object.__setattr__(self, "_axes", np.stack([right, down, forward]))  # rows: camera x, y, z in world
+        if self.rotation is not None:
+            axes = np.asarray(self.rotation, float).reshape(3, 3)
+        else:
+            p = math.radians(self.pitch_deg)
+            right = np.array([1.0, 0.0, 0.0])
+            forward = np.array([0.0, math.cos(p), -math.sin(p)])
+            axes = np.stack([right, np.cross(forward, right), forward])
+        object.__setattr__(self, "_axes", axes)
+
+    @classmethod
+    def from_pose(cls, width: int, height: int, fov_deg: float, position, world_from_camera) -> "PinholeCamera":
+        """A camera at ``position`` whose OpenCV axes (x right, y down, z forward) are the columns of
+        ``world_from_camera`` (3, 3, a rotation)."""
+        r = np.asarray(world_from_camera, float)
+        forward = r[:, 2]
+        pitch = math.degrees(math.asin(np.clip(-forward[2], -1.0, 1.0)))
+        return cls(width, height, fov_deg, pitch, tuple(float(x) for x in position),
+                   tuple(float(x) for x in r.T.ravel()))
 
     # intrinsics ---------------------------------------------------------------------------------
     @property
@@ -82,6 +96,10 @@ class PinholeCamera:
         uv = p[:, :2] / safe[:, None] * self.focal_px + np.array(self.principal_point)
         return uv, z
 
+    def with_fov(self, fov_deg: float) -> "PinholeCamera":
+        return PinholeCamera(self.width, self.height, fov_deg, self.pitch_deg, self.position,
+                             tuple(float(x) for x in self._axes.ravel()))
+
     def ground_points(self, u, v) -> np.ndarray:
         """Where the rays through (u, v) meet z = 0, (…, 3); NaN for rays at or above the horizon."""
         d = self.rays(u, v)
@@ -95,7 +113,7 @@ class PinholeCamera:
     def moved(self, offset) -> "PinholeCamera":
         """The same camera translated by ``offset`` (3,)."""
         return PinholeCamera(self.width, self.height, self.fov_deg, self.pitch_deg,
-                             tuple(float(x) for x in self.origin + np.asarray(offset, dtype=float)))
+                             tuple(float(x) for x in self.origin + np.asarray(offset, dtype=float)), self.rotation)
 
     # USD ----------------------------------------------------------------------------------------
     def usd_apertures(self) -> tuple[float, float, float]:

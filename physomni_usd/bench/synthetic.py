@@ -1,0 +1,149 @@
+"""Synthetic scenes with known truth: primitives on a textured ground under a known camera.
+
+:func:`make_scene` returns the photo, the masks (visible parts, occlusion
+included), the true meshes in world coordinates and the true camera;
+:func:`write_inputs` writes what a reconstruction model would hand over —
+each mesh in its own frame, with a pose in OpenCV camera coordinates carrying
+rotation, scale and translation noise — so that ``build --meshes`` can be run
+on it and compared with the truth.
+"""
+
+from __future__ import annotations
+
+import json
+import pathlib
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+import trimesh
+
+from ..align.camera import PinholeCamera
+from ..align.external import CAMERA_TO_WORLD
+
+
+@dataclass
+class SyntheticScene:
+    photo: np.ndarray  # (H, W, 3) uint8
+    masks: list[np.ndarray]
+    labels: list[str]
+    meshes: list[trimesh.Trimesh]  # world, true
+    camera: PinholeCamera
+
+
+def _objects(kind: str, rng) -> list[tuple[str, trimesh.Trimesh]]:
+    out = [("box", trimesh.creation.box((0.30, 0.25, 0.20))),
+           ("can", trimesh.creation.cylinder(0.09, 0.30, sections=32)),
+           ("block", trimesh.creation.box((0.20, 0.20, 0.35)))]
+    if kind == "tall":  # dense vertical structures: a wall panel and a standing figure
+        out += [("wall", trimesh.creation.box((1.2, 0.06, 1.0))),
+                ("figure", trimesh.creation.capsule(height=0.9, radius=0.12, count=[24, 24]))]
+    return out
+
+
+def make_scene(kind: str = "tabletop", width: int = 320, height: int = 240, fov_deg: float = 55.0,
+               pitch_deg: float = 25.0, seed: int = 0) -> SyntheticScene:
+    rng = np.random.default_rng(seed)
+    camera = PinholeCamera(width, height, fov_deg, pitch_deg, (0.0, 0.0, 1.2))
+    placed = []
+    spots = [(-0.45, 2.0), (0.0, 2.3), (0.45, 1.9), (0.0, 3.1), (-0.6, 2.8)]
+    for (label, mesh), (x, y) in zip(_objects(kind, rng), spots):
+        m = mesh.copy()
+        m.apply_transform(trimesh.transformations.rotation_matrix(rng.uniform(-0.6, 0.6), [0, 0, 1]))
+        m.apply_translation([x + rng.uniform(-0.05, 0.05), y, -m.bounds[0][2]])
+        placed.append((label, m))
+    photo, masks = render_truth(camera, [m for _, m in placed], rng)
+    return SyntheticScene(photo, masks, [label for label, _ in placed], [m for _, m in placed], camera)
+
+
+def render_truth(camera: PinholeCamera, meshes: list[trimesh.Trimesh], rng=None):
+    """A shaded photo and the visible masks, by painting faces far to near (the painter's algorithm)."""
+    rng = rng or np.random.default_rng(0)
+    h, w = camera.height, camera.width
+    uu, vv = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    ground = camera.ground_points(uu, vv)
+    checker = ((np.floor(ground[..., 0] * 4) + np.floor(ground[..., 1] * 4)) % 2)
+    sky = ~np.isfinite(ground[..., 0])
+    photo = np.where(sky[..., None], 190.0, np.where(checker[..., None] > 0, 150.0, 95.0)) * np.array([1.0, 0.9, 0.75])
+    photo = np.nan_to_num(photo, nan=190.0)
+    ids = np.full((h, w), -1, np.int32)
+    colours = rng.uniform(40, 230, (len(meshes), 3))
+    light = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    faces = []
+    for i, m in enumerate(meshes):
+        uv, depth = camera.project(m.vertices)
+        for f, n in zip(m.faces, m.face_normals):
+            if (depth[f] > 0).all():
+                faces.append((float(depth[f].mean()), i, uv[f], 0.35 + 0.65 * max(float(n @ light), 0.0)))
+    faces.sort(key=lambda x: -x[0])
+    img = photo.astype(np.float32)
+    for _, i, pts, shade in faces:
+        poly = np.round(pts * 16).astype(np.int32)
+        cv2.fillConvexPoly(img, poly, tuple(float(c) for c in colours[i] * shade), shift=4)
+        cv2.fillConvexPoly(ids, poly, int(i), shift=4)
+    img += rng.normal(0, 3, (h, w, 1))
+    masks = [ids == i for i in range(len(meshes))]
+    return np.clip(img, 0, 255).astype(np.uint8), masks
+
+
+def _random_rotation(rng) -> np.ndarray:
+    q = rng.normal(size=4)
+    q /= np.linalg.norm(q)
+    from ..align.external import quat_wxyz_to_matrix
+
+    return quat_wxyz_to_matrix(q)
+
+
+def _axis_angle(axis, angle) -> np.ndarray:
+    return trimesh.transformations.rotation_matrix(angle, axis)[:3, :3]
+
+
+def write_inputs(scene: SyntheticScene, folder, rot_deg: float = 0.0, scale_noise: float = 0.0,
+                 trans_noise: float = 0.0, seed: int = 0) -> dict:
+    """Photo, masks, meshes in their own frames and a noisy ``poses.json``; returns the CLI arguments."""
+    rng = np.random.default_rng(seed)
+    folder = pathlib.Path(folder)
+    (folder / "meshes").mkdir(parents=True, exist_ok=True)
+    cv2.imwrite(str(folder / "photo.png"), cv2.cvtColor(scene.photo, cv2.COLOR_RGB2BGR))
+    world_to_cam = scene.camera.world_from_camera.T
+    poses, mask_args = {}, []
+    for label, mesh, mask in zip(scene.labels, scene.meshes, scene.masks):
+        cv2.imwrite(str(folder / f"{label}.png"), mask.astype(np.uint8) * 255)
+        mask_args += ["--mask", f"{folder / label}.png:{label}"]
+        # the mesh in a frame of its own: rotated, scaled, centred anywhere
+        own_rot = _random_rotation(rng)
+        own_scale = float(rng.uniform(0.5, 2.0))
+        own_shift = rng.normal(0, 0.3, 3)
+        cam_pts = (mesh.vertices - scene.camera.origin) @ world_to_cam.T  # true, OpenCV camera coordinates
+        local = ((cam_pts - cam_pts.mean(0)) @ own_rot) * own_scale + own_shift
+        # the exact pose back to camera: p_cam = s R p_local + t
+        r = own_rot
+        s = 1.0 / own_scale
+        t = cam_pts.mean(0) - s * own_shift @ r.T
+        # a reconstruction model's noise
+        axis = rng.normal(size=3)
+        r = _axis_angle(axis / np.linalg.norm(axis), np.radians(rot_deg)) @ r
+        s *= 1.0 + rng.choice([-1, 1]) * scale_noise
+        t = t + rng.normal(size=3) / np.sqrt(3) * trans_noise * np.linalg.norm(t)
+        name = f"{label}.ply"
+        trimesh.Trimesh(local, mesh.faces, process=False).export(str(folder / "meshes" / name))
+        w, x, y, z = _matrix_to_wxyz(r)
+        poses[label] = {"mesh": name, "rotation_wxyz": [w, x, y, z], "translation": t.tolist(), "scale": s}
+    (folder / "meshes" / "poses.json").write_text(json.dumps(poses, indent=2))
+    return {"photo": folder / "photo.png", "mask_args": mask_args, "meshes": folder / "meshes",
+            "fov": scene.camera.fov_deg}
+
+
+def _matrix_to_wxyz(r: np.ndarray) -> list[float]:
+    m = np.eye(4)
+    m[:3, :3] = r
+    return [float(c) for c in trimesh.transformations.quaternion_from_matrix(m)]
+
+
+def silhouettes(camera: PinholeCamera, meshes: list[trimesh.Trimesh]) -> list[np.ndarray]:
+    """Visible masks of meshes seen by ``camera`` (painter's algorithm, as the truth is made)."""
+    _, masks = render_truth(camera, meshes)
+    return masks
+
+
+__all__ = ["SyntheticScene", "make_scene", "render_truth", "silhouettes", "write_inputs", "CAMERA_TO_WORLD"]
