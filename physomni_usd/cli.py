@@ -345,5 +345,19 @@ def bench_pipeline_command(example, size, repeats, seconds, json_path):
             write_bytes(json_path, (json.dumps(numbers, indent=2) + "\n").encode())
 
 
+@bench.command("alignment")
+@click.option("--quick", is_flag=True, help="Smaller images and fewer scenes (a few minutes on a CPU).")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
+              help="Also write the rows to this JSON file.")
+def bench_alignment_command(quick, json_path):
+    """The paper's alignment ablations on synthetic scenes with known truth (scene and camera tables)."""
+    with _errors():
+        from .bench.alignment import bench_alignment, write_json
+
+        numbers = bench_alignment(quick=quick, echo=click.echo)
+        if json_path:
+            write_json(numbers, json_path)
+
+
 if __name__ == "__main__":  # pragma: no cover
     main()

@@ -159,6 +159,17 @@ def fit_to_masks(vertex_sets, faces, masks, camera: PinholeCamera, rounds: int =
     return verts, {"scale": total_scale.round(4).tolist(), "shift_m": np.round(total_shift, 4).tolist()}
 
 
+def surface_samples(vertex_sets, faces, seed: int = 0, total: int = 5000, per_object: int = 400):
+    """Points spread over each mesh's surface: ``total`` shared by area, at least ``per_object`` each."""
+    areas = [trimesh.Trimesh(v, f, process=False).area for v, f in zip(vertex_sets, faces)]
+    out = []
+    for k, (v, f, a) in enumerate(zip(vertex_sets, faces, areas)):
+        count = max(per_object, int(total * a / max(sum(areas), 1e-12)))
+        pts, _ = trimesh.sample.sample_surface(trimesh.Trimesh(v, f, process=False), count, seed=seed + k)
+        out.append(np.vstack([pts, v]))
+    return out
+
+
 def place_external(entries, width: int, height: int, fov_deg: float, variant: str = "agmf", seed: int = 0,
                    gap: float = 0.002, masks: list[np.ndarray] | None = None) -> PlacedScene:
     """Run the scene alignment ``variant`` ('none', 'canonical', 'ransac', 'agmf') on posed meshes."""
@@ -174,7 +185,10 @@ def place_external(entries, width: int, height: int, fov_deg: float, variant: st
     position = np.zeros(3)
     plane = None
     if variant in ("ransac", "agmf"):
-        plane = agmf_plane(seen, [0, 0, 1]) if variant == "agmf" else ransac_plane(seen, [0, 0, 1], seed=seed)
+        # both fits see points spread over the surfaces (area-weighted, seeded), as a point cloud would be
+        samples = surface_samples(seen, faces, seed)
+        plane = agmf_plane(samples, [0, 0, 1]) if variant == "agmf" else ransac_plane(samples, [0, 0, 1],
+                                                                                         seed=seed)
         m = ground_transform(plane)
         seen = [apply(m, v) for v in seen]
         cam_rot = m[:3, :3] @ cam_rot

@@ -12,7 +12,10 @@ Three ways, as in the paper's ablation:
 - :func:`agmf_plane` — Anchor-Guided Manifold Fitting: anchors are each
   object's lowest vertices along the camera's gravity prior (within δ of its
   extreme), and the plane minimises a robust (Huber or Tukey) loss of their
-  distances by iteratively reweighted least squares.
+  distances by iteratively reweighted least squares. Two refinements of ours:
+  the anchors are picked again along the fitted normal until it settles (the
+  prior is only the camera's up), and each object keeps its own offset along
+  the shared normal, so per-object translation noise cannot tilt the plane.
 
 Randomness is seeded. Fit once and share the result: :func:`ground_transform`
 turns a plane into the one rigid transform every later step applies.
@@ -160,36 +163,73 @@ def agmf_plane(point_sets: list[np.ndarray], up_prior, delta: float | None = Non
     sets (too few, collinear) widen δ and retry, and finally fall back to the
     plane through the lowest point perpendicular to the prior.
     """
-    up = np.asarray(up_prior, float) / np.linalg.norm(up_prior)
+    prior = np.asarray(up_prior, float) / np.linalg.norm(up_prior)
     pts = np.vstack(point_sets)
     extent = float(np.ptp(pts, axis=0).max()) or 1.0
     delta = 0.02 * extent if delta is None else delta
     for attempt in range(retries + 1):
-        anchors = anchor_points(point_sets, up, delta * (2 ** attempt))
-        if len(anchors) < 3:
+        plane = _agmf_once(point_sets, prior, delta * (2 ** attempt), loss, iterations, extent, min_cos)
+        if plane is None:
             continue
-        sv = np.linalg.svd(anchors - anchors.mean(0), compute_uv=False)
-        if sv[1] < 1e-6 * max(sv[0], 1e-12):  # collinear anchors fix no plane
-            continue
-        n, d = fit_plane_lsq(anchors)
-        for _ in range(iterations):
-            r = anchors @ n + d
-            scale = 1.4826 * np.median(np.abs(r - np.median(r))) + 1e-9 * extent
-            w = _robust_weights(r, loss, scale)
-            if w.sum() < 3:
+        # the prior is only the camera's up: pick the anchors again along the fitted normal, so that
+        # they are each object's base rather than the edge nearest the camera
+        for _ in range(ANCHOR_ROUNDS):
+            again = _agmf_once(point_sets, plane.normal, delta * (2 ** attempt), loss, iterations, extent, min_cos,
+                               prior)
+            if again is None or np.degrees(np.arccos(np.clip(again.normal @ plane.normal, -1, 1))) < 0.01:
+                plane = again or plane
                 break
-            n_new, d_new = fit_plane_lsq(anchors, w)
-            if n_new @ n < 0:
-                n_new, d_new = -n_new, -d_new
-            done = abs(d_new - d) < 1e-9 * extent and np.linalg.norm(n_new - n) < 1e-9
-            n, d = n_new, d_new
-            if done:
-                break
-        if n @ up < 0:
-            n, d = -n, -d
-        if n @ up >= min_cos:
-            return Plane(n, d, len(anchors), f"agmf-{loss}")
-    return Plane(up.copy(), -float(np.min(pts @ up)), 0, "agmf-fallback")
+            plane = again
+        return plane
+    return Plane(prior.copy(), -float(np.min(pts @ prior)), 0, "agmf-fallback")
+
+
+#: Times the anchors are re-picked along the fitted normal.
+ANCHOR_ROUNDS = 5
+
+
+def _agmf_once(point_sets, up, delta, loss, iterations, extent, min_cos, prior=None) -> Plane | None:
+    """One robust fit through the anchors picked along ``up``; None when they fix no plane.
+
+    The normal is shared by all objects but each object's anchors keep an
+    offset of their own: a reconstruction model's per-object translation noise
+    then shifts that object's base along the normal instead of tilting the
+    plane. With exact poses all offsets agree and this is the paper's plane.
+    """
+    prior = up if prior is None else prior
+    groups = [g for g in (anchor_points([p], up, delta) for p in point_sets) if len(g)]
+    anchors = np.vstack(groups) if groups else np.zeros((0, 3))
+    if len(anchors) < 3:
+        return None
+    sv = np.linalg.svd(anchors - anchors.mean(0), compute_uv=False)
+    if sv[1] < 1e-6 * max(sv[0], 1e-12):  # collinear anchors fix no plane
+        return None
+    weights = [np.ones(len(g)) for g in groups]
+    n = None
+    for _ in range(iterations):
+        scatter = np.zeros((3, 3))
+        for g, w in zip(groups, weights):
+            if w.sum() <= 0:
+                continue
+            c = (g * w[:, None]).sum(0) / w.sum()
+            d = g - c
+            scatter += (d * w[:, None]).T @ d
+        vals, vecs = np.linalg.eigh(scatter)
+        if vals[1] < 1e-12 * max(vals[2], 1e-300):  # the pooled anchors are (nearly) one line
+            return None
+        n_new = vecs[:, 0] if n is None or vecs[:, 0] @ n >= 0 else -vecs[:, 0]
+        done = n is not None and np.linalg.norm(n_new - n) < 1e-9
+        n = n_new
+        residuals = [g @ n - np.median(g @ n) for g in groups]
+        r_all = np.concatenate(residuals)
+        scale = 1.4826 * np.median(np.abs(r_all)) + 1e-9 * extent
+        weights = [_robust_weights(r, loss, scale) for r in residuals]
+        if done:
+            break
+    if n @ prior < 0:
+        n = -n
+    offset = -float(min(np.median(g @ n) for g in groups))
+    return Plane(n, offset, len(anchors), f"agmf-{loss}") if n @ prior >= min_cos else None
 
 
 def ground_transform(plane: Plane, point_sets: list[np.ndarray] | None = None) -> np.ndarray:
