@@ -15,6 +15,7 @@ import numpy as np
 
 from ._files import write_bytes
 from .align.camera import PinholeCamera, pick_pitch
+from .align.camera_search import search_camera
 from .align.external import load_poses, place_external
 from .align.place import centring_offset, make_room, separate
 from .errors import InputError
@@ -149,6 +150,15 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
         shapes = ["external"] * len(objects)
         notes = placed.info["mesh_notes"]
         align_info = placed.info
+        if settings.camera_search:
+            with timer.step("align.camera_search"):
+                found = search_camera(camera, verts, faces, photo, [o.mask for o in objects], plate,
+                                      max_evals=settings.camera_search_evals)
+            camera = found.camera
+            align_info["camera_search"] = {
+                "loss": round(found.loss, 6), "initial_loss": round(found.initial_loss, 6),
+                "evaluations": found.evaluations, "seconds": round(found.seconds, 3),
+                "loss_curve": found.curve[:: max(1, len(found.curve) // 100)]}
     else:
         with timer.step("align.camera"):
             feet = [foot_pixel(fill_holes(o.mask))[1] for o in objects]

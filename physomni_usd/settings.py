@@ -44,6 +44,9 @@ class BuildSettings(_Settings):
                                   description="Mask dilation before inpainting, as a fraction of the image diagonal.")
     alignment: str = Field("agmf", pattern="^(none|canonical|ransac|agmf)$",
                            description="Scene alignment of external meshes (--meshes): the paper's ablation variants.")
+    camera_search: bool = Field(True, description="Refine the camera against the masks after aligning external "
+                                                   "meshes (coarse-to-fine: random samples, then Powell).")
+    camera_search_evals: int = Field(300, ge=1, le=100000, description="Cap on renders of the camera search.")
     gap_m: float = Field(0.002, ge=0.0, le=1.0, description="Clearance left between objects' footprints, metres.")
 
 

@@ -81,3 +81,37 @@ def test_broken_meshes_are_repaired(tmp_path):
     report = json.loads((out / "report.json").read_text())
     notes = {o["label"]: o["notes"] for o in report["objects"]}
     assert notes["box"] and any("hole" in n or "normals" in n or "hull" in n for n in notes["box"])
+
+
+def _build_scene(tmp_path, scene, **noise):
+    args = write_inputs(scene, tmp_path / "in", seed=9, **noise)
+    out = tmp_path / "shot"
+    cli("build", args["photo"], "-o", out, "--meshes", args["meshes"], "--fov", f"{args['fov']:.6f}", "-q",
+        *args["mask_args"], check=True)
+    stage = Usd.Stage.Open(str(out / "shot.usda"))
+    meshes = world_meshes(stage, 0)
+    names = sorted(meshes, key=lambda n: int(n.rsplit("_", 1)[1]))
+    camera = _built_camera(stage, scene.camera.width, scene.camera.height)
+    seen = visible_silhouettes([meshes[n].vertices for n in names], [meshes[n].faces for n in names], camera)
+    return [meshes[n] for n in names], [mask_iou(s, m) for s, m in zip(seen, scene.masks)], camera
+
+
+def test_one_object_alone(tmp_path):
+    meshes, ious, _ = _build_scene(tmp_path, make_scene("tabletop", seed=7, count=1), rot_deg=4.0)
+    assert len(meshes) == 1 and min(ious) >= 0.85
+    assert abs(meshes[0].vertices[:, 2].min()) < 1e-6
+
+
+def test_sloped_view_still_finds_the_ground(tmp_path):
+    scene = make_scene("tabletop", seed=8, roll_deg=12.0)
+    meshes, ious, camera = _build_scene(tmp_path, scene)
+    true_up = scene.camera.world_from_camera.T @ np.array([0.0, 0.0, 1.0])
+    got_up = camera.world_from_camera.T @ np.array([0.0, 0.0, 1.0])
+    assert np.degrees(np.arccos(np.clip(true_up @ got_up, -1, 1))) < 2.0
+    assert min(ious) >= 0.85 and support_violation_rate(meshes) == 0.0
+
+
+def test_object_floating_in_the_photo_is_set_down(tmp_path):
+    scene = make_scene("tabletop", seed=10, lift={"can": 0.3})
+    meshes, _, _ = _build_scene(tmp_path, scene)
+    assert support_violation_rate(meshes) == 0.0  # every object stands on the ground, the can included

@@ -138,7 +138,7 @@ def search_camera(initial: PinholeCamera, vertex_sets, faces, photo, masks, plat
         for k, start in enumerate(starts):
             budget = max(1, (max_evals - loss.evaluations) // (len(starts) - k))
             res = minimize(lambda u: loss(to_x(u), 0.5), (start - mid) / half, method="Powell",
-                           bounds=[(-1.0, 1.0)] * 6, options={"maxfev": budget, "xtol": 1e-3, "ftol": 1e-5})
+                           bounds=[(-1.0, 1.0)] * 6, options={"maxfev": budget, "xtol": 1e-2, "ftol": 1e-4})
             if res.fun < best:
                 best_x, best = to_x(res.x), float(res.fun)
     return SearchResult(loss.camera(best_x, 1.0), best, initial_loss, loss.evaluations,

@@ -42,15 +42,22 @@ def _objects(kind: str, rng) -> list[tuple[str, trimesh.Trimesh]]:
 
 
 def make_scene(kind: str = "tabletop", width: int = 320, height: int = 240, fov_deg: float = 55.0,
-               pitch_deg: float = 25.0, seed: int = 0) -> SyntheticScene:
+               pitch_deg: float = 25.0, seed: int = 0, roll_deg: float = 0.0, count: int | None = None,
+               lift: dict | None = None) -> SyntheticScene:
+    """``roll_deg`` tilts the camera about its view axis (the ground looks sloped in the photo); ``count``
+    keeps the first objects only; ``lift`` raises named objects off the ground (metres)."""
     rng = np.random.default_rng(seed)
     camera = PinholeCamera(width, height, fov_deg, pitch_deg, (0.0, 0.0, 1.2))
+    if roll_deg:
+        r = camera.world_from_camera
+        roll = trimesh.transformations.rotation_matrix(np.radians(roll_deg), r[:, 2])[:3, :3]
+        camera = PinholeCamera.from_pose(width, height, fov_deg, camera.origin, roll @ r)
     placed = []
     spots = [(-0.45, 2.0), (0.0, 2.3), (0.45, 1.9), (0.0, 3.1), (-0.6, 2.8)]
-    for (label, mesh), (x, y) in zip(_objects(kind, rng), spots):
+    for (label, mesh), (x, y) in list(zip(_objects(kind, rng), spots))[:count]:
         m = mesh.copy()
         m.apply_transform(trimesh.transformations.rotation_matrix(rng.uniform(-0.6, 0.6), [0, 0, 1]))
-        m.apply_translation([x + rng.uniform(-0.05, 0.05), y, -m.bounds[0][2]])
+        m.apply_translation([x + rng.uniform(-0.05, 0.05), y, -m.bounds[0][2] + (lift or {}).get(label, 0.0)])
         placed.append((label, m))
     photo, masks = render_truth(camera, [m for _, m in placed], rng)
     return SyntheticScene(photo, masks, [label for label, _ in placed], [m for _, m in placed], camera)
