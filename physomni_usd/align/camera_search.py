@@ -9,7 +9,8 @@ where L_obj and L_bg are the mean absolute RGB error (0..1) inside and outside
 the union of the target masks, and Dice is averaged over objects. The render is
 the background plate with each object's visible silhouette filled with its
 mean colour in the photo, at reduced resolution (a quarter for the global
-phase, a half for the local one).
+phase, a half for the local one); silhouettes come from the renderer's warp ray
+caster, so the search runs on the CPU and on CUDA alike.
 
 Phases: ``global`` draws seeded uniform samples in the bounded box around the
 initial camera; ``local`` runs SciPy's bounded Powell from the best point so
@@ -62,6 +63,9 @@ class CameraLoss:
         self.photo, self.masks = photo, masks
         self.plate = photo if plate is None else plate
         self.colours = [photo[m].mean(axis=0) if m.any() else np.zeros(3) for m in masks]
+        from ..render.raycast import SilhouetteRenderer
+
+        self.renderer = SilhouetteRenderer(vertex_sets, faces)
         self._levels = {}
         self.evaluations = 0
         self.history: list[float] = []
@@ -88,7 +92,7 @@ class CameraLoss:
     def __call__(self, x, scale: float = 0.5) -> float:
         photo, plate, masks, union = self._level(scale)
         cam = self.camera(x, scale)
-        seen = visible_silhouettes(self.vertex_sets, self.faces, cam)
+        seen = visible_silhouettes(self.vertex_sets, self.faces, cam, self.renderer)
         render = plate.copy()
         for s, c in zip(seen, self.colours):
             render[s] = c / 255.0

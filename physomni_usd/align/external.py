@@ -115,32 +115,31 @@ def read_mesh(path: pathlib.Path) -> tuple[trimesh.Trimesh, list[str]]:
     return mesh, notes
 
 
-def visible_silhouettes(vertex_sets, faces, camera: PinholeCamera) -> list[np.ndarray]:
-    """Visible masks (H, W) bool of meshes from ``camera``, nearer objects hiding farther ones."""
-    import cv2
+def visible_silhouettes(vertex_sets, faces, camera: PinholeCamera, renderer=None) -> list[np.ndarray]:
+    """Visible masks (H, W) bool of meshes from ``camera``, nearer objects hiding farther ones.
 
-    h, w = camera.height, camera.width
-    ids = np.full((h, w), -1, np.int32)
-    order = []
-    for i, (v, f) in enumerate(zip(vertex_sets, faces)):
-        uv, depth = camera.project(v)
-        front = depth > 1e-6
-        tris = [np.round(uv[t] * 16).astype(np.int32) for t in f if front[t].all()]
-        order.append((float(np.median(depth)), i, tris))
-    for _, i, tris in sorted(order, key=lambda o: -o[0]):
-        for tri in tris:  # one by one: fillPoly would XOR overlapping triangles
-            cv2.fillConvexPoly(ids, tri, int(i), shift=4)
+    Rendered by the warp ray caster; pass a :class:`~physomni_usd.render.raycast.SilhouetteRenderer`
+    already holding these meshes to reuse its BVH.
+    """
+    from ..render.raycast import SilhouetteRenderer
+
+    renderer = renderer or SilhouetteRenderer(vertex_sets, faces)
+    ids = renderer.render(camera)
     return [ids == i for i in range(len(vertex_sets))]
 
 
 def fit_to_masks(vertex_sets, faces, masks, camera: PinholeCamera, rounds: int = 4):
     """Scale each object about its base and slide it on the ground until its visible silhouette has its
     mask's area and centroid. Returns the new vertex sets and the per-object (scale, shift) applied."""
+    from ..render.raycast import SilhouetteRenderer
+
     verts = [np.asarray(v, float).copy() for v in vertex_sets]
     total_scale = np.ones(len(verts))
     total_shift = np.zeros((len(verts), 3))
+    renderer = SilhouetteRenderer(verts, faces)
     for _ in range(rounds):
-        seen = visible_silhouettes(verts, faces, camera)
+        renderer.update(verts)
+        seen = visible_silhouettes(verts, faces, camera, renderer)
         for i, (v, sil, mask) in enumerate(zip(verts, seen, masks)):
             if not sil.any() or not mask.any():
                 continue

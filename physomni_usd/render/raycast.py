@@ -101,3 +101,43 @@ class RayCaster:
         shape = rays.shape[:2]
         return (self._face.numpy().reshape(shape), self._px.numpy().reshape(shape + (2,)),
                 self._h.numpy().reshape(shadow_rays.shape[:2]))
+
+
+class SilhouetteRenderer:
+    """Which object each pixel sees, for the alignment's silhouettes and the camera search.
+
+    The same warp kernels as the renderer (CPU or CUDA), without textures: one
+    BVH over every object's triangles, built once; :meth:`update` refits it
+    when objects move, and any number of cameras can then be rendered.
+    """
+
+    def __init__(self, vertex_sets, faces, device: str | None = None):
+        from .._warp import pick_device
+
+        self.device = pick_device(device)
+        self.counts = [len(v) for v in vertex_sets]
+        offsets = np.cumsum([0] + self.counts[:-1])
+        tri = [np.asarray(f, np.int64) + o for f, o in zip(faces, offsets)]
+        self.face_object = np.concatenate([np.full(len(f), i, np.int32) for i, f in enumerate(faces)])
+        all_faces = np.concatenate(tri)
+        self.caster = RayCaster(np.vstack(vertex_sets), all_faces, np.zeros((3 * len(all_faces), 2)),
+                                np.ones((1, 1)), self.device)
+
+    def update(self, vertex_sets) -> None:
+        self.caster.update(np.vstack(vertex_sets))
+
+    def render(self, camera) -> np.ndarray:
+        """(H, W) int32: the index of the object seen through each pixel centre, −1 for none."""
+        wp = self.caster.wp
+        primary, _ = kernels()
+        uu, vv = np.meshgrid(np.arange(camera.width) + 0.5, np.arange(camera.height) + 0.5)
+        rays = camera.rays(uu, vv).astype(np.float32).reshape(-1, 3)
+        n = len(rays)
+        face = wp.zeros(n, dtype=wp.int32, device=self.device)
+        px = wp.zeros(n, dtype=wp.vec2, device=self.device)
+        wp.launch(primary, dim=n, inputs=[self.caster.mesh.id, wp.vec3(*map(float, camera.origin)),
+                                          wp.array(rays, dtype=wp.vec3, device=self.device), self.caster.corner_px,
+                                          self.caster.alpha, 1e6], outputs=[px, face], device=self.device)
+        f = face.numpy()
+        ids = np.where(f >= 0, self.face_object[np.maximum(f, 0)], -1)
+        return ids.reshape(camera.height, camera.width)
