@@ -25,7 +25,7 @@ import trimesh
 
 from ..align.camera import PinholeCamera
 from ..align.camera_search import CameraLoss, search_camera
-from ..align.external import load_poses, place_external, visible_silhouettes
+from ..align.external import load_poses, place_external, quat_wxyz_to_matrix, visible_silhouettes
 from ..metrics.alignment import (box_penetration_rate, interaction_success_rate, mask_iou, mesh_penetration_rate,
                                  reprojection_px, support_violation_rate)
 from ..metrics.image import ssim
@@ -86,10 +86,7 @@ def _isr(camera, verts, faces, seconds: float = 1.0, fps: int = 20) -> float:
         q = a.body_q.numpy()
         moved = []
         for (local, _), xf in zip(bodies, q):
-            x, y, z, w = xf[3:]
-            r = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                          [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                          [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+            r = quat_wxyz_to_matrix(xf[[6, 3, 4, 5]])  # warp stores x, y, z, w
             moved.append(local @ r.T + xf[:3])
         if not np.all(np.isfinite(q)):
             return 0.0

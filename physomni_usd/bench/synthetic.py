@@ -59,6 +59,12 @@ def make_scene(kind: str = "tabletop", width: int = 320, height: int = 240, fov_
         m.apply_transform(trimesh.transformations.rotation_matrix(rng.uniform(-0.6, 0.6), [0, 0, 1]))
         m.apply_translation([x + rng.uniform(-0.05, 0.05), y, -m.bounds[0][2] + (lift or {}).get(label, 0.0)])
         placed.append((label, m))
+    # the truth itself must not interpenetrate: nudge random placements apart
+    from ..align.penetration import resolve_penetration
+
+    offsets, _ = resolve_penetration([m.vertices for _, m in placed], [m.faces for _, m in placed], gap=0.005)
+    for (_, m), o in zip(placed, offsets):
+        m.apply_translation(o)
     photo, masks = render_truth(camera, [m for _, m in placed], rng)
     return SyntheticScene(photo, masks, [label for label, _ in placed], [m for _, m in placed], camera)
 
