@@ -76,3 +76,16 @@ def test_push_at_a_time_starts_the_motion_then(tmp_path, shot):
     x = np.array([attr.Get(t)[0] for t in range(21)])
     assert np.abs(x[:10] - x[0]).max() < 1e-3  # still before 0.5 s
     assert x[-1] - x[10] > 0.05  # moving after
+
+
+def test_deformable_materials_move_as_rigid_stand_ins_and_say_so(tmp_path, shot):
+    out = tmp_path / "shot"
+    proc = cli("run", shot["photo"], "-o", out, "--mask", f"{shot['cup']}:towel", "--mask", f"{shot['box']}:box",
+               "--push", "towel=1,0,0", "--seconds", "0.5", check=True)
+    assert "towel_0 is pbd_cloth" in proc.stderr and "stand-in" in proc.stderr
+    import json
+
+    report = json.loads((out / "report.json").read_text())
+    assert report["stages"]["estimate"]["objects"]["towel_0"]["material"] == "pbd_cloth"
+    assert report["stages"]["simulate"]["rigid_stand_ins"] == {"towel_0": "pbd_cloth"}
+    assert "/World/Objects/towel_0" in report["stages"]["simulate"]["moving_prims"]

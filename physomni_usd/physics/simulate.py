@@ -69,15 +69,20 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     stage = layers.open_shot(shot, mute_sim=True)
     cfg = scene_settings(stage, settings)
     bodies = rigid_bodies(stage)
-    if not bodies:
-        raise InputError(f"{shot}: no rigid bodies under {OBJECTS}; nothing to simulate")
+    deformables = deformable_objects(stage)
+    # objects that are rigid bodies in USD already move as such; the others need a stand-in
+    standins = [d for d in deformables if not d[0].HasAPI(UsdPhysics.RigidBodyAPI)]
+    if not bodies and not standins:
+        raise InputError(f"{shot}: no objects to simulate under {OBJECTS}")
     check_rigid_inputs(stage, bodies)
-    _refuse_deformables(stage)
+    for prim, kind, _ in deformables:
+        echo(f"simulate: {prim.GetName()} is {kind}; its solver is not in this version, so it moves as a rigid "
+             "stand-in (convex hull, its density and friction)")
     frames = int(round(settings.seconds * cfg["fps"])) + 1
 
     substeps = cfg["substeps"]
     for attempt in range(MAX_RETRIES + 1):
-        run = _run(stage, cfg | {"substeps": substeps}, frames, settings.device, progress)
+        run = _run(stage, cfg | {"substeps": substeps}, frames, settings.device, progress, standins)
         if run["ok"]:
             break
         if attempt == MAX_RETRIES:
@@ -107,7 +112,8 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     section = {
         "solver": cfg["solver"], "device": run["device"], "fps": cfg["fps"], "frames": frames,
         "substeps": substeps, "dt": dt, "iterations": cfg["iterations"], "simulated_seconds": settings.seconds,
-        "bodies": len(run["path_body"]), "moving_prims": moved, "retries": attempt, "newton_notes": run["notes"],
+        "bodies": len(run["path_body"]), "moving_prims": moved,
+        "rigid_stand_ins": {prim.GetName(): kind for prim, kind, _ in deformables}, "retries": attempt, "newton_notes": run["notes"],
         "force_fields": run["fields"],
         "max_speed_m_s": run["max_speed"], **checks,
         "modules": {"torch": "torch" in sys.modules},
@@ -120,19 +126,51 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     return section
 
 
-def _refuse_deformables(stage: Usd.Stage) -> None:
-    """Stop, naming the objects, when a material needs a solver this version does not build yet."""
+def deformable_objects(stage: Usd.Stage) -> list[tuple[Usd.Prim, str, Usd.Prim | None]]:
+    """Objects whose material needs a solver this version does not build: (prim, material type, material)."""
     from ..materials.report import bound_material, object_prims
 
-    pending = []
+    out = []
     for prim in object_prims(stage):
         mat = bound_material(prim)
         kind = mat.GetAttribute("physomni:materialType").Get() if mat else "rigid"
         if kind and kind != "rigid":
-            pending.append(f"{prim.GetName()} ({kind})")
-    if pending:
-        raise InputError(f"{', '.join(pending)}: only rigid materials are simulated in this version; "
-                         "set them rigid with `physomni-usd estimate SHOT --set NAME.material=rigid`")
+            out.append((prim, kind, mat))
+    return out
+
+
+def _add_stand_ins(builder, stage: Usd.Stage, standins, newton, wp) -> dict:
+    """Rigid bodies (convex hulls, the material's density and friction) for objects whose deformable
+    solver is not built yet, so that the shot still moves; returns their path → body map."""
+    import trimesh
+
+    out = {}
+    cache = UsdGeom.XformCache(Usd.TimeCode.Default())
+    for prim, kind, mat in standins:
+        pts = np.asarray(UsdGeom.Mesh(prim).GetPointsAttr().Get(), float)
+        m = np.array(cache.GetLocalToWorldTransform(prim))
+        pos = m[3, :3]
+        rot = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=1, keepdims=True)
+        q = _wxyz_from_matrix(rot.T)
+        hull = trimesh.convex.convex_hull(pts * np.linalg.norm(m[:3, :3], axis=1))
+        cfg = newton.ModelBuilder.ShapeConfig()
+        density = mat.GetAttribute("physics:density").Get() if mat else None
+        friction = mat.GetAttribute("physics:dynamicFriction").Get() if mat else None
+        cfg.density = float(density or 1000.0)
+        cfg.mu = float(friction if friction is not None else 0.5)
+        body = builder.add_body(xform=wp.transform(tuple(pos), wp.quat(q[1], q[2], q[3], q[0])),
+                                label=str(prim.GetPath()))
+        builder.add_shape_convex_hull(body, mesh=newton.Mesh(hull.vertices.astype(np.float32),
+                                                             hull.faces.ravel().astype(np.int32)), cfg=cfg)
+        out[str(prim.GetPath())] = body
+    return out
+
+
+def _wxyz_from_matrix(r: np.ndarray) -> np.ndarray:
+    from scipy.spatial.transform import Rotation
+
+    x, y, z, w = Rotation.from_matrix(r).as_quat()
+    return np.array([w, x, y, z])
 
 
 def _moved(pos: np.ndarray, quat: np.ndarray) -> bool:
@@ -142,7 +180,7 @@ def _moved(pos: np.ndarray, quat: np.ndarray) -> bool:
     return float(2 * np.arccos(np.clip(dots.min(), -1, 1))) > STILL_RADIANS
 
 
-def _run(stage, cfg, frames, device, progress) -> dict:
+def _run(stage, cfg, frames, device, progress, standins=()) -> dict:
     """One attempt: build the model, step it, record ``body_q`` each frame; stop at the first non-finite state."""
     t0 = time.perf_counter()
     wp = load_warp()
@@ -153,6 +191,7 @@ def _run(stage, cfg, frames, device, progress) -> dict:
     result = builder.add_usd(stage, load_visual_shapes=False, load_sites=False, verbose=False,
                              mesh_maxhullvert=MAX_HULL_VERTICES)
     path_body = {p: b for p, b in result["path_body_map"].items() if p.startswith(OBJECTS + "/")}
+    path_body.update(_add_stand_ins(builder, stage, standins, newton, wp))
     fixed, delayed = read_controls(stage, path_body)
     for b in fixed:
         # a kinematic body with no velocity stays put and still collides with everything else

@@ -213,6 +213,10 @@ def write_physics_layer(path: pathlib.Path, scene_path: pathlib.Path, *, fps: fl
             UsdPhysics.CollisionAPI.Apply(prim)
             UsdPhysics.MeshCollisionAPI.Apply(prim).CreateApproximationAttr(UsdPhysics.Tokens.convexHull)
             UsdPhysics.MassAPI.Apply(prim)
+        elif obj.velocity is not None or obj.angular_velocity is not None:
+            # UsdPhysics velocities belong to rigid bodies; other materials take the PhysOmni controls
+            obj.delayed_velocity = obj.delayed_velocity or (obj.velocity, 0.0)
+            obj.delayed_angular_velocity = obj.delayed_angular_velocity or obj.angular_velocity
         if obj.fixed:
             prim.GetAttribute("physomni:fixed").Set(True)
         if obj.delayed_velocity is not None:
