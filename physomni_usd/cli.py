@@ -359,5 +359,29 @@ def bench_alignment_command(quick, json_path):
             write_json(numbers, json_path)
 
 
+@bench.command("physics")
+@click.option("--quick", is_flag=True, help="Three substep settings and one repeat (a few minutes).")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
+              help="Also write the rows to this JSON file.")
+@click.option("--plots", "plots_dir", type=click.Path(file_okay=False, path_type=pathlib.Path), default=None,
+              help="Write error-against-time plots (PNG, needs matplotlib) to this folder.")
+def bench_physics_command(quick, json_path, plots_dir):
+    """Error against run time of Newton's rigid solvers on cases with exact answers."""
+    with _errors():
+        import json
+
+        from .bench.physics import bench_physics, write_plots
+
+        numbers = bench_physics(quick=quick, echo=click.echo)
+        if plots_dir:
+            written = write_plots(numbers, plots_dir)
+            click.echo(f"plots: {len(written)} written to {plots_dir}" if written else
+                       "plots: matplotlib is not installed (pip install 'physomni-usd[bench]')", err=True)
+        if json_path:
+            from ._files import write_bytes
+
+            write_bytes(json_path, (json.dumps(numbers, indent=2) + "\n").encode())
+
+
 if __name__ == "__main__":  # pragma: no cover
     main()
