@@ -15,7 +15,7 @@ from contextlib import contextmanager
 import click
 from pydantic import ValidationError
 
-from .errors import InputError, PhysOmniError
+from .errors import PhysOmniError
 
 EPILOG_BUILD = """
 \b

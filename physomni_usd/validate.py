@@ -153,7 +153,7 @@ def sim_layer_checks(stage: Usd.Stage) -> list[Finding]:
     for layer in stage.GetLayerStack(includeSessionLayers=False):
         if not layer.realPath or pathlib.Path(layer.realPath).name != layers.SIM:
             continue
-        def visit(path):
+        def visit(path, layer=layer):
             if path.IsPrimPath():
                 spec = layer.GetPrimAtPath(path)
                 if spec and spec.specifier != Sdf.SpecifierOver:

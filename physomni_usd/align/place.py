@@ -106,7 +106,7 @@ def make_room(vertex_sets: list[np.ndarray], fronts: list[np.ndarray], camera_or
     dist = [np.linalg.norm((np.asarray(f) - camera_origin)[:2]) for f in fronts]
     order = np.argsort(dist)
     for a in order:
-        squashed = lambda k: squash_depth(vertex_sets[a], fronts[a], dirs[a], k)  # noqa: E731
+        squashed = lambda k, a=a: squash_depth(vertex_sets[a], fronts[a], dirs[a], k)  # noqa: E731
         for b in order:
             if dist[b] <= dist[a] or _apart(verts[a], verts[b], gap):
                 continue

@@ -146,7 +146,7 @@ def _add_stand_ins(builder, stage: Usd.Stage, standins, newton, wp) -> dict:
 
     out = {}
     cache = UsdGeom.XformCache(Usd.TimeCode.Default())
-    for prim, kind, mat in standins:
+    for prim, _kind, mat in standins:
         pts = np.asarray(UsdGeom.Mesh(prim).GetPointsAttr().Get(), float)
         m = np.array(cache.GetLocalToWorldTransform(prim))
         pos = m[3, :3]

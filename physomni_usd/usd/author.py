@@ -7,7 +7,7 @@ with :func:`~physomni_usd.usd.layers.save_layer` (temporary file + rename).
 from __future__ import annotations
 
 import pathlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics, UsdShade, Vt
