@@ -323,6 +323,9 @@ class FieldSet:
         self.wp = wp
         self.fields = list(fields)
         self.device = device
+        self.samples = None
+        if not self.fields:  # a scene without fields compiles no field kernels
+            return
         Field, self._on_points, self._on_particles, self._on_bodies = _kernels()
         packed = []
         for f in self.fields:
@@ -339,7 +342,6 @@ class FieldSet:
         self._fields = wp.array(packed, dtype=Field, device=device) if packed else None
         self._active = wp.zeros(max(1, len(packed)), dtype=wp.int32, device=device)
         self._active_key = None
-        self.samples = None
 
     def __bool__(self) -> bool:
         return bool(self.fields)
