@@ -82,9 +82,9 @@ def main():
     \b
     A shot folder holds one layer per stage under a root shot.usda:
       shot.usda = [edits.usda, sim.usdc, physics.usda, scene.usda]  (strongest first)
-    edits.usda is yours: it is created empty and never rewritten, and what you
-    author there (a heavier object, a push, a moved prop) counts in the next
-    `simulate`.
+    edits.usda is yours: it is created empty, no command rewrites it (only
+    `estimate --set` adds your values to it), and what you author there (a
+    heavier object, a push, a moved prop) counts in the next `simulate`.
 
     \b
     Quick start:
