@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from pxr import Usd
@@ -80,12 +82,45 @@ def test_push_at_a_time_starts_the_motion_then(tmp_path, shot):
 
 def test_deformable_materials_move_as_rigid_stand_ins_and_say_so(tmp_path, shot):
     out = tmp_path / "shot"
-    proc = cli("run", shot["photo"], "-o", out, "--mask", f"{shot['cup']}:towel", "--mask", f"{shot['box']}:box",
-               "--push", "towel=1,0,0", "--seconds", "0.5", check=True)
-    assert "towel_0 is pbd_cloth" in proc.stderr and "stand-in" in proc.stderr
-    import json
-
+    proc = cli("run", shot["photo"], "-o", out, "--mask", f"{shot['cup']}:sandcastle", "--mask",
+               f"{shot['box']}:box", "--push", "sandcastle=1,0,0", "--seconds", "0.5", check=True)
+    assert "sandcastle_0 is mpm_sand" in proc.stderr and "stand-in" in proc.stderr
     report = json.loads((out / "report.json").read_text())
-    assert report["stages"]["estimate"]["objects"]["towel_0"]["material"] == "pbd_cloth"
-    assert report["stages"]["simulate"]["rigid_stand_ins"] == {"towel_0": "pbd_cloth"}
-    assert "/World/Objects/towel_0" in report["stages"]["simulate"]["moving_prims"]
+    assert report["stages"]["estimate"]["objects"]["sandcastle_0"]["material"] == "mpm_sand"
+    assert report["stages"]["simulate"]["rigid_stand_ins"] == {"sandcastle_0": "mpm_sand"}
+    assert "/World/Objects/sandcastle_0" in report["stages"]["simulate"]["moving_prims"]
+
+
+def test_cloth_material_drapes_as_xpbd_cloth_with_pinning(tmp_path, shot):
+    import numpy as np
+    from pxr import Usd
+
+    out = tmp_path / "shot"
+    cli("build", shot["photo"], "-o", out, "--mask", f"{shot['cup']}:towel", "--mask", f"{shot['box']}:box", "-q",
+        check=True)
+    (out / "edits.usda").write_text('#usda 1.0\nover "World" {\n    over "Objects" {\n        over "towel_0" {\n'
+                                    '            float physomni:fixTopRatio = 0.1\n        }\n    }\n}\n')
+    cli("simulate", out / "shot.usda", "--seconds", "0.5", "-q", check=True)
+    stage = Usd.Stage.Open(str(out / "shot.usda"))
+    points = stage.GetPrimAtPath("/World/Objects/towel_0").GetAttribute("points")
+    assert points.GetNumTimeSamples() == stage.GetEndTimeCode() + 1
+    first, last = np.array(points.Get(0)), np.array(points.Get(stage.GetEndTimeCode()))
+    assert np.isfinite(last).all()
+    top = first[:, 2] >= first[:, 2].max() - 0.1 * np.ptp(first[:, 2])
+    assert np.abs(last[top] - first[top]).max() < 1e-5  # pinned
+    assert np.abs(last[~top] - first[~top]).max() > 0.01  # the rest hangs and moves
+    report = json.loads((out / "report.json").read_text())["stages"]["simulate"]
+    assert "towel_0" in report["cloths"] and "towel_0" not in report["rigid_stand_ins"]
+
+
+def test_push_moves_a_cloth(tmp_path, shot):
+    import numpy as np
+    from pxr import Usd
+
+    out = tmp_path / "shot"
+    cli("run", shot["photo"], "-o", out, "--mask", f"{shot['cup']}:towel", "--push", "towel=2,0,0",
+        "--seconds", "0.5", "-q", check=True)
+    stage = Usd.Stage.Open(str(out / "shot.usda"))
+    points = stage.GetPrimAtPath("/World/Objects/towel_0").GetAttribute("points")
+    shift = np.array(points.Get(stage.GetEndTimeCode())).mean(0) - np.array(points.Get(0)).mean(0)
+    assert shift[0] > 0.2

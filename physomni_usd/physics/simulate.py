@@ -71,18 +71,20 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     bodies = rigid_bodies(stage)
     deformables = deformable_objects(stage)
     # objects that are rigid bodies in USD already move as such; the others need a stand-in
-    standins = [d for d in deformables if not d[0].HasAPI(UsdPhysics.RigidBodyAPI)]
-    if not bodies and not standins:
+    free = [d for d in deformables if not d[0].HasAPI(UsdPhysics.RigidBodyAPI)]
+    cloths = [d for d in free if d[1] == "pbd_cloth"]
+    standins = [d for d in free if d[1] != "pbd_cloth"]
+    if not bodies and not free:
         raise InputError(f"{shot}: no objects to simulate under {OBJECTS}")
     check_rigid_inputs(stage, bodies)
-    for prim, kind, _ in deformables:
+    for prim, kind, _ in [d for d in deformables if d not in cloths]:
         echo(f"simulate: {prim.GetName()} is {kind}; its solver is not in this version, so it moves as a rigid "
              "stand-in (convex hull, its density and friction)")
     frames = int(round(settings.seconds * cfg["fps"])) + 1
 
     substeps = cfg["substeps"]
     for attempt in range(MAX_RETRIES + 1):
-        run = _run(stage, cfg | {"substeps": substeps}, frames, settings.device, progress, standins)
+        run = _run(stage, cfg | {"substeps": substeps}, frames, settings.device, progress, standins, cloths)
         if run["ok"]:
             break
         if attempt == MAX_RETRIES:
@@ -104,7 +106,13 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     dt = 1.0 / (cfg["fps"] * substeps)
     meta = {"physomni:solver": cfg["solver"], "physomni:substeps": substeps, "physomni:dt": dt,
             "physomni:iterations": cfg["iterations"], "physomni:seconds": settings.seconds}
-    write_sim_layer(folder / layers.SIM, fps=cfg["fps"], frames=frames, tracks=tracks, metadata=meta)
+    point_tracks = {}
+    for path, (start, count, origin) in run["cloth_ranges"].items():
+        pts = run["particles"][:, start:start + count].astype(np.float64) - origin
+        point_tracks[path] = pts
+        moved.append(path)
+    write_sim_layer(folder / layers.SIM, fps=cfg["fps"], frames=frames, tracks=tracks, metadata=meta,
+                    point_tracks=point_tracks)
     layers.set_shot_time(folder, cfg["fps"], frames)
     checks = _checks(layers.open_shot(folder), frames)
     t_end = time.perf_counter()
@@ -113,7 +121,10 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
         "solver": cfg["solver"], "device": run["device"], "fps": cfg["fps"], "frames": frames,
         "substeps": substeps, "dt": dt, "iterations": cfg["iterations"], "simulated_seconds": settings.seconds,
         "bodies": len(run["path_body"]), "moving_prims": moved,
-        "rigid_stand_ins": {prim.GetName(): kind for prim, kind, _ in deformables}, "retries": attempt, "newton_notes": run["notes"],
+        "rigid_stand_ins": {prim.GetName(): kind for prim, kind, _ in deformables if kind != "pbd_cloth"
+                            or prim.HasAPI(UsdPhysics.RigidBodyAPI)},
+        "cloths": {prim.GetName(): {"particles": run["cloth_ranges"][str(prim.GetPath())][1]} for prim, _, _ in
+                   cloths}, "retries": attempt, "newton_notes": run["notes"],
         "force_fields": run["fields"],
         "max_speed_m_s": run["max_speed"], **checks,
         "modules": {"torch": "torch" in sys.modules},
@@ -166,6 +177,49 @@ def _add_stand_ins(builder, stage: Usd.Stage, standins, newton, wp) -> dict:
     return out
 
 
+#: XPBD cloth: stiffness is the inverse of the material's compliance, clamped to what the
+#: solver keeps stable at our steps (spring N/m, bending N·m).
+CLOTH_SPRING_KE = (1e1, 1e2)
+CLOTH_BEND_KE = (1e-2, 1e1)
+
+
+def add_cloths(builder, stage: Usd.Stage, cloths, newton, wp) -> dict:
+    """Cloth from each object's own surface (XPBD springs + bending), the highest ``physomni:fixTopRatio``
+    of its particles pinned. Returns path → (first particle, count, prim origin in world)."""
+    out = {}
+    cache = UsdGeom.XformCache(Usd.TimeCode.Default())
+    for prim, _kind, mat in cloths:
+        mesh = UsdGeom.Mesh(prim)
+        pts = np.asarray(mesh.GetPointsAttr().Get(), float)
+        faces = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(), np.int64).reshape(-1, 3)
+        m = np.array(cache.GetLocalToWorldTransform(prim))
+        world = pts @ m[:3, :3] + m[3, :3]
+
+        def value(name, default, mat=mat):
+            a = mat.GetAttribute(name) if mat else None
+            v = a.Get() if a and a.HasAuthoredValue() else None
+            return default if v is None else float(v)
+
+        areal = value("physics:density", 4.0)
+        stretch = np.clip(1.0 / max(value("physomni:stretchCompliance", 1e-7), 1e-12), *CLOTH_SPRING_KE)
+        bend = np.clip(1.0 / max(value("physomni:bendingCompliance", 1e-5), 1e-12), *CLOTH_BEND_KE)
+        edges = np.linalg.norm(world[faces[:, 0]] - world[faces[:, 1]], axis=1)
+        start = builder.particle_count
+        builder.add_cloth_mesh(pos=wp.vec3(0.0, 0.0, 0.0), rot=wp.quat_identity(), scale=1.0,
+                               vel=wp.vec3(0.0, 0.0, 0.0), vertices=[wp.vec3(*p) for p in world],
+                               indices=faces.ravel().tolist(), density=areal, edge_ke=float(bend),
+                               add_springs=True, spring_ke=float(stretch), spring_kd=1.0,
+                               particle_radius=float(0.25 * np.median(edges)), label=str(prim.GetPath()))
+        ratio = prim.GetAttribute("physomni:fixTopRatio").Get() or 0.0
+        if ratio > 0:
+            z = world[:, 2]
+            pinned = np.nonzero(z >= z.max() - ratio * (z.max() - z.min()))[0]
+            for i in pinned:
+                builder.particle_mass[start + int(i)] = 0.0
+        out[str(prim.GetPath())] = (start, len(world), m[3, :3].copy())
+    return out
+
+
 def _wxyz_from_matrix(r: np.ndarray) -> np.ndarray:
     from scipy.spatial.transform import Rotation
 
@@ -180,7 +234,7 @@ def _moved(pos: np.ndarray, quat: np.ndarray) -> bool:
     return float(2 * np.arccos(np.clip(dots.min(), -1, 1))) > STILL_RADIANS
 
 
-def _run(stage, cfg, frames, device, progress, standins=()) -> dict:
+def _run(stage, cfg, frames, device, progress, standins=(), cloths=()) -> dict:
     """One attempt: build the model, step it, record ``body_q`` each frame; stop at the first non-finite state."""
     t0 = time.perf_counter()
     wp = load_warp()
@@ -192,7 +246,9 @@ def _run(stage, cfg, frames, device, progress, standins=()) -> dict:
                              mesh_maxhullvert=MAX_HULL_VERTICES)
     path_body = {p: b for p, b in result["path_body_map"].items() if p.startswith(OBJECTS + "/")}
     path_body.update(_add_stand_ins(builder, stage, standins, newton, wp))
+    cloth_ranges = add_cloths(builder, stage, cloths, newton, wp)
     fixed, delayed = read_controls(stage, path_body)
+    delayed += [(rng, t, lin, None) for rng, t, lin in cloth_velocities(stage, cloth_ranges)]
     for b in fixed:
         # a kinematic body with no velocity stays put and still collides with everything else
         builder.body_flags[b] = int(newton.BodyFlags.KINEMATIC)
@@ -218,8 +274,12 @@ def _run(stage, cfg, frames, device, progress, standins=()) -> dict:
         dt = 1.0 / (cfg["fps"] * cfg["substeps"])
         n_bodies = model.body_count
         record = np.zeros((frames, n_bodies, 7), np.float32)
-        record[0] = state_a.body_q.numpy()
-        max_speed = float(np.abs(state_a.body_qd.numpy()[:, :3]).max()) if n_bodies else 0.0
+        no_bodies = np.zeros((0, 7), np.float32)
+        record[0] = state_a.body_q.numpy() if n_bodies else no_bodies
+        particles = np.zeros((frames, model.particle_count, 3), np.float32) if cloth_ranges else None
+        if particles is not None:
+            particles[0] = state_a.particle_q.numpy()
+        max_speed = float(np.linalg.norm(state_a.body_qd.numpy()[:, :3], axis=1).max()) if n_bodies else 0.0
         t1 = time.perf_counter()
         step = 0
         pending = sorted(delayed, key=lambda d: d[1])
@@ -233,9 +293,15 @@ def _run(stage, cfg, frames, device, progress, standins=()) -> dict:
                 pipeline.collide(state_a, contacts)
                 solver.step(state_a, state_b, control, contacts, dt)
                 state_a, state_b = state_b, state_a
-            q = state_a.body_q.numpy()
-            qd = state_a.body_qd.numpy()
+            q = state_a.body_q.numpy() if n_bodies else no_bodies
+            qd = state_a.body_qd.numpy() if n_bodies else np.zeros((0, 6), np.float32)
             speed = float(np.linalg.norm(qd[:, :3], axis=1).max()) if n_bodies else 0.0
+            if particles is not None:
+                particles[f] = state_a.particle_q.numpy()
+                pv = state_a.particle_qd.numpy()
+                speed = max(speed, float(np.linalg.norm(pv, axis=1).max()) if len(pv) else 0.0)
+                if not (np.isfinite(particles[f]).all() and np.isfinite(pv).all()):
+                    return {"ok": False, "frame": f}
             if not (np.isfinite(q).all() and np.isfinite(qd).all()) or speed > MAX_SPEED:
                 return {"ok": False, "frame": f}
             max_speed = max(max_speed, speed)
@@ -244,7 +310,7 @@ def _run(stage, cfg, frames, device, progress, standins=()) -> dict:
                 progress(f, frames - 1)
         t_step = time.perf_counter() - t1
     notes = sorted({str(w.message) for w in caught})
-    return {"ok": True, "notes": notes, "fields": [f"{x.kind} {x.path}" for x in fields.fields], "body_q": record, "path_body": path_body, "device": str(device), "t_build": t0,
+    return {"ok": True, "particles": particles, "cloth_ranges": cloth_ranges, "notes": notes, "fields": [f"{x.kind} {x.path}" for x in fields.fields], "body_q": record, "path_body": path_body, "device": str(device), "t_build": t0,
             "t_model": t_model, "t_step": t_step, "max_speed": round(max_speed, 4)}
 
 
@@ -270,16 +336,35 @@ def read_controls(stage: Usd.Stage, path_body: dict) -> tuple[set, list]:
     return fixed, delayed
 
 
+def cloth_velocities(stage: Usd.Stage, cloth_ranges: dict) -> list:
+    """``physomni:initialVelocity`` of cloths: ((first particle, count), seconds, m/s)."""
+    out = []
+    for path, (start, count, _) in cloth_ranges.items():
+        prim = stage.GetPrimAtPath(path)
+        lin = prim.GetAttribute("physomni:initialVelocity")
+        if lin and lin.HasAuthoredValue():
+            at = prim.GetAttribute("physomni:velocityStartTime").Get() or 0.0
+            out.append(((start, count), max(float(at), 0.0), np.asarray(lin.Get(), float)))
+    return out
+
+
 def _give_velocities(state, pending: list, t: float) -> list:
-    """Set the velocities that are due at ``t``; returns those still pending."""
-    qd = state.body_qd.numpy()
+    """Set the velocities that are due at ``t`` (bodies by index, cloths by particle range);
+    returns those still pending."""
     due = [d for d in pending if d[1] <= t + 1e-9]
-    for b, _, lin, ang in due:
-        if lin is not None:
-            qd[b, :3] = lin
-        if ang is not None:
-            qd[b, 3:] = ang
-    state.body_qd.assign(qd)
+    if any(isinstance(d[0], int) for d in due):
+        qd = state.body_qd.numpy()
+        for b, _, lin, ang in (d for d in due if isinstance(d[0], int)):
+            if lin is not None:
+                qd[b, :3] = lin
+            if ang is not None:
+                qd[b, 3:] = ang
+        state.body_qd.assign(qd)
+    if any(not isinstance(d[0], int) for d in due):
+        pqd = state.particle_qd.numpy()
+        for (start, count), _, lin, _ in (d for d in due if not isinstance(d[0], int)):
+            pqd[start:start + count] = lin
+        state.particle_qd.assign(pqd)
     return [d for d in pending if d[1] > t + 1e-9]
 
 

@@ -297,11 +297,13 @@ def set_param(prim: Usd.Prim, attr_name: str, value, source: str) -> None:
     attr.SetCustomDataByKey("physomni:source", source)
 
 
-def write_sim_layer(path: pathlib.Path, *, fps: float, frames: int, tracks: dict, metadata: dict) -> None:
+def write_sim_layer(path: pathlib.Path, *, fps: float, frames: int, tracks: dict, metadata: dict,
+                    point_tracks: dict | None = None) -> None:
     """``sim.usdc``: overs with time samples only.
 
     ``tracks`` maps a prim path to ``(translations (F, 3), orientations (F, 4) as w, x, y, z)``; one sample
     per frame, time code = frame index. Prims that do not move must not be in ``tracks``.
+    ``point_tracks`` maps a Mesh prim path to its points (F, N, 3) in the prim's own frame.
     """
     layer = Sdf.Layer.CreateAnonymous(".usdc")
     layer.timeCodesPerSecond = float(fps)
@@ -319,6 +321,17 @@ def write_sim_layer(path: pathlib.Path, *, fps: float, frames: int, tracks: dict
                 layer.SetTimeSample(t_attr.path, float(f), Gf.Vec3d(*map(float, translations[f])))
                 w, x, y, z = map(float, orients[f])
                 layer.SetTimeSample(o_attr.path, float(f), Gf.Quatf(w, x, y, z))
+        for prim_path, points in (point_tracks or {}).items():
+            spec = Sdf.CreatePrimInLayer(layer, prim_path)
+            spec.specifier = Sdf.SpecifierOver
+            p_attr = Sdf.AttributeSpec(spec, "points", Sdf.ValueTypeNames.Point3fArray)
+            e_attr = Sdf.AttributeSpec(spec, "extent", Sdf.ValueTypeNames.Float3Array)
+            for f in range(len(points)):
+                pts = np.ascontiguousarray(points[f], np.float32)
+                layer.SetTimeSample(p_attr.path, float(f), Vt.Vec3fArray.FromNumpy(pts))
+                lo, hi = pts.min(axis=0), pts.max(axis=0)
+                layer.SetTimeSample(e_attr.path, float(f), Vt.Vec3fArray([Gf.Vec3f(*map(float, lo)),
+                                                                          Gf.Vec3f(*map(float, hi))]))
     # every ancestor of an over is an over too, so the layer defines nothing
     for spec_path in _all_prim_paths(layer):
         layer.GetPrimAtPath(spec_path).specifier = Sdf.SpecifierOver
