@@ -109,8 +109,9 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     point_tracks = {}
     for path, (start, count, origin) in run["cloth_ranges"].items():
         pts = run["particles"][:, start:start + count].astype(np.float64) - origin
-        point_tracks[path] = pts
-        moved.append(path)
+        if np.abs(pts - pts[0]).max() > STILL_METRES:
+            point_tracks[path] = pts
+            moved.append(path)
     write_sim_layer(folder / layers.SIM, fps=cfg["fps"], frames=frames, tracks=tracks, metadata=meta,
                     point_tracks=point_tracks)
     layers.set_shot_time(folder, cfg["fps"], frames)
@@ -185,7 +186,8 @@ CLOTH_BEND_KE = (1e-2, 1e1)
 
 def add_cloths(builder, stage: Usd.Stage, cloths, newton, wp) -> dict:
     """Cloth from each object's own surface (XPBD springs + bending), the highest ``physomni:fixTopRatio``
-    of its particles pinned. Returns path → (first particle, count, prim origin in world)."""
+    of its particles pinned (all of them for a fixed object). Returns path → (first particle, count,
+    prim origin in world)."""
     out = {}
     cache = UsdGeom.XformCache(Usd.TimeCode.Default())
     for prim, _kind, mat in cloths:
@@ -210,7 +212,8 @@ def add_cloths(builder, stage: Usd.Stage, cloths, newton, wp) -> dict:
                                indices=faces.ravel().tolist(), density=areal, edge_ke=float(bend),
                                add_springs=True, spring_ke=float(stretch), spring_kd=1.0,
                                particle_radius=float(0.25 * np.median(edges)), label=str(prim.GetPath()))
-        ratio = prim.GetAttribute("physomni:fixTopRatio").Get() or 0.0
+        ratio = 1.0 if prim.GetAttribute("physomni:fixed").Get() else prim.GetAttribute("physomni:fixTopRatio").Get()
+        ratio = ratio or 0.0
         if ratio > 0:
             z = world[:, 2]
             pinned = np.nonzero(z >= z.max() - ratio * (z.max() - z.min()))[0]
