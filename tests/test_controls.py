@@ -124,3 +124,13 @@ def test_push_moves_a_cloth(tmp_path, shot):
     points = stage.GetPrimAtPath("/World/Objects/towel_0").GetAttribute("points")
     shift = np.array(points.Get(stage.GetEndTimeCode())).mean(0) - np.array(points.Get(0)).mean(0)
     assert shift[0] > 0.2
+
+
+def test_fixed_cloth_does_not_move(tmp_path, shot):
+    from pxr import Usd
+
+    out = tmp_path / "shot"
+    cli("run", shot["photo"], "-o", out, "--mask", f"{shot['cup']}:towel", "--fix", "towel", "--seconds", "0.3",
+        "-q", check=True)
+    stage = Usd.Stage.Open(str(out / "shot.usda"))
+    assert stage.GetPrimAtPath("/World/Objects/towel_0").GetAttribute("points").GetNumTimeSamples() == 0

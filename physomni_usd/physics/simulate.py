@@ -216,7 +216,8 @@ def add_cloths(builder, stage: Usd.Stage, cloths, newton, wp) -> dict:
         ratio = ratio or 0.0
         if ratio > 0:
             z = world[:, 2]
-            pinned = np.nonzero(z >= z.max() - ratio * (z.max() - z.min()))[0]
+            cut = z.max() - min(ratio, 1.0) * (z.max() - z.min()) - 1e-9 * (1.0 + abs(z.max()))
+            pinned = np.nonzero(z >= cut)[0]
             for i in pinned:
                 builder.particle_mass[start + int(i)] = 0.0
         out[str(prim.GetPath())] = (start, len(world), m[3, :3].copy())
