@@ -12,9 +12,9 @@ TRUE_UP = np.array([0.0, np.sin(0.3), np.cos(0.3)])  # the true floor is tilted 
 
 
 def _rot_to(up):
-    from physomni_usd.align.ground import _rodrigues
+    from physomni_usd.rotations import between
 
-    return _rodrigues(np.array([0.0, 0.0, 1.0]), up)
+    return between(np.array([0.0, 0.0, 1.0]), up)
 
 
 def _scene(with_wall: bool, seed=0):

@@ -28,6 +28,7 @@ import cv2
 import numpy as np
 from scipy.optimize import minimize
 
+from ..rotations import axis_angle
 from .camera import PinholeCamera
 from .external import visible_silhouettes
 
@@ -46,12 +47,6 @@ class SearchResult:
     evaluations: int
     seconds: float
     curve: list[float] = field(default_factory=list)  # best loss after each evaluation
-
-
-def _rot(axis, angle) -> np.ndarray:
-    axis = np.asarray(axis, float) / np.linalg.norm(axis)
-    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * k @ k
 
 
 class CameraLoss:
@@ -73,7 +68,7 @@ class CameraLoss:
     def camera(self, x, scale: float = 1.0) -> PinholeCamera:
         dx, dy, dz, yaw, pitch, fov = x
         r0 = self.initial.world_from_camera  # columns: camera x, y, z in world
-        rot = _rot(r0[:, 1], math.radians(yaw)) @ _rot(r0[:, 0], math.radians(-pitch)) @ r0
+        rot = axis_angle(r0[:, 1], math.radians(yaw)) @ axis_angle(r0[:, 0], math.radians(-pitch)) @ r0
         w = max(8, int(round(self.initial.width * scale)))
         h = max(8, int(round(self.initial.height * scale)))
         return PinholeCamera.from_pose(w, h, float(fov), self.initial.origin + [dx, dy, dz], rot)

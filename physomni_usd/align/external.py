@@ -31,6 +31,7 @@ import numpy as np
 import trimesh
 
 from ..errors import InputError
+from ..rotations import from_wxyz
 from .camera import PinholeCamera
 from .ground import Plane, agmf_plane, apply, canonical_pose, ground_transform, ransac_plane
 from .penetration import resolve_penetration
@@ -48,13 +49,6 @@ class PlacedScene:
     projected: list[np.ndarray]  # world positions the photo was seen at (texture projection)
     plane: Plane | None
     info: dict = field(default_factory=dict)
-
-
-def quat_wxyz_to_matrix(q) -> np.ndarray:
-    w, x, y, z = np.asarray(q, float) / np.linalg.norm(q)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
 def load_poses(folder, labels: list[str]) -> list[tuple[trimesh.Trimesh, np.ndarray, np.ndarray, float, list[str]]]:
@@ -80,7 +74,7 @@ def load_poses(folder, labels: list[str]) -> list[tuple[trimesh.Trimesh, np.ndar
         entry = poses[label]
         try:
             mesh_file = folder / entry["mesh"]
-            r = quat_wxyz_to_matrix(entry.get("rotation_wxyz", [1, 0, 0, 0]))
+            r = from_wxyz(entry.get("rotation_wxyz", [1, 0, 0, 0]))
             t = np.asarray(entry.get("translation", [0, 0, 0]), float).reshape(3)
             s = float(entry.get("scale", 1.0))
         except (KeyError, TypeError, ValueError) as exc:

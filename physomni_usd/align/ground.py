@@ -27,6 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..rotations import between
+
 
 @dataclass
 class Plane:
@@ -57,28 +59,12 @@ def fit_plane_lsq(points: np.ndarray, weights: np.ndarray | None = None) -> tupl
     return n, -float(n @ centre)
 
 
-def _rodrigues(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Rotation (3, 3) taking unit vector a onto unit vector b (a proper rotation, det +1)."""
-    a = a / np.linalg.norm(a)
-    b = b / np.linalg.norm(b)
-    v = np.cross(a, b)
-    c = float(a @ b)
-    if np.linalg.norm(v) < 1e-12:
-        if c > 0:
-            return np.eye(3)
-        axis = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
-        axis /= np.linalg.norm(axis)
-        return 2 * np.outer(axis, axis) - np.eye(3)
-    k = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-    return np.eye(3) + k + k @ k * (1 / (1 + c))
-
-
 def canonical_pose(vertices: np.ndarray) -> np.ndarray:
     """4×4 transform putting one mesh in its canonical pose: centred, minor PCA axis on +Z, resting on z = 0."""
     v = np.asarray(vertices, float)
     centre = v.mean(0)
     _, vecs = np.linalg.eigh(np.cov((v - centre).T))
-    r = _rodrigues(vecs[:, 0], np.array([0.0, 0.0, 1.0]))
+    r = between(vecs[:, 0], np.array([0.0, 0.0, 1.0]))
     moved = (v - centre) @ r.T
     m = np.eye(4)
     m[:3, :3] = r
@@ -238,7 +224,7 @@ def ground_transform(plane: Plane, point_sets: list[np.ndarray] | None = None) -
     With ``point_sets``, the lowest transformed point is put on z = 0 instead
     (the paper's rule when the plane is only a direction estimate).
     """
-    r = _rodrigues(plane.normal, np.array([0.0, 0.0, 1.0]))
+    r = between(plane.normal, np.array([0.0, 0.0, 1.0]))
     m = np.eye(4)
     m[:3, :3] = r
     m[2, 3] = plane.offset  # a point on the plane (n·x = −offset) lands at z = 0

@@ -25,7 +25,8 @@ import trimesh
 
 from ..align.camera import PinholeCamera
 from ..align.camera_search import CameraLoss, search_camera
-from ..align.external import load_poses, place_external, quat_wxyz_to_matrix, visible_silhouettes
+from ..align.external import load_poses, place_external, visible_silhouettes
+from ..rotations import from_wxyz
 from ..metrics.alignment import (box_penetration_rate, interaction_success_rate, mask_iou, mesh_penetration_rate,
                                  reprojection_px, support_violation_rate)
 from ..metrics.image import ssim
@@ -86,7 +87,7 @@ def _isr(camera, verts, faces, seconds: float = 1.0, fps: int = 20) -> float:
         q = a.body_q.numpy()
         moved = []
         for (local, _), xf in zip(bodies, q):
-            r = quat_wxyz_to_matrix(xf[[6, 3, 4, 5]])  # warp stores x, y, z, w
+            r = from_wxyz(xf[[6, 3, 4, 5]])  # warp stores x, y, z, w
             moved.append(local @ r.T + xf[:3])
         if not np.all(np.isfinite(q)):
             return 0.0

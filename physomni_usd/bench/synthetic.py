@@ -18,6 +18,7 @@ import cv2
 import numpy as np
 import trimesh
 
+from .. import rotations
 from ..align.camera import PinholeCamera
 from ..align.external import CAMERA_TO_WORLD
 
@@ -99,18 +100,6 @@ def render_truth(camera: PinholeCamera, meshes: list[trimesh.Trimesh], rng=None)
     return np.clip(img, 0, 255).astype(np.uint8), masks
 
 
-def _random_rotation(rng) -> np.ndarray:
-    q = rng.normal(size=4)
-    q /= np.linalg.norm(q)
-    from ..align.external import quat_wxyz_to_matrix
-
-    return quat_wxyz_to_matrix(q)
-
-
-def _axis_angle(axis, angle) -> np.ndarray:
-    return trimesh.transformations.rotation_matrix(angle, axis)[:3, :3]
-
-
 def write_inputs(scene: SyntheticScene, folder, rot_deg: float = 0.0, scale_noise: float = 0.0,
                  trans_noise: float = 0.0, seed: int = 0) -> dict:
     """Photo, masks, meshes in their own frames and a noisy ``poses.json``; returns the CLI arguments."""
@@ -124,7 +113,7 @@ def write_inputs(scene: SyntheticScene, folder, rot_deg: float = 0.0, scale_nois
         cv2.imwrite(str(folder / f"{label}.png"), mask.astype(np.uint8) * 255)
         mask_args += ["--mask", f"{folder / label}.png:{label}"]
         # the mesh in a frame of its own: rotated, scaled, centred anywhere
-        own_rot = _random_rotation(rng)
+        own_rot = rotations.random(rng)
         own_scale = float(rng.uniform(0.5, 2.0))
         own_shift = rng.normal(0, 0.3, 3)
         cam_pts = (mesh.vertices - scene.camera.origin) @ world_to_cam.T  # true, OpenCV camera coordinates
@@ -135,22 +124,16 @@ def write_inputs(scene: SyntheticScene, folder, rot_deg: float = 0.0, scale_nois
         t = cam_pts.mean(0) - s * own_shift @ r.T
         # a reconstruction model's noise
         axis = rng.normal(size=3)
-        r = _axis_angle(axis / np.linalg.norm(axis), np.radians(rot_deg)) @ r
+        r = rotations.axis_angle(axis, np.radians(rot_deg)) @ r
         s *= 1.0 + rng.choice([-1, 1]) * scale_noise
         t = t + rng.normal(size=3) / np.sqrt(3) * trans_noise * np.linalg.norm(t)
         name = f"{label}.ply"
         trimesh.Trimesh(local, mesh.faces, process=False).export(str(folder / "meshes" / name))
-        w, x, y, z = _matrix_to_wxyz(r)
+        w, x, y, z = (float(c) for c in rotations.to_wxyz(r))
         poses[label] = {"mesh": name, "rotation_wxyz": [w, x, y, z], "translation": t.tolist(), "scale": s}
     (folder / "meshes" / "poses.json").write_text(json.dumps(poses, indent=2))
     return {"photo": folder / "photo.png", "mask_args": mask_args, "meshes": folder / "meshes",
             "fov": scene.camera.fov_deg}
-
-
-def _matrix_to_wxyz(r: np.ndarray) -> list[float]:
-    m = np.eye(4)
-    m[:3, :3] = r
-    return [float(c) for c in trimesh.transformations.quaternion_from_matrix(m)]
 
 
 def silhouettes(camera: PinholeCamera, meshes: list[trimesh.Trimesh]) -> list[np.ndarray]:

@@ -13,6 +13,7 @@ from .._warp import load_warp, pick_device
 from ..errors import InputError, PhysOmniError
 from ..metrics.geometry import max_penetration, world_meshes
 from ..report import update_report
+from ..rotations import to_wxyz
 from ..settings import SimulateSettings
 from ..usd import layers
 from ..usd.author import OBJECTS, write_sim_layer
@@ -163,7 +164,7 @@ def _add_stand_ins(builder, stage: Usd.Stage, standins, newton, wp) -> dict:
         m = np.array(cache.GetLocalToWorldTransform(prim))
         pos = m[3, :3]
         rot = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=1, keepdims=True)
-        q = _wxyz_from_matrix(rot.T)
+        q = to_wxyz(rot.T)
         hull = trimesh.convex.convex_hull(pts * np.linalg.norm(m[:3, :3], axis=1))
         cfg = newton.ModelBuilder.ShapeConfig()
         density = mat.GetAttribute("physics:density").Get() if mat else None
@@ -222,13 +223,6 @@ def add_cloths(builder, stage: Usd.Stage, cloths, newton, wp) -> dict:
                 builder.particle_mass[start + int(i)] = 0.0
         out[str(prim.GetPath())] = (start, len(world), m[3, :3].copy())
     return out
-
-
-def _wxyz_from_matrix(r: np.ndarray) -> np.ndarray:
-    from scipy.spatial.transform import Rotation
-
-    x, y, z, w = Rotation.from_matrix(r).as_quat()
-    return np.array([w, x, y, z])
 
 
 def _moved(pos: np.ndarray, quat: np.ndarray) -> bool:
