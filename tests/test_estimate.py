@@ -229,3 +229,15 @@ def test_vlm_needs_a_url(tmp_path, shot):
     env = {k: v for k, v in __import__("os").environ.items() if not k.startswith("PHYSOMNI_VLM")}
     proc = cli("estimate", folder / "shot.usda", "--estimator", "vlm", env=env)
     assert proc.returncode == 2 and "--vlm-url" in proc.stderr
+
+
+def test_slow_vlm_within_the_timeout_is_waited_for(tmp_path, shot, vlm_server):
+    folder = _shot_copy(tmp_path, shot)
+    vlm_server.mode, vlm_server.delay = "valid", 1.5
+    try:
+        proc = _vlm(folder, vlm_server, "--vlm-timeout", "10")
+    finally:
+        vlm_server.delay = 0.0
+    assert proc.returncode == 0, proc.stderr
+    assert [f for f in validate_stage(folder / "shot.usda") if f.severity == "error"] == []
+    assert _report(folder)["stages"]["estimate"]["objects"]["cup_0"]["params"]["density"]["source"] == "vlm"
