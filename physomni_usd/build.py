@@ -19,20 +19,22 @@ from .align.camera_search import search_camera
 from .align.external import load_poses, place_external
 from .align.place import centring_offset, make_room, separate
 from .errors import InputError
-from .materials.defaults import GROUND
+from .materials.defaults import GROUND_MATERIAL
 from .materials.report import material_report
 from .materials.rules import estimate_rules
 from .perceive.lift import fill_holes, foot_pixel, lift_silhouette
 from .perceive.masks import collect_masks, read_photo
 from .perceive.plate import background_plate, object_texture
+from .physics.forces import parse_force_options
 from .report import Timer, update_report
 from .settings import BuildSettings
 from .usd import layers
-from .usd.author import PhysicsObject, SceneObject, write_physics_layer, write_scene_layer
-
-GROUND_MATERIAL = PhysicsObject("Ground", "rigid", {"density": GROUND.density, "static_friction": GROUND.static_friction,
-                                                    "dynamic_friction": GROUND.dynamic_friction,
-                                                    "restitution": GROUND.restitution}, "rules")
+from .usd.author import (
+    PhysicsObject,
+    SceneObject,
+    write_physics_layer,
+    write_scene_layer,
+)
 
 TEXTURES = "textures"
 INPUTS = "inputs"
@@ -104,23 +106,6 @@ def parse_fixed(labels, labels_to_names: dict[str, str]) -> set[str]:
     return {_object_name("--fix", label, label, labels_to_names) for label in labels or ()}
 
 
-def parse_forces(specs) -> list:
-    """``--force KIND:key=value,...`` options → force fields; bad ones stop with one line."""
-    from .physics.forces import doubles_gravity, parse_force_spec
-
-    fields = []
-    for spec in specs or ():
-        try:
-            f = parse_force_spec(spec)
-        except ValueError as exc:
-            raise InputError(f"--force {spec!r}: {exc}") from None
-        if doubles_gravity(f):
-            raise InputError(f"--force {spec!r} repeats gravity, which the scene already applies; "
-                             "change /World/PhysicsScene's gravity instead")
-        fields.append(f)
-    return fields
-
-
 def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings = BuildSettings(),
                pushes=(), echo=lambda msg: None, forces=(), fixed=(), meshes_dir=None) -> BuildResult:
     timer = Timer()
@@ -133,7 +118,7 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
             names.setdefault(o.label, o.name)
             names[o.name] = o.name
         push = parse_pushes(pushes, names)
-        fields = parse_forces(forces)
+        fields = parse_force_options(forces)
         fixed_names = parse_fixed(fixed, names)
     h, w = photo.shape[:2]
     echo(f"perceive: {len(objects)} object(s) in a {w}×{h} photo")

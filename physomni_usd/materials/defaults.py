@@ -26,6 +26,8 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+from ..usd.author import PhysicsObject
+
 
 @dataclass(frozen=True)
 class RigidMaterial:
@@ -51,6 +53,11 @@ _TABLE = [
 
 DEFAULT = RigidMaterial("default", 200.0, 0.7, 0.7, 0.1)
 GROUND = RigidMaterial("ground", 1000.0, 0.7, 0.7, 0.1)
+#: The ground's physics material as the physics layer authors it.
+GROUND_MATERIAL = PhysicsObject("Ground", "rigid", {"density": GROUND.density,
+                                                    "static_friction": GROUND.static_friction,
+                                                    "dynamic_friction": GROUND.dynamic_friction,
+                                                    "restitution": GROUND.restitution}, "rules")
 
 
 def rigid_material(label: str) -> RigidMaterial:

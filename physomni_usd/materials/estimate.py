@@ -14,11 +14,12 @@ import cv2
 from pxr import Sdf, Usd, UsdPhysics
 
 from ..errors import InputError
-from ..physics.forces import read_force_fields
+from ..physics.forces import parse_force_options, read_force_fields
 from ..report import Timer, update_report
 from ..usd import layers
 from ..usd.author import PhysicsObject, set_param, write_physics_layer
 from .catalog import CATALOG, PARAMS, canonical_key, check_params, keys_of
+from .defaults import GROUND_MATERIAL
 from .report import bound_material, material_report, object_prims
 from .rules import estimate_rules
 
@@ -153,8 +154,6 @@ def _inputs(folder: pathlib.Path, names: list[str]):
 
 def estimate_shot(shot, estimator: str = "rules", vlm=None, sets=(), force_specs=(), echo=lambda m: None) -> dict:
     """Run one estimator over a shot (and apply ``--set`` / ``--force``); returns the report section."""
-    from ..build import GROUND_MATERIAL, parse_forces
-
     timer = Timer()
     folder = layers.shot_folder(shot)
     with timer.step("read"):
@@ -163,7 +162,7 @@ def estimate_shot(shot, estimator: str = "rules", vlm=None, sets=(), force_specs
         if not prims:
             raise InputError(f"{folder}: no objects under /World/Objects to estimate")
         set_values = parse_sets(sets, prims)
-        new_fields = parse_forces(force_specs)
+        new_fields = parse_force_options(force_specs)
         names = [p.GetName() for p in prims]
         labels = [p.GetAttribute("physomni:label").Get() or p.GetName() for p in prims]
         photo, masks = _inputs(folder, names)

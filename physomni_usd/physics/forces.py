@@ -166,6 +166,23 @@ def doubles_gravity(f: "ForceField", gravity=(0.0, 0.0, -9.81)) -> bool:
     return bool(np.linalg.norm(a - g) < 0.1 * np.linalg.norm(g))
 
 
+def parse_force_options(specs) -> list["ForceField"]:
+    """``--force KIND:key=value,...`` options → fields; a bad one stops with one line naming it."""
+    from ..errors import InputError
+
+    fields = []
+    for spec in specs or ():
+        try:
+            f = parse_force_spec(spec)
+        except ValueError as exc:
+            raise InputError(f"--force {spec!r}: {exc}") from None
+        if doubles_gravity(f):
+            raise InputError(f"--force {spec!r} repeats gravity, which the scene already applies; "
+                             "change /World/PhysicsScene's gravity instead")
+        fields.append(f)
+    return fields
+
+
 def parse_force_spec(spec: str) -> "ForceField":
     """``'wind:direction=1,0,0,strength=30'`` → a :class:`ForceField`; vectors keep their commas."""
     kind, _, rest = spec.partition(":")
