@@ -59,7 +59,7 @@ class Param:
 
 
 PARAMS = {p.key: p for p in (
-    Param("density", "physics:density", "kg/m³ (kg/m² for cloth)", 0.0, 1e5, lo_open=True),
+    Param("density", "physics:density", "kg/m³ (kg/m² for cloth)", 1e-3, 1e5),
     Param("static_friction", "physics:staticFriction", "", 0.0, 10.0),
     Param("dynamic_friction", "physics:dynamicFriction", "", 0.0, 10.0),
     Param("restitution", "physics:restitution", "", 0.0, 1.0),

@@ -7,15 +7,12 @@ import math
 from pxr import Usd, UsdPhysics, UsdShade
 
 from ..errors import InputError
+from ..materials.catalog import PARAMS
 
-#: (attribute, lowest, highest) accepted on physics materials and bodies; None = unbounded.
-LIMITS = {
-    "physics:density": (1e-3, 1e6),
-    "physics:mass": (1e-6, 1e9),
-    "physics:staticFriction": (0.0, 10.0),
-    "physics:dynamicFriction": (0.0, 10.0),
-    "physics:restitution": (0.0, 1.0),
-}
+#: (lowest, highest) accepted per attribute: the material catalog's ranges, plus a body's mass.
+LIMITS = {PARAMS[k].attr: (PARAMS[k].lo, PARAMS[k].hi)
+          for k in ("density", "static_friction", "dynamic_friction", "restitution")}
+LIMITS["physics:mass"] = (1e-6, 1e9)
 MAX_SPEED = 1000.0  # m/s
 MAX_SPIN = 36000.0  # deg/s
 
