@@ -26,6 +26,7 @@ import trimesh
 from ..align.camera import PinholeCamera
 from ..align.camera_search import CameraLoss, search_camera
 from ..align.external import load_poses, place_external, visible_silhouettes
+from ..render.raycast import SilhouetteRenderer
 from ..rotations import from_wxyz
 from ..metrics.alignment import (box_penetration_rate, interaction_success_rate, mask_iou, mesh_penetration_rate,
                                  reprojection_px, support_violation_rate)
@@ -76,6 +77,7 @@ def _isr(camera, verts, faces, seconds: float = 1.0, fps: int = 20) -> float:
     contacts = pipe.contacts()
     control = model.control()
     frames = []
+    renderer = SilhouetteRenderer(verts, faces)  # one BVH, refitted as the bodies move
     sub = 5
     dt = 1.0 / (fps * sub)
     for _ in range(int(seconds * fps)):
@@ -91,7 +93,8 @@ def _isr(camera, verts, faces, seconds: float = 1.0, fps: int = 20) -> float:
             moved.append(local @ r.T + xf[:3])
         if not np.all(np.isfinite(q)):
             return 0.0
-        frames.append(visible_silhouettes(moved, faces, camera))
+        renderer.update(moved)
+        frames.append(visible_silhouettes(moved, faces, camera, renderer))
     return interaction_success_rate(frames)
 
 
