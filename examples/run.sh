@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Usage: bash examples/run.sh EXAMPLE_DIR [OUT_DIR]
+# Runs `physomni-usd run` on an example folder as its example.json describes it
+# (photo, masks with labels, pushes, seconds), writing to OUT_DIR (default out/<example>).
+set -euo pipefail
+dir="$(cd "$1" && pwd)"
+out="${2:-out/$(basename "$dir")}"
+mapfile -t args < <(python3 - "$dir" <<'PY'
+import json, pathlib, sys
+
+folder = pathlib.Path(sys.argv[1])
+spec = json.loads((folder / "example.json").read_text())
+print(folder / spec["photo"])
+for mask in spec["masks"]:
+    print("--mask")
+    print(folder / mask)
+for push in spec.get("push", []):
+    print("--push")
+    print(push)
+print("--seconds")
+print(spec.get("seconds", 3))
+PY
+)
+physomni-usd run "${args[@]}" -o "$out"
