@@ -96,10 +96,6 @@ class PinholeCamera:
         uv = p[:, :2] / safe[:, None] * self.focal_px + np.array(self.principal_point)
         return uv, z
 
-    def with_fov(self, fov_deg: float) -> "PinholeCamera":
-        return PinholeCamera(self.width, self.height, fov_deg, self.pitch_deg, self.position,
-                             tuple(float(x) for x in self._axes.ravel()))
-
     def ground_points(self, u, v) -> np.ndarray:
         """Where the rays through (u, v) meet z = 0, (…, 3); NaN for rays at or above the horizon."""
         d = self.rays(u, v)

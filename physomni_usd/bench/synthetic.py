@@ -20,7 +20,6 @@ import trimesh
 
 from .. import rotations
 from ..align.camera import PinholeCamera
-from ..align.external import CAMERA_TO_WORLD
 
 
 @dataclass
@@ -136,10 +135,4 @@ def write_inputs(scene: SyntheticScene, folder, rot_deg: float = 0.0, scale_nois
             "fov": scene.camera.fov_deg}
 
 
-def silhouettes(camera: PinholeCamera, meshes: list[trimesh.Trimesh]) -> list[np.ndarray]:
-    """Visible masks of meshes seen by ``camera`` (painter's algorithm, as the truth is made)."""
-    _, masks = render_truth(camera, meshes)
-    return masks
-
-
-__all__ = ["SyntheticScene", "make_scene", "render_truth", "silhouettes", "write_inputs", "CAMERA_TO_WORLD"]
+__all__ = ["SyntheticScene", "make_scene", "render_truth", "write_inputs"]

@@ -25,7 +25,7 @@ field with curl (a vortex) also spins what it carries; particles receive m·a(x)
 """
 
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -62,7 +62,6 @@ class ForceField:
     frequency: float = 3.0
     seed: int = 0
     path: str = ""
-    extra: dict = field(default_factory=dict)
 
     def __post_init__(self):
         if self.kind not in KINDS:
