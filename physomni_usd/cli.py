@@ -154,11 +154,11 @@ def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, m
             click.echo(f"wrote {result.shot} ({len(result.objects)} objects, {total:.2f} s)", err=True)
 
 
-def _simulate(shot, seconds, fps, substeps, quiet):
+def _simulate(shot, seconds, fps, substeps, quiet, particle_spacing=None):
     from .physics.simulate import simulate_shot
     from .settings import SimulateSettings
 
-    settings = SimulateSettings(seconds=seconds, fps=fps, substeps=substeps)
+    settings = SimulateSettings(seconds=seconds, fps=fps, substeps=substeps, particle_spacing=particle_spacing)
     with _progress("simulate", not quiet) as bar:
         section = simulate_shot(shot, settings, progress=bar, echo=_say(quiet))
     if not quiet:
@@ -184,10 +184,19 @@ def _render(shot, output, quiet, max_size=1920):
 @click.argument("shot", type=click.Path(path_type=pathlib.Path))
 @click.option("--seconds", type=float, default=3.0, show_default=True, help="Simulated seconds.")
 @click.option("--fps", type=float, default=None, help="Frames per second [default: the shot's].")
-@click.option("--substeps", type=int, default=None, help="Solver steps per frame [default: the shot's].")
+@click.option("--substeps", type=int, default=None,
+              help="Solver steps per frame [default: chosen from the shot's materials and speeds].")
+@click.option("--particle-spacing", type=float, default=None, metavar="METRES",
+              help="MPM particle spacing [default: the smallest MPM object 10 particles across, at most "
+                   "15,000 particles].")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
-def simulate(shot, seconds, fps, substeps, quiet):
+def simulate(shot, seconds, fps, substeps, particle_spacing, quiet):
     """Simulate the composed shot (edits.usda included) and write sim.usdc.
+
+    Each object goes to its material's solver: rigid bodies, cloth (pbd_cloth) and soft bodies
+    (pbd_elastic) on XPBD, sand, snow, liquids and elastic solids (mpm_*) on Newton's implicit MPM,
+    coupled both ways. Steps come from the materials; a frame whose energy or speed runs away is
+    redone at half the step.
 
     \b
     Example: make the box heavier and throw it, then simulate again:
@@ -197,9 +206,14 @@ def simulate(shot, seconds, fps, substeps, quiet):
           vector3f physics:velocity = (0, 2, 1)
       } } }
       physomni-usd simulate shot/shot.usda --seconds 4
+
+    \b
+    Turn the box to sand and simulate with coarser particles:
+      physomni-usd estimate shot/shot.usda --set box.material=mpm_sand
+      physomni-usd simulate shot/shot.usda --particle-spacing 0.03
     """
     with _errors():
-        _simulate(shot, seconds, fps, substeps, quiet)
+        _simulate(shot, seconds, fps, substeps, quiet, particle_spacing)
 
 
 @main.command()

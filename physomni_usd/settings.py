@@ -56,6 +56,9 @@ class SimulateSettings(_Settings):
     substeps: int | None = Field(None, ge=1, le=1000, description="Solver steps per frame; None keeps the shot's.")
     iterations: int | None = Field(None, ge=1, le=100, description="Solver iterations; None keeps the shot's.")
     device: str | None = Field(None, description="warp device ('cpu', 'cuda:0'); None picks cuda when present.")
+    particle_spacing: float | None = Field(None, gt=1e-4, le=10.0,
+                                           description="MPM particle spacing in metres; None chooses it from the "
+                                                       "objects' sizes.")
 
 
 class RenderSettings(_Settings):

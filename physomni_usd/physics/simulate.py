@@ -1,7 +1,10 @@
-"""Rigid-body simulation of a shot with Newton, recorded as one sample per video frame."""
+"""Simulation of a shot with Newton: each object routed to its material's solver (rigid bodies, cloth
+and soft bodies on XPBD, MPM materials on the implicit MPM solver, coupled two-way), steps chosen from
+the materials, every frame checked by the stability guard, recorded as one sample per video frame."""
 
 from __future__ import annotations
 
+import re
 import sys
 import time
 import warnings
@@ -16,16 +19,21 @@ from ..report import update_report
 from ..rotations import to_wxyz
 from ..settings import SimulateSettings
 from ..usd import layers
-from ..usd.author import OBJECTS, write_sim_layer
-from .checks import MAX_SPEED, check_rigid_inputs
+from ..usd.author import OBJECTS, PARTICLES, author_particle_prims, write_sim_layer
+from .checks import check_rigid_inputs
+from .cloth import add_cloth, add_soft_body
 from .forces import FieldSet, body_samples, read_force_fields
+from .mpm import SURFACE_TYPES, add_particle_forces, bind_surface, build_mpm_scene, deform_surface, \
+    particle_gradients, step_particles
+from .objects import SceneObject, scene_objects
+from .stability import Guard, StepPlan, body_energy, particle_energy, plan_steps
 
 SUPPORTED_SOLVERS = ("xpbd",)
 #: Newton simplifies convex hulls to this many vertices; its default (64) cuts the corners of
 #: lofted meshes by centimetres, which shows as objects sinking into the ground.
 MAX_HULL_VERTICES = 256
-#: How often a diverging run is retried, each time with twice the substeps.
-MAX_RETRIES = 2
+#: How often a diverging frame is rolled back and redone, each time with half the step.
+MAX_RETRIES = 4
 #: Motion below these (1 mm, 0.11°; solver creep of a resting body stays under them) is "did not
 #: move": such prims get no time samples.
 STILL_METRES = 1e-3
@@ -69,68 +77,73 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     folder = layers.shot_folder(shot)
     stage = layers.open_shot(shot, mute_sim=True)
     cfg = scene_settings(stage, settings)
-    bodies = rigid_bodies(stage)
-    deformables = deformable_objects(stage)
-    # objects that are rigid bodies in USD already move as such; the others need a stand-in
-    free = [d for d in deformables if not d[0].HasAPI(UsdPhysics.RigidBodyAPI)]
-    cloths = [d for d in free if d[1] == "pbd_cloth"]
-    standins = [d for d in free if d[1] != "pbd_cloth"]
-    if not bodies and not free:
+    objects = scene_objects(stage)
+    if not objects:
         raise InputError(f"{shot}: no objects to simulate under {OBJECTS}")
-    check_rigid_inputs(stage, bodies)
-    for prim, kind, _ in [d for d in deformables if d not in cloths]:
-        echo(f"simulate: {prim.GetName()} is {kind}; its solver is not in this version, so it moves as a rigid "
-             "stand-in (convex hull, its density and friction)")
+    check_rigid_inputs(stage, [o.prim for o in objects if o.family == "rigid" and o.is_body])
     frames = int(round(settings.seconds * cfg["fps"])) + 1
 
-    substeps = cfg["substeps"]
-    for attempt in range(MAX_RETRIES + 1):
-        run = _run(stage, cfg | {"substeps": substeps}, frames, settings.device, progress, standins, cloths)
-        if run["ok"]:
-            break
-        if attempt == MAX_RETRIES:
-            raise PhysOmniError(f"simulation diverged at frame {run['frame']} even with {substeps} substeps per "
-                                "frame; check the masses, speeds and friction in the shot")
-        echo(f"simulate: diverged at frame {run['frame']}; restarting with {substeps * 2} substeps per frame")
-        substeps *= 2
+    sim = _Simulation(stage, objects, cfg, settings)
+    plan = plan_steps(objects, cfg["fps"], cfg["substeps"], mpm=sim.mpm, cloth_masses=sim.cloth_masses,
+                      cloth_stiffness=sim.cloth_stiffness, soft_dt=sim.soft_dt, fixed_substeps=settings.substeps is not None)
+    echo(f"simulate: solvers {', '.join(sim.solvers)}; {plan.substeps} substeps per frame"
+         + (f", {plan.mpm_steps} MPM steps per frame ({sim.mpm.model.particle_count} particles, "
+            f"spacing {sim.mpm.spacing * 1000:.1f} mm)" if sim.mpm else ""))
+    run = sim.run(plan, frames, progress, echo)
 
     t_write = time.perf_counter()
-    q = run["body_q"]  # (F, B, 7): x, y, z, qx, qy, qz, qw
+    plan = run["plan"]
     tracks, moved = {}, []
-    for path, b in run["path_body"].items():
+    q = run["body_q"]  # (F, B, 7): x, y, z, qx, qy, qz, qw
+    for path, b in sim.path_body.items():
         pos = q[:, b, :3].astype(np.float64)
         quat = q[:, b, [6, 3, 4, 5]].astype(np.float64)  # → w, x, y, z
         quat /= np.linalg.norm(quat, axis=1, keepdims=True)
         if _moved(pos, quat):
             tracks[path] = (pos, quat)
             moved.append(path)
-    dt = 1.0 / (cfg["fps"] * substeps)
-    meta = {"physomni:solver": cfg["solver"], "physomni:substeps": substeps, "physomni:dt": dt,
-            "physomni:iterations": cfg["iterations"], "physomni:seconds": settings.seconds}
     point_tracks = {}
-    for path, (start, count, origin) in run["cloth_ranges"].items():
-        pts = run["particles"][:, start:start + count].astype(np.float64) - origin
+    for path, pts in run["surfaces"].items():
         if np.abs(pts - pts[0]).max() > STILL_METRES:
             point_tracks[path] = pts
             moved.append(path)
+    particles = {}
+    if sim.mpm:
+        for o in sim.mpm.objects:
+            pts = run["mpm_points"][:, o.start:o.start + o.count]
+            particles[o.obj.name] = {"points": pts, "show": o.binding is None, "mesh": o.obj.path,
+                                     "colour": o.colour, "width": sim.mpm.spacing}
+            moved.append(f"{PARTICLES}/{o.obj.name}")
+        author_particle_prims(folder / layers.PHYSICS, {k: (v["colour"], v["width"], v["show"])
+                                                         for k, v in particles.items()})
+    meta = {"physomni:solver": cfg["solver"], "physomni:substeps": plan.substeps, "physomni:dt": plan.dt,
+            "physomni:iterations": cfg["iterations"], "physomni:seconds": settings.seconds,
+            "physomni:solvers": ", ".join(sim.solvers)}
+    if plan.mpm_steps:
+        meta |= {"physomni:mpmSteps": plan.mpm_steps, "physomni:mpmDt": plan.mpm_dt,
+                 "physomni:particleSpacing": sim.mpm.spacing}
     write_sim_layer(folder / layers.SIM, fps=cfg["fps"], frames=frames, tracks=tracks, metadata=meta,
-                    point_tracks=point_tracks)
+                    point_tracks=point_tracks, particles=particles)
     layers.set_shot_time(folder, cfg["fps"], frames)
     checks = _checks(layers.open_shot(folder), frames)
     t_end = time.perf_counter()
 
     section = {
-        "solver": cfg["solver"], "device": run["device"], "fps": cfg["fps"], "frames": frames,
-        "substeps": substeps, "dt": dt, "iterations": cfg["iterations"], "simulated_seconds": settings.seconds,
-        "bodies": len(run["path_body"]), "moving_prims": moved,
-        "rigid_stand_ins": {prim.GetName(): kind for prim, kind, _ in deformables if kind != "pbd_cloth"
-                            or prim.HasAPI(UsdPhysics.RigidBodyAPI)},
-        "cloths": {prim.GetName(): {"particles": run["cloth_ranges"][str(prim.GetPath())][1]} for prim, _, _ in
-                   cloths}, "retries": attempt, "newton_notes": run["notes"],
-        "force_fields": run["fields"],
+        "solver": cfg["solver"], "solvers": list(sim.solvers), "device": sim.device, "fps": cfg["fps"],
+        "frames": frames, "substeps": plan.substeps, "dt": plan.dt, "iterations": cfg["iterations"],
+        "steps": plan.as_dict(), "simulated_seconds": settings.seconds,
+        "bodies": len(sim.path_body), "moving_prims": moved,
+        "objects": {o.name: {"material": o.kind, "solver": o.family} for o in objects},
+        "cloths": {o.name: {"particles": sim.ranges[o.path][1]} for o in objects if o.family == "cloth"},
+        "soft_bodies": {o.name: {"particles": sim.ranges[o.path][1]} for o in objects if o.family == "soft"},
+        "mpm": ({"particles": sim.mpm.model.particle_count, "spacing_m": sim.mpm.spacing,
+                 "voxel_m": sim.mpm.solver.voxel_size,
+                 "objects": {o.obj.name: o.count for o in sim.mpm.objects}} if sim.mpm else None),
+        "guard": run["guard"], "retries": len(run["guard"]["rollbacks"]), "newton_notes": run["notes"],
+        "force_fields": [f"{x.kind} {x.path}" for x in sim.fields.fields],
         "max_speed_m_s": run["max_speed"], **checks,
         "modules": {"torch": "torch" in sys.modules},
-        "seconds": {"read": round(run["t_build"] - t_start, 4), "build_model": round(run["t_model"], 4),
+        "seconds": {"read": round(sim.t_built - t_start - sim.t_model, 4), "build_model": round(sim.t_model, 4),
                     "step": round(run["t_step"], 4), "write": round(t_end - t_write, 4)},
         "total_seconds": round(t_end - t_start, 4),
         "seconds_per_simulated_second": round(run["t_step"] / max(settings.seconds, 1e-9), 4),
@@ -139,89 +152,289 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     return section
 
 
-def deformable_objects(stage: Usd.Stage) -> list[tuple[Usd.Prim, str, Usd.Prim | None]]:
-    """Objects whose material needs a solver this version does not build: (prim, material type, material)."""
-    from ..materials.report import bound_material, object_prims
+class _Simulation:
+    """The Newton models of one shot and how to advance them a frame at a time."""
 
-    out = []
-    for prim in object_prims(stage):
-        mat = bound_material(prim)
-        kind = mat.GetAttribute("physomni:materialType").Get() if mat else "rigid"
-        if kind and kind != "rigid":
-            out.append((prim, kind, mat))
+    def __init__(self, stage: Usd.Stage, objects: list[SceneObject], cfg: dict, settings: SimulateSettings):
+        t0 = time.perf_counter()
+        wp = load_warp()
+        import newton
+
+        self.wp, self.newton = wp, newton
+        self.cfg, self.objects = cfg, objects
+        self.device = str(pick_device(settings.device))
+        builder = newton.ModelBuilder(up_axis=newton.Axis.Z)
+        # the stage's rigid bodies come through Newton's USD import; objects whose material now says
+        # otherwise (switched by a layer over the build) are left to their own solver
+        not_rigid = [o.path for o in objects if o.family != "rigid" and o.is_body]
+        result = builder.add_usd(stage, load_visual_shapes=False, load_sites=False, verbose=False,
+                                 mesh_maxhullvert=MAX_HULL_VERTICES,
+                                 ignore_paths=[re.escape(p) + "$" for p in not_rigid] or None)
+        self.path_body = {p: b for p, b in result["path_body_map"].items() if p.startswith(OBJECTS + "/")}
+        self.path_body.update(_add_stand_ins(builder, [o for o in objects if o.family == "rigid"
+                                                       and not o.is_body], newton, wp))
+        self.ranges = {}  # cloth / soft body path → (first particle, count)
+        self.soft_rest = {}
+        self.soft_dt = None
+        for o in objects:
+            if o.family == "cloth":
+                self.ranges[o.path] = add_cloth(builder, o, wp)
+            elif o.family == "soft":
+                start, count, rest, dt_soft = add_soft_body(builder, o, wp)
+                self.soft_dt = min(self.soft_dt or dt_soft, dt_soft)
+                self.ranges[o.path] = (start, count)
+                self.soft_rest[o.path] = bind_surface(o.points, rest)
+        fixed, delayed = read_controls(stage, self.path_body)
+        delayed += particle_velocities(stage, self.ranges)
+        for b in fixed:
+            # a kinematic body with no velocity stays put and still collides with everything else
+            builder.body_flags[b] = int(newton.BodyFlags.KINEMATIC)
+            builder.body_qd[b] = wp.spatial_vector(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        self.fields = FieldSet(read_force_fields(stage), self.device)
+        if self.fields:
+            points = [np.zeros((1, 3))] * builder.body_count
+            for path, b in self.path_body.items():
+                mesh = UsdGeom.Mesh(stage.GetPrimAtPath(path))
+                points[b] = np.asarray(mesh.GetPointsAttr().Get(), float) if mesh else np.zeros((1, 3))
+            self.fields.set_body_samples(body_samples(points))
+        with wp.ScopedDevice(self.device), warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            model = builder.finalize(device=self.device)
+            # no particle–particle contact: a lofted surface has vertices closer than their radii (near
+            # its poles), and pushing those apart threw cloths up; cloth and soft bodies still collide
+            # with the ground and the rigid bodies
+            model.particle_max_radius = 0.0
+            model.particle_grid = None
+            self.model = model
+            self.solvers = []
+            self.solver = None
+            if model.body_count or model.particle_count:
+                self.solver = newton.solvers.SolverXPBD(model, iterations=cfg["iterations"])
+                self.solvers.append("xpbd")
+            mpm_objects = [o for o in objects if o.family == "mpm"]
+            self.mpm = build_mpm_scene(mpm_objects, model, self.device, settings.particle_spacing) \
+                if mpm_objects else None
+            if self.mpm:
+                self.solvers.append("implicit_mpm")
+                delayed += mpm_velocities(stage, self.mpm)
+            self.state, self.state_next = model.state(), model.state()
+            self.control = model.control()
+            # sticky contact matching keeps a resting hull's contact points from frame to frame;
+            # without it XPBD lets flat-based hulls creep by millimetres per second
+            self.pipeline = newton.CollisionPipeline(model, contact_matching="sticky") if self.solver else None
+            self.contacts = self.pipeline.contacts() if self.pipeline else None
+        self.notes = [str(w.message) for w in caught]
+        self.pending = sorted(delayed, key=lambda d: d[1])
+        masses = model.particle_mass.numpy() if model.particle_count else np.zeros(0)
+        cloth_idx = [np.arange(s, s + n) for p, (s, n) in self.ranges.items()]
+        self.cloth_masses = masses[np.concatenate(cloth_idx)] if cloth_idx else None
+        self.cloth_stiffness = max((float(model.spring_stiffness.numpy().max()) if model.spring_count else 0.0), 0.0)
+        self.t_model = time.perf_counter() - t0
+        self.t_built = time.perf_counter()
+
+    # --- state -------------------------------------------------------------------------------------
+    def energy(self) -> tuple[float, float, bool]:
+        e_b, v_b = body_energy(self.model, self.state)
+        e_p, v_p = particle_energy(self.model, self.state)
+        e_m, v_m = particle_energy(self.mpm.model, self.mpm.state) if self.mpm else (0.0, 0.0)
+        finite = all(np.isfinite(a.numpy()).all() for a in self._arrays())
+        return e_b + e_p + e_m, max(v_b, v_p, v_m), finite
+
+    def _arrays(self):
+        s = self.state
+        out = [a for a in (s.body_q, s.body_qd, s.particle_q, s.particle_qd) if a is not None and a.shape[0]]
+        if self.mpm:
+            out += [self.mpm.state.particle_q, self.mpm.state.particle_qd]
+        return out
+
+    def checkpoint(self):
+        snaps = [_snapshot(self.state)]
+        if self.mpm:
+            snaps += [_snapshot(self.mpm.state), {"": self.wp.clone(self.mpm.body_force)}]
+        return snaps, list(self.pending)
+
+    def restore(self, saved) -> None:
+        snaps, self.pending = saved
+        _restore(self.state, snaps[0])
+        if self.mpm:
+            _restore(self.mpm.state, snaps[1])
+            self.mpm.body_force.assign(snaps[2][""])
+
+    # --- stepping ----------------------------------------------------------------------------------
+    def advance(self, plan: StepPlan, t0: float, step0: int, guard: Guard) -> None:
+        """One frame from time ``t0``."""
+        groups = plan.mpm_steps or 1
+        per = plan.substeps // groups
+        dt = plan.dt
+        step = step0
+        for _ in range(groups):
+            for _ in range(per):
+                t = t0 + (step - step0) * dt
+                if self.pending and self.pending[0][1] <= t + 1e-9:
+                    self.pending = self._give_velocities(t, guard)
+                if self.solver is not None:
+                    self.state.clear_forces()
+                    self.fields.apply(self.model, self.state, t, step)
+                    if self.mpm:
+                        add_particle_forces(self.mpm, self.state)
+                    self.pipeline.collide(self.state, self.contacts)
+                    self.solver.step(self.state, self.state_next, self.control, self.contacts, dt)
+                    self.state, self.state_next = self.state_next, self.state
+                step += 1
+            if self.mpm:
+                t = t0 + (step - step0) * dt
+                self.mpm.state.clear_forces()
+                self.fields.apply(self.mpm.model, self.mpm.state, t, step)
+                step_particles(self.mpm, self.model, self.state, plan.mpm_dt)
+        if self.fields:
+            guard.add_work(self._field_work(t0, step0, 1.0 / plan.fps))
+
+    def _field_work(self, t: float, step: int, seconds: float) -> float:
+        """Work the force fields did over the last frame, estimated from the end-of-frame velocities."""
+        work = 0.0
+        m = self.model
+        if m.body_count:
+            q, qd = self.state.body_q.numpy(), self.state.body_qd.numpy()
+            a = self.fields.acceleration(q[:, :3], qd[:, :3], t, step)
+            work += float((m.body_mass.numpy() * np.einsum("ij,ij->i", a, qd[:, :3])).sum()) * seconds
+        for model, state in ((m, self.state), (self.mpm.model, self.mpm.state) if self.mpm else (None, None)):
+            if model is None or not model.particle_count:
+                continue
+            x, v = state.particle_q.numpy(), state.particle_qd.numpy()
+            a = self.fields.acceleration(x, v, t, step)
+            work += float((model.particle_mass.numpy() * np.einsum("ij,ij->i", a, v)).sum()) * seconds
+        return abs(work)
+
+    def _give_velocities(self, t: float, guard: Guard) -> list:
+        """Set the velocities due at ``t``; the kinetic energy they add counts as work for the guard."""
+        before = self.energy()[0]
+        rest = _give_velocities(self.state, [d for d in self.pending if d[0] != "mpm"], t)
+        mpm_due = [d for d in self.pending if d[0] == "mpm" and d[1] <= t + 1e-9]
+        if mpm_due:
+            v = self.mpm.state.particle_qd.numpy()
+            for _, _, (start, count), lin in mpm_due:
+                v[start:start + count] = lin
+            self.mpm.state.particle_qd.assign(v)
+        guard.add_work(self.energy()[0] - before)
+        return sorted(rest + [d for d in self.pending if d[0] == "mpm" and d[1] > t + 1e-9],
+                      key=lambda d: d[1])
+
+    def run(self, plan: StepPlan, frames: int, progress, echo) -> dict:
+        """Step ``frames − 1`` frames under the guard; a failed frame is rolled back and redone at half the
+        step. Returns what the writer needs."""
+        wp = self.wp
+        guard = Guard()
+        rollbacks = []
+        n_b = self.model.body_count
+        body_q = np.zeros((frames, n_b, 7), np.float32)
+        surfaces = {o.path: np.zeros((frames, len(o.points), 3)) for o in self.objects
+                    if o.family in ("cloth", "soft") or (self.mpm and o.family == "mpm" and o.kind in SURFACE_TYPES)}
+        mpm_points = np.zeros((frames, self.mpm.model.particle_count, 3), np.float32) if self.mpm else None
+        with wp.ScopedDevice(self.device):
+            energy, speed, finite = self.energy()
+            guard.check(energy, speed, finite)
+            self._record(0, body_q, surfaces, mpm_points)
+            max_speed = speed
+            t1 = time.perf_counter()
+            t, step, f = 0.0, 0, 1
+            while f < frames:
+                saved = self.checkpoint()
+                work = guard.work
+                self.advance(plan, t, step, guard)
+                energy, speed, finite = self.energy()
+                why = guard.check(energy, speed, finite)
+                if why is not None:
+                    if len(rollbacks) >= MAX_RETRIES:
+                        raise PhysOmniError(f"simulation diverged at frame {f}: {why}, even at {plan.substeps} "
+                                            "substeps per frame; check the masses, speeds and stiffness in the shot")
+                    self.restore(saved)
+                    guard.work = work
+                    plan = plan.refined()
+                    rollbacks.append({"frame": f, "why": why, "substeps": plan.substeps, "mpm_steps": plan.mpm_steps})
+                    echo(f"simulate: frame {f}: {why}; going back to frame {f - 1} with {plan.substeps} "
+                         "substeps per frame")
+                    continue
+                step += plan.substeps
+                t = f / plan.fps
+                max_speed = max(max_speed, speed)
+                self._record(f, body_q, surfaces, mpm_points)
+                if progress:
+                    progress(f, frames - 1)
+                f += 1
+            t_step = time.perf_counter() - t1
+        return {"plan": plan, "body_q": body_q, "surfaces": surfaces, "mpm_points": mpm_points,
+                "t_step": t_step, "max_speed": round(max_speed, 4), "notes": sorted(set(self.notes)),
+                "guard": {"energy_initial_j": guard.initial, "energy_final_j": guard.last_energy,
+                          "work_j": guard.work, "tolerance": guard.tolerance, "rollbacks": rollbacks}}
+
+    def _record(self, f: int, body_q, surfaces, mpm_points) -> None:
+        if self.model.body_count:
+            body_q[f] = self.state.body_q.numpy()
+        x = self.state.particle_q.numpy() if self.model.particle_count else None
+        grads = particle_gradients(self.mpm) if self.mpm else None
+        if self.mpm:
+            mpm_points[f] = self.mpm.state.particle_q.numpy()
+        for o in self.objects:
+            if o.path not in surfaces:
+                continue
+            if o.family == "cloth":
+                start, count = self.ranges[o.path]
+                world = x[start:start + count].astype(np.float64)
+            elif o.family == "soft":
+                start, count = self.ranges[o.path]
+                world = deform_surface(self.soft_rest[o.path], x[start:start + count].astype(np.float64), None)
+            else:
+                mo = next(m for m in self.mpm.objects if m.obj is o)
+                pts = mpm_points[f, mo.start:mo.start + mo.count].astype(np.float64)
+                g = grads[mo.start:mo.start + mo.count] if grads is not None else None
+                world = deform_surface(mo.binding, pts, g)
+            surfaces[o.path][f] = o.to_local(world)
+
+
+def _snapshot(state) -> dict:
+    """Copies of every warp array a Newton state holds, namespaced ones (``state.mpm.*``) included."""
+    import warp as wp
+
+    out = {}
+    for name, value in vars(state).items():
+        if isinstance(value, wp.array):
+            out[name] = wp.clone(value)
+        elif hasattr(value, "__dict__") and not callable(value):
+            for sub, arr in vars(value).items():
+                if isinstance(arr, wp.array):
+                    out[f"{name}.{sub}"] = wp.clone(arr)
     return out
 
 
-def _add_stand_ins(builder, stage: Usd.Stage, standins, newton, wp) -> dict:
-    """Rigid bodies (convex hulls, the material's density and friction) for objects whose deformable
-    solver is not built yet, so that the shot still moves; returns their path → body map."""
+def _restore(state, snapshot: dict) -> None:
+    for key, arr in snapshot.items():
+        owner = state
+        *ns, name = key.split(".")
+        for part in ns:
+            owner = getattr(owner, part)
+        getattr(owner, name).assign(arr)
+
+
+def _add_stand_ins(builder, objects: list[SceneObject], newton, wp) -> dict:
+    """Rigid bodies (convex hulls, the material's density and friction) for rigid objects the stage does
+    not make UsdPhysics bodies — ones switched to ``rigid`` by a layer over the build."""
     import trimesh
 
     out = {}
-    cache = UsdGeom.XformCache(Usd.TimeCode.Default())
-    for prim, _kind, mat in standins:
-        pts = np.asarray(UsdGeom.Mesh(prim).GetPointsAttr().Get(), float)
-        m = np.array(cache.GetLocalToWorldTransform(prim))
-        pos = m[3, :3]
-        rot = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=1, keepdims=True)
+    for o in objects:
+        m = o.matrix
+        scale = np.linalg.norm(m[:3, :3], axis=1)
+        rot = m[:3, :3] / scale[:, None]
         q = to_wxyz(rot.T)
-        hull = trimesh.convex.convex_hull(pts * np.linalg.norm(m[:3, :3], axis=1))
+        local = o.to_local(o.points) * scale
+        hull = trimesh.convex.convex_hull(local)
         cfg = newton.ModelBuilder.ShapeConfig()
-        density = mat.GetAttribute("physics:density").Get() if mat else None
-        friction = mat.GetAttribute("physics:dynamicFriction").Get() if mat else None
-        cfg.density = float(density or 1000.0)
-        cfg.mu = float(friction if friction is not None else 0.5)
-        body = builder.add_body(xform=wp.transform(tuple(pos), wp.quat(q[1], q[2], q[3], q[0])),
-                                label=str(prim.GetPath()))
+        cfg.density = float(o.params.get("density") or 1000.0)
+        cfg.mu = float(o.params.get("dynamic_friction", 0.5))
+        body = builder.add_body(xform=wp.transform(tuple(m[3, :3]), wp.quat(q[1], q[2], q[3], q[0])), label=o.path)
         builder.add_shape_convex_hull(body, mesh=newton.Mesh(hull.vertices.astype(np.float32),
                                                              hull.faces.ravel().astype(np.int32)), cfg=cfg)
-        out[str(prim.GetPath())] = body
-    return out
-
-
-#: XPBD cloth: stiffness is the inverse of the material's compliance, clamped to what the
-#: solver keeps stable at our steps (spring N/m, bending N·m).
-CLOTH_SPRING_KE = (1e1, 1e2)
-CLOTH_BEND_KE = (1e-2, 1e1)
-
-
-def add_cloths(builder, stage: Usd.Stage, cloths, newton, wp) -> dict:
-    """Cloth from each object's own surface (XPBD springs + bending), the highest ``physomni:fixTopRatio``
-    of its particles pinned (all of them for a fixed object). Returns path → (first particle, count,
-    prim origin in world)."""
-    out = {}
-    cache = UsdGeom.XformCache(Usd.TimeCode.Default())
-    for prim, _kind, mat in cloths:
-        mesh = UsdGeom.Mesh(prim)
-        pts = np.asarray(mesh.GetPointsAttr().Get(), float)
-        faces = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(), np.int64).reshape(-1, 3)
-        m = np.array(cache.GetLocalToWorldTransform(prim))
-        world = pts @ m[:3, :3] + m[3, :3]
-
-        def value(name, default, mat=mat):
-            a = mat.GetAttribute(name) if mat else None
-            v = a.Get() if a and a.HasAuthoredValue() else None
-            return default if v is None else float(v)
-
-        areal = value("physics:density", 4.0)
-        stretch = np.clip(1.0 / max(value("physomni:stretchCompliance", 1e-7), 1e-12), *CLOTH_SPRING_KE)
-        bend = np.clip(1.0 / max(value("physomni:bendingCompliance", 1e-5), 1e-12), *CLOTH_BEND_KE)
-        edges = np.linalg.norm(world[faces[:, 0]] - world[faces[:, 1]], axis=1)
-        start = builder.particle_count
-        builder.add_cloth_mesh(pos=wp.vec3(0.0, 0.0, 0.0), rot=wp.quat_identity(), scale=1.0,
-                               vel=wp.vec3(0.0, 0.0, 0.0), vertices=[wp.vec3(*p) for p in world],
-                               indices=faces.ravel().tolist(), density=areal, edge_ke=float(bend),
-                               add_springs=True, spring_ke=float(stretch), spring_kd=1.0,
-                               particle_radius=float(0.25 * np.median(edges)), label=str(prim.GetPath()))
-        ratio = 1.0 if prim.GetAttribute("physomni:fixed").Get() else prim.GetAttribute("physomni:fixTopRatio").Get()
-        ratio = ratio or 0.0
-        if ratio > 0:
-            z = world[:, 2]
-            cut = z.max() - min(ratio, 1.0) * (z.max() - z.min()) - 1e-9 * (1.0 + abs(z.max()))
-            pinned = np.nonzero(z >= cut)[0]
-            for i in pinned:
-                builder.particle_mass[start + int(i)] = 0.0
-        out[str(prim.GetPath())] = (start, len(world), m[3, :3].copy())
+        out[o.path] = body
     return out
 
 
@@ -230,86 +443,6 @@ def _moved(pos: np.ndarray, quat: np.ndarray) -> bool:
         return True
     dots = np.abs(quat @ quat[0])
     return float(2 * np.arccos(np.clip(dots.min(), -1, 1))) > STILL_RADIANS
-
-
-def _run(stage, cfg, frames, device, progress, standins=(), cloths=()) -> dict:
-    """One attempt: build the model, step it, record ``body_q`` each frame; stop at the first non-finite state."""
-    t0 = time.perf_counter()
-    wp = load_warp()
-    device = pick_device(device)
-    import newton
-
-    builder = newton.ModelBuilder(up_axis=newton.Axis.Z)
-    result = builder.add_usd(stage, load_visual_shapes=False, load_sites=False, verbose=False,
-                             mesh_maxhullvert=MAX_HULL_VERTICES)
-    path_body = {p: b for p, b in result["path_body_map"].items() if p.startswith(OBJECTS + "/")}
-    path_body.update(_add_stand_ins(builder, stage, standins, newton, wp))
-    cloth_ranges = add_cloths(builder, stage, cloths, newton, wp)
-    fixed, delayed = read_controls(stage, path_body)
-    delayed += [(rng, t, lin, None) for rng, t, lin in cloth_velocities(stage, cloth_ranges)]
-    for b in fixed:
-        # a kinematic body with no velocity stays put and still collides with everything else
-        builder.body_flags[b] = int(newton.BodyFlags.KINEMATIC)
-        builder.body_qd[b] = wp.spatial_vector(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    fields = FieldSet(read_force_fields(stage), device)
-    if fields:
-        points = [np.zeros((1, 3))] * builder.body_count
-        for path, b in path_body.items():
-            mesh = UsdGeom.Mesh(stage.GetPrimAtPath(path))
-            points[b] = np.asarray(mesh.GetPointsAttr().Get(), float) if mesh else np.zeros((1, 3))
-        fields.set_body_samples(body_samples(points))
-    with wp.ScopedDevice(device), warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        model = builder.finalize(device=device)
-        solver = newton.solvers.SolverXPBD(model, iterations=cfg["iterations"])
-        state_a, state_b = model.state(), model.state()
-        control = model.control()
-        # sticky contact matching keeps a resting hull's contact points from frame to frame;
-        # without it XPBD lets flat-based hulls creep by millimetres per second
-        pipeline = newton.CollisionPipeline(model, contact_matching="sticky")
-        contacts = pipeline.contacts()
-        t_model = time.perf_counter() - t0
-        dt = 1.0 / (cfg["fps"] * cfg["substeps"])
-        n_bodies = model.body_count
-        record = np.zeros((frames, n_bodies, 7), np.float32)
-        no_bodies = np.zeros((0, 7), np.float32)
-        record[0] = state_a.body_q.numpy() if n_bodies else no_bodies
-        particles = np.zeros((frames, model.particle_count, 3), np.float32) if cloth_ranges else None
-        if particles is not None:
-            particles[0] = state_a.particle_q.numpy()
-        max_speed = float(np.linalg.norm(state_a.body_qd.numpy()[:, :3], axis=1).max()) if n_bodies else 0.0
-        t1 = time.perf_counter()
-        step = 0
-        pending = sorted(delayed, key=lambda d: d[1])
-        for f in range(1, frames):
-            for _ in range(cfg["substeps"]):
-                if pending and pending[0][1] <= step * dt + 1e-9:
-                    pending = _give_velocities(state_a, pending, step * dt)
-                state_a.clear_forces()
-                fields.apply(model, state_a, step * dt, step)
-                step += 1
-                pipeline.collide(state_a, contacts)
-                solver.step(state_a, state_b, control, contacts, dt)
-                state_a, state_b = state_b, state_a
-            q = state_a.body_q.numpy() if n_bodies else no_bodies
-            qd = state_a.body_qd.numpy() if n_bodies else np.zeros((0, 6), np.float32)
-            speed = float(np.linalg.norm(qd[:, :3], axis=1).max()) if n_bodies else 0.0
-            if particles is not None:
-                particles[f] = state_a.particle_q.numpy()
-                pv = state_a.particle_qd.numpy()
-                speed = max(speed, float(np.linalg.norm(pv, axis=1).max()) if len(pv) else 0.0)
-                if not (np.isfinite(particles[f]).all() and np.isfinite(pv).all()):
-                    return {"ok": False, "frame": f}
-            if not (np.isfinite(q).all() and np.isfinite(qd).all()) or speed > MAX_SPEED:
-                return {"ok": False, "frame": f}
-            max_speed = max(max_speed, speed)
-            record[f] = q
-            if progress:
-                progress(f, frames - 1)
-        t_step = time.perf_counter() - t1
-    notes = sorted({str(w.message) for w in caught})
-    return {"ok": True, "particles": particles, "cloth_ranges": cloth_ranges, "notes": notes, "fields": [f"{x.kind} {x.path}" for x in fields.fields], "body_q": record, "path_body": path_body, "device": str(device), "t_build": t0,
-            "t_model": t_model, "t_step": t_step, "max_speed": round(max_speed, 4)}
 
 
 def read_controls(stage: Usd.Stage, path_body: dict) -> tuple[set, list]:
@@ -334,21 +467,37 @@ def read_controls(stage: Usd.Stage, path_body: dict) -> tuple[set, list]:
     return fixed, delayed
 
 
-def cloth_velocities(stage: Usd.Stage, cloth_ranges: dict) -> list:
-    """``physomni:initialVelocity`` of cloths: ((first particle, count), seconds, m/s)."""
+def particle_velocities(stage: Usd.Stage, ranges: dict) -> list:
+    """``physomni:initialVelocity`` of cloths and soft bodies: ((first particle, count), seconds, m/s, None)."""
     out = []
-    for path, (start, count, _) in cloth_ranges.items():
-        prim = stage.GetPrimAtPath(path)
-        lin = prim.GetAttribute("physomni:initialVelocity")
-        if lin and lin.HasAuthoredValue():
-            at = prim.GetAttribute("physomni:velocityStartTime").Get() or 0.0
-            out.append(((start, count), max(float(at), 0.0), np.asarray(lin.Get(), float)))
+    for path, (start, count) in ranges.items():
+        lin, at = _initial_velocity(stage.GetPrimAtPath(path))
+        if lin is not None:
+            out.append(((start, count), at, lin, None))
     return out
 
 
+def mpm_velocities(stage: Usd.Stage, mpm) -> list:
+    """The same for MPM objects: ("mpm", seconds, (first particle, count), m/s)."""
+    out = []
+    for o in mpm.objects:
+        lin, at = _initial_velocity(o.obj.prim)
+        if lin is not None:
+            out.append(("mpm", at, (o.start, o.count), lin))
+    return out
+
+
+def _initial_velocity(prim: Usd.Prim):
+    lin = prim.GetAttribute("physomni:initialVelocity")
+    if not (lin and lin.HasAuthoredValue()):
+        return None, 0.0
+    at = prim.GetAttribute("physomni:velocityStartTime").Get() or 0.0
+    return np.asarray(lin.Get(), float), max(float(at), 0.0)
+
+
 def _give_velocities(state, pending: list, t: float) -> list:
-    """Set the velocities that are due at ``t`` (bodies by index, cloths by particle range);
-    returns those still pending."""
+    """Set the velocities that are due at ``t`` (bodies by index, cloths and soft bodies by particle
+    range); returns those still pending."""
     due = [d for d in pending if d[1] <= t + 1e-9]
     if any(isinstance(d[0], int) for d in due):
         qd = state.body_qd.numpy()

@@ -20,11 +20,14 @@ def kernels():
     @wp.kernel
     def primary(mesh: wp.uint64, origin: wp.vec3, rays: wp.array(dtype=wp.vec3),
                 corner_px: wp.array(dtype=wp.vec2), alpha: wp.array2d(dtype=wp.float32), max_t: float,
-                out_px: wp.array(dtype=wp.vec2), out_face: wp.array(dtype=wp.int32)):
+                out_px: wp.array(dtype=wp.vec2), out_face: wp.array(dtype=wp.int32),
+                out_depth: wp.array(dtype=wp.float32)):
         i = wp.tid()
         d = rays[i]
         o = origin
         out_face[i] = -1
+        out_depth[i] = max_t
+        travelled = float(0.0)
         h = alpha.shape[0]
         w = alpha.shape[1]
         for _layer in range(MAX_LAYERS):
@@ -38,8 +41,10 @@ def kernels():
             if alpha[iy, ix] >= 0.5:
                 out_face[i] = f
                 out_px[i] = px
+                out_depth[i] = travelled + q.t
                 break
             o = o + d * (q.t + 1.0e-5)
+            travelled = travelled + q.t + 1.0e-5
 
     @wp.kernel
     def shadow(mesh: wp.uint64, origin: wp.vec3, rays: wp.array(dtype=wp.vec3), max_h: float,
@@ -79,7 +84,8 @@ class RayCaster:
 
     def cast(self, origin, rays: np.ndarray, shadow_rays: np.ndarray, max_t: float, max_shadow: float):
         """Per pixel of ``rays``: face index (−1 for none) and atlas pixel coordinates; per pixel of
-        ``shadow_rays`` (a coarser grid, shadows are soft): height of the object above the ground seen there."""
+        ``shadow_rays`` (a coarser grid, shadows are soft): height of the object above the ground seen there.
+        :attr:`depth` then holds each pixel's distance along its ray to the surface seen (``max_t`` for none)."""
         wp = self.wp
         primary, shadow = kernels()
         key = (rays.ctypes.data, rays.shape, shadow_rays.ctypes.data, shadow_rays.shape)
@@ -89,16 +95,18 @@ class RayCaster:
             self._shadow_rays = wp.array(shadow_rays.reshape(-1, 3), dtype=wp.vec3, device=self.device)
             self._px = wp.zeros(n, dtype=wp.vec2, device=self.device)
             self._face = wp.zeros(n, dtype=wp.int32, device=self.device)
+            self._depth = wp.zeros(n, dtype=wp.float32, device=self.device)
             self._h = wp.zeros(m, dtype=wp.float32, device=self.device)
             self._key = key
         o = wp.vec3(*map(float, origin))
         wp.launch(primary, dim=self._rays.shape[0],
                   inputs=[self.mesh.id, o, self._rays, self.corner_px, self.alpha, float(max_t)],
-                  outputs=[self._px, self._face], device=self.device)
+                  outputs=[self._px, self._face, self._depth], device=self.device)
         wp.launch(shadow, dim=self._shadow_rays.shape[0], inputs=[self.mesh.id, o, self._shadow_rays,
                                                                    float(max_shadow)],
                   outputs=[self._h], device=self.device)
         shape = rays.shape[:2]
+        self.depth = self._depth.numpy().reshape(shape)
         return (self._face.numpy().reshape(shape), self._px.numpy().reshape(shape + (2,)),
                 self._h.numpy().reshape(shadow_rays.shape[:2]))
 

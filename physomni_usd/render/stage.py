@@ -23,6 +23,15 @@ class RenderObject:
     points_attr: Usd.Attribute
     static_points: np.ndarray | None  # (N, 3) when points are not animated
     height: float  # metres, from the extent
+    prim: Usd.Prim | None = None
+
+
+@dataclass
+class RenderParticles:
+    """One ``Points`` prim drawn as shaded splats in its display colour."""
+    prim: Usd.Prim
+    colour: np.ndarray  # (3,) RGB 0–255
+    width: float  # metres
 
 
 def texture_file(prim: Usd.Prim) -> pathlib.Path | None:
@@ -92,8 +101,29 @@ def read_objects(stage: Usd.Stage) -> list[RenderObject]:
         static = None if points_attr.GetNumTimeSamples() > 0 else np.asarray(points_attr.Get(), np.float64)
         ext = mesh.GetExtentAttr().Get()
         height = float(ext[1][2] - ext[0][2]) if ext else 1.0
-        out.append(RenderObject(str(prim.GetPath()), faces, st, texture, points_attr, static, height))
+        out.append(RenderObject(str(prim.GetPath()), faces, st, texture, points_attr, static, height, prim))
     return out
+
+
+def read_particles(stage: Usd.Stage) -> list[RenderParticles]:
+    """Every ``Points`` prim under /World/Particles (visibility is checked per frame)."""
+    from ..usd.author import PARTICLES
+
+    root = stage.GetPrimAtPath(PARTICLES)
+    out = []
+    for prim in Usd.PrimRange(root) if root else []:
+        if not prim.IsA(UsdGeom.Points):
+            continue
+        pts = UsdGeom.Points(prim)
+        colour = pts.GetDisplayColorAttr().Get()
+        colour = np.asarray(colour[0], float) * 255 if colour else np.full(3, 160.0)
+        widths = pts.GetWidthsAttr().Get()
+        out.append(RenderParticles(prim, colour, float(widths[0]) if widths else 0.02))
+    return out
+
+
+def visible(prim: Usd.Prim, time: Usd.TimeCode) -> bool:
+    return UsdGeom.Imageable(prim).ComputeVisibility(time) != UsdGeom.Tokens.invisible
 
 
 def triangulate(counts: np.ndarray, indices: np.ndarray) -> np.ndarray:

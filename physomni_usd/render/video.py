@@ -16,7 +16,7 @@ from ..report import update_report
 from ..settings import RenderSettings
 from ..usd import layers
 from .raycast import RayCaster
-from .stage import read_camera, read_objects, read_plate, world_points
+from .stage import read_camera, read_objects, read_particles, read_plate, visible, world_points
 
 
 #: Shadows are soft, so their rays are cast on a grid this many times coarser in each direction.
@@ -38,6 +38,7 @@ class ShotRenderer:
         self.plate = plate.astype(np.float32)
         self.height, self.width = self.plate.shape[:2]
         self.objects = read_objects(stage)
+        self.particles = read_particles(stage)
         self.device = pick_device(settings.device)
         self.size = float(np.median([o.height for o in self.objects])) if self.objects else 1.0
         self._rays_key = None
@@ -70,7 +71,42 @@ class ShotRenderer:
 
     def _points(self, time: Usd.TimeCode) -> np.ndarray:
         cache = UsdGeom.XformCache(time)
-        return np.concatenate([world_points(o, cache, self.stage, time) for o in self.objects])
+        out = []
+        for o in self.objects:
+            pts = world_points(o, cache, self.stage, time)
+            if o.prim is not None and not visible(o.prim, time):
+                pts = np.broadcast_to(pts[:1], pts.shape)  # every triangle degenerate: nothing to hit
+            out.append(pts)
+        return np.concatenate(out)
+
+    def _splat(self, out: np.ndarray, cam, time: Usd.TimeCode, depth: np.ndarray | None) -> np.ndarray:
+        """Draw visible particle sets as shaded discs, far to near, hidden where a surface is nearer."""
+        for part in self.particles:
+            if not visible(part.prim, time):
+                continue
+            pts = UsdGeom.Points(part.prim).GetPointsAttr().Get(time)
+            if not pts:
+                continue
+            pts = np.asarray(pts, np.float64)
+            uv, z = cam.project(pts)
+            dist = np.linalg.norm(pts - cam.origin, axis=1)
+            ok = (z > 1e-3) & (uv[:, 0] >= 0) & (uv[:, 1] >= 0) & (uv[:, 0] < self.width) & (uv[:, 1] < self.height)
+            if depth is not None:
+                iu = np.clip(uv[:, 0].astype(int), 0, self.width - 1)
+                iv = np.clip(uv[:, 1].astype(int), 0, self.height - 1)
+                ok &= dist < depth[iv, iu] + 0.5 * part.width
+            order = np.argsort(-dist[ok])
+            uv, z = uv[ok][order], z[ok][order]
+            radius = np.maximum(0.6 * part.width * cam.fx / z, 1.0)
+            base = tuple(float(c) for c in np.clip(part.colour * 0.8, 0, 255))
+            light = tuple(float(c) for c in np.clip(part.colour * 1.1 + 12, 0, 255))
+            for (u, v), r in zip(uv, radius):
+                centre = (int(round(u)), int(round(v)))
+                cv2.circle(out, centre, int(round(r)), base, -1, lineType=cv2.LINE_AA)
+                if r >= 2.5:
+                    cv2.circle(out, (int(round(u - 0.3 * r)), int(round(v - 0.3 * r))), int(round(0.4 * r)),
+                               light, -1, lineType=cv2.LINE_AA)
+        return out
 
     def frame(self, t: float) -> np.ndarray:
         """The composited frame at time code ``t``, (H, W, 3) uint8."""
@@ -83,7 +119,7 @@ class ShotRenderer:
             self._rays_key = key
         out = self.plate
         if self.caster is None:
-            return np.clip(out + 0.5, 0, 255).astype(np.uint8)
+            return np.clip(self._splat(out.copy(), cam, time_code, None) + 0.5, 0, 255).astype(np.uint8)
         self.caster.update(self._points(time_code))
         face, px, h = self.caster.cast(cam.origin, self._rays, self._shadow_rays, 1e6, 10.0 * self.size)
         s = self.settings
@@ -101,6 +137,8 @@ class ShotRenderer:
         alpha = cv2.remap(self.atlas_alpha, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         a = np.where(hit, np.clip(alpha, 0.0, 1.0), 0.0)[..., None]
         out = out * (1.0 - a) + colour * a
+        if self.particles:
+            out = self._splat(np.ascontiguousarray(out, np.float32), cam, time_code, self.caster.depth)
         return np.clip(out + 0.5, 0, 255).astype(np.uint8)
 
 

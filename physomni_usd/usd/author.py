@@ -18,6 +18,8 @@ OBJECTS = "/World/Objects"
 PHYSICS_MATERIALS = "/World/Materials/Physics"
 LOOKS = "/World/Materials/Looks"
 FORCE_FIELDS = "/World/ForceFields"
+#: MPM objects' particles: one Points prim per object, named like the object.
+PARTICLES = "/World/Particles"
 
 
 @dataclass
@@ -297,13 +299,37 @@ def set_param(prim: Usd.Prim, attr_name: str, value, source: str) -> None:
     attr.SetCustomDataByKey("physomni:source", source)
 
 
+def author_particle_prims(physics_path: pathlib.Path, particles: dict) -> None:
+    """Define ``/World/Particles/<name>`` Points prims in ``physics.usda`` (the simulation layer may only
+    hold overs). ``particles``: name → (display colour RGB 0–1, width m, shown instead of the mesh).
+    A prim shown instead of its mesh starts hidden — frame 0 is the photo — and the simulation layer
+    makes it visible from frame 1; the others stay hidden, kept for artists and other renderers."""
+    layer = Sdf.Layer.FindOrOpen(str(physics_path))
+    if layer is None:
+        raise OSError(f"cannot open {physics_path}")
+    stage = Usd.Stage.Open(layer)
+    UsdGeom.Scope.Define(stage, PARTICLES)
+    for name, (colour, width, _shown) in particles.items():
+        pts = UsdGeom.Points.Define(stage, f"{PARTICLES}/{name}")
+        pts.CreatePointsAttr(Vt.Vec3fArray())
+        widths = pts.CreateWidthsAttr(Vt.FloatArray([float(width)]))
+        pts.SetWidthsInterpolation(UsdGeom.Tokens.constant)
+        del widths
+        pts.CreateDisplayColorAttr(Vt.Vec3fArray([Gf.Vec3f(*map(float, colour))]))
+        pts.CreateVisibilityAttr(UsdGeom.Tokens.invisible)
+        pts.GetPrim().SetCustomDataByKey("physomni:object", f"{OBJECTS}/{name}")
+    layers.save_layer(layer, physics_path)
+
+
 def write_sim_layer(path: pathlib.Path, *, fps: float, frames: int, tracks: dict, metadata: dict,
-                    point_tracks: dict | None = None) -> None:
+                    point_tracks: dict | None = None, particles: dict | None = None) -> None:
     """``sim.usdc``: overs with time samples only.
 
     ``tracks`` maps a prim path to ``(translations (F, 3), orientations (F, 4) as w, x, y, z)``; one sample
     per frame, time code = frame index. Prims that do not move must not be in ``tracks``.
     ``point_tracks`` maps a Mesh prim path to its points (F, N, 3) in the prim's own frame.
+    ``particles`` maps an object name to ``{points (F, P, 3) world, show, mesh}``: samples on
+    ``/World/Particles/<name>``; where ``show``, the particles replace the mesh from frame 1 on.
     """
     layer = Sdf.Layer.CreateAnonymous(".usdc")
     layer.timeCodesPerSecond = float(fps)
@@ -324,18 +350,38 @@ def write_sim_layer(path: pathlib.Path, *, fps: float, frames: int, tracks: dict
         for prim_path, points in (point_tracks or {}).items():
             spec = Sdf.CreatePrimInLayer(layer, prim_path)
             spec.specifier = Sdf.SpecifierOver
-            p_attr = Sdf.AttributeSpec(spec, "points", Sdf.ValueTypeNames.Point3fArray)
-            e_attr = Sdf.AttributeSpec(spec, "extent", Sdf.ValueTypeNames.Float3Array)
-            for f in range(len(points)):
-                pts = np.ascontiguousarray(points[f], np.float32)
-                layer.SetTimeSample(p_attr.path, float(f), Vt.Vec3fArray.FromNumpy(pts))
-                lo, hi = pts.min(axis=0), pts.max(axis=0)
-                layer.SetTimeSample(e_attr.path, float(f), Vt.Vec3fArray([Gf.Vec3f(*map(float, lo)),
-                                                                          Gf.Vec3f(*map(float, hi))]))
+            _point_samples(layer, spec, points)
+        for name, item in (particles or {}).items():
+            spec = Sdf.CreatePrimInLayer(layer, f"{PARTICLES}/{name}")
+            spec.specifier = Sdf.SpecifierOver
+            _point_samples(layer, spec, item["points"])
+            if item["show"] and len(item["points"]) > 1:
+                _visibility_samples(layer, spec, {0: UsdGeom.Tokens.invisible, 1: UsdGeom.Tokens.inherited})
+                mesh = Sdf.CreatePrimInLayer(layer, item["mesh"])
+                mesh.specifier = Sdf.SpecifierOver
+                _visibility_samples(layer, mesh, {0: UsdGeom.Tokens.inherited, 1: UsdGeom.Tokens.invisible})
     # every ancestor of an over is an over too, so the layer defines nothing
     for spec_path in _all_prim_paths(layer):
         layer.GetPrimAtPath(spec_path).specifier = Sdf.SpecifierOver
     layers.save_layer(layer, path)
+
+
+def _point_samples(layer: Sdf.Layer, spec: Sdf.PrimSpec, points: np.ndarray) -> None:
+    """``points`` and ``extent`` samples, one per frame, from (F, N, 3)."""
+    p_attr = Sdf.AttributeSpec(spec, "points", Sdf.ValueTypeNames.Point3fArray)
+    e_attr = Sdf.AttributeSpec(spec, "extent", Sdf.ValueTypeNames.Float3Array)
+    for f in range(len(points)):
+        pts = np.ascontiguousarray(points[f], np.float32)
+        layer.SetTimeSample(p_attr.path, float(f), Vt.Vec3fArray.FromNumpy(pts))
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        layer.SetTimeSample(e_attr.path, float(f), Vt.Vec3fArray([Gf.Vec3f(*map(float, lo)),
+                                                                  Gf.Vec3f(*map(float, hi))]))
+
+
+def _visibility_samples(layer: Sdf.Layer, spec: Sdf.PrimSpec, samples: dict) -> None:
+    attr = Sdf.AttributeSpec(spec, "visibility", Sdf.ValueTypeNames.Token, Sdf.VariabilityVarying)
+    for time_code, token in samples.items():
+        layer.SetTimeSample(attr.path, float(time_code), token)
 
 
 def _all_prim_paths(layer: Sdf.Layer) -> list[Sdf.Path]:

@@ -1,0 +1,104 @@
+"""Cloth (``pbd_cloth``) and soft bodies (``pbd_elastic``) as XPBD particles in the rigid model, so
+they collide two-way with the rigid bodies and the ground through the same solver."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+#: XPBD cloth: stiffness is the inverse of the material's compliance, clamped to what the
+#: solver keeps stable at our steps (spring N/m, bending N·m).
+CLOTH_SPRING_KE = (1e1, 1e2)
+CLOTH_BEND_KE = (1e-2, 1e1)
+#: Soft bodies: Lamé stiffness (Pa) from the inverse compliances, clamped likewise.
+SOFT_KE = (1e3, 5e5)
+#: Soft bodies are this many tetrahedral cells across their smallest side.
+CELLS_ACROSS = 6
+
+
+def _compliance_stiffness(compliance: float, bounds: tuple[float, float]) -> float:
+    return float(np.clip(1.0 / max(float(compliance or 0.0), 1e-12), *bounds))
+
+
+def pinned_particles(points: np.ndarray, ratio: float) -> np.ndarray:
+    """Indices of the highest ``ratio`` (0–1) of a point set's height: what ``fixTopRatio`` pins."""
+    if ratio <= 0:
+        return np.zeros(0, np.int64)
+    z = points[:, 2]
+    cut = z.max() - min(ratio, 1.0) * (z.max() - z.min()) - 1e-9 * (1.0 + abs(z.max()))
+    return np.nonzero(z >= cut)[0]
+
+
+def add_cloth(builder, obj, wp) -> tuple[int, int]:
+    """Cloth from the object's own surface (springs + bending); returns (first particle, count)."""
+    p = obj.params
+    stretch = _compliance_stiffness(p.get("stretch_compliance", 1e-7), CLOTH_SPRING_KE)
+    bend = _compliance_stiffness(p.get("bending_compliance", 1e-5), CLOTH_BEND_KE)
+    world, faces = obj.points, obj.faces
+    edges = np.linalg.norm(world[faces[:, 0]] - world[faces[:, 1]], axis=1)
+    radius = float(0.25 * np.median(edges))
+    # start a particle radius clear of the ground: contact would otherwise throw the cloth up
+    world = world + [0.0, 0.0, max(radius - float(world[:, 2].min()), 0.0)]
+    start = builder.particle_count
+    builder.add_cloth_mesh(pos=wp.vec3(0.0, 0.0, 0.0), rot=wp.quat_identity(), scale=1.0,
+                           vel=wp.vec3(0.0, 0.0, 0.0), vertices=[wp.vec3(*q) for q in world],
+                           indices=faces.ravel().tolist(), density=float(p.get("density", 4.0)),
+                           edge_ke=bend, add_springs=True, spring_ke=stretch, spring_kd=1.0,
+                           particle_radius=radius, label=obj.path)
+    ratio = 1.0 if obj.fixed else float(obj.prim.GetAttribute("physomni:fixTopRatio").Get() or 0.0)
+    for i in pinned_particles(world, ratio):
+        builder.particle_mass[start + int(i)] = 0.0
+    return start, len(world)
+
+
+def voxel_tets(mesh, cell: float) -> tuple[np.ndarray, np.ndarray]:
+    """A conforming tetrahedral mesh of the cubes of side ``cell`` whose centres lie inside a watertight
+    trimesh: (V, 3) vertices and (T, 4) positively oriented tetrahedra (6 per cube, Kuhn split)."""
+    lo, hi = mesh.bounds
+    n = np.maximum(np.ceil((hi - lo) / cell).astype(int), 1)
+    origin = np.array([(lo[0] + hi[0] - n[0] * cell) / 2, (lo[1] + hi[1] - n[1] * cell) / 2, lo[2]])
+    idx = np.stack(np.meshgrid(*[np.arange(k) for k in n], indexing="ij"), -1).reshape(-1, 3)
+    centres = origin + (idx + 0.5) * cell
+    inside = mesh.contains(centres) if mesh.is_watertight else np.ones(len(idx), bool)
+    cubes = idx[inside] if inside.any() else idx[np.argmin(np.linalg.norm(centres - mesh.centroid, axis=1))][None]
+    tets = []
+    for perm in itertools.permutations(range(3)):
+        corners = [np.zeros(3, int)]
+        for axis in perm:
+            c = corners[-1].copy()
+            c[axis] = 1
+            corners.append(c)
+        tets.append(np.stack([cubes + c for c in corners], 1))  # (C, 4, 3) node coordinates
+    tets = np.concatenate(tets)
+    nodes, inverse = np.unique(tets.reshape(-1, 3), axis=0, return_inverse=True)
+    tets = inverse.reshape(-1, 4)
+    verts = origin + nodes * cell
+    a, b, c, d = (verts[tets[:, k]] for k in range(4))
+    flip = np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a) < 0
+    tets[flip] = tets[flip][:, [0, 2, 1, 3]]
+    return verts, tets
+
+
+def add_soft_body(builder, obj, wp, cell: float | None = None) -> tuple[int, int, np.ndarray, float]:
+    """A soft body from the object's voxelised volume; returns (first particle, count, rest vertices,
+    largest stable step in s: a fifth of a cell crossed by the elastic wave, √(k/ρ); half a cell,
+    the textbook bound, diverged on contact with the ground)."""
+    mesh = obj.trimesh()
+    cell = cell or max(float(np.min(mesh.extents)) / CELLS_ACROSS, 1e-3)
+    verts, tets = voxel_tets(mesh, cell)
+    verts = verts + [0.0, 0.0, 0.25 * cell]  # the particles' radius clear of whatever it stands on
+    p = obj.params
+    k_mu = _compliance_stiffness(p.get("stretch_compliance", 0.0), SOFT_KE)
+    k_lambda = _compliance_stiffness(p.get("volume_compliance", 0.0), SOFT_KE)
+    start = builder.particle_count
+    builder.add_soft_mesh(pos=wp.vec3(0.0, 0.0, 0.0), rot=wp.quat_identity(), scale=1.0,
+                          vel=wp.vec3(0.0, 0.0, 0.0), vertices=[wp.vec3(*v) for v in verts],
+                          indices=tets.ravel().tolist(), density=float(p.get("density", 1000.0)),
+                          k_mu=k_mu, k_lambda=k_lambda, k_damp=0.0, particle_radius=0.25 * cell,
+                          label=obj.path)
+    if obj.fixed:
+        for i in range(len(verts)):
+            builder.particle_mass[start + i] = 0.0
+    density = max(float(p.get("density", 1000.0)), 1e-3)
+    return start, len(verts), verts, 0.2 * cell / np.sqrt(max(k_mu, k_lambda) / density)

@@ -1,0 +1,101 @@
+"""The objects of a composed stage as the simulator sees them: material type, solver family,
+parameters and world-space surface — the one place that routes a material to a solver."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pxr import Usd, UsdGeom, UsdPhysics
+
+from ..materials.catalog import CATALOG, PARAMS, keys_of
+from ..materials.report import bound_material, object_prims
+from .mpm import MPM_TYPES
+
+#: Solver family per material type; what is not listed here is rigid.
+FAMILY = {**{t: "mpm" for t in MPM_TYPES}, "pbd_cloth": "cloth", "pbd_elastic": "soft"}
+
+
+def family_of(material_type: str) -> str:
+    """'rigid', 'mpm', 'cloth' or 'soft'."""
+    return FAMILY.get(material_type, "rigid")
+
+
+@dataclass
+class SceneObject:
+    prim: Usd.Prim
+    kind: str  # physomni:materialType
+    params: dict  # canonical key → value, the type's defaults where nothing is authored
+    fixed: bool
+    points: np.ndarray  # (N, 3) world
+    faces: np.ndarray  # (M, 3)
+    matrix: np.ndarray  # (4, 4) local → world, row vectors (USD convention)
+
+    @property
+    def path(self) -> str:
+        return str(self.prim.GetPath())
+
+    @property
+    def name(self) -> str:
+        return self.prim.GetName()
+
+    @property
+    def family(self) -> str:
+        return family_of(self.kind)
+
+    @property
+    def is_body(self) -> bool:
+        """Whether the stage itself makes it a UsdPhysics rigid body (Newton's USD import reads it)."""
+        return self.prim.HasAPI(UsdPhysics.RigidBodyAPI)
+
+    def trimesh(self):
+        import trimesh
+
+        return trimesh.Trimesh(self.points, self.faces, process=False)
+
+    def to_local(self, world: np.ndarray) -> np.ndarray:
+        """World points (…, 3) in the prim's own frame."""
+        inv = np.linalg.inv(self.matrix)
+        return world @ inv[:3, :3] + inv[3, :3]
+
+
+def scene_objects(stage: Usd.Stage) -> list[SceneObject]:
+    """Every object under /World/Objects with a mesh, in mask order."""
+    from ..render.stage import triangulate
+
+    cache = UsdGeom.XformCache(Usd.TimeCode.Default())
+    out = []
+    for prim in object_prims(stage):
+        if not prim.IsA(UsdGeom.Mesh):
+            continue
+        mesh = UsdGeom.Mesh(prim)
+        mat = bound_material(prim)
+        kind = (mat.GetAttribute("physomni:materialType").Get() if mat else None) or "rigid"
+        kind = kind if kind in CATALOG else "rigid"
+        params = dict(CATALOG[kind].defaults)
+        for key in keys_of(kind):
+            attr = mat.GetAttribute(PARAMS[key].attr) if mat else None
+            if attr and attr.HasAuthoredValue():
+                params[key] = attr.Get()
+        fixed = bool(prim.GetAttribute("physomni:fixed").Get())
+        m = np.array(cache.GetLocalToWorldTransform(prim))
+        pts = np.asarray(mesh.GetPointsAttr().Get(), float)
+        faces = triangulate(np.asarray(mesh.GetFaceVertexCountsAttr().Get(), np.int64),
+                            np.asarray(mesh.GetFaceVertexIndicesAttr().Get(), np.int64))
+        out.append(SceneObject(prim, kind, params, fixed, pts @ m[:3, :3] + m[3, :3], faces, m))
+    return out
+
+
+def texture_colour(prim: Usd.Prim) -> tuple[float, float, float]:
+    """Mean linear-ish RGB (0–1) of the object's photo texture where it is opaque; grey without one."""
+    from ..render.stage import read_image, texture_file
+
+    path = texture_file(prim)
+    if path is None or not path.is_file():
+        return (0.6, 0.6, 0.6)
+    img = read_image(path, prim.GetName(), rgba=True).astype(np.float64)
+    a = img[..., 3] > 127
+    if not a.any():
+        return (0.6, 0.6, 0.6)
+    rgb = img[..., :3][a].mean(axis=0) / 255.0
+    return tuple(round(float(c), 4) for c in rgb)

@@ -1,0 +1,136 @@
+"""Deformable materials: routing to Newton's solvers, time-sampled output, steps from the materials,
+and the guard that rolls a diverging frame back."""
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+from pxr import Usd, UsdGeom
+
+from physomni_usd.physics.cloth import voxel_tets
+from physomni_usd.physics.mpm import bind_surface, deform_surface, newton_parameters, sample_inside
+from physomni_usd.physics.stability import Guard
+
+from .conftest import cli
+
+
+def _switched(tmp_path, shot, material, seconds="0.4", extra=()):
+    out = tmp_path / "shot"
+    shutil.copytree(shot["dir"], out)
+    cli("estimate", out / "shot.usda", "--set", f"cup.material={material}", check=True)
+    proc = cli("simulate", out / "shot.usda", "--seconds", seconds, "--particle-spacing", "0.06", *extra, check=True)
+    report = json.loads((out / "report.json").read_text())["stages"]["simulate"]
+    return out, Usd.Stage.Open(str(out / "shot.usda")), report, proc
+
+
+def test_rigid_only_scene_builds_only_the_rigid_solver(shot):
+    report = json.loads((shot["dir"] / "report.json").read_text())["stages"]["simulate"]
+    assert report["solvers"] == ["xpbd"] and report["mpm"] is None
+    assert report["cloths"] == {} and report["soft_bodies"] == {}
+
+
+def test_no_mpm_kernels_compiled_for_a_rigid_scene(tmp_path, shot):
+    out = tmp_path / "shot"
+    shutil.copytree(shot["dir"], out)
+    script = ("import sys, warp\nfrom physomni_usd.physics.simulate import simulate_shot\n"
+              "from physomni_usd.settings import SimulateSettings\n"
+              f"simulate_shot({str(out / 'shot.usda')!r}, SimulateSettings(seconds=0.1))\n"
+              "from warp._src import context\n"
+              "loaded = [m.name for m in context.user_modules.values() if m.execs]\n"
+              "print('LOADED', ' '.join(loaded))\n")
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
+    line = next(x for x in proc.stdout.splitlines() if x.startswith("LOADED"))
+    assert "solvers.xpbd" in line
+    assert "implicit_mpm" not in line and "style3d" not in line and "vbd" not in line
+
+
+@pytest.mark.parametrize("material", ["mpm_sand", "mpm_liquid"])
+def test_flowing_materials_become_time_sampled_particles(tmp_path, shot, material):
+    out, stage, report, _ = _switched(tmp_path, shot, material)
+    assert report["solvers"] == ["xpbd", "implicit_mpm"] and report["objects"]["cup_0"]["solver"] == "mpm"
+    points = UsdGeom.Points(stage.GetPrimAtPath("/World/Particles/cup_0"))
+    attr = points.GetPointsAttr()
+    assert attr.GetNumTimeSamples() == stage.GetEndTimeCode() + 1
+    first, last = np.array(attr.Get(0)), np.array(attr.Get(stage.GetEndTimeCode()))
+    assert len(first) == report["mpm"]["particles"] > 50 and np.isfinite(last).all()
+    assert np.abs(last - first).max() > 0.02  # it flows
+    assert last[:, 2].min() > -0.06  # the ground holds it
+    mesh = UsdGeom.Imageable(stage.GetPrimAtPath("/World/Objects/cup_0"))
+    assert mesh.ComputeVisibility(0) != "invisible" and mesh.ComputeVisibility(1) == "invisible"
+    assert points.ComputeVisibility(0) == "invisible" and points.ComputeVisibility(1) != "invisible"
+    assert cli("validate", out / "shot.usda").returncode == 0
+    assert report["steps"]["mpm_steps"] >= 1 and "mpm_cfl" in report["steps"]["reasons"]
+
+
+def test_elastic_object_keeps_its_textured_surface_and_deforms(tmp_path, shot):
+    out, stage, report, _ = _switched(tmp_path, shot, "mpm_elastic", extra=())
+    pts = stage.GetPrimAtPath("/World/Objects/cup_0").GetAttribute("points")
+    assert pts.GetNumTimeSamples() == stage.GetEndTimeCode() + 1
+    a, b = np.array(pts.Get(0)), np.array(pts.Get(stage.GetEndTimeCode()))
+    assert np.isfinite(b).all() and np.abs(b - a).max() > 1e-3
+    assert UsdGeom.Imageable(stage.GetPrimAtPath("/World/Particles/cup_0")).ComputeVisibility(1) == "invisible"
+    proc = cli("render", out / "shot.usda", "-q")
+    assert proc.returncode == 0, proc.stderr
+
+
+def test_soft_body_from_tetrahedra_moves_and_pushes_the_box(tmp_path, shot):
+    out = tmp_path / "shot"
+    shutil.copytree(shot["dir"], out)
+    cli("estimate", out / "shot.usda", "--set", "cup.material=pbd_elastic", check=True)
+    (out / "edits.usda").write_text((out / "edits.usda").read_text())  # untouched by simulate
+    cli("simulate", out / "shot.usda", "--seconds", "0.3", check=True)
+    report = json.loads((out / "report.json").read_text())["stages"]["simulate"]
+    assert "cup_0" in report["soft_bodies"] and report["soft_bodies"]["cup_0"]["particles"] > 8
+    stage = Usd.Stage.Open(str(out / "shot.usda"))
+    pts = stage.GetPrimAtPath("/World/Objects/cup_0").GetAttribute("points")
+    assert pts.GetNumTimeSamples() > 1 and np.isfinite(np.array(pts.Get(stage.GetEndTimeCode()))).all()
+
+
+def test_mapping_of_paper_materials_onto_newton_parameters():
+    sand = newton_parameters("mpm_sand", {"friction_angle": 30.0})
+    assert sand["friction"] == pytest.approx(np.tan(np.radians(30))) and sand["yield_stress"] == 0
+    liquid = newton_parameters("mpm_liquid", {"viscosity": 2.0})
+    assert liquid["viscosity"] == 2.0 and liquid["friction"] == 0 and liquid["yield_stress"] == 0
+    snow = newton_parameters("mpm_snow", {})
+    assert snow["yield_pressure"] == pytest.approx(1e6 * 2.5e-2) and snow["hardening"] > 0
+    assert newton_parameters("mpm_elastoplastic", {"yield_stress": 500.0})["yield_stress"] == 500.0
+    assert newton_parameters("mpm_elastic", {})["yield_stress"] >= 1e15
+
+
+def test_particles_fill_the_mesh_and_the_surface_follows_them():
+    import trimesh
+
+    box = trimesh.creation.box((0.4, 0.2, 0.2))
+    pts = sample_inside(box, 0.02)
+    assert 1800 < len(pts) <= 2000 and box.contains(pts).all()  # 20 × 10 × 10 cells
+    bind = bind_surface(box.vertices, pts)
+    moved = pts + [1.0, 2.0, 3.0]
+    assert np.allclose(deform_surface(bind, moved, None), box.vertices + [1.0, 2.0, 3.0])
+    rot = np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]])
+    g = np.broadcast_to(rot, (len(pts), 3, 3))
+    assert np.allclose(deform_surface(bind, pts @ rot.T, g), box.vertices @ rot.T, atol=1e-9)
+
+
+def test_voxel_tetrahedra_are_positive_and_fill_the_volume():
+    import trimesh
+
+    ball = trimesh.creation.icosphere(3, 0.5)
+    verts, tets = voxel_tets(ball, 0.1)
+    a, b, c, d = (verts[tets[:, k]] for k in range(4))
+    vol = np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a) / 6
+    assert (vol > 0).all() and abs(vol.sum() - ball.volume) / ball.volume < 0.25
+
+
+def test_guard_counts_work_and_flags_growth_nan_and_speed():
+    g = Guard(tolerance=0.05)
+    assert g.check(100.0, 1.0, True) is None
+    assert g.check(104.0, 1.0, True) is None
+    assert "energy" in g.check(120.0, 1.0, True)
+    g.add_work(30.0)
+    assert g.check(120.0, 1.0, True) is None
+    assert "NaN" in g.check(float("nan"), 1.0, True)
+    assert "speed" in g.check(1.0, 5e3, True)
