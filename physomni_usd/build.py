@@ -26,6 +26,7 @@ from .perceive.lift import fill_holes, foot_pixel, lift_silhouette
 from .perceive.masks import collect_masks, read_photo
 from .perceive.plate import background_plate, object_texture
 from .physics.forces import parse_force_options
+from .physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
 from .report import Timer, update_report
 from .settings import BuildSettings
 from .usd import layers
@@ -40,8 +41,6 @@ TEXTURES = "textures"
 INPUTS = "inputs"
 #: Solver defaults written to the physics layer (the physics benchmark revisits them).
 DEFAULT_SOLVER = "xpbd"
-DEFAULT_SUBSTEPS = 10
-DEFAULT_ITERATIONS = 5
 
 
 @dataclass

@@ -1,9 +1,13 @@
-"""``bench physics``: error against run time for the rigid solvers, on cases with exact answers.
+"""``bench physics``: error against run time on cases with exact or measured answers, the stiff and
+extreme matrix, and what the simulator's defaults cost.
 
 Each case runs a tiny Newton scene for a few simulated seconds and compares it
-with its closed form; the sweep varies the solver and the substeps per frame
-(30 frames per second, so dt = 1 / (30·substeps)). For every (case, solver)
-the cheapest setting that meets the case's target is marked ``recommended``.
+with its reference; the sweep varies the solver and the substeps per frame
+(30 frames per second, so dt = 1 / (30·substeps)) and, for MPM, the particle
+spacing. For every (case, solver) the cheapest setting that meets the case's
+target is marked ``recommended``. The deformable cases (cloth sag, elastic
+bar, dam break, granular column) and their references are in
+:mod:`physomni_usd.bench.deformable`; the matrix in :mod:`physomni_usd.bench.stability`.
 
 Cases and their references:
 
@@ -17,6 +21,9 @@ Cases and their references:
 - resting stack: five boxes stacked must not drift; error = largest drift / box size;
 - free rotation: a free box spinning about a non-principal axis keeps its angular momentum
   (Euler's equations); error = |ΔL| / |L₀|.
+
+Rigid solvers compared: XPBD, MuJoCo (its own CPU engine, where ``mujoco`` and ``mujoco-warp`` are
+installed: the ``bench`` extra), Featherstone and semi-implicit (penalty contacts, ke = 1e6, kd = 1e4).
 """
 
 from __future__ import annotations
@@ -34,8 +41,10 @@ from .._warp import load_warp
 
 G = 9.81
 FPS = 30
-SOLVERS = ("xpbd", "featherstone", "semi_implicit")
+SOLVERS = ("xpbd", "mujoco", "featherstone", "semi_implicit")
 TARGET = 0.01
+#: XPBD iterations per substep, as the simulator's default.
+XPBD_ITERATIONS = 2  # physics.stability.DEFAULT_ITERATIONS
 
 
 @dataclass
@@ -51,7 +60,9 @@ def _solver(name, model):
     import newton
 
     if name == "xpbd":
-        return newton.solvers.SolverXPBD(model, iterations=4, enable_restitution=True)
+        return newton.solvers.SolverXPBD(model, iterations=XPBD_ITERATIONS, enable_restitution=True)
+    if name == "mujoco":  # MuJoCo's own CPU engine and contacts, through Newton
+        return newton.solvers.SolverMuJoCo(model, use_mujoco_cpu=True)
     if name == "featherstone":
         return newton.solvers.SolverFeatherstone(model)
     if name == "semi_implicit":
@@ -69,16 +80,25 @@ def _builder(gravity=(0.0, 0.0, -G), penalty=False):
 
 
 def _simulate(model, solver_name, substeps, seconds, contacts=False, forces=None, record=None):
+    return _simulate_every(model, solver_name, substeps, seconds, contacts, forces, record, COLLIDE_EVERY)
+
+
+#: Contacts are found every this many substeps (1 = every substep); see ``bench physics``.
+COLLIDE_EVERY = 1
+
+
+def _simulate_every(model, solver_name, substeps, seconds, contacts, forces, record, collide_every):
     import newton
 
     solver = _solver(solver_name, model)
     a, b = model.state(), model.state()
-    if solver_name == "featherstone" and a.joint_qd is not None and model.body_count:
-        # Featherstone integrates joint coordinates: every body here hangs on a free joint whose
+    if solver_name in ("featherstone", "mujoco") and a.joint_qd is not None and model.body_count:
+        # these integrate joint coordinates: every body here hangs on a free joint whose
         # velocity coordinates are the body's (linear, angular) velocity
         a.joint_qd.assign(a.body_qd.numpy().ravel())
     control = model.control()
-    pipe = newton.CollisionPipeline(model, contact_matching="sticky") if contacts else None
+    # MuJoCo finds its own contacts
+    pipe = newton.CollisionPipeline(model, contact_matching="sticky") if contacts and solver_name != "mujoco" else None
     found = pipe.contacts() if pipe else None
     dt = 1.0 / (FPS * substeps)
     steps = int(round(seconds * FPS * substeps))
@@ -87,7 +107,7 @@ def _simulate(model, solver_name, substeps, seconds, contacts=False, forces=None
         a.clear_forces()
         if forces is not None:
             forces.apply(model, a, i * dt, i)
-        if pipe:
+        if pipe and i % collide_every == 0:
             pipe.collide(a, found)
         solver.step(a, b, control, found, dt)
         a, b = b, a
@@ -214,12 +234,33 @@ CASES = [Case("free_fall", free_fall, 0.5), Case("linear_drag", linear_drag, 1.0
          Case("free_rotation", free_rotation, 2.0)]
 
 
-def bench_physics(quick: bool = False, repeats: int = 3, echo=print) -> dict:
+#: Deformable cases (bench.deformable): name → (function, solver, target, quick settings, full settings);
+#: a setting is (steps per frame, particle spacing or None).
+DEFORMABLE = {
+    "cloth_sag": ("cloth_sag", "xpbd", TARGET, [(8, None), (32, None)], [(4, None), (8, None), (16, None), (32, None)]),
+    "elastic_bar": ("elastic_bar", "implicit_mpm", TARGET, [(8, 0.025)],
+                    [(4, 0.025), (8, 0.025), (16, 0.025), (8, 0.0167), (16, 0.0167)]),
+    "dam_break": ("dam_break", "implicit_mpm", 0.10, [(2, 0.01)], [(1, 0.01), (2, 0.01), (4, 0.01), (2, 0.0067)]),
+    "granular_column": ("granular_column", "implicit_mpm", 0.15, [(4, 0.01)],
+                        [(2, 0.01), (4, 0.01), (8, 0.01), (16, 0.01), (4, 0.0067)]),
+}
+
+
+def rigid_solvers() -> tuple[str, ...]:
+    """The rigid solvers this machine can run: MuJoCo only where its Python packages are installed."""
+    import importlib.util
+
+    have_mujoco = all(importlib.util.find_spec(m) for m in ("mujoco", "mujoco_warp"))
+    return tuple(s for s in SOLVERS if s != "mujoco" or have_mujoco)
+
+
+def bench_physics(quick: bool = False, repeats: int = 3, echo=print, matrix: bool = True) -> dict:
     load_warp()
     substeps_list = (1, 4, 16) if quick else (1, 2, 4, 8, 16, 32)
+    solvers = rigid_solvers()
     rows = []
     for case in CASES:
-        for solver in SOLVERS:
+        for solver in solvers:
             for n in substeps_list:
                 errors, costs = [], []
                 for _ in range(1 if quick else repeats):
@@ -234,15 +275,96 @@ def bench_physics(quick: bool = False, repeats: int = 3, echo=print) -> dict:
                 rows.append({"case": case.name, "solver": solver, "dt": 1.0 / (FPS * n), "substeps": n,
                              "error": float(statistics.median(errors)), "target": case.target,
                              "seconds_per_sim_second": float(statistics.median(costs)), "recommended": False})
-    for case in CASES:
-        for solver in SOLVERS:
-            ok = [r for r in rows if r["case"] == case.name and r["solver"] == solver and r["error"] <= r["target"]]
-            if ok:
-                min(ok, key=lambda r: r["seconds_per_sim_second"])["recommended"] = True
-    default = choose_default(rows, substeps_list)
+    rows += _deformable_rows(quick, echo)
+    for case, solver in dict.fromkeys((r["case"], r["solver"]) for r in rows):
+        ok = [r for r in rows if r["case"] == case and r["solver"] == solver and r["error"] <= r["target"]]
+        if ok:
+            min(ok, key=lambda r: r["seconds_per_sim_second"])["recommended"] = True
+    default = choose_default([r for r in rows if r["case"] in {c.name for c in CASES}], substeps_list)
     _print(rows, default, echo)
-    return {"machine": f"{platform.machine()}, {__import__('os').cpu_count()} cores",
-            "date": time.strftime("%Y-%m-%d"), "fps": FPS, "rows": rows, "default": default}
+    out = {"machine": machine(), "date": time.strftime("%Y-%m-%d"), "fps": FPS, "rows": rows, "default": default,
+           "scene_defaults": scene_defaults(rows), "ten_objects": ten_objects(echo)}
+    if matrix:
+        from .stability import memory_probe, run_matrix
+
+        echo("stiff and extreme matrix:")
+        out["matrix"] = run_matrix(quick=quick, echo=echo)
+        out["memory"] = memory_probe()
+        echo(f"memory: {out['memory']}")
+    return out
+
+
+def machine() -> str:
+    import os
+
+    cpu = platform.processor() or platform.machine()
+    return f"{cpu}, {os.cpu_count()} cores, {platform.system()}, Python {platform.python_version()}"
+
+
+def _deformable_rows(quick: bool, echo) -> list[dict]:
+    from . import deformable
+
+    rows = []
+    for case, (fn, solver, target, quick_settings, full_settings) in DEFORMABLE.items():
+        seconds = {"cloth_sag": 1.0, "elastic_bar": 1.0, "granular_column": 1.0}.get(
+            case, deformable.MARTIN_MOYCE[-1][0] / math.sqrt(2 * G / 0.1))
+        for n, spacing in quick_settings if quick else full_settings:
+            kwargs = {} if spacing is None else {"spacing": spacing}
+            try:
+                err, sec = getattr(deformable, fn)(n, **kwargs)
+            except Exception as exc:  # noqa: BLE001 - reported, the sweep goes on
+                echo(f"{case} {solver}: {type(exc).__name__}: {exc}")
+                err, sec = float("nan"), float("nan")
+            rows.append({"case": case, "solver": solver, "dt": 1.0 / (FPS * n), "substeps": n, "spacing": spacing,
+                         "error": float(err) if math.isfinite(err) else float("inf"), "target": target,
+                         "seconds_per_sim_second": sec / seconds, "recommended": False})
+    return rows
+
+
+def scene_defaults(rows) -> dict:
+    """The XPBD substeps the bench recommends for each kind of rigid scene, beside what the simulator
+    uses (``physics.stability.RIGID_SUBSTEPS``)."""
+    from ..physics.stability import RIGID_SUBSTEPS
+
+    kinds = {"free": ("free_fall", "incline_friction", "free_rotation"), "drag": ("linear_drag", "quadratic_drag"),
+             "bouncy": ("restitution",), "stacked": ("resting_stack",)}
+    out = {}
+    for kind, cases in kinds.items():
+        need = []
+        for case in cases:
+            ok = [r["substeps"] for r in rows if r["case"] == case and r["solver"] == "xpbd" and r["error"] <= r["target"]]
+            need.append(min(ok) if ok else None)
+        measured = None if None in need else max(need)
+        out[kind] = {"bench": measured, "simulator": RIGID_SUBSTEPS[kind]}
+    return out
+
+
+def ten_objects(echo=print, seconds: float = 2.0) -> dict:
+    """Ten boxes dropped on the ground, through ``simulate`` at its own step choice: its cost."""
+    import pathlib
+    import tempfile
+
+    import trimesh
+
+    from ..physics.simulate import simulate_shot
+    from ..settings import SimulateSettings
+    from .scenes import BenchObject, write_bench_shot
+
+    objects = []
+    for i in range(10):
+        box = trimesh.creation.box((0.2, 0.2, 0.2))
+        box.apply_translation(((i % 5) * 0.4 - 0.8, (i // 5) * 0.4, 0.3 + 0.05 * i))
+        objects.append(BenchObject(f"box_{i}", box, "rigid", {"density": 500.0}))
+    with tempfile.TemporaryDirectory() as tmp:
+        shot = write_bench_shot(pathlib.Path(tmp), objects)
+        simulate_shot(shot, SimulateSettings(seconds=0.2))  # warm the kernel cache
+        rep = simulate_shot(shot, SimulateSettings(seconds=seconds))
+    cost = rep["seconds_per_simulated_second"]
+    out = {"objects": 10, "solver": rep["solver"], "substeps": rep["substeps"], "iterations": rep["iterations"],
+           "collide_at_most_every": rep["steps"]["collide_every"], "seconds_per_sim_second": cost,
+           "times_real_time": round(1.0 / cost, 2) if cost > 0 else None}
+    echo(f"ten objects: {out}")
+    return out
 
 
 def choose_default(rows, substeps_list) -> dict:
@@ -262,11 +384,21 @@ def choose_default(rows, substeps_list) -> dict:
 
 
 def _print(rows, default, echo):
-    echo(f"{'case':<18}{'solver':<15}{'substeps':>9}{'dt ms':>8}{'error':>10}{'s/sim s':>10}  rec")
-    for r in rows:
-        echo(f"{r['case']:<18}{r['solver']:<15}{r['substeps']:>9}{r['dt'] * 1000:>8.2f}{r['error']:>10.4f}"
-             f"{r['seconds_per_sim_second']:>10.4f}  {'*' if r['recommended'] else ''}")
+    for line in table(rows):
+        echo(line)
     echo(f"default: {default}")
+
+
+def table(rows) -> list[str]:
+    """The rows as a Markdown table (``*`` marks the recommended setting of each case and solver)."""
+    out = ["| case | solver | steps/frame | dt ms | spacing mm | error | target | s per sim s | rec |",
+           "|---|---|---:|---:|---:|---:|---:|---:|:-:|"]
+    for r in rows:
+        spacing = f"{r['spacing'] * 1000:.1f}" if r.get("spacing") else ""
+        out.append(f"| {r['case']} | {r['solver']} | {r['substeps']} | {r['dt'] * 1000:.2f} | {spacing} | "
+                   f"{r['error']:.4f} | {r['target']:.2f} | {r['seconds_per_sim_second']:.4f} | "
+                   f"{'*' if r['recommended'] else ''} |")
+    return out
 
 
 def write_plots(numbers: dict, folder) -> list:
@@ -285,13 +417,16 @@ def write_plots(numbers: dict, folder) -> list:
     out = []
     for case in dict.fromkeys(r["case"] for r in numbers["rows"]):
         fig, ax = plt.subplots(figsize=(5, 3.5))
-        for solver in SOLVERS:
+        for solver, spacing in dict.fromkeys((r["solver"], r.get("spacing")) for r in numbers["rows"]
+                                             if r["case"] == case):
             rs = [r for r in numbers["rows"] if r["case"] == case and r["solver"] == solver
-                  and math.isfinite(r["error"])]
+                  and r.get("spacing") == spacing and math.isfinite(r["error"])]
             if rs:
+                label = solver if spacing is None else f"{solver}, {spacing * 1000:.1f} mm"
                 ax.loglog([r["seconds_per_sim_second"] for r in rs], [max(r["error"], 1e-8) for r in rs], "o-",
-                          label=solver)
-        ax.axhline(TARGET, color="grey", ls="--", lw=1)
+                          label=label)
+        target = next(r["target"] for r in numbers["rows"] if r["case"] == case)
+        ax.axhline(target, color="grey", ls="--", lw=1)
         ax.set_xlabel("wall seconds per simulated second")
         ax.set_ylabel("relative error")
         ax.set_title(case)
@@ -302,3 +437,37 @@ def write_plots(numbers: dict, folder) -> list:
         plt.close(fig)
         out.append(str(path))
     return out
+
+
+def markdown(numbers: dict) -> str:
+    """The whole run as Markdown: date, machine, the error table, the matrix, memory, ten objects."""
+    lines = [f"Generated by `physomni-usd bench physics` on {numbers['date']} ({numbers['machine']}), "
+             f"{numbers['fps']} frames per second.", ""]
+    lines += table(numbers["rows"]) + [""]
+    d = numbers["default"]
+    lines.append(f"Cheapest rigid setting meeting every closed form at once: {d.get('solver')} × "
+                 f"{d.get('substeps')} substeps — {d.get('reason')}.")
+    lines.append("")
+    lines.append("| rigid scene kind | bench recommends (XPBD substeps) | simulator uses |")
+    lines.append("|---|---:|---:|")
+    for kind, v in numbers.get("scene_defaults", {}).items():
+        lines.append(f"| {kind} | {v['bench']} | {v['simulator']} |")
+    t = numbers.get("ten_objects")
+    if t:
+        lines += ["", f"Ten boxes at the simulator's defaults ({t['solver']}, {t['substeps']} substeps, "
+                      f"{t['iterations']} iterations, contacts searched as often as the speeds need, at most every "
+                      f"{t['collide_at_most_every']} substeps): "
+                      f"{t['seconds_per_sim_second']:.3f} s per simulated second, {t['times_real_time']}× real time."]
+    if numbers.get("matrix"):
+        lines += ["", "| matrix case | result | substeps | MPM steps | roll-backs | energy J (start → end, work) | detail |",
+                  "|---|---|---:|---:|---:|---|---|"]
+        for r in numbers["matrix"]:
+            energy = (f"{r['energy_initial_j']:.4g} → {r['energy_final_j']:.4g}, {r['work_j']:.3g}"
+                      if "energy_initial_j" in r else "")
+            lines.append(f"| {r['case']} | {'pass' if r['passed'] else 'FAIL'} | {r.get('substeps', '')} | "
+                         f"{r.get('mpm_steps', '')} | {r.get('rollbacks', '')} | {energy} | {r['detail']} |")
+    m = numbers.get("memory")
+    if m and "peak_rss_gib" in m:
+        lines += ["", f"Memory: {m['particles']:,} MPM particles (sand, spacing {m['spacing_m'] * 1000:.1f} mm) "
+                      f"simulated {m['simulated_seconds']} s with a peak of {m['peak_rss_gib']:.2f} GiB resident."]
+    return "\n".join(lines) + "\n"

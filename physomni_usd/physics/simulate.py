@@ -26,7 +26,8 @@ from .forces import FieldSet, body_samples, read_force_fields
 from .mpm import SURFACE_TYPES, add_particle_forces, bind_surface, build_mpm_scene, deform_surface, \
     particle_gradients, step_particles
 from .objects import SceneObject, scene_objects
-from .stability import Guard, StepPlan, body_energy, particle_energy, plan_steps
+from .stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS, Guard, StepPlan, body_energy, particle_energy, \
+    plan_steps
 
 SUPPORTED_SOLVERS = ("xpbd",)
 #: Newton simplifies convex hulls to this many vertices; its default (64) cuts the corners of
@@ -60,8 +61,8 @@ def scene_settings(stage: Usd.Stage, settings: SimulateSettings) -> dict:
     fps = settings.fps or stage.GetTimeCodesPerSecond() or 30.0
     out = {
         "solver": str(attr("physomni:solver", "xpbd")),
-        "substeps": int(settings.substeps or attr("physomni:substeps", 10)),
-        "iterations": int(settings.iterations or attr("physomni:iterations", 5)),
+        "substeps": int(settings.substeps or attr("physomni:substeps", DEFAULT_SUBSTEPS)),
+        "iterations": int(settings.iterations or attr("physomni:iterations", DEFAULT_ITERATIONS)),
         "fps": float(fps),
     }
     if out["solver"] not in SUPPORTED_SOLVERS:
@@ -84,7 +85,9 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     frames = int(round(settings.seconds * cfg["fps"])) + 1
 
     sim = _Simulation(stage, objects, cfg, settings)
-    plan = plan_steps(objects, cfg["fps"], cfg["substeps"], mpm=sim.mpm, cloth_masses=sim.cloth_masses,
+    plan = plan_steps(objects, cfg["fps"], cfg["substeps"], base_iterations=cfg["iterations"], mpm=sim.mpm,
+                      acceleration=sim.field_acceleration(settings.seconds), cloth_masses=sim.cloth_masses,
+                      field_kinds=[f.kind for f in sim.fields.fields], particles=bool(sim.model.particle_count),
                       cloth_stiffness=sim.cloth_stiffness, soft_dt=sim.soft_dt, fixed_substeps=settings.substeps is not None)
     echo(f"simulate: solvers {', '.join(sim.solvers)}; {plan.substeps} substeps per frame"
          + (f", {plan.mpm_steps} MPM steps per frame ({sim.mpm.model.particle_count} particles, "
@@ -117,7 +120,7 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
         author_particle_prims(folder / layers.PHYSICS, {k: (v["colour"], v["width"], v["show"])
                                                          for k, v in particles.items()})
     meta = {"physomni:solver": cfg["solver"], "physomni:substeps": plan.substeps, "physomni:dt": plan.dt,
-            "physomni:iterations": cfg["iterations"], "physomni:seconds": settings.seconds,
+            "physomni:iterations": plan.iterations, "physomni:seconds": settings.seconds,
             "physomni:solvers": ", ".join(sim.solvers)}
     if plan.mpm_steps:
         meta |= {"physomni:mpmSteps": plan.mpm_steps, "physomni:mpmDt": plan.mpm_dt,
@@ -130,7 +133,7 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
 
     section = {
         "solver": cfg["solver"], "solvers": list(sim.solvers), "device": sim.device, "fps": cfg["fps"],
-        "frames": frames, "substeps": plan.substeps, "dt": plan.dt, "iterations": cfg["iterations"],
+        "frames": frames, "substeps": plan.substeps, "dt": plan.dt, "iterations": plan.iterations,
         "steps": plan.as_dict(), "simulated_seconds": settings.seconds,
         "bodies": len(sim.path_body), "moving_prims": moved,
         "objects": {o.name: {"material": o.kind, "solver": o.family} for o in objects},
@@ -232,6 +235,15 @@ class _Simulation:
         self.t_model = time.perf_counter() - t0
         self.t_built = time.perf_counter()
 
+    def field_acceleration(self, seconds: float) -> float:
+        """Largest acceleration (m/s²) the force fields give at the objects' centres over the run."""
+        if not self.fields:
+            return 0.0
+        centres = np.array([o.points.mean(axis=0) for o in self.objects])
+        times = np.linspace(0.0, seconds, 9)
+        return max(float(np.linalg.norm(self.fields.acceleration(centres, np.zeros_like(centres), t), axis=1).max())
+                   for t in times)
+
     # --- state -------------------------------------------------------------------------------------
     def energy(self) -> tuple[float, float, bool]:
         e_b, v_b = body_energy(self.model, self.state)
@@ -261,8 +273,15 @@ class _Simulation:
             self.mpm.body_force.assign(snaps[2][""])
 
     # --- stepping ----------------------------------------------------------------------------------
-    def advance(self, plan: StepPlan, t0: float, step0: int, guard: Guard) -> None:
-        """One frame from time ``t0``."""
+    def advance(self, plan: StepPlan, t0: float, step0: int, guard: Guard, speed: float = 0.0) -> None:
+        """One frame from time ``t0``, the fastest body moving at ``speed`` m/s at its start."""
+        for d in self.pending:  # a push due in this frame counts as the speed it gives
+            if d[1] < t0 + 1.0 / plan.fps:
+                lin = d[3] if d[0] == "mpm" else d[2]
+                speed = max(speed, float(np.linalg.norm(lin)) if lin is not None else 0.0)
+        collide_every = plan.collide_interval(speed)
+        if self.solver is not None and plan.iterations:
+            self.solver.iterations = plan.iterations
         groups = plan.mpm_steps or 1
         per = plan.substeps // groups
         dt = plan.dt
@@ -277,7 +296,8 @@ class _Simulation:
                     self.fields.apply(self.model, self.state, t, step)
                     if self.mpm:
                         add_particle_forces(self.mpm, self.state)
-                    self.pipeline.collide(self.state, self.contacts)
+                    if (step - step0) % collide_every == 0:
+                        self.pipeline.collide(self.state, self.contacts)
                     self.solver.step(self.state, self.state_next, self.control, self.contacts, dt)
                     self.state, self.state_next = self.state_next, self.state
                 step += 1
@@ -290,7 +310,7 @@ class _Simulation:
             guard.add_work(self._field_work(t0, step0, 1.0 / plan.fps))
 
     def _field_work(self, t: float, step: int, seconds: float) -> float:
-        """Work the force fields did over the last frame, estimated from the end-of-frame velocities."""
+        """Work (J, signed) the force fields did over the last frame, from the end-of-frame velocities."""
         work = 0.0
         m = self.model
         if m.body_count:
@@ -303,7 +323,7 @@ class _Simulation:
             x, v = state.particle_q.numpy(), state.particle_qd.numpy()
             a = self.fields.acceleration(x, v, t, step)
             work += float((model.particle_mass.numpy() * np.einsum("ij,ij->i", a, v)).sum()) * seconds
-        return abs(work)
+        return work
 
     def _give_velocities(self, t: float, guard: Guard) -> list:
         """Set the velocities due at ``t``; the kinetic energy they add counts as work for the guard."""
@@ -340,7 +360,8 @@ class _Simulation:
             while f < frames:
                 saved = self.checkpoint()
                 work = guard.work
-                self.advance(plan, t, step, guard)
+                self.advance(plan, t, step, guard, speed)
+                before = speed
                 energy, speed, finite = self.energy()
                 why = guard.check(energy, speed, finite)
                 if why is not None:
@@ -349,6 +370,7 @@ class _Simulation:
                                             "substeps per frame; check the masses, speeds and stiffness in the shot")
                     self.restore(saved)
                     guard.work = work
+                    speed = before
                     plan = plan.refined()
                     rollbacks.append({"frame": f, "why": why, "substeps": plan.substeps, "mpm_steps": plan.mpm_steps})
                     echo(f"simulate: frame {f}: {why}; going back to frame {f - 1} with {plan.substeps} "

@@ -143,9 +143,10 @@ class SilhouetteRenderer:
         n = len(rays)
         face = wp.zeros(n, dtype=wp.int32, device=self.device)
         px = wp.zeros(n, dtype=wp.vec2, device=self.device)
+        depth = wp.zeros(n, dtype=wp.float32, device=self.device)
         wp.launch(primary, dim=n, inputs=[self.caster.mesh.id, wp.vec3(*map(float, camera.origin)),
                                           wp.array(rays, dtype=wp.vec3, device=self.device), self.caster.corner_px,
-                                          self.caster.alpha, 1e6], outputs=[px, face], device=self.device)
+                                          self.caster.alpha, 1e6], outputs=[px, face, depth], device=self.device)
         f = face.numpy()
         ids = np.where(f >= 0, self.face_object[np.maximum(f, 0)], -1)
         return ids.reshape(camera.height, camera.width)
