@@ -410,9 +410,12 @@ def bench_physics_command(quick, json_path, plots_dir, md_path):
         if json_path:
             write_bytes(json_path, (json.dumps(numbers, indent=2) + "\n").encode())
         if md_path:
-            from .bench.physics import markdown
+            from .bench.physics import markdown, splice_markdown
 
-            write_bytes(md_path, markdown(numbers).encode())
+            text = markdown(numbers)
+            if md_path.is_file():
+                text = splice_markdown(md_path.read_text(), text)
+            write_bytes(md_path, text.encode())
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -100,3 +100,11 @@ def test_markdown_table_is_dated_and_names_the_machine():
                          "target": 0.01, "seconds_per_sim_second": 0.1, "recommended": True}]}
     text = physics.markdown(numbers)
     assert "2026-01-01" in text and "2 cores" in text and "| free_fall | xpbd | 8 |" in text
+
+
+def test_markdown_replaces_only_the_marked_section():
+    doc = "intro\n<!-- bench physics: generated -->\nold table\n<!-- /bench physics -->\noutro\n"
+    out = physics.splice_markdown(doc, "new table\n")
+    assert out.startswith("intro\n<!-- bench physics: generated -->\n") and "new table" in out
+    assert "old table" not in out and out.endswith("<!-- /bench physics -->\noutro\n")
+    assert physics.splice_markdown("no markers", "whole") == "whole"

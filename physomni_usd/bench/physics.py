@@ -237,7 +237,8 @@ CASES = [Case("free_fall", free_fall, 0.5), Case("linear_drag", linear_drag, 1.0
 #: Deformable cases (bench.deformable): name → (function, solver, target, quick settings, full settings);
 #: a setting is (steps per frame, particle spacing or None).
 DEFORMABLE = {
-    "cloth_sag": ("cloth_sag", "xpbd", TARGET, [(8, None), (32, None)], [(4, None), (8, None), (16, None), (32, None)]),
+    "cloth_sag": ("cloth_sag", "xpbd", TARGET, [(8, None), (32, None)],
+                  [(4, None), (8, None), (16, None), (32, None)]),
     "elastic_bar": ("elastic_bar", "implicit_mpm", TARGET, [(8, 0.025)],
                     [(4, 0.025), (8, 0.025), (16, 0.025), (8, 0.0167), (16, 0.0167)]),
     "dam_break": ("dam_break", "implicit_mpm", 0.10, [(2, 0.01)], [(1, 0.01), (2, 0.01), (4, 0.01), (2, 0.0067)]),
@@ -471,3 +472,18 @@ def markdown(numbers: dict) -> str:
         lines += ["", f"Memory: {m['particles']:,} MPM particles (sand, spacing {m['spacing_m'] * 1000:.1f} mm) "
                       f"simulated {m['simulated_seconds']} s with a peak of {m['peak_rss_gib']:.2f} GiB resident."]
     return "\n".join(lines) + "\n"
+
+
+MARK_BEGIN = "<!-- bench physics:"
+MARK_END = "<!-- /bench physics -->"
+
+
+def splice_markdown(document: str, generated: str) -> str:
+    """``document`` with the text between its bench-physics markers replaced by ``generated``; a document
+    without the markers is replaced whole (it is the bench's own file)."""
+    start = document.find(MARK_BEGIN)
+    end = document.find(MARK_END)
+    if start < 0 or end < start:
+        return generated
+    head_end = document.index("\n", start) + 1
+    return document[:head_end] + "\n" + generated + "\n" + document[end:]
