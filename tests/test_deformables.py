@@ -64,6 +64,16 @@ def test_flowing_materials_become_time_sampled_particles(tmp_path, shot, materia
     assert points.ComputeVisibility(0) == "invisible" and points.ComputeVisibility(1) != "invisible"
     assert cli("validate", out / "shot.usda").returncode == 0
     assert report["steps"]["mpm_steps"] >= 1 and "mpm_cfl" in report["steps"]["reasons"]
+    if material == "mpm_sand":  # the particles are drawn, and shade the ground under them
+        from physomni_usd.render.stage import read_camera
+        from physomni_usd.render.video import ShotRenderer
+
+        renderer = ShotRenderer(stage)
+        end = stage.GetEndTimeCode()
+        cam = read_camera(stage, Usd.TimeCode(end), renderer.width, renderer.height)
+        assert renderer._particle_shadow(cam, Usd.TimeCode(end)).max() > 0.05
+        assert renderer._particle_shadow(cam, Usd.TimeCode(0)).max() == 0  # frame 0: the mesh, not particles
+        assert np.abs(renderer.frame(end).astype(float) - renderer.frame(0)).max() > 30
 
 
 def test_elastic_object_keeps_its_textured_surface_and_deforms(tmp_path, shot):

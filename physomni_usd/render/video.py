@@ -79,6 +79,31 @@ class ShotRenderer:
             out.append(pts)
         return np.concatenate(out)
 
+    def _particle_shadow(self, cam, time: Usd.TimeCode) -> np.ndarray:
+        """(H, W) darkening of the ground under visible particles: each particle's footprint at z = 0,
+        fading with its height as the objects' shadows do, then blurred like them."""
+        s = self.settings
+        shadow = np.zeros((self.height, self.width), np.float32)
+        for part in self.particles:
+            if not visible(part.prim, time):
+                continue
+            pts = UsdGeom.Points(part.prim).GetPointsAttr().Get(time)
+            if not pts:
+                continue
+            pts = np.asarray(pts, np.float64)
+            strength = s.shadow_strength * np.exp(-np.maximum(pts[:, 2], 0.0) / (s.shadow_falloff * self.size))
+            ground = pts * [1.0, 1.0, 0.0]
+            uv, z = cam.project(ground)
+            ok = (z > 1e-3) & (uv[:, 0] >= 0) & (uv[:, 1] >= 0) & (uv[:, 0] < self.width) & (uv[:, 1] < self.height)
+            order = np.argsort(strength[ok])  # the strongest last, so it wins where footprints overlap
+            radius = np.maximum(part.width * cam.fx / z[ok][order], 1.0)
+            for (u, v), r, k in zip(uv[ok][order], radius, strength[ok][order]):
+                cv2.circle(shadow, (int(round(u)), int(round(v))), int(round(r)), float(k), -1)
+        blur = s.shadow_blur * float(np.hypot(self.width, self.height))
+        if blur > 0.5 and shadow.any():
+            shadow = cv2.GaussianBlur(shadow, (0, 0), blur)
+        return shadow
+
     def _splat(self, out: np.ndarray, cam, time: Usd.TimeCode, depth: np.ndarray | None) -> np.ndarray:
         """Draw visible particle sets as shaded discs, far to near, hidden where a surface is nearer."""
         for part in self.particles:
@@ -119,7 +144,8 @@ class ShotRenderer:
             self._rays_key = key
         out = self.plate
         if self.caster is None:
-            return np.clip(self._splat(out.copy(), cam, time_code, None) + 0.5, 0, 255).astype(np.uint8)
+            out = self.plate * (1.0 - self._particle_shadow(cam, time_code)[..., None])
+            return np.clip(self._splat(out, cam, time_code, None) + 0.5, 0, 255).astype(np.uint8)
         self.caster.update(self._points(time_code))
         face, px, h = self.caster.cast(cam.origin, self._rays, self._shadow_rays, 1e6, 10.0 * self.size)
         s = self.settings
@@ -129,6 +155,8 @@ class ShotRenderer:
         if blur > 0.5:
             shadow = cv2.GaussianBlur(shadow, (0, 0), blur)
         shadow = cv2.resize(shadow, (self.width, self.height), interpolation=cv2.INTER_LINEAR)
+        if self.particles:
+            shadow = 1.0 - (1.0 - shadow) * (1.0 - self._particle_shadow(cam, time_code))
         out = self.plate * (1.0 - shadow[..., None])
         hit = face >= 0
         mx = np.where(hit, px[..., 0] - 0.5, -10).astype(np.float32)
