@@ -238,8 +238,11 @@ def render(shot, output, max_size, quiet):
 @click.option("--push", "pushes", multiple=True, metavar="LABEL=VX,VY,VZ[@T]",
               help="Give an object this velocity in m/s at T seconds (default 0); world axes: Z up, "
                    "+Y away from the camera, +X to the image's right. Repeatable.")
+@click.option("--particle-spacing", type=float, default=None, metavar="METRES",
+              help="MPM particle spacing [default: chosen from the objects' sizes].")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
-def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, meshes_dir, fixed, forces, seconds, pushes, quiet):
+def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, meshes_dir, fixed, forces, seconds, pushes,
+        particle_spacing, quiet):
     """build + simulate + render in one go; writes DIR/shot.usda, DIR/video.mp4, DIR/report.json.
 
     \b
@@ -252,12 +255,12 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, mes
         from .report import update_report
         from .settings import SimulateSettings
 
-        SimulateSettings(seconds=seconds)  # refuse absurd values before any work
+        SimulateSettings(seconds=seconds, particle_spacing=particle_spacing)  # refuse absurd values before any work
         t0 = time.perf_counter()
         settings = _build_settings(fov, pitch, camera_height, shape, fps)
         result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces, fixed=fixed,
                             meshes_dir=meshes_dir)
-        _simulate(result.shot, seconds, None, None, quiet)
+        _simulate(result.shot, seconds, None, None, quiet, particle_spacing)
         section = _render(result.shot, None, quiet)
         total = round(time.perf_counter() - t0, 3)
         update_report(result.folder, run={"total_seconds": total})

@@ -144,3 +144,23 @@ def test_guard_counts_work_and_flags_growth_nan_and_speed():
     assert g.check(120.0, 1.0, True) is None
     assert "NaN" in g.check(float("nan"), 1.0, True)
     assert "speed" in g.check(1.0, 5e3, True)
+
+
+def test_bundled_example_object_switched_to_liquid_flows(tmp_path):
+    import pathlib
+
+    example = pathlib.Path(__file__).resolve().parents[1] / "examples" / "sand"
+    out = tmp_path / "sand"
+    cli("build", example / "photo.png", "--mask", f"{example / 'sand.png'}:sand", "-o", out, "-q", check=True)
+    cli("estimate", out / "shot.usda", "--set", "sand.material=mpm_liquid", check=True)
+    cli("simulate", out / "shot.usda", "--seconds", "0.3", "--particle-spacing", "0.05", "-q", check=True)
+    stage = Usd.Stage.Open(str(out / "shot.usda"))
+    attr = UsdGeom.Points(stage.GetPrimAtPath("/World/Particles/sand_0")).GetPointsAttr()
+    a, b = np.array(attr.Get(0)), np.array(attr.Get(stage.GetEndTimeCode()))
+    assert attr.GetNumTimeSamples() == stage.GetEndTimeCode() + 1 and np.isfinite(b).all()
+    assert np.abs(b - a).max() > 0.05
+
+
+def test_run_refuses_an_absurd_particle_spacing(tmp_path, photo):
+    proc = cli("run", photo["photo"], "-o", tmp_path / "x", "--mask", photo["cup"], "--particle-spacing", "-1")
+    assert proc.returncode == 2 and proc.stderr.count("\n") <= 2 and not (tmp_path / "x").exists()
