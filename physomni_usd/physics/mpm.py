@@ -24,7 +24,7 @@ treated as the same elastic model (Newton's is corotated).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -148,8 +148,7 @@ class MPMScene:
     objects: list[MPMObject]
     spacing: float
     wave_speed: float
-    body_force: object = None
-    impulses: tuple = field(default_factory=tuple)
+    body_force: object = None  # (bodies,) spatial vectors: the particles' push on each rigid body
 
 
 @lru_cache(maxsize=1)

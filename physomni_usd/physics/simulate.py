@@ -41,14 +41,6 @@ STILL_METRES = 1e-3
 STILL_RADIANS = 2e-3
 
 
-def rigid_bodies(stage: Usd.Stage) -> list[Usd.Prim]:
-    """Prims under /World/Objects that carry PhysicsRigidBodyAPI, in stage order."""
-    root = stage.GetPrimAtPath(OBJECTS)
-    if not root:
-        return []
-    return [p for p in Usd.PrimRange(root) if p.HasAPI(UsdPhysics.RigidBodyAPI)]
-
-
 def scene_settings(stage: Usd.Stage, settings: SimulateSettings) -> dict:
     """Solver, substeps, iterations and fps: the command line's where given, else the stage's."""
     scene = next((p for p in stage.Traverse() if p.IsA(UsdPhysics.Scene)), None)
