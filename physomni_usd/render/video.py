@@ -79,18 +79,20 @@ class ShotRenderer:
             out.append(pts)
         return np.concatenate(out)
 
+    def _visible_particles(self, time: Usd.TimeCode):
+        """(particle set, world points (N, 3)) for each set visible and non-empty at ``time``."""
+        for part in self.particles:
+            if visible(part.prim, time):
+                pts = UsdGeom.Points(part.prim).GetPointsAttr().Get(time)
+                if pts:
+                    yield part, np.asarray(pts, np.float64)
+
     def _particle_shadow(self, cam, time: Usd.TimeCode) -> np.ndarray:
         """(H, W) darkening of the ground under visible particles: each particle's footprint at z = 0,
         fading with its height as the objects' shadows do, then blurred like them."""
         s = self.settings
         shadow = np.zeros((self.height, self.width), np.float32)
-        for part in self.particles:
-            if not visible(part.prim, time):
-                continue
-            pts = UsdGeom.Points(part.prim).GetPointsAttr().Get(time)
-            if not pts:
-                continue
-            pts = np.asarray(pts, np.float64)
+        for part, pts in self._visible_particles(time):
             strength = s.shadow_strength * np.exp(-np.maximum(pts[:, 2], 0.0) / (s.shadow_falloff * self.size))
             ground = pts * [1.0, 1.0, 0.0]
             uv, z = cam.project(ground)
@@ -106,13 +108,7 @@ class ShotRenderer:
 
     def _splat(self, out: np.ndarray, cam, time: Usd.TimeCode, depth: np.ndarray | None) -> np.ndarray:
         """Draw visible particle sets as shaded discs, far to near, hidden where a surface is nearer."""
-        for part in self.particles:
-            if not visible(part.prim, time):
-                continue
-            pts = UsdGeom.Points(part.prim).GetPointsAttr().Get(time)
-            if not pts:
-                continue
-            pts = np.asarray(pts, np.float64)
+        for part, pts in self._visible_particles(time):
             uv, z = cam.project(pts)
             dist = np.linalg.norm(pts - cam.origin, axis=1)
             ok = (z > 1e-3) & (uv[:, 0] >= 0) & (uv[:, 1] >= 0) & (uv[:, 0] < self.width) & (uv[:, 1] < self.height)
