@@ -8,6 +8,7 @@ import re
 import sys
 import time
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
 from pxr import Usd, UsdGeom, UsdPhysics
@@ -169,7 +170,7 @@ class _Simulation:
         self.path_body.update(_add_stand_ins(builder, [o for o in objects if o.family == "rigid"
                                                        and not o.is_body], newton, wp))
         self.ranges = {}  # cloth / soft body path → (first particle, count)
-        self.soft_rest = {}
+        self.soft_bindings = {}  # soft body path → its surface's binding to the tetrahedra
         self.soft_dt = None
         for o in objects:
             if o.family == "cloth":
@@ -178,9 +179,9 @@ class _Simulation:
                 start, count, rest, dt_soft = add_soft_body(builder, o, wp)
                 self.soft_dt = min(self.soft_dt or dt_soft, dt_soft)
                 self.ranges[o.path] = (start, count)
-                self.soft_rest[o.path] = bind_surface(o.points, rest)
-        fixed, delayed = read_controls(stage, self.path_body)
-        delayed += particle_velocities(stage, self.ranges)
+                self.soft_bindings[o.path] = bind_surface(o.points, rest)
+        fixed, pushes = read_controls(stage, self.path_body)
+        pushes += particle_pushes(stage, self.ranges)
         for b in fixed:
             # a kinematic body with no velocity stays put and still collides with everything else
             builder.body_flags[b] = int(newton.BodyFlags.KINEMATIC)
@@ -209,9 +210,11 @@ class _Simulation:
             mpm_objects = [o for o in objects if o.family == "mpm"]
             self.mpm = build_mpm_scene(mpm_objects, model, self.device, settings.particle_spacing) \
                 if mpm_objects else None
+            self.mpm_objects = {m.obj.path: m for m in self.mpm.objects} if self.mpm else {}
             if self.mpm:
                 self.solvers.append("implicit_mpm")
-                delayed += mpm_velocities(stage, self.mpm)
+                pushes += particle_pushes(stage, {o.obj.path: (o.start, o.count) for o in self.mpm.objects},
+                                          mpm=True)
             self.state, self.state_next = model.state(), model.state()
             self.control = model.control()
             # sticky contact matching keeps a resting hull's contact points from frame to frame;
@@ -219,7 +222,7 @@ class _Simulation:
             self.pipeline = newton.CollisionPipeline(model, contact_matching="sticky") if self.solver else None
             self.contacts = self.pipeline.contacts() if self.pipeline else None
         self.notes = [str(w.message) for w in caught]
-        self.pending = sorted(delayed, key=lambda d: d[1])
+        self.pending = sorted(pushes, key=lambda p: p.at)
         masses = model.particle_mass.numpy() if model.particle_count else np.zeros(0)
         cloth_idx = [np.arange(s, s + n) for p, (s, n) in self.ranges.items()]
         self.cloth_masses = masses[np.concatenate(cloth_idx)] if cloth_idx else None
@@ -267,10 +270,9 @@ class _Simulation:
     # --- stepping ----------------------------------------------------------------------------------
     def advance(self, plan: StepPlan, t0: float, step0: int, guard: Guard, speed: float = 0.0) -> None:
         """One frame from time ``t0``, the fastest body moving at ``speed`` m/s at its start."""
-        for d in self.pending:  # a push due in this frame counts as the speed it gives
-            if d[1] < t0 + 1.0 / plan.fps:
-                lin = d[3] if d[0] == "mpm" else d[2]
-                speed = max(speed, float(np.linalg.norm(lin)) if lin is not None else 0.0)
+        for p in self.pending:  # a push due in this frame counts as the speed it gives
+            if p.at < t0 + 1.0 / plan.fps and p.linear is not None:
+                speed = max(speed, float(np.linalg.norm(p.linear)))
         collide_every = plan.collide_interval(speed)
         if self.solver is not None and plan.iterations:
             self.solver.iterations = plan.iterations
@@ -281,8 +283,8 @@ class _Simulation:
         for _ in range(groups):
             for _ in range(per):
                 t = t0 + (step - step0) * dt
-                if self.pending and self.pending[0][1] <= t + 1e-9:
-                    self.pending = self._give_velocities(t, guard)
+                if self.pending and self.pending[0].at <= t + 1e-9:
+                    self._give_velocities(t, guard)
                 if self.solver is not None:
                     self.state.clear_forces()
                     self.fields.apply(self.model, self.state, t, step)
@@ -317,19 +319,13 @@ class _Simulation:
             work += float((model.particle_mass.numpy() * np.einsum("ij,ij->i", a, v)).sum()) * seconds
         return work
 
-    def _give_velocities(self, t: float, guard: Guard) -> list:
-        """Set the velocities due at ``t``; the kinetic energy they add counts as work for the guard."""
+    def _give_velocities(self, t: float, guard: Guard) -> None:
+        """Give the pushes due at ``t``; the kinetic energy they add counts as work for the guard."""
+        due = [p for p in self.pending if p.at <= t + 1e-9]
+        self.pending = [p for p in self.pending if p.at > t + 1e-9]
         before = self.energy()[0]
-        rest = _give_velocities(self.state, [d for d in self.pending if d[0] != "mpm"], t)
-        mpm_due = [d for d in self.pending if d[0] == "mpm" and d[1] <= t + 1e-9]
-        if mpm_due:
-            v = self.mpm.state.particle_qd.numpy()
-            for _, _, (start, count), lin in mpm_due:
-                v[start:start + count] = lin
-            self.mpm.state.particle_qd.assign(v)
+        give_velocities(due, self.state, self.mpm.state if self.mpm else None)
         guard.add_work(self.energy()[0] - before)
-        return sorted(rest + [d for d in self.pending if d[0] == "mpm" and d[1] > t + 1e-9],
-                      key=lambda d: d[1])
 
     def run(self, plan: StepPlan, frames: int, progress, echo) -> dict:
         """Step ``frames − 1`` frames under the guard; a failed frame is rolled back and redone at half the
@@ -396,9 +392,10 @@ class _Simulation:
                 world = x[start:start + count].astype(np.float64)
             elif o.family == "soft":
                 start, count = self.ranges[o.path]
-                world = deform_surface(self.soft_rest[o.path], x[start:start + count].astype(np.float64), None)
+                world = deform_surface(self.soft_bindings[o.path], x[start:start + count].astype(np.float64),
+                                       None)
             else:
-                mo = next(m for m in self.mpm.objects if m.obj is o)
+                mo = self.mpm_objects[o.path]
                 pts = mpm_points[f, mo.start:mo.start + mo.count].astype(np.float64)
                 g = grads[mo.start:mo.start + mo.count] if grads is not None else None
                 world = deform_surface(mo.binding, pts, g)
@@ -459,74 +456,74 @@ def _moved(pos: np.ndarray, quat: np.ndarray) -> bool:
     return float(2 * np.arccos(np.clip(dots.min(), -1, 1))) > STILL_RADIANS
 
 
-def read_controls(stage: Usd.Stage, path_body: dict) -> tuple[set, list]:
-    """Fixed bodies, and velocities given after t = 0: ``(body, seconds, linear m/s, angular rad/s)``."""
-    fixed, delayed = set(), []
+@dataclass
+class Push:
+    """A velocity given at ``at`` seconds to a rigid body (``body``) or to a range of particles
+    (``particles`` = (first, count), of the MPM model when ``mpm``)."""
+    at: float
+    linear: np.ndarray | None  # m/s
+    angular: np.ndarray | None = None  # rad/s, bodies only
+    body: int | None = None
+    particles: tuple[int, int] | None = None
+    mpm: bool = False
+
+
+def read_controls(stage: Usd.Stage, path_body: dict) -> tuple[set, list[Push]]:
+    """Fixed bodies, and the velocities ``physomni:initialVelocity`` / ``initialAngularVelocity`` give them."""
+    fixed, pushes = set(), []
     for path, b in path_body.items():
         prim = stage.GetPrimAtPath(path)
-        attr = prim.GetAttribute("physomni:fixed")
-        if attr and attr.Get():
+        if prim.GetAttribute("physomni:fixed").Get():
             fixed.add(b)
             continue
-        lin = prim.GetAttribute("physomni:initialVelocity")
-        ang = prim.GetAttribute("physomni:initialAngularVelocity")
-        lin = lin.Get() if lin and lin.HasAuthoredValue() else None
-        ang = ang.Get() if ang and ang.HasAuthoredValue() else None
-        if lin is None and ang is None:
-            continue
-        at = prim.GetAttribute("physomni:velocityStartTime")
-        at = float(at.Get() or 0.0) if at else 0.0
-        spin = np.radians(np.asarray(ang, float)) if ang is not None else None
-        delayed.append((b, max(at, 0.0), None if lin is None else np.asarray(lin, float), spin))
-    return fixed, delayed
+        push = _initial_velocity(prim)
+        if push is not None:
+            push.body = b
+            pushes.append(push)
+    return fixed, pushes
 
 
-def particle_velocities(stage: Usd.Stage, ranges: dict) -> list:
-    """``physomni:initialVelocity`` of cloths and soft bodies: ((first particle, count), seconds, m/s, None)."""
-    out = []
-    for path, (start, count) in ranges.items():
-        lin, at = _initial_velocity(stage.GetPrimAtPath(path))
-        if lin is not None:
-            out.append(((start, count), at, lin, None))
-    return out
+def particle_pushes(stage: Usd.Stage, ranges: dict, mpm: bool = False) -> list[Push]:
+    """The same for objects made of particles: path → (first particle, count)."""
+    pushes = []
+    for path, rng in ranges.items():
+        push = _initial_velocity(stage.GetPrimAtPath(path))
+        if push is not None and push.linear is not None:
+            push.particles, push.mpm = rng, mpm
+            pushes.append(push)
+    return pushes
 
 
-def mpm_velocities(stage: Usd.Stage, mpm) -> list:
-    """The same for MPM objects: ("mpm", seconds, (first particle, count), m/s)."""
-    out = []
-    for o in mpm.objects:
-        lin, at = _initial_velocity(o.obj.prim)
-        if lin is not None:
-            out.append(("mpm", at, (o.start, o.count), lin))
-    return out
-
-
-def _initial_velocity(prim: Usd.Prim):
+def _initial_velocity(prim: Usd.Prim) -> Push | None:
     lin = prim.GetAttribute("physomni:initialVelocity")
-    if not (lin and lin.HasAuthoredValue()):
-        return None, 0.0
-    at = prim.GetAttribute("physomni:velocityStartTime").Get() or 0.0
-    return np.asarray(lin.Get(), float), max(float(at), 0.0)
+    ang = prim.GetAttribute("physomni:initialAngularVelocity")
+    lin = np.asarray(lin.Get(), float) if lin and lin.HasAuthoredValue() else None
+    ang = np.radians(np.asarray(ang.Get(), float)) if ang and ang.HasAuthoredValue() else None
+    if lin is None and ang is None:
+        return None
+    at = prim.GetAttribute("physomni:velocityStartTime")
+    return Push(max(float(at.Get() or 0.0) if at else 0.0, 0.0), lin, ang)
 
 
-def _give_velocities(state, pending: list, t: float) -> list:
-    """Set the velocities that are due at ``t`` (bodies by index, cloths and soft bodies by particle
-    range); returns those still pending."""
-    due = [d for d in pending if d[1] <= t + 1e-9]
-    if any(isinstance(d[0], int) for d in due):
+def give_velocities(pushes: list[Push], state, mpm_state=None) -> None:
+    """Set each push's velocity: bodies in ``state``, particles in ``state`` or (MPM) ``mpm_state``."""
+    bodies = [p for p in pushes if p.body is not None]
+    if bodies:
         qd = state.body_qd.numpy()
-        for b, _, lin, ang in (d for d in due if isinstance(d[0], int)):
-            if lin is not None:
-                qd[b, :3] = lin
-            if ang is not None:
-                qd[b, 3:] = ang
+        for p in bodies:
+            if p.linear is not None:
+                qd[p.body, :3] = p.linear
+            if p.angular is not None:
+                qd[p.body, 3:] = p.angular
         state.body_qd.assign(qd)
-    if any(not isinstance(d[0], int) for d in due):
-        pqd = state.particle_qd.numpy()
-        for (start, count), _, lin, _ in (d for d in due if not isinstance(d[0], int)):
-            pqd[start:start + count] = lin
-        state.particle_qd.assign(pqd)
-    return [d for d in pending if d[1] > t + 1e-9]
+    for target, mine in ((state, [p for p in pushes if p.particles and not p.mpm]),
+                         (mpm_state, [p for p in pushes if p.particles and p.mpm])):
+        if mine:
+            v = target.particle_qd.numpy()
+            for p in mine:
+                start, count = p.particles
+                v[start:start + count] = p.linear
+            target.particle_qd.assign(v)
 
 
 def _checks(stage, frames: int) -> dict:
