@@ -1,5 +1,6 @@
 """Shots written straight from meshes — no photo, no lifting — for benchmarks that need exact
-geometry (a 5 mm wall, a 1 mm cube) and exact materials."""
+geometry (a 5 mm wall, a 1 mm cube) and exact materials; and a way to measure one in a fresh
+interpreter, as a user's ``physomni-usd simulate`` runs."""
 
 from __future__ import annotations
 
@@ -54,3 +55,20 @@ def write_bench_shot(folder: pathlib.Path, objects: list[BenchObject], fps: floa
     layers.reset_sim_layer(folder, fps)
     layers.ensure_edits_layer(folder)
     return layers.write_shot_layer(folder, fps)
+
+
+def in_fresh_interpreter(module: str, function: str, **kwargs) -> dict:
+    """``module.function(**kwargs)`` run in a new Python process (so that nothing this process holds —
+    memory, loaded kernels, a large heap — counts), its JSON-able result returned; on failure
+    ``{"error": last line of its stderr}``."""
+    import json
+    import subprocess
+    import sys
+
+    code = (f"import json\nfrom {module} import {function}\n"
+            f"print('RESULT ' + json.dumps({function}(**json.loads({json.dumps(json.dumps(kwargs))}))))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    line = next((x for x in proc.stdout.splitlines() if x.startswith("RESULT ")), None)
+    if line is None:
+        return {"error": (proc.stderr.strip().splitlines() or ["no output"])[-1]}
+    return json.loads(line[len("RESULT "):])

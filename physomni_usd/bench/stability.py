@@ -163,29 +163,27 @@ def run_matrix(quick: bool = False, echo=print, only: list[str] | None = None) -
 def memory_probe(particles: int = 100_000, seconds: float = 0.1) -> dict:
     """Peak resident memory of a sand block of about ``particles`` MPM particles simulated for ``seconds``,
     measured in a fresh interpreter so that nothing else counts."""
-    import json
-    import subprocess
-    import sys
+    from .scenes import in_fresh_interpreter
 
-    code = f"""
-import json, pathlib, resource, tempfile, time
-import trimesh
-from physomni_usd.bench.scenes import BenchObject, write_bench_shot
-from physomni_usd.physics.simulate import simulate_shot
-from physomni_usd.settings import SimulateSettings
-box = trimesh.creation.box((1.0, 1.0, 0.4)); box.apply_translation((0, 0, 0.2))
-spacing = (0.4 / {particles}) ** (1 / 3)
-with tempfile.TemporaryDirectory() as tmp:
-    shot = write_bench_shot(pathlib.Path(tmp), [BenchObject("sand", box, "mpm_sand")])
-    t0 = time.perf_counter()
-    rep = simulate_shot(shot, SimulateSettings(seconds={seconds}, particle_spacing=spacing))
-    print("RESULT " + json.dumps({{"particles": rep["mpm"]["particles"], "spacing_m": spacing,
-        "peak_rss_gib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20,
-        "seconds": time.perf_counter() - t0, "simulated_seconds": {seconds},
-        "step_seconds": rep["seconds"]["step"]}}))
-"""
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    line = next((x for x in proc.stdout.splitlines() if x.startswith("RESULT ")), None)
-    if line is None:
-        return {"error": (proc.stderr.strip().splitlines() or ["no output"])[-1]}
-    return json.loads(line[len("RESULT "):])
+    return in_fresh_interpreter(__name__, "_memory_run", particles=particles, seconds=seconds)
+
+
+def _memory_run(particles: int, seconds: float) -> dict:
+    import resource
+
+    import trimesh
+
+    from ..physics.simulate import simulate_shot
+    from ..settings import SimulateSettings
+
+    box = trimesh.creation.box((1.0, 1.0, 0.4))
+    box.apply_translation((0, 0, 0.2))
+    spacing = (0.4 / particles) ** (1 / 3)
+    with tempfile.TemporaryDirectory() as tmp:
+        shot = write_bench_shot(pathlib.Path(tmp), [BenchObject("sand", box, "mpm_sand")])
+        t0 = time.perf_counter()
+        rep = simulate_shot(shot, SimulateSettings(seconds=seconds, particle_spacing=spacing))
+        return {"particles": rep["mpm"]["particles"], "spacing_m": spacing,
+                "peak_rss_gib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2 ** 20,
+                "seconds": time.perf_counter() - t0, "simulated_seconds": seconds,
+                "step_seconds": rep["seconds"]["step"]}
