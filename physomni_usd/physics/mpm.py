@@ -134,7 +134,6 @@ class MPMObject:
     obj: object  # the SceneObject
     start: int
     count: int
-    rest: np.ndarray  # (count, 3) world
     binding: SurfaceBinding | None
     colour: tuple[float, float, float] = (0.6, 0.6, 0.6)
 
@@ -266,7 +265,7 @@ def build_mpm_scene(objects: list, rigid_model, device, spacing: float | None = 
         masses.append(np.full(len(pts), 0.0 if obj.fixed else density * h ** 3))
         values.append((len(pts), v))
         binding = bind_surface(obj.points, pts) if obj.kind in SURFACE_TYPES else None
-        out.append(MPMObject(obj, start, len(pts), pts, binding, texture_colour(obj.prim)))
+        out.append(MPMObject(obj, start, len(pts), binding, texture_colour(obj.prim)))
         start += len(pts)
     model, solver, state = particle_solver(np.concatenate(points), np.concatenate(masses), values, h,
                                            rigid_model, device, **solver_options([o.kind for o in objects]))

@@ -87,7 +87,7 @@ def scene_objects(stage: Usd.Stage) -> list[SceneObject]:
 
 
 def texture_colour(prim: Usd.Prim) -> tuple[float, float, float]:
-    """Mean linear-ish RGB (0–1) of the object's photo texture where it is opaque; grey without one."""
+    """Mean RGB (0–1, as stored) of the object's photo texture where it is opaque; grey without one."""
     from ..render.stage import read_image, texture_file
 
     path = texture_file(prim)

@@ -110,8 +110,7 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
             particles[o.obj.name] = {"points": pts, "show": o.binding is None, "mesh": o.obj.path,
                                      "colour": o.colour, "width": sim.mpm.spacing}
             moved.append(f"{PARTICLES}/{o.obj.name}")
-        author_particle_prims(folder / layers.PHYSICS, {k: (v["colour"], v["width"], v["show"])
-                                                         for k, v in particles.items()})
+        author_particle_prims(folder / layers.PHYSICS, {k: (v["colour"], v["width"]) for k, v in particles.items()})
     meta = {"physomni:solver": cfg["solver"], "physomni:substeps": plan.substeps, "physomni:dt": plan.dt,
             "physomni:iterations": plan.iterations, "physomni:seconds": settings.seconds,
             "physomni:solvers": ", ".join(sim.solvers)}

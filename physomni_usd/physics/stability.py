@@ -120,7 +120,7 @@ class StepPlan:
         return 1.0 / (self.fps * self.mpm_steps) if self.mpm_steps else None
 
     def refined(self) -> StepPlan:
-        """The same plan at half the step and twice the iterations."""
+        """The same plan at half the step and twice the iterations, finding contacts every substep."""
         return StepPlan(self.fps, min(self.substeps * 2, MAX_SUBSTEPS * 4),
                         self.mpm_steps * 2 if self.mpm_steps else 0, dict(self.reasons),
                         min(self.iterations * 2, 200) if self.iterations else None, 1, self.thinnest,
@@ -134,7 +134,7 @@ class StepPlan:
         return out
 
 
-def plan_steps(objects, fps: float, base_substeps: int, *, base_iterations: int = 5, mpm=None,
+def plan_steps(objects, fps: float, base_substeps: int, *, base_iterations: int = DEFAULT_ITERATIONS, mpm=None,
                cloth_masses=None, cloth_stiffness: float = 0.0, soft_dt: float | None = None,
                acceleration: float = 0.0, field_kinds=(), particles: bool = False,
                fixed_substeps: bool = False) -> StepPlan:

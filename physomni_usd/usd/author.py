@@ -301,20 +301,19 @@ def set_param(prim: Usd.Prim, attr_name: str, value, source: str) -> None:
 
 def author_particle_prims(physics_path: pathlib.Path, particles: dict) -> None:
     """Define ``/World/Particles/<name>`` Points prims in ``physics.usda`` (the simulation layer may only
-    hold overs). ``particles``: name → (display colour RGB 0–1, width m, shown instead of the mesh).
-    A prim shown instead of its mesh starts hidden — frame 0 is the photo — and the simulation layer
-    makes it visible from frame 1; the others stay hidden, kept for artists and other renderers."""
+    hold overs). ``particles``: name → (display colour RGB 0–1, width m). Every such prim starts hidden —
+    frame 0 is the photo; where the particles replace their mesh, the simulation layer makes them
+    visible from frame 1, the others stay hidden, kept for artists and other renderers."""
     layer = Sdf.Layer.FindOrOpen(str(physics_path))
     if layer is None:
         raise OSError(f"cannot open {physics_path}")
     stage = Usd.Stage.Open(layer)
     UsdGeom.Scope.Define(stage, PARTICLES)
-    for name, (colour, width, _shown) in particles.items():
+    for name, (colour, width) in particles.items():
         pts = UsdGeom.Points.Define(stage, f"{PARTICLES}/{name}")
         pts.CreatePointsAttr(Vt.Vec3fArray())
-        widths = pts.CreateWidthsAttr(Vt.FloatArray([float(width)]))
+        pts.CreateWidthsAttr(Vt.FloatArray([float(width)]))
         pts.SetWidthsInterpolation(UsdGeom.Tokens.constant)
-        del widths
         pts.CreateDisplayColorAttr(Vt.Vec3fArray([Gf.Vec3f(*map(float, colour))]))
         pts.CreateVisibilityAttr(UsdGeom.Tokens.invisible)
         pts.GetPrim().SetCustomDataByKey("physomni:object", f"{OBJECTS}/{name}")
