@@ -164,3 +164,22 @@ def test_bundled_example_object_switched_to_liquid_flows(tmp_path):
 def test_run_refuses_an_absurd_particle_spacing(tmp_path, photo):
     proc = cli("run", photo["photo"], "-o", tmp_path / "x", "--mask", photo["cup"], "--particle-spacing", "-1")
     assert proc.returncode == 2 and proc.stderr.count("\n") <= 2 and not (tmp_path / "x").exists()
+
+
+def test_a_run_the_guard_cannot_save_ends_in_one_line_and_keeps_the_old_simulation(tmp_path, shot):
+    import subprocess
+    import sys
+
+    out = tmp_path / "shot"
+    shutil.copytree(shot["dir"], out)
+    before = (out / "sim.usdc").read_bytes()
+    # a guard that rejects every frame: the run must give up after its roll-backs, not write anything
+    code = ("import sys\nfrom physomni_usd.physics import stability\n"
+            "stability.Guard.check = lambda self, energy, speed, finite: 'a test refusal'\n"
+            "from physomni_usd.cli import main\nmain(sys.argv[1:], prog_name='physomni-usd')\n")
+    proc = subprocess.run([sys.executable, "-c", code, "simulate", str(out / "shot.usda"), "--seconds", "0.2", "-q"],
+                          capture_output=True, text=True)
+    errors = [line for line in proc.stderr.splitlines() if line.startswith("error:")]
+    assert proc.returncode == 1 and len(errors) == 1 and "diverged at frame 1" in errors[0], proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert (out / "sim.usdc").read_bytes() == before
