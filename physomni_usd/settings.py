@@ -59,6 +59,8 @@ class SimulateSettings(_Settings):
     particle_spacing: float | None = Field(None, gt=1e-4, le=10.0,
                                            description="MPM particle spacing in metres; None chooses it from the "
                                                        "objects' sizes.")
+    mpm_steps: int | None = Field(None, ge=1, le=1000,
+                                  description="MPM steps per frame; None chooses them from the materials.")
 
 
 class RenderSettings(_Settings):

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 import numpy as np
 
 from physomni_usd.bench import deformable, physics
 from physomni_usd.bench.stability import run_matrix
-from physomni_usd.physics.stability import RIGID_SUBSTEPS, StepPlan, scene_kinds
+from physomni_usd.physics.stability import (CLOTH_FACTOR, MPM_STEPS, RIGID_SUBSTEPS, StepPlan, plan_steps,
+                                            scene_kinds)
 
 # the simulator's substeps for each kind of scene (physics.stability.RIGID_SUBSTEPS)
 SETTINGS = {"free_fall": 8, "linear_drag": 16, "quadratic_drag": 16, "incline_friction": 8, "restitution": 16,
@@ -40,10 +43,23 @@ def test_default_is_the_cheapest_setting_meeting_every_target():
     assert (best["solver"], best["substeps"]) == ("y", 1)
 
 
-def test_cloth_converges_towards_the_fine_step():
-    coarse, _ = deformable.cloth_sag(8)
-    fine, _ = deformable.cloth_sag(32)
-    assert np.isfinite(coarse) and fine < coarse / 3
+def test_cloth_sag_meets_the_fine_step_only_at_the_simulators_cloth_step():
+    """The simulator's rule dt ≤ CLOTH_FACTOR·√(m/k) lands within the bench's 1 % on the bench cloth;
+    four times that step does not."""
+    frame = 1.0 / deformable.FPS
+    substeps = math.ceil(frame / (CLOTH_FACTOR * deformable.cloth_time_scale()))
+    fine, _ = deformable.cloth_sag(substeps, seconds=4.0, reference_substeps=96)
+    coarse, _ = deformable.cloth_sag(max(substeps // 4, 1), seconds=4.0, reference_substeps=96)
+    assert fine < 0.01 and not coarse < 0.01
+
+
+def test_frequency_of_a_swing_decaying_onto_its_rest_position():
+    """A bar released straight swings about its sagged rest position, not about its mean; the estimate
+    must not depend on where the mean falls."""
+    t = np.linspace(0.0, 1.0, 241)
+    z = 0.53 + np.exp(-1.5 * t) * 0.02 * np.cos(2 * np.pi * 4.5 * t) + 0.0005 * np.sin(2 * np.pi * 28.0 * t)
+    assert deformable._frequency(np.c_[t, z]) == pytest.approx(4.5, rel=1e-3)
+    assert math.isnan(deformable._frequency(np.c_[t, np.full_like(t, 0.5)]))
 
 
 def test_elastic_bar_oscillates_near_the_beam_theory_frequency():
@@ -94,12 +110,37 @@ def test_contacts_are_searched_as_often_as_speed_needs():
     assert StepPlan(30.0, 8, collide_every=1, thinnest=0.2).collide_interval(0.0) == 1  # cloth present
 
 
+def test_mpm_steps_follow_the_material_the_bench_measured():
+    """Stiff materials want hundreds of CFL steps; the plan caps them at the bench's accurate setting for
+    the scene's stiffest kind of material, scaled to the frame rate, and never exceeds what CFL asks."""
+    from types import SimpleNamespace
+
+    def plan(kinds, wave_speed=100.0, fps=30.0):
+        mpm = SimpleNamespace(wave_speed=wave_speed, spacing=0.01,
+                              objects=[SimpleNamespace(obj=SimpleNamespace(kind=k)) for k in kinds])
+        return plan_steps([], fps, 8, mpm=mpm)
+
+    assert plan(["mpm_liquid"]).mpm_steps == MPM_STEPS["liquid"]
+    assert plan(["mpm_sand"]).mpm_steps == MPM_STEPS["granular"]
+    assert plan(["mpm_liquid", "mpm_elastic"]).mpm_steps == MPM_STEPS["elastic"]
+    assert plan(["mpm_elastic"], fps=60.0).mpm_steps == MPM_STEPS["elastic"] // 2
+    assert plan(["mpm_elastic"], wave_speed=0.5).mpm_steps == 4  # CFL asks for 4 only
+    p = plan(["mpm_elastic"])
+    assert p.substeps % p.mpm_steps == 0 and p.reasons["mpm_cfl"]["capped"]
+
+
 def test_markdown_table_is_dated_and_names_the_machine():
     numbers = {"date": "2026-01-01", "machine": "x86_64, 2 cores", "fps": 30, "default": {"solver": "xpbd"},
                "rows": [{"case": "free_fall", "solver": "xpbd", "dt": 1 / 240, "substeps": 8, "error": 0.008,
                          "target": 0.01, "seconds_per_sim_second": 0.1, "recommended": True}]}
     text = physics.markdown(numbers)
     assert "2026-01-01" in text and "2 cores" in text and "| free_fall | xpbd | 8 |" in text
+    rows = [{"case": "cloth_sag", "dt": 1 / 960, "substeps": 32, "recommended": True},
+            {"case": "dam_break", "dt": 1 / 60, "substeps": 2, "recommended": True}]
+    numbers["deformable_defaults"] = physics.deformable_defaults(rows)
+    text = physics.markdown(numbers)
+    assert f"c = {CLOTH_FACTOR}" in text and "| liquid | dam_break | 2 |" in text
+    assert "| granular | granular_column | none met the target |" in text
 
 
 def test_markdown_replaces_only_the_marked_section():

@@ -77,7 +77,10 @@ def test_flowing_materials_become_time_sampled_particles(tmp_path, shot, materia
 
 
 def test_elastic_object_keeps_its_textured_surface_and_deforms(tmp_path, shot):
-    out, stage, report, _ = _switched(tmp_path, shot, "mpm_elastic", extra=())
+    # a preview's MPM steps, as a user would ask for them (the default for elastic solids is 16)
+    out, stage, report, _ = _switched(tmp_path, shot, "mpm_elastic", extra=("--mpm-steps", "3"))
+    assert report["steps"]["mpm_steps"] == 3 and report["steps"]["reasons"]["mpm_cfl"]["given"] == 3
+    assert report["substeps"] % 3 == 0
     pts = stage.GetPrimAtPath("/World/Objects/cup_0").GetAttribute("points")
     assert pts.GetNumTimeSamples() == stage.GetEndTimeCode() + 1
     a, b = np.array(pts.Get(0)), np.array(pts.Get(stage.GetEndTimeCode()))
@@ -161,8 +164,9 @@ def test_bundled_example_object_switched_to_liquid_flows(tmp_path):
     assert np.abs(b - a).max() > 0.05
 
 
-def test_run_refuses_an_absurd_particle_spacing(tmp_path, photo):
-    proc = cli("run", photo["photo"], "-o", tmp_path / "x", "--mask", photo["cup"], "--particle-spacing", "-1")
+@pytest.mark.parametrize("option", [("--particle-spacing", "-1"), ("--mpm-steps", "0")])
+def test_run_refuses_absurd_particle_settings(tmp_path, photo, option):
+    proc = cli("run", photo["photo"], "-o", tmp_path / "x", "--mask", photo["cup"], *option)
     assert proc.returncode == 2 and proc.stderr.count("\n") <= 2 and not (tmp_path / "x").exists()
 
 

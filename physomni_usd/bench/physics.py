@@ -237,10 +237,10 @@ CASES = [Case("free_fall", free_fall, 0.5), Case("linear_drag", linear_drag, 1.0
 #: Deformable cases (bench.deformable): name → (function, solver, target, quick settings, full settings);
 #: a setting is (steps per frame, particle spacing or None).
 DEFORMABLE = {
-    "cloth_sag": ("cloth_sag", "xpbd", TARGET, [(16, None), (64, None)],
-                  [(8, None), (16, None), (32, None), (64, None), (128, None)]),
-    "elastic_bar": ("elastic_bar", "implicit_mpm", TARGET, [(8, 0.025)],
-                    [(8, 0.025), (16, 0.025), (16, 0.0167), (32, 0.0167), (32, 0.0125)]),
+    "cloth_sag": ("cloth_sag", "xpbd", TARGET, [(16, None), (32, None)],
+                  [(8, None), (16, None), (24, None), (32, None), (48, None), (64, None), (128, None)]),
+    "elastic_bar": ("elastic_bar", "implicit_mpm", TARGET, [(16, 0.025)],
+                    [(8, 0.025), (16, 0.025), (32, 0.025), (8, 0.0167), (16, 0.0167), (16, 0.0125)]),
     "dam_break": ("dam_break", "implicit_mpm", 0.10, [(2, 0.01)], [(1, 0.01), (2, 0.01), (4, 0.01), (2, 0.0067)]),
     "granular_column": ("granular_column", "implicit_mpm", 0.15, [(4, 0.01)],
                         [(2, 0.01), (4, 0.01), (8, 0.01), (16, 0.01), (4, 0.0067)]),
@@ -283,8 +283,10 @@ def bench_physics(quick: bool = False, repeats: int = 3, echo=print, matrix: boo
             min(ok, key=lambda r: r["seconds_per_sim_second"])["recommended"] = True
     default = choose_default([r for r in rows if r["case"] in {c.name for c in CASES}], substeps_list)
     _print(rows, default, echo)
+    deformables = deformable_defaults(rows)
+    echo(f"deformable defaults (bench vs simulator): {deformables}")
     out = {"machine": machine(), "date": time.strftime("%Y-%m-%d"), "fps": FPS, "rows": rows, "default": default,
-           "scene_defaults": scene_defaults(rows), "ten_objects": ten_objects(echo)}
+           "scene_defaults": scene_defaults(rows), "deformable_defaults": deformables, "ten_objects": ten_objects(echo)}
     if matrix:
         from .stability import memory_probe, run_matrix
 
@@ -307,7 +309,7 @@ def _deformable_rows(quick: bool, echo) -> list[dict]:
 
     rows = []
     for case, (fn, solver, target, quick_settings, full_settings) in DEFORMABLE.items():
-        seconds = {"cloth_sag": 1.0, "elastic_bar": 1.0, "granular_column": 1.0}.get(
+        seconds = {"cloth_sag": deformable.CLOTH_SECONDS, "elastic_bar": 1.0, "granular_column": 1.0}.get(
             case, deformable.MARTIN_MOYCE[-1][0] / math.sqrt(2 * G / 0.1))
         for n, spacing in quick_settings if quick else full_settings:
             kwargs = {} if spacing is None else {"spacing": spacing}
@@ -337,6 +339,25 @@ def scene_defaults(rows) -> dict:
             need.append(min(ok) if ok else None)
         measured = None if None in need else max(need)
         out[kind] = {"bench": measured, "simulator": RIGID_SUBSTEPS[kind]}
+    return out
+
+
+def deformable_defaults(rows) -> dict:
+    """What the deformable cases recommend beside what the simulator uses: the factor c of the cloth
+    rule dt ≤ c·√(m/k) (``physics.stability.CLOTH_FACTOR``) and MPM steps per frame for each kind of
+    material (``physics.stability.MPM_STEPS``); None where no setting met the case's target."""
+    from ..physics.stability import CLOTH_FACTOR, MPM_STEPS
+    from .deformable import cloth_time_scale
+
+    def recommended(case):
+        return next((r for r in rows if r["case"] == case and r["recommended"]), None)
+
+    cloth = recommended("cloth_sag")
+    out = {"cloth_factor": {"bench": round(cloth["dt"] / cloth_time_scale(), 3) if cloth else None,
+                            "simulator": CLOTH_FACTOR}, "mpm_steps": {}}
+    for kind, case in (("elastic", "elastic_bar"), ("granular", "granular_column"), ("liquid", "dam_break")):
+        r = recommended(case)
+        out["mpm_steps"][kind] = {"case": case, "bench": r["substeps"] if r else None, "simulator": MPM_STEPS[kind]}
     return out
 
 
@@ -466,6 +487,16 @@ def markdown(numbers: dict) -> str:
     lines.append("|---|---:|---:|")
     for kind, v in numbers.get("scene_defaults", {}).items():
         lines.append(f"| {kind} | {v['bench']} | {v['simulator']} |")
+    d = numbers.get("deformable_defaults")
+    if d:
+        c = d["cloth_factor"]
+        lines += ["", f"Cloth step rule dt ≤ c·√(m/k): the cheapest cloth-sag setting meeting its target gives "
+                      f"c = {c['bench']}; the simulator uses c = {c['simulator']}.", "",
+                  "| MPM material | reference case | bench recommends (steps per frame) | simulator uses |",
+                  "|---|---|---:|---:|"]
+        for kind, v in d["mpm_steps"].items():
+            bench = v["bench"] if v["bench"] is not None else "none met the target"
+            lines.append(f"| {kind} | {v['case']} | {bench} | {v['simulator']} |")
     t = numbers.get("ten_objects")
     if t and "seconds_per_sim_second" in t:
         lines += ["", f"Ten boxes in a fresh `simulate` at its defaults ({t['solver']}, {t['substeps']} substeps, "

@@ -11,6 +11,8 @@ import numpy as np
 #: solver keeps stable at our steps (spring N/m, bending N·m).
 CLOTH_SPRING_KE = (1e1, 1e2)
 CLOTH_BEND_KE = (1e-2, 1e1)
+#: Spring damping (N·s/m) of every cloth spring.
+CLOTH_SPRING_KD = 1.0
 #: Soft bodies: Lamé stiffness (Pa) from the inverse compliances, clamped likewise.
 SOFT_KE = (1e3, 5e5)
 #: Soft bodies are this many tetrahedral cells across their smallest side.
@@ -44,7 +46,7 @@ def add_cloth(builder, obj, wp) -> tuple[int, int]:
     builder.add_cloth_mesh(pos=wp.vec3(0.0, 0.0, 0.0), rot=wp.quat_identity(), scale=1.0,
                            vel=wp.vec3(0.0, 0.0, 0.0), vertices=[wp.vec3(*q) for q in world],
                            indices=faces.ravel().tolist(), density=float(p.get("density", 4.0)),
-                           edge_ke=bend, add_springs=True, spring_ke=stretch, spring_kd=1.0,
+                           edge_ke=bend, add_springs=True, spring_ke=stretch, spring_kd=CLOTH_SPRING_KD,
                            particle_radius=radius, label=obj.path)
     ratio = 1.0 if obj.fixed else float(obj.prim.GetAttribute("physomni:fixTopRatio").Get() or 0.0)
     for i in pinned_particles(world, ratio):

@@ -81,7 +81,8 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     plan = plan_steps(objects, cfg["fps"], cfg["substeps"], base_iterations=cfg["iterations"], mpm=sim.mpm,
                       acceleration=sim.field_acceleration(settings.seconds), cloth_masses=sim.cloth_masses,
                       field_kinds=[f.kind for f in sim.fields.fields], particles=bool(sim.model.particle_count),
-                      cloth_stiffness=sim.cloth_stiffness, soft_dt=sim.soft_dt, fixed_substeps=settings.substeps is not None)
+                      cloth_stiffness=sim.cloth_stiffness, soft_dt=sim.soft_dt, fixed_substeps=settings.substeps is not None,
+                      mpm_steps=settings.mpm_steps)
     echo(f"simulate: solvers {', '.join(sim.solvers)}; {plan.substeps} substeps per frame"
          + (f", {plan.mpm_steps} MPM steps per frame ({sim.mpm.model.particle_count} particles, "
             f"spacing {sim.mpm.spacing * 1000:.1f} mm)" if sim.mpm else ""))
