@@ -221,6 +221,10 @@ class _Simulation:
             # without it XPBD lets flat-based hulls creep by millimetres per second
             self.pipeline = newton.CollisionPipeline(model, contact_matching="sticky") if self.solver else None
             self.contacts = self.pipeline.contacts() if self.pipeline else None
+            if self.pipeline:
+                # Newton builds the narrow phase's kernels per pipeline, so warp hashes its module again
+                # on the first search (~0.5 s here): pay it while setting up, not in the first frame
+                self.pipeline.collide(self.state, self.contacts)
         self.notes = [str(w.message) for w in caught]
         self.pending = sorted(pushes, key=lambda p: p.at)
         masses = model.particle_mass.numpy() if model.particle_count else np.zeros(0)
