@@ -79,24 +79,34 @@ class ShotRenderer:
             out.append(pts)
         return np.concatenate(out)
 
-    def _visible_particles(self, time: Usd.TimeCode):
+    def _visible_particles(self, time: Usd.TimeCode) -> list:
         """(particle set, world points (N, 3)) for each set visible and non-empty at ``time``."""
+        out = []
         for part in self.particles:
             if visible(part.prim, time):
                 pts = UsdGeom.Points(part.prim).GetPointsAttr().Get(time)
                 if pts:
-                    yield part, np.asarray(pts, np.float64)
+                    out.append((part, np.asarray(pts, np.float64)))
+        return out
 
-    def _particle_shadow(self, cam, time: Usd.TimeCode) -> np.ndarray:
-        """(H, W) darkening of the ground under visible particles: each particle's footprint at z = 0,
-        fading with its height as the objects' shadows do, then blurred like them."""
+    def _shadow_strength(self, height: np.ndarray) -> np.ndarray:
+        """Darkening of the ground under something ``height`` metres above it (objects and particles alike)."""
+        s = self.settings
+        return s.shadow_strength * np.exp(-np.maximum(height, 0.0) / (s.shadow_falloff * self.size))
+
+    def _on_screen(self, uv: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """Which projected points (uv (N, 2) pixels, z (N,) depth) land in front of the camera and in the frame."""
+        return (z > 1e-3) & (uv[:, 0] >= 0) & (uv[:, 1] >= 0) & (uv[:, 0] < self.width) & (uv[:, 1] < self.height)
+
+    def _particle_shadow(self, cam, particles: list) -> np.ndarray:
+        """(H, W) darkening of the ground under ``particles`` (from :meth:`_visible_particles`): each
+        particle's footprint at z = 0, fading with its height as the objects' shadows do, then blurred like them."""
         s = self.settings
         shadow = np.zeros((self.height, self.width), np.float32)
-        for part, pts in self._visible_particles(time):
-            strength = s.shadow_strength * np.exp(-np.maximum(pts[:, 2], 0.0) / (s.shadow_falloff * self.size))
-            ground = pts * [1.0, 1.0, 0.0]
-            uv, z = cam.project(ground)
-            ok = (z > 1e-3) & (uv[:, 0] >= 0) & (uv[:, 1] >= 0) & (uv[:, 0] < self.width) & (uv[:, 1] < self.height)
+        for part, pts in particles:
+            strength = self._shadow_strength(pts[:, 2])
+            uv, z = cam.project(pts * [1.0, 1.0, 0.0])
+            ok = self._on_screen(uv, z)
             order = np.argsort(strength[ok])  # the strongest last, so it wins where footprints overlap
             radius = np.maximum(part.width * cam.fx / z[ok][order], 1.0)
             for (u, v), r, k in zip(uv[ok][order], radius, strength[ok][order]):
@@ -106,12 +116,13 @@ class ShotRenderer:
             shadow = cv2.GaussianBlur(shadow, (0, 0), blur)
         return shadow
 
-    def _splat(self, out: np.ndarray, cam, time: Usd.TimeCode, depth: np.ndarray | None) -> np.ndarray:
-        """Draw visible particle sets as shaded discs, far to near, hidden where a surface is nearer."""
-        for part, pts in self._visible_particles(time):
+    def _splat(self, out: np.ndarray, cam, particles: list, depth: np.ndarray | None) -> np.ndarray:
+        """Draw ``particles`` (from :meth:`_visible_particles`) as shaded discs, far to near, hidden where a
+        surface is nearer."""
+        for part, pts in particles:
             uv, z = cam.project(pts)
             dist = np.linalg.norm(pts - cam.origin, axis=1)
-            ok = (z > 1e-3) & (uv[:, 0] >= 0) & (uv[:, 1] >= 0) & (uv[:, 0] < self.width) & (uv[:, 1] < self.height)
+            ok = self._on_screen(uv, z)
             if depth is not None:
                 iu = np.clip(uv[:, 0].astype(int), 0, self.width - 1)
                 iv = np.clip(uv[:, 1].astype(int), 0, self.height - 1)
@@ -138,21 +149,23 @@ class ShotRenderer:
             self._rays = cam.rays()
             self._shadow_rays = cam.rays(SHADOW_STEP)
             self._rays_key = key
+        # read once a frame: both the particles' shadows and their splats need them
+        particles = self._visible_particles(time_code)
         out = self.plate
         if self.caster is None:
-            out = self.plate * (1.0 - self._particle_shadow(cam, time_code)[..., None])
-            return np.clip(self._splat(out, cam, time_code, None) + 0.5, 0, 255).astype(np.uint8)
+            out = self.plate * (1.0 - self._particle_shadow(cam, particles)[..., None])
+            return np.clip(self._splat(out, cam, particles, None) + 0.5, 0, 255).astype(np.uint8)
         self.caster.update(self._points(time_code))
         face, px, h = self.caster.cast(cam.origin, self._rays, self._shadow_rays, 1e6, 10.0 * self.size)
         s = self.settings
-        shadow = np.where(h >= 0, s.shadow_strength * np.exp(-np.maximum(h, 0) / (s.shadow_falloff * self.size)), 0)
+        shadow = np.where(h >= 0, self._shadow_strength(h), 0)
         blur = s.shadow_blur * float(np.hypot(self.width, self.height)) / SHADOW_STEP
         shadow = shadow.astype(np.float32)
         if blur > 0.5:
             shadow = cv2.GaussianBlur(shadow, (0, 0), blur)
         shadow = cv2.resize(shadow, (self.width, self.height), interpolation=cv2.INTER_LINEAR)
         if self.particles:
-            shadow = 1.0 - (1.0 - shadow) * (1.0 - self._particle_shadow(cam, time_code))
+            shadow = 1.0 - (1.0 - shadow) * (1.0 - self._particle_shadow(cam, particles))
         out = self.plate * (1.0 - shadow[..., None])
         hit = face >= 0
         mx = np.where(hit, px[..., 0] - 0.5, -10).astype(np.float32)
@@ -162,7 +175,7 @@ class ShotRenderer:
         a = np.where(hit, np.clip(alpha, 0.0, 1.0), 0.0)[..., None]
         out = out * (1.0 - a) + colour * a
         if self.particles:
-            out = self._splat(np.ascontiguousarray(out, np.float32), cam, time_code, self.caster.depth)
+            out = self._splat(np.ascontiguousarray(out, np.float32), cam, particles, self.caster.depth)
         return np.clip(out + 0.5, 0, 255).astype(np.uint8)
 
 
