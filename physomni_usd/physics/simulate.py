@@ -385,7 +385,9 @@ class _Simulation:
         if self.model.body_count:
             body_q[f] = self.state.body_q.numpy()
         x = self.state.particle_q.numpy() if self.model.particle_count else None
-        grads = particle_gradients(self.mpm) if self.mpm else None
+        # deformation gradients only move surfaces bound to particles (elastic kinds); sand and liquid have none
+        bound = self.mpm and any(m.binding is not None for m in self.mpm.objects)
+        grads = particle_gradients(self.mpm) if bound else None
         if self.mpm:
             mpm_points[f] = self.mpm.state.particle_q.numpy()
         for o in self.objects:
