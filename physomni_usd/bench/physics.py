@@ -38,13 +38,12 @@ from typing import Callable
 import numpy as np
 
 from .._warp import load_warp
+from ..physics.stability import CLOTH_FACTOR, DEFAULT_ITERATIONS, MPM_STEPS, RIGID_SUBSTEPS
 
 G = 9.81
 FPS = 30
 SOLVERS = ("xpbd", "mujoco", "featherstone", "semi_implicit")
 TARGET = 0.01
-#: XPBD iterations per substep, as the simulator's default.
-XPBD_ITERATIONS = 2  # physics.stability.DEFAULT_ITERATIONS
 
 
 @dataclass
@@ -60,7 +59,7 @@ def _solver(name, model):
     import newton
 
     if name == "xpbd":
-        return newton.solvers.SolverXPBD(model, iterations=XPBD_ITERATIONS, enable_restitution=True)
+        return newton.solvers.SolverXPBD(model, iterations=DEFAULT_ITERATIONS, enable_restitution=True)  # the simulator's
     if name == "mujoco":  # MuJoCo's own CPU engine and contacts, through Newton
         return newton.solvers.SolverMuJoCo(model, use_mujoco_cpu=True)
     if name == "featherstone":
@@ -80,14 +79,6 @@ def _builder(gravity=(0.0, 0.0, -G), penalty=False):
 
 
 def _simulate(model, solver_name, substeps, seconds, contacts=False, forces=None, record=None):
-    return _simulate_every(model, solver_name, substeps, seconds, contacts, forces, record, COLLIDE_EVERY)
-
-
-#: Contacts are found every this many substeps (1 = every substep); see ``bench physics``.
-COLLIDE_EVERY = 1
-
-
-def _simulate_every(model, solver_name, substeps, seconds, contacts, forces, record, collide_every):
     import newton
 
     solver = _solver(solver_name, model)
@@ -107,7 +98,7 @@ def _simulate_every(model, solver_name, substeps, seconds, contacts, forces, rec
         a.clear_forces()
         if forces is not None:
             forces.apply(model, a, i * dt, i)
-        if pipe and i % collide_every == 0:
+        if pipe:
             pipe.collide(a, found)
         solver.step(a, b, control, found, dt)
         a, b = b, a
@@ -310,26 +301,22 @@ def _deformable_rows(quick: bool, echo) -> list[dict]:
 
     rows = []
     for case, (fn, solver, target, quick_settings, full_settings) in DEFORMABLE.items():
-        seconds = {"cloth_sag": deformable.CLOTH_SECONDS, "elastic_bar": 1.0, "granular_column": 1.0}.get(
-            case, deformable.MARTIN_MOYCE[-1][0] / math.sqrt(2 * G / 0.1))
         for n, spacing in quick_settings if quick else full_settings:
             kwargs = {} if spacing is None else {"spacing": spacing}
             try:
-                err, sec = getattr(deformable, fn)(n, **kwargs)
+                err, cost = getattr(deformable, fn)(n, **kwargs)
             except Exception as exc:  # noqa: BLE001 - reported, the sweep goes on
                 echo(f"{case} {solver}: {type(exc).__name__}: {exc}")
-                err, sec = float("nan"), float("nan")
+                err, cost = float("nan"), float("nan")
             rows.append({"case": case, "solver": solver, "dt": 1.0 / (FPS * n), "substeps": n, "spacing": spacing,
                          "error": float(err) if math.isfinite(err) else float("inf"), "target": target,
-                         "seconds_per_sim_second": sec / seconds, "recommended": False})
+                         "seconds_per_sim_second": cost, "recommended": False})
     return rows
 
 
 def scene_defaults(rows) -> dict:
     """The XPBD substeps the bench recommends for each kind of rigid scene, beside what the simulator
     uses (``physics.stability.RIGID_SUBSTEPS``)."""
-    from ..physics.stability import RIGID_SUBSTEPS
-
     kinds = {"free": ("free_fall", "incline_friction", "free_rotation"), "drag": ("linear_drag", "quadratic_drag"),
              "bouncy": ("restitution",), "stacked": ("resting_stack",)}
     out = {}
@@ -347,7 +334,6 @@ def deformable_defaults(rows) -> dict:
     """What the deformable cases recommend beside what the simulator uses: the factor c of the cloth
     rule dt ≤ c·√(m/k) (``physics.stability.CLOTH_FACTOR``) and MPM steps per frame for each kind of
     material (``physics.stability.MPM_STEPS``); None where no setting met the case's target."""
-    from ..physics.stability import CLOTH_FACTOR, MPM_STEPS
     from .deformable import cloth_time_scale
 
     def recommended(case):

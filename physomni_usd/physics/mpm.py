@@ -86,12 +86,17 @@ def choose_spacing(meshes: list, override: float | None = None, max_particles: i
     return max(spacing, (volume / max_particles) ** (1.0 / 3.0))
 
 
-def sample_inside(mesh, spacing: float, seed: int = 0) -> np.ndarray:
-    """Points (N, 3) on a jittered grid of ``spacing`` inside a watertight trimesh; at least one point."""
-    lo, hi = mesh.bounds
+def grid_points(lo, hi, spacing: float) -> np.ndarray:
+    """Centres (N, 3) of the cubes of side ``spacing`` filling the box from ``lo`` to ``hi`` (m); an axis
+    shorter than a cube gets one point at its middle."""
     axes = [np.arange(a + 0.5 * spacing, b, spacing) for a, b in zip(lo, hi)]
     axes = [ax if len(ax) else np.array([(a + b) / 2]) for ax, a, b in zip(axes, lo, hi)]
-    grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    return np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+
+
+def sample_inside(mesh, spacing: float, seed: int = 0) -> np.ndarray:
+    """Points (N, 3) on a jittered grid of ``spacing`` inside a watertight trimesh; at least one point."""
+    grid = grid_points(*mesh.bounds, spacing)
     rng = np.random.default_rng(seed)
     grid = grid + rng.uniform(-0.2, 0.2, grid.shape) * spacing
     inside = mesh.contains(grid) if mesh.is_watertight else np.ones(len(grid), bool)
