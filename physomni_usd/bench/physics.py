@@ -73,7 +73,7 @@ def bench_physics(quick: bool = False, repeats: int = 3, echo=print, matrix: boo
     _print(rows, default, echo)
     deformables = deformable_defaults(rows)
     echo(f"deformable defaults (bench vs simulator): {deformables}")
-    out = {"machine": machine(), "date": time.strftime("%Y-%m-%d"), "fps": FPS, "rows": rows, "default": default,
+    out = {"machine": machine(), "date": time.strftime("%Y-%m-%d"), "fps": FPS, "quick": quick, "rows": rows, "default": default,
            "scene_defaults": scene_defaults(rows), "deformable_defaults": deformables, "ten_objects": ten_objects(echo)}
     if matrix:
         from .stability import memory_probe, run_matrix

@@ -21,13 +21,13 @@ installed: the ``bench`` extra), Featherstone and semi-implicit (penalty contact
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
-from ..physics.stability import DEFAULT_ITERATIONS
+from ..physics.stability import DEFAULT_ITERATIONS, StepPlan, contact_reuse
+from ..physics.stepping import Stepper, contact_pipeline, run_frames, xpbd_solver
 
 G = 9.81
 FPS = 30
@@ -47,8 +47,8 @@ class Case:
 def _solver(name, model):
     import newton
 
-    if name == "xpbd":
-        return newton.solvers.SolverXPBD(model, iterations=DEFAULT_ITERATIONS, enable_restitution=True)  # the simulator's
+    if name == "xpbd":  # the simulator's own
+        return xpbd_solver(model, DEFAULT_ITERATIONS)
     if name == "mujoco":  # MuJoCo's own CPU engine and contacts, through Newton
         return newton.solvers.SolverMuJoCo(model, use_mujoco_cpu=True)
     if name == "featherstone":
@@ -67,33 +67,27 @@ def _builder(gravity=(0.0, 0.0, -G), penalty=False):
     return b
 
 
-def _simulate(model, solver_name, substeps, seconds, contacts=False, forces=None, record=None):
-    import newton
-
+def _simulate(model, solver_name, substeps, seconds, contacts=False, forces=None, record=None, thinnest=None):
+    """Step ``model`` for ``seconds`` through the simulator's stepper; XPBD on the simulator's schedule
+    (contacts reused within a frame while the speeds allow, ``thinnest`` m the thinnest collider), the
+    other solvers searching contacts every substep. Returns the final state and the stepping seconds."""
     solver = _solver(solver_name, model)
-    a, b = model.state(), model.state()
+    # MuJoCo finds its own contacts
+    pipe, found = contact_pipeline(model) if contacts and solver_name != "mujoco" else (None, None)
+    stepper = Stepper(model, solver, pipeline=pipe, contacts=found, fields=forces)
+    a = stepper.state
     if solver_name in ("featherstone", "mujoco") and a.joint_qd is not None and model.body_count:
         # these integrate joint coordinates: every body here hangs on a free joint whose
         # velocity coordinates are the body's (linear, angular) velocity
         a.joint_qd.assign(a.body_qd.numpy().ravel())
-    control = model.control()
-    # MuJoCo finds its own contacts
-    pipe = newton.CollisionPipeline(model, contact_matching="sticky") if contacts and solver_name != "mujoco" else None
-    found = pipe.contacts() if pipe else None
-    dt = 1.0 / (FPS * substeps)
-    steps = int(round(seconds * FPS * substeps))
-    t0 = time.perf_counter()
-    for i in range(steps):
-        a.clear_forces()
-        if forces is not None:
-            forces.apply(model, a, i * dt, i)
-        if pipe:
-            pipe.collide(a, found)
-        solver.step(a, b, control, found, dt)
-        a, b = b, a
-        if record is not None and (i + 1) % substeps == 0:
-            record.append(a.body_q.numpy().copy())
-    return a, time.perf_counter() - t0
+    if solver_name == "xpbd":
+        plan = StepPlan(FPS, substeps, iterations=DEFAULT_ITERATIONS, collide_every=contact_reuse(substeps),
+                        thinnest=thinnest, acceleration=G)
+    else:
+        plan = StepPlan(FPS, substeps)
+    after = (lambda f: record.append(stepper.state.body_q.numpy().copy())) if record is not None else None
+    sec = run_frames(stepper, plan, int(round(seconds * FPS)), after_frame=after)
+    return stepper.state, sec
 
 
 def _body(b, pos, kind="sphere", size=0.1, mass_density=1000.0, velocity=None, spin=None):
@@ -159,7 +153,7 @@ def incline(solver, substeps, theta_deg=30.0, mu=0.3):
     b.add_ground_plane(cfg=b.default_shape_cfg.copy())
     _body(b, (0, 0, 0.1), kind="box", size=0.1)
     t = 1.0
-    state, sec = _simulate(b.finalize(device="cpu"), solver, substeps, t, contacts=True)
+    state, sec = _simulate(b.finalize(device="cpu"), solver, substeps, t, contacts=True, thinnest=0.2)
     exact = 0.5 * G * (math.sin(th) - mu * math.cos(th)) * t * t
     return abs(state.body_q.numpy()[0, 0] - exact) / exact, sec
 
@@ -170,7 +164,8 @@ def restitution(solver, substeps, e=0.6, h=1.0):
     b.add_ground_plane(cfg=b.default_shape_cfg.copy())
     _body(b, (0, 0, h + 0.1))
     record = []
-    state, sec = _simulate(b.finalize(device="cpu"), solver, substeps, 1.4, contacts=True, record=record)
+    state, sec = _simulate(b.finalize(device="cpu"), solver, substeps, 1.4, contacts=True, record=record,
+                           thinnest=0.2)
     z = np.array([q[0, 2] for q in record]) - 0.1
     after = z[int(math.sqrt(2 * h / G) * FPS) + 2:]
     apex = float(after.max()) if len(after) else 0.0
@@ -185,7 +180,7 @@ def resting_stack(solver, substeps, seconds=3.0):
         _body(b, (0, 0, size + 2 * size * i + 1e-4), kind="box", size=size)
     model = b.finalize(device="cpu")
     start = model.state().body_q.numpy()[:, :3].copy()
-    state, sec = _simulate(model, solver, substeps, seconds, contacts=True)
+    state, sec = _simulate(model, solver, substeps, seconds, contacts=True, thinnest=2 * size)
     drift = np.linalg.norm(state.body_q.numpy()[:, :3] - start, axis=1).max()
     return float(drift / (2 * size)), sec
 

@@ -5,6 +5,8 @@ force fields applied, pushes given. ``simulate``, ``bench physics`` and the test
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from .controls import give_velocities
@@ -16,7 +18,8 @@ def xpbd_solver(model, iterations: int):
     """The simulator's XPBD solver for ``model``."""
     import newton
 
-    return newton.solvers.SolverXPBD(model, iterations=iterations)
+    # Newton leaves restitution off by default; the materials author it, so it must act
+    return newton.solvers.SolverXPBD(model, iterations=iterations, enable_restitution=True)
 
 
 def contact_pipeline(model):
@@ -27,6 +30,23 @@ def contact_pipeline(model):
     # without it XPBD lets flat-based hulls creep by millimetres per second
     pipeline = newton.CollisionPipeline(model, contact_matching="sticky")
     return pipeline, pipeline.contacts()
+
+
+def _ignore(joules: float) -> None:
+    pass
+
+
+def run_frames(stepper: Stepper, plan: StepPlan, frames: int, after_frame=None, after_mpm_step=None) -> float:
+    """Step ``frames`` frames from t = 0 without the guard (benchmarks, tests); ``after_frame(f)`` is called
+    after frame ``f`` (1, 2, …). Returns the wall seconds spent stepping."""
+    t0 = time.perf_counter()
+    step = 0
+    for f in range(frames):
+        stepper.frame(plan, f / plan.fps, step, after_mpm_step=after_mpm_step)
+        step += plan.substeps
+        if after_frame is not None:
+            after_frame(f + 1)
+    return time.perf_counter() - t0
 
 
 class Stepper:
@@ -48,15 +68,22 @@ class Stepper:
         e_m, v_m = particle_energy(self.mpm.model, self.mpm.state) if self.mpm else (0.0, 0.0)
         return e_b + e_p + e_m, max(v_b, v_p, v_m)
 
-    def frame(self, plan: StepPlan, t0: float, step0: int, add_work, speed: float = 0.0) -> None:
+    def frame(self, plan: StepPlan, t0: float, step0: int, add_work=None, speed: float | None = None,
+              after_mpm_step=None) -> None:
         """One frame from time ``t0`` (substep counter ``step0``), the fastest body moving at ``speed`` m/s
-        at its start; the work pushes and fields do goes to ``add_work`` (J)."""
+        at its start (None: read from the state); the work pushes and fields do goes to ``add_work`` (J);
+        ``after_mpm_step(t)`` is called after each MPM step."""
+        add_work = add_work or _ignore
+        if speed is None:
+            speed = self.energy()[1] if plan.collide_every > 1 else 0.0
         for p in self.pending:  # a push due in this frame counts as the speed it gives
             if p.at < t0 + 1.0 / plan.fps and p.linear is not None:
                 speed = max(speed, float(np.linalg.norm(p.linear)))
         collide_every = plan.collide_interval(speed)
         if self.solver is not None and plan.iterations:
             self.solver.iterations = plan.iterations
+        if hasattr(self.solver, "enable_restitution"):
+            self.solver.enable_restitution = plan.restitution
         groups = plan.mpm_steps or 1
         per = plan.substeps // groups
         dt = plan.dt
@@ -84,6 +111,8 @@ class Stepper:
                 if fields is not None:
                     fields.apply(self.mpm.model, self.mpm.state, t, step)
                 step_particles(self.mpm, self.model, self.state, plan.mpm_dt)
+                if after_mpm_step is not None:
+                    after_mpm_step(t)
         if fields:
             add_work(self._field_work(t0, step0, 1.0 / plan.fps))
 
