@@ -395,7 +395,9 @@ def bench_alignment_command(quick, json_path):
 @click.option("--plots", "plots_dir", type=click.Path(file_okay=False, path_type=pathlib.Path), default=None,
               help="Write error-against-time plots (PNG, needs matplotlib) to this folder.")
 @click.option("--markdown", "md_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
-              help="Write the tables as Markdown, dated and with the machine, to this file.")
+              help="Write the tables as Markdown, dated and with the machine, to this file: a new file, or "
+                   "one whose '<!-- bench physics: ... -->' and '<!-- /bench physics -->' lines mark the part "
+                   "to replace (any other file is refused).")
 def bench_physics_command(quick, json_path, plots_dir, md_path):
     """Error against run time of Newton's solvers, and the stiff and extreme matrix.
 
@@ -413,13 +415,18 @@ def bench_physics_command(quick, json_path, plots_dir, md_path):
     with _errors():
         import json
 
+        from .bench.markdown import check_markdown_target
         from .bench.physics import bench_physics, write_plots
+        from .bench.plots import check_plots_possible
 
+        if md_path:
+            check_markdown_target(md_path)
+        if plots_dir:
+            check_plots_possible()
         numbers = bench_physics(quick=quick, echo=click.echo)
         if plots_dir:
             written = write_plots(numbers, plots_dir)
-            click.echo(f"plots: {len(written)} written to {plots_dir}" if written else
-                       "plots: matplotlib is not installed (pip install 'physomni-usd[bench]')", err=True)
+            click.echo(f"plots: {len(written)} written to {plots_dir}", err=True)
         from ._files import write_bytes
 
         if json_path:

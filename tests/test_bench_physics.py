@@ -13,6 +13,8 @@ from physomni_usd.bench.stability import run_matrix
 from physomni_usd.physics.stability import (CLOTH_FACTOR, MPM_STEPS, RIGID_SUBSTEPS, StepPlan, plan_steps,
                                             scene_kinds)
 
+from .conftest import cli
+
 # the simulator's substeps for each kind of scene (physics.stability.RIGID_SUBSTEPS)
 SETTINGS = {"free_fall": 8, "linear_drag": 16, "quadratic_drag": 16, "incline_friction": 8, "restitution": 16,
             "free_rotation": 8}
@@ -148,4 +150,29 @@ def test_markdown_replaces_only_the_marked_section():
     out = markdown.splice_markdown(doc, "new table\n")
     assert out.startswith("intro\n<!-- bench physics: generated -->\n") and "new table" in out
     assert "old table" not in out and out.endswith("<!-- /bench physics -->\noutro\n")
-    assert markdown.splice_markdown("no markers", "whole") == "whole"
+    with pytest.raises(ValueError):  # a file without the markers is not the bench's to replace
+        markdown.splice_markdown("no markers", "whole")
+
+
+def test_markdown_into_a_file_without_markers_is_refused_before_running(tmp_path):
+    target = tmp_path / "notes.md"
+    target.write_text("my own notes\n")
+    proc = cli("bench", "physics", "--quick", "--markdown", target)
+    assert proc.returncode == 2, proc.stderr
+    lines = [x for x in proc.stderr.splitlines() if not x.startswith("TORCH_IMPORTED")]
+    assert len(lines) == 1 and "--markdown" in lines[0] and "notes.md" in lines[0]
+    assert target.read_text() == "my own notes\n" and proc.stdout == ""  # nothing ran, nothing changed
+
+
+def test_plots_without_matplotlib_are_refused_before_running(tmp_path):
+    import os
+
+    fake = tmp_path / "site" / "matplotlib"
+    fake.mkdir(parents=True)
+    (fake / "__init__.py").write_text("raise ImportError('matplotlib is not installed here')\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(tmp_path / "site"), os.environ.get("PYTHONPATH", "")]))
+    proc = cli("bench", "physics", "--quick", "--plots", tmp_path / "plots", env=env)
+    assert proc.returncode == 2, proc.stderr
+    lines = [x for x in proc.stderr.splitlines() if not x.startswith("TORCH_IMPORTED")]
+    assert len(lines) == 1 and "--plots" in lines[0] and "physomni-usd[bench]" in lines[0]
+    assert proc.stdout == "" and not (tmp_path / "plots").exists()

@@ -76,12 +76,33 @@ MARK_BEGIN = "<!-- bench physics:"
 MARK_END = "<!-- /bench physics -->"
 
 
+def has_markers(document: str) -> bool:
+    """Whether ``document`` holds a bench-physics section to replace."""
+    start = document.find(MARK_BEGIN)
+    return start >= 0 and document.find(MARK_END, start) > start
+
+
+def check_markdown_target(path) -> None:
+    """Refuse (:class:`~physomni_usd.errors.InputError`) an existing file without the bench-physics markers,
+    before the bench runs: only the marked section of a file is ever replaced."""
+    import pathlib
+
+    from ..errors import InputError
+
+    path = pathlib.Path(path)
+    if path.is_dir():
+        raise InputError(f"--markdown {path}: is a folder; give a file")
+    if path.exists() and not has_markers(path.read_text(errors="replace")):
+        raise InputError(f"--markdown {path}: the file has no '{MARK_BEGIN} ...' and '{MARK_END}' lines to "
+                         "replace between; add them where the tables go, or give a new file")
+
+
 def splice_markdown(document: str, generated: str) -> str:
     """``document`` with the text between its bench-physics markers replaced by ``generated``; a document
-    without the markers is replaced whole (it is the bench's own file)."""
+    without the markers is refused (ValueError)."""
+    if not has_markers(document):
+        raise ValueError("the document has no bench physics markers")
     start = document.find(MARK_BEGIN)
-    end = document.find(MARK_END)
-    if start < 0 or end < start:
-        return generated
+    end = document.find(MARK_END, start)
     head_end = document.index("\n", start) + 1
     return document[:head_end] + "\n" + generated + "\n" + document[end:]

@@ -5,17 +5,32 @@ from __future__ import annotations
 import math
 
 
+def check_plots_possible() -> None:
+    """Refuse (:class:`~physomni_usd.errors.InputError`) ``--plots`` where matplotlib is missing, before the
+    bench runs."""
+    import importlib.util
+
+    from ..errors import InputError
+
+    if importlib.util.find_spec("matplotlib") is None:
+        raise InputError("--plots needs matplotlib, which is not installed: pip install 'physomni-usd[bench]'")
+    try:
+        import matplotlib  # noqa: F401 - found is not enough: it must import
+    except ImportError as exc:
+        raise InputError(f"--plots needs matplotlib, which does not import ({exc}): "
+                         "pip install 'physomni-usd[bench]'") from None
+
+
 def write_plots(numbers: dict, folder) -> list:
-    """Error against seconds per simulated second, one PNG per case (matplotlib)."""
+    """Error against seconds per simulated second, one PNG per case (matplotlib: see
+    :func:`check_plots_possible`)."""
     import pathlib
 
-    try:
-        import matplotlib
+    import matplotlib
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        return []
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
     folder = pathlib.Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     out = []
