@@ -6,6 +6,7 @@ force fields applied, pushes given. ``simulate``, ``bench physics`` and the test
 from __future__ import annotations
 
 import time
+from functools import lru_cache
 
 import numpy as np
 
@@ -60,6 +61,7 @@ class Stepper:
         self.pipeline, self.contacts = pipeline, contacts
         self.fields, self.mpm = fields, mpm
         self.pending = sorted(pushes, key=lambda p: p.at)
+        self._work = None  # (1,) float64 on the device: the fields' work (J) since it was last read
 
     def energy(self) -> tuple[float, float]:
         """Kinetic + gravitational energy (J) of everything stepped, and the top speed (m/s)."""
@@ -96,41 +98,74 @@ class Stepper:
                     self._give_velocities(t, add_work)
                 if self.solver is not None:
                     self.state.clear_forces()
-                    if fields is not None:
-                        fields.apply(self.model, self.state, t, step)
+                    held = None
+                    if fields:
+                        fields.apply(self.model, self.state, t, step, dt)
+                        held = self._work_before(self.model, self.state, dt)
                     if self.mpm:
                         add_particle_forces(self.mpm, self.state)
                     if self.pipeline is not None and (step - step0) % collide_every == 0:
                         self.pipeline.collide(self.state, self.contacts)
                     self.solver.step(self.state, self.state_next, self.control, self.contacts, dt)
                     self.state, self.state_next = self.state_next, self.state
+                    if held is not None:
+                        self._work_after(held, self.state, dt)
                 step += 1
             if self.mpm:
                 t = t0 + (step - step0) * dt
                 self.mpm.state.clear_forces()
-                if fields is not None:
-                    fields.apply(self.mpm.model, self.mpm.state, t, step)
+                held = None
+                if fields:
+                    fields.apply(self.mpm.model, self.mpm.state, t, step, plan.mpm_dt)
+                    held = self._work_before(self.mpm.model, self.mpm.state, plan.mpm_dt)
                 step_particles(self.mpm, self.model, self.state, plan.mpm_dt)
+                if held is not None:
+                    self._work_after(held, self.mpm.state, plan.mpm_dt)
                 if after_mpm_step is not None:
                     after_mpm_step(t)
         if fields:
-            add_work(self._field_work(t0, step0, 1.0 / plan.fps))
+            add_work(self._read_work())
 
-    def _field_work(self, t: float, step: int, seconds: float) -> float:
-        """Work (J, signed) the force fields did over the last frame, from the end-of-frame velocities."""
-        work = 0.0
-        m = self.model
-        if m.body_count:
-            q, qd = self.state.body_q.numpy(), self.state.body_qd.numpy()
-            a = self.fields.acceleration(q[:, :3], qd[:, :3], t, step)
-            work += float((m.body_mass.numpy() * np.einsum("ij,ij->i", a, qd[:, :3])).sum()) * seconds
-        for model, state in ((m, self.state), (self.mpm.model, self.mpm.state) if self.mpm else (None, None)):
-            if model is None or not model.particle_count:
-                continue
-            x, v = state.particle_q.numpy(), state.particle_qd.numpy()
-            a = self.fields.acceleration(x, v, t, step)
-            work += float((model.particle_mass.numpy() * np.einsum("ij,ij->i", a, v)).sum()) * seconds
-        return work
+    # --- the fields' work ------------------------------------------------------------------------
+    # A field's force F (and torque τ about the centre of mass) is constant over a step, evaluated at
+    # the sample points at the step's start; the kinetic energy it gives in the step is
+    # F·(v₀ + v₁)/2·dt + τ·(ω₀ + ω₁)/2·dt, v₀ and v₁ the velocities before and after the step. Summed
+    # per step on the device, so a field that starts mid-frame or one that spins a body is accounted.
+
+    def _work_before(self, model, state, dt: float):
+        """Add the first half of this step's field work; returns the field forces, kept for the second."""
+        import warp as wp
+
+        body_power, particle_power = _power_kernels()
+        if self._work is None:
+            self._work = wp.zeros(1, dtype=wp.float64, device=model.device)
+        held = []
+        if model.body_count and state.body_f is not None:
+            f = wp.clone(state.body_f)
+            wp.launch(body_power, dim=model.body_count, inputs=[f, state.body_qd, 0.5 * dt], outputs=[self._work],
+                      device=model.device)
+            held.append(("body", f))
+        if model.particle_count and state.particle_f is not None:
+            f = wp.clone(state.particle_f)
+            wp.launch(particle_power, dim=model.particle_count, inputs=[f, state.particle_qd, 0.5 * dt],
+                      outputs=[self._work], device=model.device)
+            held.append(("particle", f))
+        return held
+
+    def _work_after(self, held, state, dt: float) -> None:
+        import warp as wp
+
+        body_power, particle_power = _power_kernels()
+        for kind, f in held:
+            kernel, v = (body_power, state.body_qd) if kind == "body" else (particle_power, state.particle_qd)
+            wp.launch(kernel, dim=f.shape[0], inputs=[f, v, 0.5 * dt], outputs=[self._work], device=f.device)
+
+    def _read_work(self) -> float:
+        if self._work is None:
+            return 0.0
+        joules = float(self._work.numpy()[0])
+        self._work.zero_()
+        return joules
 
     def _give_velocities(self, t: float, add_work) -> None:
         """Give the pushes due at ``t``; the kinetic energy they add counts as work."""
@@ -139,3 +174,26 @@ class Stepper:
         before = self.energy()[0]
         give_velocities(due, self.state, self.mpm.state if self.mpm else None)
         add_work(self.energy()[0] - before)
+
+
+@lru_cache(maxsize=1)
+def _power_kernels():
+    """Kernels adding ``scale``·(force · velocity) (bodies: + torque · angular velocity) to ``out[0]``."""
+    import warp as wp
+
+    @wp.kernel
+    def body_power(f: wp.array(dtype=wp.spatial_vector), qd: wp.array(dtype=wp.spatial_vector), scale: float,
+                   out: wp.array(dtype=wp.float64)):
+        b = wp.tid()
+        w = f[b]
+        v = qd[b]
+        p = wp.dot(wp.spatial_top(w), wp.spatial_top(v)) + wp.dot(wp.spatial_bottom(w), wp.spatial_bottom(v))
+        wp.atomic_add(out, 0, wp.float64(scale * p))
+
+    @wp.kernel
+    def particle_power(f: wp.array(dtype=wp.vec3), v: wp.array(dtype=wp.vec3), scale: float,
+                       out: wp.array(dtype=wp.float64)):
+        i = wp.tid()
+        wp.atomic_add(out, 0, wp.float64(scale * wp.dot(f[i], v[i])))
+
+    return body_power, particle_power
