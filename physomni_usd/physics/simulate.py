@@ -21,7 +21,7 @@ from ..rotations import to_wxyz
 from ..settings import SimulateSettings
 from ..usd import layers
 from ..usd.author import OBJECTS, PARTICLES, author_particle_prims, write_sim_layer
-from .checks import check_rigid_inputs
+from .checks import check_inputs
 from .cloth import add_cloth, add_soft_body
 from .forces import FieldSet, body_samples, read_force_fields
 from .mpm import SURFACE_TYPES, add_particle_forces, bind_surface, build_mpm_scene, deform_surface, \
@@ -71,10 +71,10 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     folder = layers.shot_folder(shot)
     stage = layers.open_shot(shot, mute_sim=True)
     cfg = scene_settings(stage, settings)
+    check_inputs(stage)
     objects = scene_objects(stage)
     if not objects:
         raise InputError(f"{shot}: no objects to simulate under {OBJECTS}")
-    check_rigid_inputs(stage, [o.prim for o in objects if o.family == "rigid" and o.is_body])
     frames = int(round(settings.seconds * cfg["fps"])) + 1
 
     sim = _Simulation(stage, objects, cfg, settings)
