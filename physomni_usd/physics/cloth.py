@@ -7,6 +7,8 @@ import itertools
 
 import numpy as np
 
+from .mpm import points_inside
+
 #: XPBD cloth: stiffness is the inverse of the material's compliance, clamped to what the
 #: solver keeps stable at our steps (spring N/m, bending N·m).
 CLOTH_SPRING_KE = (1e1, 1e2)
@@ -55,14 +57,15 @@ def add_cloth(builder, obj, wp) -> tuple[int, int]:
 
 
 def voxel_tets(mesh, cell: float) -> tuple[np.ndarray, np.ndarray]:
-    """A conforming tetrahedral mesh of the cubes of side ``cell`` whose centres lie inside a watertight
-    trimesh: (V, 3) vertices and (T, 4) positively oriented tetrahedra (6 per cube, Kuhn split)."""
+    """A conforming tetrahedral mesh of the cubes of side ``cell`` whose centres lie inside a trimesh
+    (:func:`.mpm.points_inside`, so a mesh with holes fills its volume, not its bounding box): (V, 3)
+    vertices and (T, 4) positively oriented tetrahedra (6 per cube, Kuhn split)."""
     lo, hi = mesh.bounds
     n = np.maximum(np.ceil((hi - lo) / cell).astype(int), 1)
     origin = np.array([(lo[0] + hi[0] - n[0] * cell) / 2, (lo[1] + hi[1] - n[1] * cell) / 2, lo[2]])
     idx = np.stack(np.meshgrid(*[np.arange(k) for k in n], indexing="ij"), -1).reshape(-1, 3)
     centres = origin + (idx + 0.5) * cell
-    inside = mesh.contains(centres) if mesh.is_watertight else np.ones(len(idx), bool)
+    inside = points_inside(mesh, centres)
     cubes = idx[inside] if inside.any() else idx[np.argmin(np.linalg.norm(centres - mesh.centroid, axis=1))][None]
     tets = []
     for perm in itertools.permutations(range(3)):
