@@ -17,8 +17,9 @@ every paper material is a choice of those numbers (no warp model of our own was 
 | pbd_particle | 1e6 Pa, 0.2 | 0.5 | 0 | ∞ | 0 | 0 | 0 |
 
 "∞" is 1e15 Pa, Newton's own "never yields". ``pbd_liquid`` and ``pbd_particle`` run here as
-particles too, since Newton has no position-based fluid; the neo-Hookean of ``mpm_muscle`` is
-treated as the same elastic model (Newton's is corotated).
+particles too, since Newton has no position-based fluid. Newton's elasticity is corotated
+(``MPM_LAW``); a ``model`` of another name (``mpm_muscle``'s neo-Hookean) runs as that, and
+``simulate`` says so (:mod:`.params`).
 """
 
 from __future__ import annotations
@@ -38,6 +39,8 @@ MPM_TYPES = ("mpm_elastic", "mpm_elastoplastic", "mpm_sand", "mpm_liquid", "mpm_
 #: (sand, liquid, particles) show as particles after the first frame.
 SURFACE_TYPES = ("mpm_elastic", "mpm_elastoplastic", "mpm_snow", "mpm_muscle")
 NEVER = 1e15
+#: The constitutive law of Newton's implicit MPM.
+MPM_LAW = "corotated"
 #: Particles per grid voxel along each axis (8 per cell), Newton's examples' choice.
 PARTICLES_PER_VOXEL = 2
 #: Default spacing: the smallest object is this many particles across.

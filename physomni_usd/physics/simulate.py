@@ -22,11 +22,12 @@ from ..settings import SimulateSettings
 from ..usd import layers
 from ..usd.author import OBJECTS, PARTICLES, author_particle_prims, write_sim_layer
 from .checks import check_inputs
-from .cloth import add_cloth, add_soft_body
+from .cloth import AirDrag, add_cloth, add_soft_body
 from .forces import FieldSet, body_samples, read_force_fields
 from .mpm import SURFACE_TYPES, add_particle_forces, bind_surface, build_mpm_scene, deform_surface, \
     particle_gradients, step_particles
 from .objects import SceneObject, scene_objects
+from .params import describe, ignored_parameters, particle_friction
 from .stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS, Guard, StepPlan, body_energy, particle_energy, \
     plan_steps
 
@@ -75,6 +76,9 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     objects = scene_objects(stage)
     if not objects:
         raise InputError(f"{shot}: no objects to simulate under {OBJECTS}")
+    ignored = ignored_parameters(objects)
+    for name, items in ignored.items():
+        echo(f"simulate: {describe(name, items)}")
     frames = int(round(settings.seconds * cfg["fps"])) + 1
 
     sim = _Simulation(stage, objects, cfg, settings)
@@ -136,7 +140,7 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
                  "voxel_m": sim.mpm.solver.voxel_size,
                  "objects": {o.obj.name: o.count for o in sim.mpm.objects}} if sim.mpm else None),
         "guard": run["guard"], "retries": len(run["guard"]["rollbacks"]), "newton_notes": run["notes"],
-        "force_fields": [f"{x.kind} {x.path}" for x in sim.fields.fields],
+        "force_fields": [f"{x.kind} {x.path}" for x in sim.fields.fields], "ignored_parameters": ignored,
         "max_speed_m_s": run["max_speed"], **checks,
         "modules": {"torch": "torch" in sys.modules},
         "seconds": {"read": round(sim.t_built - t_start - sim.t_model, 4), "build_model": round(sim.t_model, 4),
@@ -201,6 +205,9 @@ class _Simulation:
             # with the ground and the rigid bodies
             model.particle_max_radius = 0.0
             model.particle_grid = None
+            if particle_friction(objects) is not None:
+                model.soft_contact_mu = particle_friction(objects)
+            self.air = AirDrag.of(objects, self.ranges, model.particle_count, self.device)
             self.model = model
             self.solvers = []
             self.solver = None
@@ -292,6 +299,8 @@ class _Simulation:
                 if self.solver is not None:
                     self.state.clear_forces()
                     self.fields.apply(self.model, self.state, t, step)
+                    if self.air:
+                        self.air.apply(self.model, self.state)
                     if self.mpm:
                         add_particle_forces(self.mpm, self.state)
                     if (step - step0) % collide_every == 0:
