@@ -102,7 +102,7 @@ def test_good_values_of_every_type_pass(stage):
 
 
 @pytest.mark.parametrize("attr, value, kind", [
-    ("physomni:strength", 2e4, "wind"), ("physomni:radius", float("inf"), "wind"),
+    ("physomni:strength", 2e6, "wind"), ("physomni:radius", float("inf"), "wind"),
     ("physomni:falloff", -1.0, "point"), ("physomni:startTime", -0.5, "constant"),
     ("physomni:linearDrag", -0.3, "drag"), ("physomni:direction", (0.0, 0.0, 0.0), "wind"),
     ("physomni:frequency", 0.0, "turbulence"), ("physomni:endTime", 0.5, "constant"),

@@ -90,11 +90,12 @@ FIELD_ATTRS = ATTRS
 
 #: What each field value may be, wherever it comes from (a layer, ``--force``, a VLM reply):
 #: (lowest, highest, unit). Negative radius and end time have a meaning (unbounded, never off); a
-#: negative falloff, flow, drag or damping would feed energy in instead of taking it out.
+#: negative falloff, flow, drag or damping would feed energy in instead of taking it out. Strengths
+#: reach 1e6 m/s²: the step planner and the guard carry a body pressed that hard (``bench stability``).
 FIELD_RANGES = {
-    "strength": (-1e4, 1e4, "m/s²"), "radius": (-1e6, 1e6, "m"), "falloff": (0.0, 10.0, ""),
+    "strength": (-1e6, 1e6, "m/s²"), "radius": (-1e6, 1e6, "m"), "falloff": (0.0, 10.0, ""),
     "start_time": (0.0, 1e4, "s"), "end_time": (-1e4, 1e4, "s"), "flow": (0.0, 1e3, "1/s"),
-    "linear_drag": (0.0, 1e4, "1/s"), "quadratic_drag": (0.0, 1e4, "1/m"), "radial_strength": (-1e4, 1e4, "1/s²"),
+    "linear_drag": (0.0, 1e4, "1/s"), "quadratic_drag": (0.0, 1e4, "1/m"), "radial_strength": (-1e6, 1e6, "1/s²"),
     "inner_radius": (0.0, 1e6, "m"), "damping": (0.0, 1e4, "1/s"), "frequency": (1e-6, 1e4, "1/m"),
     "seed": (0, 2**31 - 1, ""),
 }
