@@ -40,7 +40,7 @@ def ignored_parameters(objects) -> dict[str, list[dict]]:
     out = {}
     mu = particle_friction(objects)
     for o in objects:
-        items = [{"param": k, "value": v, "why": why} for k, v, why in _ignored(o, mu)]
+        items = [{"param": k, "value": _value(v), "why": why} for k, v, why in _ignored(o, mu)]
         if items:
             out[o.name] = items
     return out
@@ -75,8 +75,8 @@ def _ignored(o, mu):
             yield "model", p["model"], f"is ignored: Newton's implicit MPM has one elastic law; it ran as {MPM_LAW}"
         for key in ("static_friction", "dynamic_friction", "restitution"):
             if key in p:
-                yield key, p[key], "is ignored: the MPM grid meets colliders with their friction, not the " \
-                                   "particles' own"
+                yield key, p[key], "is ignored: Newton's MPM grid meets colliders with the colliders' own " \
+                                   "friction; particles carry no contact friction or restitution"
         return
     if fam in PARTICLE_FAMILIES:
         if p.get("dynamic_friction") is not None and mu is not None and float(p["dynamic_friction"]) != mu:
@@ -100,6 +100,11 @@ def _clamped(p, key, bounds, unit, what):
         edge = hi if k > hi else lo
         yield key, p[key], (f"is clamped to {1 / edge:g} ({what} stiffness {edge:g} {unit}): the simulator keeps "
                             f"XPBD stiffness within [{lo:g}, {hi:g}] {unit}, what stays stable at its steps")
+
+
+def _value(value):
+    """A number as authored: USD floats are single precision, so 0.4 reads back as 0.4000000059604645."""
+    return float(f"{value:.7g}") if isinstance(value, float) else value
 
 
 def _show(value) -> str:
