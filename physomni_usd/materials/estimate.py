@@ -15,10 +15,11 @@ from pxr import Sdf, Usd, UsdPhysics
 
 from ..errors import InputError
 from ..physics.forces import parse_force_options, read_force_fields
+from ..physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
 from ..report import Timer, update_report
 from ..usd import layers
 from ..usd.author import PhysicsObject, set_param, write_physics_layer
-from .catalog import CATALOG, PARAMS, canonical_key, check_params, keys_of
+from .catalog import PARAMS, canonical_key, check_params, keys_of, material_type
 from .defaults import GROUND_MATERIAL
 from .report import bound_material, material_report, object_prims
 from .rules import estimate_rules
@@ -43,9 +44,10 @@ def parse_sets(specs, objects: list[Usd.Prim]) -> list[tuple[Usd.Prim, str, obje
             raise InputError(f"--set {spec!r}: no object named {name.strip()!r} (known: {', '.join(sorted(by_name))})")
         key = key.strip().lower()
         if key in ("material", "material_type", "type"):
-            if value.strip() not in CATALOG:
-                raise InputError(f"--set {spec!r}: unknown material {value.strip()!r}; one of {', '.join(CATALOG)}")
-            out.append((prim, "material", value.strip()))
+            try:
+                out.append((prim, "material", material_type(value.strip())))
+            except ValueError as exc:
+                raise InputError(f"--set {spec!r}: {exc}") from None
             continue
         k = canonical_key(key)
         if k is None:
@@ -193,8 +195,8 @@ def estimate_shot(shot, estimator: str = "rules", vlm=None, sets=(), force_specs
         kept = [(f, "user") for f in user_fields]
         write_physics_layer(folder / layers.PHYSICS, folder / layers.SCENE,
                             fps=stage.GetTimeCodesPerSecond() or 30.0, objects=objects, ground=GROUND_MATERIAL,
-                            solver=solver.get("solver") or "xpbd", substeps=solver.get("substeps") or 10,
-                            iterations=solver.get("iterations") or 5, forces=config.forces,
+                            solver=solver.get("solver") or "xpbd", substeps=solver.get("substeps") or DEFAULT_SUBSTEPS,
+                            iterations=solver.get("iterations") or DEFAULT_ITERATIONS, forces=config.forces,
                             force_source=config.source, extra_forces=kept + [(f, "user") for f in new_fields])
         done = apply_sets(folder, set_values)
     for line in done:

@@ -6,7 +6,9 @@ Rules, from the paper with the reference code's defects fixed:
   block or inside prose), else the older form: a bare JSON array of objects;
 - objects map back by their ``index`` (mask order); objects the reply does not
   describe, and every object when nothing parses, become ``mpm_elastic``;
-- an unknown material becomes ``mpm_elastic``; an unknown force kind is dropped;
+- an unknown material becomes ``mpm_elastic`` (``catalog.FALLBACK_TYPE``), with a warning: the
+  catalog's one rule for type names, under which only a model's reply falls back and a type a
+  person authored is refused; an unknown force kind is dropped;
 - numbers and booleans given as strings are converted properly (``"false"``
   is false, ``"3e5"`` is 300000); ``null`` means "not given";
 - parameters unknown to the material are dropped and out-of-range values are

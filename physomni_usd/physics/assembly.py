@@ -15,11 +15,12 @@ from .._warp import load_warp, pick_device
 from ..rotations import to_wxyz
 from ..settings import SimulateSettings
 from ..usd.author import OBJECTS
-from .cloth import add_cloth, add_soft_body
+from .cloth import AirDrag, add_cloth, add_soft_body
 from .controls import particle_pushes, read_controls
 from .forces import FieldSet, body_samples, read_force_fields
 from .mpm import bind_surface, build_mpm_scene
 from .objects import SceneObject
+from .params import particle_friction
 from .stepping import Stepper, contact_pipeline, xpbd_solver
 
 #: Newton simplifies convex hulls to this many vertices; its default (64) cuts the corners of
@@ -80,6 +81,9 @@ class ShotModels:
             # with the ground and the rigid bodies
             model.particle_max_radius = 0.0
             model.particle_grid = None
+            if particle_friction(objects) is not None:
+                model.soft_contact_mu = particle_friction(objects)
+            air = AirDrag.of(objects, self.ranges, model.particle_count, self.device)
             self.model = model
             self.solvers = []
             solver = None
@@ -96,7 +100,7 @@ class ShotModels:
                                           mpm=True)
             pipeline, contacts = contact_pipeline(model) if solver else (None, None)
             self.stepper = Stepper(model, solver, pipeline=pipeline, contacts=contacts, fields=self.fields,
-                                   mpm=self.mpm, pushes=pushes)
+                                   mpm=self.mpm, pushes=pushes, air=air)
             if pipeline:
                 # Newton builds the narrow phase's kernels per pipeline, so warp hashes its module again
                 # on the first search (~0.5 s here): pay it while setting up, not in the first frame

@@ -89,6 +89,46 @@ ATTRS = {
     "physomni:radialStrength": "radial_strength", "physomni:innerRadius": "inner_radius",
     "physomni:damping": "damping", "physomni:frequency": "frequency", "physomni:seed": "seed",
 }
+FIELD_ATTRS = ATTRS
+
+#: What each field value may be, wherever it comes from (a layer, ``--force``, a VLM reply):
+#: (lowest, highest, unit). Negative radius and end time have a meaning (unbounded, never off); a
+#: negative falloff, flow, drag or damping would feed energy in instead of taking it out. Strengths
+#: reach 1e6 m/s²: the step planner and the guard carry a body pressed that hard (``bench stability``).
+FIELD_RANGES = {
+    "strength": (-1e6, 1e6, "m/s²"), "radius": (-1e6, 1e6, "m"), "falloff": (0.0, 10.0, ""),
+    "start_time": (0.0, 1e4, "s"), "end_time": (-1e4, 1e4, "s"), "flow": (0.0, 1e3, "1/s"),
+    "linear_drag": (0.0, 1e4, "1/s"), "quadratic_drag": (0.0, 1e4, "1/m"), "radial_strength": (-1e6, 1e6, "1/s²"),
+    "inner_radius": (0.0, 1e6, "m"), "damping": (0.0, 1e4, "1/s"), "frequency": (1e-6, 1e4, "1/m"),
+    "seed": (0, 2**31 - 1, ""),
+}
+#: Largest |coordinate| of a field's position, m.
+MAX_POSITION = 1e6
+
+
+def field_value_problem(key: str, value) -> str | None:
+    """What is wrong with ``value`` for the field value ``key`` (a :class:`ForceField` attribute), or None."""
+    if key == "kind":
+        return None if value in KINDS else f"not a force field kind; one of {', '.join(KINDS)}"
+    if key == "enabled":
+        return None if isinstance(value, (bool, int)) else "must be true or false"
+    if key in VECTOR_FIELDS:
+        try:
+            vec = np.asarray(tuple(value), float)
+        except (TypeError, ValueError):
+            return "must be three finite numbers"
+        if vec.shape != (3,) or not np.isfinite(vec).all():
+            return "must be three finite numbers"
+        if key == "direction" and not np.linalg.norm(vec):
+            return "must be a non-zero vector"
+        if key == "position" and np.abs(vec).max() > MAX_POSITION:
+            return f"must be within {MAX_POSITION:g} m of the origin"
+        return None
+    lo, hi, unit = FIELD_RANGES[key]
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value) and lo <= value <= hi
+    if key == "seed":
+        ok = ok and float(value).is_integer()
+    return None if ok else f"must be a finite number in [{lo:g}, {hi:g}] {unit}".rstrip()
 
 
 #: Spellings accepted in ``--force KIND:key=value,...`` and VLM replies → dataclass field.
@@ -147,15 +187,15 @@ def field_from_values(kind: str, values: dict, path: str = "") -> "ForceField":
             out[name] = vec
         elif name == "enabled":
             out[name] = parse_bool(value)
-        elif name == "seed":
-            out[name] = int(float(value))
         else:
-            number = float(value)
-            if not np.isfinite(number):
-                raise ValueError(f"{key} must be finite, got {value!r}")
-            out[name] = number
-    if abs(out.get("strength", 1.0)) > 1e4:
-        raise ValueError(f"strength {out['strength']:g} m/s² is beyond 1e4 m/s²")
+            out[name] = float(value)
+            if name == "seed" and float(value).is_integer():
+                out[name] = int(float(value))
+        why = field_value_problem(name, out[name])
+        if why:
+            raise ValueError(f"{key} = {value!r}: {why}")
+    if 0 <= out.get("end_time", -1.0) <= out.get("start_time", 0.0):
+        raise ValueError("the end time is not after the start time: the field would never act")
     return ForceField(kind, path=path, **out)
 
 

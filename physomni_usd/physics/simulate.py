@@ -15,8 +15,9 @@ from ..settings import SimulateSettings
 from ..usd import layers
 from ..usd.author import OBJECTS, PARTICLES, author_particle_prims, write_sim_layer
 from .assembly import ShotModels
-from .checks import check_rigid_inputs
+from .checks import check_inputs
 from .objects import scene_objects
+from .params import describe, ignored_parameters
 from .recording import moving_tracks, shot_checks
 from .runner import run_guarded
 from .stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS, plan_steps
@@ -53,10 +54,13 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     folder = layers.shot_folder(shot)
     stage = layers.open_shot(shot, mute_sim=True)
     cfg = scene_settings(stage, settings)
+    check_inputs(stage)
     objects = scene_objects(stage)
     if not objects:
         raise InputError(f"{shot}: no objects to simulate under {OBJECTS}")
-    check_rigid_inputs(stage, [o.prim for o in objects if o.family == "rigid" and o.is_body])
+    ignored = ignored_parameters(objects)
+    for name, items in ignored.items():
+        echo(f"simulate: {describe(name, items)}")
     frames = int(round(settings.seconds * cfg["fps"])) + 1
 
     sim = ShotModels(stage, objects, cfg, settings)
@@ -105,7 +109,7 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
                  "voxel_m": sim.mpm.solver.voxel_size,
                  "objects": {o.obj.name: o.count for o in sim.mpm.objects}} if sim.mpm else None),
         "guard": run["guard"], "retries": len(run["guard"]["rollbacks"]), "newton_notes": run["notes"],
-        "force_fields": [f"{x.kind} {x.path}" for x in sim.fields.fields],
+        "force_fields": [f"{x.kind} {x.path}" for x in sim.fields.fields], "ignored_parameters": ignored,
         "max_speed_m_s": run["max_speed"], **checks,
         "modules": {"torch": "torch" in sys.modules},
         "seconds": {"read": round(sim.t_built - t_start - sim.t_model, 4), "build_model": round(sim.t_model, 4),

@@ -54,12 +54,13 @@ class Stepper:
     """Advances a Newton model (rigid bodies, cloth, soft bodies: ``solver``) and an optional MPM scene
     coupled to it, a frame at a time; ``state`` is always the current state."""
 
-    def __init__(self, model, solver=None, *, pipeline=None, contacts=None, fields=None, mpm=None, pushes=()):
+    def __init__(self, model, solver=None, *, pipeline=None, contacts=None, fields=None, mpm=None, pushes=(), air=None):
         self.model, self.solver = model, solver
         self.state, self.state_next = model.state(), model.state()
         self.control = model.control()
         self.pipeline, self.contacts = pipeline, contacts
         self.fields, self.mpm = fields, mpm
+        self.air = air  # cloths' air resistance (cloth.AirDrag), or None
         self.pending = sorted(pushes, key=lambda p: p.at)
         self._work = None  # (1,) float64 on the device: the fields' work (J) since it was last read
 
@@ -102,6 +103,8 @@ class Stepper:
                     if fields:
                         fields.apply(self.model, self.state, t, step, dt)
                         held = self._work_before(self.model, self.state, dt)
+                    if self.air is not None:
+                        self.air.apply(self.model, self.state)
                     if self.mpm:
                         add_particle_forces(self.mpm, self.state)
                     if self.pipeline is not None and (step - step0) % collide_every == 0:
