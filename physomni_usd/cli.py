@@ -80,7 +80,7 @@ def _errors():
     except PermissionError as exc:  # the checks before each command should have caught it
         _fail(f"cannot write {exc.filename}: permission denied", 2)
     except KeyboardInterrupt:
-        _fail("interrupted; files already written are complete, the one in progress was not written", 130)
+        _fail("interrupted; the shot's files are as they were before this command", 130)
     except Exception as exc:  # a bug, not bad input
         if os.environ.get("PHYSOMNI_DEBUG"):
             raise

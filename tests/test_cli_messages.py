@@ -21,7 +21,7 @@ from .conftest import cli
 from .test_bad_input import _assert_one_line_error
 
 
-def test_a_label_two_objects_share_pushes_both_and_says_so(tmp_path, photo):
+def test_a_label_two_objects_share_names_both_and_says_so(tmp_path, photo):
     out = tmp_path / "shot"
     proc = cli("build", photo["photo"], "-o", out, "--mask", f"{photo['cup']}:toy", "--mask",
                f"{photo['box']}:toy", "--push", "toy=0.5,0,0", check=True)
@@ -31,6 +31,12 @@ def test_a_label_two_objects_share_pushes_both_and_says_so(tmp_path, photo):
         assert tuple(velocity) == pytest.approx((0.5, 0, 0)), name
     said = [ln for ln in proc.stderr.splitlines() if "--push toy" in ln]
     assert len(said) == 1 and "toy_0" in said[0] and "toy_1" in said[0], proc.stderr
+    cli("estimate", out / "shot.usda", "--set", "toy.density=900", "--set", "toy_1.friction=0.3", check=True)
+    stage.Reload()  # the layers changed on disk
+    material = lambda name: stage.GetPrimAtPath(f"/World/Materials/Physics/{name}")  # noqa: E731
+    assert [material(n).GetAttribute("physics:density").Get() for n in ("toy_0", "toy_1")] == [900, 900]
+    assert material("toy_1").GetAttribute("physics:staticFriction").Get() == pytest.approx(0.3)
+    assert material("toy_0").GetAttribute("physics:staticFriction").Get() != pytest.approx(0.3)
 
 
 @pytest.mark.parametrize("args, option, unwanted", [
