@@ -438,7 +438,8 @@ def bench():
 @click.option("--size", type=click.IntRange(64, 8192), default=880, show_default=True,
               help="Longer side of the photo, pixels.")
 @click.option("--repeats", type=click.IntRange(1, 50), default=3, show_default=True, help="Builds to time.")
-@click.option("--seconds", type=float, default=2.0, show_default=True, help="Simulated seconds in the run.")
+@click.option("--seconds", type=float, default=2.0, show_default=True,
+              help=_range_help("Simulated seconds in the run.", SimulateSettings, "seconds"))
 @click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
               help="Also write the numbers to this JSON file.")
 def bench_pipeline_command(example, size, repeats, seconds, json_path):
