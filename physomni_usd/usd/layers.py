@@ -125,10 +125,16 @@ def orphan_overs(stage: Usd.Stage, folder: pathlib.Path) -> list[str]:
     return [str(o) for o in orphans]
 
 
+_ORPHANS_SAID: set[tuple[str, tuple[str, ...]]] = set()
+
+
 def warn_orphan_overs(stage: Usd.Stage, folder: pathlib.Path, echo) -> list[str]:
-    """Say (one line) which overs of ``edits.usda`` USD ignores because nothing defines their prim."""
+    """Say (one line, once per process: `run` reaches it from several stages) which overs of ``edits.usda``
+    USD ignores because nothing defines their prim."""
     orphans = orphan_overs(stage, folder)
-    if orphans:
+    key = (str(pathlib.Path(folder).resolve()), tuple(orphans))
+    if orphans and key not in _ORPHANS_SAID:
+        _ORPHANS_SAID.add(key)
         echo(f"warning: edits.usda has overs for prims no layer defines any more, which are ignored: "
              f"{', '.join(orphans)}")
     return orphans
