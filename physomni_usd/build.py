@@ -135,13 +135,18 @@ def _stale_files(out: pathlib.Path, written: set[str]) -> list[pathlib.Path]:
     and masks of objects that are gone, and the video of the old shot. Only files the old report lists
     (or, for shots from before it listed them, named after its objects) — never anything else."""
     old = read_report(out) or {}
-    files = set(old.get("stages", {}).get("build", {}).get("files") or ())
+    stages = old.get("stages", {})
+    build = stages.get("build") if isinstance(stages.get("build"), dict) else {}
+    files = {f for f in build.get("files") or () if isinstance(f, str)}
     for o in old.get("objects") or ():
         name = o.get("name") if isinstance(o, dict) else None
         if isinstance(name, str) and name:
             files |= {f"{TEXTURES}/{name}.png", f"{INPUTS}/masks/{name}.png"}
-    stale = [out / f for f in sorted(files - written) if isinstance(f, str) and ".." not in pathlib.Path(f).parts]
-    render = old.get("stages", {}).get("render")
+    # only PNGs of ours, whatever a hand-edited report says
+    ours = [pathlib.PurePosixPath(f) for f in files - written]
+    stale = [out / f for f in sorted(ours) if f.suffix == ".png" and len(f.parts) in (2, 3) and ".." not in f.parts
+             and (f.parent == pathlib.PurePosixPath(TEXTURES) or f.parent == pathlib.PurePosixPath(INPUTS, "masks"))]
+    render = stages.get("render")
     if isinstance(render, dict):
         stale.append(out / VIDEO)  # render's default output
         video = render.get("video")

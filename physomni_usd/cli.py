@@ -345,10 +345,9 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, mes
 
         # refuse absurd values, and a video that could not be written, before any work
         SimulateSettings(seconds=seconds, particle_spacing=particle_spacing, mpm_steps=mpm_steps)
-        _build_settings(fov, pitch, camera_height, shape, fps)
+        settings = _build_settings(fov, pitch, camera_height, shape, fps)
         check_writable([out_dir / "video.mp4"])
         t0 = time.perf_counter()
-        settings = _build_settings(fov, pitch, camera_height, shape, fps)
         result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces, fixed=fixed,
                             meshes_dir=meshes_dir)
         _simulate(result.shot, seconds, None, None, quiet, particle_spacing, mpm_steps)
