@@ -15,7 +15,14 @@ from contextlib import contextmanager
 import click
 from pydantic import ValidationError
 
+from ._files import all_or_nothing
 from .errors import PhysOmniError
+from .settings import RenderSettings, SimulateSettings
+
+PUSH_HELP = ("Give an object this velocity in m/s (each component at most 1000 in size) at T seconds "
+             "(default 0, T ≥ 0); world axes: Z up, +Y away from the camera, +X to the image's right. A label "
+             "shared by several objects pushes them all (and says which); a prim name (toy_1) pushes one. "
+             "Repeatable.")
 
 EPILOG_BUILD = """
 \b
@@ -23,6 +30,30 @@ Examples:
   physomni-usd build photo.png -o shot/ --mask cup.png:cup --mask saucer.png
   physomni-usd build photo.png -o shot/ --box 120,40,380,300:box --fov 60
 """
+
+
+#: Settings fields → the options that set them, so that a refused value is named as the user typed it.
+OPTIONS = {"fov_deg": "--fov", "pitch_deg": "--pitch", "height_m": "--camera-height", "shape": "--shape",
+           "fps": "--fps", "seconds": "--seconds", "substeps": "--substeps", "iterations": "--iterations",
+           "particle_spacing": "--particle-spacing", "mpm_steps": "--mpm-steps", "max_size": "--max-size"}
+
+
+def limits(model, field: str) -> str:
+    """The valid range of a settings field as help text, e.g. ``0 < value ≤ 600``, from its declaration."""
+    lo = hi = ""
+    for m in model.model_fields[field].metadata:
+        for attr, fmt in (("gt", "{} <"), ("ge", "{} ≤")):
+            if getattr(m, attr, None) is not None:
+                lo = fmt.format(f"{getattr(m, attr):g}") + " "
+        for attr, fmt in (("lt", "< {}"), ("le", "≤ {}")):
+            if getattr(m, attr, None) is not None:
+                hi = " " + fmt.format(f"{getattr(m, attr):g}")
+    finite = ", finite" if "float" in str(model.model_fields[field].annotation) else ""
+    return f"{lo}value{hi}{finite}" if (lo or hi) else ""
+
+
+def _range_help(text: str, model, field: str) -> str:
+    return f"{text} Range: {limits(model, field)}."
 
 
 def _fail(message: str, code: int) -> None:
@@ -39,23 +70,47 @@ def _errors():
         _fail(str(exc), exc.exit_code)
     except ValidationError as exc:
         first = exc.errors()[0]
-        where = ".".join(str(x) for x in first.get("loc", ()))
-        _fail(f"{where}: {first.get('msg')}", 2)
+        loc = [str(x) for x in first.get("loc", ())]
+        where = OPTIONS.get(loc[-1], ".".join(loc)) if loc else "value"
+        msg = str(first.get("msg", "is not valid"))
+        msg = msg[len("Input "):] if msg.startswith("Input ") else msg
+        value = first.get("input")
+        shown = f" {value:g}" if isinstance(value, float) else (f" {value}" if isinstance(value, (int, str)) else "")
+        _fail(f"{where}{shown}: {msg}", 2)
+    except PermissionError as exc:  # the checks before each command should have caught it
+        _fail(f"cannot write {exc.filename}: permission denied", 2)
     except KeyboardInterrupt:
-        _fail("interrupted; files already written are complete, the one in progress was not written", 130)
+        _fail("interrupted; the shot's files are as they were before this command", 130)
     except Exception as exc:  # a bug, not bad input
         if os.environ.get("PHYSOMNI_DEBUG"):
             raise
         _fail(f"internal error: {type(exc).__name__}: {exc} (set PHYSOMNI_DEBUG=1 for the traceback)", 3)
 
 
+#: Where stderr is no terminal (a log, CI), progress is a plain line at every tenth of the work, and at
+#: least every this many seconds.
+LOG_EVERY_S = 5.0
+
+
 @contextmanager
 def _progress(label: str, enabled: bool = True):
-    """A click progress bar on stderr; yields a callback ``(done, total)``."""
-    state = {"bar": None, "done": 0}
+    """A click progress bar on stderr, or plain ``label: frame K/N`` lines where stderr is not a terminal;
+    yields a callback ``(done, total)``."""
+    state = {"bar": None, "done": 0, "logged": 0, "at": time.monotonic()}
+    tty = sys.stderr.isatty()
+
+    def log(done, total):
+        now = time.monotonic()
+        tenth = max(1, -(-total // 10))
+        if done >= total or done // tenth > state["logged"] // tenth or now - state["at"] >= LOG_EVERY_S:
+            click.echo(f"{label.strip()}: frame {done}/{total}", err=True)
+            state["logged"], state["at"] = done, now
 
     def update(done, total):
         if not enabled:
+            return
+        if not tty:
+            log(done, total)
             return
         if state["bar"] is None:
             state["bar"] = click.progressbar(length=total, label=label, file=sys.stderr, show_pos=True)
@@ -94,6 +149,8 @@ def main():
 
 
 def build_options(f):
+    from .settings import BuildSettings, CameraSettings
+
     opts = [
         click.option("--mask", "masks", multiple=True, metavar="PNG[:LABEL]",
                      help="Object mask at the photo's resolution; non-zero pixels are the object. "
@@ -105,17 +162,20 @@ def build_options(f):
                                         "(label → mesh, rotation_wxyz, translation, scale in OpenCV camera "
                                         "coordinates); replaces silhouette lifting."),
         click.option("--fov", type=float, default=50.0, show_default=True,
-                     help="Vertical field of view of the photo in degrees."),
+                     help=_range_help("Vertical field of view of the photo in degrees.", CameraSettings, "fov_deg")),
         click.option("--pitch", type=float, default=None,
                      help="Downward camera tilt in degrees [default: smallest ≥ 10° that puts every "
-                          "object's foot below the horizon]."),
+                          f"object's foot below the horizon]. Range: {limits(CameraSettings, 'pitch_deg')}."),
         click.option("--camera-height", type=float, default=1.0, show_default=True,
-                     help="Camera height above the ground in metres; sets the scene's scale."),
+                     help=_range_help("Camera height above the ground in metres; sets the scene's scale.",
+                                      CameraSettings, "height_m")),
         click.option("--shape", type=click.Choice(["auto", "round", "extrude"]), default="auto", show_default=True,
                      help="How silhouettes become meshes: surface of revolution, extrusion, or by symmetry."),
-        click.option("--fps", type=float, default=30.0, show_default=True, help="Frames per second of the shot."),
+        click.option("--fps", type=float, default=30.0, show_default=True,
+                     help=_range_help("Frames per second of the shot.", BuildSettings, "fps")),
         click.option("--fix", "fixed", multiple=True, metavar="LABEL",
-                     help="Keep this object where it is (it still collides). Repeatable."),
+                     help="Keep this object where it is (it still collides); a label shared by several objects "
+                          "fixes them all. Repeatable."),
         click.option("--force", "forces", multiple=True, metavar="KIND:key=value,...",
                      help="A force field (constant, wind, point, drag, vortex, turbulence, noise), e.g. "
                           "'wind:direction=1,0,0,strength=30'. Accelerations in m/s²; times in seconds. Repeatable."),
@@ -138,8 +198,7 @@ def _build_settings(fov, pitch, camera_height, shape, fps):
               help="Shot folder to write (created if missing).")
 @build_options
 @click.option("--push", "pushes", multiple=True, metavar="LABEL=VX,VY,VZ[@T]",
-              help="Give an object this velocity in m/s at T seconds (default 0); world axes: Z up, "
-                   "+Y away from the camera, +X to the image's right. Repeatable.")
+              help=PUSH_HELP)
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, meshes_dir, fixed, forces, pushes, quiet):
     """Photo → scene.usda, physics.usda and the root shot.usda (perceive, align, estimate)."""
@@ -157,6 +216,11 @@ def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, m
 def _simulate(shot, seconds, fps, substeps, quiet, particle_spacing=None, mpm_steps=None):
     from .physics.simulate import simulate_shot
     from .settings import SimulateSettings
+    from .usd import layers
+
+    if seconds is None:  # the shot's own length; 3 s for a shot never simulated
+        root = layers.shot_file(shot)
+        seconds = (layers.shot_seconds(root) if root.is_file() else None) or DEFAULT_SECONDS
 
     settings = SimulateSettings(seconds=seconds, fps=fps, substeps=substeps, particle_spacing=particle_spacing,
                                 mpm_steps=mpm_steps)
@@ -167,6 +231,10 @@ def _simulate(shot, seconds, fps, substeps, quiet, particle_spacing=None, mpm_st
                    f"{len(section['moving_prims'])} moving, dt {section['dt'] * 1000:.2f} ms, "
                    f"{section['total_seconds']:.2f} s", err=True)
     return section
+
+
+#: Simulated seconds of `run`, and of `simulate` on a shot that has no length yet.
+DEFAULT_SECONDS = 3.0
 
 
 def _render(shot, output, quiet, max_size=1920):
@@ -183,17 +251,22 @@ def _render(shot, output, quiet, max_size=1920):
 
 @main.command()
 @click.argument("shot", type=click.Path(path_type=pathlib.Path))
-@click.option("--seconds", type=float, default=3.0, show_default=True, help="Simulated seconds.")
-@click.option("--fps", type=float, default=None, help="Frames per second [default: the shot's].")
+@click.option("--seconds", type=float, default=None,
+              help="Simulated seconds [default: the shot's own length, its last frame over its frame rate; "
+                   f"{DEFAULT_SECONDS:g} for a shot never simulated]. Range: "
+                   f"{limits(SimulateSettings, 'seconds')}.")
+@click.option("--fps", type=float, default=None,
+              help=f"Frames per second [default: the shot's]. Range: {limits(SimulateSettings, 'fps')}.")
 @click.option("--substeps", type=int, default=None,
-              help="Solver steps per frame [default: chosen from the shot's materials and speeds].")
+              help="Solver steps per frame [default: chosen from the shot's materials and speeds]. "
+                   f"Range: {limits(SimulateSettings, 'substeps')}.")
 @click.option("--particle-spacing", type=float, default=None, metavar="METRES",
               help="MPM particle spacing [default: the smallest MPM object 10 particles across, at most "
-                   "15,000 particles].")
+                   f"15,000 particles]. Range: {limits(SimulateSettings, 'particle_spacing')}.")
 @click.option("--mpm-steps", type=int, default=None,
               help="MPM steps per frame [default: what the bench found accurate for the shot's materials "
                    "(elastic 16, sand 4, liquid 2 at 30 fps), fewer where the CFL bound allows; fewer is a "
-                   "faster, less accurate preview].")
+                   f"faster, less accurate preview]. Range: {limits(SimulateSettings, 'mpm_steps')}.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def simulate(shot, seconds, fps, substeps, particle_spacing, mpm_steps, quiet):
     """Simulate the composed shot (edits.usda included) and write sim.usdc.
@@ -221,7 +294,7 @@ def simulate(shot, seconds, fps, substeps, particle_spacing, mpm_steps, quiet):
     A quick preview of an elastic shot (4 MPM steps a frame instead of 16):
       physomni-usd simulate shot/shot.usda --mpm-steps 4
     """
-    with _errors():
+    with _errors(), all_or_nothing():
         _simulate(shot, seconds, fps, substeps, quiet, particle_spacing, mpm_steps)
 
 
@@ -230,7 +303,9 @@ def simulate(shot, seconds, fps, substeps, particle_spacing, mpm_steps, quiet):
 @click.option("-o", "--output", type=click.Path(path_type=pathlib.Path), default=None,
               help="Video file (.mp4) [default: video.mp4 beside the shot].")
 @click.option("--max-size", type=int, default=1920, show_default=True,
-              help="Longest side of the video in pixels; larger photos are rendered smaller.")
+              help=_range_help("Longest side of the video in pixels; larger photos are rendered smaller. H.264 "
+                               "needs even sides: an odd width or height loses its last column or row.",
+                               RenderSettings, "max_size"))
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def render(shot, output, max_size, quiet):
     """Render the composed shot over its background plate into an H.264 MP4."""
@@ -243,14 +318,16 @@ def render(shot, output, max_size, quiet):
 @click.option("-o", "--output", "out_dir", required=True, type=click.Path(path_type=pathlib.Path),
               help="Shot folder to write (created if missing).")
 @build_options
-@click.option("--seconds", type=float, default=3.0, show_default=True, help="Simulated seconds.")
+@click.option("--seconds", type=float, default=DEFAULT_SECONDS, show_default=True,
+              help=_range_help("Simulated seconds.", SimulateSettings, "seconds"))
 @click.option("--push", "pushes", multiple=True, metavar="LABEL=VX,VY,VZ[@T]",
-              help="Give an object this velocity in m/s at T seconds (default 0); world axes: Z up, "
-                   "+Y away from the camera, +X to the image's right. Repeatable.")
+              help=PUSH_HELP)
 @click.option("--particle-spacing", type=float, default=None, metavar="METRES",
-              help="MPM particle spacing [default: chosen from the objects' sizes].")
+              help="MPM particle spacing [default: chosen from the objects' sizes]. "
+                   f"Range: {limits(SimulateSettings, 'particle_spacing')}.")
 @click.option("--mpm-steps", type=int, default=None,
-              help="MPM steps per frame [default: chosen from the materials; see simulate --help].")
+              help="MPM steps per frame [default: chosen from the materials; see simulate --help]. "
+                   f"Range: {limits(SimulateSettings, 'mpm_steps')}.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, meshes_dir, fixed, forces, seconds, pushes,
         particle_spacing, mpm_steps, quiet):
@@ -261,15 +338,16 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, mes
       physomni-usd run examples/motorcycle/photo.png -o out/ \\
           --mask examples/motorcycle/motorcycle.png --push motorcycle=0,0.8,0
     """
-    with _errors():
+    with _errors(), all_or_nothing():
+        from ._files import check_writable
         from .build import build_shot
         from .report import update_report
-        from .settings import SimulateSettings
 
-        # refuse absurd values before any work
+        # refuse absurd values, and a video that could not be written, before any work
         SimulateSettings(seconds=seconds, particle_spacing=particle_spacing, mpm_steps=mpm_steps)
-        t0 = time.perf_counter()
         settings = _build_settings(fov, pitch, camera_height, shape, fps)
+        check_writable([out_dir / "video.mp4"])
+        t0 = time.perf_counter()
         result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces, fixed=fixed,
                             meshes_dir=meshes_dir)
         _simulate(result.shot, seconds, None, None, quiet, particle_spacing, mpm_steps)
@@ -295,7 +373,9 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, mes
               help="Seconds to wait for one answer.")
 @click.option("--set", "sets", multiple=True, metavar="NAME.KEY=VALUE",
               help="Your value for an object's material (KEY 'material') or parameter (density, friction, "
-                   "youngs_modulus, poissons_ratio, …); written to edits.usda. Repeatable.")
+                   "youngs_modulus, poissons_ratio, …; each within its catalog range, which a refused value's "
+                   "message states); written to edits.usda. NAME: a prim name (one object) or a label (every "
+                   "object with it). Repeatable.")
 @click.option("--force", "forces", multiple=True, metavar="KIND:key=value,...",
               help="Add a force field of yours (kept across later estimates). Repeatable.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
@@ -357,7 +437,8 @@ def bench():
 @click.option("--size", type=click.IntRange(64, 8192), default=880, show_default=True,
               help="Longer side of the photo, pixels.")
 @click.option("--repeats", type=click.IntRange(1, 50), default=3, show_default=True, help="Builds to time.")
-@click.option("--seconds", type=float, default=2.0, show_default=True, help="Simulated seconds in the run.")
+@click.option("--seconds", type=float, default=2.0, show_default=True,
+              help=_range_help("Simulated seconds in the run.", SimulateSettings, "seconds"))
 @click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
               help="Also write the numbers to this JSON file.")
 def bench_pipeline_command(example, size, repeats, seconds, json_path):

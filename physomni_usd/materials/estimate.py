@@ -3,7 +3,10 @@
 Generated values (rules, vlm) replace ``physics.usda``; what a user gave on
 the command line before — pushes, fixed objects, force fields of source
 ``user``, solver settings — is carried over. ``--set`` values go to the
-artist's ``edits.usda``, added next to whatever is there.
+artist's ``edits.usda``: authored on that layer itself through Sdf (every prim,
+property, time sample and layer metadata already in it stays; ``#`` comments,
+which are not part of USD's data model, do not survive any USD save) and saved
+through a temporary file and a rename. Without ``--set`` the file is not touched.
 """
 
 from __future__ import annotations
@@ -15,8 +18,9 @@ from pxr import Sdf, Usd, UsdPhysics
 
 from ..errors import InputError
 from ..physics.forces import parse_force_options, read_force_fields
+from .._files import all_or_nothing
 from ..physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
-from ..report import Timer, update_report
+from ..report import Timer, prepare_writes, update_report
 from ..usd import layers
 from ..usd.author import PhysicsObject, set_param, write_physics_layer
 from .catalog import PARAMS, canonical_key, check_params, keys_of, material_type
@@ -28,26 +32,30 @@ INPUTS = "inputs"
 
 
 def parse_sets(specs, objects: list[Usd.Prim]) -> list[tuple[Usd.Prim, str, object]]:
-    """``NAME.KEY=VALUE`` → (object prim, canonical key or 'material', value); NAME is a label or prim name."""
-    by_name = {}
+    """``NAME.KEY=VALUE`` → (object prim, canonical key or 'material', value); NAME is a prim name (one
+    object) or a label (every object with that label, one tuple each)."""
+    by_name: dict[str, list[Usd.Prim]] = {}
     for prim in objects:
-        by_name.setdefault(prim.GetAttribute("physomni:label").Get(), prim)
-        by_name[prim.GetName()] = prim
+        by_name.setdefault(prim.GetAttribute("physomni:label").Get(), []).append(prim)
+    for prim in objects:
+        by_name[prim.GetName()] = [prim]
     out = []
     for spec in specs or ():
         target, eq, value = spec.partition("=")
         name, dot, key = target.rpartition(".")
         if not eq or not dot or not name or not key or not value.strip():
             raise InputError(f"--set {spec!r}: expected NAME.KEY=VALUE, e.g. cup.density=800 or cup.material=mpm_sand")
-        prim = by_name.get(name.strip())
-        if prim is None:
-            raise InputError(f"--set {spec!r}: no object named {name.strip()!r} (known: {', '.join(sorted(by_name))})")
+        prims = by_name.get(name.strip())
+        if not prims:
+            known = ", ".join(sorted(n for n in by_name if n))
+            raise InputError(f"--set {spec!r}: no object named {name.strip()!r} (known: {known})")
         key = key.strip().lower()
         if key in ("material", "material_type", "type"):
             try:
-                out.append((prim, "material", material_type(value.strip())))
+                kind = material_type(value.strip())
             except ValueError as exc:
                 raise InputError(f"--set {spec!r}: {exc}") from None
+            out += [(prim, "material", kind) for prim in prims]
             continue
         k = canonical_key(key)
         if k is None:
@@ -62,21 +70,23 @@ def parse_sets(specs, objects: list[Usd.Prim]) -> list[tuple[Usd.Prim, str, obje
                 raise InputError(f"--set {spec!r}: {value!r} is not a number") from None
         if not p.accepts(v):
             raise InputError(f"--set {spec!r}: {k} must be in {p.describe_range()}")
-        out.append((prim, k, v))
+        out += [(prim, k, v) for prim in prims]
     return out
 
 
 def apply_sets(folder: pathlib.Path, sets) -> list[str]:
     """Author ``--set`` values in ``edits.usda`` on the objects' bound physics materials; returns what was set.
 
-    The edits layer is changed through USD's own authoring, so every opinion
-    already in it stays; the file is replaced atomically.
+    The values are authored on the edits layer itself (the composed stage's edit target), so every spec
+    already in it stays; the layer is then exported to a temporary file that replaces ``edits.usda``. A
+    layer without a frame rate gets the root's here (without it USD rescales its time samples).
     """
     if not sets:
         return []
-    layers.ensure_edits_layer(folder)
-    stage = layers.open_shot(folder)
+    stage = layers.open_shot(folder, mute_sim=True)
+    layers.ensure_edits_layer(folder, stage.GetTimeCodesPerSecond() or 30.0)
     edits = Sdf.Layer.FindOrOpen(str(folder / layers.EDITS))
+    layers.add_edits_time_codes(edits, stage.GetTimeCodesPerSecond() or 30.0)
     stage.SetEditTarget(Usd.EditTarget(edits))
     done = []
     # material types first, so that parameters are checked against the type they will have
@@ -99,10 +109,7 @@ def apply_sets(folder: pathlib.Path, sets) -> list[str]:
                 raise InputError(f"{where}: a {material} material has no {t}; it takes {', '.join(keys_of(material))}")
             set_param(mat, PARAMS[t].attr, value, "user")
             done.append(f"{prim.GetName()}.{t} = {value}")
-    copy = Sdf.Layer.CreateAnonymous(".usda")
-    copy.ImportFromString(edits.ExportToString())
-    edits.Reload(force=True)  # the on-disk file is replaced below; nothing in memory may differ from it
-    layers.save_layer(copy, folder / layers.EDITS)
+    layers.save_layer(edits, folder / layers.EDITS)
     return done
 
 
@@ -156,6 +163,11 @@ def _inputs(folder: pathlib.Path, names: list[str]):
 
 def estimate_shot(shot, estimator: str = "rules", vlm=None, sets=(), force_specs=(), echo=lambda m: None) -> dict:
     """Run one estimator over a shot (and apply ``--set`` / ``--force``); returns the report section."""
+    with all_or_nothing():
+        return _estimate_shot(shot, estimator, vlm, sets, force_specs, echo)
+
+
+def _estimate_shot(shot, estimator, vlm, sets, force_specs, echo) -> dict:
     timer = Timer()
     folder = layers.shot_folder(shot)
     with timer.step("read"):
@@ -165,6 +177,8 @@ def estimate_shot(shot, estimator: str = "rules", vlm=None, sets=(), force_specs
             raise InputError(f"{folder}: no objects under /World/Objects to estimate")
         set_values = parse_sets(sets, prims)
         new_fields = parse_force_options(force_specs)
+        prepare_writes(folder, [layers.PHYSICS] + ([layers.EDITS] if set_values else []), echo)
+        layers.warn_orphan_overs(stage, folder, echo)
         names = [p.GetName() for p in prims]
         labels = [p.GetAttribute("physomni:label").Get() or p.GetName() for p in prims]
         photo, masks = _inputs(folder, names)

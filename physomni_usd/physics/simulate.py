@@ -10,10 +10,10 @@ import time
 from pxr import Usd, UsdPhysics
 
 from ..errors import InputError
-from ..report import update_report
+from ..report import prepare_writes, update_report
 from ..settings import SimulateSettings
 from ..usd import layers
-from ..usd.author import OBJECTS, PARTICLES, author_particle_prims, write_sim_layer
+from ..usd.author import OBJECTS, PARTICLES, write_sim_layer
 from .assembly import ShotModels
 from .checks import check_inputs
 from .objects import scene_objects
@@ -53,6 +53,8 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     t_start = time.perf_counter()
     folder = layers.shot_folder(shot)
     stage = layers.open_shot(shot, mute_sim=True)
+    prepare_writes(folder, [layers.SIM, layers.SHOT], echo)  # refuse an unwritable folder before any work
+    layers.warn_orphan_overs(stage, folder, echo)
     cfg = scene_settings(stage, settings)
     check_inputs(stage)
     objects = scene_objects(stage)
@@ -84,7 +86,6 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
             particles[o.obj.name] = {"points": pts, "show": o.binding is None, "mesh": o.obj.path,
                                      "colour": o.colour, "width": sim.mpm.spacing}
             moved.append(f"{PARTICLES}/{o.obj.name}")
-        author_particle_prims(folder / layers.PHYSICS, {k: (v["colour"], v["width"]) for k, v in particles.items()})
     meta = {"physomni:solver": cfg["solver"], "physomni:substeps": plan.substeps, "physomni:dt": plan.dt,
             "physomni:iterations": plan.iterations, "physomni:seconds": settings.seconds,
             "physomni:solvers": ", ".join(sim.solvers)}
