@@ -227,6 +227,31 @@ def _in_group(pid: int, group: int) -> bool:
         return False
 
 
+def test_upload_ships_inputs_and_outputs_through_ray(tmp_path):
+    synthetic_photo(tmp_path / "photos")
+    shots = tmp_path / "shots.txt"
+    shots.write_text(f"photos/photo.png -o out/box --mask photos/box.png {SHOT_ARGS}\n")
+    out = tmp_path / "out/box"
+    out.mkdir(parents=True)
+    mine = '#usda 1.0\n(\n    doc = "the artist\'s"\n)\n'
+    (out / "edits.usda").write_text(mine)
+    summary = tmp_path / "summary.json"
+    proc = subprocess.run(_batch_argv(shots, "--upload", "--summary", summary), capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert _entries(summary)["box"]["status"] == "ok"
+    assert (out / "video.mp4").stat().st_size > 0 and (out / "sim.usdc").is_file()
+    assert (out / "edits.usda").read_text() == mine
+    log = (out / "batch.log").read_text()
+    assert " --output out " in log and "in/mask0/box.png" in log  # it ran in the task's own folder
+    report = json.loads((out / "report.json").read_text())
+    assert report["objects"][0]["label"] == "box"  # the mask's file name still labels the object
+
+    from physomni_usd.batch.shots import inputs_hash, is_finished, read_shot_list
+    from physomni_usd.cli import _run_parser
+
+    assert is_finished(out, inputs_hash(read_shot_list(shots, _run_parser)[0]))
+
+
 def test_bad_shot_list_names_the_line(tmp_path):
     shots = _write_list(tmp_path)
     bad = tmp_path / "bad.txt"

@@ -29,10 +29,10 @@ class Progress:
         c = {s: sum(e.status == s for e in entries) for s in ("ok", "skipped", "failed", "running")}
         finished = c["ok"] + c["skipped"] + c["failed"]
         elapsed = time.perf_counter() - self.t0
-        ran = c["ok"] + c["failed"]
+        ran = sum(e.attempts > 0 and e.status in ("ok", "failed") for e in entries)
         left = ""
         if ran and finished < len(entries):
-            # time per shot that ran, over the shots still to go (skips cost nothing)
+            # time per shot that ran, over the shots still to go (skips and bad input cost nothing)
             left = f", ~{_clock(elapsed / ran * (len(entries) - finished))} left"
         return (f"ok {c['ok']}, skipped {c['skipped']}, failed {c['failed']}, running {c['running']}; "
                 f"{_clock(elapsed)} elapsed{left}")

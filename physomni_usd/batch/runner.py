@@ -15,10 +15,12 @@ from __future__ import annotations
 import logging
 import os
 import pathlib
+import shutil
 import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 from dataclasses import dataclass, field
 
@@ -44,15 +46,28 @@ _CHILD = (
 )
 
 
-def run_shot(args: list[str], cwd: str, output: str, digest: str, attempt: int) -> dict:
+def run_shot(args: list[str], cwd: str, output: str, digest: str, attempt: int, files: dict | None = None) -> dict:
     """One attempt of one shot, in the Ray worker: ``physomni-usd run ARGS`` in a child process.
 
-    Returns ``{'ok', 'retry', 'reason', 'seconds', 'node', 'node_ip', 'node_id'}``.
+    Returns ``{'ok', 'retry', 'reason', 'seconds', 'node', 'node_ip', 'node_id'}``. With ``files``
+    (``--upload``) the shot runs in a temporary folder holding them, and the result carries its
+    output folder as ``'archive'`` (tar bytes) for the driver to unpack.
     """
     import ray
 
     where = {"node": socket.gethostname(), "node_ip": ray.util.get_node_ip_address(),
              "node_id": ray.get_runtime_context().get_node_id()}
+    if files is not None:
+        from .upload import pack, write_staged
+
+        root = pathlib.Path(tempfile.mkdtemp(prefix="physomni-shot-"))
+        try:
+            write_staged(root, files)
+            result = run_shot(args, str(root), str(root / "out"), digest, attempt, files=None)
+            result["archive"] = pack(root / "out")
+            return result
+        finally:
+            shutil.rmtree(root, ignore_errors=True)
     folder = pathlib.Path(output)
     t0 = time.perf_counter()
     try:
@@ -158,8 +173,12 @@ def start_ray(address: str | None, include_gpus: bool = True) -> str:
 
 def run_batch(shots: list[Shot], *, address: str | None = None, workers: int | None = None, retries: int = 2,
               force: bool = False, cpus_per_shot: float = 1.0, gpus_per_shot: float = 0.0, progress=None,
-              summary_path: pathlib.Path | None = None) -> dict:
-    """Run every unfinished shot; returns the summary (also written to ``summary_path`` after each shot)."""
+              summary_path: pathlib.Path | None = None, upload=None) -> dict:
+    """Run every unfinished shot; returns the summary (also written to ``summary_path`` after each shot).
+
+    ``upload``: ``run``'s click command, to ship inputs and outputs through Ray (see :mod:`.upload`)
+    instead of reading and writing them at their paths on every node.
+    """
     progress = progress or Quiet()
     t0 = time.perf_counter()
     entries = [Entry(shot) for shot in shots]
@@ -191,7 +210,7 @@ def run_batch(shots: list[Shot], *, address: str | None = None, workers: int | N
 
         state["where"] = start_ray(address)
         try:
-            _drive(ray, todo, entries, workers, retries, cpus_per_shot, gpus_per_shot, progress, save)
+            _drive(ray, todo, entries, workers, retries, cpus_per_shot, gpus_per_shot, progress, save, upload)
         except KeyboardInterrupt:
             for e in todo:
                 if e.status in ("pending", "running"):
@@ -207,11 +226,12 @@ def run_batch(shots: list[Shot], *, address: str | None = None, workers: int | N
     return summary()
 
 
-def _drive(ray, todo, entries, workers, retries, cpus_per_shot, gpus_per_shot, progress, save):
+def _drive(ray, todo, entries, workers, retries, cpus_per_shot, gpus_per_shot, progress, save, upload):
     task = ray.remote(run_shot).options(num_cpus=cpus_per_shot, num_gpus=gpus_per_shot, max_retries=0,
                                         name="physomni-usd run")
     queue = list(todo)
     running: dict = {}
+    staged: dict = {}  # shot → (args, files in the object store), for --upload
     limit = workers or len(todo)
     try:
         while queue or running:
@@ -219,7 +239,17 @@ def _drive(ray, todo, entries, workers, retries, cpus_per_shot, gpus_per_shot, p
                 e = queue.pop(0)
                 e.status, e.attempts = "running", e.attempts + 1
                 s = e.shot
-                ref = task.remote(list(s.args), str(s.cwd), str(s.output), e.digest, e.attempts)
+                if upload is None:
+                    ref = task.remote(list(s.args), str(s.cwd), str(s.output), e.digest, e.attempts)
+                else:
+                    if id(e) not in staged:
+                        from .upload import stage
+
+                        args, files = stage(s, upload)
+                        staged[id(e)] = (args, ray.put(files))
+                        mark_started(s.output)
+                    args, files = staged[id(e)]
+                    ref = task.remote(args, str(s.cwd), str(s.output), e.digest, e.attempts, files)
                 running[ref] = e
             progress.update(entries)
             done, _ = ray.wait(list(running), num_returns=1, timeout=_POLL_S)
@@ -231,6 +261,10 @@ def _drive(ray, todo, entries, workers, retries, cpus_per_shot, gpus_per_shot, p
                     # the worker or its node died under the shot: the process is gone, a retry can help
                     result = {"ok": False, "retry": True, "seconds": 0.0,
                               "reason": f"the Ray worker was lost ({type(exc).__name__})"}
+                if result.get("archive") is not None:
+                    from .upload import unpack
+
+                    unpack(result.pop("archive"), e.shot.output)
                 e.seconds += result.get("seconds") or 0.0
                 for key in ("node", "node_ip", "node_id"):
                     setattr(e, key, result.get(key, getattr(e, key)))
