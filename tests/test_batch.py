@@ -78,7 +78,7 @@ def _kill_worker_mid_shot(output: str, log: pathlib.Path, batch: subprocess.Pope
             worker = _parent(shots[0])
             os.kill(worker, signal.SIGKILL)
             t1 = time.monotonic()
-            while not _gone(shots[0]) and time.monotonic() - t1 < 20:
+            while not _gone(shots[0]) and time.monotonic() - t1 < 5:  # SIGKILL follows at once
                 time.sleep(0.1)
             return {"worker": worker, "shot": shots[0], "shot_gone": _gone(shots[0])}
         time.sleep(0.2)

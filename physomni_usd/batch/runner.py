@@ -33,7 +33,8 @@ LOCAL_OBJECT_STORE_BYTES = 256 * 1024 * 1024
 _POLL_S = 0.5
 
 # The shot's process ends with the task's worker: PR_SET_PDEATHSIG on Linux, so that a killed
-# worker leaves no orphan writing into a folder that a retry is about to write too.
+# worker leaves no orphan writing into a folder that a retry is about to write too. (Ray's raylet
+# also kills a dead worker's children by default; this holds whatever it is configured to do.)
 _CHILD = (
     "import sys\n"
     "if sys.platform.startswith('linux'):\n"
