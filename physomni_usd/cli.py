@@ -425,6 +425,88 @@ def validate(stage, warnings):
             sys.exit(1)
 
 
+EPILOG_BATCH = """
+\b
+SHOTS, one `physomni-usd run` argument list per line (paths relative to SHOTS):
+  # shots.txt
+  cup/photo.png -o out/cup --mask cup/cup.png:cup --push cup=0.5,0,0
+  'bike shed/photo.png' -o out/bike --mask 'bike shed/bike.png' --seconds 2
+or a YAML (.yaml, .yml) or JSON (.json) list of such lines or of mappings:
+  - {photo: cup/photo.png, output: out/cup, mask: [cup/cup.png:cup], push: cup=0.5,0,0}
+
+\b
+Examples:
+  physomni-usd batch shots.txt --summary out/summary.json
+  physomni-usd batch shots.txt --address 10.0.0.5:6379 --gpus-per-shot 0.25
+\b
+A shot whose folder holds a finished run of the same inputs (photo, mask and
+mesh bytes, options, version; a hash in report.json) is skipped unless --force.
+Each attempt's output goes to DIR/batch.log. Exit codes: 0 every shot ok or
+skipped, 1 some shot failed, 2 a bad shot list (the line is named). On a cluster
+every node must see SHOTS' folder and the outputs at the same paths (shared
+storage), or give --upload; every node needs physomni-usd installed.
+"""
+
+
+def _run_parser(args: list[str]) -> dict:
+    """``run``'s own option parser on one shot's arguments (nothing runs)."""
+    from .errors import InputError
+
+    try:
+        return run.make_context("run", args).params
+    except click.ClickException as exc:
+        raise InputError(exc.format_message()) from None
+
+
+@main.command(epilog=EPILOG_BATCH)
+@click.argument("shots", type=click.Path(dir_okay=False, path_type=pathlib.Path))
+@click.option("--address", envvar="RAY_ADDRESS", default=None, metavar="HOST:PORT",
+              help="Ray cluster to run on [env: RAY_ADDRESS; default: start Ray on this machine with its CPUs].")
+@click.option("--workers", type=click.IntRange(1), default=None,
+              help="At most this many shots at once [default: as many as the CPUs (GPUs) allow].")
+@click.option("--retries", type=click.IntRange(0, 20), default=2, show_default=True,
+              help="Attempts after the first for a shot that crashed, was killed or whose stage failed "
+                   "(never for bad input).")
+@click.option("--force", is_flag=True, help="Run finished shots again.")
+@click.option("--summary", "summary_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
+              help="Write a JSON summary here (one entry per shot: output, status, seconds, attempts, node, "
+                   "reason); updated as shots finish.")
+@click.option("--cpus-per-shot", type=click.FloatRange(0, min_open=True), default=1.0, show_default=True,
+              help="CPUs Ray reserves for each shot.")
+@click.option("--gpus-per-shot", type=click.FloatRange(0), default=0.0, show_default=True,
+              help="GPUs Ray reserves for each shot (0.25: four shots share one); Ray sets CUDA_VISIBLE_DEVICES "
+                   "to the reserved ones. Give at least a fraction to run shots on GPUs.")
+@click.option("--upload", is_flag=True,
+              help="Send each shot's input files with its task and its output folder back, through Ray's "
+                   "object store: for a cluster whose nodes do not share storage with this machine.")
+@click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors and the final line.")
+def batch(shots, address, workers, retries, force, summary_path, cpus_per_shot, gpus_per_shot, upload, quiet):
+    """Run many shots (each a `physomni-usd run`) as Ray tasks; resumable, one failure never stops the rest."""
+    with _errors():
+        from .errors import InputError
+
+        try:
+            import ray  # noqa: F401
+        except ImportError:
+            raise InputError("batch needs Ray: pip install 'physomni-usd[batch]'") from None
+        from .batch.progress import Progress
+        from .batch.runner import Quiet, run_batch
+        from .batch.shots import read_shot_list
+
+        if summary_path is not None and not summary_path.parent.resolve().is_dir():
+            raise InputError(f"--summary {summary_path}: folder {summary_path.parent} does not exist")
+        shot_list = read_shot_list(shots, _run_parser)
+        summary = run_batch(shot_list, address=address, workers=workers, retries=retries, force=force,
+                            cpus_per_shot=cpus_per_shot, gpus_per_shot=gpus_per_shot,
+                            progress=Quiet() if quiet else Progress(), summary_path=summary_path,
+                            upload=run if upload else None)
+        click.echo(f"batch: {summary['ok']} ok, {summary['skipped']} skipped, {summary['failed']} failed "
+                   f"in {summary['seconds']:.1f} s" + (f"; summary: {summary_path}" if summary_path else ""),
+                   err=True)
+        if summary["failed"]:
+            sys.exit(1)
+
+
 @main.group()
 def bench():
     """Benchmarks: each prints a table and can write the same numbers as JSON."""
@@ -453,6 +535,52 @@ def bench_pipeline_command(example, size, repeats, seconds, json_path):
             from ._files import write_bytes
 
             write_bytes(json_path, (json.dumps(numbers, indent=2) + "\n").encode())
+
+
+@bench.command("batch")
+@click.option("--example", type=click.Path(file_okay=False, path_type=pathlib.Path),
+              default=pathlib.Path("examples/motorcycle"), show_default=True,
+              help="Example folder with example.json, a photo and its masks; every shot is this one.")
+@click.option("--counts", default="1,2,4,8", show_default=True, metavar="N,N,...",
+              help="Numbers of shots to time.")
+@click.option("--size", type=click.IntRange(64, 4096), default=320, show_default=True,
+              help="Longer side of the photo, pixels.")
+@click.option("--seconds", type=click.FloatRange(0.1, 30), default=1.0, show_default=True,
+              help="Simulated seconds per shot.")
+@click.option("--fps", type=click.FloatRange(1, 120), default=30.0, show_default=True, help="Frames per second.")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
+              help="Also write the numbers to this JSON file.")
+def bench_batch_command(example, counts, size, seconds, fps, json_path):
+    """Wall time and shots per hour of `batch` (local Ray) against `run` one after another.
+
+    \b
+    Needs the [batch] extra. N shots take about N small runs twice over, plus
+    Ray's start-up once per N (minutes on a 2-core CPU).
+    Example:
+      physomni-usd bench batch --counts 1,2 --json out/batch.json
+    """
+    with _errors():
+        import json
+
+        from .errors import InputError
+
+        try:
+            import ray  # noqa: F401
+        except ImportError:
+            raise InputError("bench batch needs Ray: pip install 'physomni-usd[batch]'") from None
+        try:
+            numbers = [int(c) for c in counts.split(",")]
+        except ValueError:
+            raise InputError(f"--counts {counts!r}: expected whole numbers separated by commas") from None
+        if not numbers or min(numbers) < 1 or max(numbers) > 64:
+            raise InputError(f"--counts {counts!r}: each count must be 1 to 64")
+        from .bench.batch import bench_batch
+
+        result = bench_batch(example, numbers, size=size, seconds=seconds, fps=fps, echo=click.echo)
+        if json_path:
+            from ._files import write_bytes
+
+            write_bytes(json_path, (json.dumps(result, indent=2) + "\n").encode())
 
 
 @bench.command("alignment")
