@@ -14,15 +14,15 @@ import cv2
 import numpy as np
 
 from ._files import write_bytes
-from .align.camera import PinholeCamera, pick_pitch
 from .align.camera_search import search_camera
 from .align.external import load_poses, place_external
-from .align.place import centring_offset, make_room, separate
+from .align.photo_scene import build_photo_scene
+from .align.place import centring_offset
+from .align.scale import parse_sizes
 from .errors import InputError
 from .materials.defaults import GROUND_MATERIAL
 from .materials.report import material_report
 from .materials.rules import estimate_rules
-from .perceive.lift import fill_holes, foot_pixel, lift_silhouette
 from .perceive.masks import collect_masks, read_photo
 from .perceive.plate import background_plate, object_texture
 from .physics.forces import parse_force_options
@@ -106,7 +106,7 @@ def parse_fixed(labels, labels_to_names: dict[str, str]) -> set[str]:
 
 
 def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings = BuildSettings(),
-               pushes=(), echo=lambda msg: None, forces=(), fixed=(), meshes_dir=None) -> BuildResult:
+               pushes=(), echo=lambda msg: None, forces=(), fixed=(), meshes_dir=None, sizes=()) -> BuildResult:
     timer = Timer()
     with timer.step("read"):
         out = prepare_output(out_dir)
@@ -119,6 +119,7 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
         push = parse_pushes(pushes, names)
         fields = parse_force_options(forces)
         fixed_names = parse_fixed(fixed, names)
+        user_sizes = parse_sizes(sizes, [(o.name, o.label) for o in objects])
     h, w = photo.shape[:2]
     echo(f"perceive: {len(objects)} object(s) in a {w}×{h} photo")
 
@@ -144,21 +145,13 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
                 "evaluations": found.evaluations, "seconds": round(found.seconds, 3),
                 "loss_curve": found.curve[:: max(1, len(found.curve) // 100)]}
     else:
-        with timer.step("align.camera"):
-            feet = [foot_pixel(fill_holes(o.mask))[1] for o in objects]
-            pitch = pick_pitch(settings.camera.fov_deg, h, feet, settings.camera.pitch_deg)
-            camera = PinholeCamera(w, h, settings.camera.fov_deg, pitch, (0.0, 0.0, settings.camera.height_m))
-        with timer.step("perceive.lift"):
-            lifted = [lift_silhouette(o.mask, camera, settings.lift) for o in objects]
-        with timer.step("align.place"):
-            projected, depth_scales = make_room([m.vertices for m in lifted], [m.contact for m in lifted],
-                                                camera.origin, settings.gap_m)
-            moves = separate(projected, settings.gap_m)
-            verts = [v + d for v, d in zip(projected, moves)]
-        faces, shapes = [m.faces for m in lifted], [m.shape for m in lifted]
+        with timer.step("align.photo"):
+            scene = build_photo_scene([o.mask for o in objects], [o.label for o in objects],
+                                      [o.name for o in objects], photo, settings, user_sizes)
+        camera, verts, projected, faces, shapes = (scene.camera, scene.vertices, scene.projected, scene.faces,
+                                                   scene.shapes)
         notes = [[] for _ in objects]
-        align_info = {"variant": "silhouette", "depth_scales": [round(k, 4) for k in depth_scales],
-                      "moved_apart_m": [round(float(np.linalg.norm(d)), 4) for d in moves]}
+        align_info = scene.info
     centre = centring_offset(verts)
     verts = [v + centre for v in verts]
     projected = [v + centre for v in projected]
@@ -210,7 +203,7 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
                 rep["fixed"] = True
 
     with timer.step("write"):
-        extent = max(np.abs(np.vstack(verts)[:, :2]).max() * 4.0, 20.0 * settings.camera.height_m)
+        extent = max(np.abs(np.vstack(verts)[:, :2]).max() * 4.0, 20.0 * abs(float(camera.origin[2])))
         write_scene_layer(out / layers.SCENE, fps=settings.fps, image_size=(w, h), camera=camera,
                           plate=f"./{TEXTURES}/plate.png", objects=scene_objects, ground_size=float(extent),
                           extra={"physomni:photo": str(pathlib.Path(photo_path).name)})
@@ -222,9 +215,10 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
         shot = layers.write_shot_layer(out, settings.fps)
     echo("build: wrote " + ", ".join([layers.SCENE, layers.PHYSICS, layers.SHOT]))
     update_report(out, objects=report_objects, estimate=material_report(layers.open_shot(out), "rules"), shot={"photo": str(photo_path), "width": w, "height": h,
-                                                    "fov_deg": settings.camera.fov_deg,
+                                                    "fov_deg": round(camera.fov_deg, 4),
                                                     "pitch_deg": round(camera.pitch_deg, 4), "alignment": align_info,
-                                                    "camera_height_m": settings.camera.height_m,
+                                                    "camera_height_m": round(float(camera.origin[2]), 4),
+                                                    "scale": align_info.get("scale"),
                                                     "fps": settings.fps},
                   build={"seconds": timer.seconds, "total_seconds": timer.total})
     return BuildResult(out, shot, report_objects, timer.seconds)

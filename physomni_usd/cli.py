@@ -109,8 +109,12 @@ def build_options(f):
         click.option("--pitch", type=float, default=None,
                      help="Downward camera tilt in degrees [default: smallest ≥ 10° that puts every "
                           "object's foot below the horizon]."),
-        click.option("--camera-height", type=float, default=1.0, show_default=True,
-                     help="Camera height above the ground in metres; sets the scene's scale."),
+        click.option("--camera-height", type=float, default=None,
+                     help="Camera height above the ground in metres; sets the scene's scale [default: from the "
+                          "objects' typical sizes by label, else 1 m]."),
+        click.option("--size", "sizes", multiple=True, metavar="LABEL=METRES",
+                     help="An object's real longest dimension, e.g. 'coin=0.024'; fixes the scene's scale "
+                          "(over --camera-height and the typical sizes). Repeatable."),
         click.option("--shape", type=click.Choice(["auto", "round", "extrude"]), default="auto", show_default=True,
                      help="How silhouettes become meshes: surface of revolution, extrusion, or by symmetry."),
         click.option("--fps", type=float, default=30.0, show_default=True, help="Frames per second of the shot."),
@@ -141,14 +145,15 @@ def _build_settings(fov, pitch, camera_height, shape, fps):
               help="Give an object this velocity in m/s at T seconds (default 0); world axes: Z up, "
                    "+Y away from the camera, +X to the image's right. Repeatable.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
-def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, meshes_dir, fixed, forces, pushes, quiet):
+def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, fps, meshes_dir, fixed, forces, pushes,
+          quiet):
     """Photo → scene.usda, physics.usda and the root shot.usda (perceive, align, estimate)."""
     with _errors():
         from .build import build_shot
 
         settings = _build_settings(fov, pitch, camera_height, shape, fps)
         result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces, fixed=fixed,
-                            meshes_dir=meshes_dir)
+                            meshes_dir=meshes_dir, sizes=sizes)
         if not quiet:
             total = sum(result.seconds.values())
             click.echo(f"wrote {result.shot} ({len(result.objects)} objects, {total:.2f} s)", err=True)
@@ -252,8 +257,8 @@ def render(shot, output, max_size, quiet):
 @click.option("--mpm-steps", type=int, default=None,
               help="MPM steps per frame [default: chosen from the materials; see simulate --help].")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
-def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, meshes_dir, fixed, forces, seconds, pushes,
-        particle_spacing, mpm_steps, quiet):
+def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, fps, meshes_dir, fixed, forces, seconds,
+        pushes, particle_spacing, mpm_steps, quiet):
     """build + simulate + render in one go; writes DIR/shot.usda, DIR/video.mp4, DIR/report.json.
 
     \b
@@ -271,7 +276,7 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, mes
         t0 = time.perf_counter()
         settings = _build_settings(fov, pitch, camera_height, shape, fps)
         result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces, fixed=fixed,
-                            meshes_dir=meshes_dir)
+                            meshes_dir=meshes_dir, sizes=sizes)
         _simulate(result.shot, seconds, None, None, quiet, particle_spacing, mpm_steps)
         section = _render(result.shot, None, quiet)
         total = round(time.perf_counter() - t0, 3)

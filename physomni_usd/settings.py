@@ -19,8 +19,10 @@ class CameraSettings(_Settings):
     pitch_deg: float | None = Field(None, ge=0.0, le=80.0,
                                     description="Downward tilt of the camera, degrees; None picks the smallest tilt "
                                                 "≥ 10° that puts every object's foot below the horizon.")
-    height_m: float = Field(1.0, gt=0.01, le=1000.0,
-                            description="Height of the camera above the ground, metres; it sets the scene's scale.")
+    height_m: float | None = Field(None, gt=0.01, le=1000.0,
+                                   description="Height of the camera above the ground, metres; it sets the scene's "
+                                               "scale. None: the scale comes from the objects' typical sizes "
+                                               "(materials/sizes.py), or a camera 1 m high if no label has one.")
 
 
 class LiftSettings(_Settings):

@@ -26,7 +26,7 @@ carries the mask as alpha and renderers cut those pixels away.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -53,6 +53,7 @@ class LiftedMesh:
     shape: str  # 'round' | 'extrude'
     contact: np.ndarray  # (3,) where the silhouette's foot meets the ground
     foot_row: float  # image row of the foot
+    info: dict = field(default_factory=dict)  # how it was lifted: mode, height source, …
 
     @property
     def height(self) -> float:
@@ -202,11 +203,26 @@ def _outward(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return faces[:, ::-1].copy() if volume < 0 else faces
 
 
-def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSettings = LiftSettings()) -> LiftedMesh:
-    """Closed mesh of the object whose silhouette is ``mask`` (H, W) bool, standing on z = 0."""
+def plane_points(camera: PinholeCamera, u, v, z: float = 0.0) -> np.ndarray:
+    """Where the rays through (u, v) meet the horizontal plane at height ``z`` (…, 3); NaN where they do not."""
+    d = camera.rays(u, v)
+    dz = d[..., 2]
+    t = np.where(dz < -1e-9, (z - camera.origin[2]) / np.minimum(dz, -1e-9), np.nan)
+    t = np.where(t > 0, t, np.nan)
+    return camera.origin + t[..., None] * d
+
+
+def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSettings = LiftSettings(),
+                    height_hint: float | None = None, prior_shape: str | None = None,
+                    base_z: float = 0.0) -> LiftedMesh:
+    """Closed mesh of the object whose silhouette is ``mask`` (H, W) bool, standing on z = ``base_z``.
+
+    ``height_hint`` (the camera's units) and ``prior_shape`` come from the
+    label's typical size; they are used where the photo cannot show a height.
+    """
     solid = fill_holes(mask)
     u_foot, v_foot = foot_pixel(solid)
-    contact = camera.ground_points(u_foot, v_foot)
+    contact = plane_points(camera, u_foot, v_foot, base_z)
     if not np.all(np.isfinite(contact)):
         raise ValueError("the object's foot is above the horizon")
     ys = np.nonzero(solid.any(axis=1))[0]
@@ -262,5 +278,6 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
         rings = ray_slab_rings(left, right, camera.rays(spans[:, 0], edges), camera.rays(spans[:, 1], edges),
                                normal, depth, settings.sections)
     verts, faces = loft(rings)
-    verts[:, 2] -= verts[:, 2].min()  # rounding only: the foot row is already at z = 0
-    return LiftedMesh(verts, faces, shape, contact, v_foot)
+    verts[:, 2] += base_z - verts[:, 2].min()  # rounding only: the foot row is already at z = base_z
+    return LiftedMesh(verts, faces, shape, contact, v_foot, {"mode": "standing", "shape": shape,
+                                                              "height_source": "silhouette"})

@@ -1,0 +1,83 @@
+"""The built-in (no model) scene from a photo: camera, lifted objects, real scale, support, room.
+
+Owns the order of the silhouette path of ``build``: the camera is estimated
+from the photo (``align/cues.py``) under a unit camera height, every object
+is lifted (``perceive/lift.py``), the scene's scale is fixed from the objects'
+typical sizes (``align/scale.py``), objects resting on others are stood on
+them (``align/support.py``), and the rest are kept apart (``align/place.py``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..materials.sizes import size_prior
+from ..perceive.lift import fill_holes, foot_pixel, lift_silhouette
+from ..settings import BuildSettings
+from .camera import PinholeCamera, pick_pitch
+from .place import make_room, separate
+from .scale import fit_scale
+
+#: Scale-and-lift rounds: an object's height from its prior depends on the scale, the scale on the lifted sizes.
+SCALE_ROUNDS = 3
+
+
+@dataclass
+class PhotoScene:
+    camera: PinholeCamera
+    vertices: list[np.ndarray]  # placed, world metres
+    projected: list[np.ndarray]  # where each was seen (texture coordinates come from these)
+    faces: list[np.ndarray]
+    shapes: list[str]
+    info: dict
+
+
+def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scale: float, supports=None):
+    """Each mask lifted under ``camera`` (unit height); ``scale`` turns a prior's metres into the camera's units."""
+    out = []
+    for i, (mask, label) in enumerate(zip(masks, labels)):
+        prior = size_prior(label)
+        hint = prior.height_m / scale if prior is not None and prior.height_m else None
+        base = 0.0
+        if supports and supports.get(i) is not None:
+            base = supports[i]
+        out.append(lift_silhouette(mask, camera, settings.lift, height_hint=hint,
+                                   prior_shape=prior.shape if prior else None, base_z=base))
+    return out
+
+
+def build_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_sizes=None) -> PhotoScene:
+    """Camera, meshes and placement for objects seen only as masks in ``photo``."""
+    h, w = photo.shape[:2]
+    cam_cfg = settings.camera
+    feet = [foot_pixel(fill_holes(m))[1] for m in masks]
+    fov = cam_cfg.fov_deg
+    pitch = pick_pitch(fov, h, feet, cam_cfg.pitch_deg)
+    camera_info = {"pitch_deg": pitch, "fov_deg": fov, "source": "user" if cam_cfg.pitch_deg is not None
+                   else "lowest pitch that puts every foot below the horizon"}
+    unit = PinholeCamera(w, h, fov, pitch, (0.0, 0.0, 1.0))
+
+    scale = 1.0
+    fit = None
+    for _ in range(SCALE_ROUNDS):
+        lifted = lift_all(masks, labels, unit, settings, scale)
+        longest = [float(np.ptp(m.vertices, axis=0).max()) for m in lifted]
+        fit = fit_scale(names, labels, longest, user_sizes, cam_cfg.height_m)
+        if abs(np.log(fit.factor / scale)) < 1e-3:
+            break
+        scale = fit.factor
+    scale = fit.factor
+    lifted = [replace(m, vertices=m.vertices * scale, contact=m.contact * scale) for m in lifted]
+    camera = PinholeCamera(w, h, unit.fov_deg, unit.pitch_deg, (0.0, 0.0, scale))
+
+    projected, depth_scales = make_room([m.vertices for m in lifted], [m.contact for m in lifted],
+                                        camera.origin, settings.gap_m)
+    moves = separate(projected, settings.gap_m)
+    verts = [v + d for v, d in zip(projected, moves)]
+    info = {"variant": "silhouette", "depth_scales": [round(k, 4) for k in depth_scales],
+            "moved_apart_m": [round(float(np.linalg.norm(d)), 4) for d in moves],
+            "scale": fit.as_dict(camera.origin[2]), "camera": camera_info,
+            "lift": [m.info for m in lifted]}
+    return PhotoScene(camera, verts, projected, [m.faces for m in lifted], [m.shape for m in lifted], info)
