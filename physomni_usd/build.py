@@ -15,6 +15,7 @@ import numpy as np
 
 from ._files import write_bytes
 from .align.camera_search import search_camera
+from .align.cues import DEFAULT_FOV_DEG
 from .align.external import load_poses, place_external
 from .align.photo_scene import build_photo_scene
 from .align.place import centring_offset
@@ -129,7 +130,7 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
     if meshes_dir is not None:
         with timer.step("align.external"):
             placed = place_external(load_poses(meshes_dir, [o.label for o in objects]), w, h,
-                                    settings.camera.fov_deg, settings.alignment,
+                                    settings.camera.fov_deg or DEFAULT_FOV_DEG, settings.alignment,
                                     masks=[o.mask for o in objects])
         camera, faces, verts, projected = placed.camera, placed.faces, placed.vertices, placed.projected
         shapes = ["external"] * len(objects)

@@ -104,11 +104,12 @@ def build_options(f):
                      default=None, help="Folder with one mesh per object (OBJ, GLB, PLY) and poses.json "
                                         "(label → mesh, rotation_wxyz, translation, scale in OpenCV camera "
                                         "coordinates); replaces silhouette lifting."),
-        click.option("--fov", type=float, default=50.0, show_default=True,
-                     help="Vertical field of view of the photo in degrees."),
+        click.option("--fov", type=float, default=None,
+                     help="Vertical field of view of the photo in degrees [default: from the photo's vanishing "
+                          "points, else 50°]."),
         click.option("--pitch", type=float, default=None,
-                     help="Downward camera tilt in degrees [default: smallest ≥ 10° that puts every "
-                          "object's foot below the horizon]."),
+                     help="Downward camera tilt in degrees, 0 (level) to 90 (straight down) [default: estimated "
+                          "from the photo: round outlines, vanishing points, horizon, where objects stand]."),
         click.option("--camera-height", type=float, default=None,
                      help="Camera height above the ground in metres; sets the scene's scale [default: from the "
                           "objects' typical sizes by label, else 1 m]."),

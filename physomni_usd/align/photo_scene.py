@@ -16,7 +16,9 @@ import numpy as np
 from ..materials.sizes import size_prior
 from ..perceive.lift import fill_holes, foot_pixel, lift_silhouette
 from ..settings import BuildSettings
+from ..errors import InputError
 from .camera import PinholeCamera, pick_pitch
+from .cues import MAX_PITCH_DEG, estimate_camera
 from .place import make_room, separate
 from .scale import fit_scale
 
@@ -53,11 +55,14 @@ def build_photo_scene(masks, labels, names, photo, settings: BuildSettings, user
     h, w = photo.shape[:2]
     cam_cfg = settings.camera
     feet = [foot_pixel(fill_holes(m))[1] for m in masks]
-    fov = cam_cfg.fov_deg
-    pitch = pick_pitch(fov, h, feet, cam_cfg.pitch_deg)
-    camera_info = {"pitch_deg": pitch, "fov_deg": fov, "source": "user" if cam_cfg.pitch_deg is not None
-                   else "lowest pitch that puts every foot below the horizon"}
-    unit = PinholeCamera(w, h, fov, pitch, (0.0, 0.0, 1.0))
+    est = estimate_camera(photo, masks, labels, feet, cam_cfg.fov_deg, cam_cfg.pitch_deg)
+    if est.min_pitch_deg > MAX_PITCH_DEG:
+        raise InputError("objects' feet are too high in the photo for any camera pitch; give --pitch and --fov")
+    pitch = est.pitch_deg
+    if cam_cfg.pitch_deg is not None:  # the user's, checked against the feet
+        pitch = min(pick_pitch(est.fov_deg, h, feet, cam_cfg.pitch_deg), MAX_PITCH_DEG)
+    camera_info = est.as_dict() | {"pitch_deg": round(pitch, 3)}
+    unit = PinholeCamera(w, h, est.fov_deg, pitch, (0.0, 0.0, 1.0))
 
     scale = 1.0
     fit = None
