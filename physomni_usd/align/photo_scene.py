@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..materials.sizes import size_prior
-from ..perceive.lift import fill_holes, foot_pixel, lift_silhouette
+from ..perceive.lift import FLAT_PRIOR_RATIO, fill_holes, foot_pixel, lift_silhouette
 from ..settings import BuildSettings
 from ..errors import InputError
 from .camera import PinholeCamera, pick_pitch
@@ -36,7 +36,8 @@ class PhotoScene:
     info: dict
 
 
-def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scale: float, supports=None):
+def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scale: float, supports=None,
+             photo=None):
     """Each mask lifted under ``camera`` (unit height); ``scale`` turns a prior's metres into the camera's units."""
     out = []
     for i, (mask, label) in enumerate(zip(masks, labels)):
@@ -45,8 +46,10 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
         base = 0.0
         if supports and supports.get(i) is not None:
             base = supports[i]
+        flat = bool(prior and prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * prior.longest_m)
         out.append(lift_silhouette(mask, camera, settings.lift, height_hint=hint,
-                                   prior_shape=prior.shape if prior else None, base_z=base))
+                                   prior_shape=prior.shape if prior else None, base_z=base, flat=flat,
+                                   photo=photo))
     return out
 
 
@@ -67,7 +70,7 @@ def build_photo_scene(masks, labels, names, photo, settings: BuildSettings, user
     scale = 1.0
     fit = None
     for _ in range(SCALE_ROUNDS):
-        lifted = lift_all(masks, labels, unit, settings, scale)
+        lifted = lift_all(masks, labels, unit, settings, scale, photo=photo)
         longest = [float(np.ptp(m.vertices, axis=0).max()) for m in lifted]
         fit = fit_scale(names, labels, longest, user_sizes, cam_cfg.height_m)
         if abs(np.log(fit.factor / scale)) < 1e-3:
@@ -78,7 +81,8 @@ def build_photo_scene(masks, labels, names, photo, settings: BuildSettings, user
     camera = PinholeCamera(w, h, unit.fov_deg, unit.pitch_deg, (0.0, 0.0, scale))
 
     projected, depth_scales = make_room([m.vertices for m in lifted], [m.contact for m in lifted],
-                                        camera.origin, settings.gap_m)
+                                        camera.origin, settings.gap_m,
+                                        fixed_depth=[m.info.get("mode") == "footprint" for m in lifted])
     moves = separate(projected, settings.gap_m)
     verts = [v + d for v, d in zip(projected, moves)]
     info = {"variant": "silhouette", "depth_scales": [round(k, 4) for k in depth_scales],
