@@ -2,7 +2,8 @@
 
 The camera is a level pinhole (no roll) looking down by ``pitch``. Cues:
 
-- **ellipses**: a round, flat outline (a coin, a plate, a saucer: labels
+- **ellipses** (weight 1, less as the outline nears a circle, where the
+  ratio hardly changes with the pitch): a round, flat outline (a coin, a plate, a saucer: labels
   whose typical shape is round and low, ``materials/sizes.py``) seen along a
   ray that meets the ground at angle ε shows minor/major ≈ sin ε. The pitch
   is the one under which a cylinder of the label's typical proportions,
@@ -34,6 +35,7 @@ import cv2
 import numpy as np
 
 from ..materials.sizes import size_prior
+from ..perceive.lift import fill_holes
 from .camera import HORIZON_MARGIN_DEG, MIN_AUTO_PITCH_DEG, PinholeCamera
 
 DEFAULT_FOV_DEG = 50.0
@@ -174,7 +176,7 @@ def round_outlines(masks, labels) -> list[RoundOutline]:
         if prior is None or prior.shape != "round" or not prior.longest_m or not prior.height_m:
             continue
         thickness = prior.height_m / prior.longest_m
-        found = mask_ellipse(mask) if thickness <= FLAT_RATIO else None
+        found = mask_ellipse(fill_holes(mask)) if thickness <= FLAT_RATIO else None
         if found is None or found[1] < ELLIPSE_IOU:
             continue
         ratio, iou, ((u, v), _, _) = found
@@ -187,7 +189,9 @@ def ellipse_cues(outlines: list[RoundOutline], width: int, height: int, fov_deg:
     for o in outlines:
         pitch = o.pitch(width, height, fov_deg)
         if pitch is not None:
-            cues.append(Cue("ellipse", pitch, 1.0, detail={"label": o.label, "minor_over_major": round(o.ratio, 4),
+            # near a circle the ratio barely changes with the pitch: trust it less
+            weight = max(0.1, min(1.0, (1.0 - o.ratio) / 0.05))
+            cues.append(Cue("ellipse", pitch, weight, detail={"label": o.label, "minor_over_major": round(o.ratio, 4),
                                                             "ellipse_iou": round(o.iou, 3)}))
     return cues
 
@@ -358,7 +362,7 @@ def vanishing_cues(photo: np.ndarray, fov_deg: float | None, fov_given: bool, ob
         flat = (np.abs(d[:, 1]) < 0.02 * np.abs(d[:, 0])) & (np.abs(d[:, 0]) > 0.6 * w)
         if flat.any():
             row = float(np.median(0.5 * (seg[flat, 1] + seg[flat, 3])))
-            pitch_cues.append(Cue("horizon line", math.degrees(math.atan2(cy - row, f_use)), 0.15,
+            pitch_cues.append(Cue("horizon line", math.degrees(math.atan2(cy - row, f_use)), 0.03,
                                   detail={"row": round(row, 1)}))
     return pitch_cues, fov_cues, v_h
 
@@ -406,9 +410,9 @@ def estimate_camera(photo: np.ndarray, masks, labels, foot_rows, fov_deg: float 
         if c.kind == "horizon vanishing points" and c.pitch_deg > STEEP_DEG and not any(
                 o is not c and o.pitch_deg is not None and abs(o.pitch_deg - c.pitch_deg) <= 10.0
                 and o.kind in ("ellipse", "vertical vanishing point") for o in pitch_cues):
-            c.weight, c.detail["uncorroborated"] = 0.1, True
+            c.weight, c.detail["uncorroborated"] = 0.03, True
     cues = fov_cues + pitch_cues
-    cues.append(Cue("objects' feet", max(MIN_AUTO_PITCH_DEG, lowest), 0.2,
+    cues.append(Cue("objects' feet", max(MIN_AUTO_PITCH_DEG, lowest), 0.05,
                     detail={"min_pitch_deg": round(lowest, 3)}))
     if pitch_deg is not None:
         return CameraEstimate(float(pitch_deg), fov, cues, "user", fov_source, lowest)

@@ -21,6 +21,7 @@ from .camera import PinholeCamera, pick_pitch
 from .cues import MAX_PITCH_DEG, estimate_camera
 from .place import make_room, separate
 from .scale import fit_scale
+from .support import find_supports, root_of, support_order
 
 #: Scale-and-lift rounds: an object's height from its prior depends on the scale, the scale on the lifted sizes.
 SCALE_ROUNDS = 3
@@ -38,18 +39,19 @@ class PhotoScene:
 
 def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scale: float, supports=None,
              photo=None):
-    """Each mask lifted under ``camera`` (unit height); ``scale`` turns a prior's metres into the camera's units."""
-    out = []
-    for i, (mask, label) in enumerate(zip(masks, labels)):
-        prior = size_prior(label)
+    """Each mask lifted under ``camera`` (unit height); ``scale`` turns a prior's metres into the camera's units.
+
+    ``supports`` ({upper: (lower, how)}) stands each upper object on its lower one's top.
+    """
+    supports = supports or {}
+    out = [None] * len(masks)
+    for i in support_order(len(masks), supports):
+        prior = size_prior(labels[i])
         hint = prior.height_m / scale if prior is not None and prior.height_m else None
-        base = 0.0
-        if supports and supports.get(i) is not None:
-            base = supports[i]
+        base = float(out[supports[i][0]].vertices[:, 2].max()) if i in supports else 0.0
         flat = bool(prior and prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * prior.longest_m)
-        out.append(lift_silhouette(mask, camera, settings.lift, height_hint=hint,
-                                   prior_shape=prior.shape if prior else None, base_z=base, flat=flat,
-                                   photo=photo))
+        out[i] = lift_silhouette(masks[i], camera, settings.lift, height_hint=hint,
+                                 prior_shape=prior.shape if prior else None, base_z=base, flat=flat, photo=photo)
     return out
 
 
@@ -67,10 +69,11 @@ def build_photo_scene(masks, labels, names, photo, settings: BuildSettings, user
     camera_info = est.as_dict() | {"pitch_deg": round(pitch, 3)}
     unit = PinholeCamera(w, h, est.fov_deg, pitch, (0.0, 0.0, 1.0))
 
+    supports = find_supports(masks)
     scale = 1.0
     fit = None
     for _ in range(SCALE_ROUNDS):
-        lifted = lift_all(masks, labels, unit, settings, scale, photo=photo)
+        lifted = lift_all(masks, labels, unit, settings, scale, supports, photo=photo)
         longest = [float(np.ptp(m.vertices, axis=0).max()) for m in lifted]
         fit = fit_scale(names, labels, longest, user_sizes, cam_cfg.height_m)
         if abs(np.log(fit.factor / scale)) < 1e-3:
@@ -80,13 +83,23 @@ def build_photo_scene(masks, labels, names, photo, settings: BuildSettings, user
     lifted = [replace(m, vertices=m.vertices * scale, contact=m.contact * scale) for m in lifted]
     camera = PinholeCamera(w, h, unit.fov_deg, unit.pitch_deg, (0.0, 0.0, scale))
 
-    projected, depth_scales = make_room([m.vertices for m in lifted], [m.contact for m in lifted],
-                                        camera.origin, settings.gap_m,
-                                        fixed_depth=[m.info.get("mode") == "footprint" for m in lifted])
-    moves = separate(projected, settings.gap_m)
+    # objects resting on others move with them; the rest keep clear of each other
+    free = [i for i in range(len(lifted)) if i not in supports]
+    room, scales_free = make_room([lifted[i].vertices for i in free], [lifted[i].contact for i in free],
+                                  camera.origin, settings.gap_m,
+                                  fixed_depth=[lifted[i].info.get("mode") == "footprint" for i in free])
+    moves_free = separate(room, settings.gap_m)
+    projected = [m.vertices for m in lifted]
+    depth_scales = [1.0] * len(lifted)
+    moves = [np.zeros(3)] * len(lifted)
+    for k, i in enumerate(free):
+        projected[i], depth_scales[i], moves[i] = room[k], scales_free[k], moves_free[k]
+    for i in supports:
+        moves[i] = moves[root_of(i, supports)]
     verts = [v + d for v, d in zip(projected, moves)]
     info = {"variant": "silhouette", "depth_scales": [round(k, 4) for k in depth_scales],
             "moved_apart_m": [round(float(np.linalg.norm(d)), 4) for d in moves],
             "scale": fit.as_dict(camera.origin[2]), "camera": camera_info,
-            "lift": [m.info for m in lifted]}
+            "lift": [m.info for m in lifted],
+            "supports": {names[i]: {"on": names[j], "seen": how} for i, (j, how) in supports.items()}}
     return PhotoScene(camera, verts, projected, [m.faces for m in lifted], [m.shape for m in lifted], info)

@@ -82,6 +82,22 @@ def make_known_scene(pitch_deg: float, width: int = 480, height: int = 360, fov_
     return KnownScene(photo, masks, [label for label, _ in placed], [m for _, m in placed], camera, pitch_deg)
 
 
+def make_cup_on_saucer(pitch_deg: float = 30.0, width: int = 320, height: int = 240, fov_deg: float = FOV_DEG,
+                       seed: int = 0) -> KnownScene:
+    """A cup (8 cm across, 9.5 cm tall) standing on its saucer (15 cm, 2 cm thick), 0.5 m from the camera."""
+    rng = np.random.default_rng(seed)
+    look = max(pitch_deg, 14.0)
+    distance = 0.5
+    camera = PinholeCamera(width, height, fov_deg, pitch_deg, (0.0, 0.0, distance * math.sin(math.radians(look))))
+    ahead = distance * math.cos(math.radians(look))
+    saucer = trimesh.creation.cylinder(0.075, 0.02, sections=64)
+    saucer.apply_translation([0.0, ahead, 0.01])
+    cup = trimesh.creation.cylinder(0.04, 0.095, sections=48)
+    cup.apply_translation([0.0, ahead, 0.02 + 0.0475])
+    photo, masks = render_truth(camera, [cup, saucer], rng)
+    return KnownScene(photo, masks, ["cup", "saucer"], [cup, saucer], camera, pitch_deg)
+
+
 def write_scene(scene: KnownScene, folder) -> list[str]:
     """Photo and masks into ``folder``; returns the ``--mask`` specs."""
     folder = pathlib.Path(folder)
