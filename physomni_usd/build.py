@@ -207,7 +207,9 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
         extent = max(np.abs(np.vstack(verts)[:, :2]).max() * 4.0, 20.0 * abs(float(camera.origin[2])))
         write_scene_layer(out / layers.SCENE, fps=settings.fps, image_size=(w, h), camera=camera,
                           plate=f"./{TEXTURES}/plate.png", objects=scene_objects, ground_size=float(extent),
-                          extra={"physomni:photo": str(pathlib.Path(photo_path).name)})
+                          extra={"physomni:photo": str(pathlib.Path(photo_path).name),
+                                 **({"physomni:userSizes": {k: float(v) for k, v in user_sizes.items()}}
+                                    if user_sizes else {})})
         write_physics_layer(out / layers.PHYSICS, out / layers.SCENE, fps=settings.fps, objects=physics_objects,
                             ground=GROUND_MATERIAL, solver=DEFAULT_SOLVER, substeps=DEFAULT_SUBSTEPS,
                             iterations=DEFAULT_ITERATIONS, forces=fields)
@@ -215,13 +217,19 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
         layers.ensure_edits_layer(out)
         shot = layers.write_shot_layer(out, settings.fps)
     echo("build: wrote " + ", ".join([layers.SCENE, layers.PHYSICS, layers.SHOT]))
+    with timer.step("check"):
+        from .physics.diagnose import scene_findings
+
+        checks = [f.as_dict() for f in scene_findings(layers.open_shot(out))]
+    for c in checks:
+        echo(f"check: {c['severity']}: {c['message']}")
     update_report(out, objects=report_objects, estimate=material_report(layers.open_shot(out), "rules"), shot={"photo": str(photo_path), "width": w, "height": h,
                                                     "fov_deg": round(camera.fov_deg, 4),
                                                     "pitch_deg": round(camera.pitch_deg, 4), "alignment": align_info,
                                                     "camera_height_m": round(float(camera.origin[2]), 4),
                                                     "scale": align_info.get("scale"),
                                                     "fps": settings.fps},
-                  build={"seconds": timer.seconds, "total_seconds": timer.total})
+                  build={"seconds": timer.seconds, "total_seconds": timer.total, "checks": checks})
     return BuildResult(out, shot, report_objects, timer.seconds)
 
 

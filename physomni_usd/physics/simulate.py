@@ -22,6 +22,7 @@ from ..settings import SimulateSettings
 from ..usd import layers
 from ..usd.author import OBJECTS, PARTICLES, author_particle_prims, write_sim_layer
 from .checks import check_rigid_inputs
+from .diagnose import FRAME_WALL_BUDGET_S, failure_line, refuse_broken_scene
 from .cloth import add_cloth, add_soft_body
 from .forces import FieldSet, body_samples, read_force_fields
 from .mpm import SURFACE_TYPES, add_particle_forces, bind_surface, build_mpm_scene, deform_surface, \
@@ -75,6 +76,7 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     if not objects:
         raise InputError(f"{shot}: no objects to simulate under {OBJECTS}")
     check_rigid_inputs(stage, [o.prim for o in objects if o.family == "rigid" and o.is_body])
+    refuse_broken_scene(stage)
     frames = int(round(settings.seconds * cfg["fps"])) + 1
 
     sim = _Simulation(stage, objects, cfg, settings)
@@ -152,6 +154,7 @@ class _Simulation:
     """The Newton models of one shot and how to advance them a frame at a time."""
 
     def __init__(self, stage: Usd.Stage, objects: list[SceneObject], cfg: dict, settings: SimulateSettings):
+        self.stage = stage
         t0 = time.perf_counter()
         wp = load_warp()
         import newton
@@ -349,7 +352,10 @@ class _Simulation:
             max_speed = speed
             t1 = time.perf_counter()
             t, step, f = 0.0, 0, 1
+            t_frame, frame_of_t = time.perf_counter(), 1
             while f < frames:
+                if f != frame_of_t:
+                    t_frame, frame_of_t = time.perf_counter(), f
                 saved = self.checkpoint()
                 work = guard.work
                 self.advance(plan, t, step, guard, speed)
@@ -358,8 +364,11 @@ class _Simulation:
                 why = guard.check(energy, speed, finite)
                 if why is not None:
                     if len(rollbacks) >= MAX_RETRIES:
-                        raise PhysOmniError(f"simulation diverged at frame {f}: {why}, even at {plan.substeps} "
-                                            "substeps per frame; check the masses, speeds and stiffness in the shot")
+                        raise PhysOmniError(failure_line(self.stage, f"simulation diverged at frame {f}: {why}, "
+                                                         f"even at {plan.substeps} substeps per frame"))
+                    if time.perf_counter() - t_frame > FRAME_WALL_BUDGET_S:
+                        raise PhysOmniError(failure_line(self.stage, f"simulation stuck at frame {f}: {why}, "
+                                                         f"{FRAME_WALL_BUDGET_S:g} s spent on it"))
                     self.restore(saved)
                     guard.work = work
                     speed = before
