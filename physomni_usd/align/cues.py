@@ -48,6 +48,10 @@ FLAT_RATIO = 0.45
 MIN_SEGMENT = 0.025
 #: A segment belongs to a vanishing point when its direction is within this angle of the point (degrees).
 VP_ANGLE_DEG = 1.5
+#: Outlines rounder than this have no meaningful axis; others must lie within MAX_AXIS_TURN_DEG of a
+#: ground circle's.
+ROUND_ENOUGH = 0.97
+MAX_AXIS_TURN_DEG = 20.0
 #: A horizon this steep (pitch, degrees) needs a second cue's agreement.
 STEEP_DEG = 45.0
 #: Fields of view a vanishing-point pair may give (degrees); outside, the pair is not trusted.
@@ -124,9 +128,9 @@ def mask_ellipse(mask: np.ndarray) -> tuple[float, float, tuple] | None:
     return ratio, inter / max(union, 1), ell
 
 
-def cylinder_ratio(camera: PinholeCamera, u: float, v: float, thickness: float) -> float | None:
+def cylinder_ratio(camera: PinholeCamera, u: float, v: float, thickness: float, angle: bool = False):
     """minor/major of the outline of a small cylinder (diameter 1, height ``thickness``) standing on the ground
-    where pixel (u, v) looks, as ``camera`` sees it."""
+    where pixel (u, v) looks, as ``camera`` sees it (and fitEllipse's angle in degrees, with ``angle``)."""
     g = camera.ground_points(u, v)
     if not np.all(np.isfinite(g)):
         return None
@@ -140,7 +144,15 @@ def cylinder_ratio(camera: PinholeCamera, u: float, v: float, thickness: float) 
         return None
     hull = cv2.convexHull(uv.astype(np.float32))
     fit = _fit_ratio(hull[:, 0, :])
-    return None if fit is None else fit[0]
+    if fit is None:
+        return None
+    return (fit[0], _major_angle(fit[1])) if angle else fit[0]
+
+
+def _major_angle(ellipse) -> float:
+    """Direction of an OpenCV ellipse's major axis, degrees in [0, 180)."""
+    (_, _), (a, b), ang = ellipse
+    return (ang + (0.0 if a >= b else 90.0)) % 180.0
 
 
 @dataclass
@@ -151,6 +163,7 @@ class RoundOutline:
     ratio: float
     iou: float
     thickness: float  # typical height over width of the label
+    angle: float = 0.0  # the fitted ellipse's major axis, degrees
 
     def pitch(self, width: int, height: int, fov_deg: float) -> float | None:
         """The pitch under which a cylinder of this outline's proportions shows its ratio (2° then 0.25° steps)."""
@@ -179,8 +192,9 @@ def round_outlines(masks, labels) -> list[RoundOutline]:
         found = mask_ellipse(fill_holes(mask)) if thickness <= FLAT_RATIO else None
         if found is None or found[1] < ELLIPSE_IOU:
             continue
-        ratio, iou, ((u, v), _, _) = found
-        out.append(RoundOutline(label, u, v, ratio, float(iou), thickness))
+        ratio, iou, ell = found
+        (u, v), _, _ = ell
+        out.append(RoundOutline(label, u, v, ratio, float(iou), thickness, _major_angle(ell)))
     return out
 
 
@@ -188,6 +202,13 @@ def ellipse_cues(outlines: list[RoundOutline], width: int, height: int, fov_deg:
     cues = []
     for o in outlines:
         pitch = o.pitch(width, height, fov_deg)
+        if pitch is not None and o.ratio < ROUND_ENOUGH:
+            # a circle on the ground foreshortens along the line of sight: an outline squashed across it is
+            # not a tilted circle (an irregular coin, a lid seen from the side)
+            model = cylinder_ratio(PinholeCamera(width, height, fov_deg, pitch), o.u, o.v, o.thickness, angle=True)
+            turn = abs((o.angle - model[1] + 90.0) % 180.0 - 90.0) if model else 0.0
+            if turn > MAX_AXIS_TURN_DEG:
+                continue
         if pitch is not None:
             # near a circle the ratio barely changes with the pitch: trust it less
             weight = max(0.1, min(1.0, (1.0 - o.ratio) / 0.05))
