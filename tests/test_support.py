@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 
 import numpy as np
-import pytest
 
 from physomni_usd.align.support import find_supports
 from physomni_usd.bench.photos import make_cup_on_saucer, make_known_scene, write_scene
