@@ -19,15 +19,16 @@ import cv2
 import numpy as np
 
 from ._files import all_or_nothing, check_writable, make_dirs, remove_file, write_bytes
-from .align.camera import PinholeCamera, pick_pitch
 from .align.camera_search import search_camera
+from .align.cues import DEFAULT_FOV_DEG
 from .align.external import load_poses, place_external
-from .align.place import centring_offset, make_room, separate
+from .align.photo_scene import build_photo_scene
+from .align.place import centring_offset
+from .align.scale import parse_sizes
 from .errors import InputError
 from .materials.defaults import GROUND_MATERIAL
 from .materials.report import material_report
 from .materials.rules import estimate_rules
-from .perceive.lift import fill_holes, foot_pixel, lift_silhouette
 from .perceive.masks import collect_masks, read_photo
 from .perceive.plate import background_plate, object_texture
 from .physics.forces import parse_force_options
@@ -159,12 +160,14 @@ def _stale_files(out: pathlib.Path, written: set[str]) -> list[pathlib.Path]:
 
 
 def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings = BuildSettings(),
-               pushes=(), echo=lambda msg: None, forces=(), fixed=(), meshes_dir=None) -> BuildResult:
+               pushes=(), echo=lambda msg: None, forces=(), fixed=(), meshes_dir=None, sizes=()) -> BuildResult:
     with all_or_nothing():
-        return _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, forces, fixed, meshes_dir)
+        return _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, forces, fixed, meshes_dir,
+                           sizes)
 
 
-def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, forces, fixed, meshes_dir) -> BuildResult:
+def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, forces, fixed, meshes_dir,
+                sizes) -> BuildResult:
     timer = Timer()
     with timer.step("read"):
         out = pathlib.Path(out_dir)
@@ -176,6 +179,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         push = parse_pushes(pushes, names, echo)
         fields = parse_force_options(forces)
         fixed_names = parse_fixed(fixed, names)
+        user_sizes = parse_sizes(sizes, [(o.name, o.label) for o in objects])
         files = {f"{TEXTURES}/{o.name}.png" for o in objects} | {f"{INPUTS}/masks/{o.name}.png" for o in objects}
         files |= {f"{TEXTURES}/plate.png", f"{INPUTS}/photo.png"}
         targets = sorted(files) + [layers.SCENE, layers.PHYSICS, layers.SIM, layers.SHOT, layers.EDITS, REPORT]
@@ -191,7 +195,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
     if meshes_dir is not None:
         with timer.step("align.external"):
             placed = place_external(load_poses(meshes_dir, [o.label for o in objects]), w, h,
-                                    settings.camera.fov_deg, settings.alignment,
+                                    settings.camera.fov_deg or DEFAULT_FOV_DEG, settings.alignment,
                                     masks=[o.mask for o in objects])
         camera, faces, verts, projected = placed.camera, placed.faces, placed.vertices, placed.projected
         shapes = ["external"] * len(objects)
@@ -207,21 +211,13 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
                 "evaluations": found.evaluations, "seconds": round(found.seconds, 3),
                 "loss_curve": found.curve[:: max(1, len(found.curve) // 100)]}
     else:
-        with timer.step("align.camera"):
-            feet = [foot_pixel(fill_holes(o.mask))[1] for o in objects]
-            pitch = pick_pitch(settings.camera.fov_deg, h, feet, settings.camera.pitch_deg)
-            camera = PinholeCamera(w, h, settings.camera.fov_deg, pitch, (0.0, 0.0, settings.camera.height_m))
-        with timer.step("perceive.lift"):
-            lifted = [lift_silhouette(o.mask, camera, settings.lift) for o in objects]
-        with timer.step("align.place"):
-            projected, depth_scales = make_room([m.vertices for m in lifted], [m.contact for m in lifted],
-                                                camera.origin, settings.gap_m)
-            moves = separate(projected, settings.gap_m)
-            verts = [v + d for v, d in zip(projected, moves)]
-        faces, shapes = [m.faces for m in lifted], [m.shape for m in lifted]
+        with timer.step("align.photo"):
+            scene = build_photo_scene([o.mask for o in objects], [o.label for o in objects],
+                                      [o.name for o in objects], photo, settings, user_sizes)
+        camera, verts, projected, faces, shapes = (scene.camera, scene.vertices, scene.projected, scene.faces,
+                                                   scene.shapes)
         notes = [[] for _ in objects]
-        align_info = {"variant": "silhouette", "depth_scales": [round(k, 4) for k in depth_scales],
-                      "moved_apart_m": [round(float(np.linalg.norm(d)), 4) for d in moves]}
+        align_info = scene.info
     centre = centring_offset(verts)
     verts = [v + centre for v in verts]
     projected = [v + centre for v in projected]
@@ -272,10 +268,12 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
                 rep["fixed"] = True
 
     with timer.step("write"):
-        extent = max(np.abs(np.vstack(verts)[:, :2]).max() * 4.0, 20.0 * settings.camera.height_m)
+        extent = max(np.abs(np.vstack(verts)[:, :2]).max() * 4.0, 20.0 * abs(float(camera.origin[2])))
         write_scene_layer(out / layers.SCENE, fps=settings.fps, image_size=(w, h), camera=camera,
                           plate=f"./{TEXTURES}/plate.png", objects=scene_objects, ground_size=float(extent),
-                          extra={"physomni:photo": str(pathlib.Path(photo_path).name)})
+                          extra={"physomni:photo": str(pathlib.Path(photo_path).name),
+                                 **({"physomni:userSizes": {k: float(v) for k, v in user_sizes.items()}}
+                                    if user_sizes else {})})
         write_physics_layer(out / layers.PHYSICS, out / layers.SCENE, fps=settings.fps, objects=physics_objects,
                             ground=GROUND_MATERIAL, solver=DEFAULT_SOLVER, substeps=DEFAULT_SUBSTEPS,
                             iterations=DEFAULT_ITERATIONS, forces=fields)
@@ -291,17 +289,25 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
              + ", ".join(str(p.relative_to(out)) for p in stale))
     stage = layers.open_shot(out)
     layers.warn_orphan_overs(stage, out, echo)
+    with timer.step("check"):
+        from .physics.diagnose import scene_findings
+
+        checks = [f.as_dict() for f in scene_findings(stage)]
+    for c in checks:
+        echo(f"check: {c['severity']}: {c['message']}")
     old = read_report(out) or {}
     for key in ("simulate", "render", "run"):  # they described the old shot
         old.get("stages", {}).pop(key, None)
     if old:
         write_bytes(out / REPORT, (json.dumps(old, indent=2) + "\n").encode())
     update_report(out, objects=report_objects, estimate=material_report(stage, "rules"), shot={"photo": str(photo_path), "width": w, "height": h,
-                                                    "fov_deg": settings.camera.fov_deg,
+                                                    "fov_deg": round(camera.fov_deg, 4),
                                                     "pitch_deg": round(camera.pitch_deg, 4), "alignment": align_info,
-                                                    "camera_height_m": settings.camera.height_m,
+                                                    "camera_height_m": round(float(camera.origin[2]), 4),
+                                                    "scale": align_info.get("scale"),
                                                     "fps": settings.fps},
-                  build={"seconds": timer.seconds, "total_seconds": timer.total, "files": sorted(files)})
+                  build={"seconds": timer.seconds, "total_seconds": timer.total, "files": sorted(files),
+                         "checks": checks})
     return BuildResult(out, shot, report_objects, timer.seconds)
 
 

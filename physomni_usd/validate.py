@@ -147,6 +147,14 @@ def _components(value):
     return tuple(value)
 
 
+def scene_checks(stage: Usd.Stage) -> list[Finding]:
+    """What a photo of objects allows: sizes against the labels', masses, overlaps, ground, camera."""
+    from .physics.diagnose import scene_findings
+
+    return [Finding(f.severity, f"{OBJECTS}/{f.name}" if f.name != "Camera" else "/World/Camera", f.message,
+                    f"physomni:scene.{f.check}") for f in scene_findings(stage)]
+
+
 def sim_layer_checks(stage: Usd.Stage) -> list[Finding]:
     """The simulation layer holds overs only, but for the particle prims it defines under /World/Particles."""
     out = []
@@ -212,5 +220,6 @@ def validate_stage(path) -> list[Finding]:
     findings += time_code_checks(stage)
     if stage.GetPrimAtPath("/World") and stage.GetPrimAtPath("/World/Camera"):
         findings += contract_checks(stage)
+        findings += scene_checks(stage)
     findings += sim_layer_checks(stage)
     return findings

@@ -161,6 +161,28 @@ def _inputs(folder: pathlib.Path, names: list[str]):
     return cv2.cvtColor(photo, cv2.COLOR_BGR2RGB), masks
 
 
+#: An estimator's size this far (a factor) from the scene's is worth a warning.
+SIZE_WARN_FACTOR = 1.5
+
+
+def compare_sizes(prims, labels, configs) -> dict:
+    """Each object's longest dimension in the scene beside the estimator's, with a warning where they differ
+    by more than ``SIZE_WARN_FACTOR`` (the scale is fixed by ``build``: ``--size`` changes it)."""
+    import numpy as np
+    from pxr import UsdGeom
+
+    out, warnings = {}, []
+    for prim, label, cfg in zip(prims, labels, configs):
+        points = UsdGeom.Mesh(prim).GetPointsAttr().Get() if prim.IsA(UsdGeom.Mesh) else None
+        scene = float(np.ptp(np.asarray(points), axis=0).max()) if points else None
+        out[prim.GetName()] = {"scene_m": None if scene is None else round(scene, 4), "estimated_m": cfg.size_m}
+        if scene and cfg.size_m and max(scene / cfg.size_m, cfg.size_m / scene) > SIZE_WARN_FACTOR:
+            warnings.append(f"{prim.GetName()} is {scene:.3g} m in the scene; the estimator says about "
+                            f"{cfg.size_m:.3g} m (build again with --size {label}={cfg.size_m:.3g} to use it)")
+    out["_warnings"] = warnings
+    return out
+
+
 def estimate_shot(shot, estimator: str = "rules", vlm=None, sets=(), force_specs=(), echo=lambda m: None) -> dict:
     """Run one estimator over a shot (and apply ``--set`` / ``--force``); returns the report section."""
     with all_or_nothing():
@@ -192,6 +214,8 @@ def _estimate_shot(shot, estimator, vlm, sets, force_specs, echo) -> dict:
             config = estimate_vlm(vlm, photo, masks, labels, stage.GetTimeCodesPerSecond() or 30.0)
         else:
             raise InputError(f"unknown estimator {estimator!r}; use rules or vlm")
+    sizes = compare_sizes(prims, labels, config.objects)
+    config.warnings.extend(sizes.pop("_warnings"))
     for w in config.warnings:
         echo(f"estimate: {w}")
     with timer.step("write"):
@@ -216,7 +240,7 @@ def _estimate_shot(shot, estimator, vlm, sets, force_specs, echo) -> dict:
     for line in done:
         echo(f"estimate: set {line} in edits.usda")
     section = material_report(layers.open_shot(folder, mute_sim=True), estimator)
-    section.update({"warnings": config.warnings, "set": done, "seconds": timer.seconds,
+    section.update({"warnings": config.warnings, "set": done, "sizes": sizes, "seconds": timer.seconds,
                     "total_seconds": timer.total,
                     "force_fields": [f"{f.kind} ({config.source})" for f in config.forces]
                     + [f"{f.kind} (user)" for f in user_fields + new_fields]})

@@ -32,6 +32,7 @@ class ShotModels:
     """The Newton models of one shot and the stepper that advances them."""
 
     def __init__(self, stage: Usd.Stage, objects: list[SceneObject], cfg: dict, settings: SimulateSettings):
+        self.stage = stage
         t0 = time.perf_counter()
         wp = load_warp()
         import newton

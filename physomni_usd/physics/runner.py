@@ -10,6 +10,7 @@ import numpy as np
 from ..errors import PhysOmniError
 from .recording import Recorder
 from .snapshots import restore, snapshot
+from .diagnose import FRAME_WALL_BUDGET_S, failure_line
 from .stability import Guard, StepPlan
 
 #: How often a diverging frame is rolled back and redone, each time with half the step.
@@ -31,7 +32,10 @@ def run_guarded(models, plan: StepPlan, frames: int, progress=None, echo=lambda 
         max_speed = speed
         t1 = time.perf_counter()
         t, step, f = 0.0, 0, 1
+        t_frame, frame_of_t = time.perf_counter(), 1
         while f < frames:
+            if f != frame_of_t:
+                t_frame, frame_of_t = time.perf_counter(), f
             saved = _checkpoint(stepper)
             work = guard.work
             stepper.frame(plan, t, step, guard.add_work, speed)
@@ -40,8 +44,11 @@ def run_guarded(models, plan: StepPlan, frames: int, progress=None, echo=lambda 
             why = guard.check(energy, speed, finite)
             if why is not None:
                 if len(rollbacks) >= MAX_RETRIES:
-                    raise PhysOmniError(f"simulation diverged at frame {f}: {why}, even at {plan.substeps} "
-                                        "substeps per frame; check the masses, speeds and stiffness in the shot")
+                    raise PhysOmniError(failure_line(models.stage, f"simulation diverged at frame {f}: {why}, "
+                                                     f"even at {plan.substeps} substeps per frame"))
+                if time.perf_counter() - t_frame > FRAME_WALL_BUDGET_S:
+                    raise PhysOmniError(failure_line(models.stage, f"simulation stuck at frame {f}: {why}, "
+                                                     f"{FRAME_WALL_BUDGET_S:g} s spent on it"))
                 _restore(stepper, saved)
                 guard.work = work
                 speed = before

@@ -16,6 +16,7 @@ from ..usd import layers
 from ..usd.author import OBJECTS, PARTICLES, write_sim_layer
 from .assembly import ShotModels
 from .checks import check_inputs
+from .diagnose import refuse_broken_scene
 from .objects import scene_objects
 from .params import describe, ignored_parameters
 from .recording import moving_tracks, shot_checks
@@ -63,6 +64,7 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     ignored = ignored_parameters(objects)
     for name, items in ignored.items():
         echo(f"simulate: {describe(name, items)}")
+    refuse_broken_scene(stage)
     frames = int(round(settings.seconds * cfg["fps"])) + 1
 
     sim = ShotModels(stage, objects, cfg, settings)
