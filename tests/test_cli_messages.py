@@ -93,7 +93,7 @@ def test_help_states_the_limits_of_every_numeric_option(name):
         is_range = isinstance(option.type, (click.FloatRange, click.IntRange))
         assert is_range or "Range:" in (option.help or ""), f"{name} {option.opts[0]}"
         assert option.opts[0] in text
-    limits = {"build": ["5 < value < 150", "0 ≤ value ≤ 80"], "simulate": ["0 < value ≤ 600, finite"],
+    limits = {"build": ["5 < value < 150", "0 ≤ value ≤ 90"], "simulate": ["0 < value ≤ 600, finite"],
               "render": ["64 ≤ value ≤ 8192"]}
     for limit in limits.get(name, []):
         assert limit in text, limit
