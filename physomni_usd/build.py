@@ -23,7 +23,7 @@ from .materials.defaults import GROUND_MATERIAL
 from .materials.report import material_report
 from .materials.rules import estimate_rules
 from .perceive.lift import fill_holes, foot_pixel, lift_silhouette
-from .perceive.masks import collect_masks, read_photo
+from .perceive.masks import collect_masks, contact_sheet, read_photo
 from .perceive.plate import background_plate, object_texture
 from .physics.forces import parse_force_options
 from .physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
@@ -39,6 +39,8 @@ from .usd.author import (
 
 TEXTURES = "textures"
 INPUTS = "inputs"
+#: The contact sheet of the masks over the photo, in the shot folder.
+MASKS_SHEET = "masks.png"
 #: Solver defaults written to the physics layer (the physics benchmark revisits them).
 DEFAULT_SOLVER = "xpbd"
 
@@ -121,6 +123,9 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
         fixed_names = parse_fixed(fixed, names)
     h, w = photo.shape[:2]
     echo(f"perceive: {len(objects)} object(s) in a {w}×{h} photo")
+    for o in objects:
+        if o.quality and o.quality.get("warning"):
+            echo(f"warning: mask of {o.name}: {o.quality['warning']}")
 
     with timer.step("perceive.plate"):
         plate = background_plate(photo, [o.mask for o in objects], settings.plate_dilation)
@@ -180,13 +185,16 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
             rel = f"{TEXTURES}/{o.name}.png"
             _write_png(out / rel, rgba)
             scene_objects.append(SceneObject(o.name, o.label, o.index, v - origin, f,
-                                             np.asarray(tm.vertex_normals), st, origin, f"./{rel}", shape))
+                                             np.asarray(tm.vertex_normals), st, origin, f"./{rel}", shape,
+                                             texture_origin=(x0, y0)))
             report_objects.append({
                 "name": o.name, "label": o.label, "mask_index": o.index, "source": o.source,
                 "shape": shape, "pixels": int(o.mask.sum()), "size_m": np.ptp(v, axis=0).round(4).tolist(),
                 "position_m": origin.round(4).tolist(), "watertight": bool(tm.is_watertight), "notes": note,
+                "mask_quality": o.quality,
             })
         _write_png(out / TEXTURES / "plate.png", plate)
+        _write_png(out / MASKS_SHEET, contact_sheet(photo, objects))
         # the inputs, so that later stages (estimate's crops) work from the shot folder alone
         (out / INPUTS / "masks").mkdir(parents=True, exist_ok=True)
         _write_png(out / INPUTS / "photo.png", photo)
@@ -213,7 +221,8 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
         extent = max(np.abs(np.vstack(verts)[:, :2]).max() * 4.0, 20.0 * settings.camera.height_m)
         write_scene_layer(out / layers.SCENE, fps=settings.fps, image_size=(w, h), camera=camera,
                           plate=f"./{TEXTURES}/plate.png", objects=scene_objects, ground_size=float(extent),
-                          extra={"physomni:photo": str(pathlib.Path(photo_path).name)})
+                          extra={"physomni:photo": str(pathlib.Path(photo_path).name)},
+                          photo=f"./{INPUTS}/photo.png")
         write_physics_layer(out / layers.PHYSICS, out / layers.SCENE, fps=settings.fps, objects=physics_objects,
                             ground=GROUND_MATERIAL, solver=DEFAULT_SOLVER, substeps=DEFAULT_SUBSTEPS,
                             iterations=DEFAULT_ITERATIONS, forces=fields)
@@ -226,7 +235,7 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
                                                     "pitch_deg": round(camera.pitch_deg, 4), "alignment": align_info,
                                                     "camera_height_m": settings.camera.height_m,
                                                     "fps": settings.fps},
-                  build={"seconds": timer.seconds, "total_seconds": timer.total})
+                  build={"seconds": timer.seconds, "total_seconds": timer.total, "masks_sheet": MASKS_SHEET})
     return BuildResult(out, shot, report_objects, timer.seconds)
 
 
