@@ -396,6 +396,12 @@ class _Simulation:
             if o.family == "cloth":
                 start, count = self.ranges[o.path]
                 world = x[start:start + count].astype(np.float64)
+                # add_cloth starts the particles lifted clear of the ground for contact; drawn without that lift,
+                # frame 0 is the surface as built (the photo) and the cloth rests on what it touches
+                lifts = self.__dict__.setdefault("_cloth_lift", {})
+                if f == 0:
+                    lifts[o.path] = np.median(world - o.points, axis=0)
+                world = world - lifts.get(o.path, 0.0)
             elif o.family == "soft":
                 start, count = self.ranges[o.path]
                 world = deform_surface(self.soft_bindings[o.path], x[start:start + count].astype(np.float64),
