@@ -93,7 +93,7 @@ def test_mask_that_looks_like_background_is_named(tmp_path):
     """A pencil the colour of the table: no segmentation can be sure, and build says which object."""
     from tests.conftest import cli
 
-    photo, _, box = _thin_diagonal(3, (120, 90, 60))
+    photo, _, box = _thin_diagonal(3, (170, 120, 80))
     path = tmp_path / "photo.png"
     cv2.imwrite(str(path), cv2.cvtColor(photo, cv2.COLOR_RGB2BGR))
     proc = cli("build", path, "-o", tmp_path / "shot", "--box", ",".join(map(str, box)) + ":pencil")

@@ -16,8 +16,10 @@ from ..errors import InputError
 MIN_MASK_PIXELS = 16
 GRABCUT_ITERATIONS = 5
 #: A mask looks like background when more than this fraction of its pixels have the colours of the
-#: surroundings of its box ...
-BACKGROUND_LIKE = 0.5
+#: surroundings of its box (a colour common there: within the distance below of at least
+#: BACKGROUND_SHARE of the pixels sampled around it) ...
+BACKGROUND_LIKE = 0.25
+BACKGROUND_SHARE = 0.1
 #: ... or when less than this fraction of its outline follows an edge of the photo.
 MIN_EDGE_AGREEMENT = 0.15
 #: Colour distance (CIELab units) within which a pixel counts as having a background colour.
@@ -159,9 +161,8 @@ def segment_box(photo: np.ndarray, box: tuple[int, int, int, int]) -> tuple[np.n
             candidates[name] = _grabcut(bgr, box, init)
         candidates["colour"] = _colour_model(photo, box)
         for name, m in candidates.items():
-            if name not in scores:
-                scores[name] = mask_quality(photo, m, box) if m.any() else {"background_like": 1.0,
-                                                                             "edge_agreement": 0.0}
+            if name not in scores and m.sum() >= MIN_MASK_PIXELS:
+                scores[name] = mask_quality(photo, m, box)
         best = min(scores, key=lambda k: scores[k]["background_like"] - scores[k]["edge_agreement"])
     quality = dict(scores[best], method=best)
     return candidates[best], quality
@@ -210,15 +211,16 @@ def _background_colours(lab: np.ndarray, box, mask: np.ndarray | None = None) ->
 
 
 def _background_like(lab: np.ndarray, pixels: np.ndarray, colours: np.ndarray) -> np.ndarray:
-    """(N,) bool: which of ``pixels`` (N, 3) Lab have a colour within the background distance of ``colours``."""
+    """(N,) bool: which of ``pixels`` (N, 3) Lab have a colour common among ``colours`` (within the background
+    distance of at least :data:`BACKGROUND_SHARE` of them)."""
     if len(colours) == 0 or len(pixels) == 0:
         return np.zeros(len(pixels), bool)
     weight = np.array([0.5, 1.0, 1.0], np.float32)  # lightness counts half: shading varies across a surface
     px = pixels.astype(np.float32) * weight
-    best = np.full(len(px), np.inf, np.float32)
+    near = np.zeros(len(px), np.int32)
     for c in colours * weight:
-        best = np.minimum(best, np.linalg.norm(px - c, axis=1))
-    return best < BACKGROUND_COLOUR_DISTANCE
+        near += np.linalg.norm(px - c, axis=1) < BACKGROUND_COLOUR_DISTANCE
+    return near >= max(1, BACKGROUND_SHARE * len(colours))
 
 
 def _colour_model(photo: np.ndarray, box) -> np.ndarray:
@@ -259,8 +261,8 @@ def mask_quality(photo: np.ndarray, mask: np.ndarray, box=None) -> dict:
     outline[[0, -1], :] = False
     outline[:, [0, -1]] = False
     # beyond chance: on a textured surface any outline crosses some edges
-    x0c, y0c = max(0, x0 - 4), max(0, y0 - 4)
-    density = float(edges[y0c:y1 + 4, x0c:x1 + 4].mean())
+    ring = _ring(mask.shape, box, max(4, int(0.15 * max(x1 - x0, y1 - y0))))
+    density = float(edges[ring].mean()) if ring.any() else 0.0
     edge = float(edges[outline].mean()) if outline.any() else 0.0
     edge = max(0.0, (edge - density) / max(1e-6, 1.0 - density)) if density < 1.0 else 0.0
     lab = cv2.cvtColor(photo, cv2.COLOR_RGB2Lab)
