@@ -127,6 +127,8 @@ def test_frame_zero_is_the_photo(shot):
     assert frame0.shape == photo.shape
     assert cv2.PSNR(frame0, photo) >= 35.0
     assert ssim(frame0, photo) >= 0.98
+    # no synthetic shadow over the photo's own, no halo at the masks' edges: not even a few pixels differ
+    assert np.percentile(np.abs(frame0.astype(int) - photo).max(2), 99.9) <= 2
     # the pushed box has moved: where it stood and no object is now seen, the frame shows the plate
     last = renderer.frame(float(stage.GetEndTimeCode()))
     box = cv2.imread(str(shot["box"]), cv2.IMREAD_GRAYSCALE) > 0
