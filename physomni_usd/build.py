@@ -29,7 +29,7 @@ from .errors import InputError
 from .materials.defaults import GROUND_MATERIAL
 from .materials.report import material_report
 from .materials.rules import estimate_rules
-from .perceive.masks import collect_masks, read_photo
+from .perceive.masks import collect_masks, contact_sheet, read_photo
 from .perceive.plate import background_plate, object_texture
 from .physics.forces import parse_force_options
 from .physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
@@ -46,6 +46,8 @@ from .usd.author import (
 TEXTURES = "textures"
 VIDEO = "video.mp4"
 INPUTS = "inputs"
+#: The contact sheet of the masks over the photo, in the shot folder.
+MASKS_SHEET = "masks.png"
 #: Solver defaults written to the physics layer (the physics benchmark revisits them).
 DEFAULT_SOLVER = "xpbd"
 
@@ -182,12 +184,15 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         user_sizes = parse_sizes(sizes, [(o.name, o.label) for o in objects])
         files = {f"{TEXTURES}/{o.name}.png" for o in objects} | {f"{INPUTS}/masks/{o.name}.png" for o in objects}
         files |= {f"{TEXTURES}/plate.png", f"{INPUTS}/photo.png"}
-        targets = sorted(files) + [layers.SCENE, layers.PHYSICS, layers.SIM, layers.SHOT, layers.EDITS, REPORT]
+        targets = sorted(files) + [MASKS_SHEET, layers.SCENE, layers.PHYSICS, layers.SIM, layers.SHOT, layers.EDITS, REPORT]
         check_writable([out / f for f in targets])
         out = prepare_output(out)
         set_aside_damaged(out, echo)
     h, w = photo.shape[:2]
     echo(f"perceive: {len(objects)} object(s) in a {w}×{h} photo")
+    for o in objects:
+        if o.quality and o.quality.get("warning"):
+            echo(f"warning: mask of {o.name}: {o.quality['warning']}")
 
     with timer.step("perceive.plate"):
         plate = background_plate(photo, [o.mask for o in objects], settings.plate_dilation)
@@ -238,13 +243,16 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
             rel = f"{TEXTURES}/{o.name}.png"
             _write_png(out / rel, rgba)
             scene_objects.append(SceneObject(o.name, o.label, o.index, v - origin, f,
-                                             np.asarray(tm.vertex_normals), st, origin, f"./{rel}", shape))
+                                             np.asarray(tm.vertex_normals), st, origin, f"./{rel}", shape,
+                                             texture_origin=(x0, y0)))
             report_objects.append({
                 "name": o.name, "label": o.label, "mask_index": o.index, "source": o.source,
                 "shape": shape, "pixels": int(o.mask.sum()), "size_m": np.ptp(v, axis=0).round(4).tolist(),
                 "position_m": origin.round(4).tolist(), "watertight": bool(tm.is_watertight), "notes": note,
+                "mask_quality": o.quality,
             })
         _write_png(out / TEXTURES / "plate.png", plate)
+        _write_png(out / MASKS_SHEET, contact_sheet(photo, objects))
         # the inputs, so that later stages (estimate's crops) work from the shot folder alone
         make_dirs(out / INPUTS / "masks")
         _write_png(out / INPUTS / "photo.png", photo)
@@ -273,7 +281,8 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
                           plate=f"./{TEXTURES}/plate.png", objects=scene_objects, ground_size=float(extent),
                           extra={"physomni:photo": str(pathlib.Path(photo_path).name),
                                  **({"physomni:userSizes": {k: float(v) for k, v in user_sizes.items()}}
-                                    if user_sizes else {})})
+                                    if user_sizes else {})},
+                          photo=f"./{INPUTS}/photo.png")
         write_physics_layer(out / layers.PHYSICS, out / layers.SCENE, fps=settings.fps, objects=physics_objects,
                             ground=GROUND_MATERIAL, solver=DEFAULT_SOLVER, substeps=DEFAULT_SUBSTEPS,
                             iterations=DEFAULT_ITERATIONS, forces=fields)
@@ -307,7 +316,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
                                                     "scale": align_info.get("scale"),
                                                     "fps": settings.fps},
                   build={"seconds": timer.seconds, "total_seconds": timer.total, "files": sorted(files),
-                         "checks": checks})
+                         "checks": checks, "masks_sheet": MASKS_SHEET})
     return BuildResult(out, shot, report_objects, timer.seconds)
 
 

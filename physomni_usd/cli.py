@@ -589,6 +589,40 @@ def bench_batch_command(example, counts, size, seconds, fps, json_path):
             write_bytes(json_path, (json.dumps(result, indent=2) + "\n").encode())
 
 
+@bench.command("plate")
+@click.option("--quick", is_flag=True, help="Two hole shapes per surface instead of five.")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
+              help="Also write the rows to this JSON file.")
+def bench_plate_command(quick, json_path):
+    """The background plate's fill on real photos of empty surfaces with object-shaped holes.
+
+    \b
+    Surfaces from scikit-image's bundled photos (brick, grass, gravel, a wooden table, a garage floor;
+    needs the test extra: pip install 'physomni-usd[test]'); holes shaped like a cup, a saucer, a pencil,
+    a bottle and a chair. For the exemplar (shift-map) fill that build uses and for OpenCV Telea: gradient
+    ratio inside/around the hole (1 keeps the grain, a smear is far below 1), local colour difference
+    (levels), SSIM inside the hole and seconds.
+
+    \b
+    Example:
+      physomni-usd bench plate --quick --json out/plate.json
+    """
+    with _errors():
+        import json
+
+        try:
+            import skimage  # noqa: F401
+        except ImportError:
+            _fail("bench plate: scikit-image is not installed (pip install 'physomni-usd[test]')", 2)
+        from .bench.plate import bench_plate
+
+        numbers = bench_plate(quick=quick, echo=click.echo)
+        if json_path:
+            from ._files import write_bytes
+
+            write_bytes(json_path, (json.dumps(numbers, indent=2) + "\n").encode())
+
+
 @bench.command("alignment")
 @click.option("--quick", is_flag=True, help="Smaller images and fewer scenes (a few minutes on a CPU).")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,

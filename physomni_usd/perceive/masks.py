@@ -1,4 +1,5 @@
-"""Reading the photo and the object masks, or making masks from boxes with GrabCut."""
+"""Reading the photo and the object masks, or making masks from boxes with GrabCut; how far each mask
+can be trusted (:func:`mask_quality`), and a contact sheet of them over the photo (:func:`contact_sheet`)."""
 
 from __future__ import annotations
 
@@ -14,6 +15,15 @@ from ..errors import InputError
 #: Fewest pixels a mask may have and still describe an object.
 MIN_MASK_PIXELS = 16
 GRABCUT_ITERATIONS = 5
+#: A mask looks like background when more than this fraction of its pixels have the colours of the
+#: surroundings of its box (a colour common there: within the distance below of at least
+#: BACKGROUND_SHARE of the pixels sampled around it) ...
+BACKGROUND_LIKE = 0.25
+BACKGROUND_SHARE = 0.1
+#: ... or when less than this fraction of its outline follows an edge of the photo.
+MIN_EDGE_AGREEMENT = 0.15
+#: Colour distance (CIELab units) within which a pixel counts as having a background colour.
+BACKGROUND_COLOUR_DISTANCE = 10.0
 
 
 @dataclass
@@ -24,6 +34,7 @@ class ObjectMask:
     index: int
     mask: np.ndarray  # (H, W) bool
     source: str  # 'file:<path>' or 'box:x0,y0,x1,y1'
+    quality: dict | None = None  # from mask_quality, plus 'method' for box masks
 
     @property
     def name(self) -> str:
@@ -100,7 +111,8 @@ def read_mask(spec: str, shape: tuple[int, int], index: int) -> ObjectMask:
         mask = (img[..., :3] > 0).any(axis=2)
     else:
         mask = img > 0
-    return ObjectMask(label or p.stem, index, _checked(mask, f"mask {p.name}"), f"file:{p}")
+    return ObjectMask(label or p.stem, index, _checked(mask, f"mask {p.name}"), f"file:{p}",
+                      {"method": "file"})
 
 
 def parse_box(spec: str) -> tuple[tuple[int, int, int, int], str | None]:
@@ -124,19 +136,198 @@ def mask_from_box(photo: np.ndarray, spec: str, index: int) -> ObjectMask:
         raise InputError(f"--box {spec!r} is not inside the {w}×{h} photo (need 0 ≤ X0 < X1 ≤ {w}, 0 ≤ Y0 < Y1 ≤ {h})")
     if x1 - x0 < 4 or y1 - y0 < 4:
         raise InputError(f"--box {spec!r} is smaller than 4×4 pixels")
-    mask = np.full((h, w), cv2.GC_BGD, np.uint8)
-    bgd = np.zeros((1, 65), np.float64)
-    fgd = np.zeros((1, 65), np.float64)
-    bgr = cv2.cvtColor(photo, cv2.COLOR_RGB2BGR)
+    box = (x0, y0, x1, y1)
     if (x1 - x0) * (y1 - y0) >= 0.98 * w * h:
         # GrabCut needs some background to model; a box over the whole photo keeps the box.
         result = np.zeros((h, w), bool)
         result[y0:y1, x0:x1] = True
+        quality = {"method": "box"}
     else:
+        result, quality = segment_box(photo, box)
+    obj = ObjectMask(label or f"object{index}", index, _checked(result, f"--box {spec!r}"), f"box:{x0},{y0},{x1},{y1}")
+    obj.quality = quality
+    return obj
+
+
+def segment_box(photo: np.ndarray, box: tuple[int, int, int, int]) -> tuple[np.ndarray, dict]:
+    """The object inside ``box`` (x0, y0, x1, y1): (H, W) bool and its :func:`mask_quality` with 'method'.
+
+    GrabCut from the box first. When its mask looks like background (the usual failure on a thin object
+    lying diagonally: most of the box is background, and GrabCut's colour models cannot tell), two
+    refinements are tried and the mask that least looks like background wins: GrabCut started from a band
+    along either diagonal of the box (the corners away from it marked background), and a colour model
+    that keeps the pixels of the box whose colours are not found around it.
+    """
+    x0, y0, x1, y1 = box
+    bgr = cv2.cvtColor(photo, cv2.COLOR_RGB2BGR)
+    candidates = {"grabcut": _grabcut(bgr, box, None)}
+    best = "grabcut"
+    scores = {best: mask_quality(photo, candidates[best], box)}
+    if _looks_like_background(scores[best]):
+        bw, bh = x1 - x0, y1 - y0
+        yy, xx = np.mgrid[0:bh, 0:bw].astype(np.float32)
+        for name, (ax, ay, bx, by) in (("diagonal", (0, 0, bw, bh)), ("antidiagonal", (0, bh, bw, 0))):
+            # distance of each pixel of the box from the diagonal, in pixels
+            dist = np.abs((by - ay) * xx - (bx - ax) * yy + bx * ay - by * ax) / np.hypot(bx - ax, by - ay)
+            band = max(2.0, 0.08 * min(bw, bh))
+            init = np.full(photo.shape[:2], cv2.GC_BGD, np.uint8)
+            inner = np.where(dist <= band, cv2.GC_PR_FGD, np.where(dist <= 3 * band, cv2.GC_PR_BGD, cv2.GC_BGD))
+            init[y0:y1, x0:x1] = inner
+            candidates[name] = _grabcut(bgr, box, init)
+        candidates["colour"] = _colour_model(photo, box)
+        for name, m in candidates.items():
+            if name not in scores and m.sum() >= MIN_MASK_PIXELS:
+                scores[name] = mask_quality(photo, m, box)
+        best = min(scores, key=lambda k: scores[k]["background_like"] - scores[k]["edge_agreement"])
+    quality = dict(scores[best], method=best)
+    return candidates[best], quality
+
+
+def _grabcut(bgr: np.ndarray, box, init: np.ndarray | None) -> np.ndarray:
+    """GrabCut's foreground (largest component), from the rectangle or from ``init`` labels."""
+    x0, y0, x1, y1 = box
+    bgd = np.zeros((1, 65), np.float64)
+    fgd = np.zeros((1, 65), np.float64)
+    if init is None:
+        mask = np.full(bgr.shape[:2], cv2.GC_BGD, np.uint8)
         cv2.grabCut(bgr, mask, (x0, y0, x1 - x0, y1 - y0), bgd, fgd, GRABCUT_ITERATIONS, cv2.GC_INIT_WITH_RECT)
-        result = (mask == cv2.GC_FGD) | (mask == cv2.GC_PR_FGD)
-        result = largest_component(result)
-    return ObjectMask(label or f"object{index}", index, _checked(result, f"--box {spec!r}"), f"box:{x0},{y0},{x1},{y1}")
+    else:
+        mask = init.copy()
+        if not np.isin(mask, (cv2.GC_FGD, cv2.GC_PR_FGD)).any():
+            return np.zeros(bgr.shape[:2], bool)
+        cv2.grabCut(bgr, mask, None, bgd, fgd, GRABCUT_ITERATIONS, cv2.GC_INIT_WITH_MASK)
+    return largest_component((mask == cv2.GC_FGD) | (mask == cv2.GC_PR_FGD))
+
+
+def _ring(shape, box, width: int) -> np.ndarray:
+    """(H, W) bool: a band ``width`` pixels wide just outside ``box``."""
+    h, w = shape
+    x0, y0, x1, y1 = box
+    out = np.zeros((h, w), bool)
+    out[max(0, y0 - width):min(h, y1 + width), max(0, x0 - width):min(w, x1 + width)] = True
+    out[y0:y1, x0:x1] = False
+    return out
+
+
+def _background_colours(lab: np.ndarray, box, mask: np.ndarray | None = None) -> np.ndarray:
+    """(K, 3) float32: colours (CIELab) of the background of ``box``: the band around it and, given the
+    object's ``mask``, the part of the box away from it; empty when there is none."""
+    x0, y0, x1, y1 = box
+    width = max(4, int(0.15 * max(x1 - x0, y1 - y0)))
+    region = _ring(lab.shape[:2], box, width)
+    if mask is not None:
+        rest = np.zeros_like(region)
+        rest[y0:y1, x0:x1] = True
+        region |= rest & ~cv2.dilate(mask.astype(np.uint8), np.ones((7, 7), np.uint8)).astype(bool)
+    pixels = lab[region].astype(np.float32)
+    if len(pixels) < 8:
+        return np.zeros((0, 3), np.float32)
+    return pixels[np.random.default_rng(0).permutation(len(pixels))[:512]]
+
+
+def _background_like(lab: np.ndarray, pixels: np.ndarray, colours: np.ndarray) -> np.ndarray:
+    """(N,) bool: which of ``pixels`` (N, 3) Lab have a colour common among ``colours`` (within the background
+    distance of at least :data:`BACKGROUND_SHARE` of them)."""
+    if len(colours) == 0 or len(pixels) == 0:
+        return np.zeros(len(pixels), bool)
+    weight = np.array([0.5, 1.0, 1.0], np.float32)  # lightness counts half: shading varies across a surface
+    px = pixels.astype(np.float32) * weight
+    near = np.zeros(len(px), np.int32)
+    for c in colours * weight:
+        near += np.linalg.norm(px - c, axis=1) < BACKGROUND_COLOUR_DISTANCE
+    return near >= max(1, BACKGROUND_SHARE * len(colours))
+
+
+def _colour_model(photo: np.ndarray, box) -> np.ndarray:
+    """The pixels of ``box`` whose colours are not found around it, closed and reduced to the largest part."""
+    x0, y0, x1, y1 = box
+    lab = cv2.cvtColor(photo, cv2.COLOR_RGB2Lab)
+    colours = _background_colours(lab, box)
+    inside = lab[y0:y1, x0:x1].reshape(-1, 3)
+    fg = ~_background_like(lab, inside, colours).reshape(y1 - y0, x1 - x0)
+    fg = cv2.morphologyEx(fg.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+    fg = cv2.morphologyEx(fg, cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8)) > 0
+    out = np.zeros(photo.shape[:2], bool)
+    out[y0:y1, x0:x1] = fg
+    return largest_component(out) if out.any() else out
+
+
+def mask_quality(photo: np.ndarray, mask: np.ndarray, box=None) -> dict:
+    """How far ``mask`` (H, W) bool can be trusted, measured against the photo (H, W, 3) uint8 RGB.
+
+    box_fraction: the mask's share of its box (``box`` (x0, y0, x1, y1), default its bounding box);
+    edge_agreement: the share of its outline within 2 pixels of an edge of the photo (Canny), beyond the
+    share expected by chance from the density of edges around it (0 for an outline that ignores them);
+    background_like: the share of its pixels whose colour is one of those around the box.
+    ``warning`` says what looks wrong, or is None.
+    """
+    ys, xs = np.nonzero(mask)
+    if box is None:
+        box = (int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1)
+    x0, y0, x1, y1 = box
+    grey = cv2.GaussianBlur(cv2.cvtColor(photo, cv2.COLOR_RGB2GRAY), (3, 3), 0)
+    # Canny thresholds from the photo's own gradients, so that faint and strong photos compare alike
+    mag = np.hypot(cv2.Sobel(grey, cv2.CV_32F, 1, 0), cv2.Sobel(grey, cv2.CV_32F, 0, 1))
+    high = max(20.0, float(np.percentile(mag, 90)))
+    edges = cv2.dilate(cv2.Canny(grey, 0.5 * high, high), np.ones((5, 5), np.uint8)) > 0
+    m8 = mask.astype(np.uint8)
+    outline = (m8 - cv2.erode(m8, np.ones((3, 3), np.uint8))) > 0
+    # the image border is not an edge of the object
+    outline[[0, -1], :] = False
+    outline[:, [0, -1]] = False
+    # beyond chance: on a textured surface any outline crosses some edges
+    ring = _ring(mask.shape, box, max(4, int(0.15 * max(x1 - x0, y1 - y0))))
+    density = float(edges[ring].mean()) if ring.any() else 0.0
+    edge = float(edges[outline].mean()) if outline.any() else 0.0
+    edge = max(0.0, (edge - density) / max(1e-6, 1.0 - density)) if density < 1.0 else 0.0
+    lab = cv2.cvtColor(photo, cv2.COLOR_RGB2Lab)
+    colours = _background_colours(lab, box, mask)
+    sample = lab[ys, xs][:: max(1, len(ys) // 5000)]
+    like = float(_background_like(lab, sample, colours).mean()) if len(sample) else 1.0
+    area = max(1, (x1 - x0) * (y1 - y0))
+    out = {"box_fraction": round(float(mask[y0:y1, x0:x1].sum()) / area, 4), "edge_agreement": round(edge, 4),
+           "background_like": round(like, 4)}
+    out["warning"] = _warning(out)
+    return out
+
+
+def _looks_like_background(q: dict) -> bool:
+    return q["background_like"] > BACKGROUND_LIKE or q["edge_agreement"] < MIN_EDGE_AGREEMENT
+
+
+def _warning(q: dict) -> str | None:
+    if q["background_like"] > BACKGROUND_LIKE:
+        return (f"{q['background_like']:.0%} of the mask has the colours around it: it looks like background; "
+                "pass a --mask PNG or a tighter --box")
+    if q["edge_agreement"] < MIN_EDGE_AGREEMENT:
+        return (f"only {q['edge_agreement']:.0%} of the mask's outline follows an edge of the photo; "
+                "check masks.png")
+    return None
+
+
+def contact_sheet(photo: np.ndarray, objects) -> np.ndarray:
+    """(H, W, 3) uint8: the photo, dimmed, with each object's mask tinted in its own colour, outlined, and
+    labelled with its name (and a warning mark when its quality says so)."""
+    out = photo.astype(np.float32) * 0.55
+    h, w = photo.shape[:2]
+    scale = max(0.35, min(h, w) / 700.0)
+    colours = []
+    for i, o in enumerate(objects):
+        hue = int(179 * ((i * 0.618) % 1.0))
+        colour = cv2.cvtColor(np.uint8([[[hue, 220, 255]]]), cv2.COLOR_HSV2RGB)[0, 0].astype(np.float32)
+        out[o.mask] = 0.5 * photo[o.mask].astype(np.float32) + 0.5 * colour
+        colours.append(tuple(int(c) for c in colour))
+    out = np.clip(out + 0.5, 0, 255).astype(np.uint8)
+    for o, colour in zip(objects, colours):
+        contours, _ = cv2.findContours(o.mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+        cv2.drawContours(out, contours, -1, colour, max(1, int(round(2 * scale))))
+        ys, xs = np.nonzero(o.mask)
+        text = o.name + (" (?)" if o.quality and o.quality.get("warning") else "")
+        org = (int(xs.min()), max(int(14 * scale) + 2, int(ys.min()) - 4))
+        cv2.putText(out, text, org, cv2.FONT_HERSHEY_SIMPLEX, 0.5 * scale, (0, 0, 0), max(1, int(3 * scale)),
+                    cv2.LINE_AA)
+        cv2.putText(out, text, org, cv2.FONT_HERSHEY_SIMPLEX, 0.5 * scale, colour, max(1, int(scale)), cv2.LINE_AA)
+    return out
 
 
 def largest_component(mask: np.ndarray) -> np.ndarray:
@@ -168,4 +359,7 @@ def collect_masks(photo: np.ndarray, mask_specs, box_specs) -> list[ObjectMask]:
     shape = photo.shape[:2]
     objects = [read_mask(s, shape, i) for i, s in enumerate(specs)]
     objects += [mask_from_box(photo, s, len(specs) + j) for j, s in enumerate(boxes)]
+    for o in objects:
+        if o.quality is not None and "edge_agreement" not in o.quality:
+            o.quality = dict(mask_quality(photo, o.mask), method=o.quality["method"])
     return objects

@@ -48,16 +48,18 @@ def kernels():
 
     @wp.kernel
     def shadow(mesh: wp.uint64, origin: wp.vec3, rays: wp.array(dtype=wp.vec3), max_h: float,
-               out_h: wp.array(dtype=wp.float32)):
+               out_h: wp.array(dtype=wp.float32), out_face: wp.array(dtype=wp.int32)):
         i = wp.tid()
         d = rays[i]
         out_h[i] = -1.0
+        out_face[i] = -1
         if d[2] < -1.0e-6:
             t = -origin[2] / d[2]
             g = origin + d * t + wp.vec3(0.0, 0.0, 1.0e-4)
             q = wp.mesh_query_ray(mesh, g, wp.vec3(0.0, 0.0, 1.0), max_h)
             if q.result:
                 out_h[i] = q.t
+                out_face[i] = q.face
 
     return primary, shadow
 
@@ -85,7 +87,8 @@ class RayCaster:
     def cast(self, origin, rays: np.ndarray, shadow_rays: np.ndarray, max_t: float, max_shadow: float):
         """Per pixel of ``rays``: face index (−1 for none) and atlas pixel coordinates; per pixel of
         ``shadow_rays`` (a coarser grid, shadows are soft): height of the object above the ground seen there.
-        :attr:`depth` then holds each pixel's distance along its ray to the surface seen (``max_t`` for none)."""
+        :attr:`depth` then holds each pixel's distance along its ray to the surface seen (``max_t`` for none),
+        :attr:`shadow_face` the face above each shadow pixel (−1 for none)."""
         wp = self.wp
         primary, shadow = kernels()
         key = (rays.ctypes.data, rays.shape, shadow_rays.ctypes.data, shadow_rays.shape)
@@ -97,6 +100,7 @@ class RayCaster:
             self._face = wp.zeros(n, dtype=wp.int32, device=self.device)
             self._depth = wp.zeros(n, dtype=wp.float32, device=self.device)
             self._h = wp.zeros(m, dtype=wp.float32, device=self.device)
+            self._shadow_face = wp.zeros(m, dtype=wp.int32, device=self.device)
             self._key = key
         o = wp.vec3(*map(float, origin))
         wp.launch(primary, dim=self._rays.shape[0],
@@ -104,9 +108,10 @@ class RayCaster:
                   outputs=[self._px, self._face, self._depth], device=self.device)
         wp.launch(shadow, dim=self._shadow_rays.shape[0], inputs=[self.mesh.id, o, self._shadow_rays,
                                                                    float(max_shadow)],
-                  outputs=[self._h], device=self.device)
+                  outputs=[self._h, self._shadow_face], device=self.device)
         shape = rays.shape[:2]
         self.depth = self._depth.numpy().reshape(shape)
+        self.shadow_face = self._shadow_face.numpy().reshape(shadow_rays.shape[:2])
         return (self._face.numpy().reshape(shape), self._px.numpy().reshape(shape + (2,)),
                 self._h.numpy().reshape(shadow_rays.shape[:2]))
 

@@ -24,6 +24,7 @@ class RenderObject:
     static_points: np.ndarray | None  # (N, 3) when points are not animated
     height: float  # metres, from the extent
     prim: Usd.Prim | None = None
+    origin: tuple[int, int] | None = None  # the texture's top-left pixel in the photo (physomni:textureOrigin)
 
 
 @dataclass
@@ -75,6 +76,21 @@ def read_plate(stage: Usd.Stage) -> np.ndarray:
     return read_image(texture_file(prim), "background", rgba=False)
 
 
+def read_photo(stage: Usd.Stage) -> np.ndarray | None:
+    """The original photo named by the background card's ``physomni:photo`` custom data (a path relative to
+    the layer that wrote it), (H, W, 3) uint8; None for shots without one or when the file is gone."""
+    prim = stage.GetPrimAtPath("/World/Background")
+    rel = prim.GetCustomDataByKey("physomni:photo") if prim else None
+    if not rel:
+        return None
+    for spec in prim.GetPrimStack():
+        if spec.customData.get("physomni", {}).get("photo") == rel:  # namespaced keys nest in customData
+            path = pathlib.Path(spec.layer.realPath).parent / rel
+            img = cv2.imread(str(path), cv2.IMREAD_COLOR) if path.is_file() else None
+            return None if img is None else np.ascontiguousarray(cv2.cvtColor(img, cv2.COLOR_BGR2RGB))
+    return None
+
+
 def read_objects(stage: Usd.Stage) -> list[RenderObject]:
     """Every visible Mesh under /World/Objects with its texture (objects without one render grey)."""
     root = stage.GetPrimAtPath(OBJECTS)
@@ -101,7 +117,9 @@ def read_objects(stage: Usd.Stage) -> list[RenderObject]:
         static = None if points_attr.GetNumTimeSamples() > 0 else np.asarray(points_attr.Get(), np.float64)
         ext = mesh.GetExtentAttr().Get()
         height = float(ext[1][2] - ext[0][2]) if ext else 1.0
-        out.append(RenderObject(str(prim.GetPath()), faces, st, texture, points_attr, static, height, prim))
+        origin = prim.GetCustomDataByKey("physomni:textureOrigin")
+        out.append(RenderObject(str(prim.GetPath()), faces, st, texture, points_attr, static, height, prim,
+                                (int(origin[0]), int(origin[1])) if origin is not None and tex_path else None))
     return out
 
 

@@ -21,11 +21,17 @@ from ..report import prepare_writes, update_report
 from ..settings import RenderSettings
 from ..usd import layers
 from .raycast import RayCaster
-from .stage import read_camera, read_objects, read_particles, read_plate, visible, world_points
+from .stage import read_camera, read_objects, read_particles, read_photo, read_plate, visible, world_points
 
 
 #: Shadows are soft, so their rays are cast on a grid this many times coarser in each direction.
 SHADOW_STEP = 4
+#: An object whose surface is seen within this many pixels of where the photo shows it is in place: the
+#: frame shows the photo there (its edges, its real shadow), not the texture over the plate.
+IN_PLACE_PX = 0.75
+#: Further motion, in pixels, over which an object changes from the photo to its texture over the plate
+#: (the plate without it and its contact shadow, and its synthetic shadow wherever it now is).
+REVEAL_PX = 2.0
 
 
 class ShotRenderer:
@@ -43,11 +49,42 @@ class ShotRenderer:
         self.plate = plate.astype(np.float32)
         self.height, self.width = self.plate.shape[:2]
         self.objects = read_objects(stage)
+        self._read_photo(stage, (w, h))
         self.particles = read_particles(stage)
         self.device = pick_device(settings.device)
         self.size = float(np.median([o.height for o in self.objects])) if self.objects else 1.0
         self._rays_key = None
         self._build_atlas()
+
+    def _read_photo(self, stage: Usd.Stage, size: tuple[int, int]) -> None:
+        """The photo at the plate's size and, per pixel, the object whose part of the plate it is (the nearest
+        object in the photo; −1 where there is none): where that object has not moved, the frame is the photo.
+        Shots without the photo or the textures' places in it render as texture over plate throughout."""
+        self.photo, self.owner = None, None
+        photo = read_photo(stage)
+        placed = [k for k, o in enumerate(self.objects) if o.origin is not None]
+        if photo is None or photo.shape[1::-1] != size or not placed:
+            return
+        w, h = size
+        dist = np.full((h, w), np.inf, np.float32)
+        owner = np.full((h, w), -1, np.int32)
+        for k in placed:
+            o = self.objects[k]
+            x0, y0 = o.origin
+            mask = np.zeros((h, w), bool)
+            a = o.texture[..., 3] >= 128
+            th, tw = min(a.shape[0], h - y0), min(a.shape[1], w - x0)
+            if th <= 0 or tw <= 0:
+                continue
+            mask[y0:y0 + th, x0:x0 + tw] = a[:th, :tw]
+            d = cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, 5)
+            nearer = d < dist
+            owner[nearer], dist[nearer] = k, d[nearer]
+        if (self.width, self.height) != size:
+            photo = cv2.resize(photo, (self.width, self.height), interpolation=cv2.INTER_AREA)
+            owner = cv2.resize(owner, (self.width, self.height), interpolation=cv2.INTER_NEAREST)
+        self.photo, self.owner = photo.astype(np.float32), owner
+        self.to_frame = (self.width / w, self.height / h)  # photo pixels → frame pixels
 
     def _build_atlas(self) -> None:
         """Stack every texture in one RGBA atlas and map each triangle corner to atlas pixels."""
@@ -59,6 +96,11 @@ class ShotRenderer:
             y += o.texture.shape[0]
         atlas = np.zeros((max(y, 1), atlas_w, 4), np.uint8)
         faces, corners, base = [], [], 0
+        # atlas pixel → photo pixel, per object: + (x0, y0 − its row in the atlas)
+        self.atlas_to_photo = np.array([(o.origin[0], o.origin[1] - y0) if o.origin is not None else (0, 0)
+                                        for o, y0 in zip(self.objects, offsets)] + [(0, 0)], np.float32)
+        self.face_object = np.concatenate([np.full(len(o.faces), k, np.int32) for k, o in enumerate(self.objects)]
+                                          + [np.zeros(0, np.int32)])
         for o, y0 in zip(self.objects, offsets):
             th, tw = o.texture.shape[:2]
             atlas[y0:y0 + th, :tw] = o.texture
@@ -145,6 +187,32 @@ class ShotRenderer:
                                light, -1, lineType=cv2.LINE_AA)
         return out
 
+    def _moved(self, obj: np.ndarray, px: np.ndarray) -> np.ndarray:
+        """(K,) per object, 0 where it is seen where the photo shows it, rising to 1 once it has moved
+        :data:`IN_PLACE_PX` + :data:`REVEAL_PX` pixels (1 for objects not seen, or not placed in the photo).
+
+        ``obj`` (H, W) is the object seen through each pixel (−1 for none), ``px`` its atlas coordinates."""
+        k_all = len(self.objects)
+        moved = np.ones(k_all + 1, np.float32)  # the last entry stands for "no object"
+        if self.photo is None:
+            return moved
+        hit = obj >= 0
+        ys, xs = np.nonzero(hit)
+        k = obj[hit]
+        shift = self.atlas_to_photo[k]
+        sx = (px[hit][:, 0] + shift[:, 0]) * self.to_frame[0]
+        sy = (px[hit][:, 1] + shift[:, 1]) * self.to_frame[1]
+        d = np.hypot(sx - (xs + 0.5), sy - (ys + 0.5))
+        order = np.argsort(k, kind="stable")
+        k, d = k[order], d[order]
+        bounds = np.searchsorted(k, np.arange(k_all + 1))
+        for i, o in enumerate(self.objects):
+            di = d[bounds[i]:bounds[i + 1]]
+            if o.origin is not None and di.size:
+                m = float(np.percentile(di, 90))
+                moved[i] = np.clip((m - IN_PLACE_PX) / REVEAL_PX, 0.0, 1.0)
+        return moved
+
     def frame(self, t: float) -> np.ndarray:
         """The composited frame at time code ``t``, (H, W, 3) uint8."""
         time_code = Usd.TimeCode(t)
@@ -162,8 +230,14 @@ class ShotRenderer:
             return np.clip(self._splat(out, cam, particles, None) + 0.5, 0, 255).astype(np.uint8)
         self.caster.update(self._points(time_code))
         face, px, h = self.caster.cast(cam.origin, self._rays, self._shadow_rays, 1e6, 10.0 * self.size)
+        hit = face >= 0
+        obj = np.where(hit, self.face_object[np.maximum(face, 0)], -1)
+        moved = self._moved(obj, px)
         s = self.settings
-        shadow = np.where(h >= 0, self._shadow_strength(h), 0)
+        # an object in place keeps the photo's own shadow; its synthetic one comes in as it moves away
+        under = self.caster.shadow_face
+        shadow = np.where(h >= 0, self._shadow_strength(h) * moved[np.where(under >= 0, self.face_object[
+            np.maximum(under, 0)], -1)], 0)
         blur = s.shadow_blur * float(np.hypot(self.width, self.height)) / SHADOW_STEP
         shadow = shadow.astype(np.float32)
         if blur > 0.5:
@@ -171,12 +245,17 @@ class ShotRenderer:
         shadow = cv2.resize(shadow, (self.width, self.height), interpolation=cv2.INTER_LINEAR)
         if self.particles:
             shadow = 1.0 - (1.0 - shadow) * (1.0 - self._particle_shadow(cam, particles))
-        out = self.plate * (1.0 - shadow[..., None])
-        hit = face >= 0
+        if self.photo is None:
+            back = self.plate
+        else:  # the photo, except where the object it shows there has moved: the plate
+            back = self.photo + moved[self.owner][..., None] * (self.plate - self.photo)
+        out = back * (1.0 - shadow[..., None])
         mx = np.where(hit, px[..., 0] - 0.5, -10).astype(np.float32)
         my = np.where(hit, px[..., 1] - 0.5, -10).astype(np.float32)
         colour = cv2.remap(self.atlas_rgb, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         alpha = cv2.remap(self.atlas_alpha, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        if self.photo is not None:  # an object in place is the photo itself, without resampling
+            colour = self.photo + moved[obj][..., None] * (colour - self.photo)
         a = np.where(hit, np.clip(alpha, 0.0, 1.0), 0.0)[..., None]
         out = out * (1.0 - a) + colour * a
         if self.particles:

@@ -36,6 +36,7 @@ class SceneObject:
     translate: np.ndarray  # (3,) world position of the prim's origin
     texture: str  # path relative to the layer
     shape: str = "round"
+    texture_origin: tuple[int, int] | None = None  # (x0, y0): the texture's top-left pixel in the photo
 
 
 @dataclass
@@ -92,10 +93,14 @@ def _bind(prim: Usd.Prim, material: UsdShade.Material, purpose: str = UsdShade.T
 
 
 def write_scene_layer(path: pathlib.Path, *, fps: float, image_size: tuple[int, int], camera,
-                      plate: str, objects: list[SceneObject], ground_size: float, extra: dict | None = None) -> None:
+                      plate: str, objects: list[SceneObject], ground_size: float, extra: dict | None = None,
+                      photo: str | None = None) -> None:
     """``scene.usda``: camera, ground, background card and one textured mesh per object.
 
-    ``camera`` is a :class:`~physomni_usd.align.camera.PinholeCamera`.
+    ``camera`` is a :class:`~physomni_usd.align.camera.PinholeCamera`. ``photo`` (a path relative to the
+    layer) is recorded on the background card as ``physomni:photo`` custom data, and each object's
+    ``texture_origin`` as ``physomni:textureOrigin``: together they let a renderer show the photo itself
+    wherever nothing has moved.
     """
     stage = _new_stage(fps)
     world = UsdGeom.Xform.Define(stage, "/World")
@@ -127,6 +132,8 @@ def write_scene_layer(path: pathlib.Path, *, fps: float, image_size: tuple[int, 
     UsdPhysics.CollisionAPI.Apply(ground.GetPrim())
 
     _background_card(stage, camera, plate)
+    if photo:
+        stage.GetPrimAtPath("/World/Background").SetCustomDataByKey("physomni:photo", photo)
 
     UsdGeom.Scope.Define(stage, "/World/Materials")
     UsdGeom.Scope.Define(stage, LOOKS)
@@ -150,6 +157,8 @@ def write_scene_layer(path: pathlib.Path, *, fps: float, image_size: tuple[int, 
         prim.GetAttribute("physomni:label").Set(obj.label)
         prim.GetAttribute("physomni:maskIndex").Set(int(obj.mask_index))
         prim.SetCustomDataByKey("physomni:liftedShape", obj.shape)
+        if obj.texture_origin is not None:
+            prim.SetCustomDataByKey("physomni:textureOrigin", Gf.Vec2i(*map(int, obj.texture_origin)))
         look = _texture_material(stage, f"{LOOKS}/{obj.name}", obj.texture, opacity_from_alpha=True)
         _bind(prim, look)
     if extra:

@@ -1,0 +1,153 @@
+"""The plate (exemplar fill, contact shadows), masks from boxes (thin diagonal objects, quality, contact sheet)
+and frame 0 reproducing the photo."""
+
+from __future__ import annotations
+
+import json
+
+import cv2
+import numpy as np
+import pytest
+from pxr import Usd
+
+from physomni_usd.bench.plate import MAX_COLOUR_DIFF, RATIO_RANGE, gradient_ratio, measure
+from physomni_usd.metrics import ssim
+from physomni_usd.perceive.masks import _grabcut, mask_from_box, mask_quality
+from physomni_usd.perceive.plate import background_plate, plate_hole
+from physomni_usd.render.video import ShotRenderer
+
+
+def test_exemplar_fill_keeps_the_surface_grain():
+    """A small saucer-shaped hole in a real photo of gravel: the exemplar fill keeps the stones' gradients,
+    Telea smears them."""
+    from skimage import data
+
+    photo = np.ascontiguousarray(np.repeat(data.gravel()[96:288, 96:288, None], 3, 2))
+    hole = np.zeros(photo.shape[:2], np.uint8)
+    cv2.ellipse(hole, (96, 96), (34, 22), 30, 0, 360, 1, -1)
+    hole = hole > 0
+    exemplar = measure(photo, hole, "exemplar", 0.015)
+    telea = measure(photo, hole, "telea", 0.015)
+    assert telea["gradient_ratio"] < 0.5
+    assert RATIO_RANGE[0] <= exemplar["gradient_ratio"] <= RATIO_RANGE[1]
+    assert exemplar["colour_diff"] <= MAX_COLOUR_DIFF
+    plate = background_plate(photo, [hole], 0.015)
+    outside = ~plate_hole(photo, [hole], 0.015)
+    assert np.array_equal(plate[outside], photo[outside])  # the plate is the photo outside the hole
+
+
+def test_contact_shadow_is_removed_from_the_plate():
+    """A dark patch on the floor under an object goes with it: no dark ghost where it stood."""
+    rng = np.random.default_rng(1)
+    h, w = 160, 200
+    floor = np.clip(150 + rng.normal(0, 5, (h, w, 1)) * np.ones(3), 0, 255)
+    obj = np.zeros((h, w), np.uint8)
+    cv2.rectangle(obj, (80, 40), (120, 100), 1, -1)
+    shadow = np.zeros((h, w), np.float32)
+    cv2.ellipse(shadow, (100, 104), (36, 12), 0, 0, 360, 1.0, -1)
+    shadow = cv2.GaussianBlur(shadow, (0, 0), 2) * (1 - obj)
+    photo = floor * (1 - 0.5 * shadow[..., None])
+    photo[obj > 0] = (200, 40, 40)
+    photo = photo.astype(np.uint8)
+    dark = shadow > 0.5
+    hole = plate_hole(photo, [obj > 0], 0.01)
+    assert hole[dark].mean() > 0.95
+    without = plate_hole(photo, [obj > 0], 0.01, shadows=False)
+    assert without[dark].mean() < 0.5  # the mask's dilation alone would leave most of the shadow
+    plate = background_plate(photo, [obj > 0], 0.01)
+    assert abs(plate[dark].mean() - floor[dark].mean()) < 10
+    assert gradient_ratio(plate, hole) > 0.3
+
+
+def _thin_diagonal(width: int = 4, colour=(70, 60, 50)):
+    """A table lit from above the middle of the box, and a thin pencil lying along the box's diagonal."""
+    rng = np.random.default_rng(0)
+    h, w = 240, 320
+    yy, xx = np.mgrid[0:h, 0:w]
+    light = 0.55 + 0.6 * np.exp(-((xx - 160) ** 2 + (yy - 120) ** 2) / (2 * 60.0 ** 2))
+    grain = 1 + 0.12 * np.sin(xx / 5.0 + 3 * np.sin(yy / 30.0)) + rng.normal(0, 0.05, (h, w))
+    img = np.stack([170 * light * grain, 120 * light * grain, 80 * light * grain], 2)
+    truth = np.zeros((h, w), np.uint8)
+    cv2.line(truth, (70, 50), (250, 190), 1, width)
+    img[truth > 0] = np.array(colour) * light[truth > 0][:, None]
+    return np.clip(img, 0, 255).astype(np.uint8), truth > 0, (62, 42, 258, 198)
+
+
+def _iou(a, b):
+    return (a & b).sum() / (a | b).sum()
+
+
+def test_thin_diagonal_object_in_a_box():
+    photo, truth, box = _thin_diagonal()
+    plain = _grabcut(cv2.cvtColor(photo, cv2.COLOR_RGB2BGR), box, None)
+    assert _iou(plain, truth) < 0.5  # GrabCut from the box takes the lit table
+    q = mask_quality(photo, plain, box)
+    assert q["warning"] and "background" in q["warning"]
+    obj = mask_from_box(photo, ",".join(map(str, box)) + ":pencil", 0)
+    assert _iou(obj.mask, truth) > 0.8
+    assert obj.quality["method"] != "grabcut" and obj.quality["warning"] is None
+    assert obj.quality["box_fraction"] < 0.1
+
+
+def test_mask_that_looks_like_background_is_named(tmp_path):
+    """A pencil the colour of the table: no segmentation can be sure, and build says which object."""
+    from tests.conftest import cli
+
+    photo, _, box = _thin_diagonal(3, (170, 120, 80))
+    path = tmp_path / "photo.png"
+    cv2.imwrite(str(path), cv2.cvtColor(photo, cv2.COLOR_RGB2BGR))
+    proc = cli("build", path, "-o", tmp_path / "shot", "--box", ",".join(map(str, box)) + ":pencil")
+    assert proc.returncode == 0, proc.stderr
+    assert "warning: mask of pencil_0" in proc.stderr
+    report = json.loads((tmp_path / "shot" / "report.json").read_text())
+    assert report["objects"][0]["mask_quality"]["warning"]
+    sheet = cv2.imread(str(tmp_path / "shot" / report["stages"]["build"]["masks_sheet"]))
+    assert sheet is not None and sheet.shape[:2] == photo.shape[:2]
+
+
+def test_contact_sheet_beside_the_shot(shot):
+    report = json.loads((shot["dir"] / "report.json").read_text())
+    assert report["stages"]["build"]["masks_sheet"] == "masks.png"
+    sheet = cv2.cvtColor(cv2.imread(str(shot["dir"] / "masks.png")), cv2.COLOR_BGR2RGB)
+    photo = cv2.cvtColor(cv2.imread(str(shot["photo"])), cv2.COLOR_BGR2RGB)
+    cup = cv2.imread(str(shot["cup"]), cv2.IMREAD_GRAYSCALE) > 0
+    assert sheet.shape == photo.shape
+    # the masks are tinted, the rest dimmed
+    assert np.abs(sheet[cup].astype(int) - photo[cup]).mean() > 10
+    for obj in report["objects"]:
+        assert {"box_fraction", "edge_agreement", "background_like"} <= set(obj["mask_quality"])
+
+
+def test_frame_zero_is_the_photo(shot):
+    """Rendered (not encoded) frame 0 against the photo: nothing has moved, so nothing may differ."""
+    stage = Usd.Stage.Open(str(shot["shot"]))
+    renderer = ShotRenderer(stage)
+    frame0 = renderer.frame(float(stage.GetStartTimeCode()))
+    photo = cv2.cvtColor(cv2.imread(str(shot["photo"])), cv2.COLOR_BGR2RGB)
+    assert frame0.shape == photo.shape
+    assert cv2.PSNR(frame0, photo) >= 35.0
+    assert ssim(frame0, photo) >= 0.98
+    # no synthetic shadow over the photo's own, no halo at the masks' edges: not even a few pixels differ
+    assert np.percentile(np.abs(frame0.astype(int) - photo).max(2), 99.9) <= 2
+    # the pushed box has moved: where it stood and no object is now seen, the frame shows the plate
+    last = renderer.frame(float(stage.GetEndTimeCode()))
+    box = cv2.imread(str(shot["box"]), cv2.IMREAD_GRAYSCALE) > 0
+    left = box & (renderer.caster.depth >= 1e5)
+    plate = cv2.cvtColor(cv2.imread(str(shot["dir"] / "textures" / "plate.png")), cv2.COLOR_BGR2RGB)
+    assert left.sum() > 50
+    assert np.median(np.abs(last.astype(int) - plate).max(2)[left]) <= 2
+
+
+@pytest.mark.parametrize("method", ["exemplar", "telea"])
+def test_fill_methods_fill_only_the_hole(method):
+    rng = np.random.default_rng(2)
+    photo = rng.integers(0, 255, (64, 80, 3), dtype=np.uint8)
+    hole = np.zeros((64, 80), bool)
+    hole[20:40, 30:50] = True
+    from physomni_usd.perceive.plate import fill_hole
+
+    out = fill_hole(photo, hole, method)
+    assert np.array_equal(out[~hole], photo[~hole])
+    assert not np.array_equal(out[hole], photo[hole])
+    with pytest.raises(ValueError):
+        fill_hole(photo, hole, "nonsense")
