@@ -71,8 +71,8 @@ class Preview:
         self.echo = options.echo
         check_port(options.host, options.port)
         if options.open_browser and not browser_available():
-            raise InputError("--open: no web browser is available here; open the address printed above "
-                             "yourself, or leave out --open")
+            raise InputError("--open: no web browser is available here; leave out --open and open the "
+                             "page's address in a browser yourself")
         self.engine = Engine(shot, capture=options.capture)
         stage = self.engine.stage
         self.view, self.fx = photo_view(stage)
@@ -82,6 +82,7 @@ class Preview:
         self.playing = True
         self.time_scale = 1.0
         self.status = ""
+        self.saved = 0
         self.rate = 0.0
         self._sent: dict = {}
         self.server = None
@@ -166,8 +167,8 @@ class Preview:
     def _build_panel(self) -> None:
         gui = self.server.gui
         e = self.engine
-        gui.configure_theme(control_layout="collapsible", control_width="medium", show_logo=False,
-                            show_share_button=False)
+        gui.configure_theme(control_width="medium", show_logo=False, show_share_button=False)
+        gui.main_panel.dock_right()  # beside the view, not over the photo
         self.rate_text = gui.add_markdown("**rate:** starting")
         with gui.add_folder("Playback"):
             play = gui.add_button("Pause", icon=None)
@@ -266,7 +267,8 @@ class Preview:
             self.publish()
         elif action == "save":
             r = e.write_take()
-            self._say(f"take saved: {r['frames']} frames ({r['seconds']:.2f} s), "
+            self.saved += 1
+            self._say(f"take {self.saved} saved: {r['frames']} frames ({r['seconds']:.2f} s), "
                       f"{len(r['moving_prims'])} moving prims → sim.usdc")
         elif action == "keep":
             from ..usd.overrides import add_overrides

@@ -87,7 +87,9 @@ class _FieldsAndHand:
         self.gains = wp.array([[HAND_STIFFNESS, HAND_DAMPING, HAND_MAX_ACCELERATION]], dtype=wp.vec3, device=device)
 
     def __bool__(self) -> bool:
-        return bool(self.inner)
+        # the simulator reads this to account the fields' work for its energy guard, a read-back every
+        # frame; the preview's guard watches speed and finiteness only (the hand's work is not known)
+        return False
 
     @property
     def fields(self):
@@ -164,6 +166,7 @@ class Engine:
         self.capture = capture
         self._graphs: dict = {}
         self.captured_frames = 0
+        self.capture_error = None
         self.restitution_on = False
         with self.wp.ScopedDevice(self.device):
             self._start = sim.checkpoint()
@@ -247,8 +250,15 @@ class Engine:
         graph = self._graphs.get(key)
         if graph is None:
             before = (sim.state, sim.state_next)
-            with self.wp.ScopedCapture(device=self.device) as capture:
+            try:
+                with self.wp.ScopedCapture(device=self.device) as capture:
+                    sim.advance(plan, self.t, self.step_index, self.guard, self.speed)
+            except Exception as exc:  # an operation warp cannot replay: this scene steps launch by launch
+                sim.state, sim.state_next = before
+                self.capture = False
+                self.capture_error = f"{type(exc).__name__}: {exc}"
                 sim.advance(plan, self.t, self.step_index, self.guard, self.speed)
+                return
             graph = (capture.graph, sim.state, sim.state_next)
             sim.state, sim.state_next = before
             self._graphs[key] = graph

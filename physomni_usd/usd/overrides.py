@@ -31,8 +31,9 @@ def add_overrides(folder: pathlib.Path, values: list[tuple[str, str, object]], s
             spec = copy.GetPrimAtPath(prim_path) or Sdf.CreatePrimInLayer(copy, prim_path)
             attr_spec = spec.attributes.get(name) or Sdf.AttributeSpec(spec, name, type_name)
             attr_spec.default = value
-            data = dict(attr_spec.customData)
-            data["physomni:source"] = source
-            attr_spec.customData = data
+            # the nested form USD's SetCustomDataByKey("physomni:source") writes, as estimate --set leaves it
+            ours = dict(attr_spec.customData.get("physomni", {}))
+            ours["source"] = source
+            attr_spec.customData["physomni"] = ours
     layers.save_layer(copy, path)
     return path
