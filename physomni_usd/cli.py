@@ -472,5 +472,36 @@ def bench_physics_command(quick, json_path, plots_dir, md_path):
             write_bytes(md_path, text.encode())
 
 
+@bench.command("preview")
+@click.option("--quick", is_flag=True, help="1 and 20 objects only, shorter runs (about two minutes).")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
+              help="Also write the numbers to this JSON file.")
+def bench_preview_command(quick, json_path):
+    """Frames per second of the live preview, and the step against Genesis.
+
+    \b
+    Prints, in one run: the preview loop's rate (step, read back, publish; unpaced) for 1, 5, 10 and
+    20 rigid boxes with a headless chromium attached where one is installed (/usr/bin/chromium and
+    playwright), the same for 20 boxes without the graph capture, simulate's seconds per simulated
+    second on ten boxes (as it runs, and its step captured as one graph a frame), and Genesis's on the
+    same ten boxes at 30 fps × 8 substeps when genesis-world is installed (pip install
+    'physomni-usd[peer]'), with the ratio. Each measurement runs in a fresh interpreter.
+
+    \b
+    Example:
+      physomni-usd bench preview --json out/preview.json
+    """
+    with _errors():
+        import json
+
+        from .bench.preview import bench_preview
+
+        numbers = bench_preview(quick=quick, echo=click.echo)
+        if json_path:
+            from ._files import write_bytes
+
+            write_bytes(json_path, (json.dumps(numbers, indent=2) + "\n").encode())
+
+
 if __name__ == "__main__":  # pragma: no cover
     main()

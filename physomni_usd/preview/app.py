@@ -37,6 +37,7 @@ class Options:
     open_browser: bool | None = None  # None: where one is available
     paced: bool = True  # real time; False runs as fast as the CPU allows (bench)
     capture: bool = True  # replay each frame's launches as one graph where it can
+    report_every: float = REPORT_EVERY  # seconds between rate reports
     echo: object = field(default=lambda m: print(m, file=sys.stderr, flush=True))
 
 
@@ -83,6 +84,7 @@ class Preview:
         self.time_scale = 1.0
         self.status = ""
         self.saved = 0
+        self.seconds = {"step": 0.0, "publish": 0.0}  # wall time of the loop's two halves
         self.rate = 0.0
         self._sent: dict = {}
         self.server = None
@@ -300,13 +302,17 @@ class Preview:
                 while not self.actions.empty():
                     self._handle(self.actions.get())
                 if self.playing:
+                    t0 = time.perf_counter()
                     e.step()
+                    t1 = time.perf_counter()
                     self.publish()
+                    self.seconds["step"] += t1 - t0
+                    self.seconds["publish"] += time.perf_counter() - t1
                     frames_since += 1
                 elif e.sync():  # a reset or a change while paused shows at once
                     self.publish()
                 now = time.perf_counter()
-                if now - last_report >= REPORT_EVERY:
+                if now - last_report >= o.report_every:
                     self.rate = frames_since / (now - last_report)
                     rates.append(self.rate)
                     self.echo(f"preview: {self.rate:.1f} fps")
@@ -327,7 +333,8 @@ class Preview:
             # a take and settings asked for in the last moments are still kept
             while not self.actions.empty():
                 self._handle(self.actions.get())
-            result = {"frames": e.frame, "rates": rates, "interrupted": interrupted}
+            result = {"frames": e.frame, "rates": rates, "interrupted": interrupted,
+                      "wall_seconds": time.perf_counter() - start, "seconds": dict(self.seconds)}
             if o.record:
                 result["take"] = e.write_take()
                 self.echo(f"preview: take written to {result['take']['path']} ({result['take']['frames']} frames)")

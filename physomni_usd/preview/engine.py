@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
@@ -167,6 +168,9 @@ class Engine:
         self._graphs: dict = {}
         self.captured_frames = 0
         self.capture_error = None
+        #: wall seconds spent advancing the solvers, and on the rest of a frame (snapshot, read-back, record)
+        self.seconds = {"advance": 0.0, "frame_other": 0.0, "capture": 0.0}
+        self.captures = 0
         self.restitution_on = False
         with self.wp.ScopedDevice(self.device):
             self._start = sim.checkpoint()
@@ -219,11 +223,15 @@ class Engine:
 
     def step(self) -> None:
         """Advance one frame (1/fps seconds of simulated time) and record it in the take."""
+        t0 = time.perf_counter()
         self._apply_pending()
         sim, wp = self.sim, self.wp
         with wp.ScopedDevice(self.device):
             saved = sim.checkpoint()
+            t1 = time.perf_counter()
             self._advance()
+            t2 = time.perf_counter()
+            self.seconds["advance"] += t2 - t1
             q, qd = self.body_state()
             finite = bool(np.isfinite(q).all() and np.isfinite(qd).all()) if len(q) else True
             if sim.mpm:
@@ -240,6 +248,7 @@ class Engine:
         self.frame += 1
         self.t = self.frame / self.plan.fps
         self._record()
+        self.seconds["frame_other"] += time.perf_counter() - t0 - (t2 - t1)
 
     def _advance(self) -> None:
         sim, plan = self.sim, self.plan
@@ -249,6 +258,7 @@ class Engine:
             return
         graph = self._graphs.get(key)
         if graph is None:
+            t0 = time.perf_counter()
             before = (sim.state, sim.state_next)
             try:
                 with self.wp.ScopedCapture(device=self.device) as capture:
@@ -262,6 +272,8 @@ class Engine:
             graph = (capture.graph, sim.state, sim.state_next)
             sim.state, sim.state_next = before
             self._graphs[key] = graph
+            self.captures += 1
+            self.seconds["capture"] += time.perf_counter() - t0
         self.wp.capture_launch(graph[0])
         sim.state, sim.state_next = graph[1], graph[2]
         self.captured_frames += 1
@@ -447,8 +459,7 @@ class Engine:
             self.sim.restore((self._start[0], list(self._start[1])))
         self.hand.body.assign(np.asarray([-1], np.int32))
         self.plan = self.base_plan
-        self._graphs.clear()
-        self._reset_counters()
+        self._reset_counters()  # the graphs stay: they read the same arrays, restored in place
 
     # --- keeping --------------------------------------------------------------------------------
     def changed_settings(self) -> list[tuple[str, str, object]]:
