@@ -108,9 +108,12 @@ class Preview:
 
     def _photo_camera(self, cam) -> None:
         v = self.view
+        if hasattr(cam, "up_direction"):  # a connected page's camera
+            cam.up_direction = (0.0, 0.0, 1.0)
+        else:  # what a page starts with
+            cam.up = (0.0, 0.0, 1.0)
         cam.position = v.position
         cam.look_at = v.look_at
-        cam.up = (0.0, 0.0, 1.0)
         cam.fov = v.fov
         cam.near = 0.01
         cam.far = 1000.0
