@@ -374,9 +374,6 @@ class Engine:
     def release(self) -> None:
         self._later(lambda: self.hand.body.assign(np.asarray([-1], np.int32)))
 
-    def holding(self) -> int:
-        return int(self.hand.body.numpy()[0])
-
     def set_field(self, index: int, enabled: bool | None = None, strength: float | None = None) -> None:
         """Switch force field ``index`` on or off, or change its strength (m/s²)."""
         f = self.field_list[index]
