@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Usage: bash examples/run.sh EXAMPLE_DIR [OUT_DIR]
 # Runs `physomni-usd run` on an example folder as its example.json describes it
-# (photo, masks with labels, pushes, seconds), writing to OUT_DIR (default out/<example>).
+# (photo, masks with labels, sizes, pushes, seconds), writing to OUT_DIR (default out/<example>).
 set -euo pipefail
 dir="$(cd "$1" && pwd)"
 out="${2:-out/$(basename "$dir")}"
@@ -14,6 +14,9 @@ print(folder / spec["photo"])
 for mask in spec["masks"]:
     print("--mask")
     print(folder / mask)
+for size in spec.get("size", []):
+    print("--size")
+    print(size)
 for push in spec.get("push", []):
     print("--push")
     print(push)

@@ -2,32 +2,38 @@
 
 Runs perceive (masks, plate, lifting), align (camera, ground contact,
 separation) and the default estimate (rigid materials from the label table).
-All input is read and checked before anything is written.
+All input is read and checked, and every file it will write is checked to be
+writable, before anything is computed or written; a failed build puts the
+folder back as it was (:func:`~physomni_usd._files.all_or_nothing`). A rebuild
+removes what the previous build wrote that this one does not (textures and
+masks of objects that are gone) and the video of the old shot, never other files.
 """
 
 from __future__ import annotations
 
+import json
 import pathlib
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
-from ._files import write_bytes
-from .align.camera import PinholeCamera, pick_pitch
+from ._files import all_or_nothing, check_writable, make_dirs, remove_file, write_bytes
 from .align.camera_search import search_camera
+from .align.cues import DEFAULT_FOV_DEG
 from .align.external import load_poses, place_external
-from .align.place import centring_offset, make_room, separate
+from .align.photo_scene import build_photo_scene
+from .align.place import centring_offset
+from .align.scale import parse_sizes
 from .errors import InputError
 from .materials.defaults import GROUND_MATERIAL
 from .materials.report import material_report
 from .materials.rules import estimate_rules
-from .perceive.lift import fill_holes, foot_pixel, lift_silhouette
 from .perceive.masks import collect_masks, read_photo
 from .perceive.plate import background_plate, object_texture
 from .physics.forces import parse_force_options
 from .physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
-from .report import Timer, update_report
+from .report import REPORT, Timer, read_report, set_aside_damaged, update_report
 from .settings import BuildSettings
 from .usd import layers
 from .usd.author import (
@@ -38,6 +44,7 @@ from .usd.author import (
 )
 
 TEXTURES = "textures"
+VIDEO = "video.mp4"
 INPUTS = "inputs"
 #: Solver defaults written to the physics layer (the physics benchmark revisits them).
 DEFAULT_SOLVER = "xpbd"
@@ -52,29 +59,43 @@ class BuildResult:
 
 
 def prepare_output(folder) -> pathlib.Path:
-    """The output folder, created if needed; refuses a path that is a file."""
+    """The output folder, created if needed (and removed again if the command fails); refuses a path
+    that is a file."""
     out = pathlib.Path(folder)
     if out.exists() and not out.is_dir():
         raise InputError(f"output {out} exists and is not a directory")
     try:
-        out.mkdir(parents=True, exist_ok=True)
+        make_dirs(out)
     except OSError as exc:
         raise InputError(f"cannot create output directory {out}: {exc.strerror}") from None
     return out
 
 
-def _object_name(option: str, spec: str, label: str, labels_to_names: dict[str, str]) -> str:
-    name = labels_to_names.get(label.strip())
-    if name is None:
+def _object_names(option: str, spec: str, label: str, labels_to_names: dict[str, list[str]]) -> list[str]:
+    """Every object ``label`` names: a prim name names one, a label every object that has it."""
+    names = labels_to_names.get(label.strip())
+    if not names:
         known = ", ".join(sorted(labels_to_names)) or "none"
         raise InputError(f"{option} {spec!r}: no object labelled {label.strip()!r} (known: {known})")
-    return name
+    return names
 
 
-def parse_pushes(pushes, labels_to_names: dict[str, str]) -> dict[str, tuple[tuple[float, float, float], float]]:
+def object_names(objects) -> dict[str, list[str]]:
+    """Label or prim name → prim names of the objects it names (a label shared by several names them all)."""
+    names: dict[str, list[str]] = {}
+    for o in objects:
+        names.setdefault(o.label, []).append(o.name)
+    for o in objects:
+        names[o.name] = [o.name]
+    return names
+
+
+def parse_pushes(pushes, labels_to_names: dict[str, list[str]],
+                 echo=lambda m: None) -> dict[str, tuple[tuple[float, float, float], float]]:
     """``['cup=1,0,0@0.5']`` → ``{'cup_0': ((1, 0, 0), 0.5)}``; LABEL may be a label or a prim name.
 
-    The velocity (m/s) is given to the object at the time after ``@`` (seconds, default 0).
+    The velocity (m/s) is given to the object at the time after ``@`` (seconds, default 0). A label that
+    several objects share pushes all of them (and says so); a prim name (``toy_1``) pushes one.
     """
     out = {}
     for spec in pushes or ():
@@ -96,29 +117,75 @@ def parse_pushes(pushes, labels_to_names: dict[str, str]) -> dict[str, tuple[tup
             raise InputError(f"--push {spec!r}: expected three finite numbers VX,VY,VZ in m/s")
         if max(abs(x) for x in v) > 1000:
             raise InputError(f"--push {spec!r}: speeds above 1000 m/s are not physical here")
-        out[_object_name("--push", spec, label, labels_to_names)] = (v, at)
+        names = _object_names("--push", spec, label, labels_to_names)
+        if len(names) > 1:
+            echo(f"build: --push {label.strip()} pushes every object labelled {label.strip()!r}: "
+                 f"{', '.join(names)} (name one prim, e.g. {names[0]}, to push only it)")
+        for name in names:
+            out[name] = (v, at)
     return out
 
 
-def parse_fixed(labels, labels_to_names: dict[str, str]) -> set[str]:
-    """``--fix LABEL`` options → prim names of objects that must not move."""
-    return {_object_name("--fix", label, label, labels_to_names) for label in labels or ()}
+def parse_fixed(labels, labels_to_names: dict[str, list[str]]) -> set[str]:
+    """``--fix LABEL`` options → prim names of objects that must not move (every object with that label)."""
+    return {n for label in labels or () for n in _object_names("--fix", label, label, labels_to_names)}
+
+
+def _stale_files(out: pathlib.Path, written: set[str]) -> list[pathlib.Path]:
+    """What the previous build (and render) of this folder wrote that this build does not write: textures
+    and masks of objects that are gone, and the video of the old shot. Only files the old report lists
+    (or, for shots from before it listed them, named after its objects) — never anything else."""
+    old = read_report(out) or {}
+    stages = old.get("stages", {})
+    build = stages.get("build") if isinstance(stages.get("build"), dict) else {}
+    files = {f for f in build.get("files") or () if isinstance(f, str)}
+    for o in old.get("objects") or ():
+        name = o.get("name") if isinstance(o, dict) else None
+        if isinstance(name, str) and name:
+            files |= {f"{TEXTURES}/{name}.png", f"{INPUTS}/masks/{name}.png"}
+    # only PNGs of ours, whatever a hand-edited report says
+    ours = [pathlib.PurePosixPath(f) for f in files - written]
+    stale = [out / f for f in sorted(ours) if f.suffix == ".png" and len(f.parts) in (2, 3) and ".." not in f.parts
+             and (f.parent == pathlib.PurePosixPath(TEXTURES) or f.parent == pathlib.PurePosixPath(INPUTS, "masks"))]
+    render = stages.get("render")
+    if isinstance(render, dict):
+        stale.append(out / VIDEO)  # render's default output
+        video = render.get("video")
+        if isinstance(video, str) and video.endswith(".mp4"):
+            v = pathlib.Path(video)
+            v = v if v.is_absolute() else pathlib.Path.cwd() / v
+            if v.resolve().parent == out.resolve():
+                stale.append(out / v.name)
+    return sorted({p for p in stale if p.is_file()})
 
 
 def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings = BuildSettings(),
-               pushes=(), echo=lambda msg: None, forces=(), fixed=(), meshes_dir=None) -> BuildResult:
+               pushes=(), echo=lambda msg: None, forces=(), fixed=(), meshes_dir=None, sizes=()) -> BuildResult:
+    with all_or_nothing():
+        return _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, forces, fixed, meshes_dir,
+                           sizes)
+
+
+def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, forces, fixed, meshes_dir,
+                sizes) -> BuildResult:
     timer = Timer()
     with timer.step("read"):
-        out = prepare_output(out_dir)
+        out = pathlib.Path(out_dir)
+        if out.exists() and not out.is_dir():
+            raise InputError(f"output {out} exists and is not a directory")
         photo = read_photo(photo_path)
         objects = collect_masks(photo, masks, boxes)
-        names = {}
-        for o in objects:
-            names.setdefault(o.label, o.name)
-            names[o.name] = o.name
-        push = parse_pushes(pushes, names)
+        names = object_names(objects)
+        push = parse_pushes(pushes, names, echo)
         fields = parse_force_options(forces)
         fixed_names = parse_fixed(fixed, names)
+        user_sizes = parse_sizes(sizes, [(o.name, o.label) for o in objects])
+        files = {f"{TEXTURES}/{o.name}.png" for o in objects} | {f"{INPUTS}/masks/{o.name}.png" for o in objects}
+        files |= {f"{TEXTURES}/plate.png", f"{INPUTS}/photo.png"}
+        targets = sorted(files) + [layers.SCENE, layers.PHYSICS, layers.SIM, layers.SHOT, layers.EDITS, REPORT]
+        check_writable([out / f for f in targets])
+        out = prepare_output(out)
+        set_aside_damaged(out, echo)
     h, w = photo.shape[:2]
     echo(f"perceive: {len(objects)} object(s) in a {w}×{h} photo")
 
@@ -128,7 +195,7 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
     if meshes_dir is not None:
         with timer.step("align.external"):
             placed = place_external(load_poses(meshes_dir, [o.label for o in objects]), w, h,
-                                    settings.camera.fov_deg, settings.alignment,
+                                    settings.camera.fov_deg or DEFAULT_FOV_DEG, settings.alignment,
                                     masks=[o.mask for o in objects])
         camera, faces, verts, projected = placed.camera, placed.faces, placed.vertices, placed.projected
         shapes = ["external"] * len(objects)
@@ -144,21 +211,13 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
                 "evaluations": found.evaluations, "seconds": round(found.seconds, 3),
                 "loss_curve": found.curve[:: max(1, len(found.curve) // 100)]}
     else:
-        with timer.step("align.camera"):
-            feet = [foot_pixel(fill_holes(o.mask))[1] for o in objects]
-            pitch = pick_pitch(settings.camera.fov_deg, h, feet, settings.camera.pitch_deg)
-            camera = PinholeCamera(w, h, settings.camera.fov_deg, pitch, (0.0, 0.0, settings.camera.height_m))
-        with timer.step("perceive.lift"):
-            lifted = [lift_silhouette(o.mask, camera, settings.lift) for o in objects]
-        with timer.step("align.place"):
-            projected, depth_scales = make_room([m.vertices for m in lifted], [m.contact for m in lifted],
-                                                camera.origin, settings.gap_m)
-            moves = separate(projected, settings.gap_m)
-            verts = [v + d for v, d in zip(projected, moves)]
-        faces, shapes = [m.faces for m in lifted], [m.shape for m in lifted]
+        with timer.step("align.photo"):
+            scene = build_photo_scene([o.mask for o in objects], [o.label for o in objects],
+                                      [o.name for o in objects], photo, settings, user_sizes)
+        camera, verts, projected, faces, shapes = (scene.camera, scene.vertices, scene.projected, scene.faces,
+                                                   scene.shapes)
         notes = [[] for _ in objects]
-        align_info = {"variant": "silhouette", "depth_scales": [round(k, 4) for k in depth_scales],
-                      "moved_apart_m": [round(float(np.linalg.norm(d)), 4) for d in moves]}
+        align_info = scene.info
     centre = centring_offset(verts)
     verts = [v + centre for v in verts]
     projected = [v + centre for v in projected]
@@ -167,8 +226,7 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
     with timer.step("perceive.texture"):
         import trimesh
 
-        tex_dir = out / TEXTURES
-        tex_dir.mkdir(exist_ok=True)
+        make_dirs(out / TEXTURES)
         scene_objects, report_objects = [], []
         for o, v, seen, f, shape, note in zip(objects, verts, projected, faces, shapes, notes):
             rgba, (x0, y0) = object_texture(photo, o.mask)
@@ -188,7 +246,7 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
             })
         _write_png(out / TEXTURES / "plate.png", plate)
         # the inputs, so that later stages (estimate's crops) work from the shot folder alone
-        (out / INPUTS / "masks").mkdir(parents=True, exist_ok=True)
+        make_dirs(out / INPUTS / "masks")
         _write_png(out / INPUTS / "photo.png", photo)
         for o in objects:
             _write_png(out / INPUTS / "masks" / f"{o.name}.png",
@@ -210,23 +268,46 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
                 rep["fixed"] = True
 
     with timer.step("write"):
-        extent = max(np.abs(np.vstack(verts)[:, :2]).max() * 4.0, 20.0 * settings.camera.height_m)
+        extent = max(np.abs(np.vstack(verts)[:, :2]).max() * 4.0, 20.0 * abs(float(camera.origin[2])))
         write_scene_layer(out / layers.SCENE, fps=settings.fps, image_size=(w, h), camera=camera,
                           plate=f"./{TEXTURES}/plate.png", objects=scene_objects, ground_size=float(extent),
-                          extra={"physomni:photo": str(pathlib.Path(photo_path).name)})
+                          extra={"physomni:photo": str(pathlib.Path(photo_path).name),
+                                 **({"physomni:userSizes": {k: float(v) for k, v in user_sizes.items()}}
+                                    if user_sizes else {})})
         write_physics_layer(out / layers.PHYSICS, out / layers.SCENE, fps=settings.fps, objects=physics_objects,
                             ground=GROUND_MATERIAL, solver=DEFAULT_SOLVER, substeps=DEFAULT_SUBSTEPS,
                             iterations=DEFAULT_ITERATIONS, forces=fields)
         layers.reset_sim_layer(out, settings.fps)
-        layers.ensure_edits_layer(out)
+        layers.ensure_edits_layer(out, settings.fps)
         shot = layers.write_shot_layer(out, settings.fps)
+        stale = _stale_files(out, files)
+        for path in stale:
+            remove_file(path)
     echo("build: wrote " + ", ".join([layers.SCENE, layers.PHYSICS, layers.SHOT]))
-    update_report(out, objects=report_objects, estimate=material_report(layers.open_shot(out), "rules"), shot={"photo": str(photo_path), "width": w, "height": h,
-                                                    "fov_deg": settings.camera.fov_deg,
+    if stale:
+        echo("build: removed what the previous build made for the old shot: "
+             + ", ".join(str(p.relative_to(out)) for p in stale))
+    stage = layers.open_shot(out)
+    layers.warn_orphan_overs(stage, out, echo)
+    with timer.step("check"):
+        from .physics.diagnose import scene_findings
+
+        checks = [f.as_dict() for f in scene_findings(stage)]
+    for c in checks:
+        echo(f"check: {c['severity']}: {c['message']}")
+    old = read_report(out) or {}
+    for key in ("simulate", "render", "run"):  # they described the old shot
+        old.get("stages", {}).pop(key, None)
+    if old:
+        write_bytes(out / REPORT, (json.dumps(old, indent=2) + "\n").encode())
+    update_report(out, objects=report_objects, estimate=material_report(stage, "rules"), shot={"photo": str(photo_path), "width": w, "height": h,
+                                                    "fov_deg": round(camera.fov_deg, 4),
                                                     "pitch_deg": round(camera.pitch_deg, 4), "alignment": align_info,
-                                                    "camera_height_m": settings.camera.height_m,
+                                                    "camera_height_m": round(float(camera.origin[2]), 4),
+                                                    "scale": align_info.get("scale"),
                                                     "fps": settings.fps},
-                  build={"seconds": timer.seconds, "total_seconds": timer.total})
+                  build={"seconds": timer.seconds, "total_seconds": timer.total, "files": sorted(files),
+                         "checks": checks})
     return BuildResult(out, shot, report_objects, timer.seconds)
 
 

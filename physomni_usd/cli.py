@@ -15,7 +15,14 @@ from contextlib import contextmanager
 import click
 from pydantic import ValidationError
 
+from ._files import all_or_nothing
 from .errors import PhysOmniError
+from .settings import RenderSettings, SimulateSettings
+
+PUSH_HELP = ("Give an object this velocity in m/s (each component at most 1000 in size) at T seconds "
+             "(default 0, T ≥ 0); world axes: Z up, +Y away from the camera, +X to the image's right. A label "
+             "shared by several objects pushes them all (and says which); a prim name (toy_1) pushes one. "
+             "Repeatable.")
 
 EPILOG_BUILD = """
 \b
@@ -23,6 +30,30 @@ Examples:
   physomni-usd build photo.png -o shot/ --mask cup.png:cup --mask saucer.png
   physomni-usd build photo.png -o shot/ --box 120,40,380,300:box --fov 60
 """
+
+
+#: Settings fields → the options that set them, so that a refused value is named as the user typed it.
+OPTIONS = {"fov_deg": "--fov", "pitch_deg": "--pitch", "height_m": "--camera-height", "shape": "--shape",
+           "fps": "--fps", "seconds": "--seconds", "substeps": "--substeps", "iterations": "--iterations",
+           "particle_spacing": "--particle-spacing", "mpm_steps": "--mpm-steps", "max_size": "--max-size"}
+
+
+def limits(model, field: str) -> str:
+    """The valid range of a settings field as help text, e.g. ``0 < value ≤ 600``, from its declaration."""
+    lo = hi = ""
+    for m in model.model_fields[field].metadata:
+        for attr, fmt in (("gt", "{} <"), ("ge", "{} ≤")):
+            if getattr(m, attr, None) is not None:
+                lo = fmt.format(f"{getattr(m, attr):g}") + " "
+        for attr, fmt in (("lt", "< {}"), ("le", "≤ {}")):
+            if getattr(m, attr, None) is not None:
+                hi = " " + fmt.format(f"{getattr(m, attr):g}")
+    finite = ", finite" if "float" in str(model.model_fields[field].annotation) else ""
+    return f"{lo}value{hi}{finite}" if (lo or hi) else ""
+
+
+def _range_help(text: str, model, field: str) -> str:
+    return f"{text} Range: {limits(model, field)}."
 
 
 def _fail(message: str, code: int) -> None:
@@ -39,23 +70,47 @@ def _errors():
         _fail(str(exc), exc.exit_code)
     except ValidationError as exc:
         first = exc.errors()[0]
-        where = ".".join(str(x) for x in first.get("loc", ()))
-        _fail(f"{where}: {first.get('msg')}", 2)
+        loc = [str(x) for x in first.get("loc", ())]
+        where = OPTIONS.get(loc[-1], ".".join(loc)) if loc else "value"
+        msg = str(first.get("msg", "is not valid"))
+        msg = msg[len("Input "):] if msg.startswith("Input ") else msg
+        value = first.get("input")
+        shown = f" {value:g}" if isinstance(value, float) else (f" {value}" if isinstance(value, (int, str)) else "")
+        _fail(f"{where}{shown}: {msg}", 2)
+    except PermissionError as exc:  # the checks before each command should have caught it
+        _fail(f"cannot write {exc.filename}: permission denied", 2)
     except KeyboardInterrupt:
-        _fail("interrupted; files already written are complete, the one in progress was not written", 130)
+        _fail("interrupted; the shot's files are as they were before this command", 130)
     except Exception as exc:  # a bug, not bad input
         if os.environ.get("PHYSOMNI_DEBUG"):
             raise
         _fail(f"internal error: {type(exc).__name__}: {exc} (set PHYSOMNI_DEBUG=1 for the traceback)", 3)
 
 
+#: Where stderr is no terminal (a log, CI), progress is a plain line at every tenth of the work, and at
+#: least every this many seconds.
+LOG_EVERY_S = 5.0
+
+
 @contextmanager
 def _progress(label: str, enabled: bool = True):
-    """A click progress bar on stderr; yields a callback ``(done, total)``."""
-    state = {"bar": None, "done": 0}
+    """A click progress bar on stderr, or plain ``label: frame K/N`` lines where stderr is not a terminal;
+    yields a callback ``(done, total)``."""
+    state = {"bar": None, "done": 0, "logged": 0, "at": time.monotonic()}
+    tty = sys.stderr.isatty()
+
+    def log(done, total):
+        now = time.monotonic()
+        tenth = max(1, -(-total // 10))
+        if done >= total or done // tenth > state["logged"] // tenth or now - state["at"] >= LOG_EVERY_S:
+            click.echo(f"{label.strip()}: frame {done}/{total}", err=True)
+            state["logged"], state["at"] = done, now
 
     def update(done, total):
         if not enabled:
+            return
+        if not tty:
+            log(done, total)
             return
         if state["bar"] is None:
             state["bar"] = click.progressbar(length=total, label=label, file=sys.stderr, show_pos=True)
@@ -94,6 +149,8 @@ def main():
 
 
 def build_options(f):
+    from .settings import BuildSettings, CameraSettings
+
     opts = [
         click.option("--mask", "masks", multiple=True, metavar="PNG[:LABEL]",
                      help="Object mask at the photo's resolution; non-zero pixels are the object. "
@@ -104,18 +161,26 @@ def build_options(f):
                      default=None, help="Folder with one mesh per object (OBJ, GLB, PLY) and poses.json "
                                         "(label → mesh, rotation_wxyz, translation, scale in OpenCV camera "
                                         "coordinates); replaces silhouette lifting."),
-        click.option("--fov", type=float, default=50.0, show_default=True,
-                     help="Vertical field of view of the photo in degrees."),
+        click.option("--fov", type=float, default=None,
+                     help="Vertical field of view of the photo in degrees [default: from the photo's vanishing "
+                          f"points, else 50°]. Range: {limits(CameraSettings, 'fov_deg')}."),
         click.option("--pitch", type=float, default=None,
-                     help="Downward camera tilt in degrees [default: smallest ≥ 10° that puts every "
-                          "object's foot below the horizon]."),
-        click.option("--camera-height", type=float, default=1.0, show_default=True,
-                     help="Camera height above the ground in metres; sets the scene's scale."),
+                     help="Downward camera tilt in degrees, 0 (level) to 90 (straight down) [default: estimated "
+                          "from the photo: round outlines, vanishing points, horizon, where objects stand]. "
+                          f"Range: {limits(CameraSettings, 'pitch_deg')}."),
+        click.option("--camera-height", type=float, default=None,
+                     help="Camera height above the ground in metres; sets the scene's scale [default: from the "
+                          f"objects' typical sizes by label, else 1 m]. Range: {limits(CameraSettings, 'height_m')}."),
+        click.option("--size", "sizes", multiple=True, metavar="LABEL=METRES",
+                     help="An object's real longest dimension, e.g. 'coin=0.024'; fixes the scene's scale "
+                          "(over --camera-height and the typical sizes). Repeatable."),
         click.option("--shape", type=click.Choice(["auto", "round", "extrude"]), default="auto", show_default=True,
                      help="How silhouettes become meshes: surface of revolution, extrusion, or by symmetry."),
-        click.option("--fps", type=float, default=30.0, show_default=True, help="Frames per second of the shot."),
+        click.option("--fps", type=float, default=30.0, show_default=True,
+                     help=_range_help("Frames per second of the shot.", BuildSettings, "fps")),
         click.option("--fix", "fixed", multiple=True, metavar="LABEL",
-                     help="Keep this object where it is (it still collides). Repeatable."),
+                     help="Keep this object where it is (it still collides); a label shared by several objects "
+                          "fixes them all. Repeatable."),
         click.option("--force", "forces", multiple=True, metavar="KIND:key=value,...",
                      help="A force field (constant, wind, point, drag, vortex, turbulence, noise), e.g. "
                           "'wind:direction=1,0,0,strength=30'. Accelerations in m/s²; times in seconds. Repeatable."),
@@ -138,17 +203,17 @@ def _build_settings(fov, pitch, camera_height, shape, fps):
               help="Shot folder to write (created if missing).")
 @build_options
 @click.option("--push", "pushes", multiple=True, metavar="LABEL=VX,VY,VZ[@T]",
-              help="Give an object this velocity in m/s at T seconds (default 0); world axes: Z up, "
-                   "+Y away from the camera, +X to the image's right. Repeatable.")
+              help=PUSH_HELP)
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
-def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, meshes_dir, fixed, forces, pushes, quiet):
+def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, fps, meshes_dir, fixed, forces, pushes,
+          quiet):
     """Photo → scene.usda, physics.usda and the root shot.usda (perceive, align, estimate)."""
     with _errors():
         from .build import build_shot
 
         settings = _build_settings(fov, pitch, camera_height, shape, fps)
         result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces, fixed=fixed,
-                            meshes_dir=meshes_dir)
+                            meshes_dir=meshes_dir, sizes=sizes)
         if not quiet:
             total = sum(result.seconds.values())
             click.echo(f"wrote {result.shot} ({len(result.objects)} objects, {total:.2f} s)", err=True)
@@ -157,6 +222,11 @@ def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, m
 def _simulate(shot, seconds, fps, substeps, quiet, particle_spacing=None, mpm_steps=None):
     from .physics.simulate import simulate_shot
     from .settings import SimulateSettings
+    from .usd import layers
+
+    if seconds is None:  # the shot's own length; 3 s for a shot never simulated
+        root = layers.shot_file(shot)
+        seconds = (layers.shot_seconds(root) if root.is_file() else None) or DEFAULT_SECONDS
 
     settings = SimulateSettings(seconds=seconds, fps=fps, substeps=substeps, particle_spacing=particle_spacing,
                                 mpm_steps=mpm_steps)
@@ -167,6 +237,10 @@ def _simulate(shot, seconds, fps, substeps, quiet, particle_spacing=None, mpm_st
                    f"{len(section['moving_prims'])} moving, dt {section['dt'] * 1000:.2f} ms, "
                    f"{section['total_seconds']:.2f} s", err=True)
     return section
+
+
+#: Simulated seconds of `run`, and of `simulate` on a shot that has no length yet.
+DEFAULT_SECONDS = 3.0
 
 
 def _render(shot, output, quiet, max_size=1920):
@@ -183,17 +257,22 @@ def _render(shot, output, quiet, max_size=1920):
 
 @main.command()
 @click.argument("shot", type=click.Path(path_type=pathlib.Path))
-@click.option("--seconds", type=float, default=3.0, show_default=True, help="Simulated seconds.")
-@click.option("--fps", type=float, default=None, help="Frames per second [default: the shot's].")
+@click.option("--seconds", type=float, default=None,
+              help="Simulated seconds [default: the shot's own length, its last frame over its frame rate; "
+                   f"{DEFAULT_SECONDS:g} for a shot never simulated]. Range: "
+                   f"{limits(SimulateSettings, 'seconds')}.")
+@click.option("--fps", type=float, default=None,
+              help=f"Frames per second [default: the shot's]. Range: {limits(SimulateSettings, 'fps')}.")
 @click.option("--substeps", type=int, default=None,
-              help="Solver steps per frame [default: chosen from the shot's materials and speeds].")
+              help="Solver steps per frame [default: chosen from the shot's materials and speeds]. "
+                   f"Range: {limits(SimulateSettings, 'substeps')}.")
 @click.option("--particle-spacing", type=float, default=None, metavar="METRES",
               help="MPM particle spacing [default: the smallest MPM object 10 particles across, at most "
-                   "15,000 particles].")
+                   f"15,000 particles]. Range: {limits(SimulateSettings, 'particle_spacing')}.")
 @click.option("--mpm-steps", type=int, default=None,
               help="MPM steps per frame [default: what the bench found accurate for the shot's materials "
                    "(elastic 16, sand 4, liquid 2 at 30 fps), fewer where the CFL bound allows; fewer is a "
-                   "faster, less accurate preview].")
+                   f"faster, less accurate preview]. Range: {limits(SimulateSettings, 'mpm_steps')}.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def simulate(shot, seconds, fps, substeps, particle_spacing, mpm_steps, quiet):
     """Simulate the composed shot (edits.usda included) and write sim.usdc.
@@ -221,7 +300,7 @@ def simulate(shot, seconds, fps, substeps, particle_spacing, mpm_steps, quiet):
     A quick preview of an elastic shot (4 MPM steps a frame instead of 16):
       physomni-usd simulate shot/shot.usda --mpm-steps 4
     """
-    with _errors():
+    with _errors(), all_or_nothing():
         _simulate(shot, seconds, fps, substeps, quiet, particle_spacing, mpm_steps)
 
 
@@ -230,7 +309,9 @@ def simulate(shot, seconds, fps, substeps, particle_spacing, mpm_steps, quiet):
 @click.option("-o", "--output", type=click.Path(path_type=pathlib.Path), default=None,
               help="Video file (.mp4) [default: video.mp4 beside the shot].")
 @click.option("--max-size", type=int, default=1920, show_default=True,
-              help="Longest side of the video in pixels; larger photos are rendered smaller.")
+              help=_range_help("Longest side of the video in pixels; larger photos are rendered smaller. H.264 "
+                               "needs even sides: an odd width or height loses its last column or row.",
+                               RenderSettings, "max_size"))
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def render(shot, output, max_size, quiet):
     """Render the composed shot over its background plate into an H.264 MP4."""
@@ -243,17 +324,19 @@ def render(shot, output, max_size, quiet):
 @click.option("-o", "--output", "out_dir", required=True, type=click.Path(path_type=pathlib.Path),
               help="Shot folder to write (created if missing).")
 @build_options
-@click.option("--seconds", type=float, default=3.0, show_default=True, help="Simulated seconds.")
+@click.option("--seconds", type=float, default=DEFAULT_SECONDS, show_default=True,
+              help=_range_help("Simulated seconds.", SimulateSettings, "seconds"))
 @click.option("--push", "pushes", multiple=True, metavar="LABEL=VX,VY,VZ[@T]",
-              help="Give an object this velocity in m/s at T seconds (default 0); world axes: Z up, "
-                   "+Y away from the camera, +X to the image's right. Repeatable.")
+              help=PUSH_HELP)
 @click.option("--particle-spacing", type=float, default=None, metavar="METRES",
-              help="MPM particle spacing [default: chosen from the objects' sizes].")
+              help="MPM particle spacing [default: chosen from the objects' sizes]. "
+                   f"Range: {limits(SimulateSettings, 'particle_spacing')}.")
 @click.option("--mpm-steps", type=int, default=None,
-              help="MPM steps per frame [default: chosen from the materials; see simulate --help].")
+              help="MPM steps per frame [default: chosen from the materials; see simulate --help]. "
+                   f"Range: {limits(SimulateSettings, 'mpm_steps')}.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
-def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, meshes_dir, fixed, forces, seconds, pushes,
-        particle_spacing, mpm_steps, quiet):
+def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, fps, meshes_dir, fixed, forces, seconds,
+        pushes, particle_spacing, mpm_steps, quiet):
     """build + simulate + render in one go; writes DIR/shot.usda, DIR/video.mp4, DIR/report.json.
 
     \b
@@ -261,17 +344,18 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, mes
       physomni-usd run examples/motorcycle/photo.png -o out/ \\
           --mask examples/motorcycle/motorcycle.png --push motorcycle=0,0.8,0
     """
-    with _errors():
+    with _errors(), all_or_nothing():
+        from ._files import check_writable
         from .build import build_shot
         from .report import update_report
-        from .settings import SimulateSettings
 
-        # refuse absurd values before any work
+        # refuse absurd values, and a video that could not be written, before any work
         SimulateSettings(seconds=seconds, particle_spacing=particle_spacing, mpm_steps=mpm_steps)
-        t0 = time.perf_counter()
         settings = _build_settings(fov, pitch, camera_height, shape, fps)
+        check_writable([out_dir / "video.mp4"])
+        t0 = time.perf_counter()
         result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces, fixed=fixed,
-                            meshes_dir=meshes_dir)
+                            meshes_dir=meshes_dir, sizes=sizes)
         _simulate(result.shot, seconds, None, None, quiet, particle_spacing, mpm_steps)
         section = _render(result.shot, None, quiet)
         total = round(time.perf_counter() - t0, 3)
@@ -295,7 +379,9 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, shape, fps, mes
               help="Seconds to wait for one answer.")
 @click.option("--set", "sets", multiple=True, metavar="NAME.KEY=VALUE",
               help="Your value for an object's material (KEY 'material') or parameter (density, friction, "
-                   "youngs_modulus, poissons_ratio, …); written to edits.usda. Repeatable.")
+                   "youngs_modulus, poissons_ratio, …; each within its catalog range, which a refused value's "
+                   "message states); written to edits.usda. NAME: a prim name (one object) or a label (every "
+                   "object with it). Repeatable.")
 @click.option("--force", "forces", multiple=True, metavar="KIND:key=value,...",
               help="Add a force field of yours (kept across later estimates). Repeatable.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
@@ -384,6 +470,88 @@ def validate(stage, warnings):
             sys.exit(1)
 
 
+EPILOG_BATCH = """
+\b
+SHOTS, one `physomni-usd run` argument list per line (paths relative to SHOTS):
+  # shots.txt
+  cup/photo.png -o out/cup --mask cup/cup.png:cup --push cup=0.5,0,0
+  'bike shed/photo.png' -o out/bike --mask 'bike shed/bike.png' --seconds 2
+or a YAML (.yaml, .yml) or JSON (.json) list of such lines or of mappings:
+  - {photo: cup/photo.png, output: out/cup, mask: [cup/cup.png:cup], push: cup=0.5,0,0}
+
+\b
+Examples:
+  physomni-usd batch shots.txt --summary out/summary.json
+  physomni-usd batch shots.txt --address 10.0.0.5:6379 --gpus-per-shot 0.25
+\b
+A shot whose folder holds a finished run of the same inputs (photo, mask and
+mesh bytes, options, version; a hash in report.json) is skipped unless --force.
+Each attempt's output goes to DIR/batch.log. Exit codes: 0 every shot ok or
+skipped, 1 some shot failed, 2 a bad shot list (the line is named). On a cluster
+every node must see SHOTS' folder and the outputs at the same paths (shared
+storage), or give --upload; every node needs physomni-usd installed.
+"""
+
+
+def _run_parser(args: list[str]) -> dict:
+    """``run``'s own option parser on one shot's arguments (nothing runs)."""
+    from .errors import InputError
+
+    try:
+        return run.make_context("run", args).params
+    except click.ClickException as exc:
+        raise InputError(exc.format_message()) from None
+
+
+@main.command(epilog=EPILOG_BATCH)
+@click.argument("shots", type=click.Path(dir_okay=False, path_type=pathlib.Path))
+@click.option("--address", envvar="RAY_ADDRESS", default=None, metavar="HOST:PORT",
+              help="Ray cluster to run on [env: RAY_ADDRESS; default: start Ray on this machine with its CPUs].")
+@click.option("--workers", type=click.IntRange(1), default=None,
+              help="At most this many shots at once [default: as many as the CPUs (GPUs) allow].")
+@click.option("--retries", type=click.IntRange(0, 20), default=2, show_default=True,
+              help="Attempts after the first for a shot that crashed, was killed or whose stage failed "
+                   "(never for bad input).")
+@click.option("--force", is_flag=True, help="Run finished shots again.")
+@click.option("--summary", "summary_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
+              help="Write a JSON summary here (one entry per shot: output, status, seconds, attempts, node, "
+                   "reason); updated as shots finish.")
+@click.option("--cpus-per-shot", type=click.FloatRange(0, min_open=True), default=1.0, show_default=True,
+              help="CPUs Ray reserves for each shot.")
+@click.option("--gpus-per-shot", type=click.FloatRange(0), default=0.0, show_default=True,
+              help="GPUs Ray reserves for each shot (0.25: four shots share one); Ray sets CUDA_VISIBLE_DEVICES "
+                   "to the reserved ones. Give at least a fraction to run shots on GPUs.")
+@click.option("--upload", is_flag=True,
+              help="Send each shot's input files with its task and its output folder back, through Ray's "
+                   "object store: for a cluster whose nodes do not share storage with this machine.")
+@click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors and the final line.")
+def batch(shots, address, workers, retries, force, summary_path, cpus_per_shot, gpus_per_shot, upload, quiet):
+    """Run many shots (each a `physomni-usd run`) as Ray tasks; resumable, one failure never stops the rest."""
+    with _errors():
+        from .errors import InputError
+
+        try:
+            import ray  # noqa: F401
+        except ImportError:
+            raise InputError("batch needs Ray: pip install 'physomni-usd[batch]'") from None
+        from .batch.progress import Progress
+        from .batch.runner import Quiet, run_batch
+        from .batch.shots import read_shot_list
+
+        if summary_path is not None and not summary_path.parent.resolve().is_dir():
+            raise InputError(f"--summary {summary_path}: folder {summary_path.parent} does not exist")
+        shot_list = read_shot_list(shots, _run_parser)
+        summary = run_batch(shot_list, address=address, workers=workers, retries=retries, force=force,
+                            cpus_per_shot=cpus_per_shot, gpus_per_shot=gpus_per_shot,
+                            progress=Quiet() if quiet else Progress(), summary_path=summary_path,
+                            upload=run if upload else None)
+        click.echo(f"batch: {summary['ok']} ok, {summary['skipped']} skipped, {summary['failed']} failed "
+                   f"in {summary['seconds']:.1f} s" + (f"; summary: {summary_path}" if summary_path else ""),
+                   err=True)
+        if summary["failed"]:
+            sys.exit(1)
+
+
 @main.group()
 def bench():
     """Benchmarks: each prints a table and can write the same numbers as JSON."""
@@ -396,7 +564,8 @@ def bench():
 @click.option("--size", type=click.IntRange(64, 8192), default=880, show_default=True,
               help="Longer side of the photo, pixels.")
 @click.option("--repeats", type=click.IntRange(1, 50), default=3, show_default=True, help="Builds to time.")
-@click.option("--seconds", type=float, default=2.0, show_default=True, help="Simulated seconds in the run.")
+@click.option("--seconds", type=float, default=2.0, show_default=True,
+              help=_range_help("Simulated seconds in the run.", SimulateSettings, "seconds"))
 @click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
               help="Also write the numbers to this JSON file.")
 def bench_pipeline_command(example, size, repeats, seconds, json_path):
@@ -413,6 +582,52 @@ def bench_pipeline_command(example, size, repeats, seconds, json_path):
             write_bytes(json_path, (json.dumps(numbers, indent=2) + "\n").encode())
 
 
+@bench.command("batch")
+@click.option("--example", type=click.Path(file_okay=False, path_type=pathlib.Path),
+              default=pathlib.Path("examples/motorcycle"), show_default=True,
+              help="Example folder with example.json, a photo and its masks; every shot is this one.")
+@click.option("--counts", default="1,2,4,8", show_default=True, metavar="N,N,...",
+              help="Numbers of shots to time.")
+@click.option("--size", type=click.IntRange(64, 4096), default=320, show_default=True,
+              help="Longer side of the photo, pixels.")
+@click.option("--seconds", type=click.FloatRange(0.1, 30), default=1.0, show_default=True,
+              help="Simulated seconds per shot.")
+@click.option("--fps", type=click.FloatRange(1, 120), default=30.0, show_default=True, help="Frames per second.")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
+              help="Also write the numbers to this JSON file.")
+def bench_batch_command(example, counts, size, seconds, fps, json_path):
+    """Wall time and shots per hour of `batch` (local Ray) against `run` one after another.
+
+    \b
+    Needs the [batch] extra. N shots take about N small runs twice over, plus
+    Ray's start-up once per N (minutes on a 2-core CPU).
+    Example:
+      physomni-usd bench batch --counts 1,2 --json out/batch.json
+    """
+    with _errors():
+        import json
+
+        from .errors import InputError
+
+        try:
+            import ray  # noqa: F401
+        except ImportError:
+            raise InputError("bench batch needs Ray: pip install 'physomni-usd[batch]'") from None
+        try:
+            numbers = [int(c) for c in counts.split(",")]
+        except ValueError:
+            raise InputError(f"--counts {counts!r}: expected whole numbers separated by commas") from None
+        if not numbers or min(numbers) < 1 or max(numbers) > 64:
+            raise InputError(f"--counts {counts!r}: each count must be 1 to 64")
+        from .bench.batch import bench_batch
+
+        result = bench_batch(example, numbers, size=size, seconds=seconds, fps=fps, echo=click.echo)
+        if json_path:
+            from ._files import write_bytes
+
+            write_bytes(json_path, (json.dumps(result, indent=2) + "\n").encode())
+
+
 @bench.command("alignment")
 @click.option("--quick", is_flag=True, help="Smaller images and fewer scenes (a few minutes on a CPU).")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
@@ -427,6 +642,39 @@ def bench_alignment_command(quick, json_path):
             write_json(numbers, json_path)
 
 
+@bench.command("photos")
+@click.option("--pitch", "pitches", type=click.FloatRange(0, 89.5), multiple=True,
+              help="Camera pitch of a synthetic scene, degrees; repeatable [default: 5, 30, 60 and 85].")
+@click.option("--seconds", type=click.FloatRange(0, 60), default=0.5, show_default=True,
+              help="Simulated seconds of each run (0: build only).")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
+              help="Also write the rows to this JSON file.")
+def bench_photos_command(pitches, seconds, json_path):
+    """Photos with known truth through the built-in path: camera, scale, lifting, frame 0 and a short run.
+
+    \b
+    Synthetic scenes (a box, a can, a plate and a bottle of typical sizes on a checkered floor) under a
+    known camera at each pitch; prints pitch error, field-of-view error, position and height errors after
+    the scale, size error, the scale's source, frame-0 SSIM, seconds and whether the run finished.
+    Acceptance: pitch within 5°, field of view within 10 %, positions within 5 % of the camera distance,
+    heights within 15 %.
+
+    \b
+    Example:
+      physomni-usd bench photos --pitch 30 --pitch 85 --json out/photos.json
+    """
+    with _errors():
+        import json
+
+        from .bench.photos import PITCHES, bench_photos
+
+        numbers = bench_photos(pitches or PITCHES, seconds=seconds, echo=click.echo)
+        if json_path:
+            from ._files import write_bytes
+
+            write_bytes(json_path, (json.dumps(numbers, indent=2, default=float) + "\n").encode())
+
+
 @bench.command("physics")
 @click.option("--quick", is_flag=True, help="Fewer settings, one repeat, a smaller matrix (a few minutes).")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
@@ -434,7 +682,9 @@ def bench_alignment_command(quick, json_path):
 @click.option("--plots", "plots_dir", type=click.Path(file_okay=False, path_type=pathlib.Path), default=None,
               help="Write error-against-time plots (PNG, needs matplotlib) to this folder.")
 @click.option("--markdown", "md_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
-              help="Write the tables as Markdown, dated and with the machine, to this file.")
+              help="Write the tables as Markdown, dated and with the machine, to this file: a new file, or "
+                   "one whose '<!-- bench physics: ... -->' and '<!-- /bench physics -->' lines mark the part "
+                   "to replace (any other file is refused).")
 def bench_physics_command(quick, json_path, plots_dir, md_path):
     """Error against run time of Newton's solvers, and the stiff and extreme matrix.
 
@@ -452,13 +702,18 @@ def bench_physics_command(quick, json_path, plots_dir, md_path):
     with _errors():
         import json
 
+        from .bench.markdown import check_markdown_target
         from .bench.physics import bench_physics, write_plots
+        from .bench.plots import check_plots_possible
 
+        if md_path:
+            check_markdown_target(md_path)
+        if plots_dir:
+            check_plots_possible()
         numbers = bench_physics(quick=quick, echo=click.echo)
         if plots_dir:
             written = write_plots(numbers, plots_dir)
-            click.echo(f"plots: {len(written)} written to {plots_dir}" if written else
-                       "plots: matplotlib is not installed (pip install 'physomni-usd[bench]')", err=True)
+            click.echo(f"plots: {len(written)} written to {plots_dir}", err=True)
         from ._files import write_bytes
 
         if json_path:

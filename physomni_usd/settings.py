@@ -10,17 +10,20 @@ from pydantic import BaseModel, ConfigDict, Field
 
 
 class _Settings(BaseModel):
-    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
 
 
 class CameraSettings(_Settings):
-    fov_deg: float = Field(50.0, gt=5.0, lt=150.0,
-                           description="Vertical field of view of the photo, degrees. 50° suits a phone's main camera.")
-    pitch_deg: float | None = Field(None, ge=0.0, le=80.0,
-                                    description="Downward tilt of the camera, degrees; None picks the smallest tilt "
-                                                "≥ 10° that puts every object's foot below the horizon.")
-    height_m: float = Field(1.0, gt=0.01, le=1000.0,
-                            description="Height of the camera above the ground, metres; it sets the scene's scale.")
+    fov_deg: float | None = Field(None, gt=5.0, lt=150.0,
+                                  description="Vertical field of view of the photo, degrees; None estimates it from "
+                                              "the photo's vanishing points, else 50° (a phone's main camera).")
+    pitch_deg: float | None = Field(None, ge=0.0, le=90.0,
+                                    description="Downward tilt of the camera, degrees; None estimates it from the "
+                                                "photo (align/cues.py).")
+    height_m: float | None = Field(None, gt=0.01, le=1000.0,
+                                   description="Height of the camera above the ground, metres; it sets the scene's "
+                                               "scale. None: the scale comes from the objects' typical sizes "
+                                               "(materials/sizes.py), or a camera 1 m high if no label has one.")
 
 
 class LiftSettings(_Settings):

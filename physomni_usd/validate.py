@@ -14,7 +14,7 @@ from pxr import Sdf, Usd, UsdGeom, UsdPhysics, UsdShade, UsdValidation
 
 from .errors import InputError
 from .usd import layers
-from .usd.author import OBJECTS
+from .usd.author import OBJECTS, PARTICLES
 
 
 @dataclass
@@ -147,19 +147,62 @@ def _components(value):
     return tuple(value)
 
 
+def scene_checks(stage: Usd.Stage) -> list[Finding]:
+    """What a photo of objects allows: sizes against the labels', masses, overlaps, ground, camera."""
+    from .physics.diagnose import scene_findings
+
+    return [Finding(f.severity, f"{OBJECTS}/{f.name}" if f.name != "Camera" else "/World/Camera", f.message,
+                    f"physomni:scene.{f.check}") for f in scene_findings(stage)]
+
+
 def sim_layer_checks(stage: Usd.Stage) -> list[Finding]:
-    """The simulation layer holds overs only."""
+    """The simulation layer holds overs only, but for the particle prims it defines under /World/Particles."""
     out = []
+    particles = Sdf.Path(PARTICLES)
     for layer in stage.GetLayerStack(includeSessionLayers=False):
         if not layer.realPath or pathlib.Path(layer.realPath).name != layers.SIM:
             continue
         def visit(path, layer=layer):
-            if path.IsPrimPath():
+            if path.IsPrimPath() and not path.HasPrefix(particles):
                 spec = layer.GetPrimAtPath(path)
                 if spec and spec.specifier != Sdf.SpecifierOver:
-                    out.append(Finding("error", str(path), "sim layer defines a prim; it may hold overs only",
-                                       "physomni:contract"))
+                    out.append(Finding("error", str(path), "sim layer defines a prim outside "
+                                       f"{PARTICLES}; it may hold overs only", "physomni:contract"))
         layer.Traverse(Sdf.Path.absoluteRootPath, visit)
+    return out
+
+
+def _rate(layer: Sdf.Layer) -> float:
+    """Time codes per second USD uses for ``layer``'s samples: its own, else its frames per second, else 24."""
+    if layer.HasTimeCodesPerSecond():
+        return layer.timeCodesPerSecond
+    if layer.HasFramesPerSecond():
+        return layer.framesPerSecond
+    return 24.0
+
+
+def time_code_checks(stage: Usd.Stage) -> list[Finding]:
+    """Every sublayer at the root's time codes per second. USD rescales a sublayer at another rate (keys at
+    frames 10 and 20 of a layer without one land at 12.5 and 25 under a 30 fps root): an error where the
+    layer has time samples; a warning for ``edits.usda`` without any, since keys authored there later
+    would be moved (``estimate --set`` adds the root's rate to it). Other layers without samples are
+    unaffected by their rate."""
+    out = []
+    root = stage.GetRootLayer()
+    rate = _rate(root)
+    for layer in stage.GetLayerStack(includeSessionLayers=False):
+        if layer is root or math.isclose(_rate(layer), rate):
+            continue
+        name = pathlib.Path(layer.realPath).name if layer.realPath else layer.identifier
+        what = (f"{name} is at {_rate(layer):g} time codes per second"
+                + ("" if layer.HasTimeCodesPerSecond() else " (none authored: USD's default)")
+                + f" but the root is at {rate:g}")
+        if layer.ListAllTimeSamples():
+            out.append(Finding("error", name, f"{what}: its time samples are rescaled by "
+                               f"{rate / _rate(layer):g}", "physomni:timeCodes"))
+        elif name == layers.EDITS:
+            out.append(Finding("warning", name, f"{what}: keys authored in it would be rescaled; author "
+                               f"timeCodesPerSecond = {rate:g} in its header", "physomni:timeCodes", ))
     return out
 
 
@@ -171,10 +214,12 @@ def validate_stage(path) -> list[Finding]:
     if p.name == layers.SHOT or p.is_dir():
         stage = layers.open_shot(p)
     else:
-        layers.check_layer(p)
+        layers.check_shot_layers(p)
         stage = Usd.Stage.Open(str(p))
     findings = usd_validation(stage)
+    findings += time_code_checks(stage)
     if stage.GetPrimAtPath("/World") and stage.GetPrimAtPath("/World/Camera"):
         findings += contract_checks(stage)
+        findings += scene_checks(stage)
     findings += sim_layer_checks(stage)
     return findings

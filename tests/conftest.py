@@ -62,5 +62,7 @@ def shot(tmp_path_factory, photo) -> dict:
     """A shot run end to end once: build + simulate (1.5 s) + render, through the CLI."""
     out = tmp_path_factory.mktemp("shot")
     proc = cli("run", photo["photo"], "-o", out, "--mask", f"{photo['cup']}:cup", "--mask", f"{photo['box']}:box",
-               "--push", "box=0.6,0,0", "--seconds", "1.5", "--fps", "20", check=True)
+               "--push", "box=0.6,0,0", "--seconds", "1.5", "--fps", "20",
+               "--camera-height", "1",  # a fixed scale: tests below hold it to absolute lengths
+               check=True)
     return {"dir": out, "shot": out / "shot.usda", "proc": proc, **photo}

@@ -8,30 +8,32 @@ import pytest
 
 import numpy as np
 
-from physomni_usd.bench import deformable, physics
+from physomni_usd.bench import deformable, markdown, rigid, selection
 from physomni_usd.bench.stability import run_matrix
 from physomni_usd.physics.stability import (CLOTH_FACTOR, MPM_STEPS, RIGID_SUBSTEPS, StepPlan, plan_steps,
                                             scene_kinds)
+
+from .conftest import cli
 
 # the simulator's substeps for each kind of scene (physics.stability.RIGID_SUBSTEPS)
 SETTINGS = {"free_fall": 8, "linear_drag": 16, "quadratic_drag": 16, "incline_friction": 8, "restitution": 16,
             "free_rotation": 8}
 
 
-@pytest.mark.parametrize("case", [c for c in physics.CASES if c.name in SETTINGS], ids=lambda c: c.name)
+@pytest.mark.parametrize("case", [c for c in rigid.CASES if c.name in SETTINGS], ids=lambda c: c.name)
 def test_xpbd_meets_the_closed_form(case):
     error, seconds = case.run("xpbd", SETTINGS[case.name])
     assert error <= case.target and seconds > 0
 
 
 def test_resting_stack_barely_drifts():
-    error, _ = physics.resting_stack("xpbd", RIGID_SUBSTEPS["stacked"], seconds=1.0)
-    assert error <= physics.TARGET
+    error, _ = rigid.resting_stack("xpbd", RIGID_SUBSTEPS["stacked"], seconds=1.0)
+    assert error <= rigid.TARGET
 
 
 def test_error_falls_with_the_step():
-    coarse, _ = physics.free_fall("xpbd", 1)
-    fine, _ = physics.free_fall("xpbd", 8)
+    coarse, _ = rigid.free_fall("xpbd", 1)
+    fine, _ = rigid.free_fall("xpbd", 8)
     assert fine < coarse / 4  # first order in dt
 
 
@@ -39,7 +41,7 @@ def test_default_is_the_cheapest_setting_meeting_every_target():
     rows = [{"case": c, "solver": s, "substeps": n, "error": e, "target": 0.01, "seconds_per_sim_second": t}
             for c, s, n, e, t in [("a", "x", 1, 0.5, 0.1), ("a", "x", 4, 0.001, 0.4), ("b", "x", 1, 0.001, 0.1),
                                   ("b", "x", 4, 0.001, 0.4), ("a", "y", 1, 0.001, 0.3), ("b", "y", 1, 0.002, 0.3)]]
-    best = physics.choose_default(rows, (1, 4))
+    best = selection.choose_default(rows, (1, 4))
     assert (best["solver"], best["substeps"]) == ("y", 1)
 
 
@@ -133,19 +135,44 @@ def test_markdown_table_is_dated_and_names_the_machine():
     numbers = {"date": "2026-01-01", "machine": "x86_64, 2 cores", "fps": 30, "default": {"solver": "xpbd"},
                "rows": [{"case": "free_fall", "solver": "xpbd", "dt": 1 / 240, "substeps": 8, "error": 0.008,
                          "target": 0.01, "seconds_per_sim_second": 0.1, "recommended": True}]}
-    text = physics.markdown(numbers)
+    text = markdown.markdown(numbers)
     assert "2026-01-01" in text and "2 cores" in text and "| free_fall | xpbd | 8 |" in text
     rows = [{"case": "cloth_sag", "dt": 1 / 960, "substeps": 32, "recommended": True},
             {"case": "dam_break", "dt": 1 / 60, "substeps": 2, "recommended": True}]
-    numbers["deformable_defaults"] = physics.deformable_defaults(rows)
-    text = physics.markdown(numbers)
+    numbers["deformable_defaults"] = selection.deformable_defaults(rows)
+    text = markdown.markdown(numbers)
     assert f"c = {CLOTH_FACTOR}" in text and "| liquid | dam_break | 2 |" in text
     assert "| granular | granular_column | none met the target |" in text
 
 
 def test_markdown_replaces_only_the_marked_section():
     doc = "intro\n<!-- bench physics: generated -->\nold table\n<!-- /bench physics -->\noutro\n"
-    out = physics.splice_markdown(doc, "new table\n")
+    out = markdown.splice_markdown(doc, "new table\n")
     assert out.startswith("intro\n<!-- bench physics: generated -->\n") and "new table" in out
     assert "old table" not in out and out.endswith("<!-- /bench physics -->\noutro\n")
-    assert physics.splice_markdown("no markers", "whole") == "whole"
+    with pytest.raises(ValueError):  # a file without the markers is not the bench's to replace
+        markdown.splice_markdown("no markers", "whole")
+
+
+def test_markdown_into_a_file_without_markers_is_refused_before_running(tmp_path):
+    target = tmp_path / "notes.md"
+    target.write_text("my own notes\n")
+    proc = cli("bench", "physics", "--quick", "--markdown", target)
+    assert proc.returncode == 2, proc.stderr
+    lines = [x for x in proc.stderr.splitlines() if not x.startswith("TORCH_IMPORTED")]
+    assert len(lines) == 1 and "--markdown" in lines[0] and "notes.md" in lines[0]
+    assert target.read_text() == "my own notes\n" and proc.stdout == ""  # nothing ran, nothing changed
+
+
+def test_plots_without_matplotlib_are_refused_before_running(tmp_path):
+    import os
+
+    fake = tmp_path / "site" / "matplotlib"
+    fake.mkdir(parents=True)
+    (fake / "__init__.py").write_text("raise ImportError('matplotlib is not installed here')\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(tmp_path / "site"), os.environ.get("PYTHONPATH", "")]))
+    proc = cli("bench", "physics", "--quick", "--plots", tmp_path / "plots", env=env)
+    assert proc.returncode == 2, proc.stderr
+    lines = [x for x in proc.stderr.splitlines() if not x.startswith("TORCH_IMPORTED")]
+    assert len(lines) == 1 and "--plots" in lines[0] and "physomni-usd[bench]" in lines[0]
+    assert proc.stdout == "" and not (tmp_path / "plots").exists()

@@ -95,8 +95,9 @@ def test_soft_body_from_tetrahedra_moves_and_pushes_the_box(tmp_path, shot):
     out = tmp_path / "shot"
     shutil.copytree(shot["dir"], out)
     cli("estimate", out / "shot.usda", "--set", "cup.material=pbd_elastic", check=True)
-    (out / "edits.usda").write_text((out / "edits.usda").read_text())  # untouched by simulate
+    edits = (out / "edits.usda").read_bytes()
     cli("simulate", out / "shot.usda", "--seconds", "0.3", check=True)
+    assert (out / "edits.usda").read_bytes() == edits  # simulate never writes the artist's layer
     report = json.loads((out / "report.json").read_text())["stages"]["simulate"]
     assert "cup_0" in report["soft_bodies"] and report["soft_bodies"]["cup_0"]["particles"] > 8
     stage = Usd.Stage.Open(str(out / "shot.usda"))

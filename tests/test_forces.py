@@ -1,8 +1,8 @@
-"""Each force kind against its integral: a lone rigid body and a lone particle under the field alone.
-
-The reference trajectory integrates the same field a(x, v, t) (evaluated by
-the same kernels) with SciPy's adaptive RK45 at tight tolerance; for the kinds
-with a closed form the field itself is checked against it too.
+"""Each force kind against independent references: the formulas of the force-field table written
+again in NumPy (turbulence's Perlin noise included), checked against the warp kernels point by point,
+and a lone rigid body and a lone particle under the field alone against the NumPy field's integral
+(SciPy's adaptive RK45 at tight tolerance). Where a closed form exists, the reference is checked
+against it too.
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from physomni_usd.physics.forces import FieldSet, ForceField, body_samples
+from physomni_usd.physics.forces import POINT_EPSILON, FieldSet, ForceField, body_samples
 
 SECONDS = 1.0
 FPS, SUBSTEPS = 50, 10
@@ -26,17 +26,125 @@ FIELDS = {
     "vortex": ForceField("vortex", strength=2.0, direction=(0, 0, 1), radial_strength=0.5, falloff=1.0),
     "turbulence": ForceField("turbulence", strength=2.0, frequency=1.3, seed=4),
 }
+#: Fields that exercise every term of each formula (radii, falloffs, flow, offsets from the origin).
+RICH = {
+    "wind": ForceField("wind", strength=-2.5, direction=(1, 1, 0), position=(0.2, -0.1, 0.0), radius=0.6),
+    "point": ForceField("point", strength=1.7, position=(0.1, -0.2, 0.3), radius=0.9, falloff=1.5, flow=0.4),
+    "drag": ForceField("drag", linear_drag=0.3, quadratic_drag=1.2),
+    "vortex": ForceField("vortex", strength=-3.0, direction=(0, 1, 1), position=(0.1, 0.0, -0.2), radius=0.8,
+                         falloff=2.0, radial_strength=0.7, inner_radius=0.15, damping=0.25),
+    "turbulence": ForceField("turbulence", strength=1.5, frequency=2.7, seed=9, flow=0.6),
+}
+
+
+# --- the field table in NumPy ---------------------------------------------------------------------------
+_U32 = np.uint32
+
+
+def _pcg(state):
+    """PCG hash of uint32 values (Jarzynski & Olano 2020), the generator warp's noise draws from."""
+    with np.errstate(over="ignore"):
+        b = state * _U32(747796405) + _U32(2891336453)
+        c = ((b >> ((b >> _U32(28)) + _U32(4))) ^ b) * _U32(277803737)
+    return (c >> _U32(22)) ^ c
+
+
+def _lattice_gradient(state, ix, iy, iz):
+    """Unit gradient (…, 3) at integer lattice points: a hash of the corner, three uniform draws in a cube."""
+    with np.errstate(over="ignore"):
+        idx = (ix.astype(_U32) * _U32(73856093)) ^ (iy.astype(_U32) * _U32(19349663)) \
+            ^ (iz.astype(_U32) * _U32(53471161) + state)
+    g = []
+    for _ in range(3):
+        idx = _pcg(idx)
+        g.append((idx >> _U32(8)).astype(np.float64) / 16777216.0 - 0.5)
+    g = np.stack(g, -1)
+    return g / np.linalg.norm(g, axis=-1, keepdims=True)
+
+
+def perlin(seed: int, p: np.ndarray) -> np.ndarray:
+    """3D gradient (Perlin) noise at points (N, 3): the dot of each cell corner's gradient with the offset
+    to it, blended by the quintic 6t⁵ − 15t⁴ + 10t³ along x, then y, then z."""
+    state = _pcg(np.asarray(seed, _U32))
+    cell = np.floor(p)
+    f = p - cell
+    i0 = cell.astype(np.int64)
+    fade = f ** 3 * (f * (f * 6 - 15) + 10)
+    out = 0.0
+    for corner in np.ndindex(2, 2, 2):
+        c = np.array(corner)
+        g = _lattice_gradient(state, *(i0 + c).T)
+        weight = np.prod(np.where(c == 1, fade, 1 - fade), axis=1)
+        out = out + weight * np.einsum("ni,ni->n", g, f - c)
+    return out
+
+
+def numpy_field(f: ForceField, x: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """a(x, v) (N, 3) of one active field, from the table in :mod:`physomni_usd.physics.forces`."""
+    x, v = np.atleast_2d(x).astype(float), np.atleast_2d(v).astype(float)
+    d = np.asarray(f.direction, float)
+    c = np.asarray(f.position, float)
+    s = f.strength
+    if f.kind == "constant":
+        return np.broadcast_to(s * d, x.shape).copy()
+    if f.kind == "wind":
+        off = x - c
+        perp = off - np.outer(off @ d, d)
+        inside = (f.radius < 0) | (np.linalg.norm(perp, axis=1) <= f.radius)
+        return np.where(inside[:, None], s * d, 0.0)
+    if f.kind == "point":
+        delta = x - c
+        r = np.sqrt((delta ** 2).sum(axis=1) + POINT_EPSILON)
+        a0 = s * delta / r[:, None]
+        a = (a0 + f.flow * (a0 - v)) / (r[:, None] + 1.0) ** f.falloff
+        return np.where(((f.radius < 0) | (r <= f.radius))[:, None], a, 0.0)
+    if f.kind == "drag":
+        return -f.linear_drag * v - f.quadratic_drag * np.linalg.norm(v, axis=1, keepdims=True) * v
+    if f.kind == "vortex":
+        off = x - c
+        delta = off - np.outer(off @ d, d)
+        rho = np.linalg.norm(delta, axis=1)
+        g = np.where(rho <= f.inner_radius, 1.0, 1.0 / (np.maximum(rho - f.inner_radius, 0.0) + 1.0) ** f.falloff)
+        if f.radius >= 0:
+            g = np.where(rho > f.radius, 0.0, g)
+        return g[:, None] * (s * np.cross(d, delta) - f.radial_strength * delta) - f.damping * v
+    if f.kind == "turbulence":
+        p = f.frequency * x
+        a0 = s * np.stack([perlin(f.seed + k, p) for k in range(3)], axis=1)
+        return a0 + f.flow * (a0 - v)
+    raise ValueError(f.kind)
 
 
 def reference(field: ForceField, x0=START, v0=V0, seconds=SECONDS):
-    fs = FieldSet([field])
-
+    """Where a point starting at ``x0`` with ``v0`` is after ``seconds`` under the NumPy field alone."""
     def rhs(t, y):
-        a = fs.acceleration(y[None, :3], y[None, 3:], t)[0]
-        return np.concatenate([y[3:], a])
+        return np.concatenate([y[3:], numpy_field(field, y[None, :3], y[None, 3:])[0]])
 
     sol = solve_ivp(rhs, (0, seconds), np.concatenate([x0, v0]), rtol=1e-9, atol=1e-11, method="RK45")
     return sol.y[:3, -1]
+
+
+@pytest.mark.parametrize("name", sorted(set(FIELDS) | set(RICH)))
+def test_kernels_compute_the_formulas(name):
+    rng = np.random.default_rng(3)
+    x = rng.uniform(-1.2, 1.2, (400, 3))
+    v = rng.normal(0.0, 1.5, (400, 3))
+    for field in [f for f in (FIELDS.get(name), RICH.get(name)) if f is not None]:
+        want = numpy_field(field, x, v)
+        got = FieldSet([field]).acceleration(x, v, 0.0)
+        assert np.abs(want).max() > 0.1 and (np.abs(want).sum(axis=1) > 1e-3).mean() > 0.2  # the case has content
+        assert np.allclose(got, want, rtol=1e-4, atol=1e-5), np.abs(got - want).max()
+
+
+def test_numpy_perlin_is_gradient_noise():
+    """The reference noise itself: zero on the lattice, smooth, bounded, different per seed."""
+    rng = np.random.default_rng(0)
+    lattice = rng.integers(-5, 5, (50, 3)).astype(float)
+    assert np.abs(perlin(4, lattice)).max() < 1e-12
+    p = rng.uniform(-3, 3, (2000, 3))
+    n = perlin(4, p)
+    assert 0.05 < n.std() < 0.5 and np.abs(n).max() < 1.0
+    assert np.abs(perlin(4, p + 1e-4) - n).max() < 1e-3 and not np.allclose(perlin(5, p), n)
 
 
 def _newton(kind: str):

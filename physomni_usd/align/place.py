@@ -90,11 +90,12 @@ def squash_depth(vertices: np.ndarray, front: np.ndarray, direction: np.ndarray,
 
 
 def make_room(vertex_sets: list[np.ndarray], fronts: list[np.ndarray], camera_origin: np.ndarray,
-              gap: float = 0.002) -> tuple[list[np.ndarray], list[float]]:
+              gap: float = 0.002, fixed_depth: list[bool] | None = None) -> tuple[list[np.ndarray], list[float]]:
     """Make nearer objects shallower where their back overlaps an object behind them.
 
     ``fronts`` (3,) are the points where each object meets the ground at its
-    front. Returns the new vertex sets and each object's depth scale.
+    front; objects flagged in ``fixed_depth`` (seen from above, their depth
+    was measured) keep theirs. Returns the new vertex sets and each object's depth scale.
     """
     verts = [np.asarray(v, float).copy() for v in vertex_sets]
     scales = [1.0] * len(verts)
@@ -106,6 +107,8 @@ def make_room(vertex_sets: list[np.ndarray], fronts: list[np.ndarray], camera_or
     dist = [np.linalg.norm((np.asarray(f) - camera_origin)[:2]) for f in fronts]
     order = np.argsort(dist)
     for a in order:
+        if fixed_depth is not None and fixed_depth[a]:
+            continue
         squashed = lambda k, a=a: squash_depth(vertex_sets[a], fronts[a], dirs[a], k)  # noqa: E731
         for b in order:
             if dist[b] <= dist[a] or _apart(verts[a], verts[b], gap):

@@ -58,6 +58,8 @@ def _isr(camera, verts, faces, seconds: float = 1.0, fps: int = 20) -> float:
     import warp as wp
 
     from .._warp import load_warp
+    from ..physics.stability import StepPlan
+    from ..physics.stepping import Stepper, contact_pipeline, xpbd_solver
 
     load_warp()
     builder = newton.ModelBuilder(up_axis=newton.Axis.Z)
@@ -71,21 +73,14 @@ def _isr(camera, verts, faces, seconds: float = 1.0, fps: int = 20) -> float:
                                                            hull.faces.ravel().astype(np.int32)))
         bodies.append((v - centre, f))
     model = builder.finalize(device="cpu")
-    solver = newton.solvers.SolverXPBD(model, iterations=4)
-    a, b = model.state(), model.state()
-    pipe = newton.CollisionPipeline(model, contact_matching="sticky")
-    contacts = pipe.contacts()
-    control = model.control()
+    pipe, contacts = contact_pipeline(model)
+    stepper = Stepper(model, xpbd_solver(model, 4), pipeline=pipe, contacts=contacts)
+    plan = StepPlan(fps, 5, iterations=4)  # contacts searched every substep
     frames = []
     renderer = SilhouetteRenderer(verts, faces)  # one BVH, refitted as the bodies move
-    sub = 5
-    dt = 1.0 / (fps * sub)
-    for _ in range(int(seconds * fps)):
-        for _ in range(sub):
-            a.clear_forces()
-            pipe.collide(a, contacts)
-            solver.step(a, b, control, contacts, dt)
-            a, b = b, a
+    for f in range(int(seconds * fps)):
+        stepper.frame(plan, f / fps, f * plan.substeps)
+        a = stepper.state
         q = a.body_q.numpy()
         moved = []
         for (local, _), xf in zip(bodies, q):

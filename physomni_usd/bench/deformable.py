@@ -25,7 +25,6 @@ The dam break and the column are quasi-two-dimensional: the material sits betwee
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 
@@ -73,7 +72,8 @@ def _cloth(substeps: int, seconds: float = CLOTH_SECONDS) -> tuple[float, float]
     import warp as wp
 
     from ..physics.cloth import CLOTH_BEND_KE, CLOTH_SPRING_KD, CLOTH_SPRING_KE
-    from ..physics.stability import DEFAULT_ITERATIONS
+    from ..physics.stability import DEFAULT_ITERATIONS, StepPlan
+    from ..physics.stepping import Stepper, run_frames, xpbd_solver
 
     n = CLOTH_GRID
     b = newton.ModelBuilder(up_axis=newton.Axis.Z)
@@ -85,20 +85,11 @@ def _cloth(substeps: int, seconds: float = CLOTH_SECONDS) -> tuple[float, float]
     model = b.finalize(device="cpu")
     model.particle_max_radius = 0.0
     model.particle_grid = None
-    solver = newton.solvers.SolverXPBD(model, iterations=DEFAULT_ITERATIONS)
-    s0, s1 = model.state(), model.state()
-    control = model.control()
-    dt = 1.0 / (FPS * substeps)
+    stepper = Stepper(model, xpbd_solver(model, DEFAULT_ITERATIONS))
     frames = int(round(seconds * FPS))
     sags = []
-    t0 = time.perf_counter()
-    for _ in range(frames):
-        for _ in range(substeps):
-            s0.clear_forces()
-            solver.step(s0, s1, control, None, dt)
-            s0, s1 = s1, s0
-        sags.append(-float(s0.particle_q.numpy()[:, 2].min()))
-    sec = time.perf_counter() - t0
+    sec = run_frames(stepper, StepPlan(FPS, substeps, iterations=DEFAULT_ITERATIONS), frames,
+                     after_frame=lambda f: sags.append(-float(stepper.state.particle_q.numpy()[:, 2].min())))
     rest = np.array(sags[frames // 2:])
     return (float(rest.mean()) if np.isfinite(rest).all() else float("inf")), sec
 
@@ -122,20 +113,20 @@ def _static_scene(walls=(), floor_friction: float = 0.5):
 
 
 def _run_particles(points, masses, kind, params, spacing, rigid, seconds, steps_per_frame, record) -> float:
-    """Step an MPM block of one material for ``seconds``, handing (time, positions) to ``record`` after each
-    step; returns wall seconds per simulated second."""
-    from ..physics.mpm import newton_parameters, particle_solver, solver_options
+    """Step an MPM block of one material for ``seconds`` through the simulator's stepper, handing (time,
+    positions) to ``record`` after each step; returns wall seconds per simulated second."""
+    from ..physics.mpm import MPMScene, newton_parameters, particle_solver, solver_options
+    from ..physics.stability import StepPlan
+    from ..physics.stepping import Stepper, run_frames
 
     values = [(len(points), newton_parameters(kind, params))]
     model, solver, state = particle_solver(points, masses, values, spacing, rigid, "cpu", **solver_options([kind]))
-    dt = 1.0 / (FPS * steps_per_frame)
-    n = int(round(seconds * FPS * steps_per_frame))
-    t0 = time.perf_counter()
-    for i in range(n):
-        solver.step(state, state, None, None, dt)
-        solver.project_outside(state, state, dt)
-        record((i + 1) * dt, state.particle_q.numpy())
-    return (time.perf_counter() - t0) / seconds
+    scene = MPMScene(model, solver, state, [], spacing, 0.0)
+    stepper = Stepper(rigid, mpm=scene)
+    plan = StepPlan(FPS, steps_per_frame, steps_per_frame)
+    frames = math.ceil(seconds * FPS - 1e-9)  # whole frames, covering ``seconds``
+    sec = run_frames(stepper, plan, frames, after_mpm_step=lambda t: record(t, scene.state.particle_q.numpy()))
+    return sec / (frames / FPS)
 
 
 def elastic_bar(steps_per_frame: int, spacing: float = 0.025, seconds: float = 1.0) -> tuple[float, float]:

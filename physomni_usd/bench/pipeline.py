@@ -39,7 +39,8 @@ def _resized_example(example: pathlib.Path, size: int, work: pathlib.Path) -> di
         mask = cv2.imread(str(example / name), cv2.IMREAD_GRAYSCALE)
         cv2.imwrite(str(work / name), cv2.resize(mask, dsize, interpolation=cv2.INTER_NEAREST))
         masks.append(f"{work / name}:{label}" if label else str(work / name))
-    return {"photo": work / "photo.png", "masks": masks, "push": spec.get("push", []), "size": dsize}
+    return {"photo": work / "photo.png", "masks": masks, "push": spec.get("push", []), "size": dsize,
+            "sizes": spec.get("size", [])}
 
 
 def bench_pipeline(example, size: int = 880, repeats: int = 3, seconds: float = 2.0, fps: float = 30.0,
@@ -56,12 +57,14 @@ def bench_pipeline(example, size: int = 880, repeats: int = 3, seconds: float = 
         builds = []
         for _ in range(repeats):
             t0 = time.perf_counter()
-            result = build_shot(ex["photo"], work / "shot", ex["masks"], (), BuildSettings(fps=fps), ex["push"])
+            result = build_shot(ex["photo"], work / "shot", ex["masks"], (), BuildSettings(fps=fps), ex["push"],
+                                  sizes=ex["sizes"])
             builds.append((time.perf_counter() - t0, result.seconds))
         median = statistics.median(t for t, _ in builds)
         stages = min(builds, key=lambda b: abs(b[0] - median))[1]
         t0 = time.perf_counter()
-        result = build_shot(ex["photo"], work / "run", ex["masks"], (), BuildSettings(fps=fps), ex["push"])
+        result = build_shot(ex["photo"], work / "run", ex["masks"], (), BuildSettings(fps=fps), ex["push"],
+                                  sizes=ex["sizes"])
         t_build = time.perf_counter() - t0
         sim = simulate_shot(result.shot, SimulateSettings(seconds=seconds))
         ren = render_shot(result.shot)

@@ -53,7 +53,7 @@ def write_bench_shot(folder: pathlib.Path, objects: list[BenchObject], fps: floa
                         ground=GROUND_MATERIAL, solver="xpbd", substeps=substeps, iterations=iterations,
                         forces=forces)
     layers.reset_sim_layer(folder, fps)
-    layers.ensure_edits_layer(folder)
+    layers.ensure_edits_layer(folder, fps)
     return layers.write_shot_layer(folder, fps)
 
 

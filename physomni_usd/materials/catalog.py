@@ -123,8 +123,23 @@ CATALOG = {m.name: m for m in (
     MaterialType("pbd_particle", "pbd", {"density": 1000.0}, "loose particles"),
 )}
 
-#: What an unknown material type becomes (the paper's rule).
+#: The one rule for material type names. A type a person authored (on the stage, in any layer, or with
+#: ``--set``) must be one of :data:`CATALOG`: anything else is refused with the prim and attribute named
+#: (:func:`material_type`). No type authored at all means ``rigid``, what ``build`` writes. Only a VLM's
+#: reply, which is not the user's word, falls back: an unknown or missing type there becomes
+#: ``FALLBACK_TYPE`` with a warning (the paper's rule; see :mod:`.parse`).
+DEFAULT_TYPE = "rigid"
 FALLBACK_TYPE = "mpm_elastic"
+
+
+def material_type(name) -> str:
+    """The catalog type an authored ``physomni:materialType`` names (``None``: :data:`DEFAULT_TYPE`);
+    raises ValueError for any other name."""
+    if name is None:
+        return DEFAULT_TYPE
+    if name not in CATALOG:
+        raise ValueError(f"unknown material type {str(name)!r}; one of {', '.join(CATALOG)}")
+    return str(name)
 
 
 def canonical_key(key: str) -> str | None:

@@ -16,6 +16,7 @@ class ObjectConfig:
     fixed: bool = False
     color: tuple[float, float, float] | None = None
     source: str = "rules"
+    size_m: float | None = None  # the object's real longest dimension, where the estimator gives one
 
     def __post_init__(self):
         if self.material not in CATALOG:

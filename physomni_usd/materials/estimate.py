@@ -3,7 +3,10 @@
 Generated values (rules, vlm) replace ``physics.usda``; what a user gave on
 the command line before — pushes, fixed objects, force fields of source
 ``user``, solver settings — is carried over. ``--set`` values go to the
-artist's ``edits.usda``, added next to whatever is there.
+artist's ``edits.usda``: authored on that layer itself through Sdf (every prim,
+property, time sample and layer metadata already in it stays; ``#`` comments,
+which are not part of USD's data model, do not survive any USD save) and saved
+through a temporary file and a rename. Without ``--set`` the file is not touched.
 """
 
 from __future__ import annotations
@@ -15,10 +18,12 @@ from pxr import Sdf, Usd, UsdPhysics
 
 from ..errors import InputError
 from ..physics.forces import parse_force_options, read_force_fields
-from ..report import Timer, update_report
+from .._files import all_or_nothing
+from ..physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
+from ..report import Timer, prepare_writes, update_report
 from ..usd import layers
 from ..usd.author import PhysicsObject, set_param, write_physics_layer
-from .catalog import CATALOG, PARAMS, canonical_key, check_params, keys_of
+from .catalog import PARAMS, canonical_key, check_params, keys_of, material_type
 from .defaults import GROUND_MATERIAL
 from .report import bound_material, material_report, object_prims
 from .rules import estimate_rules
@@ -27,25 +32,30 @@ INPUTS = "inputs"
 
 
 def parse_sets(specs, objects: list[Usd.Prim]) -> list[tuple[Usd.Prim, str, object]]:
-    """``NAME.KEY=VALUE`` → (object prim, canonical key or 'material', value); NAME is a label or prim name."""
-    by_name = {}
+    """``NAME.KEY=VALUE`` → (object prim, canonical key or 'material', value); NAME is a prim name (one
+    object) or a label (every object with that label, one tuple each)."""
+    by_name: dict[str, list[Usd.Prim]] = {}
     for prim in objects:
-        by_name.setdefault(prim.GetAttribute("physomni:label").Get(), prim)
-        by_name[prim.GetName()] = prim
+        by_name.setdefault(prim.GetAttribute("physomni:label").Get(), []).append(prim)
+    for prim in objects:
+        by_name[prim.GetName()] = [prim]
     out = []
     for spec in specs or ():
         target, eq, value = spec.partition("=")
         name, dot, key = target.rpartition(".")
         if not eq or not dot or not name or not key or not value.strip():
             raise InputError(f"--set {spec!r}: expected NAME.KEY=VALUE, e.g. cup.density=800 or cup.material=mpm_sand")
-        prim = by_name.get(name.strip())
-        if prim is None:
-            raise InputError(f"--set {spec!r}: no object named {name.strip()!r} (known: {', '.join(sorted(by_name))})")
+        prims = by_name.get(name.strip())
+        if not prims:
+            known = ", ".join(sorted(n for n in by_name if n))
+            raise InputError(f"--set {spec!r}: no object named {name.strip()!r} (known: {known})")
         key = key.strip().lower()
         if key in ("material", "material_type", "type"):
-            if value.strip() not in CATALOG:
-                raise InputError(f"--set {spec!r}: unknown material {value.strip()!r}; one of {', '.join(CATALOG)}")
-            out.append((prim, "material", value.strip()))
+            try:
+                kind = material_type(value.strip())
+            except ValueError as exc:
+                raise InputError(f"--set {spec!r}: {exc}") from None
+            out += [(prim, "material", kind) for prim in prims]
             continue
         k = canonical_key(key)
         if k is None:
@@ -60,21 +70,23 @@ def parse_sets(specs, objects: list[Usd.Prim]) -> list[tuple[Usd.Prim, str, obje
                 raise InputError(f"--set {spec!r}: {value!r} is not a number") from None
         if not p.accepts(v):
             raise InputError(f"--set {spec!r}: {k} must be in {p.describe_range()}")
-        out.append((prim, k, v))
+        out += [(prim, k, v) for prim in prims]
     return out
 
 
 def apply_sets(folder: pathlib.Path, sets) -> list[str]:
     """Author ``--set`` values in ``edits.usda`` on the objects' bound physics materials; returns what was set.
 
-    The edits layer is changed through USD's own authoring, so every opinion
-    already in it stays; the file is replaced atomically.
+    The values are authored on the edits layer itself (the composed stage's edit target), so every spec
+    already in it stays; the layer is then exported to a temporary file that replaces ``edits.usda``. A
+    layer without a frame rate gets the root's here (without it USD rescales its time samples).
     """
     if not sets:
         return []
-    layers.ensure_edits_layer(folder)
-    stage = layers.open_shot(folder)
+    stage = layers.open_shot(folder, mute_sim=True)
+    layers.ensure_edits_layer(folder, stage.GetTimeCodesPerSecond() or 30.0)
     edits = Sdf.Layer.FindOrOpen(str(folder / layers.EDITS))
+    layers.add_edits_time_codes(edits, stage.GetTimeCodesPerSecond() or 30.0)
     stage.SetEditTarget(Usd.EditTarget(edits))
     done = []
     # material types first, so that parameters are checked against the type they will have
@@ -97,10 +109,7 @@ def apply_sets(folder: pathlib.Path, sets) -> list[str]:
                 raise InputError(f"{where}: a {material} material has no {t}; it takes {', '.join(keys_of(material))}")
             set_param(mat, PARAMS[t].attr, value, "user")
             done.append(f"{prim.GetName()}.{t} = {value}")
-    copy = Sdf.Layer.CreateAnonymous(".usda")
-    copy.ImportFromString(edits.ExportToString())
-    edits.Reload(force=True)  # the on-disk file is replaced below; nothing in memory may differ from it
-    layers.save_layer(copy, folder / layers.EDITS)
+    layers.save_layer(edits, folder / layers.EDITS)
     return done
 
 
@@ -152,8 +161,35 @@ def _inputs(folder: pathlib.Path, names: list[str]):
     return cv2.cvtColor(photo, cv2.COLOR_BGR2RGB), masks
 
 
+#: An estimator's size this far (a factor) from the scene's is worth a warning.
+SIZE_WARN_FACTOR = 1.5
+
+
+def compare_sizes(prims, labels, configs) -> dict:
+    """Each object's longest dimension in the scene beside the estimator's, with a warning where they differ
+    by more than ``SIZE_WARN_FACTOR`` (the scale is fixed by ``build``: ``--size`` changes it)."""
+    import numpy as np
+    from pxr import UsdGeom
+
+    out, warnings = {}, []
+    for prim, label, cfg in zip(prims, labels, configs):
+        points = UsdGeom.Mesh(prim).GetPointsAttr().Get() if prim.IsA(UsdGeom.Mesh) else None
+        scene = float(np.ptp(np.asarray(points), axis=0).max()) if points else None
+        out[prim.GetName()] = {"scene_m": None if scene is None else round(scene, 4), "estimated_m": cfg.size_m}
+        if scene and cfg.size_m and max(scene / cfg.size_m, cfg.size_m / scene) > SIZE_WARN_FACTOR:
+            warnings.append(f"{prim.GetName()} is {scene:.3g} m in the scene; the estimator says about "
+                            f"{cfg.size_m:.3g} m (build again with --size {label}={cfg.size_m:.3g} to use it)")
+    out["_warnings"] = warnings
+    return out
+
+
 def estimate_shot(shot, estimator: str = "rules", vlm=None, sets=(), force_specs=(), echo=lambda m: None) -> dict:
     """Run one estimator over a shot (and apply ``--set`` / ``--force``); returns the report section."""
+    with all_or_nothing():
+        return _estimate_shot(shot, estimator, vlm, sets, force_specs, echo)
+
+
+def _estimate_shot(shot, estimator, vlm, sets, force_specs, echo) -> dict:
     timer = Timer()
     folder = layers.shot_folder(shot)
     with timer.step("read"):
@@ -163,6 +199,8 @@ def estimate_shot(shot, estimator: str = "rules", vlm=None, sets=(), force_specs
             raise InputError(f"{folder}: no objects under /World/Objects to estimate")
         set_values = parse_sets(sets, prims)
         new_fields = parse_force_options(force_specs)
+        prepare_writes(folder, [layers.PHYSICS] + ([layers.EDITS] if set_values else []), echo)
+        layers.warn_orphan_overs(stage, folder, echo)
         names = [p.GetName() for p in prims]
         labels = [p.GetAttribute("physomni:label").Get() or p.GetName() for p in prims]
         photo, masks = _inputs(folder, names)
@@ -176,6 +214,8 @@ def estimate_shot(shot, estimator: str = "rules", vlm=None, sets=(), force_specs
             config = estimate_vlm(vlm, photo, masks, labels, stage.GetTimeCodesPerSecond() or 30.0)
         else:
             raise InputError(f"unknown estimator {estimator!r}; use rules or vlm")
+    sizes = compare_sizes(prims, labels, config.objects)
+    config.warnings.extend(sizes.pop("_warnings"))
     for w in config.warnings:
         echo(f"estimate: {w}")
     with timer.step("write"):
@@ -193,14 +233,14 @@ def estimate_shot(shot, estimator: str = "rules", vlm=None, sets=(), force_specs
         kept = [(f, "user") for f in user_fields]
         write_physics_layer(folder / layers.PHYSICS, folder / layers.SCENE,
                             fps=stage.GetTimeCodesPerSecond() or 30.0, objects=objects, ground=GROUND_MATERIAL,
-                            solver=solver.get("solver") or "xpbd", substeps=solver.get("substeps") or 10,
-                            iterations=solver.get("iterations") or 5, forces=config.forces,
+                            solver=solver.get("solver") or "xpbd", substeps=solver.get("substeps") or DEFAULT_SUBSTEPS,
+                            iterations=solver.get("iterations") or DEFAULT_ITERATIONS, forces=config.forces,
                             force_source=config.source, extra_forces=kept + [(f, "user") for f in new_fields])
         done = apply_sets(folder, set_values)
     for line in done:
         echo(f"estimate: set {line} in edits.usda")
     section = material_report(layers.open_shot(folder, mute_sim=True), estimator)
-    section.update({"warnings": config.warnings, "set": done, "seconds": timer.seconds,
+    section.update({"warnings": config.warnings, "set": done, "sizes": sizes, "seconds": timer.seconds,
                     "total_seconds": timer.total,
                     "force_fields": [f"{f.kind} ({config.source})" for f in config.forces]
                     + [f"{f.kind} (user)" for f in user_fields + new_fields]})

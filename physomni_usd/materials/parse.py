@@ -6,12 +6,16 @@ Rules, from the paper with the reference code's defects fixed:
   block or inside prose), else the older form: a bare JSON array of objects;
 - objects map back by their ``index`` (mask order); objects the reply does not
   describe, and every object when nothing parses, become ``mpm_elastic``;
-- an unknown material becomes ``mpm_elastic``; an unknown force kind is dropped;
+- an unknown material becomes ``mpm_elastic`` (``catalog.FALLBACK_TYPE``), with a warning: the
+  catalog's one rule for type names, under which only a model's reply falls back and a type a
+  person authored is refused; an unknown force kind is dropped;
 - numbers and booleans given as strings are converted properly (``"false"``
   is false, ``"3e5"`` is 300000); ``null`` means "not given";
 - parameters unknown to the material are dropped and out-of-range values are
   replaced by the material's default, each with a warning;
-- ``start_frame`` (−1 = from the start) becomes a start time in seconds.
+- ``start_frame`` (−1 = from the start) becomes a start time in seconds;
+- ``size_m`` (the object's real longest dimension; a number in metres or a
+  string with a unit, '8 cm') outside 1 mm – 1 km is ignored with a warning.
 
 :func:`parse_reply` never raises.
 """
@@ -153,9 +157,40 @@ def _object_config(index: int, item: dict, warnings: list[str]) -> ObjectConfig:
         if all(x is not None for x in c):
             scale = 255.0 if max(c) > 1.0 else 1.0
             color = tuple(min(max(x / scale, 0.0), 1.0) for x in c)
+    size = None
+    raw_size = _get(item, _SIZE_KEYS)
+    if raw_size is not None:
+        size = to_metres(raw_size)
+        if size is None or not SIZE_RANGE_M[0] <= size <= SIZE_RANGE_M[1]:
+            warnings.append(f"{where}: size = {raw_size!r} is not a length in [{SIZE_RANGE_M[0]:g}, "
+                            f"{SIZE_RANGE_M[1]:g}] m; ignored")
+            size = None
     name = _get(item, _NAME_KEYS)
     return ObjectConfig(index, material, params, identity=str(name) if name is not None else "", fixed=fixed,
-                        color=color, source="vlm")
+                        color=color, source="vlm", size_m=size)
+
+
+#: Keys under which a reply gives an object's longest dimension, and the lengths accepted (metres).
+_SIZE_KEYS = ("size_m", "size", "longest_m", "longest_dimension_m", "length_m", "size_metres", "size_meters")
+SIZE_RANGE_M = (1e-3, 1e3)
+_UNITS = {"mm": 1e-3, "cm": 1e-2, "m": 1.0, "km": 1e3, "in": 0.0254, "inch": 0.0254, "inches": 0.0254,
+          "ft": 0.3048, "feet": 0.3048, "foot": 0.3048, "metre": 1.0, "metres": 1.0, "meter": 1.0, "meters": 1.0}
+
+
+def to_metres(value) -> float | None:
+    """A length in metres from a number (metres) or a string with a unit ('8 cm', '0.08 m', '3 in'); None if
+    it is not one."""
+    if isinstance(value, str):
+        m = re.fullmatch(r"\s*([-+0-9.eE]+)\s*([a-zA-Z]*)\s*\.?\s*", value)
+        if not m:
+            return None
+        number, unit = to_number(m.group(1)), m.group(2).lower()
+        if number is None or (unit and unit not in _UNITS):
+            return None
+        out = number * _UNITS.get(unit, 1.0)
+    else:
+        out = to_number(value)
+    return out if out is not None and math.isfinite(out) else None
 
 
 def _force(item, fps: float, warnings: list[str]):

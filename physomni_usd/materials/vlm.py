@@ -44,14 +44,16 @@ viscosity_relaxation);
 density in kg/m^3 (foam ~50, cream ~500, rubber ~1100, clay ~1800, glass ~2500), nu Poisson's ratio (typically \
 0.2-0.45, nearly incompressible ~0.45);
 4. fixed: true only if the object is truly static;
-5. surface_color: RGB floats in [0, 1].
+5. surface_color: RGB floats in [0, 1];
+6. size_m: the object's real longest dimension in metres, judged from what it is and from the scene (a coin \
+~0.024, a pencil ~0.19, a mug ~0.12, a chair ~0.9, a car ~4.5).
 
 Task B - force fields. Suggest 1 to 3 force fields for interesting motion, of types constant, wind, point, drag, \
 turbulence, vortex; each with direction [x, y, z] (Z is up), strength in m/s^2 and start_frame (-1 = immediately). \
 Gravity is already applied; do not add it.
 
 Answer with ONLY one JSON object: {"objects": [{"index": 0, "name": "...", "material": "...", \
-"material_params": {...}, "fixed": false, "surface_color": [r, g, b]}, ...], "forces": [{"type": "...", \
+"material_params": {...}, "fixed": false, "surface_color": [r, g, b], "size_m": 0.1}, ...], "forces": [{"type": "...", \
 "direction": [x, y, z], "strength": s, "start_frame": -1}, ...]}"""
 
 

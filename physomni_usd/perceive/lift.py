@@ -1,7 +1,10 @@
 """Lifting an object's silhouette into a closed, watertight triangle mesh.
 
-The built-in lifter needs no model. It assumes the object stands on the
-ground, seen roughly from the side (camera pitch up to ~35°):
+The built-in lifter needs no model. Seen steeply from above (every ray
+through the silhouette at least ``FOOTPRINT_MIN_DEG`` below the horizontal,
+or a thing the size table says lies flat from ``FLAT_FOOTPRINT_MIN_DEG``),
+the silhouette is a footprint: see ``footprint.py``. Seen from the side, it
+assumes the object stands on the ground facing the camera:
 
 1. The object's foot is the bottom of its silhouette; the camera ray through
    it meets the ground at the contact point.
@@ -26,7 +29,7 @@ carries the mask as alpha and renderers cut those pixels away.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -53,6 +56,7 @@ class LiftedMesh:
     shape: str  # 'round' | 'extrude'
     contact: np.ndarray  # (3,) where the silhouette's foot meets the ground
     foot_row: float  # image row of the foot
+    info: dict = field(default_factory=dict)  # how it was lifted: mode, height source, …
 
     @property
     def height(self) -> float:
@@ -202,11 +206,67 @@ def _outward(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return faces[:, ::-1].copy() if volume < 0 else faces
 
 
-def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSettings = LiftSettings()) -> LiftedMesh:
-    """Closed mesh of the object whose silhouette is ``mask`` (H, W) bool, standing on z = 0."""
+#: Where every ray through the silhouette looks down at least this steeply (degrees), it is a footprint.
+FOOTPRINT_MIN_DEG = 20.0
+#: ... or, when the camera itself looks down at least FOOTPRINT_MIN_DEG, where its foot is seen this
+#: steeply and its top at least FLAT_FOOTPRINT_MIN_DEG.
+FOOTPRINT_FOOT_DEG = 25.0
+#: Things whose typical height is at most this fraction of their length lie flat: from this steep already.
+FLAT_PRIOR_RATIO = 0.3
+FLAT_FOOTPRINT_MIN_DEG = 8.0
+
+
+def lift_mode(solid: np.ndarray, camera: PinholeCamera, settings: LiftSettings, flat: bool = False) -> str:
+    """'footprint' where every ray through the silhouette looks down steeply (or, for a thing that lies
+    ``flat``, somewhat; or the foot steeply and the top somewhat), else 'standing'. ``--shape round|extrude``
+    always lifts standing."""
+    if settings.shape != "auto":
+        return "standing"
+    ys, xs = np.nonzero(solid)
+    top, bottom = ys.min(), ys.max()
+
+    def steep(row):
+        d = camera.rays(float(np.median(xs[ys == row])) + 0.5, float(row))
+        return float(np.degrees(np.arcsin(np.clip(-d[2], -1.0, 1.0))))
+
+    top_deg, foot_deg = steep(top), steep(bottom)
+    if top_deg >= (FLAT_FOOTPRINT_MIN_DEG if flat else FOOTPRINT_MIN_DEG):
+        return "footprint"
+    return "footprint" if (camera.pitch_deg >= FOOTPRINT_MIN_DEG and foot_deg >= FOOTPRINT_FOOT_DEG
+                           and top_deg >= FLAT_FOOTPRINT_MIN_DEG) else "standing"
+
+
+def plane_points(camera: PinholeCamera, u, v, z: float = 0.0) -> np.ndarray:
+    """Where the rays through (u, v) meet the horizontal plane at height ``z`` (…, 3); NaN where they do not."""
+    d = camera.rays(u, v)
+    dz = d[..., 2]
+    t = np.where(dz < -1e-9, (z - camera.origin[2]) / np.minimum(dz, -1e-9), np.nan)
+    t = np.where(t > 0, t, np.nan)
+    return camera.origin + t[..., None] * d
+
+
+def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSettings = LiftSettings(),
+                    height_hint: float | None = None, prior_shape: str | None = None,
+                    base_z: float = 0.0, flat: bool = False, photo: np.ndarray | None = None) -> LiftedMesh:
+    """Closed mesh of the object whose silhouette is ``mask`` (H, W) bool, standing on z = ``base_z``.
+
+    ``height_hint`` (the camera's units) and ``prior_shape`` come from the
+    label's typical size; they are used where the photo cannot show a height.
+    ``flat``: the label's thing lies flat (a coin, a pencil), so a footprint
+    from any view steeper than ``FLAT_FOOTPRINT_MIN_DEG``. ``photo`` (H, W, 3)
+    lets a footprint take its height from the edges of its visible sides.
+    """
     solid = fill_holes(mask)
+    mode = lift_mode(solid, camera, settings, flat)
+    if mode == "footprint":
+        from .footprint import lift_footprint
+
+        found = lift_footprint(solid, camera, height_hint, prior_shape, base_z, photo=photo, flat_prior=flat)
+        if found is not None:
+            verts, faces, shape, contact, info = found
+            return LiftedMesh(verts, faces, shape, contact, foot_pixel(solid)[1], info)
     u_foot, v_foot = foot_pixel(solid)
-    contact = camera.ground_points(u_foot, v_foot)
+    contact = plane_points(camera, u_foot, v_foot, base_z)
     if not np.all(np.isfinite(contact)):
         raise ValueError("the object's foot is above the horizon")
     ys = np.nonzero(solid.any(axis=1))[0]
@@ -262,5 +322,6 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
         rings = ray_slab_rings(left, right, camera.rays(spans[:, 0], edges), camera.rays(spans[:, 1], edges),
                                normal, depth, settings.sections)
     verts, faces = loft(rings)
-    verts[:, 2] -= verts[:, 2].min()  # rounding only: the foot row is already at z = 0
-    return LiftedMesh(verts, faces, shape, contact, v_foot)
+    verts[:, 2] += base_z - verts[:, 2].min()  # rounding only: the foot row is already at z = base_z
+    return LiftedMesh(verts, faces, shape, contact, v_foot, {"mode": "standing", "shape": shape,
+                                                              "height_source": "silhouette"})

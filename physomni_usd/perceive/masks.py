@@ -39,13 +39,26 @@ def identifier(label: str) -> str:
     return s
 
 
+def decode_image(path: pathlib.Path) -> np.ndarray | None:
+    """The file decoded by OpenCV as stored (any depth and channels), or None; OpenCV's own warnings about
+    a damaged file (a truncated PNG) are kept off the terminal, the caller says it in one line."""
+    data = np.fromfile(str(path), dtype=np.uint8)
+    if not data.size:
+        return None
+    level = cv2.utils.logging.getLogLevel()
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+    try:
+        return cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+    finally:
+        cv2.utils.logging.setLogLevel(level)
+
+
 def read_photo(path: str | pathlib.Path) -> np.ndarray:
     """The photo as (H, W, 3) uint8 RGB; alpha is dropped, grey becomes RGB."""
     p = pathlib.Path(path)
     if not p.is_file():
         raise InputError(f"photo not found: {p}")
-    data = np.fromfile(str(p), dtype=np.uint8)
-    img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if data.size else None
+    img = decode_image(p)
     if img is None:
         raise InputError(f"cannot read {p} as an image (PNG, JPEG, TIFF, …)")
     if img.dtype != np.uint8:
@@ -75,8 +88,7 @@ def read_mask(spec: str, shape: tuple[int, int], index: int) -> ObjectMask:
     p = pathlib.Path(path_s)
     if not p.is_file():
         raise InputError(f"mask not found: {p}")
-    data = np.fromfile(str(p), dtype=np.uint8)
-    img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if data.size else None
+    img = decode_image(p)
     if img is None:
         raise InputError(f"cannot read mask {p} as an image")
     if img.shape[:2] != tuple(shape):
@@ -105,6 +117,9 @@ def mask_from_box(photo: np.ndarray, spec: str, index: int) -> ObjectMask:
     """Segment the object inside a box with OpenCV GrabCut."""
     (x0, y0, x1, y1), label = parse_box(spec)
     h, w = photo.shape[:2]
+    if x1 <= x0 or y1 <= y0:
+        raise InputError(f"--box {spec!r}: X1 must be greater than X0 and Y1 greater than Y0 (the corners are "
+                         "top-left, then bottom-right)")
     if not (0 <= x0 < x1 <= w and 0 <= y0 < y1 <= h):
         raise InputError(f"--box {spec!r} is not inside the {w}×{h} photo (need 0 ≤ X0 < X1 ≤ {w}, 0 ≤ Y0 < Y1 ≤ {h})")
     if x1 - x0 < 4 or y1 - y0 < 4:

@@ -1,51 +1,117 @@
-"""Refusing absurd physical input before the solver sees it, with the prim and attribute named."""
+"""Refusing absurd authored input before anything is built: every object's and collider's physics
+material (its type and each of the type's parameters, against the material catalog's ranges), rigid
+bodies' masses and velocities, per-object controls, and every force field (its kind and values,
+against the field ranges of :mod:`.forces`), from whichever layer they come. Each refusal is one line
+naming the prim and the attribute and what is allowed."""
 
 from __future__ import annotations
 
 import math
 
-from pxr import Usd, UsdPhysics, UsdShade
+from pxr import Usd, UsdPhysics
 
 from ..errors import InputError
-from ..materials.catalog import PARAMS
+from ..materials.catalog import PARAMS, keys_of, material_type
+from ..materials.report import bound_material, object_prims
+from .forces import FIELD_ATTRS, field_value_problem
 
-#: (lowest, highest) accepted per attribute: the material catalog's ranges, plus a body's mass.
-LIMITS = {PARAMS[k].attr: (PARAMS[k].lo, PARAMS[k].hi)
-          for k in ("density", "static_friction", "dynamic_friction", "restitution")}
-LIMITS["physics:mass"] = (1e-6, 1e9)
+#: (lowest, highest) accepted per attribute of a body: the material catalog's density, and a mass.
+LIMITS = {"physics:density": (PARAMS["density"].lo, PARAMS["density"].hi), "physics:mass": (1e-6, 1e9)}
 MAX_SPEED = 1000.0  # m/s
 MAX_SPIN = 36000.0  # deg/s
+MAX_START = 1e4  # s
 
 
-def check_rigid_inputs(stage: Usd.Stage, bodies: list[Usd.Prim]) -> None:
-    """Raise :class:`InputError` on the first out-of-range value that would reach the solver."""
+def check_inputs(stage: Usd.Stage) -> None:
+    """Raise :class:`InputError` on the first authored value the simulator cannot use as given."""
     seen = set()
-    for prim in bodies:
-        _check_attrs(prim, ("physics:density", "physics:mass"))
-        mat, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial("physics")
-        if mat and mat.GetPath() not in seen:
+    colliders = [p for p in stage.Traverse() if p.HasAPI(UsdPhysics.CollisionAPI)]
+    for prim in object_prims(stage) + colliders:
+        if prim.GetPath() in seen:
+            continue
+        seen.add(prim.GetPath())
+        mat = bound_material(prim)
+        if mat is not None and mat.GetPath() not in seen:
             seen.add(mat.GetPath())
-            _check_attrs(mat.GetPrim(), ("physics:density", "physics:staticFriction", "physics:dynamicFriction",
-                                         "physics:restitution"))
-        body = UsdPhysics.RigidBodyAPI(prim)
-        for attr, bound, unit in ((body.GetVelocityAttr(), MAX_SPEED, "m/s"),
-                                  (body.GetAngularVelocityAttr(), MAX_SPIN, "deg/s")):
-            value = attr.Get() if attr and attr.HasAuthoredValue() else None
-            if value is None:
-                continue
-            if not all(math.isfinite(c) for c in value) or max(abs(c) for c in value) > bound:
-                raise InputError(f"{prim.GetPath()}.{attr.GetName()} = {tuple(value)} is not a finite value "
-                                 f"below {bound:g} {unit}")
+            check_material(mat)
+        _check_body(prim)
+    for prim in stage.Traverse():
+        if prim.HasAPI("PhysOmniForceFieldAPI"):
+            check_force_field(prim)
 
 
-def _check_attrs(prim: Usd.Prim, names) -> None:
-    for name in names:
+def check_material(mat: Usd.Prim) -> str:
+    """Check one physics material's type and the type's parameters; returns the type."""
+    attr = mat.GetAttribute("physomni:materialType")
+    try:
+        kind = material_type(attr.Get() if attr else None)
+    except ValueError as exc:
+        raise InputError(f"{mat.GetPath()}.physomni:materialType: {exc}") from None
+    for key in keys_of(kind):
+        p = PARAMS[key]
+        a = mat.GetAttribute(p.attr)
+        if not a or not a.HasAuthoredValue():
+            continue
+        value = a.Get()
+        if key == "density" and kind == "rigid" and value == 0:
+            continue  # UsdPhysics: 0 means "not set, compute it" (a deformable has no such meaning)
+        if not p.accepts(value):
+            raise InputError(f"{mat.GetPath()}.{p.attr} = {_show(value)} is outside {p.describe_range()} "
+                             f"for material type {kind}")
+    return kind
+
+
+def check_force_field(prim: Usd.Prim) -> None:
+    """Check one ``PhysOmniForceFieldAPI`` prim's kind and values against :data:`.forces.FIELD_RANGES`."""
+    values = {}
+    for attr_name, key in FIELD_ATTRS.items():
+        attr = prim.GetAttribute(attr_name)
+        value = attr.Get() if attr else None
+        if value is None:
+            continue
+        values[key] = value
+        why = field_value_problem(key, value)
+        if why:
+            raise InputError(f"{prim.GetPath()}.{attr_name} = {_show(value)}: {why}")
+    start, end = values.get("start_time", 0.0), values.get("end_time", -1.0)
+    if 0 <= end <= start:
+        raise InputError(f"{prim.GetPath()}.physomni:endTime = {_show(end)} is not after physomni:startTime = "
+                         f"{_show(start)}: the field would never act (a negative end time means never off)")
+
+
+def _check_body(prim: Usd.Prim) -> None:
+    for name in ("physics:density", "physics:mass"):
         attr = prim.GetAttribute(name)
         if not attr or not attr.HasAuthoredValue():
             continue
         value = attr.Get()
         lo, hi = LIMITS[name]
-        if name in ("physics:density", "physics:mass") and value == 0:
+        if value == 0 and not isinstance(value, bool):
             continue  # UsdPhysics: 0 means "not set, compute it"
-        if value is None or not math.isfinite(value) or value < lo or value > hi:
-            raise InputError(f"{prim.GetPath()}.{name} = {value} is out of range [{lo:g}, {hi:g}]")
+        if not _number(value) or value < lo or value > hi:
+            raise InputError(f"{prim.GetPath()}.{name} = {_show(value)} is outside [{lo:g}, {hi:g}]")
+    body = UsdPhysics.RigidBodyAPI(prim)
+    for attr, bound, unit in ((body.GetVelocityAttr(), MAX_SPEED, "m/s"),
+                              (body.GetAngularVelocityAttr(), MAX_SPIN, "deg/s"),
+                              (prim.GetAttribute("physomni:initialVelocity"), MAX_SPEED, "m/s"),
+                              (prim.GetAttribute("physomni:initialAngularVelocity"), MAX_SPIN, "deg/s")):
+        value = attr.Get() if attr and attr.HasAuthoredValue() else None
+        if value is None:
+            continue
+        if not all(_number(c) for c in value) or max(abs(c) for c in value) > bound:
+            raise InputError(f"{prim.GetPath()}.{attr.GetName()} = {tuple(value)} is not a finite value "
+                             f"below {bound:g} {unit}")
+    for name, lo, hi, unit in (("physomni:velocityStartTime", 0.0, MAX_START, "s"),
+                               ("physomni:fixTopRatio", 0.0, 1.0, "")):
+        attr = prim.GetAttribute(name)
+        value = attr.Get() if attr and attr.HasAuthoredValue() else None
+        if value is not None and (not _number(value) or not lo <= value <= hi):
+            raise InputError(f"{prim.GetPath()}.{name} = {_show(value)} is outside [{lo:g}, {hi:g}] {unit}".rstrip())
+
+
+def _number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _show(value) -> str:
+    return repr(value) if isinstance(value, str) else f"{value}"

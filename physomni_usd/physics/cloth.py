@@ -4,8 +4,11 @@ they collide two-way with the rigid bodies and the ground through the same solve
 from __future__ import annotations
 
 import itertools
+from functools import lru_cache
 
 import numpy as np
+
+from .mpm import points_inside
 
 #: XPBD cloth: stiffness is the inverse of the material's compliance, clamped to what the
 #: solver keeps stable at our steps (spring N/m, bending N·m).
@@ -55,14 +58,15 @@ def add_cloth(builder, obj, wp) -> tuple[int, int]:
 
 
 def voxel_tets(mesh, cell: float) -> tuple[np.ndarray, np.ndarray]:
-    """A conforming tetrahedral mesh of the cubes of side ``cell`` whose centres lie inside a watertight
-    trimesh: (V, 3) vertices and (T, 4) positively oriented tetrahedra (6 per cube, Kuhn split)."""
+    """A conforming tetrahedral mesh of the cubes of side ``cell`` whose centres lie inside a trimesh
+    (:func:`.mpm.points_inside`, so a mesh with holes fills its volume, not its bounding box): (V, 3)
+    vertices and (T, 4) positively oriented tetrahedra (6 per cube, Kuhn split)."""
     lo, hi = mesh.bounds
     n = np.maximum(np.ceil((hi - lo) / cell).astype(int), 1)
     origin = np.array([(lo[0] + hi[0] - n[0] * cell) / 2, (lo[1] + hi[1] - n[1] * cell) / 2, lo[2]])
     idx = np.stack(np.meshgrid(*[np.arange(k) for k in n], indexing="ij"), -1).reshape(-1, 3)
     centres = origin + (idx + 0.5) * cell
-    inside = mesh.contains(centres) if mesh.is_watertight else np.ones(len(idx), bool)
+    inside = points_inside(mesh, centres)
     cubes = idx[inside] if inside.any() else idx[np.argmin(np.linalg.norm(centres - mesh.centroid, axis=1))][None]
     tets = []
     for perm in itertools.permutations(range(3)):
@@ -104,3 +108,43 @@ def add_soft_body(builder, obj, wp, cell: float | None = None) -> tuple[int, int
             builder.particle_mass[start + i] = 0.0
     density = max(float(p.get("density", 1000.0)), 1e-3)
     return start, len(verts), verts, 0.2 * cell / np.sqrt(max(k_mu, k_lambda) / density)
+
+
+class AirDrag:
+    """Air resistance of cloths: a force −c·m·v on each particle (``c`` the cloth's ``air_resistance``,
+    1/s), added to ``state.particle_f`` before each XPBD substep."""
+
+    def __init__(self, coefficients: np.ndarray, device):
+        import warp as wp
+
+        self.wp, self.device = wp, device
+        self.coefficients = wp.array(np.asarray(coefficients, np.float32), dtype=float, device=device)
+
+    @classmethod
+    def of(cls, objects, ranges: dict, particle_count: int, device) -> "AirDrag | None":
+        """The drag of every cloth among ``objects`` (``ranges``: path → (first particle, count)); None when
+        no cloth resists the air."""
+        c = np.zeros(particle_count)
+        for o in objects:
+            if o.family == "cloth" and o.path in ranges:
+                start, count = ranges[o.path]
+                c[start:start + count] = float(o.params.get("air_resistance") or 0.0)
+        return cls(c, device) if c.any() else None
+
+    def apply(self, model, state) -> None:
+        self.wp.launch(_drag_kernel(), dim=model.particle_count,
+                       inputs=[self.coefficients, model.particle_mass, state.particle_qd],
+                       outputs=[state.particle_f], device=self.device)
+
+
+@lru_cache(maxsize=1)
+def _drag_kernel():
+    import warp as wp
+
+    @wp.kernel
+    def drag(c: wp.array(dtype=float), mass: wp.array(dtype=float), qd: wp.array(dtype=wp.vec3),
+             f: wp.array(dtype=wp.vec3)):
+        i = wp.tid()
+        f[i] = f[i] - c[i] * mass[i] * qd[i]
+
+    return drag

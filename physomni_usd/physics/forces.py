@@ -15,7 +15,7 @@ scene, so a ``constant`` field always comes on top of it.
 | drag | −linearDrag·v − quadraticDrag·‖v‖·v |
 | vortex | δ = offset of x from the axis through c along d̂, ρ = ‖δ‖; g = 1 for ρ ≤ innerRadius, 1/(ρ − innerRadius + 1)^falloff beyond, 0 beyond ``radius``; a = g·(s·d̂×δ − radialStrength·δ) − damping·v (spins counter-clockwise about d̂ for s > 0) |
 | turbulence | a₀ = s·(P₀, P₁, P₂)(frequency·x), three seeded Perlin fields; a = a₀ + flow·(a₀ − v) |
-| noise | s·U[−1, 1]³, a new draw at every evaluation (seeded) |
+| noise | s·√(τ/dt)·U[−1, 1]³, a new draw at every step (seeded), τ = ``NOISE_TIME``: white noise whose velocity kicks add up as a random walk of variance s²·τ·t/3 per axis whatever the step dt |
 
 Names follow Omniverse's force-field schemas where they share a concept
 (``enabled``, ``position``, ``direction``, ``radius``/range, ``linear``/``quadratic``
@@ -36,6 +36,9 @@ from .._warp import load_warp
 KINDS = ("constant", "wind", "point", "drag", "vortex", "turbulence", "noise")
 #: Softening of the point field's distance, m² (keeps a at the centre finite).
 POINT_EPSILON = 1e-4
+#: The step (s) at which a noise field's draws are s·U[−1, 1]³; at a step dt they are scaled by √(τ/dt),
+#: so that the velocity they give, a sum of independent kicks, spreads the same whatever the step.
+NOISE_TIME = 1.0 / 240.0
 #: Sample points per rigid body for force and torque quadrature.
 BODY_SAMPLES = 32
 
@@ -86,6 +89,46 @@ ATTRS = {
     "physomni:radialStrength": "radial_strength", "physomni:innerRadius": "inner_radius",
     "physomni:damping": "damping", "physomni:frequency": "frequency", "physomni:seed": "seed",
 }
+FIELD_ATTRS = ATTRS
+
+#: What each field value may be, wherever it comes from (a layer, ``--force``, a VLM reply):
+#: (lowest, highest, unit). Negative radius and end time have a meaning (unbounded, never off); a
+#: negative falloff, flow, drag or damping would feed energy in instead of taking it out. Strengths
+#: reach 1e6 m/s²: the step planner and the guard carry a body pressed that hard (``bench stability``).
+FIELD_RANGES = {
+    "strength": (-1e6, 1e6, "m/s²"), "radius": (-1e6, 1e6, "m"), "falloff": (0.0, 10.0, ""),
+    "start_time": (0.0, 1e4, "s"), "end_time": (-1e4, 1e4, "s"), "flow": (0.0, 1e3, "1/s"),
+    "linear_drag": (0.0, 1e4, "1/s"), "quadratic_drag": (0.0, 1e4, "1/m"), "radial_strength": (-1e6, 1e6, "1/s²"),
+    "inner_radius": (0.0, 1e6, "m"), "damping": (0.0, 1e4, "1/s"), "frequency": (1e-6, 1e4, "1/m"),
+    "seed": (0, 2**31 - 1, ""),
+}
+#: Largest |coordinate| of a field's position, m.
+MAX_POSITION = 1e6
+
+
+def field_value_problem(key: str, value) -> str | None:
+    """What is wrong with ``value`` for the field value ``key`` (a :class:`ForceField` attribute), or None."""
+    if key == "kind":
+        return None if value in KINDS else f"not a force field kind; one of {', '.join(KINDS)}"
+    if key == "enabled":
+        return None if isinstance(value, (bool, int)) else "must be true or false"
+    if key in VECTOR_FIELDS:
+        try:
+            vec = np.asarray(tuple(value), float)
+        except (TypeError, ValueError):
+            return "must be three finite numbers"
+        if vec.shape != (3,) or not np.isfinite(vec).all():
+            return "must be three finite numbers"
+        if key == "direction" and not np.linalg.norm(vec):
+            return "must be a non-zero vector"
+        if key == "position" and np.abs(vec).max() > MAX_POSITION:
+            return f"must be within {MAX_POSITION:g} m of the origin"
+        return None
+    lo, hi, unit = FIELD_RANGES[key]
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value) and lo <= value <= hi
+    if key == "seed":
+        ok = ok and float(value).is_integer()
+    return None if ok else f"must be a finite number in [{lo:g}, {hi:g}] {unit}".rstrip()
 
 
 #: Spellings accepted in ``--force KIND:key=value,...`` and VLM replies → dataclass field.
@@ -144,15 +187,15 @@ def field_from_values(kind: str, values: dict, path: str = "") -> "ForceField":
             out[name] = vec
         elif name == "enabled":
             out[name] = parse_bool(value)
-        elif name == "seed":
-            out[name] = int(float(value))
         else:
-            number = float(value)
-            if not np.isfinite(number):
-                raise ValueError(f"{key} must be finite, got {value!r}")
-            out[name] = number
-    if abs(out.get("strength", 1.0)) > 1e4:
-        raise ValueError(f"strength {out['strength']:g} m/s² is beyond 1e4 m/s²")
+            out[name] = float(value)
+            if name == "seed" and float(value).is_integer():
+                out[name] = int(float(value))
+        why = field_value_problem(name, out[name])
+        if why:
+            raise ValueError(f"{key} = {value!r}: {why}")
+    if 0 <= out.get("end_time", -1.0) <= out.get("start_time", 0.0):
+        raise ValueError("the end time is not after the start time: the field would never act")
     return ForceField(kind, path=path, **out)
 
 
@@ -242,7 +285,7 @@ def _kernels():
         seed: int
 
     @wp.func
-    def accel(f: Field, x: wp.vec3, v: wp.vec3, salt: int):
+    def accel(f: Field, x: wp.vec3, v: wp.vec3, salt: int, noise_scale: float):
         d = f.direction
         a = wp.vec3(0.0, 0.0, 0.0)
         if f.kind == 0:  # constant
@@ -277,38 +320,39 @@ def _kernels():
             a = a0 + f.flow * (a0 - v)
         elif f.kind == 6:  # noise
             state = wp.rand_init(f.seed, salt)
-            a = f.strength * wp.vec3(wp.randf(state, -1.0, 1.0), wp.randf(state, -1.0, 1.0),
-                                     wp.randf(state, -1.0, 1.0))
+            a = f.strength * noise_scale * wp.vec3(wp.randf(state, -1.0, 1.0), wp.randf(state, -1.0, 1.0),
+                                                   wp.randf(state, -1.0, 1.0))
         return a
 
     @wp.func
     def total(fields: wp.array(dtype=Field), active: wp.array(dtype=wp.int32), x: wp.vec3, v: wp.vec3,
-              salt: int):
+              salt: int, noise_scale: float):
         a = wp.vec3(0.0, 0.0, 0.0)
         for k in range(fields.shape[0]):
             if active[k] != 0:
-                a += accel(fields[k], x, v, salt * 7 + k)
+                a += accel(fields[k], x, v, salt * 7 + k, noise_scale)
         return a
 
     @wp.kernel
     def on_points(fields: wp.array(dtype=Field), active: wp.array(dtype=wp.int32), x: wp.array(dtype=wp.vec3),
-                  v: wp.array(dtype=wp.vec3), step: int, out: wp.array(dtype=wp.vec3)):
+                  v: wp.array(dtype=wp.vec3), step: int, noise_scale: float, out: wp.array(dtype=wp.vec3)):
         i = wp.tid()
-        out[i] = total(fields, active, x[i], v[i], step * 1000003 + i)
+        out[i] = total(fields, active, x[i], v[i], step * 1000003 + i, noise_scale)
 
     @wp.kernel
     def on_particles(fields: wp.array(dtype=Field), active: wp.array(dtype=wp.int32),
                      q: wp.array(dtype=wp.vec3), qd: wp.array(dtype=wp.vec3), mass: wp.array(dtype=float),
-                     step: int, f: wp.array(dtype=wp.vec3)):
+                     step: int, noise_scale: float, f: wp.array(dtype=wp.vec3)):
         i = wp.tid()
         if mass[i] > 0.0:
-            f[i] = f[i] + mass[i] * total(fields, active, q[i], qd[i], step * 1000003 + i)
+            f[i] = f[i] + mass[i] * total(fields, active, q[i], qd[i], step * 1000003 + i, noise_scale)
 
     @wp.kernel
     def on_bodies(fields: wp.array(dtype=Field), active: wp.array(dtype=wp.int32),
                   body_q: wp.array(dtype=wp.transform), body_qd: wp.array(dtype=wp.spatial_vector),
                   body_com: wp.array(dtype=wp.vec3), body_mass: wp.array(dtype=float),
-                  samples: wp.array2d(dtype=wp.vec3), step: int, body_f: wp.array(dtype=wp.spatial_vector)):
+                  samples: wp.array2d(dtype=wp.vec3), step: int, noise_scale: float,
+                  body_f: wp.array(dtype=wp.spatial_vector)):
         b, s = wp.tid()
         m = body_mass[b]
         if m <= 0.0:
@@ -322,7 +366,7 @@ def _kernels():
         ang = wp.spatial_bottom(qd)
         r = p - com
         v = lin + wp.cross(ang, r)
-        force = (m / float(n)) * total(fields, active, p, v, (step * 1000003 + b) * 64 + s)
+        force = (m / float(n)) * total(fields, active, p, v, (step * 1000003 + b) * 64 + s, noise_scale)
         wp.atomic_add(body_f, b, wp.spatial_vector(force, wp.cross(r, force)))
 
     return Field, on_points, on_particles, on_bodies
@@ -374,22 +418,27 @@ class FieldSet:
         self.samples = self.wp.array(np.ascontiguousarray(samples, np.float32), dtype=self.wp.vec3,
                                      device=self.device)
 
-    def apply(self, model, state, t: float, step: int) -> None:
-        """Add the active fields' forces at time ``t`` to ``state.body_f`` and ``state.particle_f``."""
+    def apply(self, model, state, t: float, step: int, dt: float | None = None) -> None:
+        """Add the active fields' forces at time ``t`` to ``state.body_f`` and ``state.particle_f`` for a step
+        of ``dt`` seconds (which scales noise; None: ``NOISE_TIME``)."""
         if not self.fields or not self._set_time(t):
             return
         wp = self.wp
+        scale = noise_scale(dt)
         if model.body_count and self.samples is not None:
             wp.launch(self._on_bodies, dim=(model.body_count, self.samples.shape[1]),
                       inputs=[self._fields, self._active, state.body_q, state.body_qd, model.body_com,
-                              model.body_mass, self.samples, int(step)], outputs=[state.body_f], device=self.device)
+                              model.body_mass, self.samples, int(step), scale], outputs=[state.body_f],
+                      device=self.device)
         if model.particle_count:
             wp.launch(self._on_particles, dim=model.particle_count,
                       inputs=[self._fields, self._active, state.particle_q, state.particle_qd, model.particle_mass,
-                              int(step)], outputs=[state.particle_f], device=self.device)
+                              int(step), scale], outputs=[state.particle_f], device=self.device)
 
-    def acceleration(self, x: np.ndarray, v: np.ndarray, t: float, step: int = 0) -> np.ndarray:
-        """a(x, v, t) for points (N, 3): the same kernels, for checks and closed-form comparisons."""
+    def acceleration(self, x: np.ndarray, v: np.ndarray, t: float, step: int = 0,
+                     dt: float | None = None) -> np.ndarray:
+        """a(x, v, t) for points (N, 3) in a step of ``dt`` s: the same kernels, for checks and closed-form
+        comparisons."""
         wp = self.wp
         x = np.atleast_2d(np.asarray(x, np.float32))
         if not self.fields or not self._set_time(t):
@@ -398,8 +447,13 @@ class FieldSet:
         wp.launch(self._on_points, dim=len(x),
                   inputs=[self._fields, self._active, wp.array(x, dtype=wp.vec3, device=self.device),
                           wp.array(np.atleast_2d(np.asarray(v, np.float32)), dtype=wp.vec3, device=self.device),
-                          int(step)], outputs=[out], device=self.device)
+                          int(step), noise_scale(dt)], outputs=[out], device=self.device)
         return out.numpy().astype(np.float64)
+
+
+def noise_scale(dt: float | None) -> float:
+    """√(NOISE_TIME / dt): what a noise field's draws are scaled by in a step of ``dt`` seconds."""
+    return 1.0 if dt is None or dt <= 0 else float(np.sqrt(NOISE_TIME / dt))
 
 
 def body_samples(points_per_body: list[np.ndarray], n: int = BODY_SAMPLES) -> np.ndarray:

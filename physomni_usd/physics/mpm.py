@@ -17,8 +17,9 @@ every paper material is a choice of those numbers (no warp model of our own was 
 | pbd_particle | 1e6 Pa, 0.2 | 0.5 | 0 | ∞ | 0 | 0 | 0 |
 
 "∞" is 1e15 Pa, Newton's own "never yields". ``pbd_liquid`` and ``pbd_particle`` run here as
-particles too, since Newton has no position-based fluid; the neo-Hookean of ``mpm_muscle`` is
-treated as the same elastic model (Newton's is corotated).
+particles too, since Newton has no position-based fluid. Newton's elasticity is corotated
+(``MPM_LAW``); a ``model`` of another name (``mpm_muscle``'s neo-Hookean) runs as that, and
+``simulate`` says so (:mod:`.params`).
 """
 
 from __future__ import annotations
@@ -38,6 +39,8 @@ MPM_TYPES = ("mpm_elastic", "mpm_elastoplastic", "mpm_sand", "mpm_liquid", "mpm_
 #: (sand, liquid, particles) show as particles after the first frame.
 SURFACE_TYPES = ("mpm_elastic", "mpm_elastoplastic", "mpm_snow", "mpm_muscle")
 NEVER = 1e15
+#: The constitutive law of Newton's implicit MPM.
+MPM_LAW = "corotated"
 #: Particles per grid voxel along each axis (8 per cell), Newton's examples' choice.
 PARTICLES_PER_VOXEL = 2
 #: Default spacing: the smallest object is this many particles across.
@@ -94,12 +97,34 @@ def grid_points(lo, hi, spacing: float) -> np.ndarray:
     return np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
 
 
+def points_inside(mesh, points: np.ndarray, chunk: int = 256) -> np.ndarray:
+    """Which of ``points`` (N, 3) lie inside a trimesh: ray tests for a watertight mesh; for one with
+    holes or open edges, its generalised winding number (the solid angle the surface subtends, over 4π;
+    Jacobson et al. 2013) above one half, which a hole changes only near the hole."""
+    points = np.asarray(points, float)
+    if mesh.is_watertight:
+        return np.asarray(mesh.contains(points), bool)
+    tri = np.asarray(mesh.triangles, float)  # (F, 3, 3)
+    w = np.zeros(len(points))
+    for i in range(0, len(points), chunk):
+        # van Oosterom & Strackee: the solid angle of each triangle seen from each point
+        d = tri[None] - points[i:i + chunk, None, None, :]  # (n, F, 3, 3)
+        a, b, c = d[..., 0, :], d[..., 1, :], d[..., 2, :]
+        la, lb, lc = (np.linalg.norm(x, axis=-1) for x in (a, b, c))
+        num = np.einsum("nfi,nfi->nf", a, np.cross(b, c))
+        den = (la * lb * lc + np.einsum("nfi,nfi->nf", a, b) * lc + np.einsum("nfi,nfi->nf", a, c) * lb
+               + np.einsum("nfi,nfi->nf", b, c) * la)
+        w[i:i + chunk] = 2.0 * np.arctan2(num, den).sum(axis=1) / (4.0 * np.pi)
+    return np.abs(w) > 0.5
+
+
 def sample_inside(mesh, spacing: float, seed: int = 0) -> np.ndarray:
-    """Points (N, 3) on a jittered grid of ``spacing`` inside a watertight trimesh; at least one point."""
+    """Points (N, 3) on a jittered grid of ``spacing`` inside a trimesh (see :func:`points_inside`);
+    at least one point."""
     grid = grid_points(*mesh.bounds, spacing)
     rng = np.random.default_rng(seed)
     grid = grid + rng.uniform(-0.2, 0.2, grid.shape) * spacing
-    inside = mesh.contains(grid) if mesh.is_watertight else np.ones(len(grid), bool)
+    inside = points_inside(mesh, grid)
     pts = grid[inside]
     return pts if len(pts) else mesh.centroid[None, :].astype(float)
 

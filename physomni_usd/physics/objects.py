@@ -8,7 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 from pxr import Usd, UsdGeom, UsdPhysics
 
-from ..materials.catalog import CATALOG, PARAMS, keys_of
+from ..errors import InputError
+from ..materials.catalog import CATALOG, PARAMS, keys_of, material_type
 from ..materials.report import bound_material, object_prims
 from .mpm import MPM_TYPES
 
@@ -70,8 +71,10 @@ def scene_objects(stage: Usd.Stage) -> list[SceneObject]:
             continue
         mesh = UsdGeom.Mesh(prim)
         mat = bound_material(prim)
-        kind = (mat.GetAttribute("physomni:materialType").Get() if mat else None) or "rigid"
-        kind = kind if kind in CATALOG else "rigid"
+        try:
+            kind = material_type(mat.GetAttribute("physomni:materialType").Get() if mat else None)
+        except ValueError as exc:
+            raise InputError(f"{mat.GetPath()}.physomni:materialType: {exc}") from None
         params = dict(CATALOG[kind].defaults)
         for key in keys_of(kind):
             attr = mat.GetAttribute(PARAMS[key].attr) if mat else None

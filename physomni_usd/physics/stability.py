@@ -7,7 +7,9 @@ Step rules (each gives a largest step; the simulator takes the smallest that app
   plus free fall from the scene's height);
 - rigid bodies, force fields: what a field's largest acceleration ``a`` adds in one step stays under
   half the thinnest collider, ``dt ≤ √(0.5·thinnest / a)``; beyond 10 g, XPBD iterations grow with
-  log₁₀(a/g), or a body pressed hard into the ground is thrown up when the push ends;
+  log₁₀(a/g), or a body pressed hard into the ground is thrown up when the push ends, and restitution
+  is turned off (XPBD takes an approach faster than 2·g·dt for an impact, and a body pressed by many g
+  approaches that fast every step);
 - rigid bodies, mass ratio: XPBD's Gauss–Seidel contacts converge more slowly as the heaviest and
   lightest bodies drift apart, so substeps and iterations both grow with √(ratio / 100) beyond a
   ratio of 100;
@@ -107,6 +109,7 @@ class StepPlan:
     collide_every: int = 1  # contacts are found at most every this many substeps
     thinnest: float | None = None  # m, the thinnest rigid collider, for :meth:`collide_interval`
     acceleration: float = GRAVITY  # m/s², the largest a body can get (gravity, force fields)
+    restitution: bool = True  # XPBD restitution on (see ``plan_steps`` for when it is not)
 
     def collide_interval(self, speed: float) -> int:
         """Substeps between contact searches for a frame starting at ``speed`` (m/s): contacts found at
@@ -129,14 +132,22 @@ class StepPlan:
         return StepPlan(self.fps, min(self.substeps * 2, MAX_SUBSTEPS * 4),
                         self.mpm_steps * 2 if self.mpm_steps else 0, dict(self.reasons),
                         min(self.iterations * 2, 200) if self.iterations else None, 1, self.thinnest,
-                        self.acceleration)
+                        self.acceleration, self.restitution)
 
     def as_dict(self) -> dict:
         out = {"fps": self.fps, "substeps": self.substeps, "dt": self.dt, "iterations": self.iterations,
-               "collide_every": self.collide_every, "reasons": self.reasons}
+               "collide_every": self.collide_every, "restitution": self.restitution, "reasons": self.reasons}
         if self.mpm_steps:
             out |= {"mpm_steps": self.mpm_steps, "mpm_dt": self.mpm_dt}
         return out
+
+
+def contact_reuse(substeps: int, particles: bool = False) -> int:
+    """Most substeps one contact search serves (``StepPlan.collide_every``). A search costs more than an
+    XPBD substep, so rigid scenes search again only as often as their bodies' speed needs
+    (:meth:`StepPlan.collide_interval`), at most once a frame; cloth and soft bodies need their contacts
+    every substep. ``bench physics`` steps its rigid cases with this same reuse, so its errors include it."""
+    return 1 if particles else substeps
 
 
 def mpm_family(kind: str) -> str:
@@ -163,6 +174,7 @@ def plan_steps(objects, fps: float, base_substeps: int, *, base_iterations: int 
     need = max(base_substeps, by_kind)
     thinnest = None
     iterations = base_iterations
+    restitution = True
     moving = [o for o in objects if o.family == "rigid" and not o.fixed]
     colliders = [o for o in objects if o.family == "rigid"]
     if colliders and v > 0:
@@ -179,6 +191,10 @@ def plan_steps(objects, fps: float, base_substeps: int, *, base_iterations: int 
                 # launch when the push ends unless the contacts are iterated tighter
                 iterations = max(iterations, 8 * math.ceil(math.log10(acceleration / GRAVITY)))
                 entry["iterations"] = iterations
+                # XPBD tells an impact from a resting contact by the approach speed gravity gives in one
+                # step (2·g·dt); a body pressed by many g reads as an impact every step and bounces off
+                restitution = False
+                entry["restitution"] = "off: fields beyond 10 g make resting contacts read as impacts"
             reasons["force_fields"] = entry
     if len(moving) > 1:
         masses = [abs(o.trimesh().volume) * float(o.params.get("density", 1000.0)) for o in moving]
@@ -197,10 +213,7 @@ def plan_steps(objects, fps: float, base_substeps: int, *, base_iterations: int 
         reasons["soft_body"] = {"dt": soft_dt, "substeps": math.ceil(frame / soft_dt)}
         need = max(need, math.ceil(frame / soft_dt))
     substeps = base_substeps if fixed_substeps else min(need, MAX_SUBSTEPS)
-    # finding contacts costs twice an XPBD substep and the bench saw no change in error from reusing
-    # them within a frame, so the simulator searches again only as often as the bodies' speed needs
-    # (StepPlan.collide_interval); cloth and soft bodies need their contacts every substep
-    collide_every = 1 if particles else substeps
+    collide_every = contact_reuse(substeps, particles)
     if mpm is None:
         mpm_steps = 0
     else:
@@ -219,7 +232,7 @@ def plan_steps(objects, fps: float, base_substeps: int, *, base_iterations: int 
         # rigid substeps are a whole multiple of the MPM steps, so both meet at every MPM step
         substeps = math.ceil(substeps / mpm_steps) * mpm_steps
     return StepPlan(fps, substeps, mpm_steps, reasons, iterations, collide_every, thinnest,
-                    GRAVITY + acceleration)
+                    GRAVITY + acceleration, restitution)
 
 
 class Guard:

@@ -1,4 +1,9 @@
-"""Frames of a shot composited over its plate, written as an H.264 MP4."""
+"""Frames of a shot composited over its plate, written as an H.264 MP4.
+
+H.264 in yuv420p needs even sides: a photo with an odd width or height is
+rendered at its own size and the video drops its last column or row, so that
+the video never shows a pixel the photo does not have.
+"""
 
 from __future__ import annotations
 
@@ -9,10 +14,10 @@ import cv2
 import numpy as np
 from pxr import Usd, UsdGeom
 
-from .._files import atomic_path
+from .._files import all_or_nothing, atomic_path, make_dirs
 from .._warp import pick_device
 from ..errors import InputError
-from ..report import update_report
+from ..report import prepare_writes, update_report
 from ..settings import RenderSettings
 from ..usd import layers
 from .raycast import RayCaster
@@ -181,6 +186,11 @@ class ShotRenderer:
 
 def render_shot(shot, output=None, settings: RenderSettings = RenderSettings(), progress=None) -> dict:
     """Render every frame of ``shot`` to ``output`` (default: ``video.mp4`` beside it); returns the report section."""
+    with all_or_nothing():
+        return _render_shot(shot, output, settings, progress)
+
+
+def _render_shot(shot, output, settings: RenderSettings, progress) -> dict:
     import imageio.v2 as imageio
 
     t0 = time.perf_counter()
@@ -191,7 +201,8 @@ def render_shot(shot, output=None, settings: RenderSettings = RenderSettings(), 
         raise InputError(f"video output {out} is a directory")
     if out.suffix.lower() != ".mp4":
         raise InputError(f"video output {out.name} must end in .mp4")
-    out.parent.mkdir(parents=True, exist_ok=True)
+    prepare_writes(folder, [out if out.is_absolute() else pathlib.Path.cwd() / out])
+    make_dirs(out.parent)
     start, end = int(stage.GetStartTimeCode()), int(stage.GetEndTimeCode())
     fps = stage.GetFramesPerSecond() or stage.GetTimeCodesPerSecond() or 30.0
     renderer = ShotRenderer(stage, settings)
@@ -209,7 +220,8 @@ def render_shot(shot, output=None, settings: RenderSettings = RenderSettings(), 
         finally:
             writer.close()
     t_end = time.perf_counter()
-    section = {"video": str(out), "frames": n, "fps": fps, "width": renderer.width, "height": renderer.height,
+    section = {"video": str(out), "frames": n, "fps": fps, "width": renderer.width - renderer.width % 2,
+               "height": renderer.height - renderer.height % 2,
                "device": renderer.device,
                "seconds": {"setup": round(t_setup - t0, 4), "frames": round(t_end - t_setup, 4)},
                "total_seconds": round(t_end - t0, 4),
@@ -219,8 +231,6 @@ def render_shot(shot, output=None, settings: RenderSettings = RenderSettings(), 
 
 
 def _even(frame: np.ndarray) -> np.ndarray:
-    """H.264 in yuv420p needs even sides: repeat the last row or column where needed."""
+    """H.264 in yuv420p needs even sides: drop the last row or column where needed."""
     h, w = frame.shape[:2]
-    if h % 2 or w % 2:
-        frame = np.pad(frame, ((0, h % 2), (0, w % 2), (0, 0)), mode="edge")
-    return frame
+    return np.ascontiguousarray(frame[:h - h % 2, :w - w % 2])

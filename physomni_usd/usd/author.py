@@ -299,38 +299,22 @@ def set_param(prim: Usd.Prim, attr_name: str, value, source: str) -> None:
     attr.SetCustomDataByKey("physomni:source", source)
 
 
-def author_particle_prims(physics_path: pathlib.Path, particles: dict) -> None:
-    """Define ``/World/Particles/<name>`` Points prims in ``physics.usda`` (the simulation layer may only
-    hold overs). ``particles``: name → (display colour RGB 0–1, width m). Every such prim starts hidden —
-    frame 0 is the photo; where the particles replace their mesh, the simulation layer makes them
-    visible from frame 1, the others stay hidden, kept for artists and other renderers."""
-    layer = Sdf.Layer.FindOrOpen(str(physics_path))
-    if layer is None:
-        raise OSError(f"cannot open {physics_path}")
-    stage = Usd.Stage.Open(layer)
-    UsdGeom.Scope.Define(stage, PARTICLES)
-    for name, (colour, width) in particles.items():
-        pts = UsdGeom.Points.Define(stage, f"{PARTICLES}/{name}")
-        pts.CreatePointsAttr(Vt.Vec3fArray())
-        pts.CreateWidthsAttr(Vt.FloatArray([float(width)]))
-        pts.SetWidthsInterpolation(UsdGeom.Tokens.constant)
-        pts.CreateDisplayColorAttr(Vt.Vec3fArray([Gf.Vec3f(*map(float, colour))]))
-        pts.CreateVisibilityAttr(UsdGeom.Tokens.invisible)
-        pts.GetPrim().SetCustomDataByKey("physomni:object", f"{OBJECTS}/{name}")
-    layers.save_layer(layer, physics_path)
-
-
 def write_sim_layer(path: pathlib.Path, *, fps: float, frames: int, tracks: dict, metadata: dict,
                     point_tracks: dict | None = None, particles: dict | None = None) -> None:
-    """``sim.usdc``: overs with time samples only.
+    """``sim.usdc``: overs with time samples, and the Points prims of particle objects.
 
     ``tracks`` maps a prim path to ``(translations (F, 3), orientations (F, 4) as w, x, y, z)``; one sample
     per frame, time code = frame index. Prims that do not move must not be in ``tracks``.
     ``point_tracks`` maps a Mesh prim path to its points (F, N, 3) in the prim's own frame.
-    ``particles`` maps an object name to ``{points (F, P, 3) world, show, mesh}``: samples on
-    ``/World/Particles/<name>``; where ``show``, the particles replace the mesh from frame 1 on.
+    ``particles`` maps an object name to ``{points (F, P, 3) world, show, mesh, colour (RGB 0–1), width m}``:
+    ``/World/Particles/<name>`` is defined here, in the simulation's own layer (so that a later
+    ``estimate``, which rewrites ``physics.usda``, cannot take the particles away while this layer still
+    hides their mesh). Every such prim is hidden at frame 0 — the photo; where ``show``, the particles
+    replace the mesh from frame 1 on; the others stay hidden, kept for artists and other renderers.
     """
     layer = Sdf.Layer.CreateAnonymous(".usdc")
+    if particles:
+        _define_particle_prims(layer, particles)
     layer.timeCodesPerSecond = float(fps)
     layer.framesPerSecond = float(fps)
     layer.startTimeCode = 0.0
@@ -351,18 +335,32 @@ def write_sim_layer(path: pathlib.Path, *, fps: float, frames: int, tracks: dict
             spec.specifier = Sdf.SpecifierOver
             _point_samples(layer, spec, points)
         for name, item in (particles or {}).items():
-            spec = Sdf.CreatePrimInLayer(layer, f"{PARTICLES}/{name}")
-            spec.specifier = Sdf.SpecifierOver
+            spec = layer.GetPrimAtPath(f"{PARTICLES}/{name}")
             _point_samples(layer, spec, item["points"])
             if item["show"] and len(item["points"]) > 1:
                 _visibility_samples(layer, spec, {0: UsdGeom.Tokens.invisible, 1: UsdGeom.Tokens.inherited})
                 mesh = Sdf.CreatePrimInLayer(layer, item["mesh"])
                 mesh.specifier = Sdf.SpecifierOver
                 _visibility_samples(layer, mesh, {0: UsdGeom.Tokens.inherited, 1: UsdGeom.Tokens.invisible})
-    # every ancestor of an over is an over too, so the layer defines nothing
+    # every ancestor of an over is an over too, so the layer defines nothing but the particles
+    particles_root = Sdf.Path(PARTICLES)
     for spec_path in _all_prim_paths(layer):
-        layer.GetPrimAtPath(spec_path).specifier = Sdf.SpecifierOver
+        if not spec_path.HasPrefix(particles_root):
+            layer.GetPrimAtPath(spec_path).specifier = Sdf.SpecifierOver
     layers.save_layer(layer, path)
+
+
+def _define_particle_prims(layer: Sdf.Layer, particles: dict) -> None:
+    """``def Points`` prims under ``/World/Particles`` in ``layer``: display colour, constant width, hidden."""
+    stage = Usd.Stage.Open(layer)
+    UsdGeom.Scope.Define(stage, PARTICLES)
+    for name, item in particles.items():
+        pts = UsdGeom.Points.Define(stage, f"{PARTICLES}/{name}")
+        pts.CreateWidthsAttr(Vt.FloatArray([float(item["width"])]))
+        pts.SetWidthsInterpolation(UsdGeom.Tokens.constant)
+        pts.CreateDisplayColorAttr(Vt.Vec3fArray([Gf.Vec3f(*map(float, item["colour"]))]))
+        pts.CreateVisibilityAttr(UsdGeom.Tokens.invisible)
+        pts.GetPrim().SetCustomDataByKey("physomni:object", f"{OBJECTS}/{name}")
 
 
 def _point_samples(layer: Sdf.Layer, spec: Sdf.PrimSpec, points: np.ndarray) -> None:
@@ -378,7 +376,8 @@ def _point_samples(layer: Sdf.Layer, spec: Sdf.PrimSpec, points: np.ndarray) -> 
 
 
 def _visibility_samples(layer: Sdf.Layer, spec: Sdf.PrimSpec, samples: dict) -> None:
-    attr = Sdf.AttributeSpec(spec, "visibility", Sdf.ValueTypeNames.Token, Sdf.VariabilityVarying)
+    attr = spec.attributes.get("visibility") or Sdf.AttributeSpec(spec, "visibility", Sdf.ValueTypeNames.Token,
+                                                                  Sdf.VariabilityVarying)
     for time_code, token in samples.items():
         layer.SetTimeSample(attr.path, float(time_code), token)
 

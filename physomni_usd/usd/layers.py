@@ -3,8 +3,8 @@
 A shot folder holds one layer per stage plus the artist's layer::
 
     shot.usda     root: subLayers [edits.usda, sim.usdc, physics.usda, scene.usda]
-    edits.usda    the artist's; created empty once, never rewritten by us
-    sim.usdc      simulate: time samples only
+    edits.usda    the artist's; created empty (with the shot's time codes) once, never rewritten by us
+    sim.usdc      simulate: time samples, and the Points prims of particle objects it defines
     physics.usda  estimate: physics materials and flags, as overs
     scene.usda    build: camera, ground, background, object meshes
 
@@ -14,6 +14,7 @@ the target, so a crash never leaves a half-written layer.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import pathlib
 
@@ -77,14 +78,66 @@ def write_shot_layer(folder: pathlib.Path, fps: float, frames: int | None = None
     return save_layer(layer, folder / SHOT)
 
 
-def ensure_edits_layer(folder: pathlib.Path) -> pathlib.Path:
-    """Create an empty ``edits.usda`` if there is none; never touch an existing one."""
+def ensure_edits_layer(folder: pathlib.Path, fps: float) -> pathlib.Path:
+    """Create an empty ``edits.usda`` if there is none; never touch an existing one.
+
+    The new layer carries the shot's ``timeCodesPerSecond`` / ``framesPerSecond``: without them USD reads
+    its samples at 24 per second and rescales them under the root's rate (keys at frames 10 and 20 would
+    land at 12.5 and 25 in a 30 fps shot). An existing layer without them is left alone here; only
+    ``estimate --set`` adds them (see :func:`add_edits_time_codes`).
+    """
     path = folder / EDITS
     if path.exists():
         return path
     layer = Sdf.Layer.CreateAnonymous(".usda")
     layer.comment = "Your layer: overrides authored here win over every generated layer."
+    layer.timeCodesPerSecond = float(fps)
+    layer.framesPerSecond = float(fps)
     return save_layer(layer, path)
+
+
+def add_edits_time_codes(edits: Sdf.Layer, fps: float) -> bool:
+    """Author the root's frame rate on the artist's layer where it has none (only ``estimate --set``, which
+    authors on that layer anyway, calls this); returns whether it did."""
+    if edits.HasTimeCodesPerSecond() or edits.HasFramesPerSecond():
+        return False
+    edits.timeCodesPerSecond = float(fps)
+    edits.framesPerSecond = float(fps)
+    return True
+
+
+def orphan_overs(stage: Usd.Stage, folder: pathlib.Path) -> list[str]:
+    """Prims that only ``edits.usda`` mentions (overs of objects, materials, … no other layer defines any
+    more, e.g. after a rebuild with fewer objects): USD ignores them. The topmost of each such subtree."""
+    edits = Sdf.Layer.Find(str((folder / EDITS).resolve())) or Sdf.Layer.FindOrOpen(str(folder / EDITS))
+    if edits is None:
+        return []
+    paths = []
+    edits.Traverse(Sdf.Path.absoluteRootPath, lambda p: paths.append(p) if p.IsPrimPath() else None)
+    orphans: list[Sdf.Path] = []
+    for path in sorted(paths, key=lambda p: p.pathElementCount):
+        if any(path.HasPrefix(o) for o in orphans):
+            continue
+        spec = edits.GetPrimAtPath(path)
+        prim = stage.GetPrimAtPath(path)
+        if spec and spec.specifier == Sdf.SpecifierOver and (not prim or not prim.IsDefined()):
+            orphans.append(path)
+    return [str(o) for o in orphans]
+
+
+_ORPHANS_SAID: set[tuple[str, tuple[str, ...]]] = set()
+
+
+def warn_orphan_overs(stage: Usd.Stage, folder: pathlib.Path, echo) -> list[str]:
+    """Say (one line, once per process: `run` reaches it from several stages) which overs of ``edits.usda``
+    USD ignores because nothing defines their prim."""
+    orphans = orphan_overs(stage, folder)
+    key = (str(pathlib.Path(folder).resolve()), tuple(orphans))
+    if orphans and key not in _ORPHANS_SAID:
+        _ORPHANS_SAID.add(key)
+        echo(f"warning: edits.usda has overs for prims no layer defines any more, which are ignored: "
+             f"{', '.join(orphans)}")
+    return orphans
 
 
 def reset_sim_layer(folder: pathlib.Path, fps: float) -> pathlib.Path:
@@ -102,36 +155,100 @@ def shot_folder(shot_path: os.PathLike | str) -> pathlib.Path:
     return p if p.is_dir() else p.parent
 
 
-def open_shot(shot_path: os.PathLike | str, *, mute_sim: bool = False) -> Usd.Stage:
-    """Open a shot's composed stage; with ``mute_sim`` the old simulation layer is left out.
+#: What to do about a missing layer, by name.
+_MISSING_HINT = {
+    SIM: "run `physomni-usd simulate` to write it",
+    EDITS: "build again (it writes an empty one and keeps an existing one) or restore yours",
+}
 
-    Raises :class:`InputError` with one line when the file is missing or is no
-    readable USD layer.
-    """
+
+def shot_file(shot_path: os.PathLike | str) -> pathlib.Path:
+    """``shot.usda`` of a shot given by that file or by its folder."""
     p = pathlib.Path(shot_path)
-    if p.is_dir():
-        p = p / SHOT
+    return p / SHOT if p.is_dir() else p
+
+
+def check_shot_layers(shot_path: os.PathLike | str, *, skip_sim: bool = False) -> pathlib.Path:
+    """Refuse a shot whose root or any sublayer is missing or damaged, with one line naming the file.
+
+    ``skip_sim``: the simulation layer may be missing or damaged (``simulate`` replaces it, ``estimate``
+    never reads it). Returns the root layer's path.
+    """
+    p = shot_file(shot_path)
     if not p.is_file():
         raise InputError(f"no shot at {p}: run `physomni-usd build PHOTO -o DIR` first")
-    for name in SUBLAYERS:
-        layer_path = p.parent / name
-        if name != SIM and layer_path.exists():
-            check_layer(layer_path)
-    check_layer(p)
-    stage = Usd.Stage.Open(str(p), Usd.Stage.LoadAll)
+    root = check_layer(p)
+    for sub in root.subLayerPaths:
+        layer_path = pathlib.Path(sub) if os.path.isabs(sub) else (p.parent / sub)
+        if skip_sim and layer_path.name == SIM:
+            continue
+        if not layer_path.is_file():
+            hint = _MISSING_HINT.get(layer_path.name, "build the shot again")
+            raise InputError(f"{layer_path} is missing (a sublayer of {p.name}): {hint}")
+        check_layer(layer_path)
+    return p
+
+
+def open_shot(shot_path: os.PathLike | str, *, mute_sim: bool = False) -> Usd.Stage:
+    """Open a shot's composed stage; with ``mute_sim`` the old simulation layer is left out (and may be
+    missing or damaged).
+
+    Raises :class:`InputError` with one line when the root or a sublayer is missing or is no readable
+    USD layer; USD's own diagnostics about it are kept off the terminal.
+    """
+    from pxr import Tf
+
+    p = check_shot_layers(shot_path, skip_sim=mute_sim)
+    sim = str((p.parent / SIM).resolve())
+    with contextlib.ExitStack() as scope:
+        # USD reports a sublayer it cannot load as warnings on stderr; we say it in one line instead
+        trap = scope.enter_context(Tf.DiagnosticTrap()) if hasattr(Tf, "DiagnosticTrap") else None
+        if mute_sim and not _readable(p.parent / SIM):
+            # compose without it at all: a muted layer that failed to load stays a composition error
+            stage = Usd.Stage.Open(_root_without(p, SIM), Usd.Stage.LoadAll)
+        else:
+            stage = Usd.Stage.Open(str(p), Usd.Stage.LoadAll)
+        if trap is not None:
+            def about_layers(d):
+                return "sublayer" in str(d.commentary) or "Could not open" in str(d.commentary)
+
+            problems = [str(d.commentary) for d in trap.GetWarnings() if about_layers(d)]
+            if mute_sim:
+                problems = [m for m in problems if sim not in m and SIM not in m]
+            if problems:
+                trap.Clear()
+                raise InputError(f"{p.name}: {problems[0].split(' -- ')[0].split('; skipping')[0]}")
+            trap.EraseMatching(about_layers)
     if stage is None:
         raise InputError(f"{p} is not a readable USD stage")
     if mute_sim:
-        sim = (p.parent / SIM).resolve()
         for layer in stage.GetLayerStack(includeSessionLayers=False):
-            if layer.realPath and pathlib.Path(layer.realPath).resolve() == sim:
+            if layer.realPath and str(pathlib.Path(layer.realPath).resolve()) == sim:
                 stage.MuteLayer(layer.identifier)
     if not stage.GetPrimAtPath("/World"):
         raise InputError(f"{p} has no /World prim: it is not a physomni-usd shot")
     return stage
 
 
-def check_layer(path: pathlib.Path) -> None:
+def _readable(path: pathlib.Path) -> bool:
+    try:
+        return path.is_file() and Sdf.Layer.FindOrOpen(str(path)) is not None
+    except Exception:  # Tf.ErrorException: damaged
+        return False
+
+
+def _root_without(root_path: pathlib.Path, name: str) -> Sdf.Layer:
+    """An in-memory copy of a root layer without the sublayer ``name`` (its other sublayers made absolute)."""
+    root = Sdf.Layer.FindOrOpen(str(root_path))
+    copy = Sdf.Layer.CreateAnonymous(".usda")
+    copy.TransferContent(root)
+    folder = root_path.resolve().parent
+    copy.subLayerPaths[:] = [str(folder / sub) if not os.path.isabs(sub) else sub
+                             for sub in root.subLayerPaths if pathlib.Path(sub).name != name]
+    return copy
+
+
+def check_layer(path: pathlib.Path) -> Sdf.Layer:
     """Open one layer file and turn USD's parse errors into one line with the file, line and column."""
     import re
 
@@ -143,9 +260,12 @@ def check_layer(path: pathlib.Path) -> None:
         text = " ".join(str(exc).split())
         where = re.search(r"\.usd[ac]?:(\d+):(\d+): (.*?)(?: in <[^>]*>)?'?\s*$", text)
         detail = f" (line {where.group(1)}, column {where.group(2)}: {where.group(3)})" if where else ""
-        raise InputError(f"{path.name} is not a valid USD layer{detail}") from None
+        if not detail and ("corrupt" in text or "truncated" in text):
+            detail = " (the file is damaged or truncated)"
+        raise InputError(f"{path} is not a valid USD layer{detail}") from None
     if layer is None:
-        raise InputError(f"{path.name} is not a valid USD layer")
+        raise InputError(f"{path} is not a valid USD layer")
+    return layer
 
 
 def set_shot_time(folder: pathlib.Path, fps: float, frames: int) -> pathlib.Path:
@@ -159,3 +279,13 @@ def set_shot_time(folder: pathlib.Path, fps: float, frames: int) -> pathlib.Path
     copy.startTimeCode = 0.0
     copy.endTimeCode = float(max(frames - 1, 0))
     return save_layer(copy, path)
+
+
+def shot_seconds(shot_path: os.PathLike | str) -> float | None:
+    """The shot's own length in seconds (its frame range over its time codes per second), or None when
+    its root layer has no frame range yet (a shot built but never simulated)."""
+    root = check_layer(shot_file(shot_path))
+    if not root.HasEndTimeCode():
+        return None
+    rate = root.timeCodesPerSecond if root.HasTimeCodesPerSecond() else 24.0
+    return max(root.endTimeCode - (root.startTimeCode if root.HasStartTimeCode() else 0.0), 0.0) / rate

@@ -1,0 +1,444 @@
+"""The camera from the photo alone: pitch and vertical field of view from classical cues, combined robustly.
+
+The camera is a level pinhole (no roll) looking down by ``pitch``. Cues:
+
+- **ellipses** (weight 1, less as the outline nears a circle, where the
+  ratio hardly changes with the pitch): a round, flat outline (a coin, a plate, a saucer: labels
+  whose typical shape is round and low, ``materials/sizes.py``) seen along a
+  ray that meets the ground at angle ε shows minor/major ≈ sin ε. The pitch
+  is the one under which a cylinder of the label's typical proportions,
+  projected where the mask is, shows the mask's ratio (OpenCV ``fitEllipse``
+  on both, so thickness and perspective count the same on each side).
+- **vanishing points** of straight edges (OpenCV's line-segment detector,
+  then sequential RANSAC): world verticals meet below the image centre at
+  ``cy + f·cot(pitch)``, ground-parallel lines on the horizon at
+  ``cy − f·tan(pitch)``. Both together give the focal length
+  ``f² = (v_vertical − cy)(cy − v_horizon)`` and so the field of view; either
+  alone gives the pitch under the field of view in use.
+- **horizon**: a straight edge crossing most of the photo above every
+  object's foot (a sea or plain horizon, the far edge of a floor), weakly.
+- **where the objects stand**: every foot must lie below the horizon, which
+  bounds the pitch from below; with no other cue, the smallest tilt ≥ 10°
+  that does so (the previous default), weakly.
+
+Each cue reports its estimate and weight; the pitch is the weighted median,
+never above 89.5° nor below what the feet need. All of it goes to
+``report.json`` under ``shot.alignment.camera``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from ..materials.sizes import size_prior
+from ..perceive.lift import fill_holes
+from .camera import HORIZON_MARGIN_DEG, MIN_AUTO_PITCH_DEG, PinholeCamera
+
+DEFAULT_FOV_DEG = 50.0
+MAX_PITCH_DEG = 89.5
+#: A mask is an ellipse when its IoU with the fitted ellipse reaches this.
+ELLIPSE_IOU = 0.9
+#: Round labels at most this tall for their width give an ellipse cue (coins, plates, saucers, lids).
+FLAT_RATIO = 0.45
+#: Line segments shorter than this fraction of the image diagonal are ignored.
+MIN_SEGMENT = 0.025
+#: A segment belongs to a vanishing point when its direction is within this angle of the point (degrees).
+VP_ANGLE_DEG = 1.5
+#: Outlines rounder than this have no meaningful axis; others must lie within MAX_AXIS_TURN_DEG of a
+#: ground circle's.
+ROUND_ENOUGH = 0.97
+MAX_AXIS_TURN_DEG = 20.0
+#: A horizon this steep (pitch, degrees) needs a second cue's agreement.
+STEEP_DEG = 45.0
+#: Fields of view a vanishing-point pair may give (degrees); outside, the pair is not trusted.
+FOV_RANGE = (15.0, 120.0)
+
+
+@dataclass
+class Cue:
+    kind: str
+    pitch_deg: float | None
+    weight: float
+    fov_deg: float | None = None
+    detail: dict = field(default_factory=dict)
+
+    def as_dict(self) -> dict:
+        r = lambda x: None if x is None else round(float(x), 3)  # noqa: E731
+        return {"cue": self.kind, "pitch_deg": r(self.pitch_deg), "fov_deg": r(self.fov_deg),
+                "weight": round(float(self.weight), 3), **self.detail}
+
+
+@dataclass
+class CameraEstimate:
+    pitch_deg: float
+    fov_deg: float
+    cues: list[Cue]
+    pitch_source: str
+    fov_source: str
+    min_pitch_deg: float
+
+    def as_dict(self) -> dict:
+        return {"pitch_deg": round(self.pitch_deg, 3), "fov_deg": round(self.fov_deg, 3),
+                "pitch_source": self.pitch_source, "fov_source": self.fov_source,
+                "min_pitch_deg": round(self.min_pitch_deg, 3), "cues": [c.as_dict() for c in self.cues]}
+
+
+def focal_px(fov_deg: float, height: int) -> float:
+    return 0.5 * height / math.tan(math.radians(fov_deg) / 2)
+
+
+def weighted_median(values, weights) -> float:
+    v, w = np.asarray(values, float), np.asarray(weights, float)
+    order = np.argsort(v)
+    v, w = v[order], w[order]
+    c = np.cumsum(w)
+    return float(v[np.searchsorted(c, 0.5 * c[-1])])
+
+
+# ellipses -----------------------------------------------------------------------------------------
+
+def _fit_ratio(points: np.ndarray) -> tuple[float, tuple] | None:
+    pts = np.asarray(points, np.float32).reshape(-1, 1, 2)
+    if len(pts) < 5:
+        return None
+    (cx, cy), (a, b), angle = cv2.fitEllipse(pts)
+    if max(a, b) <= 0:
+        return None
+    return min(a, b) / max(a, b), ((cx, cy), (a, b), angle)
+
+
+def mask_ellipse(mask: np.ndarray) -> tuple[float, float, tuple] | None:
+    """(minor/major, IoU of the mask with its fitted ellipse, the ellipse) of a mask's outer contour."""
+    contours, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    if not contours:
+        return None
+    c = max(contours, key=cv2.contourArea)
+    fit = _fit_ratio(c[:, 0, :].astype(np.float32) + 0.5)
+    if fit is None:
+        return None
+    ratio, ell = fit
+    drawn = np.zeros(mask.shape, np.uint8)
+    cv2.ellipse(drawn, (ell[0], ell[1], ell[2]), 1, -1)
+    inter = np.logical_and(drawn > 0, mask).sum()
+    union = np.logical_or(drawn > 0, mask).sum()
+    return ratio, inter / max(union, 1), ell
+
+
+def cylinder_ratio(camera: PinholeCamera, u: float, v: float, thickness: float, angle: bool = False):
+    """minor/major of the outline of a small cylinder (diameter 1, height ``thickness``) standing on the ground
+    where pixel (u, v) looks, as ``camera`` sees it (and fitEllipse's angle in degrees, with ``angle``)."""
+    g = camera.ground_points(u, v)
+    if not np.all(np.isfinite(g)):
+        return None
+    dist = float(np.linalg.norm(g - camera.origin))
+    r = 0.01 * dist
+    t = np.linspace(0, 2 * np.pi, 48, endpoint=False)
+    ring = np.stack([np.cos(t), np.sin(t), np.zeros_like(t)], 1) * r
+    pts = np.vstack([g + ring, g + ring + [0, 0, 2 * r * thickness]])
+    uv, depth = camera.project(pts)
+    if (depth <= 0).any():
+        return None
+    hull = cv2.convexHull(uv.astype(np.float32))
+    fit = _fit_ratio(hull[:, 0, :])
+    if fit is None:
+        return None
+    return (fit[0], _major_angle(fit[1])) if angle else fit[0]
+
+
+def _major_angle(ellipse) -> float:
+    """Direction of an OpenCV ellipse's major axis, degrees in [0, 180)."""
+    (_, _), (a, b), ang = ellipse
+    return (ang + (0.0 if a >= b else 90.0)) % 180.0
+
+
+@dataclass
+class RoundOutline:
+    label: str
+    u: float
+    v: float
+    ratio: float
+    iou: float
+    thickness: float  # typical height over width of the label
+    angle: float = 0.0  # the fitted ellipse's major axis, degrees
+
+    def pitch(self, width: int, height: int, fov_deg: float) -> float | None:
+        """The pitch under which a cylinder of this outline's proportions shows its ratio (2° then 0.25° steps)."""
+        best = None
+        for lo, hi, step in ((0.0, MAX_PITCH_DEG, 2.0), (None, None, 0.25)):
+            if lo is None:
+                if best is None:
+                    return None
+                lo, hi = max(0.0, best[1] - 2.0), min(MAX_PITCH_DEG, best[1] + 2.0)
+            for pitch in np.arange(lo, hi + 1e-9, step):
+                model = cylinder_ratio(PinholeCamera(width, height, fov_deg, float(pitch)), self.u, self.v,
+                                       self.thickness)
+                if model is not None and (best is None or abs(model - self.ratio) < best[0]):
+                    best = (abs(model - self.ratio), float(pitch))
+        return best[1] if best is not None and best[0] <= 0.05 else None
+
+
+def round_outlines(masks, labels) -> list[RoundOutline]:
+    """Masks that are ellipses and whose labels are round, flat things (coins, plates, saucers, lids)."""
+    out = []
+    for mask, label in zip(masks, labels):
+        prior = size_prior(label)
+        if prior is None or prior.shape != "round" or not prior.longest_m or not prior.height_m:
+            continue
+        thickness = prior.height_m / prior.longest_m
+        found = mask_ellipse(fill_holes(mask)) if thickness <= FLAT_RATIO else None
+        if found is None or found[1] < ELLIPSE_IOU:
+            continue
+        ratio, iou, ell = found
+        (u, v), _, _ = ell
+        out.append(RoundOutline(label, u, v, ratio, float(iou), thickness, _major_angle(ell)))
+    return out
+
+
+def ellipse_cues(outlines: list[RoundOutline], width: int, height: int, fov_deg: float) -> list[Cue]:
+    cues = []
+    for o in outlines:
+        pitch = o.pitch(width, height, fov_deg)
+        if pitch is not None and o.ratio < ROUND_ENOUGH:
+            # a circle on the ground foreshortens along the line of sight: an outline squashed across it is
+            # not a tilted circle (an irregular coin, a lid seen from the side)
+            model = cylinder_ratio(PinholeCamera(width, height, fov_deg, pitch), o.u, o.v, o.thickness, angle=True)
+            turn = abs((o.angle - model[1] + 90.0) % 180.0 - 90.0) if model else 0.0
+            if turn > MAX_AXIS_TURN_DEG:
+                continue
+        if pitch is not None:
+            # near a circle the ratio barely changes with the pitch: trust it less
+            weight = max(0.1, min(1.0, (1.0 - o.ratio) / 0.05))
+            cues.append(Cue("ellipse", pitch, weight, detail={"label": o.label, "minor_over_major": round(o.ratio, 4),
+                                                            "ellipse_iou": round(o.iou, 3)}))
+    return cues
+
+
+def ellipse_horizon_fov(outlines: list[RoundOutline], horizon_row: float, width: int, height: int) -> Cue | None:
+    """The field of view under which the round outlines and the horizon agree on the pitch, if one does."""
+    outlines = [o for o in outlines if o.ratio <= 0.95]  # nearly circular: the pitch barely shows
+    if not outlines:
+        return None
+    cy = 0.5 * height
+
+    def diff(fov):
+        ps = [o.pitch(width, height, fov) for o in outlines]
+        ps = [p for p in ps if p is not None]
+        if not ps:
+            return None
+        return float(np.median(ps)) - math.degrees(math.atan2(cy - horizon_row, focal_px(fov, height)))
+
+    fovs = np.arange(FOV_RANGE[0] + 10, FOV_RANGE[1] - 20 + 1e-9, 5.0)
+    d = [diff(f) for f in fovs]
+    for i in range(len(fovs) - 1):
+        if d[i] is None or d[i + 1] is None or np.sign(d[i]) == np.sign(d[i + 1]):
+            continue
+        slope = abs(d[i + 1] - d[i]) / 5.0  # degrees of disagreement per degree of field of view
+        if slope < 0.1:  # the cues barely depend on it (a top-down view): no answer
+            return None
+        lo, hi, dlo = fovs[i], fovs[i + 1], d[i]
+        for _ in range(6):
+            mid = 0.5 * (lo + hi)
+            dm = diff(mid)
+            if dm is None:
+                break
+            lo, hi, dlo = (mid, hi, dm) if np.sign(dm) == np.sign(dlo) else (lo, mid, dlo)
+        return Cue("ellipses and horizon", None, min(2.0, slope * 2.0), 0.5 * (lo + hi),
+                   {"horizon_row": round(horizon_row, 1), "disagreement_slope": round(slope, 3)})
+    return None
+
+
+# vanishing points ---------------------------------------------------------------------------------
+
+def line_segments(photo: np.ndarray) -> np.ndarray:
+    """(N, 4) segments x0, y0, x1, y1 of OpenCV's line-segment detector, at most 1000 px on the long side."""
+    gray = cv2.cvtColor(photo, cv2.COLOR_RGB2GRAY) if photo.ndim == 3 else photo
+    k = min(1.0, 1000.0 / max(gray.shape))
+    small = cv2.resize(gray, None, fx=k, fy=k, interpolation=cv2.INTER_AREA) if k < 1 else gray
+    found = cv2.createLineSegmentDetector().detect(small)[0]
+    if found is None:
+        return np.zeros((0, 4))
+    seg = found.reshape(-1, 4).astype(float) / k
+    length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
+    return seg[length >= MIN_SEGMENT * math.hypot(*gray.shape[:2])]
+
+
+def _consistent(seg: np.ndarray, vp: np.ndarray) -> np.ndarray:
+    """Angle (degrees) between each segment and the direction from its midpoint to the homogeneous point vp."""
+    mid = 0.5 * (seg[:, :2] + seg[:, 2:])
+    d = seg[:, 2:] - seg[:, :2]
+    if abs(vp[2]) < 1e-9:
+        to = np.broadcast_to(vp[:2], d.shape)
+    else:
+        to = vp[:2] / vp[2] - mid
+    cos = np.abs((d * to).sum(1)) / (np.linalg.norm(d, axis=1) * np.linalg.norm(to, axis=1) + 1e-12)
+    return np.degrees(np.arccos(np.clip(cos, 0.0, 1.0)))
+
+
+def _off_objects(seg: np.ndarray, objects: np.ndarray) -> float:
+    """Fraction of the segments' length whose midpoints lie off the objects."""
+    mid = np.round(0.5 * (seg[:, :2] + seg[:, 2:])).astype(int)
+    mid[:, 0] = np.clip(mid[:, 0], 0, objects.shape[1] - 1)
+    mid[:, 1] = np.clip(mid[:, 1], 0, objects.shape[0] - 1)
+    length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
+    off = ~objects[mid[:, 1], mid[:, 0]]
+    return float(length[off].sum() / max(length.sum(), 1e-9))
+
+
+def vanishing_points(seg: np.ndarray, max_points: int = 3, min_support: int = 6, seed: int = 0,
+                     with_segments: bool = False) -> list[dict]:
+    """Sequential RANSAC: up to ``max_points`` vanishing points, each {point (3,), inliers, length}."""
+    rng = np.random.default_rng(seed)
+    left = seg.copy()
+    out = []
+    for _ in range(max_points):
+        if len(left) < max(min_support, 2):
+            break
+        p0 = np.c_[left[:, :2], np.ones(len(left))]
+        p1 = np.c_[left[:, 2:], np.ones(len(left))]
+        lines = np.cross(p0, p1)
+        length = np.hypot(left[:, 2] - left[:, 0], left[:, 3] - left[:, 1])
+        best, best_score = None, 0.0
+        prob = length / length.sum()
+        for _ in range(300):
+            i, j = rng.choice(len(left), 2, replace=False, p=prob)
+            vp = np.cross(lines[i], lines[j])
+            if not np.all(np.isfinite(vp)) or np.linalg.norm(vp) < 1e-12:
+                continue
+            vp = vp / np.linalg.norm(vp)
+            inl = _consistent(left, vp) < VP_ANGLE_DEG
+            score = length[inl].sum()
+            if score > best_score:
+                best, best_score = (vp, inl), score
+        if best is None or best[1].sum() < min_support:
+            break
+        vp, inl = best
+        # refine: the point nearest (least squares) to all inlier lines
+        ln = lines[inl] / np.linalg.norm(lines[inl][:, :2], axis=1, keepdims=True)
+        _, _, vt = np.linalg.svd(ln * length[inl][:, None])
+        vp = vt[-1] / np.linalg.norm(vt[-1])
+        inl = _consistent(left, vp) < VP_ANGLE_DEG
+        out.append({"point": vp, "inliers": int(inl.sum()), "length": float(length[inl].sum())}
+                   | ({"segments": left[inl]} if with_segments else {}))
+        left = left[~inl]
+    return out
+
+
+def vanishing_cues(photo: np.ndarray, fov_deg: float | None, fov_given: bool, objects: np.ndarray | None = None):
+    """(pitch cues, field-of-view cues, horizon row or None) from the vanishing points of the photo's edges.
+
+    ``objects`` (H, W) bool marks the objects: lines meeting above the centre are taken for ground lines
+    on the horizon only when most of their length lies off the objects (a camera tilted up sees standing
+    things' verticals meet above the centre too).
+    """
+    h, w = photo.shape[:2]
+    cx, cy = 0.5 * w, 0.5 * h
+    seg = line_segments(photo)
+    vps = vanishing_points(seg, with_segments=True)
+    vertical, horizon = None, []
+    diag = math.hypot(w, h)
+    for vp in vps:
+        p = vp["point"]
+        far = abs(p[2]) < 1e-9 or math.hypot(p[0] / p[2] - cx, p[1] / p[2] - cy) > 100 * diag
+        if far:
+            if abs(p[1]) > 10 * abs(p[0]) and vertical is None:  # parallel verticals: a level camera
+                vertical = {"v": math.inf, **vp}
+            continue  # parallel horizontal lines (no roll): no information
+        u, v = p[0] / p[2], p[1] / p[2]
+        # no roll: verticals meet straight below the centre, ground-parallel lines on the horizon above it
+        if v > cy and abs(u - cx) < 0.05 * w + 0.05 * (v - cy) and vertical is None:
+            vertical = {"u": u, "v": v, **vp}
+        elif v < cy and (objects is None or _off_objects(vp["segments"], objects) >= 0.5):
+            horizon.append({"u": u, "v": v, **vp})
+    pitch_cues, fov_cues = [], []
+    v_h = None
+    if horizon:
+        v_h = weighted_median([x["v"] for x in horizon], [x["length"] for x in horizon])
+    support = lambda *xs: min(3.0, sum(x["inliers"] for x in xs) / 10.0)  # noqa: E731
+    if vertical is not None and v_h is not None and math.isfinite(vertical["v"]):
+        f = math.sqrt((vertical["v"] - cy) * (cy - v_h))
+        fov = math.degrees(2 * math.atan(0.5 * h / f))
+        if FOV_RANGE[0] <= fov <= FOV_RANGE[1]:
+            fov_cues.append(Cue("vanishing points", None, support(vertical, *horizon), fov,
+                                {"vertical_row": round(vertical["v"], 1), "horizon_row": round(v_h, 1)}))
+        else:  # the two cannot both be right; the horizon rests on more segments as a rule
+            vertical = None
+    f_use = focal_px(fov_cues[0].fov_deg if fov_cues and not fov_given else fov_deg, h)
+    if vertical is not None:
+        pitch = 0.0 if not math.isfinite(vertical["v"]) else math.degrees(math.atan2(f_use, vertical["v"] - cy))
+        pitch_cues.append(Cue("vertical vanishing point", pitch, support(vertical),
+                              detail={"row": None if not math.isfinite(vertical["v"]) else round(vertical["v"], 1),
+                                      "segments": vertical["inliers"]}))
+    if v_h is not None:
+        pitch = math.degrees(math.atan2(cy - v_h, f_use))
+        pitch_cues.append(Cue("horizon vanishing points", pitch, support(*horizon),
+                              detail={"row": round(v_h, 1), "points": len(horizon),
+                                      "segments": sum(x["inliers"] for x in horizon)}))
+    # a straight edge across most of the photo, above every foot: a visible horizon (weak)
+    if len(seg):
+        d = seg[:, 2:] - seg[:, :2]
+        flat = (np.abs(d[:, 1]) < 0.02 * np.abs(d[:, 0])) & (np.abs(d[:, 0]) > 0.6 * w)
+        if flat.any():
+            row = float(np.median(0.5 * (seg[flat, 1] + seg[flat, 3])))
+            pitch_cues.append(Cue("horizon line", math.degrees(math.atan2(cy - row, f_use)), 0.03,
+                                  detail={"row": round(row, 1)}))
+    return pitch_cues, fov_cues, v_h
+
+
+# combined -----------------------------------------------------------------------------------------
+
+def min_pitch(fov_deg: float, height: int, foot_rows) -> float:
+    """Smallest pitch that puts every foot at least HORIZON_MARGIN_DEG below the horizon."""
+    f = focal_px(fov_deg, height)
+    highest = max(math.degrees(math.atan((0.5 * height - r) / f)) for r in foot_rows) if len(foot_rows) else -90.0
+    return highest + HORIZON_MARGIN_DEG
+
+
+def estimate_camera(photo: np.ndarray, masks, labels, foot_rows, fov_deg: float | None = None,
+                    pitch_deg: float | None = None) -> CameraEstimate:
+    """Pitch and vertical field of view of the photo; a given ``fov_deg`` / ``pitch_deg`` wins over the cues."""
+    h, w = photo.shape[:2]
+    objects = np.zeros((h, w), bool)
+    for m in masks:
+        objects |= m.astype(bool)
+    objects = cv2.dilate(objects.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    pitch_cues, fov_cues, horizon_row = vanishing_cues(photo, fov_deg or DEFAULT_FOV_DEG, fov_deg is not None,
+                                                       objects)
+    outlines = round_outlines(masks, labels)
+    if fov_deg is None and horizon_row is not None:
+        both = ellipse_horizon_fov(outlines, horizon_row, w, h)
+        if both is not None:
+            fov_cues.append(both)
+            f = focal_px(weighted_median([c.fov_deg for c in fov_cues], [c.weight for c in fov_cues]), h)
+            for c in pitch_cues:
+                if c.kind == "horizon vanishing points":
+                    c.pitch_deg = math.degrees(math.atan2(0.5 * h - horizon_row, f))
+    if fov_deg is not None:
+        fov, fov_source = float(fov_deg), "user"
+    elif fov_cues:
+        fov = weighted_median([c.fov_deg for c in fov_cues], [c.weight for c in fov_cues])
+        fov_source = "vanishing points"
+    else:
+        fov, fov_source = DEFAULT_FOV_DEG, f"default {DEFAULT_FOV_DEG:g}° (a phone's main camera)"
+    pitch_cues += ellipse_cues(outlines, w, h, fov)
+    lowest = min_pitch(fov, h, foot_rows)
+    # Lines meeting far above the image are ground lines seen from above, or the verticals of a camera tilted
+    # up (which this camera model cannot be): a steep horizon counts only when another cue agrees.
+    for c in pitch_cues:
+        if c.kind == "horizon vanishing points" and c.pitch_deg > STEEP_DEG and not any(
+                o is not c and o.pitch_deg is not None and abs(o.pitch_deg - c.pitch_deg) <= 10.0
+                and o.kind in ("ellipse", "vertical vanishing point") for o in pitch_cues):
+            c.weight, c.detail["uncorroborated"] = 0.03, True
+    cues = fov_cues + pitch_cues
+    cues.append(Cue("objects' feet", max(MIN_AUTO_PITCH_DEG, lowest), 0.05,
+                    detail={"min_pitch_deg": round(lowest, 3)}))
+    if pitch_deg is not None:
+        return CameraEstimate(float(pitch_deg), fov, cues, "user", fov_source, lowest)
+    usable = [c for c in cues if c.pitch_deg is not None and c.weight > 0]
+    pitch = weighted_median([c.pitch_deg for c in usable], [c.weight for c in usable])
+    kinds = sorted({c.kind for c in usable if c.weight >= 0.5}) or ["objects' feet"]
+    pitch = float(min(max(pitch, lowest), MAX_PITCH_DEG))
+    return CameraEstimate(pitch, fov, cues, "weighted median of " + ", ".join(kinds), fov_source, lowest)

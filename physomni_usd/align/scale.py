@@ -1,0 +1,108 @@
+"""The scene's one unknown scale, fixed from what the objects' labels say about their sizes.
+
+A single photo fixes shapes and positions up to one scale. Each object whose
+label has a typical size (``materials/sizes.py``) votes with the log of
+(typical longest dimension / lifted longest dimension); the votes' median,
+then the mean of the votes within max(3 MADs, log 1.5) of it, gives the
+scale, so one mislabelled or badly cut object cannot drag the scene. Sizes the
+user gives (``--size LABEL=METRES``, longest dimension) replace the votes;
+``--camera-height`` replaces them too. With neither, nor any label in the
+table, the camera is taken to stand 1 m above the ground, as before.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InputError
+from ..materials.sizes import size_prior
+
+#: Votes farther than this (natural log) from the median are outliers even when the MAD is tiny.
+MIN_OUTLIER_LOG = math.log(1.5)
+DEFAULT_CAMERA_HEIGHT_M = 1.0
+
+
+@dataclass
+class ScaleFit:
+    factor: float  # multiply the scene (built under a camera at height_unit) by this
+    source: str  # 'size' | 'camera-height' | 'priors' | 'default'
+    votes: list[dict] = field(default_factory=list)
+
+    def as_dict(self, camera_height_m: float) -> dict:
+        return {"factor": round(self.factor, 6), "source": self.source, "camera_height_m": round(camera_height_m, 4),
+                "votes": self.votes}
+
+
+def parse_sizes(specs, objects) -> dict[str, float]:
+    """``['coin=0.024']`` → ``{'coin_0': 0.024}``; ``objects`` are (prim name, label) pairs.
+
+    LABEL is a label (every object carrying it) or a prim name; the size is the
+    object's longest dimension in metres.
+    """
+    out = {}
+    for spec in specs or ():
+        key, sep, value = str(spec).partition("=")
+        key = key.strip()
+        try:
+            metres = float(value)
+        except ValueError:
+            metres = float("nan")
+        if not sep or not key:
+            raise InputError(f"--size {spec!r}: expected LABEL=METRES, e.g. coin=0.024")
+        if not math.isfinite(metres) or not 1e-4 <= metres <= 1e4:
+            raise InputError(f"--size {spec!r}: the size must be a number of metres in [0.0001, 10000]")
+        hits = [name for name, label in objects if key in (name, label)]
+        if not hits:
+            known = ", ".join(sorted({label for _, label in objects})) or "none"
+            raise InputError(f"--size {spec!r}: no object labelled {key!r} (known: {known})")
+        out.update(dict.fromkeys(hits, metres))
+    return out
+
+
+def robust_log_mean(logs) -> tuple[float, np.ndarray]:
+    """Mean of the values within max(3·1.4826·MAD, log 1.5) of their median, and the inlier flags."""
+    x = np.asarray(logs, float)
+    med = float(np.median(x))
+    mad = 1.4826 * float(np.median(np.abs(x - med)))
+    inlier = np.abs(x - med) <= max(3.0 * mad, MIN_OUTLIER_LOG)
+    return float(x[inlier].mean()), inlier
+
+
+def fit_scale(names, labels, longest_m, user_sizes: dict[str, float] | None = None,
+              camera_height_m: float | None = None, unit_height_m: float = DEFAULT_CAMERA_HEIGHT_M) -> ScaleFit:
+    """The factor taking a scene lifted under a camera ``unit_height_m`` high to real metres.
+
+    ``longest_m`` are the objects' longest dimensions as lifted. Order of
+    authority: ``user_sizes`` (prim name → metres), then ``camera_height_m``,
+    then the label priors, then a camera 1 m high.
+    """
+    user_sizes = user_sizes or {}
+    votes = []
+    for name, label, size in zip(names, labels, longest_m):
+        prior = size_prior(label)
+        vote = {"name": name, "label": label, "measured_m": round(float(size), 5)}
+        if name in user_sizes:
+            vote |= {"size_m": user_sizes[name], "from": "user"}
+        elif prior is not None and prior.votes:
+            vote |= {"size_m": prior.longest_m, "from": f"prior '{prior.keyword}'"}
+        else:
+            vote |= {"size_m": None, "from": "no typical size" if prior else "label not in the size table"}
+        votes.append(vote)
+    users = [v for v in votes if v["from"] == "user" and v["measured_m"] > 0]
+    if users:
+        logs = [math.log(v["size_m"] / v["measured_m"]) for v in users]
+        mean, _ = robust_log_mean(logs)
+        return ScaleFit(math.exp(mean), "size", votes)
+    if camera_height_m is not None:
+        return ScaleFit(camera_height_m / unit_height_m, "camera-height", votes)
+    priors = [v for v in votes if v["size_m"] is not None and v["measured_m"] > 0]
+    if priors:
+        logs = [math.log(v["size_m"] / v["measured_m"]) for v in priors]
+        mean, inlier = robust_log_mean(logs)
+        for v, ok in zip(priors, inlier):
+            v["inlier"] = bool(ok)
+        return ScaleFit(math.exp(mean), "priors", votes)
+    return ScaleFit(DEFAULT_CAMERA_HEIGHT_M / unit_height_m, "default", votes)

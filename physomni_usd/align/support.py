@@ -1,0 +1,109 @@
+"""Objects resting on others in the photo (a cup on its saucer, a book on a box, fruit in a bowl).
+
+From the masks alone: object A rests on object B when
+
+- seen from the side, most of A's lowest outline (the bottom pixel of each of
+  its columns) touches B's mask just below it, A's foot is higher in the photo
+  than B's, and A's bottom lies within B's columns; or
+- seen from above, most of the ring just outside A's mask is B, its lowest
+  quarter included (A lies inside B's outline, B partly hidden by A; an
+  object standing in front of B shows the ground below it instead).
+
+The masks cannot tell a cup on a saucer from a cup hidden behind the saucer's
+rim; the first reading is taken, which the README states. Each upper object
+then stands on its lower one's top (``base_z``) instead of on the ground, and
+moves with it when objects are moved apart.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from ..perceive.lift import fill_holes, foot_pixel
+
+#: Fraction of A's lowest outline that must touch B (side view), or of the ring around A that must be B (above).
+CONTACT_FRACTION = 0.6
+ENCLOSED_FRACTION = 0.6
+
+
+def _lowest_outline(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Columns and rows of each column's lowest pixel."""
+    cols = np.nonzero(mask.any(axis=0))[0]
+    rows = mask.shape[0] - 1 - np.argmax(mask[::-1, cols], axis=0)
+    return cols, rows
+
+
+def support_score(upper: np.ndarray, lower: np.ndarray, reach: int) -> tuple[float, str]:
+    """(score in [0, 1], 'contact' | 'enclosed') of ``upper`` resting on ``lower``; 0 when it does not."""
+    a = fill_holes(upper)
+    b = lower.astype(bool)
+    h = a.shape[0]
+    cols, rows = _lowest_outline(a)
+    touch = np.array([b[min(r + 1, h - 1):min(r + 1 + reach, h), c].any() for c, r in zip(cols, rows)])
+    contact = float(touch.mean()) if len(touch) else 0.0
+    b_cols = np.nonzero(b.any(axis=0))[0]
+    inside = len(b_cols) and cols.min() >= b_cols.min() - reach and cols.max() <= b_cols.max() + reach
+    foot_a, foot_b = foot_pixel(a)[1], foot_pixel(fill_holes(b))[1]
+    if contact >= CONTACT_FRACTION and inside and foot_a < foot_b - 1:
+        return contact, "contact"
+    ring = cv2.dilate(a.astype(np.uint8), np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)) > 0
+    ring &= ~a
+    enclosed = float((ring & b).sum() / max(ring.sum(), 1))
+    # below A too: an object standing in front of B shows the ground under it, not B
+    ys = np.nonzero(ring)[0]
+    low = ring & (np.arange(h)[:, None] >= np.percentile(ys, 75)) if len(ys) else ring
+    below = float((low & b).sum() / max(low.sum(), 1))
+    if enclosed >= ENCLOSED_FRACTION and below >= ENCLOSED_FRACTION:
+        return enclosed, "enclosed"
+    return 0.0, ""
+
+
+def find_supports(masks) -> dict[int, tuple[int, str]]:
+    """``{upper index: (lower index, how)}``; no object rests on itself or, through others, on itself."""
+    if not masks:
+        return {}
+    reach = max(2, int(round(0.01 * masks[0].shape[0])))
+    best: dict[int, tuple[float, int, str]] = {}
+    for i, a in enumerate(masks):
+        for j, b in enumerate(masks):
+            if i == j:
+                continue
+            score, how = support_score(a, b, reach)
+            if score > 0 and (i not in best or score > best[i][0]):
+                best[i] = (score, j, how)
+    out = {i: (j, how) for i, (_, j, how) in best.items()}
+    # break cycles: in a cycle, the object lowest in the photo rests on nothing
+    feet = [foot_pixel(fill_holes(m))[1] for m in masks]
+    for start in list(out):
+        seen, k = [], start
+        while k in out and k not in seen:
+            seen.append(k)
+            k = out[k][0]
+        if k in seen:
+            cycle = seen[seen.index(k):]
+            out.pop(max(cycle, key=lambda n: feet[n]), None)
+    return out
+
+
+def support_order(n: int, supports: dict[int, tuple[int, str]]) -> list[int]:
+    """Indices with every lower object before the objects resting on it."""
+    order, placed = [], set()
+
+    def visit(i):
+        if i in placed:
+            return
+        if i in supports:
+            visit(supports[i][0])
+        placed.add(i)
+        order.append(i)
+
+    for i in range(n):
+        visit(i)
+    return order
+
+
+def root_of(i: int, supports: dict[int, tuple[int, str]]) -> int:
+    while i in supports:
+        i = supports[i][0]
+    return i

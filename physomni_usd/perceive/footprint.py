@@ -1,0 +1,256 @@
+"""Lifting an object seen from above: its silhouette is mostly its footprint.
+
+Seen from above, a prism of footprint F and height H projects onto the
+ground as F stretched away from the camera by its top's parallax. The mask
+cast onto the ground plane (A₀) and cast onto the plane at height H and
+dropped (A_H) both contain F, and for a convex prism their intersection is F
+(up to slivers at the sides): so F = A₀ ∩ A_H, rasterised on a ground grid.
+
+The height comes from the visible sides where the photo shows them: a round
+outline (the footprint's outline close to its fitted circle) is a cylinder,
+whose footprint is as deep as it is wide, and the H that makes it so is the
+height; other outlines take it from the edge between their front side and
+their top, where the photo shows one consistently across the object. Where the sides hardly show (rays steeper than ``SIDES_VISIBLE_DEG``
+from the horizontal) or the outline is not round, the height is the label's
+typical height (``materials/sizes.py``), and without one half the
+footprint's width. Round footprints become cylinders (a disc when flat), or
+spheres where the label is a ball's; others the prism of their convex hull.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import trimesh
+
+#: Cells across the footprint's ground-grid raster.
+GRID_CELLS = 256
+#: A footprint whose IoU with its fitted circle reaches this is round.
+ROUND_IOU = 0.85
+#: Rays steeper than this (degrees below the horizontal) hardly show an object's sides.
+SIDES_VISIBLE_DEG = 80.0
+#: Height of an object without a typical height, as a fraction of its footprint's width.
+DEFAULT_HEIGHT_RATIO = 0.5
+
+
+def outline(mask: np.ndarray) -> np.ndarray:
+    """(n, 2) pixel-edge coordinates of the convex hull of the mask: parts that another object cuts apart
+    belong to one object, and the lifted shapes are convex anyway."""
+    contours, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    c = cv2.convexHull(np.vstack(contours))[:, 0, :].astype(float)
+    # contour pixels' centres pushed half a pixel outwards from the centroid: the outline's pixel edges
+    mid = c.mean(0)
+    d = c - mid
+    n = np.linalg.norm(d, axis=1, keepdims=True)
+    return c + 0.5 + 0.5 * d / np.maximum(n, 1e-9)
+
+
+def on_plane(camera, uv: np.ndarray, z: float) -> np.ndarray:
+    """(n, 3) where the rays through pixels ``uv`` meet the plane at height ``z``; NaN where they do not."""
+    d = camera.rays(uv[:, 0], uv[:, 1])
+    t = (z - camera.origin[2]) / np.where(d[:, 2] < -1e-9, d[:, 2], np.nan)
+    t = np.where(t > 0, t, np.nan)
+    return camera.origin + t[:, None] * d
+
+
+def footprint(poly_uv: np.ndarray, camera, base_z: float, height: float) -> np.ndarray | None:
+    """(m, 2) outline of F = A₀ ∩ A_H on the ground, or None if the outline does not reach the ground."""
+    a0 = on_plane(camera, poly_uv, base_z)[:, :2]
+    ah = on_plane(camera, poly_uv, base_z + height)[:, :2] if height > 0 else a0
+    if not (np.all(np.isfinite(a0)) and np.all(np.isfinite(ah))):
+        return None
+    lo = np.minimum(a0.min(0), ah.min(0))
+    hi = np.maximum(a0.max(0), ah.max(0))
+    cell = float(max(hi - lo)) / GRID_CELLS
+    if cell <= 0:
+        return None
+    shape = (int(math.ceil((hi[1] - lo[1]) / cell)) + 3, int(math.ceil((hi[0] - lo[0]) / cell)) + 3)
+    grid = lambda p: np.round((p - lo) / cell * 16 + 16).astype(np.int32)  # noqa: E731 (1-cell margin, 4 bits)
+    r0 = np.zeros(shape, np.uint8)
+    rh = np.zeros(shape, np.uint8)
+    cv2.fillPoly(r0, [grid(a0)], 1, shift=4)
+    cv2.fillPoly(rh, [grid(ah)], 1, shift=4)
+    both = (r0 & rh).astype(np.uint8)
+    contours, _ = cv2.findContours(both, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    if not contours:
+        return None
+    c = max(contours, key=cv2.contourArea)[:, 0, :].astype(float)
+    return (c - 1.0 + 0.5) * cell + lo
+
+
+def circle_fit(poly: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """(centre (2,), radius, IoU of the polygon with that circle); the circle has the polygon's area."""
+    area = abs(cv2.contourArea(poly.astype(np.float32)))
+    m = cv2.moments(poly.astype(np.float32))
+    centre = np.array([m["m10"] / m["m00"], m["m01"] / m["m00"]]) if m["m00"] else poly.mean(0)
+    r = math.sqrt(area / math.pi)
+    # IoU by rasterising both on a small grid
+    span = max(np.ptp(poly, axis=0).max(), 2 * r)
+    cell = span / 128
+    lo = np.minimum(poly.min(0), centre - r) - cell
+    shape = (int(span / cell) + 4, int(span / cell) + 4)
+    a = np.zeros(shape, np.uint8)
+    b = np.zeros(shape, np.uint8)
+    cv2.fillPoly(a, [np.round((poly - lo) / cell * 16).astype(np.int32)], 1, shift=4)
+    cv2.circle(b, tuple(int(x) for x in np.round((centre - lo) / cell * 16)), int(round(r / cell * 16)), 1, -1,
+               shift=4)
+    iou = float((a & b).sum() / max((a | b).sum(), 1))
+    return centre, r, iou
+
+
+def view_depression_deg(camera, point: np.ndarray) -> float:
+    d = np.asarray(point, float) - camera.origin
+    return math.degrees(math.atan2(-d[2], math.hypot(d[0], d[1])))
+
+
+def height_from_sides(poly_uv, camera, base_z: float) -> float | None:
+    """The height that makes the footprint as deep (away from the camera) as it is wide, if one does."""
+    top = 0.95 * (camera.origin[2] - base_z)
+
+    def aspect(h):
+        fp = footprint(poly_uv, camera, base_z, h)
+        if fp is None or len(fp) < 3:
+            return None
+        centre = fp.mean(0)
+        away = centre - camera.origin[:2]
+        away /= max(np.linalg.norm(away), 1e-12)
+        side = np.array([-away[1], away[0]])
+        return float(np.ptp(fp @ away) / max(np.ptp(fp @ side), 1e-12))
+
+    if aspect(0.0) is None or aspect(0.0) <= 1.0:
+        return None
+    lo, hi = 0.0, None
+    for h in np.geomspace(1e-3 * top, top, 40):
+        a = aspect(float(h))
+        if a is None or a <= 1.0:
+            hi = float(h)
+            break
+        lo = float(h)
+    if hi is None:
+        return None
+    for _ in range(20):
+        mid = 0.5 * (lo + hi)
+        a = aspect(mid)
+        lo, hi = (mid, hi) if a is not None and a > 1.0 else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+#: Columns whose side edges agree within ±0.4 × this (fraction of the height) form a group.
+EDGE_AGREEMENT = 0.25
+
+
+def height_from_edge(photo: np.ndarray, mask: np.ndarray, camera, base_z: float) -> float | None:
+    """The height at which the photo shows the edge between an object's front side and its top.
+
+    In each column of the middle 60 % of the mask, the strongest vertical brightness change above the
+    mask's bottom (and off its border) is taken for the top of the front side; the height whose vertical
+    edge, standing on the ground where the column's bottom pixel looks, reaches that row is that column's
+    height. The answer is the median of the largest group of columns agreeing within ±10 %, when that
+    group holds 40 % of the columns.
+    """
+    gray = cv2.cvtColor(photo, cv2.COLOR_RGB2GRAY).astype(np.float32) if photo.ndim == 3 else photo.astype(np.float32)
+    grad = np.abs(cv2.Sobel(cv2.GaussianBlur(gray, (3, 3), 0), cv2.CV_32F, 0, 1, ksize=3))
+    inner = cv2.erode(mask.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    ys, xs = np.nonzero(mask)
+    x0, x1 = np.percentile(xs, [20, 80])
+    heights, strengths = [], []
+    contrast = float(np.percentile(grad[inner], 50)) if inner.any() else 0.0
+    for u in range(int(x0), int(x1) + 1):
+        col = np.nonzero(mask[:, u])[0]
+        if len(col) < 8:
+            continue
+        bottom = col.max() + 1
+        cand = np.nonzero(inner[:, u])[0]
+        cand = cand[cand < bottom - 3]
+        if not len(cand):
+            continue
+        g = grad[cand, u]
+        k = int(np.argmax(g))
+        if g[k] < max(8.0, 4.0 * contrast):
+            continue
+        v_top = float(cand[k])
+        foot = on_plane(camera, np.array([[u + 0.5, float(bottom)]]), base_z)[0]
+        if not np.all(np.isfinite(foot)):
+            continue
+        # the ray through (u, v_top) and the vertical line through the foot: their closest approach's height
+        d = camera.rays(u + 0.5, v_top)
+        o = camera.origin
+        w0 = o - foot
+        a, b, c = d @ d, d[2], 1.0
+        dd, e = d @ w0, w0[2]
+        den = a * c - b * b
+        if abs(den) < 1e-12:
+            continue
+        t_vert = (a * e - b * dd) / den
+        if t_vert > 0:
+            heights.append(t_vert)
+            strengths.append(float(g[k]))
+    if len(heights) < 5:
+        return None
+    h = np.asarray(heights)
+    # columns whose bottom is another object's outline, or whose strongest edge is a texture, disagree:
+    # the answer is the largest group of columns within ±10 % of each other, if it holds 40 % of them
+    near = np.abs(h[:, None] - h[None, :]) <= EDGE_AGREEMENT * 0.4 * h[:, None]
+    best = int(np.argmax(near.sum(1)))
+    group = h[near[best]]
+    return float(np.median(group)) if len(group) >= 0.4 * len(h) else None
+
+
+def lift_footprint(mask: np.ndarray, camera, height_hint: float | None, prior_shape: str | None,
+                   base_z: float = 0.0, sections: int = 32, photo: np.ndarray | None = None,
+                   flat_prior: bool = False):
+    """(vertices, faces, shape, contact (3,), info) of the object seen from above, or None if its outline does
+    not meet the ground."""
+    poly_uv = outline(mask)
+    flat = footprint(poly_uv, camera, base_z, 0.0)
+    if flat is None:
+        return None
+    steep = view_depression_deg(camera, np.r_[flat.mean(0), base_z])
+    height, source = None, None
+    if flat_prior and height_hint:  # a coin's or a plate's rim hardly shows: its typical height is better
+        height, source = float(height_hint), "typical size of the label (a flat thing)"
+    if height is None and prior_shape in (None, "round", "any") and steep < SIDES_VISIBLE_DEG:
+        height = height_from_sides(poly_uv, camera, base_z)
+        if height is not None:
+            fp = footprint(poly_uv, camera, base_z, height)
+            if fp is None or circle_fit(fp)[2] < ROUND_IOU:  # not a cylinder after all
+                height = None
+        source = "visible sides (round outline)" if height is not None else None
+    if height is None and photo is not None and steep < SIDES_VISIBLE_DEG and prior_shape not in ("round", "ball"):
+        height = height_from_edge(photo, mask, camera, base_z)
+        source = "visible sides (edge of the top)" if height is not None else None
+    if height is None and height_hint:
+        height, source = float(height_hint), "typical size of the label"
+    if height is None:
+        width = float(np.ptp(flat, axis=0).max())
+        height, source = DEFAULT_HEIGHT_RATIO * width, f"{DEFAULT_HEIGHT_RATIO:g} × the footprint's width"
+    height = min(height, 0.9 * (camera.origin[2] - base_z))
+    fp = footprint(poly_uv, camera, base_z, height)
+    if fp is None or len(fp) < 3:
+        return None
+    centre, radius, iou = circle_fit(fp)
+    if prior_shape == "ball" or (prior_shape in (None, "any") and iou >= ROUND_IOU
+                                 and abs(height - 2 * radius) < 0.25 * 2 * radius):
+        shape = "sphere"
+        mesh = trimesh.creation.icosphere(subdivisions=3, radius=radius)
+        mesh.apply_translation([centre[0], centre[1], base_z + radius])
+        height = 2 * radius
+    elif iou >= ROUND_IOU or prior_shape == "round":
+        shape = "disc" if height < 0.5 * radius else "cylinder"
+        mesh = trimesh.creation.cylinder(radius=radius, height=height, sections=sections)
+        mesh.apply_translation([centre[0], centre[1], base_z + 0.5 * height])
+    else:
+        shape = "prism"
+        hull = cv2.convexHull(fp.astype(np.float32))[:, 0, :].astype(float)
+        pts = np.vstack([np.c_[hull, np.full(len(hull), base_z)], np.c_[hull, np.full(len(hull), base_z + height)]])
+        mesh = trimesh.convex.convex_hull(pts)
+    verts = np.asarray(mesh.vertices, float)
+    faces = np.asarray(mesh.faces, np.int32)
+    # the contact: the footprint's point nearest the camera
+    near = fp[np.argmin(np.linalg.norm(fp - camera.origin[:2], axis=1))]
+    contact = np.array([near[0], near[1], base_z])
+    info = {"mode": "footprint", "shape": shape, "height_source": source, "circle_iou": round(iou, 3),
+            "view_depression_deg": round(steep, 2)}
+    return verts, faces, shape, contact, info

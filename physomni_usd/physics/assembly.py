@@ -1,0 +1,147 @@
+"""The Newton models of one shot, assembled from the composed stage: rigid bodies through Newton's USD
+import (plus stand-ins for objects switched to rigid by a layer), cloth and soft bodies, the MPM
+scene, fixed bodies, pushes and force fields, and the :class:`~.stepping.Stepper` that advances them."""
+
+from __future__ import annotations
+
+import re
+import time
+import warnings
+
+import numpy as np
+from pxr import Usd, UsdGeom
+
+from .._warp import load_warp, pick_device
+from ..rotations import to_wxyz
+from ..settings import SimulateSettings
+from ..usd.author import OBJECTS
+from .cloth import AirDrag, add_cloth, add_soft_body
+from .controls import particle_pushes, read_controls
+from .forces import FieldSet, body_samples, read_force_fields
+from .mpm import bind_surface, build_mpm_scene
+from .objects import SceneObject
+from .params import particle_friction
+from .stepping import Stepper, contact_pipeline, xpbd_solver
+
+#: Newton simplifies convex hulls to this many vertices; its default (64) cuts the corners of
+#: lofted meshes by centimetres, which shows as objects sinking into the ground.
+MAX_HULL_VERTICES = 256
+
+
+class ShotModels:
+    """The Newton models of one shot and the stepper that advances them."""
+
+    def __init__(self, stage: Usd.Stage, objects: list[SceneObject], cfg: dict, settings: SimulateSettings):
+        self.stage = stage
+        t0 = time.perf_counter()
+        wp = load_warp()
+        import newton
+
+        self.wp, self.newton = wp, newton
+        self.cfg, self.objects = cfg, objects
+        self.device = str(pick_device(settings.device))
+        builder = newton.ModelBuilder(up_axis=newton.Axis.Z)
+        # the stage's rigid bodies come through Newton's USD import; objects whose material now says
+        # otherwise (switched by a layer over the build) are left to their own solver
+        not_rigid = [o.path for o in objects if o.family != "rigid" and o.is_body]
+        result = builder.add_usd(stage, load_visual_shapes=False, load_sites=False, verbose=False,
+                                 mesh_maxhullvert=MAX_HULL_VERTICES,
+                                 ignore_paths=[re.escape(p) + "$" for p in not_rigid] or None)
+        self.path_body = {p: b for p, b in result["path_body_map"].items() if p.startswith(OBJECTS + "/")}
+        self.path_body.update(_add_stand_ins(builder, [o for o in objects if o.family == "rigid"
+                                                       and not o.is_body], newton, wp))
+        self.ranges = {}  # cloth / soft body path → (first particle, count)
+        self.soft_bindings = {}  # soft body path → its surface's binding to the tetrahedra
+        self.soft_dt = None
+        for o in objects:
+            if o.family == "cloth":
+                self.ranges[o.path] = add_cloth(builder, o, wp)
+            elif o.family == "soft":
+                start, count, rest, dt_soft = add_soft_body(builder, o, wp)
+                self.soft_dt = min(self.soft_dt or dt_soft, dt_soft)
+                self.ranges[o.path] = (start, count)
+                self.soft_bindings[o.path] = bind_surface(o.points, rest)
+        fixed, pushes = read_controls(stage, self.path_body)
+        pushes += particle_pushes(stage, self.ranges)
+        for b in fixed:
+            # a kinematic body with no velocity stays put and still collides with everything else
+            builder.body_flags[b] = int(newton.BodyFlags.KINEMATIC)
+            builder.body_qd[b] = wp.spatial_vector(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        self.fields = FieldSet(read_force_fields(stage), self.device)
+        if self.fields:
+            points = [np.zeros((1, 3))] * builder.body_count
+            for path, b in self.path_body.items():
+                mesh = UsdGeom.Mesh(stage.GetPrimAtPath(path))
+                points[b] = np.asarray(mesh.GetPointsAttr().Get(), float) if mesh else np.zeros((1, 3))
+            self.fields.set_body_samples(body_samples(points))
+        with wp.ScopedDevice(self.device), warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            model = builder.finalize(device=self.device)
+            # no particle–particle contact: a lofted surface has vertices closer than their radii (near
+            # its poles), and pushing those apart threw cloths up; cloth and soft bodies still collide
+            # with the ground and the rigid bodies
+            model.particle_max_radius = 0.0
+            model.particle_grid = None
+            if particle_friction(objects) is not None:
+                model.soft_contact_mu = particle_friction(objects)
+            air = AirDrag.of(objects, self.ranges, model.particle_count, self.device)
+            self.model = model
+            self.solvers = []
+            solver = None
+            if model.body_count or model.particle_count:
+                solver = xpbd_solver(model, cfg["iterations"])
+                self.solvers.append("xpbd")
+            mpm_objects = [o for o in objects if o.family == "mpm"]
+            self.mpm = build_mpm_scene(mpm_objects, model, self.device, settings.particle_spacing) \
+                if mpm_objects else None
+            self.mpm_objects = {m.obj.path: m for m in self.mpm.objects} if self.mpm else {}
+            if self.mpm:
+                self.solvers.append("implicit_mpm")
+                pushes += particle_pushes(stage, {o.obj.path: (o.start, o.count) for o in self.mpm.objects},
+                                          mpm=True)
+            pipeline, contacts = contact_pipeline(model) if solver else (None, None)
+            self.stepper = Stepper(model, solver, pipeline=pipeline, contacts=contacts, fields=self.fields,
+                                   mpm=self.mpm, pushes=pushes, air=air)
+            if pipeline:
+                # Newton builds the narrow phase's kernels per pipeline, so warp hashes its module again
+                # on the first search (~0.5 s here): pay it while setting up, not in the first frame
+                pipeline.collide(self.stepper.state, contacts)
+        self.notes = [str(w.message) for w in caught]
+        masses = model.particle_mass.numpy() if model.particle_count else np.zeros(0)
+        cloth_idx = [np.arange(s, s + n) for p, (s, n) in self.ranges.items()]
+        self.cloth_masses = masses[np.concatenate(cloth_idx)] if cloth_idx else None
+        self.cloth_stiffness = max((float(model.spring_stiffness.numpy().max()) if model.spring_count else 0.0), 0.0)
+        self.t_model = time.perf_counter() - t0
+        self.t_built = time.perf_counter()
+
+    def field_acceleration(self, seconds: float) -> float:
+        """Largest acceleration (m/s²) the force fields give at the objects' centres over the run."""
+        if not self.fields:
+            return 0.0
+        centres = np.array([o.points.mean(axis=0) for o in self.objects])
+        times = np.linspace(0.0, seconds, 9)
+        return max(float(np.linalg.norm(self.fields.acceleration(centres, np.zeros_like(centres), t), axis=1).max())
+                   for t in times)
+
+
+def _add_stand_ins(builder, objects: list[SceneObject], newton, wp) -> dict:
+    """Rigid bodies (convex hulls, the material's density and friction) for rigid objects the stage does
+    not make UsdPhysics bodies — ones switched to ``rigid`` by a layer over the build."""
+    import trimesh
+
+    out = {}
+    for o in objects:
+        m = o.matrix
+        scale = np.linalg.norm(m[:3, :3], axis=1)
+        rot = m[:3, :3] / scale[:, None]
+        q = to_wxyz(rot.T)
+        local = o.to_local(o.points) * scale
+        hull = trimesh.convex.convex_hull(local)
+        cfg = newton.ModelBuilder.ShapeConfig()
+        cfg.density = float(o.params.get("density") or 1000.0)
+        cfg.mu = float(o.params.get("dynamic_friction", 0.5))
+        body = builder.add_body(xform=wp.transform(tuple(m[3, :3]), wp.quat(q[1], q[2], q[3], q[0])), label=o.path)
+        builder.add_shape_convex_hull(body, mesh=newton.Mesh(hull.vertices.astype(np.float32),
+                                                             hull.faces.ravel().astype(np.int32)), cfg=cfg)
+        out[o.path] = body
+    return out

@@ -1,0 +1,111 @@
+"""Which material parameters reach a solver as given, and which do not: every parameter an object's
+type takes either acts in the simulation or is listed here per object, ignored or clamped, with the
+reason. ``simulate`` says each in a line and writes them to the report (``ignored_parameters``), so
+that nothing accepted goes unsaid.
+
+| parameter | types | what happens |
+|---|---|---|
+| stretch / bending compliance | pbd_cloth | 1/compliance is the spring / bending stiffness, clamped to what XPBD keeps stable at our steps (``cloth.CLOTH_SPRING_KE``, ``CLOTH_BEND_KE``): clamped values are listed |
+| stretch / volume compliance | pbd_elastic | 1/compliance are the Lamé stiffnesses, clamped to ``cloth.SOFT_KE``: clamped values are listed |
+| bending_compliance | pbd_elastic | listed: a tetrahedral body has no bending constraint |
+| air_resistance | pbd_cloth | acts: a drag −c·m·v on each particle of the cloth (``cloth.AirDrag``) |
+| relaxation | pbd_elastic | listed: Newton's XPBD relaxes all soft bodies with one factor of its own |
+| density / viscosity relaxation | pbd_liquid | listed: Newton has no position-based fluid; pbd_liquid runs as MPM particles |
+| model | MPM types | corotated acts (Newton's implicit MPM law); any other value is listed |
+| friction, restitution | MPM types | listed: the MPM grid meets colliders with their friction, not the particles' |
+| dynamic_friction | cloth, soft | acts: Newton's particle–shape friction (``soft_contact_mu``), one value for all particles; objects that disagree with the first are listed |
+| static_friction | all | acts where it equals dynamic_friction; otherwise listed: Newton has one friction coefficient |
+| restitution | cloth, soft | listed: XPBD takes no per-object restitution for particles |
+"""
+
+from __future__ import annotations
+
+from .cloth import CLOTH_BEND_KE, CLOTH_SPRING_KE, SOFT_KE
+from .mpm import MPM_LAW
+
+PARTICLE_FAMILIES = ("cloth", "soft")
+
+
+def particle_friction(objects) -> float | None:
+    """The friction coefficient of XPBD particle contacts: the first cloth or soft body's dynamic friction
+    (None without one)."""
+    for o in objects:
+        if o.family in PARTICLE_FAMILIES and o.params.get("dynamic_friction") is not None:
+            return float(o.params["dynamic_friction"])
+    return None
+
+
+def ignored_parameters(objects) -> dict[str, list[dict]]:
+    """Per object name, the parameters that do not act as given: ``[{param, value, why}]``."""
+    out = {}
+    mu = particle_friction(objects)
+    for o in objects:
+        items = [{"param": k, "value": _value(v), "why": why} for k, v, why in _ignored(o, mu)]
+        if items:
+            out[o.name] = items
+    return out
+
+
+def describe(name: str, items: list[dict]) -> str:
+    """One line for an object's list."""
+    return f"{name}: " + "; ".join(f"{i['param']} = {_show(i['value'])} {i['why']}" for i in items)
+
+
+def _ignored(o, mu):
+    p, fam, kind = o.params, o.family, o.kind
+    if fam == "cloth":
+        yield from _clamped(p, "stretch_compliance", CLOTH_SPRING_KE, "N/m", "spring")
+        yield from _clamped(p, "bending_compliance", CLOTH_BEND_KE, "N·m", "bending")
+    if fam == "soft":
+        yield from _clamped(p, "stretch_compliance", SOFT_KE, "Pa", "shear")
+        yield from _clamped(p, "volume_compliance", SOFT_KE, "Pa", "volume")
+        if "bending_compliance" in p:
+            yield "bending_compliance", p["bending_compliance"], "is ignored: a tetrahedral soft body has no " \
+                                                                 "bending constraint"
+        if "relaxation" in p:
+            yield "relaxation", p["relaxation"], "is ignored: Newton's XPBD relaxes every soft body with one " \
+                                                 "factor of its own"
+    if kind == "pbd_liquid":
+        for key in ("density_relaxation", "viscosity_relaxation"):
+            if key in p:
+                yield key, p[key], "is ignored: Newton has no position-based fluid, so pbd_liquid runs as MPM " \
+                                   "liquid particles, which have no relaxation"
+    if fam == "mpm":
+        if p.get("model") not in (None, MPM_LAW):
+            yield "model", p["model"], f"is ignored: Newton's implicit MPM has one elastic law; it ran as {MPM_LAW}"
+        for key in ("static_friction", "dynamic_friction", "restitution"):
+            if key in p:
+                yield key, p[key], "is ignored: Newton's MPM grid meets colliders with the colliders' own " \
+                                   "friction; particles carry no contact friction or restitution"
+        return
+    if fam in PARTICLE_FAMILIES:
+        if p.get("dynamic_friction") is not None and mu is not None and float(p["dynamic_friction"]) != mu:
+            yield "dynamic_friction", p["dynamic_friction"], f"is ignored: Newton gives all particle contacts " \
+                                                             f"one friction; it ran with {mu:g}, the first " \
+                                                             "cloth's or soft body's"
+        if "restitution" in p:
+            yield "restitution", p["restitution"], "is ignored: XPBD takes no per-object restitution for particles"
+    if "static_friction" in p and p["static_friction"] != p.get("dynamic_friction"):
+        yield "static_friction", p["static_friction"], "is ignored: Newton's contacts have one friction " \
+                                                       "coefficient, dynamic_friction"
+
+
+def _clamped(p, key, bounds, unit, what):
+    if key not in p:
+        return
+    c = float(p[key] or 0.0)
+    k = 1.0 / c if c > 0 else float("inf")
+    lo, hi = bounds
+    if not lo <= k <= hi:
+        edge = hi if k > hi else lo
+        yield key, p[key], (f"is clamped to {1 / edge:g} ({what} stiffness {edge:g} {unit}): the simulator keeps "
+                            f"XPBD stiffness within [{lo:g}, {hi:g}] {unit}, what stays stable at its steps")
+
+
+def _value(value):
+    """A number as authored: USD floats are single precision, so 0.4 reads back as 0.4000000059604645."""
+    return float(f"{value:.7g}") if isinstance(value, float) else value
+
+
+def _show(value) -> str:
+    return f"{value:g}" if isinstance(value, (int, float)) and not isinstance(value, bool) else str(value)

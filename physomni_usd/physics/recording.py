@@ -1,0 +1,87 @@
+"""What a run leaves behind: each frame's body poses, deformed surfaces and particles, which of them
+moved (only those get time samples), and the checks a user asks of a finished run."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..metrics.geometry import max_penetration, world_meshes
+from .mpm import SURFACE_TYPES, deform_surface, particle_gradients
+
+#: Motion below these (1 mm, 0.11°; solver creep of a resting body stays under them) is "did not
+#: move": such prims get no time samples.
+STILL_METRES = 1e-3
+STILL_RADIANS = 2e-3
+
+
+class Recorder:
+    """One sample per video frame of everything the writer needs, from a :class:`~.assembly.ShotModels`."""
+
+    def __init__(self, models, frames: int):
+        self.models = models
+        mpm = models.mpm
+        self.body_q = np.zeros((frames, models.model.body_count, 7), np.float32)  # x, y, z, qx, qy, qz, qw
+        self.surfaces = {o.path: np.zeros((frames, len(o.points), 3)) for o in models.objects
+                         if o.family in ("cloth", "soft") or (mpm and o.family == "mpm" and o.kind in SURFACE_TYPES)}
+        self.mpm_points = np.zeros((frames, mpm.model.particle_count, 3), np.float32) if mpm else None
+
+    def record(self, f: int) -> None:
+        m = self.models
+        state = m.stepper.state
+        if m.model.body_count:
+            self.body_q[f] = state.body_q.numpy()
+        x = state.particle_q.numpy() if m.model.particle_count else None
+        # deformation gradients only move surfaces bound to particles (elastic kinds); sand and liquid have none
+        bound = m.mpm and any(o.binding is not None for o in m.mpm.objects)
+        grads = particle_gradients(m.mpm) if bound else None
+        if m.mpm:
+            self.mpm_points[f] = m.mpm.state.particle_q.numpy()
+        for o in m.objects:
+            if o.path not in self.surfaces:
+                continue
+            if o.family == "cloth":
+                start, count = m.ranges[o.path]
+                world = x[start:start + count].astype(np.float64)
+            elif o.family == "soft":
+                start, count = m.ranges[o.path]
+                world = deform_surface(m.soft_bindings[o.path], x[start:start + count].astype(np.float64), None)
+            else:
+                mo = m.mpm_objects[o.path]
+                pts = self.mpm_points[f, mo.start:mo.start + mo.count].astype(np.float64)
+                g = grads[mo.start:mo.start + mo.count] if grads is not None else None
+                world = deform_surface(mo.binding, pts, g)
+            self.surfaces[o.path][f] = o.to_local(world)
+
+
+def moving_tracks(path_body: dict, body_q: np.ndarray, surfaces: dict) -> tuple[dict, dict, list]:
+    """Body tracks path → (positions (F, 3), quaternions w, x, y, z (F, 4)) and surface tracks path →
+    points (F, N, 3) of what moved, and the moved prims' paths."""
+    tracks, point_tracks, moved = {}, {}, []
+    for path, b in path_body.items():
+        pos = body_q[:, b, :3].astype(np.float64)
+        quat = body_q[:, b, [6, 3, 4, 5]].astype(np.float64)  # → w, x, y, z
+        quat /= np.linalg.norm(quat, axis=1, keepdims=True)
+        if _moved(pos, quat):
+            tracks[path] = (pos, quat)
+            moved.append(path)
+    for path, pts in surfaces.items():
+        if np.abs(pts - pts[0]).max() > STILL_METRES:
+            point_tracks[path] = pts
+            moved.append(path)
+    return tracks, point_tracks, moved
+
+
+def _moved(pos: np.ndarray, quat: np.ndarray) -> bool:
+    if np.abs(pos - pos[0]).max() > STILL_METRES:
+        return True
+    dots = np.abs(quat @ quat[0])
+    return float(2 * np.arccos(np.clip(dots.min(), -1, 1))) > STILL_RADIANS
+
+
+def shot_checks(stage, frames: int) -> dict:
+    """What a user asks of a finished run: where objects end up, and whether meshes ever overlap."""
+    final = world_meshes(stage, frames - 1)
+    return {
+        "final_lowest_z_m": {name: round(float(m.vertices[:, 2].min()), 5) for name, m in final.items()},
+        "max_penetration_m": round(max(max_penetration(world_meshes(stage, t)) for t in range(frames)), 5),
+    }

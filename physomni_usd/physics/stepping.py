@@ -1,0 +1,202 @@
+"""The one place that builds Newton's solvers and steps a scene through a frame: substeps, when
+contacts are searched (``StepPlan.collide_interval``), MPM steps interleaved with the rigid substeps,
+force fields applied, pushes given. ``simulate``, ``bench physics`` and the tests all step through
+:class:`Stepper`, so that what is measured is what the simulator runs."""
+
+from __future__ import annotations
+
+import time
+from functools import lru_cache
+
+import numpy as np
+
+from .controls import give_velocities
+from .mpm import add_particle_forces, step_particles
+from .stability import StepPlan, body_energy, particle_energy
+
+
+def xpbd_solver(model, iterations: int):
+    """The simulator's XPBD solver for ``model``."""
+    import newton
+
+    # Newton leaves restitution off by default; the materials author it, so it must act
+    return newton.solvers.SolverXPBD(model, iterations=iterations, enable_restitution=True)
+
+
+def contact_pipeline(model):
+    """The simulator's contact search for ``model`` and the contacts it fills."""
+    import newton
+
+    # sticky contact matching keeps a resting hull's contact points from frame to frame;
+    # without it XPBD lets flat-based hulls creep by millimetres per second
+    pipeline = newton.CollisionPipeline(model, contact_matching="sticky")
+    return pipeline, pipeline.contacts()
+
+
+def _ignore(joules: float) -> None:
+    pass
+
+
+def run_frames(stepper: Stepper, plan: StepPlan, frames: int, after_frame=None, after_mpm_step=None) -> float:
+    """Step ``frames`` frames from t = 0 without the guard (benchmarks, tests); ``after_frame(f)`` is called
+    after frame ``f`` (1, 2, …). Returns the wall seconds spent stepping."""
+    t0 = time.perf_counter()
+    step = 0
+    for f in range(frames):
+        stepper.frame(plan, f / plan.fps, step, after_mpm_step=after_mpm_step)
+        step += plan.substeps
+        if after_frame is not None:
+            after_frame(f + 1)
+    return time.perf_counter() - t0
+
+
+class Stepper:
+    """Advances a Newton model (rigid bodies, cloth, soft bodies: ``solver``) and an optional MPM scene
+    coupled to it, a frame at a time; ``state`` is always the current state."""
+
+    def __init__(self, model, solver=None, *, pipeline=None, contacts=None, fields=None, mpm=None, pushes=(), air=None):
+        self.model, self.solver = model, solver
+        self.state, self.state_next = model.state(), model.state()
+        self.control = model.control()
+        self.pipeline, self.contacts = pipeline, contacts
+        self.fields, self.mpm = fields, mpm
+        self.air = air  # cloths' air resistance (cloth.AirDrag), or None
+        self.pending = sorted(pushes, key=lambda p: p.at)
+        self._work = None  # (1,) float64 on the device: the fields' work (J) since it was last read
+
+    def energy(self) -> tuple[float, float]:
+        """Kinetic + gravitational energy (J) of everything stepped, and the top speed (m/s)."""
+        e_b, v_b = body_energy(self.model, self.state)
+        e_p, v_p = particle_energy(self.model, self.state)
+        e_m, v_m = particle_energy(self.mpm.model, self.mpm.state) if self.mpm else (0.0, 0.0)
+        return e_b + e_p + e_m, max(v_b, v_p, v_m)
+
+    def frame(self, plan: StepPlan, t0: float, step0: int, add_work=None, speed: float | None = None,
+              after_mpm_step=None) -> None:
+        """One frame from time ``t0`` (substep counter ``step0``), the fastest body moving at ``speed`` m/s
+        at its start (None: read from the state); the work pushes and fields do goes to ``add_work`` (J);
+        ``after_mpm_step(t)`` is called after each MPM step."""
+        add_work = add_work or _ignore
+        if speed is None:
+            speed = self.energy()[1] if plan.collide_every > 1 else 0.0
+        for p in self.pending:  # a push due in this frame counts as the speed it gives
+            if p.at < t0 + 1.0 / plan.fps and p.linear is not None:
+                speed = max(speed, float(np.linalg.norm(p.linear)))
+        collide_every = plan.collide_interval(speed)
+        if self.solver is not None and plan.iterations:
+            self.solver.iterations = plan.iterations
+        if hasattr(self.solver, "enable_restitution"):
+            self.solver.enable_restitution = plan.restitution
+        groups = plan.mpm_steps or 1
+        per = plan.substeps // groups
+        dt = plan.dt
+        step = step0
+        fields = self.fields
+        for _ in range(groups):
+            for _ in range(per):
+                t = t0 + (step - step0) * dt
+                if self.pending and self.pending[0].at <= t + 1e-9:
+                    self._give_velocities(t, add_work)
+                if self.solver is not None:
+                    self.state.clear_forces()
+                    held = None
+                    if fields:
+                        fields.apply(self.model, self.state, t, step, dt)
+                        held = self._work_before(self.model, self.state, dt)
+                    if self.air is not None:
+                        self.air.apply(self.model, self.state)
+                    if self.mpm:
+                        add_particle_forces(self.mpm, self.state)
+                    if self.pipeline is not None and (step - step0) % collide_every == 0:
+                        self.pipeline.collide(self.state, self.contacts)
+                    self.solver.step(self.state, self.state_next, self.control, self.contacts, dt)
+                    self.state, self.state_next = self.state_next, self.state
+                    if held is not None:
+                        self._work_after(held, self.state, dt)
+                step += 1
+            if self.mpm:
+                t = t0 + (step - step0) * dt
+                self.mpm.state.clear_forces()
+                held = None
+                if fields:
+                    fields.apply(self.mpm.model, self.mpm.state, t, step, plan.mpm_dt)
+                    held = self._work_before(self.mpm.model, self.mpm.state, plan.mpm_dt)
+                step_particles(self.mpm, self.model, self.state, plan.mpm_dt)
+                if held is not None:
+                    self._work_after(held, self.mpm.state, plan.mpm_dt)
+                if after_mpm_step is not None:
+                    after_mpm_step(t)
+        if fields:
+            add_work(self._read_work())
+
+    # --- the fields' work ------------------------------------------------------------------------
+    # A field's force F (and torque τ about the centre of mass) is constant over a step, evaluated at
+    # the sample points at the step's start; the kinetic energy it gives in the step is
+    # F·(v₀ + v₁)/2·dt + τ·(ω₀ + ω₁)/2·dt, v₀ and v₁ the velocities before and after the step. Summed
+    # per step on the device, so a field that starts mid-frame or one that spins a body is accounted.
+
+    def _work_before(self, model, state, dt: float):
+        """Add the first half of this step's field work; returns the field forces, kept for the second."""
+        import warp as wp
+
+        body_power, particle_power = _power_kernels()
+        if self._work is None:
+            self._work = wp.zeros(1, dtype=wp.float64, device=model.device)
+        held = []
+        if model.body_count and state.body_f is not None:
+            f = wp.clone(state.body_f)
+            wp.launch(body_power, dim=model.body_count, inputs=[f, state.body_qd, 0.5 * dt], outputs=[self._work],
+                      device=model.device)
+            held.append(("body", f))
+        if model.particle_count and state.particle_f is not None:
+            f = wp.clone(state.particle_f)
+            wp.launch(particle_power, dim=model.particle_count, inputs=[f, state.particle_qd, 0.5 * dt],
+                      outputs=[self._work], device=model.device)
+            held.append(("particle", f))
+        return held
+
+    def _work_after(self, held, state, dt: float) -> None:
+        import warp as wp
+
+        body_power, particle_power = _power_kernels()
+        for kind, f in held:
+            kernel, v = (body_power, state.body_qd) if kind == "body" else (particle_power, state.particle_qd)
+            wp.launch(kernel, dim=f.shape[0], inputs=[f, v, 0.5 * dt], outputs=[self._work], device=f.device)
+
+    def _read_work(self) -> float:
+        if self._work is None:
+            return 0.0
+        joules = float(self._work.numpy()[0])
+        self._work.zero_()
+        return joules
+
+    def _give_velocities(self, t: float, add_work) -> None:
+        """Give the pushes due at ``t``; the kinetic energy they add counts as work."""
+        due = [p for p in self.pending if p.at <= t + 1e-9]
+        self.pending = [p for p in self.pending if p.at > t + 1e-9]
+        before = self.energy()[0]
+        give_velocities(due, self.state, self.mpm.state if self.mpm else None)
+        add_work(self.energy()[0] - before)
+
+
+@lru_cache(maxsize=1)
+def _power_kernels():
+    """Kernels adding ``scale``·(force · velocity) (bodies: + torque · angular velocity) to ``out[0]``."""
+    import warp as wp
+
+    @wp.kernel
+    def body_power(f: wp.array(dtype=wp.spatial_vector), qd: wp.array(dtype=wp.spatial_vector), scale: float,
+                   out: wp.array(dtype=wp.float64)):
+        b = wp.tid()
+        w = f[b]
+        v = qd[b]
+        p = wp.dot(wp.spatial_top(w), wp.spatial_top(v)) + wp.dot(wp.spatial_bottom(w), wp.spatial_bottom(v))
+        wp.atomic_add(out, 0, wp.float64(scale * p))
+
+    @wp.kernel
+    def particle_power(f: wp.array(dtype=wp.vec3), v: wp.array(dtype=wp.vec3), scale: float,
+                       out: wp.array(dtype=wp.float64)):
+        i = wp.tid()
+        wp.atomic_add(out, 0, wp.float64(scale * wp.dot(f[i], v[i])))
+
+    return body_power, particle_power
