@@ -186,6 +186,8 @@ def session(moto, tmp_path_factory):
             browser.close()
         proc.send_signal(signal.SIGINT)
         proc.wait(120)
+    except Exception as exc:  # say what the preview printed, or a failure in the page is hard to tell apart
+        raise AssertionError(f"{exc}\npreview's stderr (exit {proc.poll()}):\n" + "\n".join(lines)) from exc
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -251,6 +253,9 @@ def test_keep_settings_adds_to_edits_and_keeps_what_was_there(session):
     layer.ImportFromString(session["edits"])
     assert layer.GetAttributeAtPath(f"{WIND}.physomni:enabled").default is True
     assert layer.GetAttributeAtPath("/World/Objects/bench_1.physomni:label").default == "artist's bench"
+    cached = Sdf.Layer.Find(str(session["folder"] / "edits.usda"))
+    if cached:  # this process may still hold the layer as it was before the preview (another process) wrote it
+        cached.Reload(force=True)
     stage = Usd.Stage.Open(str(session["folder"] / "shot.usda"))
     assert stage.GetAttributeAtPath(f"{WIND}.physomni:enabled").Get() is True
 

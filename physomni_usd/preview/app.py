@@ -75,6 +75,8 @@ class Preview:
             raise InputError("--open: no web browser is available here; leave out --open and open the "
                              "page's address in a browser yourself")
         self.engine = Engine(shot, capture=options.capture)
+        if options.record:
+            self.engine.check_writable()
         stage = self.engine.stage
         self.view, self.fx = photo_view(stage)
         self.plate = background_card(stage, self.view)
@@ -271,7 +273,11 @@ class Preview:
             e.step()
             self.publish()
         elif action == "save":
-            r = e.write_take()
+            try:
+                r = e.write_take()
+            except InputError as exc:  # the folder became unwritable: say so, keep running
+                self._say(str(exc))
+                return
             self.saved += 1
             self._say(f"take {self.saved} saved: {r['frames']} frames ({r['seconds']:.2f} s), "
                       f"{len(r['moving_prims'])} moving prims → sim.usdc")

@@ -1,10 +1,11 @@
 """The preview's one door into the simulator: the shot's Newton models built exactly as ``simulate``
-builds them (every material, every force field, the artist's layer), stepped a frame at a time on
-``simulate``'s schedule, plus what only a live session has — a hand that pulls bodies toward the
-cursor, parameters changed while it runs, a take kept and written under ``simulate``'s contract.
+builds them (``physics.assembly``: every material, every force field, the artist's layer), stepped a
+frame at a time by ``simulate``'s stepper on its schedule, plus what only a live session has — a hand
+that pulls bodies toward the cursor, parameters changed while it runs, a take kept and written by
+``simulate``'s writer under its contract.
 
-Every use of ``physics.simulate``'s internals is in this module, so that the rest of the preview reads
-the small API of :class:`Engine` and the simulator can change behind it.
+Every use of the simulator's internals is in this module, so that the rest of the preview reads the
+small API of :class:`Engine` and the simulator can change behind it.
 """
 
 from __future__ import annotations
@@ -17,16 +18,19 @@ from functools import lru_cache
 
 import numpy as np
 
+from .._files import check_writable
 from ..errors import InputError
-from ..physics.checks import check_rigid_inputs
+from ..physics.assembly import ShotModels
+from ..physics.checks import check_inputs
+from ..physics.diagnose import refuse_broken_scene
 from ..physics.forces import FieldSet, ForceField
-from ..physics.mpm import SURFACE_TYPES
 from ..physics.objects import scene_objects
-from ..physics.simulate import _moved, _Simulation, scene_settings
+from ..physics.recording import Recorder, write_take
+from ..physics.simulate import scene_settings
 from ..physics.stability import Guard, plan_steps
 from ..settings import SimulateSettings
 from ..usd import layers
-from ..usd.author import OBJECTS, PARTICLES, author_particle_prims, write_sim_layer
+from ..usd.author import OBJECTS
 
 #: The hand: a spring-damper toward the cursor, per unit mass so that light and heavy bodies follow
 #: alike — 2 Hz, damped at 0.7 of critical, its pull capped at 10 g (Newton's desktop picking caps it too).
@@ -72,14 +76,13 @@ def _hand_kernel():
     return pull
 
 
-class _FieldsAndHand:
-    """The scene's force fields with the hand's pull added after them, where the simulator applies
-    fields each substep (so the hand follows the same schedule and is captured with the step)."""
+class _Hand:
+    """The hand's pull on the body it holds, one of the stepper's extra forces: added each substep after
+    the force fields (so it follows the same schedule and is captured with the step)."""
 
-    def __init__(self, fields: FieldSet, model, device: str):
+    def __init__(self, model, device: str):
         import warp as wp
 
-        self.inner = fields
         self.model = model
         self.device = device
         self.body = wp.array([-1], dtype=wp.int32, device=device)
@@ -87,22 +90,9 @@ class _FieldsAndHand:
         self.target = wp.zeros(1, dtype=wp.vec3, device=device)
         self.gains = wp.array([[HAND_STIFFNESS, HAND_DAMPING, HAND_MAX_ACCELERATION]], dtype=wp.vec3, device=device)
 
-    def __bool__(self) -> bool:
-        # the simulator reads this to account the fields' work for its energy guard, a read-back every
-        # frame; the preview's guard watches speed and finiteness only (the hand's work is not known)
-        return False
-
-    @property
-    def fields(self):
-        return self.inner.fields
-
-    def acceleration(self, *args, **kwargs):
-        return self.inner.acceleration(*args, **kwargs)
-
-    def apply(self, model, state, t: float, step: int) -> None:
+    def __call__(self, model, state, t: float, dt: float) -> None:
         import warp as wp
 
-        self.inner.apply(model, state, t, step)
         if model is self.model and model.body_count:
             wp.launch(_hand_kernel(), dim=1, inputs=[state.body_q, state.body_qd, model.body_com, model.body_mass,
                                                       self.body, self.grab, self.target, self.gains],
@@ -134,11 +124,13 @@ class Engine:
         objects = scene_objects(stage)
         if not objects:
             raise InputError(f"{shot}: no objects to simulate under {OBJECTS}")
-        check_rigid_inputs(stage, [o.prim for o in objects if o.family == "rigid" and o.is_body])
+        check_inputs(stage)
+        refuse_broken_scene(stage)
         self.stage = stage
         self.scene_objects = objects
-        sim = _Simulation(stage, objects, self.cfg, self.settings)
+        sim = ShotModels(stage, objects, self.cfg, self.settings)
         self.sim = sim
+        self.stepper = sim.stepper
         self.wp = sim.wp
         self.device = sim.device
         self.base_plan = plan_steps(
@@ -147,11 +139,14 @@ class Engine:
             field_kinds=[f.kind for f in sim.fields.fields], particles=bool(sim.model.particle_count),
             cloth_stiffness=sim.cloth_stiffness, soft_dt=sim.soft_dt, mpm_steps=None)
         self.plan = self.base_plan
-        self.hand = _FieldsAndHand(sim.fields, sim.model, self.device)
-        sim.fields = self.hand
+        self.hand = _Hand(sim.model, self.device)
+        self.stepper.extra_forces.append(self.hand)
+        # the preview's guard watches speed and finiteness only (the hand's work is not known), so the
+        # fields' work is not summed: no read-back a frame, and the frame can be captured
+        self.stepper.count_work = False
         self.field_list = list(sim.fields.fields)
         self.initial_fields = list(self.field_list)
-        self._samples = sim.fields.inner.samples.numpy() if sim.fields.inner.samples is not None else None
+        self._samples = sim.fields.samples.numpy() if sim.fields.samples is not None else None
         self.gravity = self._scene_gravity(stage)
         self.initial_gravity = self.gravity
         self.objects = self._live_objects(objects)
@@ -159,9 +154,8 @@ class Engine:
         self._mass0 = m.body_mass.numpy().copy() if m.body_count else None
         self._inertia0 = m.body_inertia.numpy().copy() if m.body_count else None
         self._shape_body = m.shape_body.numpy() if m.shape_count else np.zeros(0, int)
-        # surfaces that move point by point, as simulate records them
-        self._surface_paths = {o.path for o in objects if o.family in ("cloth", "soft")
-                               or (sim.mpm and o.family == "mpm" and o.kind in SURFACE_TYPES)}
+        # one frame's poses, surfaces and particles, read as simulate reads them
+        self._recorder = Recorder(sim, 1)
         self._lock = threading.Lock()
         self._pending: list = []
         self.capture = capture
@@ -171,9 +165,8 @@ class Engine:
         #: wall seconds spent advancing the solvers, and on the rest of a frame (snapshot, read-back, record)
         self.seconds = {"advance": 0.0, "frame_other": 0.0, "capture": 0.0}
         self.captures = 0
-        self.restitution_on = False
         with self.wp.ScopedDevice(self.device):
-            self._start = sim.checkpoint()
+            self._start = self.stepper.checkpoint()
         self._reset_counters()
 
     # --- reading the scene ------------------------------------------------------------------------
@@ -227,7 +220,7 @@ class Engine:
         self._apply_pending()
         sim, wp = self.sim, self.wp
         with wp.ScopedDevice(self.device):
-            saved = sim.checkpoint()
+            saved = self.stepper.checkpoint()
             t1 = time.perf_counter()
             self._advance()
             t2 = time.perf_counter()
@@ -238,7 +231,7 @@ class Engine:
                 finite = finite and bool(np.isfinite(sim.mpm.state.particle_q.numpy()).all())
             speed = float(np.linalg.norm(qd[:, :3], axis=1).max()) if len(qd) else 0.0
             if self.guard.check(0.0, speed, finite) is not None and self.rollbacks < 4:
-                sim.restore(saved)
+                self.stepper.restore(saved)
                 self.plan = self.plan.refined()
                 self.rollbacks += 1
                 self._graphs.clear()
@@ -251,43 +244,45 @@ class Engine:
         self.seconds["frame_other"] += time.perf_counter() - t0 - (t2 - t1)
 
     def _advance(self) -> None:
-        sim, plan = self.sim, self.plan
+        """One frame by the stepper, replayed from a captured graph where the frame allows one."""
+        stepper, plan = self.stepper, self.plan
         key = self._capture_key()
         if key is None:
-            sim.advance(plan, self.t, self.step_index, self.guard, self.speed)
+            stepper.frame(plan, self.t, self.step_index, speed=self.speed)
             return
         graph = self._graphs.get(key)
         if graph is None:
             t0 = time.perf_counter()
-            before = (sim.state, sim.state_next)
+            before = (stepper.state, stepper.state_next)
             try:
                 with self.wp.ScopedCapture(device=self.device) as capture:
-                    sim.advance(plan, self.t, self.step_index, self.guard, self.speed)
+                    stepper.frame(plan, self.t, self.step_index, speed=self.speed)
             except Exception as exc:  # an operation warp cannot replay: this scene steps launch by launch
-                sim.state, sim.state_next = before
+                stepper.state, stepper.state_next = before
                 self.capture = False
                 self.capture_error = f"{type(exc).__name__}: {exc}"
-                sim.advance(plan, self.t, self.step_index, self.guard, self.speed)
+                stepper.frame(plan, self.t, self.step_index, speed=self.speed)
                 return
-            graph = (capture.graph, sim.state, sim.state_next)
-            sim.state, sim.state_next = before
+            # a replay reads and writes the arrays the capture did: it ends in the state the capture ended in
+            graph = (capture.graph, stepper.state, stepper.state_next)
+            stepper.state, stepper.state_next = before
             self._graphs[key] = graph
             self.captures += 1
             self.seconds["capture"] += time.perf_counter() - t0
         self.wp.capture_launch(graph[0])
-        sim.state, sim.state_next = graph[1], graph[2]
+        stepper.state, stepper.state_next = graph[1], graph[2]
         self.captured_frames += 1
 
     def _capture_key(self):
         """What a captured frame depends on, or None where a frame must run step by step (pushes due,
         MPM, noise fields, a field switching on or off within the frame)."""
-        sim = self.sim
-        if not self.capture or sim.mpm or sim.solver is None:
+        stepper = self.stepper
+        if not self.capture or stepper.mpm or stepper.solver is None:
             return None
         frame = 1.0 / self.plan.fps
-        if sim.pending and sim.pending[0].at < self.t + frame + 1e-9:
+        if stepper.pending and stepper.pending[0].at < self.t + frame + 1e-9:
             return None
-        fields = self.hand.inner
+        fields = stepper.fields
         active = tuple(f.active(self.t) for f in fields.fields)
         if fields.fields:
             if active != tuple(f.active(self.t + frame) for f in fields.fields):
@@ -295,12 +290,12 @@ class Engine:
             if any(f.kind == "noise" and f.active(self.t) for f in fields.fields):
                 return None
             fields._set_time(self.t)  # the mask the graph reads, set outside the capture
-        return (self.plan.substeps, self.plan.iterations, self.plan.collide_interval(self.speed), id(sim.state),
-                id(fields), active)
+        return (self.plan.substeps, self.plan.iterations, self.plan.restitution,
+                self.plan.collide_interval(self.speed), id(stepper.state), id(fields), active)
 
     def body_state(self) -> tuple[np.ndarray, np.ndarray]:
         """Rigid bodies' poses (B, 7: x, y, z, qx, qy, qz, qw) and velocities (B, 6)."""
-        s = self.sim.state
+        s = self.stepper.state
         if not self.sim.model.body_count:
             return np.zeros((0, 7), np.float32), np.zeros((0, 6), np.float32)
         return s.body_q.numpy(), s.body_qd.numpy()
@@ -317,22 +312,16 @@ class Engine:
         return {o.obj.name: x[o.start:o.start + o.count] for o in self.sim.mpm.objects}
 
     def _record(self) -> None:
-        sim = self.sim
         if len(self.take_body_q) >= MAX_TAKE_FRAMES:
             self.take_full = True
             return
-        q, _ = self.body_state()
-        self.take_body_q.append(q.copy())
-        if self._surface_paths or sim.mpm:
-            body_q = np.zeros((1, sim.model.body_count, 7), np.float32)
-            surf = {o.path: np.zeros((1, len(o.points), 3)) for o in self.scene_objects
-                    if o.path in self._surface_paths}
-            mpm = np.zeros((1, sim.mpm.model.particle_count, 3), np.float32) if sim.mpm else None
-            sim._record(0, body_q, surf, mpm)
-            for p, a in surf.items():
-                self.take_surfaces.setdefault(p, []).append(a[0])
-            if sim.mpm:
-                self.take_mpm.append(mpm[0])
+        rec = self._recorder
+        rec.record(0)
+        self.take_body_q.append(rec.body_q[0].copy())
+        for p, a in rec.surfaces.items():
+            self.take_surfaces.setdefault(p, []).append(a[0].copy())
+        if rec.mpm_points is not None:
+            self.take_mpm.append(rec.mpm_points[0].copy())
 
     def world_surface(self, path: str, local: np.ndarray) -> np.ndarray:
         o = next(o for o in self.scene_objects if o.path == path)
@@ -359,7 +348,7 @@ class Engine:
         self._later(self._grab, int(body), np.asarray(point, float))
 
     def _grab(self, body: int, point: np.ndarray) -> None:
-        q = self.sim.state.body_q.numpy()[body]
+        q = self.stepper.state.body_q.numpy()[body]
         from scipy.spatial.transform import Rotation
 
         local = Rotation.from_quat(q[3:7]).inv().apply(point - q[:3])
@@ -389,7 +378,7 @@ class Engine:
         fs = FieldSet(self.field_list, self.device)
         if self._samples is not None:
             fs.set_body_samples(self._samples)
-        self.hand.inner = fs
+        self.sim.fields = self.stepper.fields = fs
         self._graphs.clear()
 
     def set_gravity(self, magnitude: float) -> None:
@@ -402,8 +391,8 @@ class Engine:
 
         for model in [self.sim.model] + ([self.sim.mpm.model] if self.sim.mpm else []):
             model.set_gravity((0.0, 0.0, -g))
-        if self.sim.solver is not None:
-            self.sim.solver.notify_model_changed(ModelFlags.MODEL_PROPERTIES)
+        if self.stepper.solver is not None:
+            self.stepper.solver.notify_model_changed(ModelFlags.MODEL_PROPERTIES)
         self._graphs.clear()
 
     def set_param(self, name: str, key: str, value: float) -> None:
@@ -440,11 +429,8 @@ class Engine:
                 e = m.shape_material_restitution.numpy()
                 e[shapes] = obj.params["restitution"]
                 m.shape_material_restitution.assign(e)
-                # simulate's XPBD leaves restitution off; a user who sets one wants to see it
-                self.sim.solver.enable_restitution = True
-                self.restitution_on = True
             flags |= ModelFlags.SHAPE_PROPERTIES
-        self.sim.solver.notify_model_changed(flags)
+        self.stepper.solver.notify_model_changed(flags)
         self._graphs.clear()
 
     def reset(self) -> None:
@@ -453,7 +439,7 @@ class Engine:
 
     def _reset(self) -> None:
         with self.wp.ScopedDevice(self.device):
-            self.sim.restore((self._start[0], list(self._start[1])))
+            self.stepper.restore(self._start)
         self.hand.body.assign(np.asarray([-1], np.int32))
         self.plan = self.base_plan
         self._reset_counters()  # the graphs stay: they read the same arrays, restored in place
@@ -476,45 +462,21 @@ class Engine:
             out.append((scene, "physics:gravityMagnitude", float(self.gravity)))
         return out
 
+    def check_writable(self) -> None:
+        """Refuse (one line naming the file) a take that could not be written, before any work."""
+        check_writable([self.folder / layers.SIM, self.folder / layers.SHOT])
+
     def write_take(self) -> dict:
-        """Write the take (frame 0 to now) to ``sim.usdc`` as ``simulate`` does: samples only for prims
+        """Write the take (frame 0 to now) to ``sim.usdc`` by ``simulate``'s writer: samples only for prims
         that moved, the previous layer replaced only once the new one is complete."""
+        self.check_writable()
         sim, plan = self.sim, self.plan
         frames = len(self.take_body_q)
-        q = np.stack(self.take_body_q) if frames else np.zeros((0, 0, 7))
-        tracks, moved = {}, []
-        for path, b in sim.path_body.items():
-            pos = q[:, b, :3].astype(np.float64)
-            quat = q[:, b, [6, 3, 4, 5]].astype(np.float64)
-            quat /= np.linalg.norm(quat, axis=1, keepdims=True)
-            if frames > 1 and _moved(pos, quat):
-                tracks[path] = (pos, quat)
-                moved.append(path)
-        point_tracks = {}
-        for path, pts in self.take_surfaces.items():
-            pts = np.stack(pts)
-            if np.abs(pts - pts[0]).max() > 1e-3:
-                point_tracks[path] = pts
-                moved.append(path)
-        particles = {}
-        if sim.mpm:
-            x = np.stack(self.take_mpm)
-            for o in sim.mpm.objects:
-                particles[o.obj.name] = {"points": x[:, o.start:o.start + o.count], "show": o.binding is None,
-                                         "mesh": o.obj.path, "colour": o.colour, "width": sim.mpm.spacing}
-                moved.append(f"{PARTICLES}/{o.obj.name}")
-            author_particle_prims(self.folder / layers.PHYSICS,
-                                  {k: (v["colour"], v["width"]) for k, v in particles.items()})
+        surfaces = {p: np.stack(v) for p, v in self.take_surfaces.items()}
+        mpm = np.stack(self.take_mpm) if self.take_mpm else None
         seconds = max(frames - 1, 0) / plan.fps
-        meta = {"physomni:solver": self.cfg["solver"], "physomni:substeps": plan.substeps, "physomni:dt": plan.dt,
-                "physomni:iterations": plan.iterations, "physomni:seconds": seconds,
-                "physomni:solvers": ", ".join(sim.solvers), "physomni:source": "preview"}
-        if plan.mpm_steps:
-            meta |= {"physomni:mpmSteps": plan.mpm_steps, "physomni:mpmDt": plan.mpm_dt,
-                     "physomni:particleSpacing": sim.mpm.spacing}
-        write_sim_layer(self.folder / layers.SIM, fps=plan.fps, frames=frames, tracks=tracks, metadata=meta,
-                        point_tracks=point_tracks, particles=particles)
-        layers.set_shot_time(self.folder, plan.fps, frames)
+        moved = write_take(self.folder, sim, self.cfg, plan, np.stack(self.take_body_q), surfaces, mpm, seconds,
+                           metadata={"physomni:source": "preview"})
         return {"frames": frames, "seconds": seconds, "moving_prims": moved, "path": str(self.folder / layers.SIM)}
 
 

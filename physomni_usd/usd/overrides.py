@@ -19,11 +19,13 @@ def add_overrides(folder: pathlib.Path, values: list[tuple[str, str, object]], s
     value already in the layer for that attribute is replaced, everything else in the layer stays.
     Each authored value records ``physomni:source`` in its customData, as ``estimate --set`` does."""
     folder = pathlib.Path(folder)
-    path = layers.ensure_edits_layer(folder)
     stage = layers.open_shot(folder)
+    fps = stage.GetTimeCodesPerSecond() or 30.0
+    path = layers.ensure_edits_layer(folder, fps)
     edits = Sdf.Layer.FindOrOpen(str(path))
     copy = Sdf.Layer.CreateAnonymous(".usda")
     copy.TransferContent(edits)
+    layers.add_edits_time_codes(copy, fps)  # as estimate --set: without a rate USD rescales the layer's samples
     with Sdf.ChangeBlock():
         for prim_path, name, value in values:
             attr = stage.GetAttributeAtPath(Sdf.Path(prim_path).AppendProperty(name))
