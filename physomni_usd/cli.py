@@ -411,6 +411,45 @@ def estimate(shot, estimator, vlm_url, vlm_model, vlm_api_key, vlm_timeout, sets
 
 
 @main.command()
+@click.argument("shot", type=click.Path(path_type=pathlib.Path))
+@click.option("--host", default="127.0.0.1", show_default=True, help="Address to serve the page on.")
+@click.option("--port", type=click.IntRange(1, 65535), default=8080, show_default=True, help="Port of the page.")
+@click.option("--duration", type=click.FloatRange(0, 86400, min_open=True), default=None, metavar="SECONDS",
+              help="Quit after this many seconds (for scripts) [default: run until Ctrl-C].")
+@click.option("--record", is_flag=True, help="On exit, write the take since the last reset to sim.usdc.")
+@click.option("--open/--no-open", "open_browser", default=None,
+              help="Open the page in a web browser [default: where one is available].")
+def preview(shot, host, port, duration, record, open_browser):
+    """Simulate the composed shot live in the browser: push objects with the mouse, change fields,
+    materials and gravity from the panel, keep the take (sim.usdc) or the settings (edits.usda).
+
+    \b
+    In the page: a left-drag that starts on an object pulls it toward the cursor (a spring-damper);
+    a drag on empty space orbits the view and "Photo view" brings back the photo's camera. "Save take"
+    writes the motion since the last reset to sim.usdc as `simulate` would; "Keep settings" adds the
+    changed parameters to edits.usda, keeping everything already there. Nothing is written unless asked.
+    The rate (frames a second) is printed on stderr every few seconds and shown on the page.
+
+    \b
+    Examples:
+      physomni-usd preview shot/shot.usda
+      physomni-usd preview shot/shot.usda --port 8090 --duration 20 --record
+
+    \b
+    Limits: rigid bodies are pulled by the mouse; cloth, soft bodies and MPM materials move live but
+    are not grabbed. A take keeps at most 3600 frames.
+    """
+    with _errors():
+        from .preview.app import Options, Preview
+
+        options = Options(host=host, port=port, duration=duration, record=record, open_browser=open_browser)
+        session = Preview(shot, options)
+        session.start()
+        result = session.run()
+        click.echo(f"preview: stopped after {result['frames']} frames", err=True)
+
+
+@main.command()
 @click.argument("stage", type=click.Path(path_type=pathlib.Path))
 @click.option("--warnings/--no-warnings", default=True, show_default=True, help="Also print warnings.")
 def validate(stage, warnings):
@@ -720,6 +759,37 @@ def bench_physics_command(quick, json_path, plots_dir, md_path):
             if md_path.is_file():
                 text = splice_markdown(md_path.read_text(), text)
             write_bytes(md_path, text.encode())
+
+
+@bench.command("preview")
+@click.option("--quick", is_flag=True, help="1 and 20 objects only, shorter runs (about two minutes).")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
+              help="Also write the numbers to this JSON file.")
+def bench_preview_command(quick, json_path):
+    """Frames per second of the live preview, and the step against Genesis.
+
+    \b
+    Prints, in one run: the preview loop's rate (step, read back, publish; unpaced) for 1, 5, 10 and
+    20 rigid boxes with a headless chromium attached where one is installed (/usr/bin/chromium and
+    playwright), the same for 20 boxes without the graph capture, simulate's seconds per simulated
+    second on ten boxes (as it runs, and its step captured as one graph a frame), and Genesis's on the
+    same ten boxes at 30 fps × 8 substeps when genesis-world is installed (pip install
+    'physomni-usd[peer]'), with the ratio. Each measurement runs in a fresh interpreter.
+
+    \b
+    Example:
+      physomni-usd bench preview --json out/preview.json
+    """
+    with _errors():
+        import json
+
+        from .bench.preview import bench_preview
+
+        numbers = bench_preview(quick=quick, echo=click.echo)
+        if json_path:
+            from ._files import write_bytes
+
+            write_bytes(json_path, (json.dumps(numbers, indent=2) + "\n").encode())
 
 
 if __name__ == "__main__":  # pragma: no cover

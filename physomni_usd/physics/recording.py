@@ -1,11 +1,14 @@
 """What a run leaves behind: each frame's body poses, deformed surfaces and particles, which of them
-moved (only those get time samples), and the checks a user asks of a finished run."""
+moved (only those get time samples), ``sim.usdc`` written from them, and the checks a user asks of a
+finished run."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from ..metrics.geometry import max_penetration, world_meshes
+from ..usd import layers
+from ..usd.author import PARTICLES, write_sim_layer
 from .mpm import SURFACE_TYPES, deform_surface, particle_gradients
 
 #: Motion below these (1 mm, 0.11°; solver creep of a resting body stays under them) is "did not
@@ -75,6 +78,32 @@ def moving_tracks(path_body: dict, body_q: np.ndarray, surfaces: dict) -> tuple[
             point_tracks[path] = pts
             moved.append(path)
     return tracks, point_tracks, moved
+
+
+def write_take(folder, models, cfg: dict, plan, body_q: np.ndarray, surfaces: dict, mpm_points, seconds: float,
+               metadata: dict | None = None) -> list[str]:
+    """Write ``folder/sim.usdc`` (time samples only for what moved, the previous layer replaced once the
+    new one is complete) and the shot's time range from recorded frames of ``models`` (a
+    :class:`~.assembly.ShotModels`) stepped on ``plan``: ``body_q`` (F, B, 7), ``surfaces`` path → (F, N, 3),
+    ``mpm_points`` (F, P, 3) or None; ``seconds`` simulated. Returns the moved prims' paths."""
+    frames = len(body_q)
+    tracks, point_tracks, moved = moving_tracks(models.path_body, body_q, surfaces)
+    particles = {}
+    if models.mpm:
+        for o in models.mpm.objects:
+            particles[o.obj.name] = {"points": mpm_points[:, o.start:o.start + o.count], "show": o.binding is None,
+                                     "mesh": o.obj.path, "colour": o.colour, "width": models.mpm.spacing}
+            moved.append(f"{PARTICLES}/{o.obj.name}")
+    meta = {"physomni:solver": cfg["solver"], "physomni:substeps": plan.substeps, "physomni:dt": plan.dt,
+            "physomni:iterations": plan.iterations, "physomni:seconds": seconds,
+            "physomni:solvers": ", ".join(models.solvers)}
+    if plan.mpm_steps:
+        meta |= {"physomni:mpmSteps": plan.mpm_steps, "physomni:mpmDt": plan.mpm_dt,
+                 "physomni:particleSpacing": models.mpm.spacing}
+    write_sim_layer(folder / layers.SIM, fps=cfg["fps"], frames=frames, tracks=tracks,
+                    metadata=meta | (metadata or {}), point_tracks=point_tracks, particles=particles)
+    layers.set_shot_time(folder, cfg["fps"], frames)
+    return moved
 
 
 def _moved(pos: np.ndarray, quat: np.ndarray) -> bool:

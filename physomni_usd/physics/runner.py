@@ -9,7 +9,6 @@ import numpy as np
 
 from ..errors import PhysOmniError
 from .recording import Recorder
-from .snapshots import restore, snapshot
 from .diagnose import FRAME_WALL_BUDGET_S, failure_line
 from .stability import Guard, StepPlan
 
@@ -36,7 +35,7 @@ def run_guarded(models, plan: StepPlan, frames: int, progress=None, echo=lambda 
         while f < frames:
             if f != frame_of_t:
                 t_frame, frame_of_t = time.perf_counter(), f
-            saved = _checkpoint(stepper)
+            saved = stepper.checkpoint()
             work = guard.work
             stepper.frame(plan, t, step, guard.add_work, speed)
             before = speed
@@ -49,7 +48,7 @@ def run_guarded(models, plan: StepPlan, frames: int, progress=None, echo=lambda 
                 if time.perf_counter() - t_frame > FRAME_WALL_BUDGET_S:
                     raise PhysOmniError(failure_line(models.stage, f"simulation stuck at frame {f}: {why}, "
                                                      f"{FRAME_WALL_BUDGET_S:g} s spent on it"))
-                _restore(stepper, saved)
+                stepper.restore(saved)
                 guard.work = work
                 speed = before
                 plan = plan.refined()
@@ -83,19 +82,3 @@ def _arrays(stepper):
         out += [stepper.mpm.state.particle_q, stepper.mpm.state.particle_qd]
     return out
 
-
-def _checkpoint(stepper):
-    import warp as wp
-
-    snaps = [snapshot(stepper.state)]
-    if stepper.mpm:
-        snaps += [snapshot(stepper.mpm.state), {"": wp.clone(stepper.mpm.body_force)}]
-    return snaps, list(stepper.pending)
-
-
-def _restore(stepper, saved) -> None:
-    snaps, stepper.pending = saved
-    restore(stepper.state, snaps[0])
-    if stepper.mpm:
-        restore(stepper.mpm.state, snaps[1])
-        stepper.mpm.body_force.assign(snaps[2][""])

@@ -13,13 +13,13 @@ from ..errors import InputError
 from ..report import prepare_writes, update_report
 from ..settings import SimulateSettings
 from ..usd import layers
-from ..usd.author import OBJECTS, PARTICLES, write_sim_layer
+from ..usd.author import OBJECTS
 from .assembly import ShotModels
 from .checks import check_inputs
 from .diagnose import refuse_broken_scene
 from .objects import scene_objects
 from .params import describe, ignored_parameters
-from .recording import moving_tracks, shot_checks
+from .recording import shot_checks, write_take
 from .runner import run_guarded
 from .stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS, plan_steps
 
@@ -80,23 +80,7 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
 
     t_write = time.perf_counter()
     plan = run["plan"]
-    tracks, point_tracks, moved = moving_tracks(sim.path_body, run["body_q"], run["surfaces"])
-    particles = {}
-    if sim.mpm:
-        for o in sim.mpm.objects:
-            pts = run["mpm_points"][:, o.start:o.start + o.count]
-            particles[o.obj.name] = {"points": pts, "show": o.binding is None, "mesh": o.obj.path,
-                                     "colour": o.colour, "width": sim.mpm.spacing}
-            moved.append(f"{PARTICLES}/{o.obj.name}")
-    meta = {"physomni:solver": cfg["solver"], "physomni:substeps": plan.substeps, "physomni:dt": plan.dt,
-            "physomni:iterations": plan.iterations, "physomni:seconds": settings.seconds,
-            "physomni:solvers": ", ".join(sim.solvers)}
-    if plan.mpm_steps:
-        meta |= {"physomni:mpmSteps": plan.mpm_steps, "physomni:mpmDt": plan.mpm_dt,
-                 "physomni:particleSpacing": sim.mpm.spacing}
-    write_sim_layer(folder / layers.SIM, fps=cfg["fps"], frames=frames, tracks=tracks, metadata=meta,
-                    point_tracks=point_tracks, particles=particles)
-    layers.set_shot_time(folder, cfg["fps"], frames)
+    moved = write_take(folder, sim, cfg, plan, run["body_q"], run["surfaces"], run["mpm_points"], settings.seconds)
     checks = shot_checks(layers.open_shot(folder), frames)
     t_end = time.perf_counter()
 

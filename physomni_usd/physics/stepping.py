@@ -12,6 +12,7 @@ import numpy as np
 
 from .controls import give_velocities
 from .mpm import add_particle_forces, step_particles
+from .snapshots import restore, snapshot
 from .stability import StepPlan, body_energy, particle_energy
 
 
@@ -63,6 +64,30 @@ class Stepper:
         self.air = air  # cloths' air resistance (cloth.AirDrag), or None
         self.pending = sorted(pushes, key=lambda p: p.at)
         self._work = None  # (1,) float64 on the device: the fields' work (J) since it was last read
+        #: forces added every rigid substep after the fields', outside their work: callables
+        #: ``(model, state, t, dt)`` adding to ``state.body_f`` / ``particle_f`` (the preview's hand)
+        self.extra_forces = []
+        #: whether the fields' work is summed for the guard (kernels a substep, a read-back a frame);
+        #: off where no guard reads it, so that a frame can be captured as one graph
+        self.count_work = True
+
+    def checkpoint(self):
+        """Copies of the state (the MPM scene's included) and the pending pushes, for :meth:`restore`."""
+        import warp as wp
+
+        snaps = [snapshot(self.state)]
+        if self.mpm:
+            snaps += [snapshot(self.mpm.state), {"": wp.clone(self.mpm.body_force)}]
+        return snaps, list(self.pending)
+
+    def restore(self, saved) -> None:
+        """Put a :meth:`checkpoint` back, into the same arrays."""
+        snaps, pending = saved
+        self.pending = list(pending)
+        restore(self.state, snaps[0])
+        if self.mpm:
+            restore(self.mpm.state, snaps[1])
+            self.mpm.body_force.assign(snaps[2][""])
 
     def energy(self) -> tuple[float, float]:
         """Kinetic + gravitational energy (J) of everything stepped, and the top speed (m/s)."""
@@ -102,7 +127,9 @@ class Stepper:
                     held = None
                     if fields:
                         fields.apply(self.model, self.state, t, step, dt)
-                        held = self._work_before(self.model, self.state, dt)
+                        held = self._work_before(self.model, self.state, dt) if self.count_work else None
+                    for force in self.extra_forces:
+                        force(self.model, self.state, t, dt)
                     if self.air is not None:
                         self.air.apply(self.model, self.state)
                     if self.mpm:
@@ -120,13 +147,13 @@ class Stepper:
                 held = None
                 if fields:
                     fields.apply(self.mpm.model, self.mpm.state, t, step, plan.mpm_dt)
-                    held = self._work_before(self.mpm.model, self.mpm.state, plan.mpm_dt)
+                    held = self._work_before(self.mpm.model, self.mpm.state, plan.mpm_dt) if self.count_work else None
                 step_particles(self.mpm, self.model, self.state, plan.mpm_dt)
                 if held is not None:
                     self._work_after(held, self.mpm.state, plan.mpm_dt)
                 if after_mpm_step is not None:
                     after_mpm_step(t)
-        if fields:
+        if fields and self.count_work:
             add_work(self._read_work())
 
     # --- the fields' work ------------------------------------------------------------------------

@@ -97,8 +97,9 @@ def ensure_edits_layer(folder: pathlib.Path, fps: float) -> pathlib.Path:
 
 
 def add_edits_time_codes(edits: Sdf.Layer, fps: float) -> bool:
-    """Author the root's frame rate on the artist's layer where it has none (only ``estimate --set``, which
-    authors on that layer anyway, calls this); returns whether it did."""
+    """Author the root's frame rate on the artist's layer where it has none (only its writers, ``estimate
+    --set`` and the preview's Keep settings, which author on that layer anyway, call this); returns whether
+    it did."""
     if edits.HasTimeCodesPerSecond() or edits.HasFramesPerSecond():
         return False
     edits.timeCodesPerSecond = float(fps)

@@ -1,0 +1,362 @@
+"""The preview server: a viser page showing the shot from the photo's camera, a panel of controls,
+mouse picking, and the loop that steps the simulation and publishes each frame's poses.
+
+Threads: viser serves the page and runs the callbacks on its own threads; the loop (the caller's
+thread) owns the simulation. Callbacks only queue what they want, the loop applies it between frames.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import queue
+import socket
+import sys
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InputError
+from .engine import Engine, field_label
+from .scene import background_card, drawn_objects, mean_colour, photo_view, textured_glb
+
+#: Seconds between two ``preview: N fps`` lines on stderr (and updates of the page's rate).
+REPORT_EVERY = 3.0
+#: A pose change smaller than this (m, or quaternion component) is not sent again.
+SEND_TOLERANCE = 1e-5
+
+
+@dataclass
+class Options:
+    host: str = "127.0.0.1"
+    port: int = 8080
+    duration: float | None = None  # wall seconds, then quit
+    record: bool = False  # write the take on exit
+    open_browser: bool | None = None  # None: where one is available
+    paced: bool = True  # real time; False runs as fast as the CPU allows (bench)
+    capture: bool = True  # replay each frame's launches as one graph where it can
+    report_every: float = REPORT_EVERY  # seconds between rate reports
+    echo: object = field(default=lambda m: print(m, file=sys.stderr, flush=True))
+
+
+def check_port(host: str, port: int) -> None:
+    """Refuse a port another program holds, before anything starts (viser would quietly take the next)."""
+    with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET, socket.SOCK_STREAM) as s:
+        try:
+            s.bind((host, port))
+        except OSError as exc:
+            raise InputError(f"--port {port}: cannot listen on {host}:{port} ({exc.strerror or exc}); "
+                             "is another preview running? choose another --port") from None
+
+
+def browser_available() -> bool:
+    """Whether a graphical web browser can be opened here (never on a machine without a display)."""
+    import webbrowser
+
+    if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        return False
+    try:
+        webbrowser.get()
+    except webbrowser.Error:
+        return False
+    return True
+
+
+class Preview:
+    """One shot on one page."""
+
+    def __init__(self, shot, options: Options = Options()):
+        self.options = options
+        self.echo = options.echo
+        check_port(options.host, options.port)
+        if options.open_browser and not browser_available():
+            raise InputError("--open: no web browser is available here; leave out --open and open the "
+                             "page's address in a browser yourself")
+        self.engine = Engine(shot, capture=options.capture)
+        if options.record:
+            self.engine.check_writable()
+        stage = self.engine.stage
+        self.view, self.fx = photo_view(stage)
+        self.plate = background_card(stage, self.view)
+        self.drawn = drawn_objects(stage)
+        self.actions: queue.Queue = queue.Queue()
+        self.playing = True
+        self.time_scale = 1.0
+        self.status = ""
+        self.saved = 0
+        self.seconds = {"step": 0.0, "publish": 0.0}  # wall time of the loop's two halves
+        self.rate = 0.0
+        self._sent: dict = {}
+        self.server = None
+
+    # --- page -------------------------------------------------------------------------------------
+    def start(self) -> str:
+        import viser
+
+        o = self.options
+        with contextlib.redirect_stdout(io.StringIO()):  # viser prints a banner of its own on stdout
+            self.server = viser.ViserServer(host=o.host, port=o.port, label="physomni-usd preview", verbose=False)
+        url = f"http://{o.host}:{self.server.get_port()}"
+        self._build_scene()
+        self._build_panel()
+        self.echo(f"preview: {url}")
+        if o.open_browser or (o.open_browser is None and browser_available()):
+            import webbrowser
+
+            webbrowser.open(url)
+        return url
+
+    def _photo_camera(self, cam) -> None:
+        v = self.view
+        if hasattr(cam, "up_direction"):  # a connected page's camera
+            cam.up_direction = (0.0, 0.0, 1.0)
+        else:  # what a page starts with
+            cam.up = (0.0, 0.0, 1.0)
+        cam.position = v.position
+        cam.look_at = v.look_at
+        cam.fov = v.fov
+        cam.near = 0.01
+        cam.far = 1000.0
+
+    def _build_scene(self) -> None:
+        s = self.server
+        s.scene.configure_environment_map(hdri=None)
+        s.scene.configure_default_lights(enabled=True, cast_shadow=False)
+        s.scene.set_up_direction("+z")
+        self._photo_camera(s.initial_camera)
+        plate, centre, wxyz, w, h = self.plate
+        s.scene.add_image("/plate", plate, w, h, format="jpeg", jpeg_quality=92, position=centre, wxyz=wxyz,
+                          cast_shadow=False, receive_shadow=False)
+        e = self.engine
+        self.handles = {}
+        self.live_meshes = {}
+        self.clouds = {}
+        q, _ = e.body_state()
+        families = {o.path: o for o in e.objects}
+        for path, d in self.drawn.items():
+            live = families.get(path)
+            if live is None:
+                continue
+            if live.body is not None:
+                b = live.body
+                h = s.scene.add_glb(f"/objects/{d.name}", textured_glb(d), position=q[b, :3],
+                                    wxyz=q[b, [6, 3, 4, 5]], cast_shadow=False, receive_shadow=False)
+                if float(e.sim.model.body_inv_mass.numpy()[b]) > 0:
+                    self._draggable(h, b)
+                self.handles[b] = h
+            elif path in e.surfaces():
+                world = e.world_surface(path, e.surfaces()[path])
+                self.live_meshes[path] = s.scene.add_mesh_simple(
+                    f"/objects/{d.name}", world.astype(np.float32), d.faces, color=mean_colour(d.texture),
+                    side="double", cast_shadow=False, receive_shadow=False)
+        for name, pts in e.particles().items():
+            mo = next(m for m in e.sim.mpm.objects if m.obj.name == name)
+            colour = tuple(int(255 * c) for c in mo.colour)
+            self.clouds[name] = s.scene.add_point_cloud(f"/particles/{name}", pts.astype(np.float32),
+                                                        colors=colour, point_size=float(e.sim.mpm.spacing),
+                                                        point_shape="circle")
+
+    def _draggable(self, handle, body: int) -> None:
+        engine = self.engine
+
+        @handle.on_drag("left")
+        async def _(event) -> None:
+            if event.phase == "start":
+                engine.grab(body, np.asarray(event.start_position, float))
+                engine.pull_to(np.asarray(event.end_position, float))
+            elif event.phase == "update":
+                engine.pull_to(np.asarray(event.end_position, float))
+            else:
+                engine.release()
+
+    def _build_panel(self) -> None:
+        gui = self.server.gui
+        e = self.engine
+        gui.configure_theme(control_width="medium", show_logo=False, show_share_button=False)
+        gui.main_panel.dock_right()  # beside the view, not over the photo
+        self.rate_text = gui.add_markdown("**rate:** starting")
+        with gui.add_folder("Playback"):
+            play = gui.add_button("Pause", icon=None)
+            step = gui.add_button("Step")
+            reset = gui.add_button("Reset to frame 0")
+            scale = gui.add_slider("Time scale", 0.1, 2.0, 0.05, 1.0)
+            photo = gui.add_button("Photo view")
+
+            @play.on_click
+            def _(_) -> None:
+                self.playing = not self.playing
+                play.label = "Pause" if self.playing else "Play"
+
+            @step.on_click
+            def _(_) -> None:
+                self.actions.put("step")
+
+            @reset.on_click
+            def _(_) -> None:
+                e.reset()
+
+            @scale.on_update
+            def _(_) -> None:
+                self.time_scale = float(scale.value)
+
+            @photo.on_click
+            def _(event) -> None:
+                self._photo_camera(event.client.camera)
+
+        if e.field_list:
+            with gui.add_folder("Force fields"):
+                for i, f in enumerate(e.field_list):
+                    self._field_controls(gui, i, f)
+        with gui.add_folder("Scene"):
+            g = gui.add_slider("Gravity (m/s²)", 0.0, 20.0, 0.01, round(e.gravity, 2))
+            g.on_update(lambda _: e.set_gravity(float(g.value)))
+        rigid = [o for o in e.objects if o.body is not None and "friction" in o.params]
+        if rigid:
+            with gui.add_folder("Objects", expand_by_default=False):
+                for o in rigid:
+                    self._object_controls(gui, o)
+        with gui.add_folder("Keep"):
+            save = gui.add_button("Save take")
+            keep = gui.add_button("Keep settings")
+            self.status_text = gui.add_markdown(" ")
+            save.on_click(lambda _: self.actions.put("save"))
+            keep.on_click(lambda _: self.actions.put("keep"))
+
+    def _field_controls(self, gui, i: int, f) -> None:
+        e = self.engine
+        label = field_label(f)
+        on = gui.add_checkbox(f"{label} on", bool(f.enabled))
+        top = max(abs(f.strength) * 4.0, 1.0)
+        lo = -top if f.strength < 0 or f.kind == "point" else 0.0
+        strength = gui.add_slider(f"{label} strength", lo, top, top / 200.0, float(f.strength))
+        on.on_update(lambda _: e.set_field(i, enabled=bool(on.value)))
+        strength.on_update(lambda _: e.set_field(i, strength=float(strength.value)))
+
+    def _object_controls(self, gui, o) -> None:
+        e = self.engine
+        d0 = o.params["density"]
+        sliders = {
+            "density": gui.add_slider(f"{o.name} density (kg/m³)", round(d0 / 10, 3), round(d0 * 10, 3),
+                                      round(d0 / 100, 4), d0),
+            "friction": gui.add_slider(f"{o.name} friction", 0.0, 2.0, 0.01, round(o.params["friction"], 3)),
+            "restitution": gui.add_slider(f"{o.name} restitution", 0.0, 1.0, 0.01,
+                                          round(o.params["restitution"], 3)),
+        }
+        for key, s in sliders.items():
+            s.on_update(lambda _, key=key, s=s: e.set_param(o.name, key, float(s.value)))
+
+    # --- loop -------------------------------------------------------------------------------------
+    def publish(self) -> None:
+        """Send this frame's poses (only those that changed) and deformable shapes in one batch."""
+        e = self.engine
+        q, _ = e.body_state()
+        with self.server.atomic():
+            for b, h in self.handles.items():
+                pose = q[b]
+                last = self._sent.get(b)
+                if last is not None and np.abs(pose - last).max() < SEND_TOLERANCE:
+                    continue
+                h.position = pose[:3]
+                h.wxyz = pose[[6, 3, 4, 5]]
+                self._sent[b] = pose.copy()
+            surfaces = e.surfaces() if self.live_meshes else {}
+            for path, h in self.live_meshes.items():
+                h.vertices = e.world_surface(path, surfaces[path]).astype(np.float32)
+            for name, pts in (e.particles().items() if self.clouds else ()):
+                self.clouds[name].points = pts.astype(np.float32)
+
+    def _handle(self, action: str) -> None:
+        e = self.engine
+        if action == "step":
+            e.step()
+            self.publish()
+        elif action == "save":
+            try:
+                r = e.write_take()
+            except InputError as exc:  # the folder became unwritable: say so, keep running
+                self._say(str(exc))
+                return
+            self.saved += 1
+            self._say(f"take {self.saved} saved: {r['frames']} frames ({r['seconds']:.2f} s), "
+                      f"{len(r['moving_prims'])} moving prims → sim.usdc")
+        elif action == "keep":
+            from ..usd.overrides import add_overrides
+
+            changes = e.changed_settings()
+            if not changes:
+                self._say("no settings changed: edits.usda left as it was")
+            else:
+                add_overrides(e.folder, changes)
+                self._say(f"kept {len(changes)} setting(s) in edits.usda")
+
+    def _say(self, message: str) -> None:
+        self.status = message
+        self.echo(f"preview: {message}")
+        if self.server is not None:
+            self.status_text.content = message
+
+    def run(self) -> dict:
+        """Step and publish until the duration ends or the user interrupts; returns what happened."""
+        o, e = self.options, self.engine
+        frame_dt = 1.0 / e.fps
+        start = last_report = time.perf_counter()
+        next_frame = start
+        frames_since = 0
+        rates = []
+        interrupted = False
+        try:
+            while o.duration is None or time.perf_counter() - start < o.duration:
+                while not self.actions.empty():
+                    self._handle(self.actions.get())
+                if self.playing:
+                    t0 = time.perf_counter()
+                    e.step()
+                    t1 = time.perf_counter()
+                    self.publish()
+                    self.seconds["step"] += t1 - t0
+                    self.seconds["publish"] += time.perf_counter() - t1
+                    frames_since += 1
+                elif e.sync():  # a reset or a change while paused shows at once
+                    self.publish()
+                now = time.perf_counter()
+                if now - last_report >= o.report_every:
+                    self.rate = frames_since / (now - last_report)
+                    rates.append(self.rate)
+                    self.echo(f"preview: {self.rate:.1f} fps")
+                    self.rate_text.content = (f"**{self.rate:.1f} fps** · frame {e.frame} · "
+                                              f"{e.plan.substeps} substeps a frame"
+                                              + (" · captured" if e.captured_frames else ""))
+                    frames_since, last_report = 0, now
+                if o.paced or not self.playing:
+                    next_frame += frame_dt / max(self.time_scale, 1e-3) if self.playing else frame_dt
+                    delay = next_frame - time.perf_counter()
+                    if delay > 0:
+                        time.sleep(delay)
+                    else:
+                        next_frame = time.perf_counter()  # behind: run as fast as we can, do not catch up
+        except KeyboardInterrupt:
+            interrupted = True
+        finally:
+            # a take and settings asked for in the last moments are still kept
+            while not self.actions.empty():
+                self._handle(self.actions.get())
+            result = {"frames": e.frame, "rates": rates, "interrupted": interrupted,
+                      "wall_seconds": time.perf_counter() - start, "seconds": dict(self.seconds)}
+            if o.record:
+                result["take"] = e.write_take()
+                self.echo(f"preview: take written to {result['take']['path']} ({result['take']['frames']} frames)")
+            self.stop()
+        return result
+
+    def stop(self) -> None:
+        if self.server is not None:
+            self.server.stop()
+            self.server = None
+
+
+def run_preview(shot, options: Options = Options()) -> dict:
+    preview = Preview(shot, options)
+    preview.start()
+    return preview.run()

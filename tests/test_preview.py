@@ -1,0 +1,342 @@
+"""``physomni-usd preview``: a real browser (Debian's chromium through Playwright, software WebGL) drives
+one preview of the bundled motorcycle shot; the other tests run the server without a browser."""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import re
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+
+import cv2
+import numpy as np
+import pytest
+from pxr import Sdf, Usd
+
+from .conftest import cli
+
+EXAMPLE = pathlib.Path(__file__).resolve().parents[1] / "examples" / "motorcycle"
+CHROMIUM = "/usr/bin/chromium"
+#: The bin stands still on its own in this shot, so any motion it shows is the mouse's.
+DRAGGED = "/World/Objects/bin_2"
+WIND = "/World/ForceFields/wind_0"
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def start_preview(shot, port, *extra) -> tuple[subprocess.Popen, list[str]]:
+    """``physomni-usd preview`` in the background; returns once it prints its address."""
+    proc = subprocess.Popen([sys.executable, "-m", "physomni_usd.cli", "preview", str(shot), "--port", str(port),
+                             "--no-open", *extra], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    lines: list[str] = []
+    ready = threading.Event()
+
+    def read():
+        for line in proc.stderr:
+            lines.append(line.rstrip("\n"))
+            if line.startswith("preview: http://"):
+                ready.set()
+        ready.set()
+
+    threading.Thread(target=read, daemon=True).start()
+    if not ready.wait(120) or proc.poll() is not None:
+        proc.kill()
+        raise AssertionError("preview did not start:\n" + "\n".join(lines))
+    return proc, lines
+
+
+def track(sim_path: pathlib.Path, prim: str) -> np.ndarray:
+    """The translate samples (F, 3) a take holds for ``prim``; empty when it has none."""
+    layer = Sdf.Layer.FindOrOpen(str(sim_path))
+    layer.Reload(force=True)
+    attr = f"{prim}.xformOp:translate"
+    times = sorted(layer.ListTimeSamplesForPath(attr))
+    return np.array([layer.QueryTimeSample(attr, t) for t in times], float).reshape(-1, 3)
+
+
+def tracks(sim_path: pathlib.Path) -> dict[str, np.ndarray]:
+    layer = Sdf.Layer.FindOrOpen(str(sim_path))
+    layer.Reload(force=True)
+    out = {}
+    layer.Traverse(Sdf.Path.absoluteRootPath,
+                   lambda p: out.setdefault(str(p.GetPrimPath()), None) if p.name == "xformOp:translate" else None)
+    return {p: track(sim_path, p) for p in out}
+
+
+@pytest.fixture(scope="module")
+def moto(tmp_path_factory) -> pathlib.Path:
+    """The bundled motorcycle shot, built only (no simulation), with a wind that starts switched off."""
+    out = tmp_path_factory.mktemp("moto")
+    masks = [f"{EXAMPLE / m}:{m.split('.')[0]}" for m in ("motorcycle.png", "bench.png", "bin.png")]
+    cli("build", EXAMPLE / "photo.png", "-o", out, *sum((["--mask", m] for m in masks), []),
+        "--force", "wind:direction=1,0,0,strength=20,enabled=false", "-q", check=True)
+    return out
+
+
+@pytest.fixture(scope="module")
+def session(moto, tmp_path_factory):
+    """One preview and one browser for every browser test: the opening view, the rate, takes without and
+    with the wind, a drag on empty space, a kept setting, then a drag on the bin and Ctrl-C with --record."""
+    from playwright.sync_api import sync_playwright
+
+    from physomni_usd.preview.scene import drawn_objects, photo_view
+    from physomni_usd.usd import layers
+
+    folder = tmp_path_factory.mktemp("session")
+    shutil.copytree(moto, folder, dirs_exist_ok=True)
+    edits = Sdf.Layer.FindOrOpen(str(folder / "edits.usda"))  # the artist's own opinion, to be kept
+    spec = Sdf.CreatePrimInLayer(edits, "/World/Objects/bench_1")
+    Sdf.AttributeSpec(spec, "physomni:label", Sdf.ValueTypeNames.String).default = "artist's bench"
+    edits.Save()
+    stage = layers.open_shot(folder)
+    view, fx = photo_view(stage)
+    bin_ = drawn_objects(stage)[DRAGGED]
+    bin_px = view.project((bin_.points @ bin_.matrix[:3, :3] + bin_.matrix[3, :3]).mean(axis=0), fx)[0]
+    sim = folder / "sim.usdc"
+    out = {"folder": folder, "view": view}
+    proc, lines = start_preview(folder / "shot.usda", free_port(), "--record", "--duration", "300")
+    url = next(x for x in lines if x.startswith("preview: http://")).split(": ", 1)[1]
+    out["url_line"] = url
+    try:
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=CHROMIUM, args=[
+                "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox"])
+            page = browser.new_page(viewport={"width": 1600, "height": 720})
+            page.goto(url)
+            page.get_by_role("button", name="Pause").wait_for(timeout=60000)
+            page.wait_for_timeout(3500)  # at least one rate report
+            out["rate_text"] = page.get_by_text(re.compile(r"[\d.]+ fps")).first.inner_text()
+
+            def button(name):
+                try:
+                    page.get_by_role("button", name=name).click(timeout=5000)
+                except Exception:
+                    page.screenshot(path="/tmp/pv/fail.png")
+                    bb = page.get_by_role("button", name=name).bounding_box()
+                    print("DBG", bb, page.evaluate(f"() => {{ const e = document.elementFromPoint({bb['x']+bb['width']/2}, {bb['y']+bb['height']/2}); return [e.tagName, e.outerHTML.slice(0,400), e.parentElement.outerHTML.slice(0,200)]; }}"))
+                    raise
+
+            def saved_take(n: int) -> dict:
+                page.get_by_text(f"take {n} saved").wait_for(timeout=30000)
+                return tracks(sim)
+
+            # the opening view: paused at frame 0, seen through the photo's camera
+            button("Pause")
+            button("Reset to frame 0")
+            page.wait_for_timeout(1500)
+            out["screenshot"] = page.screenshot()
+            out["canvas"] = page.locator("canvas").first.bounding_box()
+            out["overlays"] = page.evaluate(
+                "() => Array.from(document.querySelectorAll('[role=alert]')).map(e => e.getBoundingClientRect())"
+                ".map(r => [r.x, r.y, r.width, r.height])")
+            canvas = out["canvas"]
+            scale = canvas["height"] / view.height
+            left = canvas["x"] + canvas["width"] / 2 - view.width * scale / 2
+
+            def screen(u, v):
+                return left + u * scale, canvas["y"] + v * scale
+
+            def drag(u, v, pixels=160, seconds=1.0, steps=20):
+                x, y = screen(u, v)
+                page.mouse.move(x, y)
+                page.mouse.down()
+                for i in range(1, steps + 1):
+                    page.mouse.move(x + pixels * i / steps, y)
+                    page.wait_for_timeout(1000 * seconds / steps)
+                page.mouse.up()
+
+            def take_after(seconds: float, n: int) -> dict:
+                button("Reset to frame 0")
+                button("Play")
+                page.wait_for_timeout(seconds * 1000)
+                button("Save take")
+                return saved_take(n)
+
+            out["still"] = take_after(2.0, 1)  # nothing done: the baseline
+            button("Pause")
+            page.get_by_label("wind_0 (wind) on").check()
+            out["windy"] = take_after(2.0, 2)
+            button("Pause")
+            button("Keep settings")
+            page.get_by_text(re.compile(r"kept \d+ setting")).wait_for(timeout=30000)
+            page.get_by_label("wind_0 (wind) on").uncheck()
+            # a drag on empty space (the wall above the shelves) orbits the view and moves nothing
+            button("Reset to frame 0")
+            button("Play")
+            drag(0.45 * view.width, 0.06 * view.height)
+            page.wait_for_timeout(800)
+            button("Save take")
+            out["empty_drag"] = saved_take(3)
+            button("Pause")
+            button("Photo view")
+            button("Reset to frame 0")
+            button("Play")
+            drag(*bin_px)
+            page.wait_for_timeout(1000)
+            browser.close()
+        proc.send_signal(signal.SIGINT)
+        proc.wait(120)
+    except Exception as exc:  # say what the preview printed, or a failure in the page is hard to tell apart
+        raise AssertionError(f"{exc}\npreview's stderr (exit {proc.poll()}):\n" + "\n".join(lines)) from exc
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    time.sleep(0.5)
+    out["returncode"] = proc.returncode
+    out["stderr"] = lines
+    out["final"] = tracks(sim)
+    out["edits"] = (folder / "edits.usda").read_text()
+    return out
+
+
+def _common(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    n = min(len(a), len(b))
+    return a[:n], b[:n]
+
+
+def test_opening_view_reproduces_the_photo(session):
+    from physomni_usd.metrics.image import ssim
+
+    img = cv2.imdecode(np.frombuffer(session["screenshot"], np.uint8), cv2.IMREAD_GRAYSCALE)
+    photo = cv2.imread(str(EXAMPLE / "photo.png"), cv2.IMREAD_GRAYSCALE)
+    h, w = photo.shape
+    c = session["canvas"]
+    scale = c["height"] / h
+    x0 = int(round(c["x"] + c["width"] / 2 - w * scale / 2))
+    y0 = int(round(c["y"]))
+    assert x0 >= 0 and x0 + w * scale <= img.shape[1] + 1, "the photo's view must fit the page for this test"
+    mask = np.ones(img.shape, bool)
+    for x, y, bw, bh in session["overlays"]:  # notifications over the canvas are not the view
+        mask[int(y):int(np.ceil(y + bh)), int(x):int(np.ceil(x + bw))] = False
+    view = img[y0:y0 + int(round(h * scale)), x0:x0 + int(round(w * scale))]
+    m = mask[y0:y0 + view.shape[0], x0:x0 + view.shape[1]]
+    view = cv2.resize(view, (w, h), interpolation=cv2.INTER_AREA)
+    m = cv2.resize(m.astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST) > 0
+    assert m.mean() > 0.7
+    score = ssim(view, photo, mask=m)
+    assert score >= 0.6, score
+
+
+def test_page_and_stderr_report_the_rate(session):
+    assert session["url_line"].startswith("http://127.0.0.1:")
+    assert re.search(r"[\d.]+ fps", session["rate_text"])
+    rates = [float(m.group(1)) for x in session["stderr"] if (m := re.fullmatch(r"preview: ([\d.]+) fps", x))]
+    assert rates and max(rates) > 0  # 0 while paused
+
+
+def test_wind_switched_on_in_the_panel_changes_the_motion(session):
+    still, windy = session["still"], session["windy"]
+    moved = []
+    for prim in ("/World/Objects/motorcycle_0", "/World/Objects/bench_1", DRAGGED):
+        a, b = still.get(prim), windy.get(prim)
+        if b is None or not len(b):
+            continue
+        if a is None or not len(a):  # it stood still without the wind
+            a = np.repeat(b[:1], len(b), axis=0)
+        a, b = _common(a, b)
+        moved.append(float(np.abs(b[-1, :2] - a[-1, :2]).max()))
+    assert moved and max(moved) > 0.05, moved
+
+
+def test_keep_settings_adds_to_edits_and_keeps_what_was_there(session):
+    layer = Sdf.Layer.CreateAnonymous(".usda")
+    layer.ImportFromString(session["edits"])
+    assert layer.GetAttributeAtPath(f"{WIND}.physomni:enabled").default is True
+    assert layer.GetAttributeAtPath("/World/Objects/bench_1.physomni:label").default == "artist's bench"
+    cached = Sdf.Layer.Find(str(session["folder"] / "edits.usda"))
+    if cached:  # this process may still hold the layer as it was before the preview (another process) wrote it
+        cached.Reload(force=True)
+    stage = Usd.Stage.Open(str(session["folder"] / "shot.usda"))
+    assert stage.GetAttributeAtPath(f"{WIND}.physomni:enabled").Get() is True
+
+
+def test_drag_on_empty_space_moves_no_object(session):
+    still, dragged = session["still"], session["empty_drag"]
+    for prim, b in dragged.items():
+        a = still.get(prim)
+        assert a is not None and len(a), f"{prim} moved only in the take with the empty drag"
+        a, b = _common(a, b)
+        assert np.abs(a - b).max() < 2e-3, prim
+
+
+def test_drag_from_an_object_pulls_it_and_ctrl_c_keeps_the_take(session):
+    assert session["returncode"] == 0, session["stderr"][-5:]
+    assert any("take written" in x for x in session["stderr"])
+    final = session["final"].get(DRAGGED)
+    assert final is not None and len(final) > 10
+    assert np.linalg.norm(final[-1] - final[0]) >= 0.02
+    assert DRAGGED not in session["still"] or np.abs(np.diff(session["still"][DRAGGED], axis=0)).max() < 1e-3
+
+
+# --- without a browser ----------------------------------------------------------------------------
+
+def test_captured_frames_match_frames_stepped_one_launch_at_a_time(shot):
+    from physomni_usd.preview.engine import Engine
+
+    runs = []
+    for capture in (True, False):
+        e = Engine(shot["shot"], capture=capture)
+        for _ in range(25):
+            e.step()
+        runs.append(e.body_state()[0])
+        assert (e.captured_frames > 0) == capture
+    assert np.abs(runs[0][:, :3] - runs[1][:, :3]).max() < 1e-4
+    assert np.abs(runs[0][:, :3] - Engine(shot["shot"]).body_state()[0][:, :3]).max() > 0.01  # the box was pushed
+
+
+def test_mpm_object_runs_live_as_particles(tmp_path, shot):
+    from physomni_usd.preview.app import Options, Preview
+
+    folder = tmp_path / "sand"
+    shutil.copytree(shot["dir"], folder)
+    cli("estimate", folder / "shot.usda", "--set", "cup.material=mpm_sand", "-q", check=True)
+    said = []
+    p = Preview(folder / "shot.usda", Options(port=free_port(), duration=6.0, record=True, open_browser=False,
+                                              paced=False, echo=said.append))
+    p.start()
+    cloud = p.clouds["cup_0"]
+    before = np.array(cloud.points)
+    result = p.run()
+    assert len(before) > 50 and result["frames"] > 1
+    assert np.abs(np.array(cloud.points) - before).max() > 1e-3  # the page's cloud follows the particles
+    layer = Sdf.Layer.FindOrOpen(str(folder / "sim.usdc"))
+    layer.Reload(force=True)
+    assert layer.GetNumTimeSamplesForPath("/World/Particles/cup_0.points") == result["take"]["frames"]
+
+
+def _listing(folder: pathlib.Path) -> dict:
+    return {p.name: p.stat().st_mtime_ns for p in folder.iterdir()}
+
+
+def test_bad_shot_busy_port_and_missing_browser_end_in_one_line(tmp_path, shot):
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "shot.usda").write_text("#usda 1.0\nthis is not usd\n")
+    before = _listing(bad)
+    r = cli("preview", bad / "shot.usda", "--port", free_port(), "--no-open")
+    assert r.returncode == 2 and r.stderr.count("error:") == 1 and "shot.usda" in r.stderr
+    assert _listing(bad) == before
+
+    folder = tmp_path / "shot"
+    shutil.copytree(shot["dir"], folder)
+    before = _listing(folder)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        s.listen()
+        r = cli("preview", folder / "shot.usda", "--port", s.getsockname()[1], "--no-open")
+    assert r.returncode == 2 and "--port" in r.stderr and r.stderr.count("error:") == 1, r.stderr
+
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY", "BROWSER")}
+    r = cli("preview", folder / "shot.usda", "--port", free_port(), "--open", env=env)
+    assert r.returncode == 2 and "browser" in r.stderr and r.stderr.count("error:") == 1, r.stderr
+    assert _listing(folder) == before
