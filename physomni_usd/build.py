@@ -18,13 +18,13 @@ from .align.camera import PinholeCamera, pick_pitch
 from .align.camera_search import search_camera
 from .align.external import load_poses, place_external
 from .align.place import centring_offset, make_room, separate
+from .backends import steps as backend_steps
 from .errors import InputError
 from .materials.defaults import GROUND_MATERIAL
 from .materials.report import material_report
-from .materials.rules import estimate_rules
 from .perceive.lift import fill_holes, foot_pixel, lift_silhouette
-from .perceive.masks import collect_masks, read_photo
-from .perceive.plate import background_plate, object_texture
+from .perceive.masks import read_photo
+from .perceive.plate import object_texture
 from .physics.forces import parse_force_options
 from .physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
 from .report import Timer, update_report
@@ -106,12 +106,15 @@ def parse_fixed(labels, labels_to_names: dict[str, str]) -> set[str]:
 
 
 def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings = BuildSettings(),
-               pushes=(), echo=lambda msg: None, forces=(), fixed=(), meshes_dir=None) -> BuildResult:
+               pushes=(), echo=lambda msg: None, forces=(), fixed=(), meshes_dir=None, backends=None) -> BuildResult:
+    """``backends``: kind → backend name for the swappable steps (see ``backends.steps.BUILD_KINDS``)."""
     timer = Timer()
     with timer.step("read"):
+        chosen = backend_steps.resolve(backends, meshes_dir=meshes_dir)
         out = prepare_output(out_dir)
         photo = read_photo(photo_path)
-        objects = collect_masks(photo, masks, boxes)
+        objects = backend_steps.collect_objects(photo, masks, boxes, chosen["segmenter"])
+        settings, depth_info = backend_steps.apply_depth(chosen["depth"], photo, objects, settings)
         names = {}
         for o in objects:
             names.setdefault(o.label, o.name)
@@ -123,7 +126,12 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
     echo(f"perceive: {len(objects)} object(s) in a {w}×{h} photo")
 
     with timer.step("perceive.plate"):
-        plate = background_plate(photo, [o.mask for o in objects], settings.plate_dilation)
+        plate = backend_steps.make_plate(photo, [o.mask for o in objects], settings.plate_dilation,
+                                         chosen["inpainter"])
+
+    if meshes_dir is None and backend_steps.lifts_in_camera(chosen["lifter"]):
+        with timer.step("perceive.lift"):
+            meshes_dir = backend_steps.lift_to_folder(chosen["lifter"], photo, objects, out / INPUTS / "lifted")
 
     if meshes_dir is not None:
         with timer.step("align.external"):
@@ -195,12 +203,13 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
                        np.repeat(o.mask[..., None] * 255, 3, 2).astype(np.uint8))
 
     with timer.step("estimate"):
-        config = estimate_rules([o.label for o in objects], photo, [o.mask for o in objects])
+        config = chosen["estimator"].estimate(photo, [o.mask for o in objects], [o.label for o in objects],
+                                               settings.fps)
         physics_objects = []
         for o, cfg in zip(objects, config.objects):
             velocity, at = push.get(o.name, (None, 0.0))
             physics_objects.append(PhysicsObject(
-                o.name, cfg.material, cfg.params, "rules", velocity=velocity if at == 0 else None,
+                o.name, cfg.material, cfg.params, config.source, velocity=velocity if at == 0 else None,
                 fixed=o.name in fixed_names,
                 delayed_velocity=(velocity, at) if velocity is not None and at > 0 else None))
         for o, rep in zip(objects, report_objects):
@@ -221,12 +230,13 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
         layers.ensure_edits_layer(out)
         shot = layers.write_shot_layer(out, settings.fps)
     echo("build: wrote " + ", ".join([layers.SCENE, layers.PHYSICS, layers.SHOT]))
-    update_report(out, objects=report_objects, estimate=material_report(layers.open_shot(out), "rules"), shot={"photo": str(photo_path), "width": w, "height": h,
+    update_report(out, objects=report_objects, estimate=material_report(layers.open_shot(out), config.source), shot={"photo": str(photo_path), "width": w, "height": h,
                                                     "fov_deg": settings.camera.fov_deg,
                                                     "pitch_deg": round(camera.pitch_deg, 4), "alignment": align_info,
                                                     "camera_height_m": settings.camera.height_m,
                                                     "fps": settings.fps},
-                  build={"seconds": timer.seconds, "total_seconds": timer.total})
+                  build={"seconds": timer.seconds, "total_seconds": timer.total,
+                         "backends": backend_steps.report(chosen), **depth_info})
     return BuildResult(out, shot, report_objects, timer.seconds)
 
 

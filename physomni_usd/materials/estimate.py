@@ -13,6 +13,7 @@ import pathlib
 import cv2
 from pxr import Sdf, Usd, UsdPhysics
 
+from ..backends import registry
 from ..errors import InputError
 from ..physics.forces import parse_force_options, read_force_fields
 from ..report import Timer, update_report
@@ -21,7 +22,6 @@ from ..usd.author import PhysicsObject, set_param, write_physics_layer
 from .catalog import CATALOG, PARAMS, canonical_key, check_params, keys_of
 from .defaults import GROUND_MATERIAL
 from .report import bound_material, material_report, object_prims
-from .rules import estimate_rules
 
 INPUTS = "inputs"
 
@@ -168,14 +168,8 @@ def estimate_shot(shot, estimator: str = "rules", vlm=None, sets=(), force_specs
         photo, masks = _inputs(folder, names)
         controls, solver, user_fields = _carried_controls(folder)
     with timer.step(estimator):
-        if estimator == "rules":
-            config = estimate_rules(labels, photo, masks)
-        elif estimator == "vlm":
-            from .vlm import estimate_vlm
-
-            config = estimate_vlm(vlm, photo, masks, labels, stage.GetTimeCodesPerSecond() or 30.0)
-        else:
-            raise InputError(f"unknown estimator {estimator!r}; use rules or vlm")
+        backend = registry.load("estimator", estimator, **({"settings": vlm} if estimator == "vlm" else {}))
+        config = backend.estimate(photo, masks, labels, stage.GetTimeCodesPerSecond() or 30.0)
     for w in config.warnings:
         echo(f"estimate: {w}")
     with timer.step("write"):
@@ -200,6 +194,7 @@ def estimate_shot(shot, estimator: str = "rules", vlm=None, sets=(), force_specs
     for line in done:
         echo(f"estimate: set {line} in edits.usda")
     section = material_report(layers.open_shot(folder, mute_sim=True), estimator)
+    section["backend"] = registry.describe(backend)
     section.update({"warnings": config.warnings, "set": done, "seconds": timer.seconds,
                     "total_seconds": timer.total,
                     "force_fields": [f"{f.kind} ({config.source})" for f in config.forces]
