@@ -37,8 +37,12 @@ class SamSegmenter:
         path = cls.weights()
         if not path:
             return f"{ENV} is not set: point it at {WHAT}"
-        if not (pathlib.Path(path) / "config.json").is_file():
+        config = pathlib.Path(path) / "config.json"
+        if not config.is_file():
             return f"{ENV}={path} has no config.json: point it at {WHAT}"
+        sam2 = json.loads(config.read_text()).get("model_type", "").startswith("sam2")
+        if sam2 and importlib.util.find_spec("torchvision") is None:
+            return "SAM 2's image processor needs torchvision: pip install 'physomni-sam[sam2]'"
         return None
 
     def __init__(self):
@@ -56,9 +60,16 @@ class SamSegmenter:
         self.model = Model.from_pretrained(path).to(self.device).eval()
 
     def segment(self, photo: np.ndarray, prompts) -> list[np.ndarray]:
-        """One (H, W) bool mask per prompt (box and/or points; text is not understood by SAM)."""
+        """One (H, W) bool mask per prompt (box and/or points; SAM understands no text).
+
+        The image encoder, the costly part, runs once per photo; each prompt then
+        costs one pass of the small prompt encoder and mask decoder.
+        """
         import torch
 
+        with torch.inference_mode():
+            pixels = self.processor(images=photo, return_tensors="pt")["pixel_values"].to(self.device)
+            embeddings = self.model.get_image_embeddings(pixels)
         out = []
         for p in prompts:
             if p.box is None and not p.points:
@@ -67,16 +78,15 @@ class SamSegmenter:
             if p.box is not None:
                 kwargs["input_boxes"] = [[[float(c) for c in p.box]]]
             if p.points:
-                # SAM: images × objects × points × 2; SAM 2: images × objects × points × 2 as well
+                # images × objects × points × (x, y), and images × objects × points labels (1 = on the object)
                 kwargs["input_points"] = [[[[float(x), float(y)] for x, y, _ in p.points]]]
                 kwargs["input_labels"] = [[[int(bool(k)) for _, _, k in p.points]]]
-            inputs = self.processor(images=photo, return_tensors="pt", **kwargs).to(self.device)
+            inputs = self.processor(images=photo, return_tensors="pt", **kwargs)
+            sizes = [inputs.pop(k) for k in ("original_sizes", "reshaped_input_sizes") if k in inputs]
+            inputs.pop("pixel_values")
             with torch.inference_mode():
-                result = self.model(**inputs, multimask_output=False)
-            if self.sam2:
-                masks = self.processor.post_process_masks(result.pred_masks.cpu(), inputs["original_sizes"].cpu())
-            else:
-                masks = self.processor.post_process_masks(result.pred_masks.cpu(), inputs["original_sizes"].cpu(),
-                                                          inputs["reshaped_input_sizes"].cpu())
+                result = self.model(image_embeddings=embeddings, multimask_output=False,
+                                    **{k: v.to(self.device) for k, v in inputs.items()})
+            masks = self.processor.post_process_masks(result.pred_masks.cpu(), *sizes)
             out.append(np.asarray(masks[0]).reshape(-1, *photo.shape[:2])[0].astype(bool))
         return out
