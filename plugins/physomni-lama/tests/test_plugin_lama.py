@@ -6,7 +6,6 @@ import json
 import os
 
 import cv2
-import numpy as np
 import pytest
 
 torch = pytest.importorskip("torch")
@@ -56,3 +55,13 @@ def test_plate_under_the_mask_is_the_models_grey(tmp_path):
     assert (plate[~where] == photo[~where]).all()
     used = json.loads((out / "report.json").read_text())["stages"]["build"]["backends"]["inpainter"]
     assert used["name"] == "lama" and used["package"] == "physomni-lama" and used["weights"] == str(weights)
+
+
+def test_missing_torch_names_the_extra(monkeypatch):
+    import importlib.util
+
+    import physomni_lama
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "torch" else real(name, *a))
+    assert "pip install 'physomni-lama[models]'" in physomni_lama.LamaInpainter.missing()

@@ -114,7 +114,8 @@ class WanVACE:
         pipe.to(self.device)
         pipe.set_progress_bar_config(disable=True)
         t, h, w = frames.shape[:3]
-        grid = pipe.vae_scale_factor_spatial * pipe.transformer.config.patch_size[1]
+        transformer = pipe.transformer if pipe.transformer is not None else pipe.transformer_2
+        grid = pipe.vae_scale_factor_spatial * transformer.config.patch_size[1]
         gh, gw = max(grid, round(h / grid) * grid), max(grid, round(w / grid) * grid)
         step_t = pipe.vae_scale_factor_temporal
         n = ((t - 1 + step_t - 1) // step_t) * step_t + 1  # Wan wants 4k + 1 frames: repeat the last ones
