@@ -103,3 +103,20 @@ def test_ground_pitch_from_a_depth_map_of_a_floor(pitch_deg, height, metric):
     assert found["pitch_deg"] == pytest.approx(pitch_deg, abs=0.5)
     if metric:
         assert found["camera_height_m"] == pytest.approx(height, rel=0.02)
+
+
+def test_rerender_with_an_unknown_model_is_one_line_and_writes_nothing(shot):
+    proc = cli("rerender", shot["shot"], "--model", "nope")
+    assert proc.returncode == 2
+    errors = [ln for ln in proc.stderr.splitlines() if ln.startswith("error:")]
+    assert len(errors) == 1 and "--model nope" in errors[0]
+    assert not (shot["dir"] / "rerender.mp4").exists()
+    assert "TORCH_IMPORTED=False" in proc.stderr
+
+
+def test_estimate_with_an_unknown_estimator_is_refused(shot):
+    before = (shot["dir"] / "physics.usda").read_bytes()
+    proc = cli("estimate", shot["shot"], "--estimator", "nope")
+    assert proc.returncode == 2
+    assert "--estimator nope" in proc.stderr and "rules" in proc.stderr
+    assert (shot["dir"] / "physics.usda").read_bytes() == before
