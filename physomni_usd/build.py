@@ -25,12 +25,12 @@ from .align.external import load_poses, place_external
 from .align.photo_scene import build_photo_scene
 from .align.place import centring_offset
 from .align.scale import parse_sizes
+from .backends import steps as backend_steps
 from .errors import InputError
 from .materials.defaults import GROUND_MATERIAL
 from .materials.report import material_report
-from .materials.rules import estimate_rules
-from .perceive.masks import collect_masks, contact_sheet, read_photo
-from .perceive.plate import background_plate, object_texture
+from .perceive.masks import contact_sheet, read_photo
+from .perceive.plate import object_texture
 from .physics.forces import parse_force_options
 from .physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
 from .report import REPORT, Timer, read_report, set_aside_damaged, update_report
@@ -162,21 +162,25 @@ def _stale_files(out: pathlib.Path, written: set[str]) -> list[pathlib.Path]:
 
 
 def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings = BuildSettings(),
-               pushes=(), echo=lambda msg: None, forces=(), fixed=(), meshes_dir=None, sizes=()) -> BuildResult:
+               pushes=(), echo=lambda msg: None, forces=(), fixed=(), meshes_dir=None, sizes=(),
+               backends=None) -> BuildResult:
+    """``backends``: kind → backend name for the swappable steps (see ``backends.steps.BUILD_KINDS``)."""
     with all_or_nothing():
         return _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, forces, fixed, meshes_dir,
-                           sizes)
+                           sizes, backends)
 
 
 def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, forces, fixed, meshes_dir,
-                sizes) -> BuildResult:
+                sizes, backends) -> BuildResult:
     timer = Timer()
     with timer.step("read"):
+        chosen = backend_steps.resolve(backends, meshes_dir=meshes_dir)
         out = pathlib.Path(out_dir)
         if out.exists() and not out.is_dir():
             raise InputError(f"output {out} exists and is not a directory")
         photo = read_photo(photo_path)
-        objects = collect_masks(photo, masks, boxes)
+        objects = backend_steps.collect_objects(photo, masks, boxes, chosen["segmenter"])
+        settings, depth_info = backend_steps.apply_depth(chosen["depth"], photo, objects, settings)
         names = object_names(objects)
         push = parse_pushes(pushes, names, echo)
         fields = parse_force_options(forces)
@@ -195,7 +199,12 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
             echo(f"warning: mask of {o.name}: {o.quality['warning']}")
 
     with timer.step("perceive.plate"):
-        plate = background_plate(photo, [o.mask for o in objects], settings.plate_dilation)
+        plate = backend_steps.make_plate(photo, [o.mask for o in objects], settings.plate_dilation,
+                                         chosen["inpainter"])
+
+    if meshes_dir is None and backend_steps.lifts_in_camera(chosen["lifter"]):
+        with timer.step("perceive.lift"):
+            meshes_dir = backend_steps.lift_to_folder(chosen["lifter"], photo, objects, out / INPUTS / "lifted")
 
     if meshes_dir is not None:
         with timer.step("align.external"):
@@ -261,12 +270,13 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
                        np.repeat(o.mask[..., None] * 255, 3, 2).astype(np.uint8))
 
     with timer.step("estimate"):
-        config = estimate_rules([o.label for o in objects], photo, [o.mask for o in objects])
+        config = chosen["estimator"].estimate(photo, [o.mask for o in objects], [o.label for o in objects],
+                                               settings.fps)
         physics_objects = []
         for o, cfg in zip(objects, config.objects):
             velocity, at = push.get(o.name, (None, 0.0))
             physics_objects.append(PhysicsObject(
-                o.name, cfg.material, cfg.params, "rules", velocity=velocity if at == 0 else None,
+                o.name, cfg.material, cfg.params, config.source, velocity=velocity if at == 0 else None,
                 fixed=o.name in fixed_names,
                 delayed_velocity=(velocity, at) if velocity is not None and at > 0 else None))
         for o, rep in zip(objects, report_objects):
@@ -309,14 +319,15 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         old.get("stages", {}).pop(key, None)
     if old:
         write_bytes(out / REPORT, (json.dumps(old, indent=2) + "\n").encode())
-    update_report(out, objects=report_objects, estimate=material_report(stage, "rules"), shot={"photo": str(photo_path), "width": w, "height": h,
+    update_report(out, objects=report_objects, estimate=material_report(stage, config.source), shot={"photo": str(photo_path), "width": w, "height": h,
                                                     "fov_deg": round(camera.fov_deg, 4),
                                                     "pitch_deg": round(camera.pitch_deg, 4), "alignment": align_info,
                                                     "camera_height_m": round(float(camera.origin[2]), 4),
                                                     "scale": align_info.get("scale"),
                                                     "fps": settings.fps},
                   build={"seconds": timer.seconds, "total_seconds": timer.total, "files": sorted(files),
-                         "checks": checks, "masks_sheet": MASKS_SHEET})
+                         "checks": checks, "masks_sheet": MASKS_SHEET, "backends": backend_steps.report(chosen),
+                         **depth_info})
     return BuildResult(out, shot, report_objects, timer.seconds)
 
 

@@ -190,6 +190,29 @@ def build_options(f):
     return f
 
 
+def backend_options(f):
+    """--segmenter/--inpainter/--lifter/--depth/--estimator, passed on as one ``backends`` dict."""
+    import functools
+
+    kinds = {"segmenter": "How --box becomes a mask [default: grabcut; plugin: sam].",
+             "inpainter": "What fills the objects' holes in the plate [default: builtin; plugin: lama].",
+             "lifter": "How masks become meshes [default: silhouette; plugin: sam3d].",
+             "depth": "A depth model whose ground plane sets the camera's pitch when --pitch is not given "
+                      "[default: none; plugin: depth-anything].",
+             "estimator": "Materials from rules or a model [default: rules; built in: vlm, which reads "
+                          "PHYSOMNI_VLM_URL and PHYSOMNI_VLM_MODEL]."}
+
+    @functools.wraps(f)
+    def wrapper(*args, **kwargs):
+        kwargs["backends"] = {k: kwargs.pop(k) for k in kinds}
+        return f(*args, **kwargs)
+
+    for kind, text in reversed(kinds.items()):
+        wrapper = click.option(f"--{kind}", kind, default=None, metavar="NAME",
+                               help=text + " See `physomni-usd plugins`.")(wrapper)
+    return wrapper
+
+
 def _build_settings(fov, pitch, camera_height, shape, fps):
     from .settings import BuildSettings, CameraSettings, LiftSettings
 
@@ -202,18 +225,19 @@ def _build_settings(fov, pitch, camera_height, shape, fps):
 @click.option("-o", "--output", "out_dir", required=True, type=click.Path(path_type=pathlib.Path),
               help="Shot folder to write (created if missing).")
 @build_options
+@backend_options
 @click.option("--push", "pushes", multiple=True, metavar="LABEL=VX,VY,VZ[@T]",
               help=PUSH_HELP)
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, fps, meshes_dir, fixed, forces, pushes,
-          quiet):
+          quiet, backends):
     """Photo → scene.usda, physics.usda and the root shot.usda (perceive, align, estimate)."""
     with _errors():
         from .build import build_shot
 
         settings = _build_settings(fov, pitch, camera_height, shape, fps)
         result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces, fixed=fixed,
-                            meshes_dir=meshes_dir, sizes=sizes)
+                            meshes_dir=meshes_dir, sizes=sizes, backends=backends)
         if not quiet:
             total = sum(result.seconds.values())
             click.echo(f"wrote {result.shot} ({len(result.objects)} objects, {total:.2f} s)", err=True)
@@ -324,6 +348,7 @@ def render(shot, output, max_size, quiet):
 @click.option("-o", "--output", "out_dir", required=True, type=click.Path(path_type=pathlib.Path),
               help="Shot folder to write (created if missing).")
 @build_options
+@backend_options
 @click.option("--seconds", type=float, default=DEFAULT_SECONDS, show_default=True,
               help=_range_help("Simulated seconds.", SimulateSettings, "seconds"))
 @click.option("--push", "pushes", multiple=True, metavar="LABEL=VX,VY,VZ[@T]",
@@ -336,7 +361,7 @@ def render(shot, output, max_size, quiet):
                    f"Range: {limits(SimulateSettings, 'mpm_steps')}.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, fps, meshes_dir, fixed, forces, seconds,
-        pushes, particle_spacing, mpm_steps, quiet):
+        pushes, particle_spacing, mpm_steps, quiet, backends):
     """build + simulate + render in one go; writes DIR/shot.usda, DIR/video.mp4, DIR/report.json.
 
     \b
@@ -355,7 +380,7 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, f
         check_writable([out_dir / "video.mp4"])
         t0 = time.perf_counter()
         result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces, fixed=fixed,
-                            meshes_dir=meshes_dir, sizes=sizes)
+                            meshes_dir=meshes_dir, sizes=sizes, backends=backends)
         _simulate(result.shot, seconds, None, None, quiet, particle_spacing, mpm_steps)
         section = _render(result.shot, None, quiet)
         total = round(time.perf_counter() - t0, 3)
@@ -367,8 +392,9 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, f
 
 @main.command()
 @click.argument("shot", type=click.Path(path_type=pathlib.Path))
-@click.option("--estimator", type=click.Choice(["rules", "vlm"]), default="rules", show_default=True,
-              help="rules: label keywords (built in). vlm: ask an OpenAI-compatible vision-language model.")
+@click.option("--estimator", default="rules", show_default=True, metavar="NAME",
+              help="rules: label keywords (built in). vlm: ask an OpenAI-compatible vision-language model. "
+                   "Plugins add more (see `physomni-usd plugins`).")
 @click.option("--vlm-url", envvar="PHYSOMNI_VLM_URL", default=None,
               help="API root of the VLM server, e.g. http://localhost:8000/v1 [env: PHYSOMNI_VLM_URL].")
 @click.option("--vlm-model", envvar="PHYSOMNI_VLM_MODEL", default=None,
@@ -790,6 +816,71 @@ def bench_preview_command(quick, json_path):
             from ._files import write_bytes
 
             write_bytes(json_path, (json.dumps(numbers, indent=2) + "\n").encode())
+
+
+@main.command("plugins")
+def plugins_command():
+    """List every backend by kind: built in or from a plugin, its package and version, and whether it is ready.
+
+    \b
+    Plugins are packages that register under the entry-point group physomni_usd.backends; install one
+    and point it at its weights, e.g.
+      pip install -e plugins/physomni-lama && export PHYSOMNI_LAMA_WEIGHTS=/models/big-lama.pt
+      physomni-usd build photo.png -o shot/ --box 120,40,380,300:box --inpainter lama
+    """
+    with _errors():
+        from .backends import registry
+
+        entries = registry.entries()
+        for kind in registry.KINDS:
+            click.echo(f"{kind}:")
+            found = [e for e in entries if e.kind == kind]
+            if not found:
+                hint = registry.SUGGESTED.get(kind)
+                click.echo("  (none installed" + (f"; plugin: {hint})" if hint else ")"))
+            for e in found:
+                ready, note = registry.status(e)
+                default = " (default)" if registry.DEFAULTS.get(kind) == e.name else ""
+                origin = "built-in" if e.builtin else "plugin"
+                state = "ready" if ready else "not ready"
+                click.echo(f"  {e.name}{default}: {origin}, {e.package} {e.version}, {state}"
+                           + (f": {note}" if note else ""))
+
+
+@main.command()
+@click.argument("shot", type=click.Path(path_type=pathlib.Path))
+@click.option("--model", required=True, metavar="NAME", help="Re-renderer backend, e.g. wan-vace (plugin physomni-wan).")
+@click.option("--strength", type=float, default=0.6, show_default=True,
+              help="Share of the denoising run, in (0, 1]: low keeps the rendered frames, 1 starts from noise.")
+@click.option("--steps", type=click.IntRange(1, 1000), default=20, show_default=True,
+              help="Denoising steps actually run.")
+@click.option("--prompt", default=None, help="Text prompt [default: made from the objects' labels].")
+@click.option("--seed", type=int, default=0, show_default=True, help="Random seed of the noise.")
+@click.option("--max-size", type=click.IntRange(16, 8192), default=832, show_default=True,
+              help="Longest side of the frames given to the model, pixels.")
+@click.option("-o", "--output", type=click.Path(path_type=pathlib.Path), default=None,
+              help="Video file (.mp4) [default: rerender.mp4 beside the shot].")
+@click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
+def rerender(shot, model, strength, steps, prompt, seed, max_size, output, quiet):
+    """Render the shot, then re-render its frames with a video model, the photo as reference.
+
+    The objects' pixels of each frame (from the renderer's ray hits) are the model's masks. Needs a
+    re-renderer plugin; without one this says which to install and exits 2.
+
+    \b
+    Example (Wan VACE; weights: a diffusers WanVACEPipeline folder):
+      pip install -e plugins/physomni-wan && export PHYSOMNI_WAN_WEIGHTS=/models/Wan2.1-VACE-1.3B-diffusers
+      physomni-usd rerender shot/shot.usda --model wan-vace --strength 0.5 --steps 20 -o shot/wan.mp4
+    """
+    with _errors():
+        from .backends.rerender import rerender_shot
+
+        with _progress("render  ", not quiet) as bar:
+            section = rerender_shot(shot, model, strength, steps, output, prompt, seed, max_size, progress=bar)
+        if not quiet:
+            click.echo(f"rerender: {section['video']} ({section['frames']} frames, "
+                       f"{section['width']}×{section['height']}, {section['seconds']['model']:.1f} s in the model)",
+                       err=True)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -16,6 +16,7 @@ import pathlib
 import cv2
 from pxr import Sdf, Usd, UsdPhysics
 
+from ..backends import registry
 from ..errors import InputError
 from ..physics.forces import parse_force_options, read_force_fields
 from .._files import all_or_nothing
@@ -26,7 +27,6 @@ from ..usd.author import PhysicsObject, set_param, write_physics_layer
 from .catalog import PARAMS, canonical_key, check_params, keys_of, material_type
 from .defaults import GROUND_MATERIAL
 from .report import bound_material, material_report, object_prims
-from .rules import estimate_rules
 
 INPUTS = "inputs"
 
@@ -206,14 +206,8 @@ def _estimate_shot(shot, estimator, vlm, sets, force_specs, echo) -> dict:
         photo, masks = _inputs(folder, names)
         controls, solver, user_fields = _carried_controls(folder)
     with timer.step(estimator):
-        if estimator == "rules":
-            config = estimate_rules(labels, photo, masks)
-        elif estimator == "vlm":
-            from .vlm import estimate_vlm
-
-            config = estimate_vlm(vlm, photo, masks, labels, stage.GetTimeCodesPerSecond() or 30.0)
-        else:
-            raise InputError(f"unknown estimator {estimator!r}; use rules or vlm")
+        backend = registry.load("estimator", estimator, **({"settings": vlm} if estimator == "vlm" else {}))
+        config = backend.estimate(photo, masks, labels, stage.GetTimeCodesPerSecond() or 30.0)
     sizes = compare_sizes(prims, labels, config.objects)
     config.warnings.extend(sizes.pop("_warnings"))
     for w in config.warnings:
@@ -240,6 +234,7 @@ def _estimate_shot(shot, estimator, vlm, sets, force_specs, echo) -> dict:
     for line in done:
         echo(f"estimate: set {line} in edits.usda")
     section = material_report(layers.open_shot(folder, mute_sim=True), estimator)
+    section["backend"] = registry.describe(backend)
     section.update({"warnings": config.warnings, "set": done, "sizes": sizes, "seconds": timer.seconds,
                     "total_seconds": timer.total,
                     "force_fields": [f"{f.kind} ({config.source})" for f in config.forces]

@@ -1,0 +1,186 @@
+"""Running the chosen backends inside ``build``: objects from prompts, the plate, lifting, the depth's ground."""
+
+from __future__ import annotations
+
+import json
+import math
+import pathlib
+
+import cv2
+import numpy as np
+
+from .._files import write_bytes
+from ..errors import InputError
+from . import registry
+from .protocols import Prompt
+
+#: The options ``build``/``run`` take, one per kind used during build, and the kind each selects.
+BUILD_KINDS = ("segmenter", "inpainter", "lifter", "depth", "estimator")
+
+
+def resolve(choices: dict | None, meshes_dir=None) -> dict:
+    """Kind → loaded backend for every build step (defaults where ``choices`` names none; depth may be None).
+
+    Raises :class:`InputError` (exit 2) for an unknown name, a backend that is
+    not ready or a lifter given with ``--meshes``, before anything is computed
+    or written.
+    """
+    choices = {k: v for k, v in (choices or {}).items() if v}
+    if meshes_dir is not None and choices.get("lifter"):
+        raise InputError(f"--lifter {choices['lifter']} and --meshes both give the meshes; pass one of them")
+    out = {}
+    for kind in BUILD_KINDS:
+        name = choices.get(kind) or registry.DEFAULTS[kind]
+        out[kind] = registry.load(kind, name) if name else None
+    return out
+
+
+def lifts_in_camera(lifter) -> bool:
+    """Whether ``lifter`` returns meshes with camera poses (a model) rather than lifting on the ground itself."""
+    return not hasattr(lifter, "placement")
+
+
+def apply_depth(depth_backend, photo: np.ndarray, objects, settings):
+    """Settings with the pitch of the ground the depth model sees (unless the user gave one), and report fields."""
+    if depth_backend is None:
+        return settings, {}
+    background = ~np.any([o.mask for o in objects], axis=0)
+    from ..align.cues import DEFAULT_FOV_DEG
+
+    found = ground_pitch(depth_backend.depth(photo), settings.camera.fov_deg or DEFAULT_FOV_DEG, background)
+    info = {"depth_ground": found}
+    if found is not None and settings.camera.pitch_deg is None:
+        pitch = float(np.clip(found["pitch_deg"], 0.0, 90.0))
+        settings = settings.model_copy(update={"camera": settings.camera.model_copy(update={"pitch_deg": pitch})})
+    return settings, info
+
+
+def report(backends: dict) -> dict:
+    """Step → description, for ``report.json``."""
+    return {kind: registry.describe(b) for kind, b in backends.items() if b is not None}
+
+
+def collect_objects(photo: np.ndarray, mask_specs, box_specs, segmenter):
+    """Like ``perceive.masks.collect_masks``, but boxes are cut by ``segmenter``."""
+    from ..perceive.masks import MIN_MASK_PIXELS, ObjectMask, collect_masks, parse_box, read_mask
+
+    if type(segmenter).name == "grabcut" or not box_specs:
+        return collect_masks(photo, mask_specs, box_specs)
+    specs = list(mask_specs or ())
+    objects = [read_mask(s, photo.shape[:2], i) for i, s in enumerate(specs)]
+    h, w = photo.shape[:2]
+    prompts, labels = [], []
+    for spec in box_specs:
+        (x0, y0, x1, y1), label = parse_box(spec)
+        if not (0 <= x0 < x1 <= w and 0 <= y0 < y1 <= h):
+            raise InputError(f"--box {spec!r} is not inside the {w}×{h} photo "
+                             f"(need 0 ≤ X0 < X1 ≤ {w}, 0 ≤ Y0 < Y1 ≤ {h})")
+        prompts.append(Prompt(box=(x0, y0, x1, y1)))
+        labels.append(label)
+    masks = segmenter.segment(photo, prompts)
+    for j, (spec, p, label, mask) in enumerate(zip(box_specs, prompts, labels, masks)):
+        mask = np.asarray(mask, bool)
+        what = f"--box {spec!r} ({type(segmenter).name})"
+        count = int(mask.sum())
+        if count == 0:
+            raise InputError(f"{what} is empty: no pixel belongs to the object")
+        if count < MIN_MASK_PIXELS:
+            raise InputError(f"{what} has only {count} pixels; an object needs at least {MIN_MASK_PIXELS}")
+        if count == mask.size:
+            raise InputError(f"{what} covers the whole photo; nothing would be left for the ground and background")
+        index = len(specs) + j
+        objects.append(ObjectMask(label or f"object{index}", index, mask, "box:" + ",".join(map(str, p.box))))
+    return objects
+
+
+def hole(masks, shape: tuple[int, int], dilation: float) -> np.ndarray:
+    """Union of the masks widened by ``dilation`` × the image diagonal, (H, W) bool."""
+    h, w = shape
+    out = np.zeros((h, w), np.uint8)
+    for m in masks:
+        out |= m.astype(np.uint8)
+    r = int(round(dilation * math.hypot(h, w)))
+    if r > 0:
+        out = cv2.dilate(out, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1)))
+    return out > 0
+
+
+def make_plate(photo: np.ndarray, masks, dilation: float, inpainter) -> np.ndarray:
+    """The background plate: the built-in's own, or the photo with the inpainter's fill in the hole only."""
+    if hasattr(inpainter, "plate"):
+        return inpainter.plate(photo, masks, dilation)
+    where = hole(masks, photo.shape[:2], dilation)
+    filled = np.asarray(inpainter.inpaint(photo, where))
+    if filled.shape != photo.shape:
+        raise InputError(f"inpainter {type(inpainter).name} returned an image of shape {filled.shape}, "
+                         f"not the photo's {photo.shape}")
+    return np.where(where[..., None], np.clip(filled, 0, 255).astype(np.uint8), photo)
+
+
+def lift_to_folder(lifter, photo: np.ndarray, objects, folder: pathlib.Path) -> pathlib.Path:
+    """Run a camera-pose lifter and write what ``build --meshes`` reads: one PLY per object and poses.json."""
+    import trimesh
+
+    lifted = lifter.lift(photo, [o.mask for o in objects], [o.label for o in objects])
+    if len(lifted) != len(objects):
+        raise InputError(f"lifter {type(lifter).name} returned {len(lifted)} meshes for {len(objects)} objects")
+    folder.mkdir(parents=True, exist_ok=True)
+    poses = {}
+    for o, m in zip(objects, lifted):
+        if len(m.vertices) < 4 or len(m.faces) < 4:
+            raise InputError(f"lifter {type(lifter).name} returned an empty mesh for {o.label!r}")
+        name = f"{o.name}.ply"
+        data = trimesh.Trimesh(np.asarray(m.vertices, float), np.asarray(m.faces, np.int64), process=False)
+        write_bytes(folder / name, data.export(file_type="ply"))
+        poses[o.label] = {"mesh": name, "rotation_wxyz": [float(x) for x in m.rotation_wxyz],
+                          "translation": [float(x) for x in m.translation], "scale": float(m.scale)}
+    write_bytes(folder / "poses.json", (json.dumps(poses, indent=2) + "\n").encode())
+    return folder
+
+
+def ground_pitch(depth, fov_deg: float, background: np.ndarray) -> dict | None:
+    """The camera's downward pitch (degrees) from a plane fitted to the ground seen in a depth map.
+
+    The lower half of the background pixels is back-projected with the
+    pinhole of vertical field of view ``fov_deg`` and a plane is fitted by
+    RANSAC; its normal gives the pitch, and with metric depth its distance
+    the camera height. Returns None when no plausible ground is seen.
+    """
+    d = np.asarray(depth.depth, np.float64)
+    h, w = d.shape
+    f = 0.5 * h / math.tan(math.radians(fov_deg) / 2)
+    vv, uu = np.mgrid[0:h, 0:w] + 0.5
+    use = background & (vv > h / 2) & np.isfinite(d) & (d > 0)
+    if use.sum() < 50:
+        return None
+    z = d[use]
+    pts = np.stack([(uu[use] - w / 2) / f * z, (vv[use] - h / 2) / f * z, z], 1)
+    rng = np.random.default_rng(0)
+    if len(pts) > 4000:
+        pts = pts[rng.choice(len(pts), 4000, replace=False)]
+    tol = 0.01 * float(np.median(z))
+    best, best_n = None, 0
+    for _ in range(300):
+        a, b, c = pts[rng.choice(len(pts), 3, replace=False)]
+        n = np.cross(b - a, c - a)
+        if np.linalg.norm(n) < 1e-12:
+            continue
+        n /= np.linalg.norm(n)
+        count = int((np.abs((pts - a) @ n) < tol).sum())
+        if count > best_n:
+            best, best_n = (n, a), count
+    if best is None:
+        return None
+    n, a = best
+    inl = pts[np.abs((pts - a) @ n) < tol]
+    centre = inl.mean(0)
+    n = np.linalg.svd(inl - centre)[2][-1]  # least squares over the inliers
+    if n[1] > 0:
+        n = -n  # up is -y in the camera
+    if -n[1] < 0.5:  # a ground tilted more than 60° from the image's vertical is not a floor
+        return None
+    pitch = math.degrees(math.asin(float(np.clip(-n[2], -1, 1))))
+    out = {"pitch_deg": round(pitch, 3), "inliers": int(len(inl)), "metric": bool(depth.metric)}
+    if depth.metric:
+        out["camera_height_m"] = round(float(abs(centre @ n)), 4)
+    return out
