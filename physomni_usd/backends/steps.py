@@ -62,7 +62,7 @@ def report(backends: dict) -> dict:
 
 def collect_objects(photo: np.ndarray, mask_specs, box_specs, segmenter):
     """Like ``perceive.masks.collect_masks``, but boxes are cut by ``segmenter``."""
-    from ..perceive.masks import MIN_MASK_PIXELS, ObjectMask, collect_masks, parse_box, read_mask
+    from ..perceive.masks import ObjectMask, checked_mask, collect_masks, parse_box, read_mask
 
     if type(segmenter).name == "grabcut" or not box_specs:
         return collect_masks(photo, mask_specs, box_specs)
@@ -79,15 +79,7 @@ def collect_objects(photo: np.ndarray, mask_specs, box_specs, segmenter):
         labels.append(label)
     masks = segmenter.segment(photo, prompts)
     for j, (spec, p, label, mask) in enumerate(zip(box_specs, prompts, labels, masks)):
-        mask = np.asarray(mask, bool)
-        what = f"--box {spec!r} ({type(segmenter).name})"
-        count = int(mask.sum())
-        if count == 0:
-            raise InputError(f"{what} is empty: no pixel belongs to the object")
-        if count < MIN_MASK_PIXELS:
-            raise InputError(f"{what} has only {count} pixels; an object needs at least {MIN_MASK_PIXELS}")
-        if count == mask.size:
-            raise InputError(f"{what} covers the whole photo; nothing would be left for the ground and background")
+        mask = checked_mask(np.asarray(mask, bool), f"--box {spec!r} ({type(segmenter).name})")
         index = len(specs) + j
         objects.append(ObjectMask(label or f"object{index}", index, mask, "box:" + ",".join(map(str, p.box))))
     return objects

@@ -111,7 +111,7 @@ def read_mask(spec: str, shape: tuple[int, int], index: int) -> ObjectMask:
         mask = (img[..., :3] > 0).any(axis=2)
     else:
         mask = img > 0
-    return ObjectMask(label or p.stem, index, _checked(mask, f"mask {p.name}"), f"file:{p}",
+    return ObjectMask(label or p.stem, index, checked_mask(mask, f"mask {p.name}"), f"file:{p}",
                       {"method": "file"})
 
 
@@ -144,7 +144,7 @@ def mask_from_box(photo: np.ndarray, spec: str, index: int) -> ObjectMask:
         quality = {"method": "box"}
     else:
         result, quality = segment_box(photo, box)
-    obj = ObjectMask(label or f"object{index}", index, _checked(result, f"--box {spec!r}"), f"box:{x0},{y0},{x1},{y1}")
+    obj = ObjectMask(label or f"object{index}", index, checked_mask(result, f"--box {spec!r}"), f"box:{x0},{y0},{x1},{y1}")
     obj.quality = quality
     return obj
 
@@ -339,7 +339,8 @@ def largest_component(mask: np.ndarray) -> np.ndarray:
     return labels == keep
 
 
-def _checked(mask: np.ndarray, what: str) -> np.ndarray:
+def checked_mask(mask: np.ndarray, what: str) -> np.ndarray:
+    """``mask`` (H, W) bool, or one line (InputError) naming ``what`` when it is empty, tiny or the whole photo."""
     count = int(mask.sum())
     if count == 0:
         raise InputError(f"{what} is empty: no pixel belongs to the object")
