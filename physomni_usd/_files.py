@@ -155,6 +155,13 @@ def write_bytes(path: os.PathLike | str, data: bytes) -> pathlib.Path:
     return pathlib.Path(path)
 
 
+def write_json(path: os.PathLike | str, data) -> pathlib.Path:
+    """Write ``data`` as indented JSON (one trailing newline) to ``path`` atomically."""
+    import json
+
+    return write_bytes(path, (json.dumps(data, indent=2) + "\n").encode())
+
+
 def check_writable(paths) -> None:
     """Raise :class:`InputError` naming the first of ``paths`` that could not be written: a folder in its
     place, a file where a folder must be, or a folder that refuses new files. Called before any work.

@@ -597,15 +597,13 @@ def bench():
 def bench_pipeline_command(example, size, repeats, seconds, json_path):
     """Wall time of build and of a whole run on a bundled example (run twice for warm kernel caches)."""
     with _errors():
-        import json
-
         from .bench.pipeline import bench_pipeline
 
         numbers = bench_pipeline(example, size=size, repeats=repeats, seconds=seconds, echo=click.echo)
         if json_path:
-            from ._files import write_bytes
+            from ._files import write_json
 
-            write_bytes(json_path, (json.dumps(numbers, indent=2) + "\n").encode())
+            write_json(json_path, numbers)
 
 
 @bench.command("batch")
@@ -631,8 +629,6 @@ def bench_batch_command(example, counts, size, seconds, fps, json_path):
       physomni-usd bench batch --counts 1,2 --json out/batch.json
     """
     with _errors():
-        import json
-
         from .errors import InputError
 
         try:
@@ -649,9 +645,9 @@ def bench_batch_command(example, counts, size, seconds, fps, json_path):
 
         result = bench_batch(example, numbers, size=size, seconds=seconds, fps=fps, echo=click.echo)
         if json_path:
-            from ._files import write_bytes
+            from ._files import write_json
 
-            write_bytes(json_path, (json.dumps(result, indent=2) + "\n").encode())
+            write_json(json_path, result)
 
 
 @bench.command("plate")
@@ -673,8 +669,6 @@ def bench_plate_command(quick, json_path):
       physomni-usd bench plate --quick --json out/plate.json
     """
     with _errors():
-        import json
-
         try:
             import skimage  # noqa: F401
         except ImportError:
@@ -683,9 +677,9 @@ def bench_plate_command(quick, json_path):
 
         numbers = bench_plate(quick=quick, echo=click.echo)
         if json_path:
-            from ._files import write_bytes
+            from ._files import write_json
 
-            write_bytes(json_path, (json.dumps(numbers, indent=2) + "\n").encode())
+            write_json(json_path, numbers)
 
 
 @bench.command("alignment")
@@ -760,8 +754,6 @@ def bench_physics_command(quick, json_path, plots_dir, md_path):
       physomni-usd bench physics --quick --plots out/plots --json out/physics.json
     """
     with _errors():
-        import json
-
         from .bench.markdown import check_markdown_target
         from .bench.physics import bench_physics, write_plots
         from .bench.plots import check_plots_possible
@@ -774,10 +766,10 @@ def bench_physics_command(quick, json_path, plots_dir, md_path):
         if plots_dir:
             written = write_plots(numbers, plots_dir)
             click.echo(f"plots: {len(written)} written to {plots_dir}", err=True)
-        from ._files import write_bytes
+        from ._files import write_bytes, write_json
 
         if json_path:
-            write_bytes(json_path, (json.dumps(numbers, indent=2) + "\n").encode())
+            write_json(json_path, numbers)
         if md_path:
             from .bench.physics import markdown, splice_markdown
 
@@ -807,15 +799,13 @@ def bench_preview_command(quick, json_path):
       physomni-usd bench preview --json out/preview.json
     """
     with _errors():
-        import json
-
         from .bench.preview import bench_preview
 
         numbers = bench_preview(quick=quick, echo=click.echo)
         if json_path:
-            from ._files import write_bytes
+            from ._files import write_json
 
-            write_bytes(json_path, (json.dumps(numbers, indent=2) + "\n").encode())
+            write_json(json_path, numbers)
 
 
 @main.command("plugins")
