@@ -14,6 +14,9 @@ that uses only built-ins imports no torch.
 from __future__ import annotations
 
 import importlib
+import importlib.util
+import os
+import pathlib
 from dataclasses import dataclass
 from importlib import metadata
 
@@ -138,3 +141,26 @@ def status(entry: Entry) -> tuple[bool, str]:
         return False, lack
     note = getattr(cls, "note", None)
     return True, note() if note else (f"weights {weights}" if weights else "")
+
+
+def lacking_modules(modules, who: str, extra: str) -> str | None:
+    """For a plugin's ``missing()``: one line naming those of ``modules`` that are not installed and the
+    ``pip install`` that brings them (``extra``, e.g. ``physomni-lama[models]``), or None."""
+    lacking = [m for m in modules if importlib.util.find_spec(m) is None]
+    if not lacking:
+        return None
+    names = lacking[0] if len(lacking) == 1 else f"{', '.join(lacking[:-1])} and {lacking[-1]}"
+    return f"{who} needs {names}: pip install '{extra}'"
+
+
+def weights_problem(env: str, what: str, inside: str | None = None) -> str | None:
+    """For a plugin's ``missing()``: one line saying what is wrong with the weights the environment variable
+    ``env`` names — unset, not a file (``inside`` None), or a folder without ``inside`` — or None."""
+    path = os.environ.get(env) or None
+    if not path:
+        return f"{env} is not set: point it at {what}"
+    if inside is None and not pathlib.Path(path).is_file():
+        return f"{env}={path} is not a file: point it at {what}"
+    if inside is not None and not (pathlib.Path(path) / inside).is_file():
+        return f"{env}={path} has no {inside}: point it at {what}"
+    return None

@@ -12,12 +12,13 @@ Importing this module imports no torch.
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
 import pathlib
 
 import numpy as np
+
+from physomni_usd.backends import registry
 
 ENV = "PHYSOMNI_DEPTH_WEIGHTS"
 WHAT = "a depth model folder saved by transformers' from_pretrained (e.g. depth-anything/Depth-Anything-V2-Small-hf)"
@@ -35,15 +36,9 @@ class DepthAnything:
 
     @classmethod
     def missing(cls) -> str | None:
-        lacking = [m for m in ("torch", "transformers") if importlib.util.find_spec(m) is None]
-        if lacking:
-            return f"the depth-anything estimator needs {' and '.join(lacking)}: pip install 'physomni-depth[models]'"
-        path = cls.weights()
-        if not path:
-            return f"{ENV} is not set: point it at {WHAT}"
-        if not (pathlib.Path(path) / "config.json").is_file():
-            return f"{ENV}={path} has no config.json: point it at {WHAT}"
-        return None
+        return (registry.lacking_modules(("torch", "transformers"), "the depth-anything estimator",
+                                         "physomni-depth[models]")
+                or registry.weights_problem(ENV, WHAT, "config.json"))
 
     def __init__(self):
         import torch

@@ -9,11 +9,11 @@ Registered as the ``lama`` inpainter. Weights: LaMa exported to TorchScript
 
 from __future__ import annotations
 
-import importlib.util
 import os
-import pathlib
 
 import numpy as np
+
+from physomni_usd.backends import registry
 
 ENV = "PHYSOMNI_LAMA_WEIGHTS"
 WHAT = "LaMa's TorchScript file (big-lama.pt)"
@@ -33,14 +33,8 @@ class LamaInpainter:
 
     @classmethod
     def missing(cls) -> str | None:
-        if importlib.util.find_spec("torch") is None:
-            return "the lama inpainter needs torch: pip install 'physomni-lama[models]'"
-        path = cls.weights()
-        if not path:
-            return f"{ENV} is not set: point it at {WHAT}"
-        if not pathlib.Path(path).is_file():
-            return f"{ENV}={path} is not a file: point it at {WHAT}"
-        return None
+        return (registry.lacking_modules(("torch",), "the lama inpainter", "physomni-lama[models]")
+                or registry.weights_problem(ENV, WHAT))
 
     def __init__(self):
         import torch

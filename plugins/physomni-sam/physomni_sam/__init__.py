@@ -15,6 +15,8 @@ import pathlib
 
 import numpy as np
 
+from physomni_usd.backends import registry
+
 ENV = "PHYSOMNI_SAM_WEIGHTS"
 WHAT = "a SAM or SAM 2 folder saved by transformers' from_pretrained (e.g. facebook/sam-vit-base)"
 __version__ = "0.1.0"
@@ -31,15 +33,11 @@ class SamSegmenter:
 
     @classmethod
     def missing(cls) -> str | None:
-        lacking = [m for m in ("torch", "transformers") if importlib.util.find_spec(m) is None]
-        if lacking:
-            return f"the sam segmenter needs {' and '.join(lacking)}: pip install 'physomni-sam[models]'"
-        path = cls.weights()
-        if not path:
-            return f"{ENV} is not set: point it at {WHAT}"
-        config = pathlib.Path(path) / "config.json"
-        if not config.is_file():
-            return f"{ENV}={path} has no config.json: point it at {WHAT}"
+        problem = (registry.lacking_modules(("torch", "transformers"), "the sam segmenter", "physomni-sam[models]")
+                   or registry.weights_problem(ENV, WHAT, "config.json"))
+        if problem:
+            return problem
+        config = pathlib.Path(cls.weights()) / "config.json"
         sam2 = json.loads(config.read_text()).get("model_type", "").startswith("sam2")
         if sam2 and importlib.util.find_spec("torchvision") is None:
             return "SAM 2's image processor needs torchvision: pip install 'physomni-sam[sam2]'"

@@ -17,9 +17,10 @@ from __future__ import annotations
 
 import importlib.util
 import os
-import pathlib
 
 import numpy as np
+
+from physomni_usd.backends import registry
 
 ENV = "PHYSOMNI_SAM3D_CONFIG"
 WHAT = "SAM 3D Objects' checkpoints/<tag>/pipeline.yaml (its checkpoints beside it)"
@@ -105,12 +106,7 @@ class Sam3DLifter:
         if _module() is None:
             return ("the sam3d lifter needs SAM 3D Objects (package sam3d_objects), installed from "
                     "github.com/facebookresearch/sam-3d-objects with its [inference] extra, and torch")
-        path = cls.weights()
-        if not path:
-            return f"{ENV} is not set: point it at {WHAT}"
-        if not pathlib.Path(path).is_file():
-            return f"{ENV}={path} is not a file: point it at {WHAT}"
-        return None
+        return registry.weights_problem(ENV, WHAT)
 
     def __init__(self):
         self.pipeline = load_pipeline(self.weights())

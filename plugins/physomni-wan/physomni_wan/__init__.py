@@ -18,12 +18,13 @@ imports no torch.
 from __future__ import annotations
 
 import hashlib
-import importlib.util
 import math
 import os
 import pathlib
 
 import numpy as np
+
+from physomni_usd.backends import registry
 
 ENV = "PHYSOMNI_WAN_WEIGHTS"
 ENV_CACHE = "PHYSOMNI_WAN_CACHE"
@@ -53,15 +54,9 @@ class WanVACE:
 
     @classmethod
     def missing(cls) -> str | None:
-        lacking = [m for m in ("torch", "diffusers", "transformers") if importlib.util.find_spec(m) is None]
-        if lacking:
-            return f"the wan-vace re-renderer needs {', '.join(lacking)}: pip install 'physomni-wan[models]'"
-        path = cls.weights()
-        if not path:
-            return f"{ENV} is not set: point it at {WHAT}"
-        if not (pathlib.Path(path) / "model_index.json").is_file():
-            return f"{ENV}={path} has no model_index.json: point it at {WHAT}"
-        return None
+        return (registry.lacking_modules(("torch", "diffusers", "transformers"), "the wan-vace re-renderer",
+                                         "physomni-wan[models]")
+                or registry.weights_problem(ENV, WHAT, "model_index.json"))
 
     def __init__(self):
         import torch
