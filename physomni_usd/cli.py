@@ -267,12 +267,19 @@ def _simulate(shot, seconds, fps, substeps, quiet, particle_spacing=None, mpm_st
 DEFAULT_SECONDS = 3.0
 
 
-def _render(shot, output, quiet, max_size=1920):
+def _render(shot, output, quiet, max_size=1920, passes=None, passes_dir=None):
+    from .render.passes import parse_passes
     from .render.video import render_shot
     from .settings import RenderSettings
 
+    names = parse_passes(passes)
+    if passes_dir is not None and not names:
+        from .errors import InputError
+
+        raise InputError("--passes-dir needs --passes (e.g. --passes depth,normal,flow,mask)")
     with _progress("render  ", not quiet) as bar:
-        section = render_shot(shot, output, RenderSettings(max_size=max_size), progress=bar)
+        section = render_shot(shot, output, RenderSettings(max_size=max_size), progress=bar, passes=names,
+                              passes_dir=passes_dir)
     if not quiet:
         click.echo(f"render: {section['video']} ({section['frames']} frames, "
                    f"{section['frames_per_second']:.1f} frames/s)", err=True)
@@ -337,10 +344,23 @@ def simulate(shot, seconds, fps, substeps, particle_spacing, mpm_steps, quiet):
                                "needs even sides: an odd width or height loses its last column or row.",
                                RenderSettings, "max_size"))
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
-def render(shot, output, max_size, quiet):
-    """Render the composed shot over its background plate into an H.264 MP4."""
+@click.option("--passes", default=None, metavar="NAME,NAME,...",
+              help="Also write control passes, exact from the stage: depth (channel Z, metres along the optical "
+                   "axis), normal (N.X N.Y N.Z, world space), flow (motion.X motion.Y, pixels to the next frame, "
+                   "+y down), mask (objectId, 0 = environment); or all. One float32 OpenEXR per frame, "
+                   "passes.####.exr, plus passes.json (ids → prim paths) and a preview MP4 per pass.")
+@click.option("--passes-dir", type=click.Path(path_type=pathlib.Path), default=None,
+              help="Folder for the passes [default: passes/ beside the shot].")
+def render(shot, output, max_size, quiet, passes, passes_dir):
+    """Render the composed shot over its background plate into an H.264 MP4.
+
+    \b
+    Examples:
+      physomni-usd render shot/shot.usda
+      physomni-usd render shot/shot.usda --passes depth,normal,flow,mask --passes-dir shot/passes
+    """
     with _errors():
-        _render(shot, output, quiet, max_size)
+        _render(shot, output, quiet, max_size, passes, passes_dir)
 
 
 @main.command()

@@ -1,4 +1,10 @@
-"""warp kernels of the renderer: primary rays with alpha cut-out, and vertical shadow rays."""
+"""warp kernels of the renderer: primary rays with alpha cut-out, and vertical shadow rays.
+
+The primary kernel runs over a list of the image's pixels (those the objects' projected triangles may cover;
+no other ray can hit them) and also returns each hit's barycentric coordinates, from which the control passes take the
+surface point a pixel sees. The passes see the meshes (the first surface on each ray), the image sees them
+through their textures' alpha (the photo's mask cuts each object out exactly).
+"""
 
 from __future__ import annotations
 
@@ -20,13 +26,18 @@ def kernels():
     @wp.kernel
     def primary(mesh: wp.uint64, origin: wp.vec3, rays: wp.array(dtype=wp.vec3),
                 corner_px: wp.array(dtype=wp.vec2), alpha: wp.array2d(dtype=wp.float32), max_t: float,
+                pixels: wp.array(dtype=wp.int32),
                 out_px: wp.array(dtype=wp.vec2), out_face: wp.array(dtype=wp.int32),
-                out_depth: wp.array(dtype=wp.float32)):
-        i = wp.tid()
+                out_depth: wp.array(dtype=wp.float32), out_mesh_face: wp.array(dtype=wp.int32),
+                out_mesh_depth: wp.array(dtype=wp.float32), out_bary: wp.array(dtype=wp.vec2)):
+        # one thread per listed pixel; i indexes the whole image's rays and outputs
+        i = pixels[wp.tid()]
         d = rays[i]
         o = origin
         out_face[i] = -1
         out_depth[i] = max_t
+        out_mesh_face[i] = -1
+        out_mesh_depth[i] = max_t
         travelled = float(0.0)
         h = alpha.shape[0]
         w = alpha.shape[1]
@@ -35,6 +46,10 @@ def kernels():
             if not q.result:
                 break
             f = q.face
+            if _layer == 0:  # the mesh itself, whatever its texture's alpha: what the control passes see
+                out_mesh_face[i] = f
+                out_mesh_depth[i] = q.t
+                out_bary[i] = wp.vec2(q.u, q.v)
             px = corner_px[f * 3] * q.u + corner_px[f * 3 + 1] * q.v + corner_px[f * 3 + 2] * (1.0 - q.u - q.v)
             ix = wp.clamp(int(px[0]), 0, w - 1)
             iy = wp.clamp(int(px[1]), 0, h - 1)
@@ -79,16 +94,24 @@ class RayCaster:
         self.alpha = wp.array(alpha.astype(np.float32), dtype=wp.float32, device=device)
         self._rays = None
         self._key = None
+        self._all = None
 
     def update(self, points: np.ndarray) -> None:
         self.points.assign(self.wp.array(points.astype(np.float32), dtype=self.wp.vec3, device=self.device))
         self.mesh.refit()
 
-    def cast(self, origin, rays: np.ndarray, shadow_rays: np.ndarray, max_t: float, max_shadow: float):
+    def cast(self, origin, rays: np.ndarray, shadow_rays: np.ndarray, max_t: float, max_shadow: float,
+             pixels: np.ndarray | None = None):
         """Per pixel of ``rays``: face index (−1 for none) and atlas pixel coordinates; per pixel of
         ``shadow_rays`` (a coarser grid, shadows are soft): height of the object above the ground seen there.
-        :attr:`depth` then holds each pixel's distance along its ray to the surface seen (``max_t`` for none),
-        :attr:`shadow_face` the face above each shadow pixel (−1 for none)."""
+
+        ``pixels`` (P,) int32 flat indices into ``rays``: the only pixels whose rays can hit anything (see
+        :func:`covered_pixels`); the others are "no hit" without being cast. None casts every ray. :attr:`depth` then holds each pixel's
+        distance along its ray to the surface seen (``max_t`` for none), :attr:`mesh_face` and
+        :attr:`mesh_depth` the first face on each ray and its distance whatever the texture's alpha there,
+        :attr:`bary` (H, W, 2) the barycentric (u, v) on that face (the point is u·p0 + v·p1 + (1 − u − v)·p2;
+        undefined where nothing is hit), :attr:`shadow_face` the face above each shadow pixel
+        (−1 for none). These are views of the caster's buffers, valid until the next cast."""
         wp = self.wp
         primary, shadow = kernels()
         key = (rays.ctypes.data, rays.shape, shadow_rays.ctypes.data, shadow_rays.shape)
@@ -99,21 +122,57 @@ class RayCaster:
             self._px = wp.zeros(n, dtype=wp.vec2, device=self.device)
             self._face = wp.zeros(n, dtype=wp.int32, device=self.device)
             self._depth = wp.zeros(n, dtype=wp.float32, device=self.device)
+            self._bary = wp.zeros(n, dtype=wp.vec2, device=self.device)
+            self._mesh_face = wp.zeros(n, dtype=wp.int32, device=self.device)
+            self._mesh_depth = wp.zeros(n, dtype=wp.float32, device=self.device)
             self._h = wp.zeros(m, dtype=wp.float32, device=self.device)
             self._shadow_face = wp.zeros(m, dtype=wp.int32, device=self.device)
             self._key = key
+        shape = rays.shape[:2]
+        if pixels is None:
+            if self._all is None or self._all.shape[0] != shape[0] * shape[1]:
+                self._all = wp.array(np.arange(shape[0] * shape[1], dtype=np.int32), dtype=wp.int32,
+                                     device=self.device)
+            listed = self._all
+        else:
+            for a, v in ((self._face, -1), (self._depth, float(max_t)), (self._mesh_face, -1),
+                         (self._mesh_depth, float(max_t))):
+                a.fill_(v)
+            listed = wp.array(np.ascontiguousarray(pixels, np.int32), dtype=wp.int32, device=self.device)
         o = wp.vec3(*map(float, origin))
-        wp.launch(primary, dim=self._rays.shape[0],
-                  inputs=[self.mesh.id, o, self._rays, self.corner_px, self.alpha, float(max_t)],
-                  outputs=[self._px, self._face, self._depth], device=self.device)
+        if listed.shape[0]:
+            wp.launch(primary, dim=listed.shape[0],
+                      inputs=[self.mesh.id, o, self._rays, self.corner_px, self.alpha, float(max_t), listed],
+                      outputs=[self._px, self._face, self._depth, self._mesh_face, self._mesh_depth, self._bary],
+                      device=self.device)
         wp.launch(shadow, dim=self._shadow_rays.shape[0], inputs=[self.mesh.id, o, self._shadow_rays,
                                                                    float(max_shadow)],
                   outputs=[self._h, self._shadow_face], device=self.device)
-        shape = rays.shape[:2]
         self.depth = self._depth.numpy().reshape(shape)
+        self.mesh_face = self._mesh_face.numpy().reshape(shape)
+        self.mesh_depth = self._mesh_depth.numpy().reshape(shape)
+        self.bary = self._bary.numpy().reshape(shape + (2,))
         self.shadow_face = self._shadow_face.numpy().reshape(shadow_rays.shape[:2])
-        return (self._face.numpy().reshape(shape), self._px.numpy().reshape(shape + (2,)),
-                self._h.numpy().reshape(shadow_rays.shape[:2]))
+        return self._face.numpy().reshape(shape), self._px.numpy().reshape(shape + (2,)), self._h.numpy().reshape(shadow_rays.shape[:2])
+
+
+def covered_pixels(cam, points: np.ndarray, faces: np.ndarray) -> np.ndarray | None:
+    """Flat indices (P,) int32 of the pixels of ``cam`` (a RenderCamera) whose rays may hit a triangle of
+    ``faces`` (M, 3) over ``points`` (N, 3) world: the triangles' projections filled and grown by two pixels,
+    so that the list holds every pixel centre inside one. None (every pixel) when a point is not in front of
+    the camera, where a projection says nothing."""
+    import cv2
+
+    uv, z = cam.project(points)
+    # beyond a few frames' size, cv2's fixed point would overflow: cast everything then
+    if not len(points) or np.min(z) <= 1e-6 or np.abs(uv).max() > 8.0 * max(cam.width, cam.height):
+        return None
+    mask = np.zeros((cam.height, cam.width), np.uint8)
+    tri = np.round(uv * 16).astype(np.int32)[faces]
+    for t in tri:  # one call per triangle: fillPoly of many polygons leaves their overlaps empty
+        cv2.fillConvexPoly(mask, t, 1, lineType=cv2.LINE_8, shift=4)
+    mask = cv2.dilate(mask, np.ones((5, 5), np.uint8))
+    return np.flatnonzero(mask).astype(np.int32)
 
 
 class SilhouetteRenderer:
@@ -149,9 +208,14 @@ class SilhouetteRenderer:
         face = wp.zeros(n, dtype=wp.int32, device=self.device)
         px = wp.zeros(n, dtype=wp.vec2, device=self.device)
         depth = wp.zeros(n, dtype=wp.float32, device=self.device)
+        bary = wp.zeros(n, dtype=wp.vec2, device=self.device)
+        mesh_face = wp.zeros(n, dtype=wp.int32, device=self.device)
+        mesh_depth = wp.zeros(n, dtype=wp.float32, device=self.device)
         wp.launch(primary, dim=n, inputs=[self.caster.mesh.id, wp.vec3(*map(float, camera.origin)),
                                           wp.array(rays, dtype=wp.vec3, device=self.device), self.caster.corner_px,
-                                          self.caster.alpha, 1e6], outputs=[px, face, depth], device=self.device)
+                                          self.caster.alpha, 1e6,
+                                          wp.array(np.arange(n, dtype=np.int32), dtype=wp.int32, device=self.device)],
+                  outputs=[px, face, depth, mesh_face, mesh_depth, bary], device=self.device)
         f = face.numpy()
         ids = np.where(f >= 0, self.face_object[np.maximum(f, 0)], -1)
         return ids.reshape(camera.height, camera.width)

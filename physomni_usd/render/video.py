@@ -20,8 +20,10 @@ from ..errors import InputError
 from ..report import prepare_writes, update_report
 from ..settings import RenderSettings
 from ..usd import layers
-from .raycast import RayCaster
+from .passes import PassWriter, pass_files
+from .raycast import RayCaster, covered_pixels
 from .stage import read_camera, read_objects, read_particles, read_photo, read_plate, visible, world_points
+from .world import photo_environment
 
 
 #: Shadows are soft, so their rays are cast on a grid this many times coarser in each direction.
@@ -55,6 +57,7 @@ class ShotRenderer:
         self.size = float(np.median([o.height for o in self.objects])) if self.objects else 1.0
         self._rays_key = None
         self._build_atlas()
+        self.environment = _environment(stage, self)
 
     def _read_photo(self, stage: Usd.Stage, size: tuple[int, int]) -> None:
         """The photo at the plate's size and, per pixel, the object whose part of the plate it is (the nearest
@@ -224,12 +227,16 @@ class ShotRenderer:
             self._rays_key = key
         # read once a frame: both the particles' shadows and their splats need them
         particles = self._visible_particles(time_code)
+        self.camera = cam
         out = self.plate
         if self.caster is None:
             out = self.plate * (1.0 - self._particle_shadow(cam, particles)[..., None])
             return np.clip(self._splat(out, cam, particles, None) + 0.5, 0, 255).astype(np.uint8)
-        self.caster.update(self._points(time_code))
-        face, px, h = self.caster.cast(cam.origin, self._rays, self._shadow_rays, 1e6, 10.0 * self.size)
+        points = self._points(time_code)
+        self.points = points  # what the frame was rendered from (the control passes read it)
+        self.caster.update(points)
+        face, px, h = self.caster.cast(cam.origin, self._rays, self._shadow_rays, 1e6, 10.0 * self.size,
+                                       pixels=covered_pixels(cam, points, self.faces))
         hit = face >= 0
         obj = np.where(hit, self.face_object[np.maximum(face, 0)], -1)
         moved = self._moved(obj, px)
@@ -263,13 +270,26 @@ class ShotRenderer:
         return np.clip(out + 0.5, 0, 255).astype(np.uint8)
 
 
-def render_shot(shot, output=None, settings: RenderSettings = RenderSettings(), progress=None) -> dict:
-    """Render every frame of ``shot`` to ``output`` (default: ``video.mp4`` beside it); returns the report section."""
+def _environment(stage: Usd.Stage, renderer: ShotRenderer):
+    """The environment of the first frame's camera, its backdrop beyond the farthest object."""
+    start = Usd.TimeCode(stage.GetStartTimeCode())
+    cam = read_camera(stage, start, renderer.width, renderer.height)
+    farthest = 0.0
+    if renderer.caster is not None:
+        d = renderer._points(start) - cam.origin
+        farthest = float(np.max(np.hypot(d[:, 0], d[:, 1])))
+    return photo_environment(cam, farthest)
+
+
+def render_shot(shot, output=None, settings: RenderSettings = RenderSettings(), progress=None,
+                passes: tuple[str, ...] = (), passes_dir=None) -> dict:
+    """Render every frame of ``shot`` to ``output`` (default: ``video.mp4`` beside it); returns the report section.
+    ``passes`` (names from :data:`passes.PASSES`) also go to ``passes_dir`` (default: ``passes/`` beside the shot)."""
     with all_or_nothing():
-        return _render_shot(shot, output, settings, progress)
+        return _render_shot(shot, output, settings, progress, passes, passes_dir)
 
 
-def _render_shot(shot, output, settings: RenderSettings, progress) -> dict:
+def _render_shot(shot, output, settings: RenderSettings, progress, passes=(), passes_dir=None) -> dict:
     import imageio.v2 as imageio
 
     t0 = time.perf_counter()
@@ -280,13 +300,16 @@ def _render_shot(shot, output, settings: RenderSettings, progress) -> dict:
         raise InputError(f"video output {out} is a directory")
     if out.suffix.lower() != ".mp4":
         raise InputError(f"video output {out.name} must end in .mp4")
-    prepare_writes(folder, [out if out.is_absolute() else pathlib.Path.cwd() / out])
-    make_dirs(out.parent)
     start, end = int(stage.GetStartTimeCode()), int(stage.GetEndTimeCode())
+    pass_dir = (pathlib.Path(passes_dir) if passes_dir else folder / "passes") if passes else None
+    pass_paths = pass_files(pass_dir.absolute(), passes, range(start, end + 1)) if passes else []
+    prepare_writes(folder, [out if out.is_absolute() else pathlib.Path.cwd() / out] + pass_paths)
+    make_dirs(out.parent)
     fps = stage.GetFramesPerSecond() or stage.GetTimeCodesPerSecond() or 30.0
     renderer = ShotRenderer(stage, settings)
     t_setup = time.perf_counter()
     n = end - start + 1
+    pass_writer = PassWriter(pass_dir, passes, renderer, fps, settings.quality) if passes else None
     with atomic_path(out) as tmp:
         writer = imageio.get_writer(str(tmp), format="FFMPEG", mode="I", fps=fps, codec="libx264",
                                     quality=settings.quality, macro_block_size=1,
@@ -294,10 +317,17 @@ def _render_shot(shot, output, settings: RenderSettings, progress) -> dict:
         try:
             for k, t in enumerate(range(start, end + 1)):
                 writer.append_data(_even(renderer.frame(float(t))))
+                if pass_writer:
+                    pass_writer.add(float(t), float(t + 1) if t < end else None)
                 if progress:
                     progress(k + 1, n)
+        except BaseException:
+            if pass_writer:
+                pass_writer.close(ok=False)
+            raise
         finally:
             writer.close()
+    pass_section = pass_writer.close() if pass_writer else None
     t_end = time.perf_counter()
     section = {"video": str(out), "frames": n, "fps": fps, "width": renderer.width - renderer.width % 2,
                "height": renderer.height - renderer.height % 2,
@@ -305,6 +335,8 @@ def _render_shot(shot, output, settings: RenderSettings, progress) -> dict:
                "seconds": {"setup": round(t_setup - t0, 4), "frames": round(t_end - t_setup, 4)},
                "total_seconds": round(t_end - t0, 4),
                "frames_per_second": round(n / max(t_end - t_setup, 1e-9), 3)}
+    if pass_section:
+        section["passes"] = pass_section
     update_report(folder, render=section)
     return section
 
