@@ -859,7 +859,8 @@ def plugins_command():
 
 @main.command()
 @click.argument("shot", type=click.Path(path_type=pathlib.Path))
-@click.option("--model", required=True, metavar="NAME", help="Re-renderer backend, e.g. wan-vace (plugin physomni-wan).")
+@click.option("--model", default=None, metavar="NAME",
+              help="Re-renderer backend, e.g. wan-vace (plugin physomni-wan) [default: the one installed].")
 @click.option("--strength", type=float, default=0.6, show_default=True,
               help="Share of the denoising run, in (0, 1]: low keeps the rendered frames, 1 starts from noise.")
 @click.option("--steps", type=click.IntRange(1, 1000), default=20, show_default=True,
@@ -874,8 +875,9 @@ def plugins_command():
 def rerender(shot, model, strength, steps, prompt, seed, max_size, output, quiet):
     """Render the shot, then re-render its frames with a video model, the photo as reference.
 
-    The objects' pixels of each frame (from the renderer's ray hits) are the model's masks. Needs a
-    re-renderer plugin; without one this says which to install and exits 2.
+    The renderer's control passes of each frame (depth, object ids, forward motion; see render --passes) go
+    to the model with the frames; the objects' pixels are its masks. Needs a re-renderer plugin; without one
+    this says which to install and exits 2.
 
     \b
     Example (Wan VACE; weights: a diffusers WanVACEPipeline folder):

@@ -96,11 +96,21 @@ class Estimator(Protocol):
         and any force fields; ``fps`` converts frame numbers in an answer to seconds."""
 
 
+@dataclass
+class ControlPasses:
+    """The renderer's exact control passes of every frame (see ``render --passes``), at the frames' size."""
+
+    depth: np.ndarray  # (T, H, W) float32, metres along the camera's optical axis, finite everywhere
+    object_id: np.ndarray  # (T, H, W) int32, 0 for the environment, 1..K for the objects
+    motion: np.ndarray  # (T, H, W, 2) float32, forward motion to the next frame in pixels (+x right, +y down)
+
+
 @runtime_checkable
 class Rerenderer(Protocol):
     def rerender(self, frames: np.ndarray, masks: np.ndarray | None, reference: np.ndarray, *, prompt: str,
-                 strength: float, steps: int, seed: int) -> np.ndarray:
+                 strength: float, steps: int, seed: int, passes: ControlPasses | None = None) -> np.ndarray:
         """New frames (T, H, W, 3) uint8 from rendered ``frames`` (T, H, W, 3) uint8, the objects' pixels
         ``masks`` (T, H, W) bool (or None), and the photo as ``reference`` (H', W', 3) uint8.
         ``strength`` in (0, 1]: how much of the denoising runs (1 = from pure noise); ``steps``: denoising
-        steps actually run."""
+        steps actually run. ``passes``: the control passes of the same frames (``masks`` is their
+        ``object_id > 0``); a backend whose ``rerender`` takes no ``passes`` keyword is called without it."""

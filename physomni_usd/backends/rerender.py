@@ -1,12 +1,15 @@
 """``rerender``: the shot's rendered frames through a video model, the photo as reference, into a new video.
 
-The frames come from the built-in renderer; the objects' pixels of each frame
-come from its ray hit buffer (a pixel whose primary ray hits an object). Those
-are the masks given to the re-renderer; there is no separate objectId pass.
+The frames come from the built-in renderer, and with them the exact control
+passes of ``render --passes`` (depth along the optical axis, object ids, forward
+motion), computed in memory from the same rays. The masks given to the
+re-renderer are the objects' pixels (``objectId > 0``); a re-renderer whose
+``rerender`` takes a ``passes`` keyword also gets the passes themselves.
 """
 
 from __future__ import annotations
 
+import inspect
 import pathlib
 import time
 
@@ -18,26 +21,49 @@ from ..errors import InputError
 from ..report import update_report
 from ..usd import layers
 from . import registry
+from .protocols import ControlPasses
 
 
-def rendered_frames(stage, max_size: int, progress=None) -> tuple[np.ndarray, np.ndarray, float]:
-    """Every frame of the composed stage (T, H, W, 3) uint8, its object masks (T, H, W) bool, and the fps."""
+def rendered_frames(stage, max_size: int, progress=None) -> tuple[np.ndarray, ControlPasses, float]:
+    """Every frame of the composed stage (T, H, W, 3) uint8, their control passes, and the fps."""
+    from ..render.passes import frame_passes
     from ..render.video import ShotRenderer
     from ..settings import RenderSettings
 
     renderer = ShotRenderer(stage, RenderSettings(max_size=max_size))
     start, end = int(stage.GetStartTimeCode()), int(stage.GetEndTimeCode())
-    frames, masks = [], []
+    frames, depth, ids, motion = [], [], [], []
     for k, t in enumerate(range(start, end + 1)):
         frames.append(renderer.frame(float(t)))
-        if renderer.caster is not None:
-            masks.append(renderer.caster.depth < 1e5)  # depth is the far limit (1e6) where no object was hit
-        else:
-            masks.append(np.zeros(frames[-1].shape[:2], bool))
+        p = frame_passes(renderer, float(t), float(t + 1) if t < end else None)
+        depth.append(p["Z"])
+        ids.append(p["objectId"])
+        motion.append(p["motion"])
         if progress:
             progress(k + 1, end - start + 1)
     fps = stage.GetFramesPerSecond() or stage.GetTimeCodesPerSecond() or 30.0
-    return np.stack(frames), np.stack(masks), float(fps)
+    return np.stack(frames), ControlPasses(np.stack(depth), np.stack(ids), np.stack(motion)), float(fps)
+
+
+def takes_passes(backend) -> bool:
+    """Whether ``backend.rerender`` accepts the ``passes`` keyword (re-renderers written before it do not)."""
+    try:
+        params = inspect.signature(backend.rerender).parameters
+    except (TypeError, ValueError):
+        return False
+    return "passes" in params or any(p.kind is p.VAR_KEYWORD for p in params.values())
+
+
+def default_model() -> str:
+    """The one installed re-renderer; otherwise one line saying what to install or to choose with --model."""
+    names = [e.name for e in registry.entries() if e.kind == "rerenderer"]
+    if len(names) == 1:
+        return names[0]
+    if names:
+        raise InputError(f"--model: several re-renderers are installed ({', '.join(names)}); choose one")
+    hint = registry.SUGGESTED["rerenderer"]
+    raise InputError(f"no re-renderer is installed: install the {hint} plugin (pip install -e plugins/{hint}) "
+                     "and name it with --model")
 
 
 def default_prompt(stage) -> str:
@@ -49,9 +75,10 @@ def default_prompt(stage) -> str:
     return f"{things} on the ground, photorealistic, consistent lighting"
 
 
-def rerender_shot(shot, model: str, strength: float = 0.6, steps: int = 20, output=None, prompt: str | None = None,
+def rerender_shot(shot, model: str | None, strength: float = 0.6, steps: int = 20, output=None, prompt: str | None = None,
                   seed: int = 0, max_size: int = 832, progress=None) -> dict:
-    """Re-render ``shot`` with re-renderer ``model``; writes the video (default ``rerender.mp4``) and the report."""
+    """Re-render ``shot`` with re-renderer ``model`` (None: the one installed); writes the video (default
+    ``rerender.mp4``) and the report."""
     import imageio.v2 as imageio
 
     from ..render.video import _even
@@ -64,6 +91,7 @@ def rerender_shot(shot, model: str, strength: float = 0.6, steps: int = 20, outp
     out = pathlib.Path(output) if output else folder / "rerender.mp4"
     if out.suffix.lower() != ".mp4" or out.is_dir():
         raise InputError(f"rerender output {out.name} must be an .mp4 file")
+    model = model or default_model()
     backend = registry.load("rerenderer", model)
     photo_path = folder / "inputs" / "photo.png"
     photo = cv2.imread(str(photo_path), cv2.IMREAD_COLOR)
@@ -71,11 +99,13 @@ def rerender_shot(shot, model: str, strength: float = 0.6, steps: int = 20, outp
         raise InputError(f"{photo_path} is missing; the shot was built by an older version: run build again")
     t0 = time.perf_counter()
     stage = layers.open_shot(folder)
-    frames, masks, fps = rendered_frames(stage, max_size, progress)
+    frames, passes, fps = rendered_frames(stage, max_size, progress)
+    masks = passes.object_id > 0
     t_render = time.perf_counter()
+    extra = {"passes": passes} if takes_passes(backend) else {}
     new = np.asarray(backend.rerender(frames, masks, cv2.cvtColor(photo, cv2.COLOR_BGR2RGB),
                                       prompt=prompt or default_prompt(stage), strength=strength, steps=steps,
-                                      seed=seed))
+                                      seed=seed, **extra))
     if new.shape != frames.shape:
         raise InputError(f"re-renderer {model} returned frames of shape {new.shape}, expected {frames.shape}")
     t_model = time.perf_counter()
@@ -89,9 +119,10 @@ def rerender_shot(shot, model: str, strength: float = 0.6, steps: int = 20, outp
         finally:
             writer.close()
     section = {"video": str(out), "frames": int(len(new)), "width": int(frames.shape[2]),
-               "height": int(frames.shape[1]), "fps": fps, "backend": registry.describe(backend),
+               "height": int(frames.shape[1]), "fps": fps, "model": model, "backend": registry.describe(backend),
                "strength": strength, "steps": steps, "seed": seed, "prompt": prompt or default_prompt(stage),
-               "masks": "object hits of the renderer's primary rays",
+               "masks": "objectId > 0 of the control passes",
+               "passes": ["depth", "objectId", "motion"] if extra else [],
                "seconds": {"render": round(t_render - t0, 3), "model": round(t_model - t_render, 3),
                            "write": round(time.perf_counter() - t_model, 3)}}
     update_report(folder, rerender=section)

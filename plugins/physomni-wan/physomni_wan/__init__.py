@@ -5,8 +5,13 @@ folder (``model_index.json``; Wan 2.1 VACE, or Wan 2.2 with ``transformer_2``
 and ``boundary_ratio``, which the pipeline reads itself) named by
 ``PHYSOMNI_WAN_WEIGHTS``.
 
-The rendered frames are the control ``video``, the objects' pixels the
-``mask``, the photo the reference image. Partial denoising: the frames are
+The control ``video`` is the rendered frames, except on the objects' pixels
+(``objectId > 0`` of the control passes, grown by a few pixels), where it is
+their depth pass drawn as VACE's depth maps are (near bright, far dark); those
+pixels are also the ``mask``, so the model keeps the rendered world and repaints
+the objects following their exact depth. The photo is the reference image.
+Without passes (an older caller) the frames are the control video and the
+masks the mask. Wan VACE has no motion input: the flow pass is not used. Partial denoising: the frames are
 encoded by the VAE, noised to the level ``strength`` of the flow-matching
 schedule and denoised from there over ``steps`` steps. Text embeddings are
 computed once per prompt with the pipeline's own text encoder and cached
@@ -97,7 +102,7 @@ class WanVACE:
         return pos.cpu(), neg.cpu()
 
     def rerender(self, frames: np.ndarray, masks, reference: np.ndarray, *, prompt: str, strength: float,
-                 steps: int, seed: int) -> np.ndarray:
+                 steps: int, seed: int, passes=None) -> np.ndarray:
         """(T, H, W, 3) uint8 frames re-rendered; sizes are rounded to the model's grid and restored."""
         import cv2
         import torch
@@ -115,7 +120,11 @@ class WanVACE:
         step_t = pipe.vae_scale_factor_temporal
         n = ((t - 1 + step_t - 1) // step_t) * step_t + 1  # Wan wants 4k + 1 frames: repeat the last ones
         index = np.minimum(np.arange(n), t - 1)
-        video = [Image.fromarray(cv2.resize(frames[i], (gw, gh), interpolation=cv2.INTER_AREA)) for i in index]
+        rendered = [Image.fromarray(cv2.resize(frames[i], (gw, gh), interpolation=cv2.INTER_AREA)) for i in index]
+        video = rendered
+        if passes is not None:
+            masks, control = depth_control(frames, passes.depth, passes.object_id)
+            video = [Image.fromarray(cv2.resize(control[i], (gw, gh), interpolation=cv2.INTER_AREA)) for i in index]
         if masks is None:
             mask = [Image.new("L", (gw, gh), 255)] * n
         else:
@@ -123,7 +132,7 @@ class WanVACE:
                                                interpolation=cv2.INTER_NEAREST)) for i in index]
         ref = Image.fromarray(cv2.resize(reference, (gw, gh), interpolation=cv2.INTER_AREA))
         generator = torch.Generator(device="cpu").manual_seed(seed)
-        latents = self._start_latents(pipe, video, ref, gh, gw, strength, steps, generator)
+        latents = self._start_latents(pipe, rendered, ref, gh, gw, strength, steps, generator)
         _truncate_schedule(pipe.scheduler, steps, strength)
         with torch.inference_mode():
             out = pipe(video=video, mask=mask, reference_images=[ref], prompt_embeds=pos.to(self.device, self.dtype),
@@ -152,6 +161,21 @@ class WanVACE:
         first = scheduler.timesteps[-steps:][:1]
         noise = torch.randn(x0.shape, generator=generator, dtype=torch.float32).to(self.device)
         return scheduler.scale_noise(x0, first, noise)
+
+
+def depth_control(frames: np.ndarray, depth: np.ndarray, object_id: np.ndarray, grow: int = 3):
+    """(masks (T, H, W) bool, control frames (T, H, W, 3) uint8): the objects' pixels grown by ``grow`` pixels,
+    and the frames with those pixels replaced by the depth pass as a grey depth map (inverse depth, scaled over
+    the objects of the whole shot, near = white), as VACE's depth control expects."""
+    import cv2
+
+    kernel = np.ones((2 * grow + 1, 2 * grow + 1), np.uint8)
+    masks = np.stack([cv2.dilate((ids > 0).astype(np.uint8), kernel) > 0 for ids in object_id])
+    inv = 1.0 / np.maximum(depth, 1e-6)
+    lo, hi = (float(inv[masks].min()), float(inv[masks].max())) if masks.any() else (0.0, 1.0)
+    grey = (np.clip((inv - lo) / max(hi - lo, 1e-9), 0.0, 1.0) * 200 + 55).astype(np.uint8)
+    control = np.where(masks[..., None], grey[..., None], frames).astype(np.uint8)
+    return masks, control
 
 
 def _total_steps(steps: int, strength: float) -> int:

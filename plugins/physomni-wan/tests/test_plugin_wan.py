@@ -75,3 +75,19 @@ def test_rerender_writes_a_video_of_the_shots_frames_and_size(wan_shot, tmp_path
     section = json.loads((wan_shot / "report.json").read_text())["stages"]["rerender"]
     assert section["backend"]["name"] == "wan-vace" and section["backend"]["weights"] == str(weights)
     assert section["frames"] == 5 and section["strength"] == 0.5 and section["steps"] == 2
+    assert section["model"] == "wan-vace" and section["passes"] == ["depth", "objectId", "motion"]
+
+
+def test_depth_control_paints_the_objects_depth_and_keeps_the_frames_elsewhere():
+    import numpy as np
+
+    frames = np.full((2, 40, 60, 3), 90, np.uint8)
+    depth = np.full((2, 40, 60), 10.0, np.float32)
+    ids = np.zeros((2, 40, 60), np.int32)
+    ids[:, 10:20, 10:20], depth[:, 10:20, 10:20] = 1, 2.0  # near
+    ids[:, 10:20, 40:50], depth[:, 10:20, 40:50] = 2, 4.0  # farther
+    masks, control = physomni_wan.depth_control(frames, depth, ids, grow=2)
+    assert masks[:, 8:22, 8:22].all() and not masks[:, 30:].any()
+    assert (control[:, 30:] == 90).all()  # the rendered world is kept
+    near, far = control[0, 15, 15, 0], control[0, 15, 45, 0]
+    assert near > far and (control[0, 15, 15] == near).all()
