@@ -626,6 +626,34 @@ def bench_pipeline_command(example, size, repeats, seconds, json_path):
             write_json(json_path, numbers)
 
 
+@bench.command("render")
+@click.option("--example", type=click.Path(file_okay=False, path_type=pathlib.Path),
+              default=pathlib.Path("examples/motorcycle"), show_default=True,
+              help="Example folder with example.json, a photo and its masks.")
+@click.option("--size", type=click.IntRange(64, 4096), default=880, show_default=True,
+              help="Longer side of the photo and of the frames, pixels.")
+@click.option("--seconds", type=click.FloatRange(0.1, 30), default=1.0, show_default=True,
+              help="Simulated (and rendered) seconds.")
+@click.option("--quick", is_flag=True, help="Render 0.3 s (10 frames) instead of --seconds.")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
+              help="Also write the numbers to this JSON file.")
+def bench_render_command(example, size, seconds, quick, json_path):
+    """Frames per second of render on a bundled example: plain, and with every control pass (EXR + previews).
+
+    \b
+    Static camera (the photo's), the example's push simulated first. Example:
+      physomni-usd bench render --quick --json out/render.json
+    """
+    with _errors():
+        from .bench.render import bench_render
+
+        numbers = bench_render(example, size=size, seconds=0.3 if quick else seconds, echo=click.echo)
+        if json_path:
+            from ._files import write_json
+
+            write_json(json_path, numbers)
+
+
 @bench.command("batch")
 @click.option("--example", type=click.Path(file_okay=False, path_type=pathlib.Path),
               default=pathlib.Path("examples/motorcycle"), show_default=True,

@@ -68,51 +68,54 @@ def frame_passes(renderer, t: float, t_next: float | None) -> dict[str, np.ndarr
 
     cam = renderer.camera
     h, w = renderer.height, renderer.width
-    rays = renderer._rays.astype(np.float64)  # (H, W, 3) unit, from the camera at t
-    origin = np.asarray(cam.origin, np.float64)
-    forward = np.asarray(cam.axes[2], np.float64)
-    dist, kind_normal = _environment(renderer, origin, rays)
-    normal = kind_normal
-    object_id = np.zeros((h, w), np.int32)
+    env = _environment(renderer, cam)
+    dist, normal = env["t"].copy(), env["normal"].copy()  # flat (H·W,) and (H·W, 3)
+    object_id = np.zeros(h * w, np.int32)
+    motion = np.zeros((h * w, 2), np.float32)
     caster = renderer.caster
-    hit = np.zeros((h, w), bool)
-    if caster is not None:
-        face = caster.mesh_face
-        hit = face >= 0
-        f = face[hit]
-        object_id[hit] = renderer.face_object[f] + 1
-        dist = dist.copy()
-        dist[hit] = caster.mesh_depth[hit]
-        tri = renderer.points[renderer.faces[f]]  # (P, 3, 3) at t
+    idx = np.flatnonzero(caster.mesh_face >= 0) if caster is not None else np.zeros(0, np.int64)
+    if len(idx):  # flat indices: much cheaper than boolean masks over the whole frame
+        face = caster.mesh_face.reshape(-1)[idx]
+        object_id[idx] = renderer.face_object[face] + 1
+        dist[idx] = caster.mesh_depth.reshape(-1)[idx]
+        tri = renderer.points[renderer.faces[face]]  # (P, 3, 3) at t
         n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-20)
-        n *= np.where(np.einsum("ij,ij->i", n, rays[hit]) > 0, -1.0, 1.0)[:, None]
-        normal = normal.copy()
-        normal[hit] = n
-    z = dist * (rays @ forward)
-    motion = np.zeros((h, w, 2), np.float32)
+        n *= np.where(np.einsum("ij,ij->i", n, env["rays"][idx]) > 0, -1.0, 1.0)[:, None]
+        normal[idx] = n
     if t_next is not None:
         cam1 = read_camera(renderer.stage, Usd.TimeCode(t_next), w, h)
-        points = origin + rays * dist[..., None]  # (H, W, 3) world point seen at t
-        if caster is not None and hit.any():
-            u, v = caster.bary[hit][:, 0:1].astype(np.float64), caster.bary[hit][:, 1:2].astype(np.float64)
-            tri1 = renderer._points(Usd.TimeCode(t_next))[renderer.faces[face[hit]]]
-            points[hit] = tri1[:, 0] * u + tri1[:, 1] * v + tri1[:, 2] * (1.0 - u - v)
-        uv, _ = cam1.project(points.reshape(-1, 3))
-        centre = np.stack(np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5), -1)
-        motion = (uv.reshape(h, w, 2) - centre).astype(np.float32)
-    return {"Z": z.astype(np.float32), "N": normal.astype(np.float32), "motion": motion, "objectId": object_id}
+        moved = not (np.array_equal(cam1.origin, cam.origin) and np.array_equal(cam1.axes, cam.axes)
+                     and (cam1.fx, cam1.fy) == (cam.fx, cam.fy))
+        if moved:  # the static world seen through the next camera
+            points = np.asarray(cam.origin, np.float64) + env["rays"] * env["t"][:, None].astype(np.float64)
+            motion = (cam1.project(points)[0] - env["centre"]).astype(np.float32)
+        if len(idx):
+            bary = caster.bary.reshape(-1, 2)[idx].astype(np.float64)
+            u, v = bary[:, 0:1], bary[:, 1:2]
+            tri1 = renderer._points(Usd.TimeCode(t_next))[renderer.faces[face]]
+            p1 = tri1[:, 0] * u + tri1[:, 1] * v + tri1[:, 2] * (1.0 - u - v)
+            motion[idx] = cam1.project(p1)[0] - env["centre"][idx]
+    return {"Z": (dist * env["cos"]).reshape(h, w), "N": normal.reshape(h, w, 3),
+            "motion": motion.reshape(h, w, 2), "objectId": object_id.reshape(h, w)}
 
 
-def _environment(renderer, origin: np.ndarray, rays: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Distance along each ray (H, W) and normal (H, W, 3) of the environment; cached while the camera holds."""
-    key = (tuple(origin), renderer._rays_key)
+def _environment(renderer, cam) -> dict[str, np.ndarray]:
+    """What the passes need of the camera and the environment, cached while the camera holds, flat over the
+    pixels: the rays (H·W, 3), their cosine to the optical axis (H·W,), the environment's distance (H·W,) and
+    normal (H·W, 3) along each ray (float32), and the pixel centres (H·W, 2)."""
+    key = (tuple(np.asarray(cam.origin, float)), tuple(np.asarray(cam.axes, float).ravel()), cam.fx, cam.fy)
     cached = getattr(renderer, "_passes_environment", None)
     if cached is not None and cached[0] == key:
-        return cached[1], cached[2]
-    t, _, normal = renderer.environment.intersect(origin, rays)
-    renderer._passes_environment = (key, t, normal)
-    return t, normal
+        return cached[1]
+    h, w = renderer._rays.shape[:2]
+    rays = renderer._rays.reshape(-1, 3).astype(np.float64)  # unit, from this camera (the frame just rendered)
+    t, _, normal = renderer.environment.intersect(cam.origin, rays)
+    env = {"rays": rays, "cos": (rays @ np.asarray(cam.axes[2], np.float64)).astype(np.float32),
+           "t": t.astype(np.float32), "normal": normal.astype(np.float32),
+           "centre": np.stack(np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5), -1).reshape(-1, 2)}
+    renderer._passes_environment = (key, env)
+    return env
 
 
 def exr_channels(passes: tuple[str, ...], buffers: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

@@ -8,6 +8,8 @@ through their textures' alpha (the photo's mask cuts each object out exactly).
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from functools import lru_cache
 
 import numpy as np
@@ -16,6 +18,8 @@ from .._warp import load_warp
 
 #: Surfaces a primary ray may pass through where the texture is transparent.
 MAX_LAYERS = 8
+#: CPU threads casting primary rays at once (at most the machine's cores).
+MAX_THREADS = 8
 
 
 @lru_cache(maxsize=1)
@@ -95,6 +99,15 @@ class RayCaster:
         self._rays = None
         self._key = None
         self._all = None
+        self._threads = 1 if str(self.device).startswith("cuda") else max(1, min(os.cpu_count() or 1, MAX_THREADS))
+        self._pool = ThreadPoolExecutor(self._threads) if self._threads > 1 else None
+
+    def _chunks(self, pixels: np.ndarray) -> list:
+        """``pixels`` as warp arrays, one per CPU thread (interleaved, so each gets a like share of the objects'
+        pixels), or one on a GPU."""
+        n = self._threads if len(pixels) >= 4096 else 1
+        return [self.wp.array(np.ascontiguousarray(pixels[k::n]), dtype=self.wp.int32, device=self.device)
+                for k in range(n)]
 
     def update(self, points: np.ndarray) -> None:
         self.points.assign(self.wp.array(points.astype(np.float32), dtype=self.wp.vec3, device=self.device))
@@ -130,21 +143,26 @@ class RayCaster:
             self._key = key
         shape = rays.shape[:2]
         if pixels is None:
-            if self._all is None or self._all.shape[0] != shape[0] * shape[1]:
-                self._all = wp.array(np.arange(shape[0] * shape[1], dtype=np.int32), dtype=wp.int32,
-                                     device=self.device)
-            listed = self._all
+            if self._all is None or self._all[0] != shape:
+                self._all = (shape, self._chunks(np.arange(shape[0] * shape[1], dtype=np.int32)))
+            chunks = self._all[1]
         else:
             for a, v in ((self._face, -1), (self._depth, float(max_t)), (self._mesh_face, -1),
                          (self._mesh_depth, float(max_t))):
                 a.fill_(v)
-            listed = wp.array(np.ascontiguousarray(pixels, np.int32), dtype=wp.int32, device=self.device)
+            chunks = self._chunks(np.asarray(pixels, np.int32))
         o = wp.vec3(*map(float, origin))
-        if listed.shape[0]:
+
+        def launch(listed):
             wp.launch(primary, dim=listed.shape[0],
                       inputs=[self.mesh.id, o, self._rays, self.corner_px, self.alpha, float(max_t), listed],
                       outputs=[self._px, self._face, self._depth, self._mesh_face, self._mesh_depth, self._bary],
                       device=self.device)
+
+        if len(chunks) > 1:  # warp's CPU kernels run on one core and release the GIL: one thread per chunk
+            list(self._pool.map(launch, chunks))
+        elif chunks and chunks[0].shape[0]:
+            launch(chunks[0])
         wp.launch(shadow, dim=self._shadow_rays.shape[0], inputs=[self.mesh.id, o, self._shadow_rays,
                                                                    float(max_shadow)],
                   outputs=[self._h, self._shadow_face], device=self.device)
