@@ -101,6 +101,7 @@ class RayCaster:
         self._all = None
         self._threads = 1 if str(self.device).startswith("cuda") else max(1, min(os.cpu_count() or 1, MAX_THREADS))
         self._pool = ThreadPoolExecutor(self._threads) if self._threads > 1 else None
+        self._loaded = False
 
     def _chunks(self, pixels: np.ndarray) -> list:
         """``pixels`` as warp arrays, one per CPU thread (interleaved, so each gets a like share of the objects'
@@ -159,10 +160,13 @@ class RayCaster:
                       outputs=[self._px, self._face, self._depth, self._mesh_face, self._mesh_depth, self._bary],
                       device=self.device)
 
-        if len(chunks) > 1:  # warp's CPU kernels run on one core and release the GIL: one thread per chunk
+        if len(chunks) > 1 and self._loaded:  # warp's CPU kernels run on one core and release the GIL
             list(self._pool.map(launch, chunks))
-        elif chunks and chunks[0].shape[0]:
-            launch(chunks[0])
+        else:  # the first launch loads (or compiles) the kernel: once, from this thread
+            for c in chunks:
+                if c.shape[0]:
+                    launch(c)
+            self._loaded = True
         wp.launch(shadow, dim=self._shadow_rays.shape[0], inputs=[self.mesh.id, o, self._shadow_rays,
                                                                    float(max_shadow)],
                   outputs=[self._h, self._shadow_face], device=self.device)
