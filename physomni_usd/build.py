@@ -46,6 +46,8 @@ from .usd.author import (
 TEXTURES = "textures"
 VIDEO = "video.mp4"
 INPUTS = "inputs"
+#: The plate extended beyond the photo's frame (textures/), seen by camera moves.
+WIDE_PLATE = "plate_wide.png"
 #: The contact sheet of the masks over the photo, in the shot folder.
 MASKS_SHEET = "masks.png"
 #: Solver defaults written to the physics layer (the physics benchmark revisits them).
@@ -187,7 +189,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         fixed_names = parse_fixed(fixed, names)
         user_sizes = parse_sizes(sizes, [(o.name, o.label) for o in objects])
         files = {f"{TEXTURES}/{o.name}.png" for o in objects} | {f"{INPUTS}/masks/{o.name}.png" for o in objects}
-        files |= {f"{TEXTURES}/plate.png", f"{INPUTS}/photo.png"}
+        files |= {f"{TEXTURES}/plate.png", f"{TEXTURES}/{WIDE_PLATE}", f"{INPUTS}/photo.png"}
         targets = sorted(files) + [MASKS_SHEET, layers.SCENE, layers.PHYSICS, layers.SIM, layers.SHOT, layers.EDITS, REPORT]
         check_writable([out / f for f in targets])
         out = prepare_output(out)
@@ -201,6 +203,8 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
     with timer.step("perceive.plate"):
         plate = backend_steps.make_plate(photo, [o.mask for o in objects], settings.plate_dilation,
                                          chosen["inpainter"])
+    with timer.step("perceive.outpaint"):
+        wide_plate, margins = backend_steps.make_wide_plate(plate, chosen["outpainter"])
 
     if meshes_dir is None and backend_steps.lifts_in_camera(chosen["lifter"]):
         with timer.step("perceive.lift"):
@@ -261,6 +265,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
                 "mask_quality": o.quality,
             })
         _write_png(out / TEXTURES / "plate.png", plate)
+        _write_png(out / TEXTURES / WIDE_PLATE, wide_plate)
         _write_png(out / MASKS_SHEET, contact_sheet(photo, objects))
         # the inputs, so that later stages (estimate's crops) work from the shot folder alone
         make_dirs(out / INPUTS / "masks")
@@ -292,7 +297,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
                           extra={"physomni:photo": str(pathlib.Path(photo_path).name),
                                  **({"physomni:userSizes": {k: float(v) for k, v in user_sizes.items()}}
                                     if user_sizes else {})},
-                          photo=f"./{INPUTS}/photo.png")
+                          photo=f"./{INPUTS}/photo.png", wide_plate=(f"./{TEXTURES}/{WIDE_PLATE}", margins))
         write_physics_layer(out / layers.PHYSICS, out / layers.SCENE, fps=settings.fps, objects=physics_objects,
                             ground=GROUND_MATERIAL, solver=DEFAULT_SOLVER, substeps=DEFAULT_SUBSTEPS,
                             iterations=DEFAULT_ITERATIONS, forces=fields)

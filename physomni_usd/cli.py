@@ -196,6 +196,8 @@ def backend_options(f):
 
     kinds = {"segmenter": "How --box becomes a mask [default: grabcut; plugin: sam].",
              "inpainter": "What fills the objects' holes in the plate [default: builtin; plugin: lama].",
+             "outpainter": "What extends the plate beyond the photo's frame for camera moves "
+                           "[default: mirror].",
              "lifter": "How masks become meshes [default: silhouette; plugin: sam3d].",
              "depth": "A depth model whose ground plane sets the camera's pitch when --pitch is not given "
                       "[default: none; plugin: depth-anything].",
@@ -267,7 +269,13 @@ def _simulate(shot, seconds, fps, substeps, quiet, particle_spacing=None, mpm_st
 DEFAULT_SECONDS = 3.0
 
 
-def _render(shot, output, quiet, max_size=1920, passes=None, passes_dir=None):
+def _camera_moves():
+    from .render.moves import MOVES
+
+    return MOVES
+
+
+def _render(shot, output, quiet, max_size=1920, passes=None, passes_dir=None, camera=None, camera_amount=1.0):
     from .render.passes import parse_passes
     from .render.video import render_shot
     from .settings import RenderSettings
@@ -279,7 +287,7 @@ def _render(shot, output, quiet, max_size=1920, passes=None, passes_dir=None):
         raise InputError("--passes-dir needs --passes (e.g. --passes depth,normal,flow,mask)")
     with _progress("render  ", not quiet) as bar:
         section = render_shot(shot, output, RenderSettings(max_size=max_size), progress=bar, passes=names,
-                              passes_dir=passes_dir)
+                              passes_dir=passes_dir, camera=camera, camera_amount=camera_amount)
     if not quiet:
         click.echo(f"render: {section['video']} ({section['frames']} frames, "
                    f"{section['frames_per_second']:.1f} frames/s)", err=True)
@@ -351,16 +359,29 @@ def simulate(shot, seconds, fps, substeps, particle_spacing, mpm_steps, quiet):
                    "passes.####.exr, plus passes.json (ids → prim paths) and a preview MP4 per pass.")
 @click.option("--passes-dir", type=click.Path(path_type=pathlib.Path), default=None,
               help="Folder for the passes [default: passes/ beside the shot].")
-def render(shot, output, max_size, quiet, passes, passes_dir):
+@click.option("--camera", type=click.Choice(list(_camera_moves())), default=None, metavar="MOVE",
+              help="Write this camera move to the shot's render.usda, then render it: "
+                   + ", ".join(_camera_moves()) + ". Defaults over the whole shot: orbits left/right 15°, "
+                   "up/down 10° about the objects' centre; truck 15 % and dolly 25 % of the distance to the "
+                   "objects; crane-down 30 % of the camera's height. static removes a move. "
+                   "[default: the camera the shot has]")
+@click.option("--camera-amount", type=float, default=1.0, show_default=True,
+              help="Size of the move as a multiple of its default, in (0, 4].")
+def render(shot, output, max_size, quiet, passes, passes_dir, camera, camera_amount):
     """Render the composed shot over its background plate into an H.264 MP4.
+
+    A camera move is written as time samples on /World/Camera in render.usda, below edits.usda: Blender or
+    usdview play the same move, and keys an artist sets on the camera in edits.usda win over it.
 
     \b
     Examples:
       physomni-usd render shot/shot.usda
+      physomni-usd render shot/shot.usda --camera orbit-left -o shot/orbit.mp4
+      physomni-usd render shot/shot.usda --camera dolly-in --camera-amount 0.5
       physomni-usd render shot/shot.usda --passes depth,normal,flow,mask --passes-dir shot/passes
     """
     with _errors():
-        _render(shot, output, quiet, max_size, passes, passes_dir)
+        _render(shot, output, quiet, max_size, passes, passes_dir, camera, camera_amount)
 
 
 @main.command()
@@ -379,9 +400,13 @@ def render(shot, output, max_size, quiet, passes, passes_dir):
 @click.option("--mpm-steps", type=int, default=None,
               help="MPM steps per frame [default: chosen from the materials; see simulate --help]. "
                    f"Range: {limits(SimulateSettings, 'mpm_steps')}.")
+@click.option("--camera", type=click.Choice(list(_camera_moves())), default=None, metavar="MOVE",
+              help="A camera move for the video (see render --help) [default: the photo's camera, still].")
+@click.option("--camera-amount", type=float, default=1.0, show_default=True,
+              help="Size of the move as a multiple of its default, in (0, 4].")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, fps, meshes_dir, fixed, forces, seconds,
-        pushes, particle_spacing, mpm_steps, quiet, backends):
+        pushes, particle_spacing, mpm_steps, camera, camera_amount, quiet, backends):
     """build + simulate + render in one go; writes DIR/shot.usda, DIR/video.mp4, DIR/report.json.
 
     \b
@@ -397,12 +422,15 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, f
         # refuse absurd values, and a video that could not be written, before any work
         SimulateSettings(seconds=seconds, particle_spacing=particle_spacing, mpm_steps=mpm_steps)
         settings = _build_settings(fov, pitch, camera_height, shape, fps)
+        from .render.video import check_camera_move
+
+        check_camera_move(camera, camera_amount)
         check_writable([out_dir / "video.mp4"])
         t0 = time.perf_counter()
         result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces, fixed=fixed,
                             meshes_dir=meshes_dir, sizes=sizes, backends=backends)
         _simulate(result.shot, seconds, None, None, quiet, particle_spacing, mpm_steps)
-        section = _render(result.shot, None, quiet)
+        section = _render(result.shot, None, quiet, camera=camera, camera_amount=camera_amount)
         total = round(time.perf_counter() - t0, 3)
         update_report(result.folder, run={"total_seconds": total})
         if not quiet:

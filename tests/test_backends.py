@@ -43,8 +43,6 @@ def test_unknown_backend_is_refused_before_anything_is_written(tmp_path, photo):
 
 
 def test_kind_without_any_backend_names_the_plugin(monkeypatch):
-    with pytest.raises(InputError, match="no outpainter backend is installed"):
-        registry.find("outpainter", "anything")
     monkeypatch.setattr(registry, "entries", lambda: [])  # as where no re-renderer plugin is installed
     with pytest.raises(InputError, match=r"--model wan-vace: no rerenderer .*pip install -e plugins/physomni-wan"):
         registry.find("rerenderer", "wan-vace")
@@ -53,7 +51,8 @@ def test_kind_without_any_backend_names_the_plugin(monkeypatch):
 def test_report_names_the_backends_of_a_default_build(shot):
     build = json.loads((shot["dir"] / "report.json").read_text())["stages"]["build"]
     assert {k: v["name"] for k, v in build["backends"].items()} == {
-        "segmenter": "grabcut", "inpainter": "builtin", "lifter": "silhouette", "estimator": "rules"}
+        "segmenter": "grabcut", "inpainter": "builtin", "outpainter": "mirror", "lifter": "silhouette",
+        "estimator": "rules"}
     assert all(v["builtin"] and v["version"] for v in build["backends"].values())
 
 

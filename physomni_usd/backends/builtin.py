@@ -52,6 +52,20 @@ class BuiltinInpainter(_Builtin):
         return background_plate(photo, masks, dilation)
 
 
+class MirrorOutpainter(_Builtin):
+    """The plate mirrored across its edges, softened with the distance from them (``perceive.plate.mirror_outpaint``).
+
+    Seen only when the camera moves: it continues the floor and the walls' colours and textures without
+    inventing objects, where an exemplar fill of frame-wide margins repeats whole parts of the scene."""
+
+    kind, name = "outpainter", "mirror"
+
+    def outpaint(self, plate: np.ndarray, margins: tuple[int, int, int, int]) -> np.ndarray:
+        from ..perceive.plate import mirror_outpaint
+
+        return mirror_outpaint(plate, margins)
+
+
 class SilhouetteLifter(_Builtin):
     """Silhouette lofting on the ground (``perceive.lift``): ``build``'s own placement, not a camera pose."""
 

@@ -29,12 +29,13 @@ KINDS = ("segmenter", "inpainter", "outpainter", "lifter", "depth", "estimator",
 BUILTINS = {
     ("segmenter", "grabcut"): "physomni_usd.backends.builtin:GrabCutSegmenter",
     ("inpainter", "builtin"): "physomni_usd.backends.builtin:BuiltinInpainter",
+    ("outpainter", "mirror"): "physomni_usd.backends.builtin:MirrorOutpainter",
     ("lifter", "silhouette"): "physomni_usd.backends.builtin:SilhouetteLifter",
     ("estimator", "rules"): "physomni_usd.backends.builtin:RulesEstimator",
     ("estimator", "vlm"): "physomni_usd.backends.builtin:VLMEstimator",
 }
 #: What each step uses when no option names a backend (None: the step is skipped).
-DEFAULTS = {"segmenter": "grabcut", "inpainter": "builtin", "outpainter": None, "lifter": "silhouette",
+DEFAULTS = {"segmenter": "grabcut", "inpainter": "builtin", "outpainter": "mirror", "lifter": "silhouette",
             "depth": None, "estimator": "rules", "rerenderer": None}
 #: The plugin to install for each kind that has no built-in.
 SUGGESTED = {"outpainter": None, "depth": "physomni-depth", "rerenderer": "physomni-wan"}

@@ -15,7 +15,7 @@ from . import registry
 from .protocols import Prompt
 
 #: The options ``build``/``run`` take, one per kind used during build, and the kind each selects.
-BUILD_KINDS = ("segmenter", "inpainter", "lifter", "depth", "estimator")
+BUILD_KINDS = ("segmenter", "inpainter", "outpainter", "lifter", "depth", "estimator")
 
 
 def resolve(choices: dict | None, meshes_dir=None) -> dict:
@@ -95,6 +95,25 @@ def hole(masks, shape: tuple[int, int], dilation: float) -> np.ndarray:
     if r > 0:
         out = cv2.dilate(out, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1)))
     return out > 0
+
+
+#: Width of each outpainted margin of the wide plate, as a fraction of the plate's side it extends.
+OUTPAINT_MARGIN = 0.5
+
+
+def make_wide_plate(plate: np.ndarray, outpainter) -> tuple[np.ndarray, tuple[int, int, int, int]]:
+    """The plate extended on every side by :data:`OUTPAINT_MARGIN` of its size for camera moves, and the
+    margins (top, bottom, left, right) in pixels; the plate's own pixels are kept as they are."""
+    h, w = plate.shape[:2]
+    my, mx = round(OUTPAINT_MARGIN * h), round(OUTPAINT_MARGIN * w)
+    margins = (my, my, mx, mx)
+    wide = np.asarray(outpainter.outpaint(plate, margins))
+    if wide.shape != (h + 2 * my, w + 2 * mx, 3):
+        raise InputError(f"outpainter {type(outpainter).name} returned an image of shape {wide.shape}, "
+                         f"expected {(h + 2 * my, w + 2 * mx, 3)}")
+    wide = np.array(wide, np.uint8)
+    wide[my:my + h, mx:mx + w] = plate
+    return wide, margins
 
 
 def make_plate(photo: np.ndarray, masks, dilation: float, inpainter) -> np.ndarray:

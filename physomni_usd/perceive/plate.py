@@ -350,3 +350,36 @@ def extend_colours(rgb: np.ndarray, mask: np.ndarray, steps: int) -> np.ndarray:
         out[grow] = s[grow] / w[grow][:, None]
         known |= grow
     return np.clip(out + 0.5, 0, 255).astype(np.uint8)
+
+
+#: Distance from the photo's edge, as a fraction of its longer side, over which an outpainted margin
+#: fades from the mirrored plate to its blur (so the mirror's symmetry does not read as a second scene).
+MIRROR_FADE = 0.2
+
+
+def mirror_outpaint(plate: np.ndarray, margins: tuple[int, int, int, int]) -> np.ndarray:
+    """``plate`` (H, W, 3) uint8 widened by (top, bottom, left, right) pixels → (H+t+b, W+l+r, 3) uint8: each
+    margin mirrors the plate across its edge and fades into a blur of it with the distance from the edge; the
+    original pixels are kept at [t:t+H, l:l+W]."""
+    t, b, l, r = (int(m) for m in margins)
+    h, w = plate.shape[:2]
+    # a margin wider than the plate reflects more than once: pad in steps of at most the plate's own size
+    out = plate
+    while t or b or l or r:
+        st, sb = min(t, out.shape[0] - 1), min(b, out.shape[0] - 1)
+        sl, sr = min(l, out.shape[1] - 1), min(r, out.shape[1] - 1)
+        out = cv2.copyMakeBorder(out, st, sb, sl, sr, cv2.BORDER_REFLECT_101)
+        t, b, l, r = t - st, b - sb, l - sl, r - sr
+    t, b, l, r = (int(m) for m in margins)
+    wide = out.astype(np.float32)
+    outside = np.ones(wide.shape[:2], np.uint8)
+    outside[t:t + h, l:l + w] = 0
+    size = float(max(h, w))
+    d = cv2.distanceTransform(outside, cv2.DIST_L2, 3)
+    small = cv2.resize(wide, None, fx=0.25, fy=0.25, interpolation=cv2.INTER_AREA)
+    blur = cv2.resize(cv2.GaussianBlur(small, (0, 0), max(1.0, 0.01 * size)), wide.shape[1::-1],
+                      interpolation=cv2.INTER_LINEAR)
+    a = np.clip(d / (MIRROR_FADE * size), 0.0, 1.0)[..., None]
+    result = np.clip(wide * (1.0 - a) + blur * a + 0.5, 0, 255).astype(np.uint8)
+    result[t:t + h, l:l + w] = plate
+    return result

@@ -76,6 +76,49 @@ def read_plate(stage: Usd.Stage) -> np.ndarray:
     return read_image(texture_file(prim), "background", rgba=False)
 
 
+def read_wide_plate(stage: Usd.Stage) -> tuple[np.ndarray, tuple[int, int, int, int]] | None:
+    """The plate extended beyond the photo's frame (``physomni:widePlate`` on the background card) (H', W', 3)
+    uint8 RGB and its margins (top, bottom, left, right) in pixels; None for shots built without one."""
+    prim = stage.GetPrimAtPath("/World/Background")
+    rel = prim.GetCustomDataByKey("physomni:widePlate") if prim else None
+    margins = prim.GetCustomDataByKey("physomni:widePlateMargins") if prim else None
+    if not rel or margins is None:
+        return None
+    for spec in prim.GetPrimStack():
+        if spec.customData.get("physomni", {}).get("widePlate") == rel:
+            path = pathlib.Path(spec.layer.realPath).parent / rel
+            return read_image(path, "wide background", rgba=False), tuple(int(m) for m in margins)
+    return None
+
+
+def _scene_stage(stage: Usd.Stage) -> Usd.Stage | None:
+    from ..usd.layers import SCENE
+
+    for layer in stage.GetLayerStack(includeSessionLayers=False):
+        if layer.realPath and pathlib.Path(layer.realPath).name == SCENE:
+            scene = Usd.Stage.Open(layer)
+            if scene.GetPrimAtPath("/World/Camera"):
+                return scene
+    return None
+
+
+def read_photo_camera_matrix(stage: Usd.Stage) -> np.ndarray:
+    """(4, 4) local-to-world matrix (USD row-vector form) of the camera that took the photo."""
+    scene = _scene_stage(stage)
+    src, time = (scene, Usd.TimeCode.Default()) if scene else (stage, Usd.TimeCode(stage.GetStartTimeCode()))
+    return np.array(UsdGeom.Xformable(src.GetPrimAtPath("/World/Camera")).ComputeLocalToWorldTransform(time))
+
+
+def read_photo_camera(stage: Usd.Stage, width: int, height: int) -> RenderCamera:
+    """The camera that took the photo, as ``build`` wrote it in ``scene.usda``, whatever the layers above
+    (a camera move, an artist's keys) do with it; the stage's camera at its first frame for stages without
+    a scene layer."""
+    scene = _scene_stage(stage)
+    if scene is not None:
+        return read_camera(scene, Usd.TimeCode.Default(), width, height)
+    return read_camera(stage, Usd.TimeCode(stage.GetStartTimeCode()), width, height)
+
+
 def read_photo(stage: Usd.Stage) -> np.ndarray | None:
     """The original photo named by the background card's ``physomni:photo`` custom data (a path relative to
     the layer that wrote it), (H, W, 3) uint8; None for shots without one or when the file is gone."""

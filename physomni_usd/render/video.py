@@ -22,7 +22,11 @@ from ..settings import RenderSettings
 from ..usd import layers
 from .passes import PassWriter, pass_files
 from .raycast import RayCaster, covered_pixels
-from .stage import read_camera, read_objects, read_particles, read_photo, read_plate, visible, world_points
+from .stage import (read_camera, read_objects, read_particles, read_photo, read_photo_camera, read_plate,
+                    read_wide_plate, visible, world_points)
+from ..usd.author import write_render_layer
+from .moves import MAX_AMOUNT, MOVES, move_matrices
+from .stage import read_photo_camera_matrix
 from .world import photo_environment
 
 
@@ -57,7 +61,55 @@ class ShotRenderer:
         self.size = float(np.median([o.height for o in self.objects])) if self.objects else 1.0
         self._rays_key = None
         self._build_atlas()
-        self.environment = _environment(stage, self)
+        self.photo_camera = read_photo_camera(stage, self.width, self.height)
+        self.environment = _environment(self)
+        self._read_wide_plate(stage, scale)
+        self._world_key = None
+
+    def _read_wide_plate(self, stage: Usd.Stage, scale: float) -> None:
+        """The plate beyond the frame at the frame's scale, and where the plate sits in it (x, y); shots built
+        without one extend the plate's border pixels outward."""
+        wide = read_wide_plate(stage)
+        if wide is None:
+            self.wide_plate, self.wide_offset = self.plate, (0.0, 0.0)
+            return
+        image, (top, _, left, _) = wide
+        if scale < 1.0:
+            size = (max(2, round(image.shape[1] * scale)), max(2, round(image.shape[0] * scale)))
+            image = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
+        self.wide_plate = image.astype(np.float32)
+        self.wide_offset = (left * image.shape[1] / wide[0].shape[1], top * image.shape[0] / wide[0].shape[0])
+
+    def _is_photo_camera(self, cam) -> bool:
+        p = self.photo_camera
+        return (np.allclose(cam.axes, p.axes, atol=1e-7) and np.allclose(cam.origin, p.origin, atol=1e-7)
+                and abs(cam.fx - p.fx) < 1e-6 * p.fx and abs(cam.fy - p.fy) < 1e-6 * p.fy)
+
+    def _world_background(self, cam) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """For a camera other than the photo's: per pixel, the environment (ground and backdrop) it sees,
+        textured by projecting the wide plate from the photo's camera — (H, W, 3) plate colour, and the photo's
+        colour and owner (−1 outside the photo) at the same place, so that the photo still shows wherever its
+        object has not moved."""
+        key = (tuple(np.round(cam.axes.ravel(), 9)), tuple(np.round(cam.origin, 9)), cam.fx, cam.fy)
+        if key != self._world_key:
+            t, _, _ = self.environment.intersect(cam.origin, self._rays)
+            pts = cam.origin + self._rays.astype(np.float64) * t[..., None]
+            uv, z = self.photo_camera.project(pts.reshape(-1, 3))
+            uv[z <= 1e-6] = -1e4  # behind the photo's camera: the wide plate's border, never an empty pixel
+            u = uv[:, 0].reshape(self.height, self.width).astype(np.float32)
+            v = uv[:, 1].reshape(self.height, self.width).astype(np.float32)
+            self._world_map = (u, v)
+            self._world_key = key
+        u, v = self._world_map
+        ox, oy = self.wide_offset
+        plate = cv2.remap(self.wide_plate, u - 0.5 + ox, v - 0.5 + oy, cv2.INTER_LINEAR,
+                          borderMode=cv2.BORDER_REPLICATE)
+        if self.photo is None:
+            return plate, None, None
+        photo = cv2.remap(self.photo, u - 0.5, v - 0.5, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        owner = cv2.remap(self.owner.astype(np.float32), np.floor(u), np.floor(v), cv2.INTER_NEAREST,
+                          borderMode=cv2.BORDER_CONSTANT, borderValue=-1).astype(np.int32)
+        return plate, photo, owner
 
     def _read_photo(self, stage: Usd.Stage, size: tuple[int, int]) -> None:
         """The photo at the plate's size and, per pixel, the object whose part of the plate it is (the nearest
@@ -228,9 +280,12 @@ class ShotRenderer:
         # read once a frame: both the particles' shadows and their splats need them
         particles = self._visible_particles(time_code)
         self.camera = cam
-        out = self.plate
+        if self._is_photo_camera(cam):
+            plate, photo, owner = self.plate, self.photo, self.owner
+        else:
+            plate, photo, owner = self._world_background(cam)
         if self.caster is None:
-            out = self.plate * (1.0 - self._particle_shadow(cam, particles)[..., None])
+            out = plate * (1.0 - self._particle_shadow(cam, particles)[..., None])
             return np.clip(self._splat(out, cam, particles, None) + 0.5, 0, 255).astype(np.uint8)
         points = self._points(time_code)
         self.points = points  # what the frame was rendered from (the control passes read it)
@@ -252,10 +307,10 @@ class ShotRenderer:
         shadow = cv2.resize(shadow, (self.width, self.height), interpolation=cv2.INTER_LINEAR)
         if self.particles:
             shadow = 1.0 - (1.0 - shadow) * (1.0 - self._particle_shadow(cam, particles))
-        if self.photo is None:
-            back = self.plate
+        if photo is None:
+            back = plate
         else:  # the photo, except where the object it shows there has moved: the plate
-            back = self.photo + moved[self.owner][..., None] * (self.plate - self.photo)
+            back = photo + moved[owner][..., None] * (plate - photo)
         out = back * (1.0 - shadow[..., None])
         mx = np.where(hit, px[..., 0] - 0.5, -10).astype(np.float32)
         my = np.where(hit, px[..., 1] - 0.5, -10).astype(np.float32)
@@ -270,31 +325,83 @@ class ShotRenderer:
         return np.clip(out + 0.5, 0, 255).astype(np.uint8)
 
 
-def _environment(stage: Usd.Stage, renderer: ShotRenderer):
-    """The environment of the first frame's camera, its backdrop beyond the farthest object."""
-    start = Usd.TimeCode(stage.GetStartTimeCode())
-    cam = read_camera(stage, start, renderer.width, renderer.height)
+def _environment(renderer: ShotRenderer):
+    """The environment of the photo's camera, its backdrop beyond the farthest object at the first frame."""
+    cam = renderer.photo_camera
     farthest = 0.0
     if renderer.caster is not None:
-        d = renderer._points(start) - cam.origin
+        d = renderer._points(Usd.TimeCode(renderer.stage.GetStartTimeCode())) - cam.origin
         farthest = float(np.max(np.hypot(d[:, 0], d[:, 1])))
     return photo_environment(cam, farthest)
 
 
 def render_shot(shot, output=None, settings: RenderSettings = RenderSettings(), progress=None,
-                passes: tuple[str, ...] = (), passes_dir=None) -> dict:
+                passes: tuple[str, ...] = (), passes_dir=None, camera: str | None = None,
+                camera_amount: float = 1.0) -> dict:
     """Render every frame of ``shot`` to ``output`` (default: ``video.mp4`` beside it); returns the report section.
-    ``passes`` (names from :data:`passes.PASSES`) also go to ``passes_dir`` (default: ``passes/`` beside the shot)."""
+    ``passes`` (names from :data:`passes.PASSES`) also go to ``passes_dir`` (default: ``passes/`` beside the shot).
+    ``camera`` (a name from :data:`moves.MOVES`) first writes that move, ``camera_amount`` × its default size,
+    to the shot's ``render.usda``; None renders the camera the shot already has."""
     with all_or_nothing():
-        return _render_shot(shot, output, settings, progress, passes, passes_dir)
+        return _render_shot(shot, output, settings, progress, passes, passes_dir, camera, camera_amount)
 
 
-def _render_shot(shot, output, settings: RenderSettings, progress, passes=(), passes_dir=None) -> dict:
+def check_camera_move(camera: str | None, amount: float) -> None:
+    """One line naming the option when the move or its amount cannot be rendered."""
+    if camera is not None and camera not in MOVES:
+        raise InputError(f"--camera {camera}: no such move; one of {', '.join(MOVES)}")
+    if not (0.0 < amount <= MAX_AMOUNT):
+        raise InputError(f"--camera-amount {amount:g}: must be in (0, {MAX_AMOUNT:g}] (1 is the move's default size)")
+
+
+def write_camera_move(folder: pathlib.Path, stage: Usd.Stage, camera: str, amount: float) -> dict:
+    """Write ``camera`` × ``amount`` as the shot's ``render.usda`` (static: an empty one, where one exists) and
+    put that layer in the root; returns what the report says of the move."""
+    info = {"move": camera, "amount": amount}
+    path = folder / layers.RENDER
+    start, end = int(stage.GetStartTimeCode()), int(stage.GetEndTimeCode())
+    fps = stage.GetTimeCodesPerSecond() or 30.0
+    if camera == "static":
+        if path.exists():
+            write_render_layer(path, fps=fps, frames=end - start + 1, metadata={"physomni:cameraMove": info})
+        return info
+    scene = read_photo_camera_matrix(stage)
+    centre = _objects_centre(stage, Usd.TimeCode(start))
+    matrices = move_matrices(scene, centre, camera, amount, end - start + 1)
+    size, unit = MOVES[camera]
+    info.update({"size": round(size * amount, 4), "unit": unit, "pivot_m": np.round(centre, 4).tolist()})
+    layer_info = {k: v for k, v in info.items() if k != "pivot_m"}  # USD dictionaries hold no lists
+    write_render_layer(path, fps=fps, frames=end - start + 1, matrices=matrices, start=start,
+                       metadata={"physomni:cameraMove": layer_info})
+    layers.ensure_render_sublayer(folder)
+    return info
+
+
+def _objects_centre(stage: Usd.Stage, time: Usd.TimeCode) -> np.ndarray:
+    """(3,) centre of the objects' world bounds at ``time`` (the origin when there are none)."""
+    from ..usd.author import OBJECTS
+
+    root = stage.GetPrimAtPath(OBJECTS)
+    if not root:
+        return np.zeros(3)
+    box = UsdGeom.BBoxCache(time, [UsdGeom.Tokens.default_, UsdGeom.Tokens.render]).ComputeWorldBound(root)
+    r = box.ComputeAlignedRange()
+    return np.zeros(3) if r.IsEmpty() else np.array(r.GetMidpoint(), np.float64)
+
+
+def _render_shot(shot, output, settings: RenderSettings, progress, passes=(), passes_dir=None, camera=None,
+                 camera_amount: float = 1.0) -> dict:
     import imageio.v2 as imageio
 
     t0 = time.perf_counter()
+    check_camera_move(camera, camera_amount)
     folder = layers.shot_folder(shot)
     stage = layers.open_shot(shot)
+    move = None
+    if camera is not None:
+        prepare_writes(folder, [folder / layers.RENDER, folder / layers.SHOT])
+        move = write_camera_move(folder, stage, camera, camera_amount)
+        stage = layers.open_shot(shot)
     out = pathlib.Path(output) if output else folder / "video.mp4"
     if out.exists() and out.is_dir():
         raise InputError(f"video output {out} is a directory")
@@ -337,8 +444,18 @@ def _render_shot(shot, output, settings: RenderSettings, progress, passes=(), pa
                "frames_per_second": round(n / max(t_end - t_setup, 1e-9), 3)}
     if pass_section:
         section["passes"] = pass_section
+    section["seconds_per_frame"] = round((t_end - t_setup) / max(n, 1), 4)
+    section["camera"] = move or _camera_in_shot(stage)
     update_report(folder, render=section)
     return section
+
+
+def _camera_in_shot(stage: Usd.Stage) -> dict:
+    """What the report says of a camera this render did not write: the move in render.usda, if any."""
+    for layer in stage.GetLayerStack(includeSessionLayers=False):
+        if layer.realPath and pathlib.Path(layer.realPath).name == layers.RENDER:
+            return dict(layer.customLayerData.get("physomni:cameraMove", {"move": "static"}))
+    return {"move": "static"}
 
 
 def _even(frame: np.ndarray) -> np.ndarray:

@@ -64,13 +64,20 @@ class Environment:
         return t, kind, normal
 
 
-def photo_environment(camera, farthest: float) -> Environment:
-    """The environment seen by the photo's ``camera`` (a RenderCamera at frame 0).
+#: How far behind the farthest object the backdrop stands, as a share of that object's distance.
+BACKDROP_BEHIND = 0.1
+#: Pitch (degrees below level) beyond which the photo is taken to show the ground up to its top edge.
+GROUND_PITCH_DEG = 45.0
 
-    ``farthest`` (metres) is the largest horizontal distance from the camera to an object. The backdrop stands
-    where the photo's top edge meets the ground when it does (so frame 0 sees ground everywhere the photo shows
-    ground), and no nearer than twice the farthest object, so a camera move never shows an object in front of
-    its own backdrop's edge.
+
+def photo_environment(camera, farthest: float) -> Environment:
+    """The environment seen by the photo's ``camera`` (a RenderCamera).
+
+    ``farthest`` (metres) is the largest horizontal distance from the camera to a point of an object. What
+    the photo shows behind the objects is most often what stands behind them (a wall, a shelf, the far side
+    of a table): the backdrop stands just behind the farthest object. A camera pitched down more than
+    :data:`GROUND_PITCH_DEG` sees mostly the surface the objects stand on: there the backdrop stands where the
+    photo's top edge meets the ground, so that all the photo shows is ground. Never nearer than 1 m.
     """
     forward = np.asarray(camera.axes[2], np.float64)
     h = np.array([forward[0], forward[1], 0.0])
@@ -78,12 +85,12 @@ def photo_environment(camera, farthest: float) -> Environment:
         h = -np.asarray(camera.axes[1], np.float64) * [1.0, 1.0, 0.0]
     h /= np.linalg.norm(h)
     origin = np.asarray(camera.origin, np.float64)
+    distance = (1.0 + BACKDROP_BEHIND) * farthest
     top = camera.rays()[0]  # (W, 3) the photo's top row
-    down = top[:, 2] < -1e-6
-    reach = 0.0
-    if down.any():
-        t = -origin[2] / top[down, 2]
-        reach = float(np.max((top[down] * t[:, None]) @ h))
-    distance = max(reach * 1.05, 2.0 * farthest, 1.0)
+    pitch = np.degrees(np.arcsin(np.clip(-forward[2], -1.0, 1.0)))
+    if np.all(top[:, 2] < -1e-6) and (pitch > GROUND_PITCH_DEG or farthest <= 0):
+        t = -origin[2] / top[:, 2]
+        distance = max(distance, float(np.max((top * t[:, None]) @ h)) * 1.02)
+    distance = max(distance, 1.0)
     offset = float(origin @ h) + distance
     return Environment(-h, -offset, origin, 50.0 * distance)

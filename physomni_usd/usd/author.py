@@ -94,13 +94,15 @@ def _bind(prim: Usd.Prim, material: UsdShade.Material, purpose: str = UsdShade.T
 
 def write_scene_layer(path: pathlib.Path, *, fps: float, image_size: tuple[int, int], camera,
                       plate: str, objects: list[SceneObject], ground_size: float, extra: dict | None = None,
-                      photo: str | None = None) -> None:
+                      photo: str | None = None, wide_plate: tuple[str, tuple] | None = None) -> None:
     """``scene.usda``: camera, ground, background card and one textured mesh per object.
 
     ``camera`` is a :class:`~physomni_usd.align.camera.PinholeCamera`. ``photo`` (a path relative to the
     layer) is recorded on the background card as ``physomni:photo`` custom data, and each object's
     ``texture_origin`` as ``physomni:textureOrigin``: together they let a renderer show the photo itself
-    wherever nothing has moved.
+    wherever nothing has moved. ``wide_plate`` (a path relative to the layer, and its margins (top, bottom,
+    left, right) in pixels around the plate) is recorded as ``physomni:widePlate`` and
+    ``physomni:widePlateMargins``: the world a moving camera sees beyond the photo's frame.
     """
     stage = _new_stage(fps)
     world = UsdGeom.Xform.Define(stage, "/World")
@@ -132,6 +134,10 @@ def write_scene_layer(path: pathlib.Path, *, fps: float, image_size: tuple[int, 
     UsdPhysics.CollisionAPI.Apply(ground.GetPrim())
 
     _background_card(stage, camera, plate)
+    if wide_plate:
+        card = stage.GetPrimAtPath("/World/Background")
+        card.SetCustomDataByKey("physomni:widePlate", wide_plate[0])
+        card.SetCustomDataByKey("physomni:widePlateMargins", Gf.Vec4i(*map(int, wide_plate[1])))
     if photo:
         stage.GetPrimAtPath("/World/Background").SetCustomDataByKey("physomni:photo", photo)
 
@@ -395,3 +401,30 @@ def _all_prim_paths(layer: Sdf.Layer) -> list[Sdf.Path]:
     out = []
     layer.Traverse(Sdf.Path.absoluteRootPath, lambda p: out.append(p) if p.IsPrimPath() else None)
     return out
+
+
+def write_render_layer(path: pathlib.Path, *, fps: float, frames: int, camera: str = "/World/Camera",
+                       matrices=None, start: int = 0, metadata: dict | None = None) -> None:
+    """``render.usda``: the render stage's camera move as time samples on ``camera``'s ``xformOp:transform``
+    (``matrices`` (F, 4, 4), USD row-vector form, one per frame from time code ``start``); without ``matrices`` an
+    empty layer (the camera as the layers below hold it). ``metadata`` goes to the layer's customLayerData."""
+    layer = Sdf.Layer.CreateAnonymous(".usda")
+    layers.set_stage_metadata(layer, fps, frames)
+    if start:
+        layer.startTimeCode, layer.endTimeCode = float(start), float(start + frames - 1)
+    layer.comment = "physomni-usd render: the camera move; keys in edits.usda override it."
+    if metadata:
+        layer.customLayerData = metadata
+    if matrices is not None:
+        spec = Sdf.CreatePrimInLayer(layer, camera)
+        spec.specifier = Sdf.SpecifierOver
+        parent = spec.nameParent
+        while parent and parent.path != Sdf.Path.absoluteRootPath:
+            parent.specifier = Sdf.SpecifierOver
+            parent = parent.nameParent
+        attr = Sdf.AttributeSpec(spec, "xformOp:transform", Sdf.ValueTypeNames.Matrix4d)
+        for k, m in enumerate(matrices):
+            layer.SetTimeSample(attr.path, float(start + k), Gf.Matrix4d(*np.asarray(m, float).ravel().tolist()))
+        order = Sdf.AttributeSpec(spec, "xformOpOrder", Sdf.ValueTypeNames.TokenArray, variability=Sdf.VariabilityUniform)
+        order.default = Vt.TokenArray(["xformOp:transform"])
+    layers.save_layer(layer, path)

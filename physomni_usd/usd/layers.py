@@ -2,8 +2,9 @@
 
 A shot folder holds one layer per stage plus the artist's layer::
 
-    shot.usda     root: subLayers [edits.usda, sim.usdc, physics.usda, scene.usda]
+    shot.usda     root: subLayers [edits.usda, (render.usda,) sim.usdc, physics.usda, scene.usda]
     edits.usda    the artist's; created empty (with the shot's time codes) once, never rewritten by us
+    render.usda   render: the camera move, once `render --camera` has written one
     sim.usdc      simulate: time samples, and the Points prims of particle objects it defines
     physics.usda  estimate: physics materials and flags, as overs
     scene.usda    build: camera, ground, background, object meshes
@@ -28,6 +29,7 @@ EDITS = "edits.usda"
 SIM = "sim.usdc"
 PHYSICS = "physics.usda"
 SCENE = "scene.usda"
+RENDER = "render.usda"
 
 #: Strongest first, as USD orders subLayers.
 SUBLAYERS = (EDITS, SIM, PHYSICS, SCENE)
@@ -139,6 +141,22 @@ def warn_orphan_overs(stage: Usd.Stage, folder: pathlib.Path, echo) -> list[str]
         echo(f"warning: edits.usda has overs for prims no layer defines any more, which are ignored: "
              f"{', '.join(orphans)}")
     return orphans
+
+
+def ensure_render_sublayer(folder: pathlib.Path) -> bool:
+    """Put ``render.usda`` in the root's subLayers, just below ``edits.usda`` (shots start without it);
+    rewrites only ``shot.usda``. Returns whether it had to be added."""
+    path = pathlib.Path(folder) / SHOT
+    layer = Sdf.Layer.FindOrOpen(str(path))
+    subs = list(layer.subLayerPaths)
+    if any(pathlib.Path(sub).name == RENDER for sub in subs):
+        return False
+    at = next((i + 1 for i, sub in enumerate(subs) if pathlib.Path(sub).name == EDITS), 0)
+    copy = Sdf.Layer.CreateAnonymous(".usda")
+    copy.TransferContent(layer)
+    copy.subLayerPaths.insert(at, f"./{RENDER}")
+    save_layer(copy, path)
+    return True
 
 
 def reset_sim_layer(folder: pathlib.Path, fps: float) -> pathlib.Path:
