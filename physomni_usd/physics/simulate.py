@@ -97,7 +97,7 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
                  "objects": {o.obj.name: o.count for o in sim.mpm.objects}} if sim.mpm else None),
         "guard": run["guard"], "retries": len(run["guard"]["rollbacks"]), "newton_notes": run["notes"],
         "force_fields": [f"{x.kind} {x.path}" for x in sim.fields.fields], "ignored_parameters": ignored,
-        "max_speed_m_s": run["max_speed"], **checks,
+        "max_speed_m_s": run["max_speed"], "captured_step": run["capture"], **checks,
         "modules": {"torch": "torch" in sys.modules},
         "seconds": {"read": round(sim.t_built - t_start - sim.t_model, 4), "build_model": round(sim.t_model, 4),
                     "step": round(run["t_step"], 4), "write": round(t_end - t_write, 4)},
