@@ -22,6 +22,7 @@ from .mpm import bind_surface, build_mpm_scene
 from .objects import SceneObject
 from .params import particle_friction
 from .stepping import Stepper, contact_pipeline, xpbd_solver
+from .support import add_hidden_support
 
 #: Newton simplifies convex hulls to this many vertices; its default (64) cuts the corners of
 #: lofted meshes by centimetres, which shows as objects sinking into the ground.
@@ -50,6 +51,8 @@ class ShotModels:
         self.path_body = {p: b for p, b in result["path_body_map"].items() if p.startswith(OBJECTS + "/")}
         self.path_body.update(_add_stand_ins(builder, [o for o in objects if o.family == "rigid"
                                                        and not o.is_body], newton, wp))
+        # feet for objects whose visible geometry cannot stand where the photo shows them standing
+        self.supported = add_hidden_support(builder, objects, self.path_body, _ground_height(stage), newton, wp)
         self.ranges = {}  # cloth / soft body path → (first particle, count)
         self.soft_bindings = {}  # soft body path → its surface's binding to the tetrahedra
         self.soft_dt = None
@@ -122,6 +125,14 @@ class ShotModels:
         times = np.linspace(0.0, seconds, 9)
         return max(float(np.linalg.norm(self.fields.acceleration(centres, np.zeros_like(centres), t), axis=1).max())
                    for t in times)
+
+
+def _ground_height(stage: Usd.Stage) -> float:
+    """The ground plane's height (m); 0 where the stage has none."""
+    ground = stage.GetPrimAtPath("/World/Ground")
+    if not ground or not ground.IsA(UsdGeom.Xformable):
+        return 0.0
+    return float(UsdGeom.Xformable(ground).ComputeLocalToWorldTransform(Usd.TimeCode.Default()).ExtractTranslation()[2])
 
 
 def _add_stand_ins(builder, objects: list[SceneObject], newton, wp) -> dict:

@@ -11,6 +11,10 @@ from ..errors import PhysOmniError
 from .recording import Recorder
 from .diagnose import FRAME_WALL_BUDGET_S, failure_line
 from .stability import Guard, StepPlan
+from .stepping import FrameGraphs
+
+#: Whether frames of rigid XPBD scenes are captured as warp graphs and replayed (False: launch by launch).
+CAPTURE = True
 
 #: How often a diverging frame is rolled back and redone, each time with half the step.
 MAX_RETRIES = 4
@@ -21,6 +25,7 @@ def run_guarded(models, plan: StepPlan, frames: int, progress=None, echo=lambda 
     Returns what the writer needs: the final plan, the recorded frames, timings and the guard's log."""
     wp = models.wp
     stepper = models.stepper
+    graphs = FrameGraphs(stepper, enabled=CAPTURE)
     guard = Guard()
     rollbacks = []
     rec = Recorder(models, frames)
@@ -37,7 +42,7 @@ def run_guarded(models, plan: StepPlan, frames: int, progress=None, echo=lambda 
                 t_frame, frame_of_t = time.perf_counter(), f
             saved = stepper.checkpoint()
             work = guard.work
-            stepper.frame(plan, t, step, guard.add_work, speed)
+            graphs.frame(plan, t, step, guard.add_work, speed)
             before = speed
             energy, speed, finite = _energy(stepper)
             why = guard.check(energy, speed, finite)
@@ -65,7 +70,9 @@ def run_guarded(models, plan: StepPlan, frames: int, progress=None, echo=lambda 
             f += 1
         t_step = time.perf_counter() - t1
     return {"plan": plan, "body_q": rec.body_q, "surfaces": rec.surfaces, "mpm_points": rec.mpm_points,
-            "t_step": t_step, "max_speed": round(max_speed, 4), "notes": sorted(set(models.notes)),
+            "t_step": t_step, "capture": {"enabled": graphs.enabled, "frames_replayed": graphs.captured_frames,
+                                          "graphs": graphs.captures, "error": graphs.error},
+            "max_speed": round(max_speed, 4), "notes": sorted(set(models.notes)),
             "guard": {"energy_initial_j": guard.initial, "energy_final_j": guard.last_energy,
                       "work_j": guard.work, "tolerance": guard.tolerance, "rollbacks": rollbacks}}
 

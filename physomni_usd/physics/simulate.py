@@ -76,6 +76,9 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     echo(f"simulate: solvers {', '.join(sim.solvers)}; {plan.substeps} substeps per frame"
          + (f", {plan.mpm_steps} MPM steps per frame ({sim.mpm.model.particle_count} particles, "
             f"spacing {sim.mpm.spacing * 1000:.1f} mm)" if sim.mpm else ""))
+    if sim.supported:
+        echo(f"simulate: {', '.join(sim.supported)} cannot stand on what the photo shows of "
+             f"{'it' if len(sim.supported) == 1 else 'them'}: standing on {'its' if len(sim.supported) == 1 else 'their'} footprint")
     run = run_guarded(sim, plan, frames, progress, echo)
 
     t_write = time.perf_counter()
@@ -97,7 +100,8 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
                  "objects": {o.obj.name: o.count for o in sim.mpm.objects}} if sim.mpm else None),
         "guard": run["guard"], "retries": len(run["guard"]["rollbacks"]), "newton_notes": run["notes"],
         "force_fields": [f"{x.kind} {x.path}" for x in sim.fields.fields], "ignored_parameters": ignored,
-        "max_speed_m_s": run["max_speed"], **checks,
+        "max_speed_m_s": run["max_speed"], "captured_step": run["capture"],
+        "hidden_support": sim.supported, **checks,
         "modules": {"torch": "torch" in sys.modules},
         "seconds": {"read": round(sim.t_built - t_start - sim.t_model, 4), "build_model": round(sim.t_model, 4),
                     "step": round(run["t_step"], 4), "write": round(t_end - t_write, 4)},

@@ -97,10 +97,11 @@ class Stepper:
         return e_b + e_p + e_m, max(v_b, v_p, v_m)
 
     def frame(self, plan: StepPlan, t0: float, step0: int, add_work=None, speed: float | None = None,
-              after_mpm_step=None) -> None:
+              after_mpm_step=None, read_work: bool = True) -> None:
         """One frame from time ``t0`` (substep counter ``step0``), the fastest body moving at ``speed`` m/s
         at its start (None: read from the state); the work pushes and fields do goes to ``add_work`` (J);
-        ``after_mpm_step(t)`` is called after each MPM step."""
+        ``after_mpm_step(t)`` is called after each MPM step. ``read_work`` False leaves the fields' work summed
+        on the device (a frame being captured reads nothing back; :meth:`take_work` reads it after)."""
         add_work = add_work or _ignore
         if speed is None:
             speed = self.energy()[1] if plan.collide_every > 1 else 0.0
@@ -153,8 +154,12 @@ class Stepper:
                     self._work_after(held, self.mpm.state, plan.mpm_dt)
                 if after_mpm_step is not None:
                     after_mpm_step(t)
-        if fields and self.count_work:
+        if fields and self.count_work and read_work:
             add_work(self._read_work())
+
+    def take_work(self) -> float:
+        """The fields' work (J) summed on the device since it was last read, and zero it."""
+        return self._read_work()
 
     # --- the fields' work ------------------------------------------------------------------------
     # A field's force F (and torque τ about the centre of mass) is constant over a step, evaluated at
@@ -171,16 +176,28 @@ class Stepper:
             self._work = wp.zeros(1, dtype=wp.float64, device=model.device)
         held = []
         if model.body_count and state.body_f is not None:
-            f = wp.clone(state.body_f)
+            f = self._held_copy(("body", id(model)), state.body_f)
             wp.launch(body_power, dim=model.body_count, inputs=[f, state.body_qd, 0.5 * dt], outputs=[self._work],
                       device=model.device)
             held.append(("body", f))
         if model.particle_count and state.particle_f is not None:
-            f = wp.clone(state.particle_f)
+            f = self._held_copy(("particle", id(model)), state.particle_f)
             wp.launch(particle_power, dim=model.particle_count, inputs=[f, state.particle_qd, 0.5 * dt],
                       outputs=[self._work], device=model.device)
             held.append(("particle", f))
         return held
+
+    def _held_copy(self, key, src):
+        """``src`` copied into a buffer kept per ``key``: the same array every step, so that a captured
+        frame allocates nothing and its replays read what they wrote."""
+        import warp as wp
+
+        held = self.__dict__.setdefault("_held", {})
+        buf = held.get(key)
+        if buf is None or buf.shape != src.shape:
+            buf = held[key] = wp.empty_like(src)
+        wp.copy(buf, src)
+        return buf
 
     def _work_after(self, held, state, dt: float) -> None:
         import warp as wp
@@ -204,6 +221,91 @@ class Stepper:
         before = self.energy()[0]
         give_velocities(due, self.state, self.mpm.state if self.mpm else None)
         add_work(self.energy()[0] - before)
+
+
+class FrameGraphs:
+    """A :class:`Stepper`'s frames captured as warp graphs and replayed (one Python call a frame instead of
+    a dozen kernel launches a substep), for rigid scenes stepped by XPBD; a frame the graph cannot
+    reproduce runs launch by launch. A graph is keyed by everything the frame bakes in: substeps,
+    iterations, restitution, contact-search cadence, which fields are on, and which of the two state
+    buffers it starts from. A device or scene that cannot capture falls back for good (``error`` says why)."""
+
+    def __init__(self, stepper: Stepper, enabled: bool = True):
+        self.stepper = stepper
+        self.graphs: dict = {}
+        self.seen: set = set()  # keys met once: a schedule's first frame runs launch by launch
+        self.enabled = enabled and self.supported(stepper)
+        self.error: str | None = None
+        self.captured_frames = 0  # frames replayed from a graph
+        self.captures = 0  # graphs recorded
+
+    @staticmethod
+    def supported(stepper: Stepper) -> bool:
+        """Rigid bodies only, stepped by XPBD: deformables and MPM (host-side schedules, read-backs) are not."""
+        import newton
+
+        m = stepper.model
+        return (stepper.mpm is None and stepper.air is None and not m.particle_count and m.body_count > 0
+                and isinstance(stepper.solver, newton.solvers.SolverXPBD))
+
+    def key(self, plan: StepPlan, t0: float, speed: float):
+        """What a captured frame from ``t0`` depends on, or None where it must run launch by launch (a
+        push due in it, a noise field on, a field switching on or off within it)."""
+        stepper = self.stepper
+        if not self.enabled:
+            return None
+        frame = 1.0 / plan.fps
+        if stepper.pending and stepper.pending[0].at < t0 + frame + 1e-9:
+            return None
+        fields = stepper.fields
+        active = ()
+        if fields:
+            active = tuple(f.active(t0) for f in fields.fields)
+            if active != tuple(f.active(t0 + frame) for f in fields.fields):
+                return None
+            if any(f.kind == "noise" and on for f, on in zip(fields.fields, active)):
+                return None
+            fields._set_time(t0)  # the mask the graph reads, written outside the capture
+        return (plan.substeps, plan.iterations, plan.restitution, plan.collide_interval(speed),
+                id(stepper.state), active, stepper.count_work)
+
+    def frame(self, plan: StepPlan, t0: float, step0: int, add_work=None, speed: float = 0.0) -> bool:
+        """One frame as :meth:`Stepper.frame` steps it; returns whether it was replayed from a graph."""
+        import warp as wp
+
+        stepper = self.stepper
+        key = self.key(plan, t0, speed)
+        if key is None:
+            stepper.frame(plan, t0, step0, add_work, speed)
+            return False
+        graph = self.graphs.get(key)
+        if graph is None and key not in self.seen:
+            # its first frame loads the kernels and allocates the buffers the capture then reuses
+            self.seen.add(key)
+            stepper.frame(plan, t0, step0, add_work, speed)
+            return False
+        if graph is None:
+            before = (stepper.state, stepper.state_next)
+            device = stepper.model.device
+            try:
+                with wp.ScopedCapture(device=device) as capture:
+                    stepper.frame(plan, t0, step0, add_work, speed, read_work=False)
+            except Exception as exc:  # an operation warp cannot record: this scene steps launch by launch
+                stepper.state, stepper.state_next = before
+                self.enabled, self.error = False, f"{type(exc).__name__}: {exc}"
+                self.graphs.clear()
+                stepper.frame(plan, t0, step0, add_work, speed)
+                return False
+            # a CPU capture records without running; a replay ends in the buffers the recording ended in
+            graph = self.graphs[key] = (capture.graph, stepper.state, stepper.state_next)
+            stepper.state, stepper.state_next = before
+            self.captures += 1
+        wp.capture_launch(graph[0])
+        stepper.state, stepper.state_next = graph[1], graph[2]
+        if stepper.fields and stepper.count_work and add_work is not None:
+            add_work(stepper.take_work())
+        self.captured_frames += 1
+        return True
 
 
 @lru_cache(maxsize=1)
