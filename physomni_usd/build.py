@@ -31,6 +31,7 @@ from .materials.defaults import GROUND_MATERIAL
 from .materials.report import material_report
 from .perceive.masks import contact_sheet, read_photo
 from .perceive.plate import object_texture
+from .perceive.sides import corner_st, two_sided_texture
 from .physics.forces import parse_force_options
 from .physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
 from .report import REPORT, Timer, read_report, set_aside_damaged, update_report
@@ -248,16 +249,17 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         scene_objects, report_objects = [], []
         for o, v, seen, f, shape, note in zip(objects, verts, projected, faces, shapes, notes):
             rgba, (x0, y0) = object_texture(photo, o.mask)
-            # texture coordinates: the photo projected from the camera onto the object where it was seen
-            uv, _ = camera.project(seen)
-            st = np.stack([(uv[:, 0] - x0) / rgba.shape[1], 1.0 - (uv[:, 1] - y0) / rgba.shape[0]], 1)
+            # texture coordinates: the photo projected from the camera onto the object where it was seen, and
+            # a planar map for the sides it saw edge-on (perceive/sides.py)
+            st = corner_st(seen, np.asarray(f), camera, (rgba.shape[1], rgba.shape[0]), (x0, y0))
+            rgba = two_sided_texture(rgba)
             tm = trimesh.Trimesh(v, f, process=False)
             origin = tm.center_mass if tm.is_volume else v.mean(0)
             rel = f"{TEXTURES}/{o.name}.png"
             _write_png(out / rel, rgba)
             scene_objects.append(SceneObject(o.name, o.label, o.index, v - origin, f,
                                              np.asarray(tm.vertex_normals), st, origin, f"./{rel}", shape,
-                                             texture_origin=(x0, y0)))
+                                             texture_origin=(x0, y0), st_per_corner=True))
             report_objects.append({
                 "name": o.name, "label": o.label, "mask_index": o.index, "source": o.source,
                 "shape": shape, "pixels": int(o.mask.sum()), "size_m": np.ptp(v, axis=0).round(4).tolist(),

@@ -25,6 +25,8 @@ class RenderObject:
     height: float  # metres, from the extent
     prim: Usd.Prim | None = None
     origin: tuple[int, int] | None = None  # the texture's top-left pixel in the photo (physomni:textureOrigin)
+    corner_st: np.ndarray | None = None  # (M, 3, 2) st at each triangle corner (faceVarying st kept exact)
+    two_sided: bool = False  # the texture is [photo crop | unseen sides] (physomni:unseenSides)
 
 
 @dataclass
@@ -153,8 +155,18 @@ def read_objects(stage: Usd.Stage) -> list[RenderObject]:
         points_attr = mesh.GetPointsAttr()
         n = len(points_attr.Get())
         st = np.asarray(pv.ComputeFlattened(), np.float64) if pv and pv.HasValue() else np.zeros((n, 2))
-        if st.shape[0] != n:  # faceVarying or other layouts: no projection, sample one texel
+        corner_st = None
+        if pv and pv.GetInterpolation() == UsdGeom.Tokens.faceVarying and st.shape[0] == len(indices):
+            # one st per polygon corner: triangulate the corners as the faces, and give each vertex the mean
+            # of its corners' st for readers that want one per vertex
+            corner_st = st[triangulate(counts, np.arange(len(indices)))]
+            sums = np.zeros((n, 2))
+            np.add.at(sums, indices, st)
+            st = sums / np.maximum(np.bincount(indices, minlength=n), 1)[:, None]
+        elif st.shape[0] != n:  # other layouts: no projection, sample one texel
             st = np.full((n, 2), 0.5)
+        if corner_st is None:
+            corner_st = st[faces]
         tex_path = texture_file(prim)
         texture = read_image(tex_path, prim.GetName(), rgba=True) if tex_path else np.full((2, 2, 4), 160, np.uint8)
         static = None if points_attr.GetNumTimeSamples() > 0 else np.asarray(points_attr.Get(), np.float64)
@@ -162,7 +174,8 @@ def read_objects(stage: Usd.Stage) -> list[RenderObject]:
         height = float(ext[1][2] - ext[0][2]) if ext else 1.0
         origin = prim.GetCustomDataByKey("physomni:textureOrigin")
         out.append(RenderObject(str(prim.GetPath()), faces, st, texture, points_attr, static, height, prim,
-                                (int(origin[0]), int(origin[1])) if origin is not None and tex_path else None))
+                                (int(origin[0]), int(origin[1])) if origin is not None and tex_path else None,
+                                corner_st, bool(prim.GetCustomDataByKey("physomni:unseenSides"))))
     return out
 
 

@@ -159,10 +159,13 @@ class ShotRenderer:
         for o, y0 in zip(self.objects, offsets):
             th, tw = o.texture.shape[:2]
             atlas[y0:y0 + th, :tw] = o.texture
-            px = np.stack([o.st[:, 0] * tw, (1.0 - o.st[:, 1]) * th + y0], 1)
+            cs = o.corner_st.reshape(-1, 2)
+            corners.append(np.stack([cs[:, 0] * tw, (1.0 - cs[:, 1]) * th + y0], 1))
             faces.append(o.faces + base)
-            corners.append(px[o.faces.ravel()])
             base += len(o.st)
+        # textures holding [photo crop | unseen sides] are twice the crop's width: the crop's own width
+        self.photo_width = np.array([o.texture.shape[1] // 2 if o.two_sided else o.texture.shape[1]
+                                     for o in self.objects] + [0], np.float32)
         self.atlas_rgb = atlas[..., :3].astype(np.float32)
         self.atlas_alpha = atlas[..., 3].astype(np.float32) / 255.0
         self.faces = np.concatenate(faces) if faces else np.zeros((0, 3), np.int64)
@@ -251,7 +254,9 @@ class ShotRenderer:
         moved = np.ones(k_all + 1, np.float32)  # the last entry stands for "no object"
         if self.photo is None:
             return moved
-        hit = obj >= 0
+        # only the photo crop of each texture says where the photo shows the object; its unseen sides'
+        # opaque copy (perceive/sides.py) lies to the right of it and says nothing
+        hit = (obj >= 0) & (px[..., 0] < self.photo_width[np.maximum(obj, 0)])
         ys, xs = np.nonzero(hit)
         k = obj[hit]
         shift = self.atlas_to_photo[k]

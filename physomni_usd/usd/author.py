@@ -37,6 +37,7 @@ class SceneObject:
     texture: str  # path relative to the layer
     shape: str = "round"
     texture_origin: tuple[int, int] | None = None  # (x0, y0): the texture's top-left pixel in the photo
+    st_per_corner: bool = False  # st is (M·3, 2), one per triangle corner (faceVarying), not one per point
 
 
 @dataclass
@@ -154,7 +155,8 @@ def write_scene_layer(path: pathlib.Path, *, fps: float, image_size: tuple[int, 
         mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
         mesh.CreateExtentAttr(UsdGeom.PointBased.ComputeExtent(mesh.GetPointsAttr().Get()))
         st = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray,
-                                                      UsdGeom.Tokens.vertex)
+                                                      UsdGeom.Tokens.faceVarying if obj.st_per_corner
+                                                      else UsdGeom.Tokens.vertex)
         st.Set(Vt.Vec2fArray.FromNumpy(np.ascontiguousarray(obj.st, np.float32)))
         mesh.AddTranslateOp().Set(Gf.Vec3d(*map(float, obj.translate)))
         mesh.AddOrientOp().Set(Gf.Quatf(1.0, 0.0, 0.0, 0.0))
@@ -163,6 +165,8 @@ def write_scene_layer(path: pathlib.Path, *, fps: float, image_size: tuple[int, 
         prim.GetAttribute("physomni:label").Set(obj.label)
         prim.GetAttribute("physomni:maskIndex").Set(int(obj.mask_index))
         prim.SetCustomDataByKey("physomni:liftedShape", obj.shape)
+        if obj.st_per_corner:  # the texture holds [photo crop | unseen sides] side by side (perceive/sides.py)
+            prim.SetCustomDataByKey("physomni:unseenSides", "right half")
         if obj.texture_origin is not None:
             prim.SetCustomDataByKey("physomni:textureOrigin", Gf.Vec2i(*map(int, obj.texture_origin)))
         look = _texture_material(stage, f"{LOOKS}/{obj.name}", obj.texture, opacity_from_alpha=True)

@@ -1,0 +1,102 @@
+"""An object's unseen sides: a turn shows them textured at the photo's density, not its rim smeared."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom
+
+from physomni_usd.render.video import ShotRenderer
+from physomni_usd.settings import RenderSettings
+
+from .conftest import cli
+
+
+@pytest.fixture(scope="module")
+def slab(tmp_path_factory):
+    """A patterned box-like object with a plain rim (as painted edges are), extruded, in the middle of a plain
+    floor: a side textured from the rim would be plain."""
+    d = tmp_path_factory.mktemp("sides")
+    rng = np.random.default_rng(3)
+    photo = np.full((180, 240, 3), 150, np.uint8)
+    photo[:70] = 185  # a wall behind
+    pattern = rng.integers(30, 230, (20, 25, 3)).astype(np.uint8)
+    photo[60:140, 80:160] = (90, 60, 40)
+    photo[66:134, 86:154] = cv2.resize(pattern, (68, 68), interpolation=cv2.INTER_NEAREST)
+    mask = np.zeros((180, 240), np.uint8)
+    mask[60:140, 80:160] = 255
+    cv2.imwrite(str(d / "photo.png"), photo)
+    cv2.imwrite(str(d / "slab.png"), mask)
+    cli("build", d / "photo.png", "-o", d / "shot", "--mask", f"{d / 'slab.png'}:box", "--shape", "extrude",
+        "--pitch", "20", "--camera-height", "1", "-q", check=True)
+    return d / "shot"
+
+
+def _gradient(frame: np.ndarray, where: np.ndarray) -> float:
+    grey = cv2.cvtColor(frame, cv2.COLOR_RGB2GRAY).astype(np.float32)
+    g = np.hypot(cv2.Sobel(grey, cv2.CV_32F, 1, 0), cv2.Sobel(grey, cv2.CV_32F, 0, 1))
+    inner = cv2.erode(where.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    assert inner.sum() > 100
+    return float(g[inner].mean())
+
+
+def _faces_toward(renderer: ShotRenderer, prim: Usd.Prim, edge_on_in_photo: bool) -> np.ndarray:
+    """(H, W) bool: where the object's faces that face the render's camera project — only those the photo saw
+    edge-on when ``edge_on_in_photo`` (its sides), whatever its texture's alpha lets through."""
+    mesh = UsdGeom.Mesh(prim)
+    local = np.asarray(mesh.GetPointsAttr().Get(), float)
+    faces = np.asarray(mesh.GetFaceVertexIndicesAttr().Get()).reshape(-1, 3)
+    m = np.array(UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(Usd.TimeCode(0)))
+    pts = local @ m[:3, :3] + m[3, :3]
+    tri, tri0 = pts[faces], local[faces]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n0 = np.cross(tri0[:, 1] - tri0[:, 0], tri0[:, 2] - tri0[:, 0])  # unturned (the prim has no rotation of its own)
+    cam, photo_cam = renderer.camera.origin, renderer.photo_camera.origin
+    toward = np.einsum("ij,ij->i", n / np.linalg.norm(n, axis=1, keepdims=True),
+                       (cam - tri.mean(1)) / np.linalg.norm(cam - tri.mean(1), axis=1, keepdims=True)) > 0.3
+    if edge_on_in_photo:
+        c0 = tri0.mean(1) + m[3, :3]
+        d0 = (photo_cam - c0) / np.linalg.norm(photo_cam - c0, axis=1, keepdims=True)
+        toward &= np.abs(np.einsum("ij,ij->i", n0 / np.linalg.norm(n0, axis=1, keepdims=True), d0)) < 0.3
+    uv, _ = renderer.camera.project(pts)
+    out = np.zeros((renderer.height, renderer.width), np.uint8)
+    for f in faces[toward]:  # one at a time: fillPoly would cancel where faces overlap
+        cv2.fillConvexPoly(out, np.round(uv[f] * 16).astype(np.int32), 1, shift=4)
+    return out > 0
+
+
+def test_a_quarter_turn_shows_a_side_as_detailed_as_the_front(slab):
+    stage = Usd.Stage.Open(str(slab / "shot.usda"))
+    prim = next(p for p in Usd.PrimRange(stage.GetPrimAtPath("/World/Objects")) if p.IsA(UsdGeom.Mesh))
+    assert prim.GetAttribute("primvars:st").GetMetadata("interpolation") == UsdGeom.Tokens.faceVarying
+    settings = RenderSettings(max_size=240)
+    r = ShotRenderer(stage, settings)
+    front = r.frame(0.0)
+    front_g = _gradient(front, _faces_toward(r, prim, edge_on_in_photo=False))
+    ratios = []
+    for angle in (90.0, -90.0):
+        stage.GetSessionLayer().Clear()
+        stage.SetEditTarget(stage.GetSessionLayer())
+        q = Gf.Rotation(Gf.Vec3d(0, 0, 1), angle).GetQuat()
+        prim.GetAttribute("xformOp:orient").Set(Gf.Quatf(q))
+        r = ShotRenderer(stage, settings)
+        turned = r.frame(0.0)
+        side = _faces_toward(r, prim, edge_on_in_photo=True)
+        ratios.append(_gradient(turned, side) / front_g)
+        # the side is solid (no see-through where its texture's alpha would cut it) and shows the object's
+        # pattern, not its plain rim drawn out
+        solid = float((r.caster.depth[side] < 1e5).mean())
+        rim = float((np.abs(turned[side].astype(int) - (90, 60, 40)).max(axis=1) < 25).mean())
+        assert solid > 0.9 and rim < 0.5, (angle, solid, rim)
+    stage.GetSessionLayer().Clear()
+    assert all(0.5 <= x <= 2.0 for x in ratios), ratios
+
+
+def test_the_texture_holds_the_photo_and_an_opaque_copy(slab):
+    tex = cv2.imread(str(next((slab / "textures").glob("box_*.png"))), cv2.IMREAD_UNCHANGED)
+    h, w = tex.shape[:2]
+    left, right = tex[:, : w // 2], tex[:, w // 2:]
+    assert (left[..., 3] == 0).any() and (right[..., 3] == 255).all()
+    layer = Sdf.Layer.FindOrOpen(str(slab / "scene.usda"))
+    assert "unseenSides" in layer.ExportToString()
