@@ -5,9 +5,8 @@ heavy (warp, Newton, torch) is imported here; each stage imports what it needs
 when it runs.
 """
 
+from ._version import __version__
 from .usd.schema import register_schema
-
-__version__ = "0.1.0"
 
 register_schema()
 

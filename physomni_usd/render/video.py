@@ -20,7 +20,7 @@ from ..errors import InputError
 from ..report import prepare_writes, update_report
 from ..settings import RenderSettings
 from ..usd import layers
-from .raycast import RayCaster
+from ..geometry.raycast import RayCaster
 from .stage import read_camera, read_objects, read_particles, read_photo, read_plate, visible, world_points
 
 
