@@ -20,7 +20,7 @@ ROOT = pathlib.Path(physomni_usd.__file__).resolve().parent
 RANKS = {
     "errors": 0, "_files": 0, "_warp": 0, "_version": 0,
     "usd": 1,
-    "rotations": 2, "settings": 2, "report": 2, "metrics": 2, "geometry": 2, "sizes": 2,
+    "rotations": 2, "settings": 2, "report": 2, "metrics": 2, "geometry": 2, "sizes": 2, "fields": 2,
     "backends.registry": 2, "backends.protocols": 2,
     "perceive": 3,
     "align": 4,
@@ -35,10 +35,8 @@ RANKS = {
 
 #: (importer, imported) pairs still running back up the layers; remove an entry when its edge is fixed.
 KNOWN_BACK_EDGES = {
-    ("materials.estimate", "physics.forces"), ("materials.estimate", "physics.stability"),
-    ("materials.parse", "physics.forces"),
     ("physics.objects", "render.stage"),
-    ("usd.author", "physics.forces"), ("usd.author", "materials.catalog"),
+    ("usd.author", "materials.catalog"),
 }
 
 

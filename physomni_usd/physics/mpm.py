@@ -161,7 +161,7 @@ def deform_surface(binding: SurfaceBinding, particles: np.ndarray, gradients: np
 
 @dataclass
 class MPMObject:
-    obj: object  # the SceneObject
+    obj: object  # the SimObject
     start: int
     count: int
     binding: SurfaceBinding | None
@@ -276,7 +276,7 @@ def particle_solver(points: np.ndarray, masses: np.ndarray, values: list, spacin
 
 
 def build_mpm_scene(objects: list, rigid_model, device, spacing: float | None = None) -> MPMScene:
-    """Particles for each :class:`~.objects.SceneObject` of the MPM family, a particle model with
+    """Particles for each :class:`~.objects.SimObject` of the MPM family, a particle model with
     per-particle materials, and a solver whose colliders are the rigid model's shapes (ground included)."""
     import warp as wp
 

@@ -23,7 +23,7 @@ def family_of(material_type: str) -> str:
 
 
 @dataclass
-class SceneObject:
+class SimObject:
     prim: Usd.Prim
     kind: str  # physomni:materialType
     params: dict  # canonical key → value, the type's defaults where nothing is authored
@@ -60,7 +60,7 @@ class SceneObject:
         return world @ inv[:3, :3] + inv[3, :3]
 
 
-def scene_objects(stage: Usd.Stage) -> list[SceneObject]:
+def scene_objects(stage: Usd.Stage) -> list[SimObject]:
     """Every object under /World/Objects with a mesh, in mask order."""
     from ..render.stage import triangulate
 
@@ -85,7 +85,7 @@ def scene_objects(stage: Usd.Stage) -> list[SceneObject]:
         pts = np.asarray(mesh.GetPointsAttr().Get(), float)
         faces = triangulate(np.asarray(mesh.GetFaceVertexCountsAttr().Get(), np.int64),
                             np.asarray(mesh.GetFaceVertexIndicesAttr().Get(), np.int64))
-        out.append(SceneObject(prim, kind, params, fixed, pts @ m[:3, :3] + m[3, :3], faces, m))
+        out.append(SimObject(prim, kind, params, fixed, pts @ m[:3, :3] + m[3, :3], faces, m))
     return out
 
 

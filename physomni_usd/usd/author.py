@@ -255,13 +255,15 @@ def author_force_fields(stage: Usd.Stage, fields, source: str = "user") -> list[
     Only attributes that differ from the schema's fallbacks are authored, plus
     the kind, strength and direction, which a reader always wants to see.
     """
-    from ..physics.forces import ATTRS, ForceField
+    from dataclasses import fields as dataclass_fields
+
+    from .schema import FORCE_FIELD_ATTRS as ATTRS
 
     UsdGeom.Scope.Define(stage, FORCE_FIELDS)
-    fallback = ForceField("wind")
     paths = []
     taken = {p.GetName() for p in stage.GetPrimAtPath(FORCE_FIELDS).GetChildren()}
     for f in fields:
+        fallback = {d.name: d.default for d in dataclass_fields(f)}  # the field class's defaults
         n = 0
         while f"{f.kind}_{n}" in taken:
             n += 1
@@ -271,7 +273,7 @@ def author_force_fields(stage: Usd.Stage, fields, source: str = "user") -> list[
         prim.ApplyAPI("PhysOmniForceFieldAPI")
         for attr_name, key in ATTRS.items():
             value = getattr(f, key)
-            if key not in ("kind", "strength", "direction") and value == getattr(fallback, key):
+            if key not in ("kind", "strength", "direction") and value == fallback[key]:
                 continue
             attr = prim.GetAttribute(attr_name)
             attr.Set(Gf.Vec3f(*map(float, value)) if key in ("direction", "position") else value)

@@ -9,6 +9,16 @@ from pxr import Plug
 
 API_SCHEMAS = ("PhysOmniSceneAPI", "PhysOmniMaterialAPI", "PhysOmniObjectAPI", "PhysOmniForceFieldAPI")
 
+#: PhysOmniForceFieldAPI's attributes → the field value each holds (see :class:`physomni_usd.fields.ForceField`).
+FORCE_FIELD_ATTRS = {
+    "physomni:kind": "kind", "physomni:enabled": "enabled", "physomni:strength": "strength",
+    "physomni:direction": "direction", "physomni:position": "position", "physomni:radius": "radius",
+    "physomni:falloff": "falloff", "physomni:startTime": "start_time", "physomni:endTime": "end_time",
+    "physomni:flow": "flow", "physomni:linearDrag": "linear_drag", "physomni:quadraticDrag": "quadratic_drag",
+    "physomni:radialStrength": "radial_strength", "physomni:innerRadius": "inner_radius",
+    "physomni:damping": "damping", "physomni:frequency": "frequency", "physomni:seed": "seed",
+}
+
 _registered = False
 
 
