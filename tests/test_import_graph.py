@@ -36,7 +36,6 @@ RANKS = {
 #: (importer, imported) pairs still running back up the layers; remove an entry when its edge is fixed.
 KNOWN_BACK_EDGES = {
     ("physics.objects", "render.stage"),
-    ("usd.author", "materials.catalog"),
 }
 
 

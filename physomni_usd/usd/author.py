@@ -287,7 +287,7 @@ def _physics_material(stage, name: str, material_type: str, params: dict, source
 
     Every value carries ``physomni:source`` in its customData.
     """
-    from ..materials.catalog import PARAMS
+    from .schema import MATERIAL_ATTRS
 
     mat = UsdShade.Material.Define(stage, f"{PHYSICS_MATERIALS}/{name}")
     prim = mat.GetPrim()
@@ -296,7 +296,7 @@ def _physics_material(stage, name: str, material_type: str, params: dict, source
     prim.GetAttribute("physomni:materialType").Set(material_type)
     prim.GetAttribute("physomni:source").Set(source)
     for key, value in params.items():
-        set_param(prim, PARAMS[key].attr, value, source)
+        set_param(prim, MATERIAL_ATTRS[key], value, source)
     return mat
 
 
