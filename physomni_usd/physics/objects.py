@@ -87,18 +87,3 @@ def scene_objects(stage: Usd.Stage) -> list[SimObject]:
                             np.asarray(mesh.GetFaceVertexIndicesAttr().Get(), np.int64))
         out.append(SimObject(prim, kind, params, fixed, pts @ m[:3, :3] + m[3, :3], faces, m))
     return out
-
-
-def texture_colour(prim: Usd.Prim) -> tuple[float, float, float]:
-    """Mean RGB (0–1, as stored) of the object's photo texture where it is opaque; grey without one."""
-    from ..render.stage import read_image, texture_file
-
-    path = texture_file(prim)
-    if path is None or not path.is_file():
-        return (0.6, 0.6, 0.6)
-    img = read_image(path, prim.GetName(), rgba=True).astype(np.float64)
-    a = img[..., 3] > 127
-    if not a.any():
-        return (0.6, 0.6, 0.6)
-    rgb = img[..., :3][a].mean(axis=0) / 255.0
-    return tuple(round(float(c), 4) for c in rgb)
