@@ -3,12 +3,58 @@
 Importing the package registers the PhysOmni USD schema with OpenUSD. Nothing
 heavy (warp, Newton, torch) is imported here; each stage imports what it needs
 when it runs.
+
+The public API is one function per stage, paths in and the stage's section of
+``report.json`` out: :func:`build`, :func:`estimate`, :func:`simulate`,
+:func:`render`. Bad input raises :class:`physomni_usd.errors.InputError` with
+one line naming the option or file; nothing the user made is overwritten then.
 """
 
+from ._version import __version__
 from .usd.schema import register_schema
-
-__version__ = "0.1.0"
 
 register_schema()
 
-__all__ = ["__version__", "register_schema"]
+
+def build(photo, out_dir, masks=(), boxes=(), settings=None, **options):
+    """Build a shot from ``photo`` (a path) into ``out_dir``: plate, textures, ``scene.usda``, ``physics.usda``
+    and an empty ``edits.usda``. ``masks`` are ``PATH[=LABEL]`` specs, ``boxes`` ``x0,y0,x1,y1[=LABEL]`` in
+    pixels; ``settings`` a :class:`physomni_usd.settings.BuildSettings` (defaults when None); ``options`` as
+    :func:`physomni_usd.build.build_shot` takes them (pushes, forces, fixed, meshes_dir, sizes, backends, echo).
+    Returns the build result; its ``shot`` is the path of ``shot.usda``."""
+    from .build import build_shot
+    from .settings import BuildSettings
+
+    return build_shot(photo, out_dir, masks, boxes, settings or BuildSettings(), **options)
+
+
+def estimate(shot, estimator: str = "rules", vlm=None, sets=(), forces=(), echo=lambda m: None) -> dict:
+    """Estimate the materials of ``shot`` (``shot.usda`` or its folder) with ``estimator`` (``rules`` or a
+    VLM), then apply ``sets`` (``NAME.KEY=VALUE``, written to ``edits.usda``) and ``forces``
+    (``KIND:key=value,...``). Rewrites ``physics.usda``; returns the report's ``estimate`` section."""
+    from .materials.estimate import estimate_shot
+
+    return estimate_shot(shot, estimator, vlm, sets, forces, echo=echo)
+
+
+def simulate(shot, settings=None, progress=None, echo=lambda m: None) -> dict:
+    """Simulate the composed stage of ``shot`` and write ``sim.usdc`` beside it; ``settings`` a
+    :class:`physomni_usd.settings.SimulateSettings` (seconds, fps, substeps; defaults when None). Returns the
+    report's ``simulate`` section. A rigid-only shot imports no torch."""
+    from .physics.simulate import simulate_shot
+    from .settings import SimulateSettings
+
+    return simulate_shot(shot, settings or SimulateSettings(), progress=progress, echo=echo)
+
+
+def render(shot, output=None, settings=None, progress=None) -> dict:
+    """Render every frame of ``shot`` to ``output`` (default ``video.mp4`` beside it); ``settings`` a
+    :class:`physomni_usd.settings.RenderSettings` (defaults when None). Returns the report's ``render``
+    section."""
+    from .render.video import render_shot
+    from .settings import RenderSettings
+
+    return render_shot(shot, output, settings or RenderSettings(), progress=progress)
+
+
+__all__ = ["__version__", "register_schema", "build", "estimate", "simulate", "render"]

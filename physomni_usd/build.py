@@ -27,12 +27,12 @@ from .align.place import centring_offset
 from .align.scale import parse_sizes
 from .backends import steps as backend_steps
 from .errors import InputError
+from .fields import parse_force_options
 from .materials.defaults import GROUND_MATERIAL
 from .materials.report import material_report
 from .perceive.masks import contact_sheet, read_photo
 from .perceive.plate import object_texture
 from .perceive.sides import corner_st, two_sided_texture
-from .physics.forces import parse_force_options
 from .physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
 from .report import REPORT, Timer, read_report, set_aside_damaged, update_report
 from .settings import BuildSettings

@@ -8,6 +8,13 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field
 
+#: What build and estimate write to a shot's physics scene: XPBD substeps per frame (30 fps), the step
+#: planner's count for free rigid motion (``physics/stability.py``'s ``RIGID_SUBSTEPS["free"]``), and XPBD
+#: iterations per substep (2 met every rigid reference case at 1 %; more only where mass ratios or strong
+#: fields ask for them).
+DEFAULT_SUBSTEPS = 8
+DEFAULT_ITERATIONS = 2
+
 
 class _Settings(BaseModel):
     model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)

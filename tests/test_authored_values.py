@@ -11,7 +11,7 @@ from pxr import Sdf, Usd
 from physomni_usd.errors import InputError
 from physomni_usd.materials.catalog import CATALOG, PARAMS, material_type
 from physomni_usd.physics.checks import check_inputs
-from physomni_usd.physics.forces import field_from_values
+from physomni_usd.fields import field_from_values
 
 from .conftest import cli
 

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from physomni_usd.physics.forces import POINT_EPSILON, FieldSet, ForceField, body_samples
+from physomni_usd.fields import ForceField
+from physomni_usd.physics.forces import POINT_EPSILON, FieldSet, body_samples
 
 SECONDS = 1.0
 FPS, SUBSTEPS = 50, 10

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from physomni_usd.bench.photos import make_known_scene
-from physomni_usd.materials.sizes import size_prior
+from physomni_usd.sizes import size_prior
 from physomni_usd.perceive.lift import lift_silhouette
 
 

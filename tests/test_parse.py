@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from physomni_usd.materials.catalog import CATALOG, check_params
 from physomni_usd.materials.parse import parse_reply
-from physomni_usd.physics.forces import KINDS
+from physomni_usd.fields import KINDS
 
 VALID = {"objects": [
     {"index": 0, "name": "rubber duck", "material": "mpm_elastic",

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from physomni_usd.align.camera import PinholeCamera, pick_pitch
+from physomni_usd.geometry.camera import PinholeCamera, pick_pitch
 from physomni_usd.align.place import footprint, make_room, separate, separation
 from physomni_usd.errors import InputError
 from physomni_usd.metrics import mask_iou, ssim

@@ -11,7 +11,7 @@ import pytest
 from physomni_usd.align.scale import fit_scale, parse_sizes
 from physomni_usd.errors import InputError
 from physomni_usd.materials.parse import parse_reply
-from physomni_usd.materials.sizes import SIZES, size_prior
+from physomni_usd.sizes import SIZES, size_prior
 
 from .conftest import cli
 

@@ -9,7 +9,8 @@ import trimesh
 from pxr import UsdGeom
 
 from physomni_usd.bench.scenes import BenchObject, write_bench_shot
-from physomni_usd.physics.forces import FieldSet, ForceField
+from physomni_usd.fields import ForceField
+from physomni_usd.physics.forces import FieldSet
 from physomni_usd.physics.simulate import simulate_shot
 from physomni_usd.settings import SimulateSettings
 from physomni_usd.usd import layers

@@ -29,7 +29,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from ..rotations import axis_angle
-from .camera import PinholeCamera
+from ..geometry.camera import PinholeCamera
 from .external import visible_silhouettes
 
 WEIGHTS = {"obj": 1.0, "bg": 0.2, "mask": 1.0}
@@ -58,7 +58,7 @@ class CameraLoss:
         self.photo, self.masks = photo, masks
         self.plate = photo if plate is None else plate
         self.colours = [photo[m].mean(axis=0) if m.any() else np.zeros(3) for m in masks]
-        from ..render.raycast import SilhouetteRenderer
+        from ..geometry.raycast import SilhouetteRenderer
 
         self.renderer = SilhouetteRenderer(vertex_sets, faces)
         self._levels = {}

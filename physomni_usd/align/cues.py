@@ -34,9 +34,9 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from ..materials.sizes import size_prior
+from ..sizes import size_prior
 from ..perceive.lift import fill_holes
-from .camera import HORIZON_MARGIN_DEG, MIN_AUTO_PITCH_DEG, PinholeCamera
+from ..geometry.camera import HORIZON_MARGIN_DEG, MIN_AUTO_PITCH_DEG, PinholeCamera
 
 DEFAULT_FOV_DEG = 50.0
 MAX_PITCH_DEG = 89.5

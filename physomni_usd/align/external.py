@@ -32,7 +32,7 @@ import trimesh
 
 from ..errors import InputError
 from ..rotations import from_wxyz
-from .camera import PinholeCamera
+from ..geometry.camera import PinholeCamera
 from .ground import Plane, agmf_plane, apply, canonical_pose, ground_transform, ransac_plane
 from .penetration import resolve_penetration
 
@@ -112,10 +112,10 @@ def read_mesh(path: pathlib.Path) -> tuple[trimesh.Trimesh, list[str]]:
 def visible_silhouettes(vertex_sets, faces, camera: PinholeCamera, renderer=None) -> list[np.ndarray]:
     """Visible masks (H, W) bool of meshes from ``camera``, nearer objects hiding farther ones.
 
-    Rendered by the warp ray caster; pass a :class:`~physomni_usd.render.raycast.SilhouetteRenderer`
+    Rendered by the warp ray caster; pass a :class:`~physomni_usd.geometry.raycast.SilhouetteRenderer`
     already holding these meshes to reuse its BVH.
     """
-    from ..render.raycast import SilhouetteRenderer
+    from ..geometry.raycast import SilhouetteRenderer
 
     renderer = renderer or SilhouetteRenderer(vertex_sets, faces)
     ids = renderer.render(camera)
@@ -125,7 +125,7 @@ def visible_silhouettes(vertex_sets, faces, camera: PinholeCamera, renderer=None
 def fit_to_masks(vertex_sets, faces, masks, camera: PinholeCamera, rounds: int = 4):
     """Scale each object about its base and slide it on the ground until its visible silhouette has its
     mask's area and centroid. Returns the new vertex sets and the per-object (scale, shift) applied."""
-    from ..render.raycast import SilhouetteRenderer
+    from ..geometry.raycast import SilhouetteRenderer
 
     verts = [np.asarray(v, float).copy() for v in vertex_sets]
     total_scale = np.ones(len(verts))

@@ -13,11 +13,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..materials.sizes import size_prior
+from ..sizes import size_prior
 from ..perceive.lift import FLAT_PRIOR_RATIO, fill_holes, foot_pixel, lift_silhouette
 from ..settings import BuildSettings
 from ..errors import InputError
-from .camera import PinholeCamera, pick_pitch
+from ..geometry.camera import PinholeCamera, pick_pitch
 from .cues import MAX_PITCH_DEG, estimate_camera
 from .place import make_room, separate
 from .scale import fit_scale

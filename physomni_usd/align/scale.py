@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
-from ..materials.sizes import size_prior
+from ..sizes import size_prior
 
 #: Votes farther than this (natural log) from the median are outliers even when the MAD is tiny.
 MIN_OUTLIER_LOG = math.log(1.5)

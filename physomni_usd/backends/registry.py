@@ -66,7 +66,7 @@ def _own_version() -> str:
     try:
         return metadata.version("physomni-usd")
     except metadata.PackageNotFoundError:  # pragma: no cover - running from a source tree
-        from .. import __version__
+        from .._version import __version__
 
         return __version__
 

@@ -23,10 +23,10 @@ import time
 import numpy as np
 import trimesh
 
-from ..align.camera import PinholeCamera
+from ..geometry.camera import PinholeCamera
 from ..align.camera_search import CameraLoss, search_camera
 from ..align.external import load_poses, place_external, visible_silhouettes
-from ..render.raycast import SilhouetteRenderer
+from ..geometry.raycast import SilhouetteRenderer
 from ..rotations import from_wxyz
 from ..metrics.alignment import (box_penetration_rate, interaction_success_rate, mask_iou, mesh_penetration_rate,
                                  reprojection_px, support_violation_rate)

@@ -33,7 +33,7 @@ import cv2
 import numpy as np
 import trimesh
 
-from ..align.camera import PinholeCamera
+from ..geometry.camera import PinholeCamera
 from .synthetic import render_truth
 
 PITCHES = (5.0, 30.0, 60.0, 85.0)

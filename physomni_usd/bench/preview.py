@@ -75,7 +75,7 @@ def stirred(n: int) -> list:
     (20 m/s² per metre from the axis, falling off as 1/(1 + r), pulling inward at 4 /s², damped at 2 /s,
     nothing beyond 3 m) that keeps them sliding and knocking into each other, so that every pose changes
     every frame and all of them are sent."""
-    from ..physics.forces import field_from_values
+    from ..fields import field_from_values
 
     rows = (n + 4) // 5
     return [field_from_values("vortex", {"strength": 20.0, "falloff": 1.0, "radial": 4.0, "damping": 2.0, "radius": 3.0,

@@ -117,7 +117,8 @@ def free_fall(solver, substeps):
 
 
 def linear_drag(solver, substeps):
-    from ..physics.forces import FieldSet, ForceField
+    from ..fields import ForceField
+    from ..physics.forces import FieldSet
 
     k, v0, t = 1.5, np.array([3.0, 0.0, 4.0]), 1.0
     b = _builder(penalty=solver != "xpbd")
@@ -132,7 +133,8 @@ def linear_drag(solver, substeps):
 
 
 def quadratic_drag(solver, substeps):
-    from ..physics.forces import FieldSet, ForceField
+    from ..fields import ForceField
+    from ..physics.forces import FieldSet
 
     c, t = 0.2, 1.5
     b = _builder(penalty=solver != "xpbd")

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from ..align.camera import PinholeCamera
+from ..geometry.camera import PinholeCamera
 from ..materials.catalog import check_params
 from ..materials.defaults import GROUND_MATERIAL
 from ..physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS

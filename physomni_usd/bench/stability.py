@@ -107,7 +107,7 @@ def _pressed():
 
 
 def _pressed_forces():
-    from ..physics.forces import ForceField
+    from ..fields import ForceField
 
     return (ForceField("constant", strength=1e6, direction=(0.0, 0.0, -1.0), end_time=0.2),)
 

@@ -19,7 +19,7 @@ import numpy as np
 import trimesh
 
 from .. import rotations
-from ..align.camera import PinholeCamera
+from ..geometry.camera import PinholeCamera
 
 
 @dataclass

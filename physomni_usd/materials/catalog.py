@@ -28,11 +28,12 @@ from functools import lru_cache
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
 
+from ..usd.schema import MATERIAL_ATTRS
+
 
 @dataclass(frozen=True)
 class Param:
     key: str
-    attr: str  # USD attribute
     unit: str
     lo: float | None = None
     hi: float | None = None
@@ -40,6 +41,11 @@ class Param:
     hi_open: bool = False
     choices: tuple[str, ...] = ()
     doc: str = ""
+
+    @property
+    def attr(self) -> str:
+        """The USD attribute it is authored as (``usd/schema.MATERIAL_ATTRS``)."""
+        return MATERIAL_ATTRS[self.key]
 
     def describe_range(self) -> str:
         if self.choices:
@@ -59,25 +65,25 @@ class Param:
 
 
 PARAMS = {p.key: p for p in (
-    Param("density", "physics:density", "kg/m³ (kg/m² for cloth)", 1e-3, 1e5),
-    Param("static_friction", "physics:staticFriction", "", 0.0, 10.0),
-    Param("dynamic_friction", "physics:dynamicFriction", "", 0.0, 10.0),
-    Param("restitution", "physics:restitution", "", 0.0, 1.0),
-    Param("youngs_modulus", "physomni:youngsModulus", "Pa", 0.0, 1e12, lo_open=True),
-    Param("poissons_ratio", "physomni:poissonsRatio", "", 0.0, 0.5, hi_open=True),
-    Param("yield_stress", "physomni:yieldStress", "Pa", 0.0, 1e10, lo_open=True),
-    Param("friction_angle", "physomni:frictionAngle", "degrees", 0.0, 89.0),
-    Param("critical_compression", "physomni:criticalCompression", "", 0.0, 1.0, lo_open=True, hi_open=True),
-    Param("critical_stretch", "physomni:criticalStretch", "", 0.0, 1.0, lo_open=True, hi_open=True),
-    Param("viscosity", "physomni:viscosity", "Pa·s", 0.0, 1e6),
-    Param("stretch_compliance", "physomni:stretchCompliance", "m/N", 0.0, 1.0),
-    Param("bending_compliance", "physomni:bendingCompliance", "1/(N·m)", 0.0, 1.0),
-    Param("volume_compliance", "physomni:volumeCompliance", "m²/N", 0.0, 1.0),
-    Param("air_resistance", "physomni:airResistance", "1/s", 0.0, 10.0),
-    Param("relaxation", "physomni:relaxation", "", 0.0, 2.0, lo_open=True),
-    Param("density_relaxation", "physomni:densityRelaxation", "", 0.0, 2.0, lo_open=True),
-    Param("viscosity_relaxation", "physomni:viscosityRelaxation", "", 0.0, 2.0),
-    Param("model", "physomni:constitutiveModel", "", choices=("corotated", "neo_hookean", "linear")),
+    Param("density", "kg/m³ (kg/m² for cloth)", 1e-3, 1e5),
+    Param("static_friction", "", 0.0, 10.0),
+    Param("dynamic_friction", "", 0.0, 10.0),
+    Param("restitution", "", 0.0, 1.0),
+    Param("youngs_modulus", "Pa", 0.0, 1e12, lo_open=True),
+    Param("poissons_ratio", "", 0.0, 0.5, hi_open=True),
+    Param("yield_stress", "Pa", 0.0, 1e10, lo_open=True),
+    Param("friction_angle", "degrees", 0.0, 89.0),
+    Param("critical_compression", "", 0.0, 1.0, lo_open=True, hi_open=True),
+    Param("critical_stretch", "", 0.0, 1.0, lo_open=True, hi_open=True),
+    Param("viscosity", "Pa·s", 0.0, 1e6),
+    Param("stretch_compliance", "m/N", 0.0, 1.0),
+    Param("bending_compliance", "1/(N·m)", 0.0, 1.0),
+    Param("volume_compliance", "m²/N", 0.0, 1.0),
+    Param("air_resistance", "1/s", 0.0, 10.0),
+    Param("relaxation", "", 0.0, 2.0, lo_open=True),
+    Param("density_relaxation", "", 0.0, 2.0, lo_open=True),
+    Param("viscosity_relaxation", "", 0.0, 2.0),
+    Param("model", "", choices=("corotated", "neo_hookean", "linear")),
 )}
 
 #: Other spellings accepted from users and VLM replies.

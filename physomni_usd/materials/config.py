@@ -27,6 +27,6 @@ class ObjectConfig:
 @dataclass
 class SceneConfig:
     objects: list[ObjectConfig]
-    forces: list = field(default_factory=list)  # physics.forces.ForceField
+    forces: list = field(default_factory=list)  # fields.ForceField
     warnings: list[str] = field(default_factory=list)
     source: str = "rules"

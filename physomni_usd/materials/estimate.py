@@ -18,9 +18,9 @@ from pxr import Sdf, Usd, UsdPhysics
 
 from ..backends import registry
 from ..errors import InputError
-from ..physics.forces import parse_force_options, read_force_fields
+from ..fields import parse_force_options, read_force_fields
 from .._files import all_or_nothing
-from ..physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
+from ..settings import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
 from ..report import Timer, prepare_writes, update_report
 from ..usd import layers
 from ..usd.author import PhysicsObject, set_param, write_physics_layer

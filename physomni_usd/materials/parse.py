@@ -26,7 +26,7 @@ import json
 import math
 import re
 
-from ..physics.forces import doubles_gravity, field_from_values, parse_bool
+from ..fields import doubles_gravity, field_from_values, parse_bool
 from .catalog import CATALOG, FALLBACK_TYPE, PARAMS, canonical_key, keys_of
 from .config import ObjectConfig, SceneConfig
 

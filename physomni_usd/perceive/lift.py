@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from ..align.camera import PinholeCamera
+from ..geometry.camera import PinholeCamera
 from ..settings import LiftSettings
 
 #: Fraction of a round object's height that forms its flat base (balls excepted).

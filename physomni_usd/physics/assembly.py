@@ -17,9 +17,10 @@ from ..settings import SimulateSettings
 from ..usd.author import OBJECTS
 from .cloth import AirDrag, add_cloth, add_soft_body
 from .controls import particle_pushes, read_controls
-from .forces import FieldSet, body_samples, read_force_fields
+from ..fields import read_force_fields
+from .forces import FieldSet, body_samples
 from .mpm import bind_surface, build_mpm_scene
-from .objects import SceneObject
+from .objects import SimObject
 from .params import particle_friction
 from .stepping import Stepper, contact_pipeline, xpbd_solver
 from .support import add_hidden_support
@@ -32,7 +33,7 @@ MAX_HULL_VERTICES = 256
 class ShotModels:
     """The Newton models of one shot and the stepper that advances them."""
 
-    def __init__(self, stage: Usd.Stage, objects: list[SceneObject], cfg: dict, settings: SimulateSettings):
+    def __init__(self, stage: Usd.Stage, objects: list[SimObject], cfg: dict, settings: SimulateSettings):
         self.stage = stage
         t0 = time.perf_counter()
         wp = load_warp()
@@ -135,7 +136,7 @@ def _ground_height(stage: Usd.Stage) -> float:
     return float(UsdGeom.Xformable(ground).ComputeLocalToWorldTransform(Usd.TimeCode.Default()).ExtractTranslation()[2])
 
 
-def _add_stand_ins(builder, objects: list[SceneObject], newton, wp) -> dict:
+def _add_stand_ins(builder, objects: list[SimObject], newton, wp) -> dict:
     """Rigid bodies (convex hulls, the material's density and friction) for rigid objects the stage does
     not make UsdPhysics bodies — ones switched to ``rigid`` by a layer over the build."""
     import trimesh

@@ -13,7 +13,7 @@ from pxr import Usd, UsdPhysics
 from ..errors import InputError
 from ..materials.catalog import PARAMS, keys_of, material_type
 from ..materials.report import bound_material, object_prims
-from .forces import FIELD_ATTRS, field_value_problem
+from ..fields import FIELD_ATTRS, field_value_problem
 
 #: (lowest, highest) accepted per attribute of a body: the material catalog's density, and a mass.
 LIMITS = {"physics:density": (PARAMS["density"].lo, PARAMS["density"].hi), "physics:mass": (1e-6, 1e9)}

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from pxr import Usd, UsdGeom, UsdPhysics, UsdShade
 
-from ..materials.sizes import SizePrior, size_prior
+from ..sizes import SizePrior, size_prior
 from ..metrics.geometry import world_meshes
 from ..usd.author import OBJECTS
 

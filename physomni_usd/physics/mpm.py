@@ -161,7 +161,7 @@ def deform_surface(binding: SurfaceBinding, particles: np.ndarray, gradients: np
 
 @dataclass
 class MPMObject:
-    obj: object  # the SceneObject
+    obj: object  # the SimObject
     start: int
     count: int
     binding: SurfaceBinding | None
@@ -276,11 +276,9 @@ def particle_solver(points: np.ndarray, masses: np.ndarray, values: list, spacin
 
 
 def build_mpm_scene(objects: list, rigid_model, device, spacing: float | None = None) -> MPMScene:
-    """Particles for each :class:`~.objects.SceneObject` of the MPM family, a particle model with
+    """Particles for each :class:`~.objects.SimObject` of the MPM family, a particle model with
     per-particle materials, and a solver whose colliders are the rigid model's shapes (ground included)."""
     import warp as wp
-
-    from .objects import texture_colour
 
     meshes = [o.trimesh() for o in objects]
     h = choose_spacing(meshes, spacing)
@@ -368,3 +366,18 @@ def particle_gradients(scene: MPMScene) -> np.ndarray | None:
         return None
     g = arr.numpy().reshape(-1, 3, 3).astype(np.float64)
     return g if np.isfinite(g).all() else None
+
+
+def texture_colour(prim) -> tuple[float, float, float]:
+    """Mean RGB (0–1, as stored) of the texture of ``prim`` (a Usd.Prim) where it is opaque; grey without one."""
+    from ..render.stage import read_image, texture_file
+
+    path = texture_file(prim)
+    if path is None or not path.is_file():
+        return (0.6, 0.6, 0.6)
+    img = read_image(path, prim.GetName(), rgba=True).astype(np.float64)
+    a = img[..., 3] > 127
+    if not a.any():
+        return (0.6, 0.6, 0.6)
+    rgb = img[..., :3][a].mean(axis=0) / 255.0
+    return tuple(round(float(c), 4) for c in rgb)

@@ -23,7 +23,7 @@ def family_of(material_type: str) -> str:
 
 
 @dataclass
-class SceneObject:
+class SimObject:
     prim: Usd.Prim
     kind: str  # physomni:materialType
     params: dict  # canonical key → value, the type's defaults where nothing is authored
@@ -60,7 +60,7 @@ class SceneObject:
         return world @ inv[:3, :3] + inv[3, :3]
 
 
-def scene_objects(stage: Usd.Stage) -> list[SceneObject]:
+def scene_objects(stage: Usd.Stage) -> list[SimObject]:
     """Every object under /World/Objects with a mesh, in mask order."""
     from ..render.stage import triangulate
 
@@ -85,20 +85,5 @@ def scene_objects(stage: Usd.Stage) -> list[SceneObject]:
         pts = np.asarray(mesh.GetPointsAttr().Get(), float)
         faces = triangulate(np.asarray(mesh.GetFaceVertexCountsAttr().Get(), np.int64),
                             np.asarray(mesh.GetFaceVertexIndicesAttr().Get(), np.int64))
-        out.append(SceneObject(prim, kind, params, fixed, pts @ m[:3, :3] + m[3, :3], faces, m))
+        out.append(SimObject(prim, kind, params, fixed, pts @ m[:3, :3] + m[3, :3], faces, m))
     return out
-
-
-def texture_colour(prim: Usd.Prim) -> tuple[float, float, float]:
-    """Mean RGB (0–1, as stored) of the object's photo texture where it is opaque; grey without one."""
-    from ..render.stage import read_image, texture_file
-
-    path = texture_file(prim)
-    if path is None or not path.is_file():
-        return (0.6, 0.6, 0.6)
-    img = read_image(path, prim.GetName(), rgba=True).astype(np.float64)
-    a = img[..., 3] > 127
-    if not a.any():
-        return (0.6, 0.6, 0.6)
-    rgb = img[..., :3][a].mean(axis=0) / 255.0
-    return tuple(round(float(c), 4) for c in rgb)

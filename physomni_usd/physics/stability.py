@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..settings import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
 from .checks import MAX_SPEED
 
 GRAVITY = 9.81
@@ -42,11 +43,7 @@ MAX_SUBSTEPS = 1000
 #: target in ``physomni-usd bench physics`` on that kind's reference cases — free motion and sliding
 #: (free fall, incline, free rotation), drag fields (linear and quadratic drag), bouncing (restitution
 #: apex heights), stacks (a resting stack of five boxes).
-RIGID_SUBSTEPS = {"free": 8, "drag": 16, "bouncy": 16, "stacked": 32}
-#: What build writes to a new shot: the free kind's substeps, and XPBD iterations per substep (2 met
-#: every rigid reference case at 1 %; more only where mass ratios or strong fields ask for them).
-DEFAULT_SUBSTEPS = RIGID_SUBSTEPS["free"]
-DEFAULT_ITERATIONS = 2
+RIGID_SUBSTEPS = {"free": DEFAULT_SUBSTEPS, "drag": 16, "bouncy": 16, "stacked": 32}
 #: Cloth: dt ≤ CLOTH_FACTOR·√(m/k). From ``bench physics``' cloth sag (the simulator's springs, damping
 #: and iterations): c = 0.21 blew up, 0.14 jittered 10 % off the resting sag, 0.104 came within 0.2 %
 #: of the 256-substep run.

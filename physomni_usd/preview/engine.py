@@ -23,7 +23,8 @@ from ..errors import InputError
 from ..physics.assembly import ShotModels
 from ..physics.checks import check_inputs
 from ..physics.diagnose import refuse_broken_scene
-from ..physics.forces import FieldSet, ForceField
+from ..fields import ForceField
+from ..physics.forces import FieldSet
 from ..physics.objects import scene_objects
 from ..physics.recording import Recorder, write_take
 from ..physics.simulate import scene_settings

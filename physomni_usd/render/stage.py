@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 from pxr import Usd, UsdGeom, UsdShade
 
-from ..align.camera import RenderCamera, camera_from_usd
+from ..geometry.camera import RenderCamera, camera_from_usd
 from ..errors import InputError
 from ..usd.author import OBJECTS
 

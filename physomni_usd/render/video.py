@@ -20,13 +20,12 @@ from ..errors import InputError
 from ..report import prepare_writes, update_report
 from ..settings import RenderSettings
 from ..usd import layers
-from .passes import PassWriter, pass_files
-from .raycast import RayCaster, covered_pixels
-from .stage import (read_camera, read_objects, read_particles, read_photo, read_photo_camera, read_plate,
-                    read_wide_plate, visible, world_points)
+from ..geometry.raycast import RayCaster, covered_pixels
 from ..usd.author import write_render_layer
 from .moves import MAX_AMOUNT, MOVES, move_matrices
-from .stage import read_photo_camera_matrix
+from .passes import PassWriter, pass_files
+from .stage import (read_camera, read_objects, read_particles, read_photo, read_photo_camera,
+                    read_photo_camera_matrix, read_plate, read_wide_plate, visible, world_points)
 from .world import photo_environment
 
 

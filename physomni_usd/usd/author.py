@@ -98,7 +98,7 @@ def write_scene_layer(path: pathlib.Path, *, fps: float, image_size: tuple[int, 
                       photo: str | None = None, wide_plate: tuple[str, tuple] | None = None) -> None:
     """``scene.usda``: camera, ground, background card and one textured mesh per object.
 
-    ``camera`` is a :class:`~physomni_usd.align.camera.PinholeCamera`. ``photo`` (a path relative to the
+    ``camera`` is a :class:`~physomni_usd.geometry.camera.PinholeCamera`. ``photo`` (a path relative to the
     layer) is recorded on the background card as ``physomni:photo`` custom data, and each object's
     ``texture_origin`` as ``physomni:textureOrigin``: together they let a renderer show the photo itself
     wherever nothing has moved. ``wide_plate`` (a path relative to the layer, and its margins (top, bottom,
@@ -265,13 +265,15 @@ def author_force_fields(stage: Usd.Stage, fields, source: str = "user") -> list[
     Only attributes that differ from the schema's fallbacks are authored, plus
     the kind, strength and direction, which a reader always wants to see.
     """
-    from ..physics.forces import ATTRS, ForceField
+    from dataclasses import fields as dataclass_fields
+
+    from .schema import FORCE_FIELD_ATTRS as ATTRS
 
     UsdGeom.Scope.Define(stage, FORCE_FIELDS)
-    fallback = ForceField("wind")
     paths = []
     taken = {p.GetName() for p in stage.GetPrimAtPath(FORCE_FIELDS).GetChildren()}
     for f in fields:
+        fallback = {d.name: d.default for d in dataclass_fields(f)}  # the field class's defaults
         n = 0
         while f"{f.kind}_{n}" in taken:
             n += 1
@@ -281,7 +283,7 @@ def author_force_fields(stage: Usd.Stage, fields, source: str = "user") -> list[
         prim.ApplyAPI("PhysOmniForceFieldAPI")
         for attr_name, key in ATTRS.items():
             value = getattr(f, key)
-            if key not in ("kind", "strength", "direction") and value == getattr(fallback, key):
+            if key not in ("kind", "strength", "direction") and value == fallback[key]:
                 continue
             attr = prim.GetAttribute(attr_name)
             attr.Set(Gf.Vec3f(*map(float, value)) if key in ("direction", "position") else value)
@@ -295,7 +297,7 @@ def _physics_material(stage, name: str, material_type: str, params: dict, source
 
     Every value carries ``physomni:source`` in its customData.
     """
-    from ..materials.catalog import PARAMS
+    from .schema import MATERIAL_ATTRS
 
     mat = UsdShade.Material.Define(stage, f"{PHYSICS_MATERIALS}/{name}")
     prim = mat.GetPrim()
@@ -304,7 +306,7 @@ def _physics_material(stage, name: str, material_type: str, params: dict, source
     prim.GetAttribute("physomni:materialType").Set(material_type)
     prim.GetAttribute("physomni:source").Set(source)
     for key, value in params.items():
-        set_param(prim, PARAMS[key].attr, value, source)
+        set_param(prim, MATERIAL_ATTRS[key], value, source)
     return mat
 
 

@@ -17,7 +17,7 @@ A label is split into words (``tower_left`` → ``tower``, ``left``; plurals
 lose their ``s``); a word that marks a toy or a model (``toy``, ``model``,
 ``rubber``, ``plastic``, ``miniature``, ``mini``) makes a large thing
 toy-sized. The first keyword of the table found among the words wins.
-``python -m physomni_usd.materials.sizes`` prints the table as Markdown.
+``python -m physomni_usd.sizes`` prints the table as Markdown.
 """
 
 from __future__ import annotations

@@ -1,0 +1,33 @@
+"""The package's public API: one function per stage, importable without anything heavy."""
+
+import subprocess
+import sys
+
+import pytest
+
+import physomni_usd
+from physomni_usd.errors import InputError
+
+
+def test_importing_the_package_imports_no_stage_and_nothing_heavy():
+    code = ("import sys, physomni_usd\n"
+            "assert callable(physomni_usd.build) and callable(physomni_usd.simulate)\n"
+            "heavy = [m for m in ('torch', 'warp', 'newton', 'cv2', 'physomni_usd.build', 'physomni_usd.physics',"
+            " 'physomni_usd.render') if m in sys.modules]\n"
+            "print(heavy)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+
+
+@pytest.mark.parametrize("stage", ["estimate", "simulate", "render"])
+def test_a_stage_on_a_missing_shot_is_bad_input_naming_it(tmp_path, stage):
+    missing = tmp_path / "nowhere" / "shot.usda"
+    with pytest.raises(InputError, match="nowhere"):
+        getattr(physomni_usd, stage)(missing)
+    assert not (tmp_path / "nowhere").exists()
+
+
+def test_build_of_a_missing_photo_is_bad_input_naming_it(tmp_path):
+    with pytest.raises(InputError, match="absent.png"):
+        physomni_usd.build(tmp_path / "absent.png", tmp_path / "out", boxes=["1,1,5,5=box"])
+    assert not (tmp_path / "out").exists()
