@@ -126,7 +126,7 @@ class ShotRenderer:
             o = self.objects[k]
             x0, y0 = o.origin
             mask = np.zeros((h, w), bool)
-            a = o.texture[..., 3] >= 128
+            a = o.texture[:, : o.texture.shape[1] // 2 if o.two_sided else None, 3] >= 128  # the photo crop
             th, tw = min(a.shape[0], h - y0), min(a.shape[1], w - x0)
             if th <= 0 or tw <= 0:
                 continue
