@@ -34,9 +34,7 @@ RANKS = {
 }
 
 #: (importer, imported) pairs still running back up the layers; remove an entry when its edge is fixed.
-KNOWN_BACK_EDGES = {
-    ("physics.objects", "render.stage"), ("physics.mpm", "render.stage"),
-}
+KNOWN_BACK_EDGES: set[tuple[str, str]] = set()
 
 
 def _modules() -> dict[str, pathlib.Path]:

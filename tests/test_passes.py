@@ -12,7 +12,8 @@ import trimesh
 from pxr import Usd, UsdGeom
 
 from physomni_usd.render.passes import read_exr
-from physomni_usd.render.stage import read_camera, triangulate
+from physomni_usd.geometry.mesh import triangulate
+from physomni_usd.render.stage import read_camera
 
 from .conftest import cli
 

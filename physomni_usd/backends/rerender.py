@@ -81,7 +81,7 @@ def rerender_shot(shot, model: str | None, strength: float = 0.6, steps: int = 2
     ``rerender.mp4``) and the report."""
     import imageio.v2 as imageio
 
-    from ..render.video import _even
+    from ..render.encode import even_sides
 
     if not 0.0 < strength <= 1.0:
         raise InputError(f"--strength {strength:g}: must be in (0, 1]")
@@ -115,7 +115,7 @@ def rerender_shot(shot, model: str | None, strength: float = 0.6, steps: int = 2
                                     macro_block_size=1, pixelformat="yuv420p", ffmpeg_log_level="error")
         try:
             for f in new:
-                writer.append_data(_even(np.clip(f, 0, 255).astype(np.uint8)))
+                writer.append_data(even_sides(np.clip(f, 0, 255).astype(np.uint8)))
         finally:
             writer.close()
     section = {"video": str(out), "frames": int(len(new)), "width": int(frames.shape[2]),

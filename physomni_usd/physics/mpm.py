@@ -370,7 +370,7 @@ def particle_gradients(scene: MPMScene) -> np.ndarray | None:
 
 def texture_colour(prim) -> tuple[float, float, float]:
     """Mean RGB (0–1, as stored) of the texture of ``prim`` (a Usd.Prim) where it is opaque; grey without one."""
-    from ..render.stage import read_image, texture_file
+    from ..usd.textures import read_image, texture_file
 
     path = texture_file(prim)
     if path is None or not path.is_file():

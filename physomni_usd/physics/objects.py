@@ -62,7 +62,7 @@ class SimObject:
 
 def scene_objects(stage: Usd.Stage) -> list[SimObject]:
     """Every object under /World/Objects with a mesh, in mask order."""
-    from ..render.stage import triangulate
+    from ..geometry.mesh import triangulate
 
     cache = UsdGeom.XformCache(Usd.TimeCode.Default())
     out = []

@@ -211,12 +211,12 @@ class PassWriter:
 
     def add(self, t: float, t_next: float | None) -> None:
         """The passes of the frame just rendered at ``t`` (``t_next``: the next frame's time code or None)."""
-        from .video import _even
+        from .encode import even_sides
 
         buffers = frame_passes(self.renderer, t, t_next)
         write_exr(self.folder / f"passes.{int(t):04d}.exr", exr_channels(self.passes, buffers))
         for name, writer in zip(self.passes, self.writers):
-            writer.append_data(_even(preview(name, buffers, self.scale)))
+            writer.append_data(even_sides(preview(name, buffers, self.scale)))
         self.frames.append(int(t))
 
     def close(self, ok: bool = True) -> dict:

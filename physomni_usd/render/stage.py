@@ -7,11 +7,13 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from pxr import Usd, UsdGeom, UsdShade
+from pxr import Usd, UsdGeom
 
-from ..geometry.camera import RenderCamera, camera_from_usd
 from ..errors import InputError
+from ..geometry.camera import RenderCamera, camera_from_usd
+from ..geometry.mesh import triangulate
 from ..usd.author import OBJECTS
+from ..usd.textures import read_image, texture_file
 
 
 @dataclass
@@ -35,40 +37,6 @@ class RenderParticles:
     prim: Usd.Prim
     colour: np.ndarray  # (3,) RGB 0–255
     width: float  # metres
-
-
-def texture_file(prim: Usd.Prim) -> pathlib.Path | None:
-    """Resolved file of the UsdUVTexture feeding the surface bound to ``prim`` (default purpose)."""
-    mat, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
-    if not mat:
-        return None
-    for shader_prim in Usd.PrimRange(mat.GetPrim()):
-        shader = UsdShade.Shader(shader_prim)
-        if shader and shader.GetIdAttr().Get() == "UsdUVTexture":
-            asset = shader.GetInput("file").Get()
-            if asset is not None and (asset.resolvedPath or asset.path):
-                p = pathlib.Path(asset.resolvedPath or asset.path)
-                if not p.is_absolute():
-                    p = pathlib.Path(prim.GetStage().GetRootLayer().realPath).parent / p
-                return p
-    return None
-
-
-def read_image(path: pathlib.Path, what: str, rgba: bool) -> np.ndarray:
-    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED) if path and path.is_file() else None
-    if img is None:
-        raise InputError(f"cannot read the {what} texture {path}; was the shot folder moved without textures/?")
-    if img.ndim == 2:
-        img = cv2.cvtColor(img, cv2.COLOR_GRAY2BGR)
-    if img.shape[2] == 3:
-        img = cv2.cvtColor(img, cv2.COLOR_BGR2RGB)
-        if rgba:
-            img = np.dstack([img, np.full(img.shape[:2], 255, np.uint8)])
-    else:
-        img = cv2.cvtColor(img, cv2.COLOR_BGRA2RGBA)
-        if not rgba:
-            img = img[..., :3]
-    return np.ascontiguousarray(img)
 
 
 def read_plate(stage: Usd.Stage) -> np.ndarray:
@@ -198,19 +166,6 @@ def read_particles(stage: Usd.Stage) -> list[RenderParticles]:
 
 def visible(prim: Usd.Prim, time: Usd.TimeCode) -> bool:
     return UsdGeom.Imageable(prim).ComputeVisibility(time) != UsdGeom.Tokens.invisible
-
-
-def triangulate(counts: np.ndarray, indices: np.ndarray) -> np.ndarray:
-    """Fan-triangulate polygons given USD's faceVertexCounts / faceVertexIndices → (M, 3)."""
-    if counts.size and np.all(counts == 3):
-        return indices.reshape(-1, 3)
-    tris = []
-    start = 0
-    for c in counts:
-        for k in range(1, c - 1):
-            tris.append((indices[start], indices[start + k], indices[start + k + 1]))
-        start += c
-    return np.asarray(tris, np.int64).reshape(-1, 3)
 
 
 def read_camera(stage: Usd.Stage, time: Usd.TimeCode, width: int, height: int) -> RenderCamera:

@@ -23,6 +23,7 @@ from ..usd import layers
 from ..geometry.raycast import RayCaster, covered_pixels
 from ..usd.author import write_render_layer
 from .moves import MAX_AMOUNT, MOVES, move_matrices
+from .encode import even_sides
 from .passes import PassWriter, pass_files
 from .stage import (read_camera, read_objects, read_particles, read_photo, read_photo_camera,
                     read_photo_camera_matrix, read_plate, read_wide_plate, visible, world_points)
@@ -427,7 +428,7 @@ def _render_shot(shot, output, settings: RenderSettings, progress, passes=(), pa
                                     pixelformat="yuv420p", ffmpeg_log_level="error")
         try:
             for k, t in enumerate(range(start, end + 1)):
-                writer.append_data(_even(renderer.frame(float(t))))
+                writer.append_data(even_sides(renderer.frame(float(t))))
                 if pass_writer:
                     pass_writer.add(float(t), float(t + 1) if t < end else None)
                 if progress:
@@ -460,9 +461,3 @@ def _camera_in_shot(stage: Usd.Stage) -> dict:
         if layer.realPath and pathlib.Path(layer.realPath).name == layers.RENDER:
             return dict(layer.customLayerData.get("physomni:cameraMove", {"move": "static"}))
     return {"move": "static"}
-
-
-def _even(frame: np.ndarray) -> np.ndarray:
-    """H.264 in yuv420p needs even sides: drop the last row or column where needed."""
-    h, w = frame.shape[:2]
-    return np.ascontiguousarray(frame[:h - h % 2, :w - w % 2])
