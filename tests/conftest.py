@@ -66,3 +66,16 @@ def shot(tmp_path_factory, photo) -> dict:
                "--camera-height", "1",  # a fixed scale: tests below hold it to absolute lengths
                check=True)
     return {"dir": out, "shot": out / "shot.usda", "proc": proc, **photo}
+
+
+def first_frames(shot_dir: pathlib.Path, dest: pathlib.Path, frames: int) -> pathlib.Path:
+    """A copy of the shot at ``shot_dir`` in ``dest``, its frame range cut to its first ``frames``."""
+    import shutil
+
+    from pxr import Usd
+
+    shutil.copytree(shot_dir, dest)
+    stage = Usd.Stage.Open(str(dest / "shot.usda"))
+    stage.SetEndTimeCode(stage.GetStartTimeCode() + frames - 1)
+    stage.GetRootLayer().Save()
+    return dest

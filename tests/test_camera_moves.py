@@ -15,7 +15,7 @@ from physomni_usd.render.passes import read_exr
 from physomni_usd.render.video import ShotRenderer, render_shot
 from physomni_usd.settings import RenderSettings
 
-from .conftest import cli
+from .conftest import cli, first_frames
 
 FRAMES = 4
 SMALL = RenderSettings(max_size=96)
@@ -24,12 +24,7 @@ SMALL = RenderSettings(max_size=96)
 @pytest.fixture(scope="module")
 def short_shot(shot, tmp_path_factory):
     """A copy of the shared shot cut to its first frames (each test copies it again before writing)."""
-    d = tmp_path_factory.mktemp("moves") / "shot"
-    shutil.copytree(shot["dir"], d)
-    stage = Usd.Stage.Open(str(d / "shot.usda"))
-    stage.SetEndTimeCode(stage.GetStartTimeCode() + FRAMES - 1)
-    stage.GetRootLayer().Save()
-    return d
+    return first_frames(shot["dir"], tmp_path_factory.mktemp("moves") / "shot", FRAMES)
 
 
 def _copy(src, tmp_path):

@@ -15,7 +15,7 @@ from physomni_usd.render.passes import read_exr
 from physomni_usd.geometry.mesh import triangulate
 from physomni_usd.render.stage import read_camera
 
-from .conftest import cli
+from .conftest import cli, first_frames
 
 FRAMES = 6  # the first frames of the shared shot: the push moves the box from frame 0 on
 
@@ -23,11 +23,7 @@ FRAMES = 6  # the first frames of the shared shot: the push moves the box from f
 @pytest.fixture(scope="module")
 def passes(shot, tmp_path_factory):
     """A copy of the shared shot, cut to its first frames, rendered with every pass."""
-    d = tmp_path_factory.mktemp("passes") / "shot"
-    shutil.copytree(shot["dir"], d)
-    stage = Usd.Stage.Open(str(d / "shot.usda"))
-    stage.SetEndTimeCode(stage.GetStartTimeCode() + FRAMES - 1)
-    stage.GetRootLayer().Save()
+    d = first_frames(shot["dir"], tmp_path_factory.mktemp("passes") / "shot", FRAMES)
     cli("render", d / "shot.usda", "--max-size", "240", "--passes", "depth,normal,flow,mask",
         "--passes-dir", d / "out", "-q", check=True)
     info = json.loads((d / "out" / "passes.json").read_text())
