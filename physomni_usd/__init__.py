@@ -10,10 +10,27 @@ The public API is one function per stage, paths in and the stage's section of
 one line naming the option or file; nothing the user made is overwritten then.
 """
 
+import sys
+import types
+
 from ._version import __version__
 from .usd.schema import register_schema
 
 register_schema()
+
+
+class _Package(types.ModuleType):
+    """The package, keeping :func:`build` and :func:`render` under their names: importing the submodules
+    ``physomni_usd.build`` and ``physomni_usd.render`` would otherwise set those attributes to the modules
+    (the import system binds each submodule on its parent). The modules stay in ``sys.modules``."""
+
+    def __setattr__(self, name, value):
+        if name in ("build", "render") and isinstance(value, types.ModuleType) and name in self.__dict__:
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
 
 
 def build(photo, out_dir, masks=(), boxes=(), settings=None, **options):
@@ -47,14 +64,15 @@ def simulate(shot, settings=None, progress=None, echo=lambda m: None) -> dict:
     return simulate_shot(shot, settings or SimulateSettings(), progress=progress, echo=echo)
 
 
-def render(shot, output=None, settings=None, progress=None) -> dict:
+def render(shot, output=None, settings=None, progress=None, **options) -> dict:
     """Render every frame of ``shot`` to ``output`` (default ``video.mp4`` beside it); ``settings`` a
-    :class:`physomni_usd.settings.RenderSettings` (defaults when None). Returns the report's ``render``
-    section."""
+    :class:`physomni_usd.settings.RenderSettings` (defaults when None); ``options``: ``passes``,
+    ``passes_dir``, ``camera`` (a move of :data:`physomni_usd.render.moves.MOVES`) and ``camera_amount``.
+    Returns the report's ``render`` section."""
     from .render.video import render_shot
     from .settings import RenderSettings
 
-    return render_shot(shot, output, settings or RenderSettings(), progress=progress)
+    return render_shot(shot, output, settings or RenderSettings(), progress=progress, **options)
 
 
 __all__ = ["__version__", "register_schema", "build", "estimate", "simulate", "render"]

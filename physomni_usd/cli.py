@@ -235,18 +235,18 @@ def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape,
           quiet, backends):
     """Photo → scene.usda, physics.usda and the root shot.usda (perceive, align, estimate)."""
     with _errors():
-        from .build import build_shot
+        import physomni_usd
 
         settings = _build_settings(fov, pitch, camera_height, shape, fps)
-        result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces, fixed=fixed,
-                            meshes_dir=meshes_dir, sizes=sizes, backends=backends)
+        result = physomni_usd.build(photo, out_dir, masks, boxes, settings, pushes=pushes, echo=_say(quiet),
+                                    forces=forces, fixed=fixed, meshes_dir=meshes_dir, sizes=sizes, backends=backends)
         if not quiet:
             total = sum(result.seconds.values())
             click.echo(f"wrote {result.shot} ({len(result.objects)} objects, {total:.2f} s)", err=True)
 
 
 def _simulate(shot, seconds, fps, substeps, quiet, particle_spacing=None, mpm_steps=None):
-    from .physics.simulate import simulate_shot
+    import physomni_usd
     from .settings import SimulateSettings
     from .usd import layers
 
@@ -257,7 +257,7 @@ def _simulate(shot, seconds, fps, substeps, quiet, particle_spacing=None, mpm_st
     settings = SimulateSettings(seconds=seconds, fps=fps, substeps=substeps, particle_spacing=particle_spacing,
                                 mpm_steps=mpm_steps)
     with _progress("simulate", not quiet) as bar:
-        section = simulate_shot(shot, settings, progress=bar, echo=_say(quiet))
+        section = physomni_usd.simulate(shot, settings, progress=bar, echo=_say(quiet))
     if not quiet:
         click.echo(f"simulate: {section['frames']} frames, {section['bodies']} rigid bodies, "
                    f"{len(section['moving_prims'])} moving, dt {section['dt'] * 1000:.2f} ms, "
@@ -277,7 +277,7 @@ def _camera_moves():
 
 def _render(shot, output, quiet, max_size=1920, passes=None, passes_dir=None, camera=None, camera_amount=1.0):
     from .render.passes import parse_passes
-    from .render.video import render_shot
+    import physomni_usd
     from .settings import RenderSettings
 
     names = parse_passes(passes)
@@ -286,8 +286,8 @@ def _render(shot, output, quiet, max_size=1920, passes=None, passes_dir=None, ca
 
         raise InputError("--passes-dir needs --passes (e.g. --passes depth,normal,flow,mask)")
     with _progress("render  ", not quiet) as bar:
-        section = render_shot(shot, output, RenderSettings(max_size=max_size), progress=bar, passes=names,
-                              passes_dir=passes_dir, camera=camera, camera_amount=camera_amount)
+        section = physomni_usd.render(shot, output, RenderSettings(max_size=max_size), progress=bar, passes=names,
+                                      passes_dir=passes_dir, camera=camera, camera_amount=camera_amount)
     if not quiet:
         click.echo(f"render: {section['video']} ({section['frames']} frames, "
                    f"{section['frames_per_second']:.1f} frames/s)", err=True)
@@ -416,7 +416,7 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, f
     """
     with _errors(), all_or_nothing():
         from ._files import check_writable
-        from .build import build_shot
+        import physomni_usd
         from .report import update_report
 
         # refuse absurd values, and a video that could not be written, before any work
@@ -427,8 +427,8 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, f
         check_camera_move(camera, camera_amount)
         check_writable([out_dir / "video.mp4"])
         t0 = time.perf_counter()
-        result = build_shot(photo, out_dir, masks, boxes, settings, pushes, echo=_say(quiet), forces=forces, fixed=fixed,
-                            meshes_dir=meshes_dir, sizes=sizes, backends=backends)
+        result = physomni_usd.build(photo, out_dir, masks, boxes, settings, pushes=pushes, echo=_say(quiet),
+                                    forces=forces, fixed=fixed, meshes_dir=meshes_dir, sizes=sizes, backends=backends)
         _simulate(result.shot, seconds, None, None, quiet, particle_spacing, mpm_steps)
         section = _render(result.shot, None, quiet, camera=camera, camera_amount=camera_amount)
         total = round(time.perf_counter() - t0, 3)
@@ -469,14 +469,14 @@ def estimate(shot, estimator, vlm_url, vlm_model, vlm_api_key, vlm_timeout, sets
           --vlm-model Qwen2.5-VL-72B-Instruct
     """
     with _errors():
-        from .materials.estimate import estimate_shot
+        import physomni_usd
 
         vlm = None
         if estimator == "vlm":
             from .materials.vlm import VLMSettings
 
             vlm = VLMSettings.resolve(vlm_url, vlm_model, vlm_api_key, timeout_s=vlm_timeout)
-        section = estimate_shot(shot, estimator, vlm, sets, forces, echo=_say(quiet))
+        section = physomni_usd.estimate(shot, estimator, vlm, sets, forces, echo=_say(quiet))
         if not quiet:
             for name, obj in section["objects"].items():
                 params = ", ".join(f"{k}={v['value']:g}" if isinstance(v["value"], float) else f"{k}={v['value']}"

@@ -31,3 +31,11 @@ def test_build_of_a_missing_photo_is_bad_input_naming_it(tmp_path):
     with pytest.raises(InputError, match="absent.png"):
         physomni_usd.build(tmp_path / "absent.png", tmp_path / "out", boxes=["1,1,5,5=box"])
     assert not (tmp_path / "out").exists()
+
+
+def test_the_stage_functions_survive_their_modules_being_imported():
+    code = ("import physomni_usd, physomni_usd.build, physomni_usd.render.video\n"
+            "from physomni_usd.build import build_shot\n"
+            "assert callable(physomni_usd.build) and callable(physomni_usd.render), (physomni_usd.build,)\n"
+            "import sys; assert sys.modules['physomni_usd.build'].build_shot is build_shot\n")
+    subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

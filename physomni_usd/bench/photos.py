@@ -3,7 +3,7 @@
 Synthetic scenes: labelled primitives of their labels' typical sizes (±10 %)
 — a box, a can, a plate, a bottle — on a checkered floor, under a known
 camera at pitches 5°, 30°, 60° and 85° (painted by
-``bench/synthetic.render_truth``). Each is built with ``build_shot`` exactly
+``bench/synthetic.render_truth``). Each is built with ``physomni_usd.build`` exactly
 as a user's photo with masks would be, then compared with the truth:
 
 - pitch error (degrees) and vertical field-of-view error (fraction);
@@ -176,21 +176,20 @@ def frame0_ssim(shot_folder, photo: np.ndarray) -> float:
 
 
 def run_scene(pitch_deg: float, folder, seconds: float = 0.5, seed: int = 0, size=(480, 360), render=True) -> dict:
-    from ..build import build_shot
-    from ..physics.simulate import simulate_shot
+    import physomni_usd as api
     from ..settings import SimulateSettings
 
     scene = make_known_scene(pitch_deg, size[0], size[1], seed=seed)
     folder = pathlib.Path(folder)
     specs = write_scene(scene, folder / "input")
     t0 = time.perf_counter()
-    result = build_shot(folder / "input" / "photo.png", folder / "shot", specs)
+    result = api.build(folder / "input" / "photo.png", folder / "shot", specs)
     row = compare(scene, result.folder)
     row["ssim_frame0"] = frame0_ssim(result.folder, scene.photo) if render else None
     finished = True
     if seconds > 0:
         try:
-            simulate_shot(result.shot, SimulateSettings(seconds=seconds))
+            api.simulate(result.shot, SimulateSettings(seconds=seconds))
         except Exception as exc:  # noqa: BLE001 — a benchmark reports a failed run instead of stopping
             finished, row["error"] = False, str(exc)
     row["finished"] = finished

@@ -45,9 +45,8 @@ def _resized_example(example: pathlib.Path, size: int, work: pathlib.Path) -> di
 
 def bench_pipeline(example, size: int = 880, repeats: int = 3, seconds: float = 2.0, fps: float = 30.0,
                    echo=print) -> dict:
-    from ..build import build_shot
-    from ..physics.simulate import simulate_shot
-    from ..render.video import render_shot
+    import physomni_usd as api
+
     from ..settings import BuildSettings, SimulateSettings
 
     example = pathlib.Path(example)
@@ -57,17 +56,17 @@ def bench_pipeline(example, size: int = 880, repeats: int = 3, seconds: float = 
         builds = []
         for _ in range(repeats):
             t0 = time.perf_counter()
-            result = build_shot(ex["photo"], work / "shot", ex["masks"], (), BuildSettings(fps=fps), ex["push"],
-                                  sizes=ex["sizes"])
+            result = api.build(ex["photo"], work / "shot", ex["masks"], (), BuildSettings(fps=fps), pushes=ex["push"],
+                           sizes=ex["sizes"])
             builds.append((time.perf_counter() - t0, result.seconds))
         median = statistics.median(t for t, _ in builds)
         stages = min(builds, key=lambda b: abs(b[0] - median))[1]
         t0 = time.perf_counter()
-        result = build_shot(ex["photo"], work / "run", ex["masks"], (), BuildSettings(fps=fps), ex["push"],
-                                  sizes=ex["sizes"])
+        result = api.build(ex["photo"], work / "run", ex["masks"], (), BuildSettings(fps=fps), pushes=ex["push"],
+                           sizes=ex["sizes"])
         t_build = time.perf_counter() - t0
-        sim = simulate_shot(result.shot, SimulateSettings(seconds=seconds))
-        ren = render_shot(result.shot)
+        sim = api.simulate(result.shot, SimulateSettings(seconds=seconds))
+        ren = api.render(result.shot)
         t_run = time.perf_counter() - t0
     out = {
         "example": example.name, "width": ex["size"][0], "height": ex["size"][1], "objects": len(ex["masks"]),
