@@ -366,7 +366,7 @@ def simulate(shot, seconds, fps, substeps, particle_spacing, mpm_steps, quiet):
                    "objects; crane-down 30 % of the camera's height. static removes a move. "
                    "[default: the camera the shot has]")
 @click.option("--camera-amount", type=float, default=1.0, show_default=True,
-              help="Size of the move as a multiple of its default, in (0, 4].")
+              help="Size of the move as a multiple of its default. Range: 0 < value ≤ 4.")
 def render(shot, output, max_size, quiet, passes, passes_dir, camera, camera_amount):
     """Render the composed shot over its background plate into an H.264 MP4.
 
@@ -403,7 +403,7 @@ def render(shot, output, max_size, quiet, passes, passes_dir, camera, camera_amo
 @click.option("--camera", type=click.Choice(list(_camera_moves())), default=None, metavar="MOVE",
               help="A camera move for the video (see render --help) [default: the photo's camera, still].")
 @click.option("--camera-amount", type=float, default=1.0, show_default=True,
-              help="Size of the move as a multiple of its default, in (0, 4].")
+              help="Size of the move as a multiple of its default. Range: 0 < value ≤ 4.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, fps, meshes_dir, fixed, forces, seconds,
         pushes, particle_spacing, mpm_steps, camera, camera_amount, quiet, backends):
