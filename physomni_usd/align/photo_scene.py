@@ -18,6 +18,7 @@ from ..perceive.lift import FLAT_PRIOR_RATIO, fill_holes, foot_pixel, lift_silho
 from ..settings import BuildSettings
 from ..errors import InputError
 from ..geometry.camera import PinholeCamera, pick_pitch
+from ..geometry.mesh import longest_dimension
 from .cues import MAX_PITCH_DEG, estimate_camera
 from .place import make_room, separate
 from .scale import fit_scale
@@ -74,7 +75,7 @@ def build_photo_scene(masks, labels, names, photo, settings: BuildSettings, user
     fit = None
     for _ in range(SCALE_ROUNDS):
         lifted = lift_all(masks, labels, unit, settings, scale, supports, photo=photo)
-        longest = [float(np.ptp(m.vertices, axis=0).max()) for m in lifted]
+        longest = [longest_dimension(m.vertices) for m in lifted]
         fit = fit_scale(names, labels, longest, user_sizes, cam_cfg.height_m)
         if abs(np.log(fit.factor / scale)) < 1e-3:
             break

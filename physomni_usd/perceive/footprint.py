@@ -198,6 +198,31 @@ def height_from_edge(photo: np.ndarray, mask: np.ndarray, camera, base_z: float)
     return float(np.median(group)) if len(group) >= 0.4 * len(h) else None
 
 
+def sphere_from_outline(poly_uv: np.ndarray, camera, base_z: float) -> tuple[np.ndarray, float] | None:
+    """(centre (3,), radius) of the ball resting on z = ``base_z`` whose silhouette is the outline, or None.
+
+    A sphere's silhouette is the cone of rays tangent to it: its axis points at the centre and its half
+    angle α gives distance = radius / sin α. With the centre one radius above the ground, the distance
+    along the axis follows from the camera's height alone, so no height prior enters.
+    """
+    d = camera.rays(poly_uv[:, 0], poly_uv[:, 1])
+    d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    axis = d.mean(0)
+    axis /= np.linalg.norm(axis)
+    alpha = float(np.mean(np.arccos(np.clip(d @ axis, -1.0, 1.0))))
+    s = math.sin(alpha)
+    if s <= 1e-6 or s - axis[2] <= 1e-9:
+        return None
+    t = (camera.origin[2] - base_z) / (s - axis[2])  # centre z = base_z + t·s, on the axis
+    if t <= 0:
+        return None
+    centre = camera.origin + t * axis
+    radius = t * s
+    if centre[2] - base_z <= 0:
+        return None
+    return centre, float(radius)
+
+
 def lift_footprint(mask: np.ndarray, camera, height_hint: float | None, prior_shape: str | None,
                    base_z: float = 0.0, sections: int = 32, photo: np.ndarray | None = None,
                    flat_prior: bool = False):
@@ -226,6 +251,17 @@ def lift_footprint(mask: np.ndarray, camera, height_hint: float | None, prior_sh
     if height is None:
         width = float(np.ptp(flat, axis=0).max())
         height, source = DEFAULT_HEIGHT_RATIO * width, f"{DEFAULT_HEIGHT_RATIO:g} × the footprint's width"
+    if prior_shape == "ball":
+        # a ball's outline is its own measure: the tangent cone fixes it, no prism footprint or prior needed
+        ball = sphere_from_outline(poly_uv, camera, base_z)
+        if ball is not None and 2 * ball[1] < 0.9 * (camera.origin[2] - base_z):
+            centre, radius = ball
+            mesh = trimesh.creation.icosphere(subdivisions=3, radius=radius)
+            mesh.apply_translation([centre[0], centre[1], base_z + radius])
+            contact = np.array([centre[0], centre[1], base_z])
+            info = {"mode": "footprint", "shape": "sphere", "height_source": "the ball's outline (tangent cone)",
+                    "circle_iou": round(circle_fit(flat)[2], 3), "view_depression_deg": round(steep, 2)}
+            return (np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int32), "sphere", contact, info)
     height = min(height, 0.9 * (camera.origin[2] - base_z))
     fp = footprint(poly_uv, camera, base_z, height)
     if fp is None or len(fp) < 3:

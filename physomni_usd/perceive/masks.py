@@ -178,9 +178,22 @@ def segment_box(photo: np.ndarray, box: tuple[int, int, int, int]) -> tuple[np.n
         for name, m in candidates.items():
             if name not in scores and m.sum() >= MIN_MASK_PIXELS:
                 scores[name] = mask_quality(photo, m, box)
-        best = min(scores, key=lambda k: scores[k]["background_like"] - scores[k]["edge_agreement"])
+        # A box is drawn around the whole object, so a right mask reaches across it; without the span term a
+        # short clean fragment of a pencil beats the whole pencil.
+        best = min(scores, key=lambda k: scores[k]["background_like"] - scores[k]["edge_agreement"]
+                   - 0.5 * _box_span(candidates[k], box))
     quality = dict(scores[best], method=best)
     return candidates[best], quality
+
+
+def _box_span(mask: np.ndarray, box) -> float:
+    """How far ``mask`` reaches across ``box`` (x0, y0, x1, y1): the smaller of its extent's shares of the
+    box's width and height, in [0, 1]."""
+    x0, y0, x1, y1 = box
+    ys, xs = np.nonzero(mask[y0:y1, x0:x1])
+    if len(xs) == 0:
+        return 0.0
+    return float(min((xs.max() - xs.min() + 1) / (x1 - x0), (ys.max() - ys.min() + 1) / (y1 - y0)))
 
 
 def _grabcut(bgr: np.ndarray, box, init: np.ndarray | None) -> np.ndarray:

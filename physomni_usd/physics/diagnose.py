@@ -18,6 +18,7 @@ from pxr import Usd, UsdGeom, UsdPhysics, UsdShade
 
 from ..sizes import SizePrior, size_prior
 from ..metrics.geometry import world_meshes
+from ..geometry.mesh import longest_dimension
 from ..usd.author import OBJECTS
 
 #: Sizes beyond this factor of the label's typical size are worth a warning, beyond the second an error.
@@ -120,7 +121,7 @@ def scene_findings(stage: Usd.Stage, time: float = 0.0) -> list[SceneFinding]:
         prim = root.GetChild(name)
         label = prim.GetAttribute("physomni:label").Get() or name
         extent = np.ptp(mesh.vertices, axis=0)
-        longest = float(extent.max())
+        longest = longest_dimension(mesh.vertices)
         tall = "tall" if extent[2] >= extent[:2].max() else "across"
         size_of = float(extent[2]) if tall == "tall" else longest
         prior = size_prior(label)
