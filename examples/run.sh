@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Usage: bash examples/run.sh EXAMPLE_DIR [OUT_DIR]
 # Runs `physomni-usd run` on an example folder as its example.json describes it
-# (photo, masks with labels, sizes, pushes, seconds), writing to OUT_DIR (default out/<example>).
+# (photo, masks or boxes with labels, sizes, pushes, seconds), writing to OUT_DIR (default out/<example>).
 set -euo pipefail
 dir="$(cd "$1" && pwd)"
 out="${2:-out/$(basename "$dir")}"
@@ -11,9 +11,12 @@ import json, pathlib, sys
 folder = pathlib.Path(sys.argv[1])
 spec = json.loads((folder / "example.json").read_text())
 print(folder / spec["photo"])
-for mask in spec["masks"]:
+for mask in spec.get("masks", []):
     print("--mask")
     print(folder / mask)
+for box in spec.get("boxes", []):
+    print("--box")
+    print(box)
 for size in spec.get("size", []):
     print("--size")
     print(size)

@@ -55,7 +55,8 @@ SIZES: tuple[SizePrior, ...] = (
     _p("book", 0.24, 0.03), _p("laptop", 0.33, 0.02), _p("keyboard", 0.44, 0.03), _p("mouse", 0.11, 0.04),
     _p("remote", 0.18, 0.02), _p("letter", 0.06, 0.015), _p("shell", 0.08, 0.04), _p("dice", 0.016, 0.016),
     _p("die", 0.016, 0.016), _p("cube", 0.057, 0.057), _p("candle", 0.15, 0.15, "round"),
-    _p("camera", 0.12, 0.08),
+    _p("camera", 0.12, 0.08), _p("candy", 0.015, 0.008, "round"), _p("sweet", 0.015, 0.008, "round"),
+    _p("button", 0.02, 0.003, "round"),
     # kitchen and table
     _p("saucer", 0.15, 0.02, "round"), _p("plate", 0.26, 0.02, "round"), _p("bowl", 0.16, 0.07, "round"),
     _p("cup", 0.11, 0.095, "round"), _p("mug", 0.12, 0.095, "round"), _p("glass", 0.12, 0.12, "round"),

@@ -42,8 +42,9 @@ DEFAULT_FOV_DEG = 50.0
 MAX_PITCH_DEG = 89.5
 #: A mask is an ellipse when its IoU with the fitted ellipse reaches this.
 ELLIPSE_IOU = 0.9
-#: Round labels at most this tall for their width give an ellipse cue (coins, plates, saucers, lids).
-FLAT_RATIO = 0.45
+#: Round labels at most this tall for their width give an ellipse cue (coins, plates, saucers, lids, sweets);
+#: the outline model is a cylinder of the label's proportions, so thickness counts.
+FLAT_RATIO = 0.6
 #: Line segments shorter than this fraction of the image diagonal are ignored.
 MIN_SEGMENT = 0.025
 #: A segment belongs to a vanishing point when its direction is within this angle of the point (degrees).
@@ -111,20 +112,34 @@ def _fit_ratio(points: np.ndarray) -> tuple[float, tuple] | None:
     return min(a, b) / max(a, b), ((cx, cy), (a, b), angle)
 
 
-def mask_ellipse(mask: np.ndarray) -> tuple[float, float, tuple] | None:
-    """(minor/major, IoU of the mask with its fitted ellipse, the ellipse) of a mask's outer contour."""
+def mask_ellipse(mask: np.ndarray, hidden: np.ndarray | None = None) -> tuple[float, float, tuple] | None:
+    """(minor/major, IoU of the mask with its fitted ellipse, the ellipse) of a mask's outer contour.
+
+    ``hidden`` (H, W) bool marks what other objects cover: outline points along it (and along the photo's
+    border) are where the object is cut off, not its own edge, so the ellipse is fitted to the rest and the
+    IoU counts only what is not hidden (a saucer behind its cup is still an ellipse).
+    """
     contours, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     if not contours:
         return None
-    c = max(contours, key=cv2.contourArea)
-    fit = _fit_ratio(c[:, 0, :].astype(np.float32) + 0.5)
+    c = max(contours, key=cv2.contourArea)[:, 0, :]
+    h, w = mask.shape
+    keep = (c[:, 0] > 0) & (c[:, 1] > 0) & (c[:, 0] < w - 1) & (c[:, 1] < h - 1)
+    cut = None
+    if hidden is not None and hidden.any():
+        cut = cv2.dilate(hidden.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+        keep &= ~cut[c[:, 1], c[:, 0]]
+    if keep.sum() < max(12, 0.4 * len(c)):
+        return None
+    fit = _fit_ratio(c[keep].astype(np.float32) + 0.5)
     if fit is None:
         return None
     ratio, ell = fit
     drawn = np.zeros(mask.shape, np.uint8)
     cv2.ellipse(drawn, (ell[0], ell[1], ell[2]), 1, -1)
-    inter = np.logical_and(drawn > 0, mask).sum()
-    union = np.logical_or(drawn > 0, mask).sum()
+    seen = np.ones(mask.shape, bool) if cut is None else ~cut
+    inter = np.logical_and(drawn > 0, mask)[seen].sum()
+    union = np.logical_or(drawn > 0, mask)[seen].sum()
     return ratio, inter / max(union, 1), ell
 
 
@@ -184,12 +199,19 @@ class RoundOutline:
 def round_outlines(masks, labels) -> list[RoundOutline]:
     """Masks that are ellipses and whose labels are round, flat things (coins, plates, saucers, lids)."""
     out = []
-    for mask, label in zip(masks, labels):
+    filled = [fill_holes(m) for m in masks]
+    for i, (mask, label) in enumerate(zip(filled, labels)):
         prior = size_prior(label)
         if prior is None or prior.shape != "round" or not prior.longest_m or not prior.height_m:
             continue
         thickness = prior.height_m / prior.longest_m
-        found = mask_ellipse(fill_holes(mask)) if thickness <= FLAT_RATIO else None
+        others = np.zeros(mask.shape, bool)
+        for j, m in enumerate(filled):
+            if j != i:
+                others |= m
+        found = mask_ellipse(mask) if thickness <= FLAT_RATIO else None
+        if found is not None and found[1] < ELLIPSE_IOU and (others & ~mask).any():
+            found = mask_ellipse(mask, others)  # not an ellipse as seen: perhaps one that another object hides
         if found is None or found[1] < ELLIPSE_IOU:
             continue
         ratio, iou, ell = found

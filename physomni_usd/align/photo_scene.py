@@ -51,8 +51,17 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
         hint = prior.height_m / scale if prior is not None and prior.height_m else None
         base = float(out[supports[i][0]].vertices[:, 2].max()) if i in supports else 0.0
         flat = bool(prior and prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * prior.longest_m)
-        out[i] = lift_silhouette(masks[i], camera, settings.lift, height_hint=hint,
-                                 prior_shape=prior.shape if prior else None, base_z=base, flat=flat, photo=photo)
+        kwargs = dict(height_hint=hint, prior_shape=prior.shape if prior else None, flat=flat, photo=photo)
+        try:
+            out[i] = lift_silhouette(masks[i], camera, settings.lift, base_z=base, **kwargs)
+        except ValueError:
+            if i not in supports:
+                raise InputError(f"object {i} ({labels[i]}): its lowest pixel is above the horizon of a camera "
+                                 f"pitched {camera.pitch_deg:.0f}° down; give --pitch (and --fov)") from None
+            # the lower object's top stands above where this one's foot looks (a wrong pitch, a mask that
+            # takes in part of the other): the object stands on the ground instead of failing the build
+            supports.pop(i)
+            out[i] = lift_silhouette(masks[i], camera, settings.lift, base_z=0.0, **kwargs)
     return out
 
 

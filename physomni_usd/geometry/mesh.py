@@ -18,25 +18,23 @@ def triangulate(counts: np.ndarray, indices: np.ndarray) -> np.ndarray:
     return np.asarray(tris, np.int64).reshape(-1, 3)
 
 
-def _directions(n: int = 256) -> np.ndarray:
-    """(n, 3) unit vectors spread evenly over a hemisphere (a Fibonacci lattice)."""
-    k = np.arange(n) + 0.5
-    z = k / n
-    phi = np.pi * (1 + 5 ** 0.5) * k
-    r = np.sqrt(1 - z * z)
-    return np.c_[r * np.cos(phi), r * np.sin(phi), z]
-
-
-_DIRECTIONS = _directions()
+#: Turns about the vertical tried for an object's own box, radians (half-degree steps over a quarter turn).
+_TURNS = np.radians(np.arange(0.0, 90.0, 0.5))
 
 
 def longest_dimension(vertices: np.ndarray) -> float:
-    """The largest extent of the points (n, 3) along any direction (their diameter, within 1 %), in their units.
-
-    Unlike the axis-aligned box's longest side, it does not shrink for a pencil lying diagonally.
+    """The longest side of the points' (n, 3) upright box turned about the vertical to fit them tightest,
+    in their units: a lying pencil's length whichever way it points, a mug's height or width (not the
+    diagonal between them). Unlike the axis-aligned box's longest side, it does not shrink for a pencil
+    lying diagonally.
     """
     v = np.asarray(vertices, float)
     if len(v) < 2:
         return 0.0
-    proj = v @ _DIRECTIONS.T
-    return float((proj.max(0) - proj.min(0)).max())
+    c, s = np.cos(_TURNS), np.sin(_TURNS)
+    a = v[:, :1] * c + v[:, 1:2] * s  # (n, turns): along each turned axis
+    b = -v[:, :1] * s + v[:, 1:2] * c
+    wa = a.max(0) - a.min(0)
+    wb = b.max(0) - b.min(0)
+    k = int(np.argmin(wa * wb))
+    return float(max(wa[k], wb[k], np.ptp(v[:, 2])))
