@@ -45,6 +45,8 @@ ELLIPSE_IOU = 0.9
 #: Round labels at most this tall for their width give an ellipse cue (coins, plates, saucers, lids, sweets);
 #: the outline model is a cylinder of the label's proportions, so thickness counts.
 FLAT_RATIO = 0.6
+#: Round labels taller than this for their width are spheroids to the ellipse cue, not cylinders.
+SPHEROID_ABOVE = 0.3
 #: Line segments shorter than this fraction of the image diagonal are ignored.
 MIN_SEGMENT = 0.025
 #: A segment belongs to a vanishing point when its direction is within this angle of the point (degrees).
@@ -181,7 +183,28 @@ class RoundOutline:
     angle: float = 0.0  # the fitted ellipse's major axis, degrees
 
     def pitch(self, width: int, height: int, fov_deg: float) -> float | None:
-        """The pitch under which a cylinder of this outline's proportions shows its ratio (2° then 0.25° steps)."""
+        """The pitch under which a cylinder of this outline's proportions shows its ratio (2° then 0.25° steps).
+
+        A thick round thing (a sweet, a pebble: over ``SPHEROID_ABOVE`` as tall as wide) has rounded edges, and
+        a cylinder's outline would grow taller than wide from some pitch on, giving two answers: it is a
+        spheroid instead, whose outline's ratio √(sin²ε + k²cos²ε) rises with the ray's depression ε alone.
+        """
+        if self.thickness > SPHEROID_ABOVE:
+            k = self.thickness
+            if self.ratio <= k:
+                return None
+            eps = math.degrees(math.asin(math.sqrt(min(1.0, (self.ratio ** 2 - k * k) / (1 - k * k)))))
+            # the pitch whose ray through (u, v) descends at ε
+            def depression(p):
+                d = PinholeCamera(width, height, fov_deg, p).rays(self.u, self.v)
+                return math.degrees(math.asin(max(-1.0, min(1.0, -float(d[2]) / float(np.linalg.norm(d))))))
+            lo, hi = 0.0, MAX_PITCH_DEG
+            if not depression(lo) <= eps <= depression(hi):
+                return lo if eps < depression(lo) else hi
+            for _ in range(40):
+                mid = 0.5 * (lo + hi)
+                lo, hi = (mid, hi) if depression(mid) < eps else (lo, mid)
+            return 0.5 * (lo + hi)
         best = None
         for lo, hi, step in ((0.0, MAX_PITCH_DEG, 2.0), (None, None, 0.25)):
             if lo is None:

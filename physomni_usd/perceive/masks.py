@@ -199,6 +199,7 @@ def _box_span(mask: np.ndarray, box) -> float:
 def _grabcut(bgr: np.ndarray, box, init: np.ndarray | None) -> np.ndarray:
     """GrabCut's foreground (largest component), from the rectangle or from ``init`` labels."""
     x0, y0, x1, y1 = box
+    cv2.setRNGSeed(0)  # GrabCut's colour models start from k-means: the same box gives the same mask every time
     bgd = np.zeros((1, 65), np.float64)
     fgd = np.zeros((1, 65), np.float64)
     if init is None:
