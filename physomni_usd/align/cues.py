@@ -45,6 +45,10 @@ ELLIPSE_IOU = 0.9
 #: Round labels at most this tall for their width give an ellipse cue (coins, plates, saucers, lids, sweets);
 #: the outline model is a cylinder of the label's proportions, so thickness counts.
 FLAT_RATIO = 0.6
+#: Round things whose sides slope in below the rim: the outline is the rim (their thickness does not show).
+RIMMED = frozenset({"plate", "saucer", "dish", "tray"})
+#: Their foot's width over the rim's.
+RIM_FOOT = 0.7
 #: Round labels taller than this for their width are spheroids to the ellipse cue, not cylinders.
 SPHEROID_ABOVE = 0.3
 #: Line segments shorter than this fraction of the image diagonal are ignored.
@@ -145,9 +149,12 @@ def mask_ellipse(mask: np.ndarray, hidden: np.ndarray | None = None) -> tuple[fl
     return ratio, inter / max(union, 1), ell
 
 
-def cylinder_ratio(camera: PinholeCamera, u: float, v: float, thickness: float, angle: bool = False):
+def cylinder_ratio(camera: PinholeCamera, u: float, v: float, thickness: float, angle: bool = False,
+                   rim: bool = False):
     """minor/major of the outline of a small cylinder (diameter 1, height ``thickness``) standing on the ground
-    where pixel (u, v) looks, as ``camera`` sees it (and fitEllipse's angle in degrees, with ``angle``)."""
+    where pixel (u, v) looks, as ``camera`` sees it (and fitEllipse's angle in degrees, with ``angle``).
+    ``rim``: its sides slope in below the rim to a foot ``RIM_FOOT`` as wide (a plate, a saucer), so from
+    above only the rim shows."""
     g = camera.ground_points(u, v)
     if not np.all(np.isfinite(g)):
         return None
@@ -155,7 +162,8 @@ def cylinder_ratio(camera: PinholeCamera, u: float, v: float, thickness: float, 
     r = 0.01 * dist
     t = np.linspace(0, 2 * np.pi, 48, endpoint=False)
     ring = np.stack([np.cos(t), np.sin(t), np.zeros_like(t)], 1) * r
-    pts = np.vstack([g + ring, g + ring + [0, 0, 2 * r * thickness]])
+    top = g + ring + [0, 0, 2 * r * thickness]
+    pts = np.vstack([g + (RIM_FOOT if rim else 1.0) * ring, top])
     uv, depth = camera.project(pts)
     if (depth <= 0).any():
         return None
@@ -181,6 +189,7 @@ class RoundOutline:
     iou: float
     thickness: float  # typical height over width of the label
     angle: float = 0.0  # the fitted ellipse's major axis, degrees
+    rim: bool = False  # tableware: sides sloping in below the rim (RIM_FOOT)
 
     def pitch(self, width: int, height: int, fov_deg: float) -> float | None:
         """The pitch under which a cylinder of this outline's proportions shows its ratio (2° then 0.25° steps).
@@ -213,7 +222,7 @@ class RoundOutline:
                 lo, hi = max(0.0, best[1] - 2.0), min(MAX_PITCH_DEG, best[1] + 2.0)
             for pitch in np.arange(lo, hi + 1e-9, step):
                 model = cylinder_ratio(PinholeCamera(width, height, fov_deg, float(pitch)), self.u, self.v,
-                                       self.thickness)
+                                       self.thickness, rim=self.rim)
                 if model is not None and (best is None or abs(model - self.ratio) < best[0]):
                     best = (abs(model - self.ratio), float(pitch))
         return best[1] if best is not None and best[0] <= 0.05 else None
@@ -239,7 +248,9 @@ def round_outlines(masks, labels) -> list[RoundOutline]:
             continue
         ratio, iou, ell = found
         (u, v), _, _ = ell
-        out.append(RoundOutline(label, u, v, ratio, float(iou), thickness, _major_angle(ell)))
+        # tableware narrows below its rim, so its outline is the rim's ellipse alone; a coin's edge shows
+        out.append(RoundOutline(label, u, v, ratio, float(iou), thickness, _major_angle(ell),
+                                rim=prior.keyword in RIMMED))
     return out
 
 
@@ -250,7 +261,8 @@ def ellipse_cues(outlines: list[RoundOutline], width: int, height: int, fov_deg:
         if pitch is not None and o.ratio < ROUND_ENOUGH:
             # a circle on the ground foreshortens along the line of sight: an outline squashed across it is
             # not a tilted circle (an irregular coin, a lid seen from the side)
-            model = cylinder_ratio(PinholeCamera(width, height, fov_deg, pitch), o.u, o.v, o.thickness, angle=True)
+            model = cylinder_ratio(PinholeCamera(width, height, fov_deg, pitch), o.u, o.v, o.thickness, angle=True,
+                                   rim=o.rim)
             turn = abs((o.angle - model[1] + 90.0) % 180.0 - 90.0) if model else 0.0
             if turn > MAX_AXIS_TURN_DEG:
                 continue

@@ -57,7 +57,8 @@ def _objects(rng) -> list[tuple[str, trimesh.Trimesh]]:
     k = lambda: float(rng.uniform(0.9, 1.1))  # noqa: E731
     box = trimesh.creation.box((0.40 * k(), 0.28 * k(), 0.30 * k()))
     can = trimesh.creation.cylinder(0.033 * k(), 0.12 * k(), sections=48)
-    plate = trimesh.creation.cylinder(0.13 * k(), 0.02, sections=64)
+    rim = 0.13 * k()  # a plate narrows to a foot 0.7 as wide as its rim
+    plate = trimesh.creation.revolve([[0.0, 0.0], [0.7 * rim, 0.0], [rim, 0.02], [0.0, 0.02]], sections=64)
     bottle = trimesh.creation.cylinder(0.04 * k(), 0.25 * k(), sections=48)
     return [("box", box), ("can", can), ("plate", plate), ("bottle", bottle)]
 

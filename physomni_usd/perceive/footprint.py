@@ -223,6 +223,22 @@ def sphere_from_outline(poly_uv: np.ndarray, camera, base_z: float) -> tuple[np.
     return centre, float(radius)
 
 
+#: Longest edge of a footprint mesh's faces, as a fraction of its size.
+MAX_EDGE_FRACTION = 0.08
+
+
+def fine_faces(verts: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices, faces int32) with no edge longer than ``MAX_EDGE_FRACTION`` of the mesh's size.
+
+    A cylinder's cap or a prism's top is a few triangles across the whole object; texture coordinates are
+    the photo's projection of the vertices, interpolated linearly over each face, which is off by pixels
+    over a face that spans a range of depths. Small faces keep the texture (and frame 0) on the photo.
+    """
+    size = float(np.ptp(verts, axis=0).max())
+    v, f = trimesh.remesh.subdivide_to_size(verts, faces, max_edge=MAX_EDGE_FRACTION * size, max_iter=8)
+    return np.asarray(v, float), np.asarray(f, np.int32)
+
+
 def lift_footprint(mask: np.ndarray, camera, height_hint: float | None, prior_shape: str | None,
                    base_z: float = 0.0, sections: int = 32, photo: np.ndarray | None = None,
                    flat_prior: bool = False):
@@ -282,8 +298,7 @@ def lift_footprint(mask: np.ndarray, camera, height_hint: float | None, prior_sh
         hull = cv2.convexHull(fp.astype(np.float32))[:, 0, :].astype(float)
         pts = np.vstack([np.c_[hull, np.full(len(hull), base_z)], np.c_[hull, np.full(len(hull), base_z + height)]])
         mesh = trimesh.convex.convex_hull(pts)
-    verts = np.asarray(mesh.vertices, float)
-    faces = np.asarray(mesh.faces, np.int32)
+    verts, faces = fine_faces(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64))
     # the contact: the footprint's point nearest the camera
     near = fp[np.argmin(np.linalg.norm(fp - camera.origin[:2], axis=1))]
     contact = np.array([near[0], near[1], base_z])
