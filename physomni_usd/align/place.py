@@ -67,7 +67,8 @@ def separate(vertex_sets: list[np.ndarray], gap: float = 0.002) -> list[np.ndarr
             for j in range(i + 1, k):
                 pa = base[i] + offsets[i]
                 pb = base[j] + offsets[j]
-                mtv = separation(pa + gap * _outward_dirs(pa), pb + gap * _outward_dirs(pb))
+                g = effective_gap(pa, pb, gap)
+                mtv = separation(pa + g * _outward_dirs(pa), pb + g * _outward_dirs(pb))
                 if mtv is None:
                     continue
                 step = mtv * (0.5 + 1e-3) + 1e-6 * np.sign(mtv)
@@ -108,6 +109,7 @@ def make_room(vertex_sets: list[np.ndarray], fronts: list[np.ndarray], camera_or
     order = np.argsort(dist)
     for a in order:
         if fixed_depth is not None and fixed_depth[a]:
+            _shrink_footprint(a, vertex_sets, verts, scales, gap)
             continue
         squashed = lambda k, a=a: squash_depth(vertex_sets[a], fronts[a], dirs[a], k)  # noqa: E731
         for b in order:
@@ -126,9 +128,50 @@ def make_room(vertex_sets: list[np.ndarray], fronts: list[np.ndarray], camera_or
     return verts, scales
 
 
+#: A footprint lift is never shrunk below this fraction of its width to clear its neighbours.
+MIN_FOOTPRINT_SCALE = 0.85
+
+
+def _shrink_footprint(a: int, originals, verts, scales, gap: float) -> None:
+    """Shrink footprint-lifted object ``a`` about its own vertical axis until it clears every other object.
+
+    A footprint's round shape is a fit to the mask; where two masks touch (sweets side by side) the fits
+    overlap by a little. Shrinking keeps each object inside the pixels the photo shows it in, so frame 0
+    stays the photo; moving them apart (what is left past ``MIN_FOOTPRINT_SCALE``) would not.
+    """
+    base = np.asarray(originals[a], float)
+    centre = np.r_[0.5 * (base[:, :2].min(0) + base[:, :2].max(0)), 0.0]
+    scaled = lambda k: centre + (base - centre) * np.array([k, k, 1.0])  # noqa: E731
+    others = [b for b in range(len(verts)) if b != a]
+    if all(_apart(verts[a], verts[b], gap) for b in others):
+        return
+    clear = lambda k: all(_apart(scaled(k), verts[b], gap) for b in others)  # noqa: E731
+    if not clear(MIN_FOOTPRINT_SCALE):
+        k = MIN_FOOTPRINT_SCALE
+    else:
+        lo, hi = MIN_FOOTPRINT_SCALE, 1.0
+        for _ in range(16):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if clear(mid) else (lo, mid)
+        k = lo
+    scales[a] = k
+    verts[a] = scaled(k)
+
+
 def _apart(va: np.ndarray, vb: np.ndarray, gap: float) -> bool:
     pa, pb = footprint(va), footprint(vb)
+    gap = effective_gap(pa, pb, gap)
     return separation(pa + gap * _outward_dirs(pa), pb + gap * _outward_dirs(pb)) is None
+
+
+#: The clearance between two footprints is at most this fraction of the smaller one's width.
+GAP_FRACTION = 0.02
+
+
+def effective_gap(pa: np.ndarray, pb: np.ndarray, gap: float) -> float:
+    """``gap`` (metres), or less between small things: 2 mm is an eighth of a sweet."""
+    small = min(float(np.ptp(pa, axis=0).min()), float(np.ptp(pb, axis=0).min()))
+    return min(gap, GAP_FRACTION * small)
 
 
 def _outward_dirs(poly: np.ndarray) -> np.ndarray:

@@ -31,6 +31,8 @@ GRID_CELLS = 256
 ROUND_IOU = 0.85
 #: Rays steeper than this (degrees below the horizontal) hardly show an object's sides.
 SIDES_VISIBLE_DEG = 80.0
+#: A height read from the sides further than this factor from the label's typical height is not trusted.
+SIDES_PRIOR_FACTOR = 3.0
 #: Height of an object without a typical height, as a fraction of its footprint's width.
 DEFAULT_HEIGHT_RATIO = 0.5
 
@@ -258,6 +260,11 @@ def lift_footprint(mask: np.ndarray, camera, height_hint: float | None, prior_sh
             fp = footprint(poly_uv, camera, base_z, height)
             if fp is None or circle_fit(fp)[2] < ROUND_IOU:  # not a cylinder after all
                 height = None
+        if height is not None and height_hint and not (
+                1 / SIDES_PRIOR_FACTOR <= height / height_hint <= SIDES_PRIOR_FACTOR):
+            # from steeply above a nearly round outline says little about the sides: a reading this far
+            # from the label's typical height is the outline's noise (a sweet read as a 0.3 mm disc)
+            height = None
         source = "visible sides (round outline)" if height is not None else None
     if height is None and photo is not None and steep < SIDES_VISIBLE_DEG and prior_shape not in ("round", "ball"):
         height = height_from_edge(photo, mask, camera, base_z)
