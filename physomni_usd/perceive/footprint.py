@@ -225,19 +225,24 @@ def sphere_from_outline(poly_uv: np.ndarray, camera, base_z: float) -> tuple[np.
     return centre, float(radius)
 
 
-#: Longest edge of a footprint mesh's faces, as a fraction of its size.
-MAX_EDGE_FRACTION = 0.08
+#: Most pixels by which a face's texture may stray from the photo (see :func:`fine_faces`).
+TEXTURE_ERROR_PX = 0.5
 
 
-def fine_faces(verts: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(vertices, faces int32) with no edge longer than ``MAX_EDGE_FRACTION`` of the mesh's size.
+def fine_faces(verts: np.ndarray, faces: np.ndarray, camera) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices, faces int32) split until the photo's texture stays on the photo across each face.
 
-    A cylinder's cap or a prism's top is a few triangles across the whole object; texture coordinates are
-    the photo's projection of the vertices, interpolated linearly over each face, which is off by pixels
-    over a face that spans a range of depths. Small faces keep the texture (and frame 0) on the photo.
+    Texture coordinates are the photo's projection of the vertices, interpolated linearly over each face;
+    over an edge of length L at distance D that is off by about f·(L/D)²/4 pixels (f the focal length), so
+    a cylinder's cap or a prism's top — a few triangles across a saucer seen from 25 cm — put its texture,
+    and frame 0, pixels off the photo. Edges are kept under D·√(4·TEXTURE_ERROR_PX / f): a few per side
+    for objects far away, more for close ones.
     """
-    size = float(np.ptp(verts, axis=0).max())
-    v, f = trimesh.remesh.subdivide_to_size(verts, faces, max_edge=MAX_EDGE_FRACTION * size, max_iter=8)
+    dist = float(np.linalg.norm(verts.mean(0) - camera.origin))
+    max_edge = dist * math.sqrt(4.0 * TEXTURE_ERROR_PX / camera.focal_px)
+    if float(np.ptp(verts, axis=0).max()) <= max_edge:
+        return verts, np.asarray(faces, np.int32)
+    v, f = trimesh.remesh.subdivide_to_size(verts, faces, max_edge=max_edge, max_iter=10)
     return np.asarray(v, float), np.asarray(f, np.int32)
 
 
@@ -305,7 +310,7 @@ def lift_footprint(mask: np.ndarray, camera, height_hint: float | None, prior_sh
         hull = cv2.convexHull(fp.astype(np.float32))[:, 0, :].astype(float)
         pts = np.vstack([np.c_[hull, np.full(len(hull), base_z)], np.c_[hull, np.full(len(hull), base_z + height)]])
         mesh = trimesh.convex.convex_hull(pts)
-    verts, faces = fine_faces(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64))
+    verts, faces = fine_faces(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64), camera)
     # the contact: the footprint's point nearest the camera
     near = fp[np.argmin(np.linalg.norm(fp - camera.origin[:2], axis=1))]
     contact = np.array([near[0], near[1], base_z])
