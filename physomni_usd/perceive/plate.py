@@ -20,9 +20,11 @@ INPAINT_RADIUS = 5
 #: Longest side at which large holes are inpainted by Telea; the fill is then upsampled.
 INPAINT_MAX_SIDE = 480
 #: Pixels of the reduced window in which shift-map searches, and most pixels of all holes together at the
-#: reduced size (its time grows faster than the hole's area: about 1 s for 4000 pixels on one core).
+#: reduced size. Below about 10000 the shifts read back are too coarse to carry a surface's grain (a
+#: desk's wood came out as a flat disc where a ball stood); 12000 fills the motorcycle's 196000-pixel
+#: hole in about 2 s on one core.
 EXEMPLAR_PIXELS = 150 * 150
-EXEMPLAR_HOLE_PIXELS = 3000
+EXEMPLAR_HOLE_PIXELS = 12000
 #: Context kept around each hole for the exemplar search, as a fraction of the hole's larger side.
 EXEMPLAR_CONTEXT = 0.6
 #: Most distinct shifts read back from one shift-map result (it uses a few dozen dominant offsets).
@@ -34,7 +36,7 @@ SHADING_SIGMA = 0.08
 SHADING_DEPTH = 0.012
 #: A pixel near an object's foot is in its contact shadow when it is darker than this fraction of the
 #: surface's brightness around it.
-SHADOW_RATIO = 0.8
+SHADOW_RATIO = 0.85
 
 #: How far below an object its contact shadow may reach, as a fraction of the object's height in the photo.
 SHADOW_REACH = 0.25
@@ -154,7 +156,7 @@ def fill_exemplar(photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
             win_hole = hole  # no surface around this part: use the whole photo
             x0, y0, x1, y1 = 0, 0, w, h
         filled = _exemplar_window(photo[y0:y1, x0:x1], win_hole, max(bw, bh), SHADING_DEPTH * np.hypot(h, w),
-                                  EXEMPLAR_HOLE_PIXELS * stats[k, 4] / total)
+                                  EXEMPLAR_HOLE_PIXELS * float(stats[k, 4]) / total)
         own = labels[y0:y1, x0:x1] == k
         out[y0:y1, x0:x1][own] = filled[own]
     return out
