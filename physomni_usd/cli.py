@@ -797,7 +797,7 @@ def bench_photos_command(pitches, seconds, real, only, json_path):
     \b
     Real photos that packages ship (OpenCV's samples, scikit-image's data): a desk from above, sweets from
     steeply above, an espresso cup on its saucer, a motorcycle in a garage, a football on grass and a
-    rubber whale on a cloth, with a pitch and sizes measured by hand (``bench/real/photos.json`` says
+    rubber whale on a cloth, with a pitch and sizes measured by hand (physomni_usd/bench/real/photos.json says
     how). Prints the pitch error, each object's longest dimension over its real one, the scale's source,
     frame-0 SSIM, seconds and whether a --seconds run finished. Acceptance: every object within a factor
     1.5 of its real size.
@@ -814,9 +814,17 @@ def bench_photos_command(pitches, seconds, real, only, json_path):
         from .bench.real_photos import bench_real_photos, load_truth
         from .errors import InputError
 
-        unknown = sorted(set(real) - set(load_truth()))
+        truth = load_truth()
+        unknown = sorted(set(real) - set(truth))
         if unknown:
-            raise InputError(f"--real {unknown[0]!r}: no such photo (known: {', '.join(load_truth())})")
+            raise InputError(f"--real {unknown[0]!r}: no such photo (known: {', '.join(truth)})")
+        wanted = [truth[n] for n in (real or truth)] if only in ("all", "real") else []
+        if any(r["photo"].startswith("skimage:") for r in wanted):
+            try:
+                import skimage  # noqa: F401
+            except ImportError:
+                _fail("bench photos: scikit-image is not installed, and the coffee and motorcycle photos come "
+                      "with it (pip install 'physomni-usd[test]', or --only synthetic)", 2)
         numbers = {}
         if only in ("all", "synthetic") and not real:
             numbers = bench_photos(pitches or PITCHES, seconds=seconds, echo=click.echo)

@@ -147,3 +147,11 @@ def test_real_photo_inputs_are_written_for_every_object(tmp_path):
             assert 0 <= x0 < x1 <= photo.shape[1] and 0 <= y0 < y1 <= photo.shape[0], (name, spec)
         assert record["view"] in ("top-down", "steep", "oblique", "near-level")
         assert record["pitch_how"] and record["sizes_how"]
+
+
+def test_bench_photos_names_an_unknown_real_photo():
+    done = subprocess.run([sys.executable, "-m", "physomni_usd.cli", "bench", "photos", "--real", "kitchen"],
+                          capture_output=True, text=True)
+    assert done.returncode == 2
+    lines = [line for line in done.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and "--real 'kitchen'" in lines[0] and "desk" in lines[0]
