@@ -208,8 +208,10 @@ class RoundOutline:
                 d = PinholeCamera(width, height, fov_deg, p).rays(self.u, self.v)
                 return math.degrees(math.asin(max(-1.0, min(1.0, -float(d[2]) / float(np.linalg.norm(d))))))
             lo, hi = 0.0, MAX_PITCH_DEG
-            if not depression(lo) <= eps <= depression(hi):
-                return lo if eps < depression(lo) else hi
+            if eps <= depression(lo):
+                return lo
+            if eps >= depression(hi):
+                return hi
             for _ in range(40):
                 mid = 0.5 * (lo + hi)
                 lo, hi = (mid, hi) if depression(mid) < eps else (lo, mid)
@@ -237,13 +239,12 @@ def round_outlines(masks, labels) -> list[RoundOutline]:
         if prior is None or prior.shape != "round" or not prior.longest_m or not prior.height_m:
             continue
         thickness = prior.height_m / prior.longest_m
-        others = np.zeros(mask.shape, bool)
-        for j, m in enumerate(filled):
-            if j != i:
-                others |= m
         found = mask_ellipse(mask) if thickness <= FLAT_RATIO else None
-        if found is not None and found[1] < ELLIPSE_IOU and (others & ~mask).any():
-            found = mask_ellipse(mask, others)  # not an ellipse as seen: perhaps one that another object hides
+        if found is not None and found[1] < ELLIPSE_IOU:
+            # not an ellipse as seen: perhaps one that another object hides
+            others = np.logical_or.reduce([m for j, m in enumerate(filled) if j != i] or [np.zeros_like(mask)])
+            if (others & ~mask).any():
+                found = mask_ellipse(mask, others)
         if found is None or found[1] < ELLIPSE_IOU:
             continue
         ratio, iou, ell = found

@@ -144,7 +144,7 @@ def run_photo(name: str, record: dict, folder, seconds: float = 2.0, render: boo
     row["size_error_frac"] = float(np.median([abs(r - 1) for r in ratios])) if ratios else None
     row["worst_size_factor"] = max(max(r, 1 / r) for r in ratios) if ratios else None
     row["sizes_within_factor"] = bool(ratios) and row["worst_size_factor"] <= SIZE_FACTOR
-    row["warnings"] = [w for w in report.get("stages", {}).get("build", {}).get("checks", [])]
+    row["warnings"] = list(report.get("stages", {}).get("build", {}).get("checks", []))
     row["ssim_frame0"] = frame0_ssim(result.folder, photo) if render else None
     row["finished"] = True
     if seconds > 0:

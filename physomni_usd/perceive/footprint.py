@@ -256,6 +256,17 @@ def lift_footprint(mask: np.ndarray, camera, height_hint: float | None, prior_sh
     if flat is None:
         return None
     steep = view_depression_deg(camera, np.r_[flat.mean(0), base_z])
+    if prior_shape == "ball":
+        # a ball's outline is its own measure: the tangent cone fixes it, before any height is looked for
+        ball = sphere_from_outline(poly_uv, camera, base_z)
+        if ball is not None and 2 * ball[1] < 0.9 * (camera.origin[2] - base_z):
+            centre, radius = ball
+            mesh = trimesh.creation.icosphere(subdivisions=3, radius=radius)
+            mesh.apply_translation([centre[0], centre[1], base_z + radius])
+            contact = np.array([centre[0], centre[1], base_z])
+            info = {"mode": "footprint", "shape": "sphere", "height_source": "the ball's outline (tangent cone)",
+                    "circle_iou": round(circle_fit(flat)[2], 3), "view_depression_deg": round(steep, 2)}
+            return (np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int32), "sphere", contact, info)
     height, source = None, None
     if flat_prior and height_hint:  # a coin's or a plate's rim hardly shows: its typical height is better
         height, source = float(height_hint), "typical size of the label (a flat thing)"
@@ -279,17 +290,6 @@ def lift_footprint(mask: np.ndarray, camera, height_hint: float | None, prior_sh
     if height is None:
         width = float(np.ptp(flat, axis=0).max())
         height, source = DEFAULT_HEIGHT_RATIO * width, f"{DEFAULT_HEIGHT_RATIO:g} × the footprint's width"
-    if prior_shape == "ball":
-        # a ball's outline is its own measure: the tangent cone fixes it, no prism footprint or prior needed
-        ball = sphere_from_outline(poly_uv, camera, base_z)
-        if ball is not None and 2 * ball[1] < 0.9 * (camera.origin[2] - base_z):
-            centre, radius = ball
-            mesh = trimesh.creation.icosphere(subdivisions=3, radius=radius)
-            mesh.apply_translation([centre[0], centre[1], base_z + radius])
-            contact = np.array([centre[0], centre[1], base_z])
-            info = {"mode": "footprint", "shape": "sphere", "height_source": "the ball's outline (tangent cone)",
-                    "circle_iou": round(circle_fit(flat)[2], 3), "view_depression_deg": round(steep, 2)}
-            return (np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int32), "sphere", contact, info)
     height = min(height, 0.9 * (camera.origin[2] - base_z))
     fp = footprint(poly_uv, camera, base_z, height)
     if fp is None or len(fp) < 3:
