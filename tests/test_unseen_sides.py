@@ -100,3 +100,25 @@ def test_the_texture_holds_the_photo_and_an_opaque_copy(slab):
     assert (left[..., 3] == 0).any() and (right[..., 3] == 255).all()
     layer = Sdf.Layer.FindOrOpen(str(slab / "scene.usda"))
     assert "unseenSides" in layer.ExportToString()
+
+
+def test_preview_keeps_each_faces_side_of_the_texture():
+    """The preview's GLB gives faceVarying st one vertex per corner: a face mapped into the unseen-side copy
+    keeps its own coordinates instead of the mean with its photo-mapped neighbour's."""
+    import io
+
+    import trimesh
+
+    from physomni_usd.preview.scene import Drawn, textured_glb
+
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    faces = np.array([[0, 2, 1], [0, 1, 3]])
+    corner_st = np.array([[[0.1, 0.1], [0.1, 0.4], [0.4, 0.1]],   # photo half
+                          [[0.6, 0.1], [0.9, 0.1], [0.6, 0.4]]])  # unseen-side copy
+    texture = np.full((8, 16, 4), 200, np.uint8)
+    d = Drawn("/World/Objects/t", "t", points, faces, np.full((4, 2), 0.5), texture, np.eye(4), corner_st)
+    scene = trimesh.load(io.BytesIO(textured_glb(d)), file_type="glb")
+    mesh = next(iter(scene.geometry.values()))
+    assert len(mesh.vertices) == 6
+    uv = np.asarray(mesh.visual.uv)
+    assert np.allclose(np.sort(uv[:, 0]), np.sort(corner_st.reshape(-1, 2)[:, 0]), atol=1e-6)

@@ -42,6 +42,7 @@ class Drawn:
     st: np.ndarray  # (N, 2), USD convention (v up)
     texture: np.ndarray  # (h, w, 4) uint8
     matrix: np.ndarray  # (4, 4) local → world at frame 0, row vectors
+    corner_st: np.ndarray | None = None  # (M, 3, 2) st at each triangle corner, where the prim's st is faceVarying
 
 
 def photo_view(stage: Usd.Stage) -> tuple[View, float]:
@@ -90,7 +91,8 @@ def drawn_objects(stage: Usd.Stage) -> dict[str, Drawn]:
     for o in read_objects(stage):
         pts = o.static_points if o.static_points is not None else np.asarray(o.points_attr.Get(), float)
         m = np.array(cache.GetLocalToWorldTransform(stage.GetPrimAtPath(o.path)))
-        out[o.path] = Drawn(o.path, o.path.rsplit("/", 1)[-1], pts, o.faces, o.st, o.texture, m)
+        corners = o.corner_st if not np.allclose(o.corner_st, o.st[o.faces]) else None  # faceVarying only
+        out[o.path] = Drawn(o.path, o.path.rsplit("/", 1)[-1], pts, o.faces, o.st, o.texture, m, corners)
     return out
 
 
@@ -105,8 +107,15 @@ def textured_glb(d: Drawn) -> bytes:
         baseColorFactor=[0, 0, 0, 255], baseColorTexture=tex, emissiveTexture=tex.convert("RGB"),
         emissiveFactor=[1.0, 1.0, 1.0], metallicFactor=0.0, roughnessFactor=1.0, alphaMode="MASK",
         alphaCutoff=0.5, doubleSided=True)
-    mesh = trimesh.Trimesh(d.points, d.faces, process=False,
-                           visual=trimesh.visual.TextureVisuals(uv=d.st, material=material))
+    points, faces, uv = d.points, d.faces, d.st
+    if d.corner_st is not None:
+        # faceVarying st (a photo side beside an unseen side meeting at one vertex): one vertex per corner,
+        # so that each face samples its own side of the texture instead of the mean of both
+        points = d.points[d.faces].reshape(-1, 3)
+        faces = np.arange(len(points)).reshape(-1, 3)
+        uv = d.corner_st.reshape(-1, 2)
+    mesh = trimesh.Trimesh(points, faces, process=False,
+                           visual=trimesh.visual.TextureVisuals(uv=uv, material=material))
     buf = io.BytesIO()
     mesh.export(buf, file_type="glb")
     return buf.getvalue()
