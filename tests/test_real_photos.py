@@ -185,3 +185,12 @@ def test_a_supported_object_out_of_reach_stands_on_the_ground():
     lifted = lift_all([upper, lower], ["box", "crate"], camera, BuildSettings(), 1.0, supports)
     assert supports == {}
     assert abs(float(lifted[0].vertices[:, 2].min())) < 1e-6
+
+
+def test_bench_photos_says_when_scikit_image_is_missing():
+    code = ("import sys; sys.modules['skimage'] = None; from physomni_usd.cli import main; "
+            "main(['bench', 'photos', '--only', 'real', '--real', 'coffee'], prog_name='physomni-usd')")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 2
+    lines = [line for line in done.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and "scikit-image is not installed" in lines[0] and "--only synthetic" in lines[0]
