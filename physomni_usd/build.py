@@ -80,8 +80,11 @@ def _object_names(option: str, spec: str, label: str, labels_to_names: dict[str,
     """Every object ``label`` names: a prim name names one, a label every object that has it."""
     names = labels_to_names.get(label.strip())
     if not names:
+        from .suggest import did_you_mean
+
         known = ", ".join(sorted(labels_to_names)) or "none"
-        raise InputError(f"{option} {spec!r}: no object labelled {label.strip()!r} (known: {known})")
+        raise InputError(f"{option} {spec!r}: no object labelled {label.strip()!r}"
+                         f"{did_you_mean(label, labels_to_names)} (known: {known})")
     return names
 
 

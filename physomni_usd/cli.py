@@ -136,7 +136,8 @@ def main():
 
     \b
     A shot folder holds one layer per stage under a root shot.usda:
-      shot.usda = [edits.usda, sim.usdc, physics.usda, scene.usda]  (strongest first)
+      shot.usda = [edits.usda, render.usda, sim.usdc, physics.usda, scene.usda]
+    (strongest first; render.usda holds a camera move, written by `render --camera`).
     edits.usda is yours: it is created empty, no command rewrites it (only
     `estimate --set` adds your values to it), and what you author there (a
     heavier object, a push, a moved prop) counts in the next `simulate`.
@@ -155,8 +156,11 @@ def build_options(f):
         click.option("--mask", "masks", multiple=True, metavar="PNG[:LABEL]",
                      help="Object mask at the photo's resolution; non-zero pixels are the object. "
                           "Repeat per object; LABEL defaults to the file's name."),
-        click.option("--box", "boxes", multiple=True, metavar="X0,Y0,X1,Y1[:LABEL]",
-                     help="Pixel box around an object; OpenCV GrabCut cuts its mask. Repeatable."),
+        click.option("--box", "boxes", multiple=True, metavar="X0,Y0,X1,Y1[:LABEL][:±X,Y...]",
+                     help="Pixel box around an object; the segmenter (OpenCV GrabCut by default) cuts its mask. "
+                          "Clicks after it correct the mask: +X,Y a pixel on the object, -X,Y one off it "
+                          "(e.g. 120,40,380,300:cup:-130,60). `physomni-usd studio` writes these for you. "
+                          "Repeatable."),
         click.option("--meshes", "meshes_dir", type=click.Path(file_okay=False, path_type=pathlib.Path),
                      default=None, help="Folder with one mesh per object (OBJ, GLB, PLY) and poses.json "
                                         "(label → mesh, rotation_wxyz, translation, scale in OpenCV camera "
@@ -367,7 +371,9 @@ def simulate(shot, seconds, fps, substeps, particle_spacing, mpm_steps, quiet):
                    "[default: the camera the shot has]")
 @click.option("--camera-amount", type=float, default=1.0, show_default=True,
               help="Size of the move as a multiple of its default. Range: 0 < value ≤ 4.")
-def render(shot, output, max_size, quiet, passes, passes_dir, camera, camera_amount):
+@click.option("--still", is_flag=True,
+              help="Render a shot that was never simulated: one frame, the photo's moment [default: refuse it].")
+def render(shot, output, max_size, quiet, passes, passes_dir, camera, camera_amount, still):
     """Render the composed shot over its background plate into an H.264 MP4.
 
     A camera move is written as time samples on /World/Camera in render.usda, below edits.usda: Blender or
@@ -381,7 +387,20 @@ def render(shot, output, max_size, quiet, passes, passes_dir, camera, camera_amo
       physomni-usd render shot/shot.usda --passes depth,normal,flow,mask --passes-dir shot/passes
     """
     with _errors():
+        if not still:
+            _check_simulated(shot)
         _render(shot, output, quiet, max_size, passes, passes_dir, camera, camera_amount)
+
+
+def _check_simulated(shot) -> None:
+    """Refuse (exit 2) a shot never simulated: its video would be one frame of the photo, silently."""
+    from .errors import InputError
+    from .usd import layers
+
+    root = layers.shot_file(shot)
+    if root.is_file() and layers.shot_seconds(root) is None:
+        raise InputError(f"{root} was never simulated, so its video would be one still frame: run "
+                         f"`physomni-usd simulate {root}` first, or pass --still for that one frame")
 
 
 @main.command()
@@ -917,7 +936,12 @@ def bench_preview_command(quick, json_path):
 
 @main.command("plugins")
 def plugins_command():
-    """List every backend by kind: built in or from a plugin, its package and version, and whether it is ready.
+    """List every backend by kind: built in or from a plugin, its package and version, and its state.
+
+    \b
+    States: "ready" — it runs here as it is (modules installed, weights found);
+    "needs setting up" — it runs once the variables or options named are given
+    (the vlm estimator without a server); "not ready" — what to install or set.
 
     \b
     Plugins are packages that register under the entry-point group physomni_usd.backends; install one
@@ -939,7 +963,9 @@ def plugins_command():
                 ready, note = registry.status(e)
                 default = " (default)" if registry.DEFAULTS.get(kind) == e.name else ""
                 origin = "built-in" if e.builtin else "plugin"
-                state = "ready" if ready else "not ready"
+                # a backend that can run but waits for a setting (a server's address) is not "ready"
+                state = "not ready" if not ready else ("needs setting up" if note.startswith("needs ") else "ready")
+                note = note[len("needs "):] if state == "needs setting up" else note
                 click.echo(f"  {e.name}{default}: {origin}, {e.package} {e.version}, {state}"
                            + (f": {note}" if note else ""))
 

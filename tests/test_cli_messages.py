@@ -115,7 +115,7 @@ def test_an_odd_width_photo_gives_a_video_cropped_to_even_sides(tmp_path, photo)
     cv2.imwrite(str(tmp_path / "cup.png"), mask)
     out = tmp_path / "shot"
     cli("build", tmp_path / "odd.png", "-o", out, "--mask", f"{tmp_path / 'cup.png'}:cup", "-q", check=True)
-    cli("render", out / "shot.usda", "-q", check=True)
+    cli("render", out / "shot.usda", "--still", "-q", check=True)  # built only: one frame, asked for
     reader = imageio.get_reader(str(out / "video.mp4"))
     frame = reader.get_data(0)
     reader.close()

@@ -18,7 +18,7 @@ ROOT = pathlib.Path(physomni_usd.__file__).resolve().parent
 
 #: Layer of each module, by longest matching dotted prefix (package-relative); higher may import lower.
 RANKS = {
-    "errors": 0, "_files": 0, "_warp": 0, "_version": 0,
+    "errors": 0, "_files": 0, "_warp": 0, "_version": 0, "suggest": 0,
     "usd": 1,
     "rotations": 2, "settings": 2, "report": 2, "metrics": 2, "geometry": 2, "sizes": 2, "fields": 2,
     "backends.registry": 2, "backends.protocols": 2,
@@ -29,7 +29,7 @@ RANKS = {
     "render": 7,
     "build": 8, "validate": 8, "backends": 8,
     "": 9,  # the package itself: its public API
-    "bench": 10, "batch": 10, "preview": 10,
+    "bench": 10, "batch": 10, "preview": 10, "studio": 10,
     "cli": 11,
 }
 

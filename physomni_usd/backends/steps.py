@@ -62,7 +62,7 @@ def report(backends: dict) -> dict:
 
 def collect_objects(photo: np.ndarray, mask_specs, box_specs, segmenter):
     """Like ``perceive.masks.collect_masks``, but boxes are cut by ``segmenter``."""
-    from ..perceive.masks import ObjectMask, checked_mask, collect_masks, parse_box, read_mask
+    from ..perceive.masks import ObjectMask, box_clicks, checked_mask, collect_masks, parse_box, read_mask
 
     if type(segmenter).name == "grabcut" or not box_specs:
         return collect_masks(photo, mask_specs, box_specs)
@@ -75,7 +75,7 @@ def collect_objects(photo: np.ndarray, mask_specs, box_specs, segmenter):
         if not (0 <= x0 < x1 <= w and 0 <= y0 < y1 <= h):
             raise InputError(f"--box {spec!r} is not inside the {w}×{h} photo "
                              f"(need 0 ≤ X0 < X1 ≤ {w}, 0 ≤ Y0 < Y1 ≤ {h})")
-        prompts.append(Prompt(box=(x0, y0, x1, y1)))
+        prompts.append(Prompt(box=(x0, y0, x1, y1), points=[(float(x), float(y), on) for x, y, on in box_clicks(spec)]))
         labels.append(label)
     masks = segmenter.segment(photo, prompts)
     for j, (spec, p, label, mask) in enumerate(zip(box_specs, prompts, labels, masks)):

@@ -47,8 +47,11 @@ def parse_sets(specs, objects: list[Usd.Prim]) -> list[tuple[Usd.Prim, str, obje
             raise InputError(f"--set {spec!r}: expected NAME.KEY=VALUE, e.g. cup.density=800 or cup.material=mpm_sand")
         prims = by_name.get(name.strip())
         if not prims:
+            from ..suggest import did_you_mean
+
             known = ", ".join(sorted(n for n in by_name if n))
-            raise InputError(f"--set {spec!r}: no object named {name.strip()!r} (known: {known})")
+            raise InputError(f"--set {spec!r}: no object named {name.strip()!r}{did_you_mean(name, by_name)} "
+                             f"(known: {known})")
         key = key.strip().lower()
         if key in ("material", "material_type", "type"):
             try:

@@ -115,18 +115,45 @@ def read_mask(spec: str, shape: tuple[int, int], index: int) -> ObjectMask:
                       {"method": "file"})
 
 
+#: A click, inside a box's spec: ``+X,Y`` on the object, ``-X,Y`` off it (pixels).
+CLICK = re.compile(r"^([+-])(\d+(?:\.\d*)?),(\d+(?:\.\d*)?)$")
+#: Radius of the pixels a click decides, as a share of its box's shorter side (at least 2 pixels).
+CLICK_RADIUS = 0.04
+
+
 def parse_box(spec: str) -> tuple[tuple[int, int, int, int], str | None]:
-    """``'X0,Y0,X1,Y1[:LABEL]'`` → ((x0, y0, x1, y1), label)."""
-    coords, _, label = spec.partition(":")
+    """``'X0,Y0,X1,Y1[:LABEL][:+X,Y][:-X,Y]...'`` → ((x0, y0, x1, y1), label); clicks: :func:`box_clicks`."""
+    coords, _, rest = spec.partition(":")
     try:
         x0, y0, x1, y1 = (int(round(float(c))) for c in coords.split(","))
     except ValueError:
         raise InputError(f"--box {spec!r}: expected X0,Y0,X1,Y1[:LABEL] with four numbers") from None
-    return (x0, y0, x1, y1), (label or None)
+    words = [w for w in rest.split(":") if w and not CLICK.match(w.strip())] if rest else []
+    return (x0, y0, x1, y1), (":".join(words) or None)
+
+
+def box_clicks(spec: str) -> list[tuple[int, int, bool]]:
+    """The clicks of a box's spec, in order: ``'10,10,90,90:cup:+50,40:-20,80'`` → [(50, 40, True),
+    (20, 80, False)] (pixels; True: the pixel belongs to the object)."""
+    _, _, rest = spec.partition(":")
+    out = []
+    for word in rest.split(":") if rest else ():
+        m = CLICK.match(word.strip())
+        if m:
+            out.append((int(round(float(m.group(2)))), int(round(float(m.group(3)))), m.group(1) == "+"))
+    return out
+
+
+def box_spec(box, label: str | None = None, clicks=()) -> str:
+    """The ``--box`` spec of a box, its label and its clicks (the inverse of :func:`parse_box` and
+    :func:`box_clicks`)."""
+    words = [",".join(str(int(c)) for c in box)] + ([label] if label else [])
+    words += [f"{'+' if on else '-'}{int(x)},{int(y)}" for x, y, on in clicks]
+    return ":".join(words)
 
 
 def mask_from_box(photo: np.ndarray, spec: str, index: int) -> ObjectMask:
-    """Segment the object inside a box with OpenCV GrabCut."""
+    """Segment the object inside a box with OpenCV GrabCut, then correct it by the spec's clicks."""
     (x0, y0, x1, y1), label = parse_box(spec)
     h, w = photo.shape[:2]
     if x1 <= x0 or y1 <= y0:
@@ -136,6 +163,10 @@ def mask_from_box(photo: np.ndarray, spec: str, index: int) -> ObjectMask:
         raise InputError(f"--box {spec!r} is not inside the {w}×{h} photo (need 0 ≤ X0 < X1 ≤ {w}, 0 ≤ Y0 < Y1 ≤ {h})")
     if x1 - x0 < 4 or y1 - y0 < 4:
         raise InputError(f"--box {spec!r} is smaller than 4×4 pixels")
+    clicks = box_clicks(spec)
+    for x, y, _ in clicks:
+        if not (0 <= x < w and 0 <= y < h):
+            raise InputError(f"--box {spec!r}: the click at {x},{y} is not inside the {w}×{h} photo")
     box = (x0, y0, x1, y1)
     if (x1 - x0) * (y1 - y0) >= 0.98 * w * h:
         # GrabCut needs some background to model; a box over the whole photo keeps the box.
@@ -144,9 +175,37 @@ def mask_from_box(photo: np.ndarray, spec: str, index: int) -> ObjectMask:
         quality = {"method": "box"}
     else:
         result, quality = segment_box(photo, box)
-    obj = ObjectMask(label or f"object{index}", index, checked_mask(result, f"--box {spec!r}"), f"box:{x0},{y0},{x1},{y1}")
+    if clicks:
+        result = refine_with_clicks(photo, box, result, clicks)
+        quality = dict(mask_quality(photo, result, box), method=quality["method"] + "+clicks") \
+            if result.any() else {"method": quality["method"] + "+clicks"}
+    source = f"box:{x0},{y0},{x1},{y1}" + "".join(f":{'+' if on else '-'}{x},{y}" for x, y, on in clicks)
+    obj = ObjectMask(label or f"object{index}", index, checked_mask(result, f"--box {spec!r}"), source)
     obj.quality = quality
     return obj
+
+
+def refine_with_clicks(photo: np.ndarray, box, mask: np.ndarray, clicks) -> np.ndarray:
+    """``mask`` (H, W) bool corrected by clicks [(x, y, on the object)]: GrabCut again from the mask as
+    probable labels, each click deciding a small disc for certain; then the parts that hold a click on
+    the object (or the largest part, when every click is off it). A click off the object is never in it."""
+    x0, y0, x1, y1 = box
+    init = np.full(photo.shape[:2], cv2.GC_BGD, np.uint8)
+    init[y0:y1, x0:x1] = np.where(mask[y0:y1, x0:x1], cv2.GC_PR_FGD, cv2.GC_PR_BGD)
+    radius = max(2, int(round(CLICK_RADIUS * min(x1 - x0, y1 - y0))))
+    for x, y, on in clicks:
+        cv2.circle(init, (int(x), int(y)), radius, int(cv2.GC_FGD if on else cv2.GC_BGD), -1)
+    labels = init.copy()
+    if np.isin(labels, (cv2.GC_FGD, cv2.GC_PR_FGD)).any() and np.isin(labels, (cv2.GC_BGD, cv2.GC_PR_BGD)).any():
+        cv2.setRNGSeed(0)
+        bgd, fgd = np.zeros((1, 65), np.float64), np.zeros((1, 65), np.float64)
+        cv2.grabCut(cv2.cvtColor(photo, cv2.COLOR_RGB2BGR), labels, None, bgd, fgd, GRABCUT_ITERATIONS,
+                    cv2.GC_INIT_WITH_MASK)
+    out = (labels == cv2.GC_FGD) | (labels == cv2.GC_PR_FGD)
+    n, parts = cv2.connectedComponents(out.astype(np.uint8), connectivity=8)
+    keep = {int(parts[y, x]) for x, y, on in clicks if on and parts[y, x] > 0}
+    out = np.isin(parts, sorted(keep)) if keep else largest_component(out)
+    return out
 
 
 def segment_box(photo: np.ndarray, box: tuple[int, int, int, int]) -> tuple[np.ndarray, dict]:
