@@ -543,6 +543,49 @@ def preview(shot, host, port, duration, record, open_browser):
 
 
 @main.command()
+@click.argument("photo", type=click.Path(dir_okay=False, path_type=pathlib.Path))
+@click.option("-o", "--output", "out_dir", required=True, type=click.Path(path_type=pathlib.Path),
+              help="Shot folder the page builds into (created at the first Build).")
+@click.option("--host", default="127.0.0.1", show_default=True, help="Address to serve the page on.")
+@click.option("--port", type=click.IntRange(1, 65534), default=8070, show_default=True,
+              help="Port of the page; the live preview takes the next one.")
+@click.option("--segmenter", default="grabcut", show_default=True, metavar="NAME",
+              help="What cuts the masks as you pick (see `physomni-usd plugins`; sam takes clicks natively).")
+@click.option("--duration", type=click.FloatRange(0, 86400, min_open=True), default=None, metavar="SECONDS",
+              help="Quit after this many seconds (for scripts) [default: run until Ctrl-C].")
+@click.option("--open/--no-open", "open_browser", default=None,
+              help="Open the page in a web browser [default: where one is available].")
+def studio(photo, out_dir, host, port, segmenter, duration, open_browser):
+    """Set up a shot in the browser: pick objects on the photo, push them, build, preview and render.
+
+    \b
+    In the page: drag a box around an object and type its label; its mask shows at once (GrabCut, or
+    the segmenter chosen). "Click on object (+)" and "Click off object (−)" correct the selected mask;
+    ↑ ↓ reorder and ✕ deletes. "Push arrow": drag from an object; a quarter of the photo's width is
+    1 m/s, right is +X, up is +Y (away from the camera). Choose a force field and a camera move from
+    the lists. "Build" builds the shot and shows its live preview; "Render" writes video.mp4 (from the
+    preview's take, or 2 simulated seconds) and shows it.
+
+    \b
+    Everything is written beside the shot: studio.json (what the page holds, and its command lines)
+    and studio.sh (the same as `physomni-usd build ... --box X0,Y0,X1,Y1:LABEL:+X,Y:-X,Y ...`), so a
+    TD can batch what was set up here. Opening the page again on the same folder resumes it.
+
+    \b
+    Example:
+      physomni-usd studio photo.png -o shot/
+    """
+    with _errors():
+        from .studio import Options, Studio
+
+        page = Studio(photo, out_dir, Options(host=host, port=port, duration=duration, open_browser=open_browser),
+                      segmenter=segmenter)
+        page.start()
+        page.wait()
+        click.echo("studio: stopped", err=True)
+
+
+@main.command()
 @click.argument("stage", type=click.Path(path_type=pathlib.Path))
 @click.option("--warnings/--no-warnings", default=True, show_default=True, help="Also print warnings.")
 def validate(stage, warnings):

@@ -1,0 +1,165 @@
+"""What the set-up page does, as plain functions over its state: the mask of one object as build will cut
+it, the command lines that replay the page, ``studio.json``, and build and render through the public API.
+
+The state is a dict (what ``studio.json`` holds)::
+
+    {"photo": "/abs/photo.png", "output": "/abs/shot", "segmenter": "grabcut",
+     "objects": [{"label": "cup", "box": [x0, y0, x1, y1], "clicks": [[x, y, true], ...]}, ...],
+     "pushes": [{"object": 0, "velocity": [vx, vy, vz]}],      # m/s, world axes (Z up, +Y away)
+     "force": "wind:direction=1,0,0,strength=5" | null,
+     "camera": "static" | "orbit-left" | ...}
+
+Pixels are the photo's (x right, y down); a box's x1, y1 are exclusive, as ``--box`` has them.
+"""
+
+from __future__ import annotations
+
+import json
+import pathlib
+import shlex
+
+import numpy as np
+
+from .._files import write_bytes
+from ..errors import InputError
+
+#: Written beside the shot: the page's state, and the command lines that replay it.
+STATE_FILE = "studio.json"
+COMMANDS_FILE = "studio.sh"
+#: The force fields the page offers, one preset each (every value can be edited in the page's text box).
+FORCE_PRESETS = {
+    "wind": "wind:direction=1,0,0,strength=5",
+    "constant": "constant:direction=0,1,0,strength=2",
+    "point": "point:position=0,0,0.2,strength=-3",
+    "drag": "drag:linear_drag=0.5",
+    "vortex": "vortex:strength=3",
+    "turbulence": "turbulence:strength=3",
+    "noise": "noise:strength=2",
+}
+#: Simulated seconds of the page's "Render" when no preview take is there to render.
+RENDER_SECONDS = 2.0
+
+
+def empty_state(photo, output, segmenter: str = "grabcut") -> dict:
+    return {"photo": str(pathlib.Path(photo).resolve()), "output": str(pathlib.Path(output).resolve()),
+            "segmenter": segmenter, "objects": [], "pushes": [], "force": None, "camera": "static"}
+
+
+def box_specs(state: dict) -> list[str]:
+    """The ``--box`` spec of each object of ``state``, in order."""
+    from ..perceive.masks import box_spec
+
+    return [box_spec(o["box"], o.get("label") or None, [tuple(c) for c in o.get("clicks", ())])
+            for o in state["objects"]]
+
+
+def prim_names(state: dict) -> list[str]:
+    """The prim name build gives each object (``cup_0``): the label as an identifier, then its index."""
+    from ..perceive.masks import identifier
+
+    return [f"{identifier(o.get('label') or f'object{i}')}_{i}" for i, o in enumerate(state["objects"])]
+
+
+def push_specs(state: dict) -> list[str]:
+    """``--push`` specs: by label where only that object has it, else by prim name."""
+    labels = [o.get("label") or f"object{i}" for i, o in enumerate(state["objects"])]
+    names = prim_names(state)
+    out = []
+    for p in state.get("pushes", ()):
+        i = int(p["object"])
+        if not 0 <= i < len(labels):
+            raise InputError(f"push on object {i}: the page has {len(labels)} objects")
+        who = labels[i] if labels.count(labels[i]) == 1 else names[i]
+        out.append(f"{who}=" + ",".join(f"{float(v):.3g}" for v in p["velocity"]))
+    return out
+
+
+def commands(state: dict) -> dict[str, list[str]]:
+    """The command lines (argv, without the program) that do what the page did: build, simulate, render."""
+    out = state["output"]
+    shot = str(pathlib.Path(out) / "shot.usda")
+    build = ["build", state["photo"], "-o", out]
+    for spec in box_specs(state):
+        build += ["--box", spec]
+    for spec in push_specs(state):
+        build += ["--push", spec]
+    if state.get("force"):
+        build += ["--force", state["force"]]
+    if state.get("segmenter") and state["segmenter"] != "grabcut":
+        build += ["--segmenter", state["segmenter"]]
+    render = ["render", shot] + (["--camera", state["camera"]] if state.get("camera") else [])
+    return {"build": build, "simulate": ["simulate", shot, "--seconds", f"{RENDER_SECONDS:g}"], "render": render}
+
+
+def command_text(state: dict) -> str:
+    """``studio.sh``: the command lines, one a line, quoted for a POSIX shell."""
+    c = commands(state)
+    lines = ["# physomni-usd studio: the set-up page's work as commands (run from the folder it was run in)",
+             "physomni-usd " + shlex.join(c["build"]),
+             "# the video: the page renders its preview's take (drags by hand are not replayed by simulate)",
+             "physomni-usd " + shlex.join(c["simulate"]),
+             "physomni-usd " + shlex.join(c["render"])]
+    return "\n".join(lines) + "\n"
+
+
+def write_state(state: dict) -> pathlib.Path:
+    """``studio.json`` (the state and its command lines) and ``studio.sh`` beside the shot; returns the JSON's
+    path. Each file is written whole or not at all."""
+    folder = pathlib.Path(state["output"])
+    record = dict(state, commands=commands(state))
+    write_bytes(folder / STATE_FILE, (json.dumps(record, indent=2) + "\n").encode())
+    write_bytes(folder / COMMANDS_FILE, command_text(state).encode())
+    return folder / STATE_FILE
+
+
+def read_state(path) -> dict:
+    """A ``studio.json`` as the state it was written from (its command lines left out)."""
+    data = json.loads(pathlib.Path(path).read_text())
+    data.pop("commands", None)
+    return data
+
+
+def object_mask(photo: np.ndarray, obj: dict, index: int, segmenter) -> dict:
+    """The mask build makes of one object of the page: ``{"mask": (H, W) bool, "pixels": int,
+    "warning": str | None, "spec": the --box spec}``; the same call build makes, so what the page shows is
+    what build gets. Bad boxes and clicks raise :class:`InputError` with build's own message."""
+    from ..backends.steps import collect_objects
+    from ..perceive.masks import box_spec
+
+    spec = box_spec(obj["box"], obj.get("label") or None, [tuple(c) for c in obj.get("clicks", ())])
+    found = collect_objects(photo, (), [spec], segmenter)[0]
+    warning = (found.quality or {}).get("warning")
+    return {"mask": found.mask, "pixels": int(found.mask.sum()), "warning": warning, "spec": spec}
+
+
+def build(state: dict, echo=lambda m: None):
+    """Build the shot the page describes (``physomni_usd.build``); writes ``studio.json`` and ``studio.sh``
+    once the build has succeeded. Returns the build result."""
+    import physomni_usd
+
+    if not state["objects"]:
+        raise InputError("no objects yet: drag a box around an object first")
+    c = commands(state)
+    result = physomni_usd.build(state["photo"], state["output"], (), box_specs(state), None,
+                                pushes=push_specs(state), forces=[state["force"]] if state.get("force") else (),
+                                backends={"segmenter": state.get("segmenter") or None}, echo=echo)
+    write_state(state)
+    echo("studio: physomni-usd " + shlex.join(c["build"]))
+    return result
+
+
+def render(state: dict, simulated: bool, max_size: int = 960, echo=lambda m: None) -> dict:
+    """The video of the shot with the page's camera move; simulates first (``RENDER_SECONDS``) unless
+    ``simulated`` (a preview take is in sim.usdc). Returns the report's render section."""
+    import physomni_usd
+    from ..settings import RenderSettings, SimulateSettings
+
+    shot = pathlib.Path(state["output"]) / "shot.usda"
+    if not shot.is_file():
+        raise InputError("nothing to render yet: press Build first")
+    if not simulated:
+        physomni_usd.simulate(shot, SimulateSettings(seconds=RENDER_SECONDS), echo=echo)
+    camera = state.get("camera") or None
+    section = physomni_usd.render(shot, None, RenderSettings(max_size=max_size), camera=camera)
+    write_state(state)
+    return section

@@ -1,0 +1,210 @@
+"""``physomni-usd studio``: a real browser (Debian's chromium through Playwright) picks two objects on the
+synthetic photo, labels them, corrects one with a click off it, pushes one, builds, drags an object in the
+live preview and renders; the command line the page wrote, run again, builds the same scene."""
+
+from __future__ import annotations
+
+import base64
+import json
+import pathlib
+import shlex
+import signal
+import subprocess
+import sys
+import threading
+
+import cv2
+import numpy as np
+import pytest
+from pxr import Usd
+
+from physomni_usd.fields import parse_force_spec
+from physomni_usd.studio import session
+
+from .conftest import W, cli
+from .test_preview import CHROMIUM, free_port
+
+#: Photo pixels of the two boxes the test drags (around the cup and the box of the synthetic photo).
+CUP_BOX = (40, 62, 102, 136)
+BOX_BOX = (124, 68, 206, 146)
+#: A click off the box object, inside its mask near a corner.
+OFF_CLICK = (196, 136)
+
+
+def test_every_force_preset_is_a_valid_force_option():
+    for kind, spec in session.FORCE_PRESETS.items():
+        assert parse_force_spec(spec).kind == kind
+
+
+def test_commands_replay_boxes_clicks_and_pushes_and_name_a_shared_label_by_prim():
+    state = session.empty_state("p.png", "shot")
+    state["objects"] = [{"label": "cup", "box": [1, 2, 30, 40], "clicks": [[5, 6, False]]},
+                        {"label": "cup", "box": [50, 2, 90, 40], "clicks": []}]
+    state["pushes"] = [{"object": 1, "velocity": [0.5, 0, 0]}]
+    state["camera"] = "orbit-left"
+    build = session.commands(state)["build"]
+    assert build[build.index("--box") + 1] == "1,2,30,40:cup:-5,6"
+    assert build[build.index("--push") + 1] == "cup_1=0.5,0,0"  # the label is shared: the prim is named
+    assert "--camera orbit-left" in session.command_text(state)
+
+
+def _start(photo, out, port):
+    proc = subprocess.Popen([sys.executable, "-m", "physomni_usd.cli", "studio", str(photo), "-o", str(out),
+                             "--port", str(port), "--no-open", "--duration", "900"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    lines: list[str] = []
+    ready = threading.Event()
+
+    def read():
+        for line in proc.stderr:
+            lines.append(line.rstrip("\n"))
+            if line.startswith("studio: http://"):
+                ready.set()
+        ready.set()
+
+    threading.Thread(target=read, daemon=True).start()
+    if not ready.wait(120) or proc.poll() is not None:
+        proc.kill()
+        raise AssertionError("studio did not start:\n" + "\n".join(lines))
+    return proc, lines
+
+
+def _decode(data_url: str) -> np.ndarray:
+    png = base64.b64decode(data_url.split(",", 1)[1])
+    return cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_UNCHANGED)[..., 3] > 0
+
+
+def _iou(a: np.ndarray, b: np.ndarray) -> float:
+    return float((a & b).sum()) / max(1, int((a | b).sum()))
+
+
+@pytest.fixture(scope="module")
+def studio_run(photo, tmp_path_factory):
+    from playwright.sync_api import sync_playwright
+
+    out = tmp_path_factory.mktemp("studio") / "shot"
+    port = free_port()
+    while port + 1 > 65535:
+        port = free_port()
+    proc, lines = _start(photo["photo"], out, port)
+    result = {"out": out, "lines": lines}
+    try:
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=CHROMIUM, args=[
+                "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox"])
+            page = browser.new_page(viewport={"width": 1600, "height": 720})
+            page.goto(f"http://127.0.0.1:{port}/")
+            page.wait_for_selector("body[data-ready='1']", timeout=30000)
+            page.wait_for_function("() => document.getElementById('photo').width > 0")
+            c = page.locator("#photo").bounding_box()
+            scale = c["width"] / W
+
+            def at(x, y):
+                return c["x"] + (x + 0.5) * scale, c["y"] + (y + 0.5) * scale
+
+            def drag(a, b):
+                page.mouse.move(*at(*a))
+                page.mouse.down()
+                for k in range(1, 6):
+                    page.mouse.move(*at(a[0] + (b[0] - a[0]) * k / 5, a[1] + (b[1] - a[1]) * k / 5))
+                page.mouse.up()
+
+            def mask_ready(i, clicks):
+                page.wait_for_function(
+                    f"() => studio.masks[{i}] && studio.masks[{i}].complete && studio.S.objects[{i}].spec"
+                    f" && (studio.S.objects[{i}].spec.match(/:[+-]/g) || []).length === {clicks}", timeout=60000)
+
+            for i, (box, label) in enumerate(((CUP_BOX, "cup"), (BOX_BOX, "box"))):
+                drag(box[:2], box[2:])
+                page.get_by_label(f"Label of object {i}").fill(label)
+                mask_ready(i, 0)
+            result["before_click"] = _decode(page.evaluate("() => studio.masks[1].src"))
+            page.get_by_label("Click off object (−)").check()
+            page.mouse.click(*at(*OFF_CLICK))
+            mask_ready(1, 1)
+            page.get_by_label("Push arrow").check()
+            drag((71, 100), (71 + W // 8, 100))  # 0.5 m/s to the right
+            page.get_by_label("Camera move").select_option("orbit-left")
+            result["page_masks"] = [_decode(page.evaluate(f"() => studio.masks[{i}].src")) for i in range(2)]
+            page.get_by_role("button", name="Build").click()
+            page.get_by_text("built 2 objects").wait_for(timeout=240000)
+            result["shot_after_build"] = (out / "shot.usda").is_file()
+            # a drag on the box in the live preview (inside the page)
+            frame = page.frame_locator("#preview")
+            frame.get_by_role("button", name="Pause").wait_for(timeout=120000)
+            page.wait_for_timeout(1500)
+            canvas = frame.locator("canvas").first.bounding_box()
+            from physomni_usd.preview.scene import photo_view
+            from physomni_usd.usd import layers
+
+            view, _ = photo_view(layers.open_shot(out))
+            s = canvas["height"] / view.height
+            left = canvas["x"] + canvas["width"] / 2 - view.width * s / 2
+            x, y = left + 165 * s, canvas["y"] + 110 * s
+            page.mouse.move(x, y)
+            page.mouse.down()
+            for k in range(1, 16):
+                page.mouse.move(x + 8 * k, y)
+                page.wait_for_timeout(60)
+            page.mouse.up()
+            page.wait_for_timeout(500)
+            page.get_by_role("button", name="Render").click()
+            page.get_by_text("rendered").wait_for(timeout=300000)
+            result["video_src"] = page.evaluate("() => document.getElementById('video').src")
+            browser.close()
+        proc.send_signal(signal.SIGINT)
+        proc.wait(120)
+    except Exception as exc:
+        raise AssertionError(f"{exc}\nstudio's stderr (exit {proc.poll()}):\n" + "\n".join(lines)) from exc
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    result["returncode"] = proc.returncode
+    return result
+
+
+def test_build_from_the_page_has_the_objects_as_labelled(studio_run):
+    out = studio_run["out"]
+    assert studio_run["shot_after_build"]
+    stage = Usd.Stage.Open(str(out / "shot.usda"))
+    objects = [p for p in stage.GetPrimAtPath("/World/Objects").GetChildren()]
+    labels = {p.GetName(): p.GetAttribute("physomni:label").Get() for p in objects}
+    assert labels == {"cup_0": "cup", "box_1": "box"}
+
+
+def test_the_click_off_the_object_changed_its_mask(studio_run):
+    before, after = studio_run["before_click"], studio_run["page_masks"][1]
+    x, y = OFF_CLICK
+    assert before[y, x] and not after[y, x]
+
+
+def test_masks_of_the_written_command_match_the_page_and_it_builds_the_same_scene(studio_run, tmp_path):
+    out = studio_run["out"]
+    state = json.loads((out / "studio.json").read_text())
+    build = state["commands"]["build"]
+    assert (out / "studio.sh").read_text().count("physomni-usd build") == 1
+    assert shlex.split((out / "studio.sh").read_text().splitlines()[1])[1:] == build
+    again = tmp_path / "again"
+    build[build.index("-o") + 1] = str(again)
+    cli(*build, "-q", check=True)
+    for i, name in enumerate(("cup_0", "box_1")):
+        cli_mask = cv2.imread(str(again / "inputs" / "masks" / f"{name}.png"), cv2.IMREAD_GRAYSCALE) > 0
+        assert _iou(cli_mask, studio_run["page_masks"][i]) >= 0.95, name
+        built = cv2.imread(str(out / "inputs" / "masks" / f"{name}.png"), cv2.IMREAD_GRAYSCALE) > 0
+        assert (built == cli_mask).all(), name
+    first, second = (json.loads((d / "report.json").read_text()) for d in (out, again))
+    for a, b in zip(first["objects"], second["objects"]):
+        assert (a["name"], a["label"], a.get("push")) == (b["name"], b["label"], b.get("push"))
+        assert np.allclose(a["size_m"], b["size_m"]) and np.allclose(a["position_m"], b["position_m"])
+    assert first["objects"][0]["push"]["velocity_m_s"][0] == pytest.approx(0.5, abs=0.05)
+
+
+def test_render_from_the_page_writes_the_video_with_the_chosen_move(studio_run):
+    out = studio_run["out"]
+    assert (out / "video.mp4").is_file() and studio_run["video_src"].endswith(".mp4?t=" +
+                                                                            studio_run["video_src"].split("=")[-1])
+    report = json.loads((out / "report.json").read_text())["stages"]["render"]
+    assert report["frames"] >= 2 and "orbit-left" in json.dumps(report.get("camera"))
+    assert (out / "render.usda").is_file()
+    assert any(ln == "studio: rendering the preview's take" for ln in studio_run["lines"]), studio_run["lines"]
+    assert studio_run["returncode"] == 0, "\n".join(studio_run["lines"])
