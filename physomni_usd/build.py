@@ -169,23 +169,30 @@ def _stale_files(out: pathlib.Path, written: set[str]) -> list[pathlib.Path]:
 
 def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings = BuildSettings(),
                pushes=(), echo=lambda msg: None, forces=(), fixed=(), meshes_dir=None, sizes=(),
-               backends=None) -> BuildResult:
-    """``backends``: kind → backend name for the swappable steps (see ``backends.steps.BUILD_KINDS``)."""
+               backends=None, find=None, finder=None) -> BuildResult:
+    """``backends``: kind → backend name for the swappable steps (see ``backends.steps.BUILD_KINDS``);
+    ``find``: phrases ('cup, saucer') whose every instance the ``finder`` backend finds (default sam3)."""
     with all_or_nothing():
         return _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, forces, fixed, meshes_dir,
-                           sizes, backends)
+                           sizes, backends, find, finder)
 
 
 def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, forces, fixed, meshes_dir,
-                sizes, backends) -> BuildResult:
+                sizes, backends, find=None, finder=None) -> BuildResult:
+    from .backends.finders import find_objects, load_finder
+
     timer = Timer()
     with timer.step("read"):
         chosen = backend_steps.resolve(backends, meshes_dir=meshes_dir)
+        finding = load_finder(find, finder)
         out = pathlib.Path(out_dir)
         if out.exists() and not out.is_dir():
             raise InputError(f"output {out} exists and is not a directory")
         photo = read_photo(photo_path)
-        objects = backend_steps.collect_objects(photo, masks, boxes, chosen["segmenter"])
+        objects = (backend_steps.collect_objects(photo, masks, boxes, chosen["segmenter"])
+                   if masks or boxes or finding is None else [])
+        if finding is not None:
+            objects += find_objects(photo, find, finding, len(objects), echo)
         settings, depth_info = backend_steps.apply_depth(chosen["depth"], photo, objects, settings)
         names = object_names(objects)
         push = parse_pushes(pushes, names, echo)

@@ -29,6 +29,8 @@ EPILOG_BUILD = """
 Examples:
   physomni-usd build photo.png -o shot/ --mask cup.png:cup --mask saucer.png
   physomni-usd build photo.png -o shot/ --box 120,40,380,300:box --fov 60
+  physomni-usd build photo.png -o shot/ --box 120,40,380,300:cup:-130,60   (a click off the cup)
+  physomni-usd build photo.png -o shot/ --find "cup, saucer, spoon"        (needs physomni-sam3)
 """
 
 
@@ -161,6 +163,12 @@ def build_options(f):
                           "Clicks after it correct the mask: +X,Y a pixel on the object, -X,Y one off it "
                           "(e.g. 120,40,380,300:cup:-130,60). `physomni-usd studio` writes these for you. "
                           "Repeatable."),
+        click.option("--find", default=None, metavar="PHRASES",
+                     help="Find every instance of each phrase with a text-promptable finder, e.g. "
+                          "'cup, saucer, spoon'; each is labelled by its phrase and numbered after the masks "
+                          "and boxes (cup_2, cup_3). Needs a finder plugin (physomni-sam3)."),
+        click.option("--finder", default=None, metavar="NAME",
+                     help="The finder --find uses [default: sam3]. See `physomni-usd plugins`."),
         click.option("--meshes", "meshes_dir", type=click.Path(file_okay=False, path_type=pathlib.Path),
                      default=None, help="Folder with one mesh per object (OBJ, GLB, PLY) and poses.json "
                                         "(label → mesh, rotation_wxyz, translation, scale in OpenCV camera "
@@ -236,14 +244,15 @@ def _build_settings(fov, pitch, camera_height, shape, fps):
               help=PUSH_HELP)
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, fps, meshes_dir, fixed, forces, pushes,
-          quiet, backends):
+          quiet, backends, find=None, finder=None):
     """Photo → scene.usda, physics.usda and the root shot.usda (perceive, align, estimate)."""
     with _errors():
         import physomni_usd
 
         settings = _build_settings(fov, pitch, camera_height, shape, fps)
         result = physomni_usd.build(photo, out_dir, masks, boxes, settings, pushes=pushes, echo=_say(quiet),
-                                    forces=forces, fixed=fixed, meshes_dir=meshes_dir, sizes=sizes, backends=backends)
+                                    forces=forces, fixed=fixed, meshes_dir=meshes_dir, sizes=sizes, backends=backends,
+                                    find=find, finder=finder)
         if not quiet:
             total = sum(result.seconds.values())
             click.echo(f"wrote {result.shot} ({len(result.objects)} objects, {total:.2f} s)", err=True)
@@ -425,7 +434,7 @@ def _check_simulated(shot) -> None:
               help="Size of the move as a multiple of its default. Range: 0 < value ≤ 4.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, fps, meshes_dir, fixed, forces, seconds,
-        pushes, particle_spacing, mpm_steps, camera, camera_amount, quiet, backends):
+        pushes, particle_spacing, mpm_steps, camera, camera_amount, quiet, backends, find=None, finder=None):
     """build + simulate + render in one go; writes DIR/shot.usda, DIR/video.mp4, DIR/report.json.
 
     \b
@@ -447,7 +456,8 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, f
         check_writable([out_dir / "video.mp4"])
         t0 = time.perf_counter()
         result = physomni_usd.build(photo, out_dir, masks, boxes, settings, pushes=pushes, echo=_say(quiet),
-                                    forces=forces, fixed=fixed, meshes_dir=meshes_dir, sizes=sizes, backends=backends)
+                                    forces=forces, fixed=fixed, meshes_dir=meshes_dir, sizes=sizes, backends=backends,
+                                    find=find, finder=finder)
         _simulate(result.shot, seconds, None, None, quiet, particle_spacing, mpm_steps)
         section = _render(result.shot, None, quiet, camera=camera, camera_amount=camera_amount)
         total = round(time.perf_counter() - t0, 3)

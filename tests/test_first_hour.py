@@ -53,3 +53,14 @@ def test_render_refuses_a_shot_never_simulated_unless_still(tmp_path, photo):
     assert not (out / "video.mp4").exists()
     cli("render", out / "shot.usda", "--max-size", "64", "--still", "-q", check=True)
     assert (out / "video.mp4").is_file()
+
+
+def test_find_without_a_finder_plugin_names_it_before_any_work(monkeypatch):
+    from physomni_usd.backends import finders, registry
+
+    installed = registry.entries()
+    monkeypatch.setattr(registry, "entries", lambda: [e for e in installed if e.kind != "finder"])
+    with pytest.raises(InputError, match=r"--find 'cup, saucer' needs a text-promptable finder.*physomni-sam3"):
+        finders.load_finder("cup, saucer", None)
+    assert finders.parse_phrases(" cup,  tea   cup ,, cup") == ["cup", "tea cup"]
+    assert finders.load_finder(None, None) is None

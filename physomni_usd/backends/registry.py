@@ -23,7 +23,7 @@ from importlib import metadata
 from ..errors import InputError
 
 GROUP = "physomni_usd.backends"
-KINDS = ("segmenter", "inpainter", "outpainter", "lifter", "depth", "estimator", "rerenderer")
+KINDS = ("segmenter", "inpainter", "outpainter", "lifter", "depth", "estimator", "rerenderer", "finder")
 
 #: Built-in backends: (kind, name) → "module:Class".
 BUILTINS = {
@@ -36,9 +36,9 @@ BUILTINS = {
 }
 #: What each step uses when no option names a backend (None: the step is skipped).
 DEFAULTS = {"segmenter": "grabcut", "inpainter": "builtin", "outpainter": "mirror", "lifter": "silhouette",
-            "depth": None, "estimator": "rules", "rerenderer": None}
+            "depth": None, "estimator": "rules", "rerenderer": None, "finder": None}
 #: The plugin to install for each kind that has no built-in.
-SUGGESTED = {"outpainter": None, "depth": "physomni-depth", "rerenderer": "physomni-wan"}
+SUGGESTED = {"outpainter": None, "depth": "physomni-depth", "rerenderer": "physomni-wan", "finder": "physomni-sam3"}
 
 
 @dataclass

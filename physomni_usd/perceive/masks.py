@@ -429,7 +429,8 @@ def collect_masks(photo: np.ndarray, mask_specs, box_specs) -> list[ObjectMask]:
     specs = list(mask_specs or ())
     boxes = list(box_specs or ())
     if not specs and not boxes:
-        raise InputError("no objects given: pass --mask PNG[:LABEL] or --box X0,Y0,X1,Y1[:LABEL] at least once")
+        raise InputError("no objects given: pass --mask PNG[:LABEL], --box X0,Y0,X1,Y1[:LABEL] or --find PHRASES "
+                         "at least once (or pick them in the browser: physomni-usd studio PHOTO -o DIR)")
     shape = photo.shape[:2]
     objects = [read_mask(s, shape, i) for i, s in enumerate(specs)]
     objects += [mask_from_box(photo, s, len(specs) + j) for j, s in enumerate(boxes)]
