@@ -64,3 +64,27 @@ def test_find_without_a_finder_plugin_names_it_before_any_work(monkeypatch):
         finders.load_finder("cup, saucer", None)
     assert finders.parse_phrases(" cup,  tea   cup ,, cup") == ["cup", "tea cup"]
     assert finders.load_finder(None, None) is None
+
+
+ROOT = __import__("pathlib").Path(__file__).resolve().parents[1]
+
+
+def test_readme_is_a_short_guide_whose_test_commands_ci_runs_verbatim():
+    readme = (ROOT / "README.md").read_text()
+    assert len(readme.splitlines()) < 300
+    ci = (ROOT / ".ci" / "run").read_text()
+    commands = [ln for ln in readme.splitlines() if ln.startswith("pip install -e") and "pytest" in ln]
+    assert len(commands) == 2 and all(c in ci for c in commands)
+    assert "--index-url https://download.pytorch.org/whl/cpu" in readme
+    for step in ("git clone", "python3 -m venv", "pip install -e . && bash examples/motorcycle/run.sh"):
+        assert step in readme, step
+    for doc in ("docs/reference.md", "docs/benchmarks.md"):
+        assert (ROOT / doc).is_file() and doc in readme
+
+
+def test_help_and_plugins_say_what_they_mean():
+    assert "render.usda" in cli("--help", check=True).stdout
+    out = cli("plugins", check=True).stdout
+    vlm = next(ln for ln in out.splitlines() if ln.strip().startswith("vlm:"))
+    assert "needs setting up: PHYSOMNI_VLM_URL" in vlm and "ready" not in vlm
+    assert "finder:" in out
