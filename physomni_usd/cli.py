@@ -278,6 +278,9 @@ def _simulate(shot, seconds, fps, substeps, quiet, particle_spacing=None, mpm_st
     return section
 
 
+#: What `preview` takes for a photo (and hands to the set-up page) rather than a shot.
+PHOTO_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
+
 #: Simulated seconds of `run`, and of `simulate` on a shot that has no length yet.
 DEFAULT_SECONDS = 3.0
 
@@ -522,7 +525,9 @@ def estimate(shot, estimator, vlm_url, vlm_model, vlm_api_key, vlm_timeout, sets
 @click.option("--record", is_flag=True, help="On exit, write the take since the last reset to sim.usdc.")
 @click.option("--open/--no-open", "open_browser", default=None,
               help="Open the page in a web browser [default: where one is available].")
-def preview(shot, host, port, duration, record, open_browser):
+@click.option("-o", "--output", "out_dir", default=None, type=click.Path(path_type=pathlib.Path),
+              help="Given a photo instead of a shot: the folder the set-up page (`studio`) builds the shot into.")
+def preview(shot, host, port, duration, record, open_browser, out_dir):
     """Simulate the composed shot live in the browser: push objects with the mouse, change fields,
     materials and gravity from the panel, keep the take (sim.usdc) or the settings (edits.usda).
 
@@ -537,12 +542,25 @@ def preview(shot, host, port, duration, record, open_browser):
     Examples:
       physomni-usd preview shot/shot.usda
       physomni-usd preview shot/shot.usda --port 8090 --duration 20 --record
+      physomni-usd preview photo.png -o shot/     (a photo: the set-up page, as `studio`)
 
     \b
     Limits: rigid bodies are pulled by the mouse; cloth, soft bodies and MPM materials move live but
     are not grabbed. A take keeps at most 3600 frames.
     """
     with _errors():
+        if shot.suffix.lower() in PHOTO_SUFFIXES:  # a photo: set the shot up first, on the studio's page
+            from .errors import InputError
+            from .studio import Options as StudioOptions, Studio
+
+            if out_dir is None:
+                raise InputError(f"{shot} is a photo, not a shot: name the folder to build it into with -o, e.g. "
+                                 f"physomni-usd preview {shot} -o shot/ (the same as physomni-usd studio)")
+            page = Studio(shot, out_dir, StudioOptions(host=host, port=port, duration=duration,
+                                                       open_browser=open_browser))
+            page.start()
+            page.wait()
+            return
         from .preview.app import Options, Preview
 
         options = Options(host=host, port=port, duration=duration, record=record, open_browser=open_browser)

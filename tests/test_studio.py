@@ -208,3 +208,41 @@ def test_render_from_the_page_writes_the_video_with_the_chosen_move(studio_run):
     assert (out / "render.usda").is_file()
     assert any(ln == "studio: rendering the preview's take" for ln in studio_run["lines"]), studio_run["lines"]
     assert studio_run["returncode"] == 0, "\n".join(studio_run["lines"])
+
+
+def test_bad_input_to_the_page_is_one_line_before_anything_starts(tmp_path, photo):
+    proc = cli("studio", tmp_path / "nope.png", "-o", tmp_path / "shot", "--no-open", "--duration", "1")
+    errors = [ln for ln in proc.stderr.splitlines() if ln.startswith("error:")]
+    assert proc.returncode == 2 and len(errors) == 1 and "photo not found" in errors[0]
+    proc = cli("preview", photo["photo"], "--no-open", "--duration", "1")
+    errors = [ln for ln in proc.stderr.splitlines() if ln.startswith("error:")]
+    assert proc.returncode == 2 and len(errors) == 1 and "-o" in errors[0] and "studio" in errors[0]
+    assert not (tmp_path / "shot").exists()
+
+
+def test_preview_of_a_photo_serves_the_set_up_page(tmp_path, photo):
+    import urllib.request
+
+    port = free_port()
+    proc = subprocess.Popen([sys.executable, "-m", "physomni_usd.cli", "preview", str(photo["photo"]), "-o",
+                             str(tmp_path / "shot"), "--port", str(port), "--no-open", "--duration", "60"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = proc.stderr.readline()
+        while line and not line.startswith("studio: http://"):
+            line = proc.stderr.readline()
+        assert line.startswith(f"studio: http://127.0.0.1:{port}"), line
+        info = json.loads(urllib.request.urlopen(f"http://127.0.0.1:{port}/api/info", timeout=30).read())
+        assert (info["width"], info["height"]) == (W, 180) and info["segmenter"] == "grabcut"
+        req = urllib.request.Request(f"http://127.0.0.1:{port}/api/mask", method="POST",
+                                     data=json.dumps({"object": {"label": "cup", "box": [500, 0, 600, 50],
+                                                                 "clicks": []}}).encode())
+        try:
+            urllib.request.urlopen(req, timeout=30)
+            raise AssertionError("a box outside the photo was accepted")
+        except urllib.error.HTTPError as exc:
+            assert exc.code == 400 and "not inside" in json.loads(exc.read())["error"]
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(60)
+    assert not (tmp_path / "shot").exists()  # nothing built, nothing written
