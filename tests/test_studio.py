@@ -118,6 +118,15 @@ def studio_run(photo, tmp_path_factory):
                 drag(box[:2], box[2:])
                 page.get_by_label(f"Label of object {i}").fill(label)
                 mask_ready(i, 0)
+            # a third object, moved up and deleted again: the list's order is the objects' numbers
+            drag((36, 58), (106, 140))  # around the cup again
+            page.get_by_label("Label of object 2").fill("spare")
+            mask_ready(2, 0)
+            labels = "() => studio.S.objects.map(o => o.label).join(',')"
+            page.get_by_role("button", name="Up 2").click()
+            result["reordered"] = page.evaluate(labels)
+            page.get_by_role("button", name="Delete 1").click()
+            result["deleted"] = page.evaluate(labels)
             result["before_click"] = _decode(page.evaluate("() => studio.masks[1].src"))
             page.get_by_label("Click off object (−)").check()
             page.mouse.click(*at(*OFF_CLICK))
@@ -170,6 +179,10 @@ def test_build_from_the_page_has_the_objects_as_labelled(studio_run):
     objects = [p for p in stage.GetPrimAtPath("/World/Objects").GetChildren()]
     labels = {p.GetName(): p.GetAttribute("physomni:label").Get() for p in objects}
     assert labels == {"cup_0": "cup", "box_1": "box"}
+
+
+def test_objects_reorder_and_delete_in_the_list(studio_run):
+    assert studio_run["reordered"] == "cup,spare,box" and studio_run["deleted"] == "cup,box"
 
 
 def test_the_click_off_the_object_changed_its_mask(studio_run):
