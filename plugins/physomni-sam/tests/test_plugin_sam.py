@@ -95,3 +95,25 @@ def test_empty_mask_from_the_model_is_the_usual_error(tmp_path):
     assert len(errors) == 1 and "is empty: no pixel belongs to the object" in errors[0]
     assert "Traceback" not in proc.stderr
     assert not (out / "scene.usda").exists()
+
+
+def test_clicks_after_the_box_are_the_models_point_prompts(tmp_path, monkeypatch):
+    from physomni_sam import SamSegmenter
+
+    from physomni_usd.backends.protocols import Prompt
+
+    paths = synthetic_photo(tmp_path / "in")
+    weights = tiny_sam(tmp_path / "sam")
+    monkeypatch.setenv("PHYSOMNI_SAM_WEIGHTS", str(weights))
+    photo = cv2.cvtColor(cv2.imread(str(paths["photo"])), cv2.COLOR_BGR2RGB)
+    box = tuple(int(c) for c in BOX.split(","))
+    clicks = [(165.0, 110.0, True), (128.0, 72.0, False)]
+    sam = SamSegmenter()
+    expected = sam.segment(photo, [Prompt(box=box, points=clicks)])[0]
+    assert (expected != sam.segment(photo, [Prompt(box=box)])[0]).any()  # the clicks change the mask
+    out = tmp_path / "out"
+    cli("build", paths["photo"], "-o", out, "--box", f"{BOX}:box:+165,110:-128,72", "--segmenter", "sam",
+        env=_env(PHYSOMNI_SAM_WEIGHTS=str(weights)), check=True)
+    got = cv2.imread(str(out / "inputs" / "masks" / "box_0.png"), cv2.IMREAD_GRAYSCALE) > 0
+    assert (got == expected).all()
+    assert json.loads((out / "report.json").read_text())["objects"][0]["label"] == "box"
