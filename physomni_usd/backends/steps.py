@@ -75,7 +75,12 @@ def collect_objects(photo: np.ndarray, mask_specs, box_specs, segmenter):
         if not (0 <= x0 < x1 <= w and 0 <= y0 < y1 <= h):
             raise InputError(f"--box {spec!r} is not inside the {w}×{h} photo "
                              f"(need 0 ≤ X0 < X1 ≤ {w}, 0 ≤ Y0 < Y1 ≤ {h})")
-        prompts.append(Prompt(box=(x0, y0, x1, y1), points=[(float(x), float(y), on) for x, y, on in box_clicks(spec)]))
+        clicks = [(float(x), float(y), on) for x, y, on in box_clicks(spec)]
+        outside = [(x, y) for x, y, _ in clicks if not (0 <= x < w and 0 <= y < h)]
+        if outside:
+            raise InputError(f"--box {spec!r}: the click at {outside[0][0]:g},{outside[0][1]:g} is not inside the "
+                             f"{w}×{h} photo")
+        prompts.append(Prompt(box=(x0, y0, x1, y1), points=clicks))
         labels.append(label)
     masks = segmenter.segment(photo, prompts)
     for j, (spec, p, label, mask) in enumerate(zip(box_specs, prompts, labels, masks)):
