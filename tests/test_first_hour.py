@@ -44,7 +44,7 @@ def test_a_label_typo_is_answered_with_the_closest_label(tmp_path, photo):
     assert not (tmp_path / "out").exists()
 
 
-def test_render_refuses_a_shot_never_simulated_unless_still(tmp_path, photo):
+def test_render_refuses_a_shot_never_simulated_unless_still_and_set_offers_the_label(tmp_path, photo):
     out = tmp_path / "shot"
     cli("build", photo["photo"], "-o", out, "--mask", f"{photo['cup']}:cup", "-q", check=True)
     proc = cli("render", out / "shot.usda", "--max-size", "64")
@@ -53,6 +53,11 @@ def test_render_refuses_a_shot_never_simulated_unless_still(tmp_path, photo):
     assert not (out / "video.mp4").exists()
     cli("render", out / "shot.usda", "--max-size", "64", "--still", "-q", check=True)
     assert (out / "video.mp4").is_file()
+    edits = (out / "edits.usda").read_bytes()
+    proc = cli("estimate", out / "shot.usda", "--set", "cpu.density=800")  # the same shot: a typo in --set
+    errors = [ln for ln in proc.stderr.splitlines() if ln.startswith("error:")]
+    assert proc.returncode == 2 and len(errors) == 1 and "did you mean 'cup'?" in errors[0]
+    assert (out / "edits.usda").read_bytes() == edits
 
 
 def test_find_without_a_finder_plugin_names_it_before_any_work(monkeypatch):
