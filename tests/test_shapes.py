@@ -96,3 +96,16 @@ def test_seen_from_above_flat_parts_are_thin_plates_and_organic_things_domes():
     # rounded: its volume is well under the prism of its footprint and height
     prism = lift_silhouette(_blob(), camera, height_hint=banana.height_m, prior_shape=banana.shape)
     assert prism.shape == "prism" and mesh.volume < 0.85 * trimesh.Trimesh(prism.vertices, prism.faces).volume
+
+
+def test_a_box_whose_top_does_not_show_stays_a_slab():
+    """A front face alone (one colour with grain, no top lit apart) has no top edge to fit a cuboid to."""
+    camera = PinholeCamera(320, 240, 50.0, 10.0, (0.0, 0.0, 1.0))
+    rng = np.random.default_rng(3)
+    photo = np.clip(np.full((240, 320, 3), 120.0) + rng.normal(0, 6, (240, 320, 1)), 0, 255).astype(np.uint8)
+    mask = np.zeros((240, 320), bool)
+    mask[130:200, 120:220] = True
+    photo[mask] = np.clip(np.array([70, 110, 190]) + rng.normal(0, 6, (int(mask.sum()), 1)), 0, 255)
+    lifted = lift_silhouette(mask, camera, photo=photo, label="box")
+    assert lifted.shape == "extrude"
+    _closed(lifted)

@@ -39,6 +39,7 @@ carries the mask as alpha and renderers cut those pixels away.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import cv2
@@ -60,8 +61,12 @@ BALL_IOU = 0.9
 ROUND_EXPONENT = 2.0
 #: An inflated section is never thinner than this fraction of the object's largest bulge (no flat slivers).
 MIN_BULGE = 0.08
-#: A cuboid needs its top to show: the front side's top edge at most this fraction of the silhouette's height.
+#: A cuboid needs its top to show: the front side's top edge at most this fraction of the silhouette's height,
+#: and the photo's brightness across that edge changing by at least CUBOID_STEP grey levels and
+#: CUBOID_STEP_NOISE times the bands' own spread (a top lit unlike the front, not a texture's grain).
 CUBOID_TOP_SHOWS = 0.9
+CUBOID_STEP = 10.0
+CUBOID_STEP_NOISE = 1.5
 
 
 @dataclass
@@ -239,6 +244,25 @@ def inflated_rings(middle: np.ndarray, offsets: np.ndarray, direction: np.ndarra
     return np.concatenate([one, other[:, -2:0:-1]], axis=1)
 
 
+def _edge_is_a_step(photo, solid, camera, edge_point, band: int = 4) -> bool:
+    """Whether the photo's brightness steps across the image row where ``edge_point`` (3,) projects, inside the
+    middle of the silhouette: the front side below and the top above are lit differently."""
+    gray = cv2.cvtColor(photo, cv2.COLOR_RGB2GRAY).astype(float) if photo.ndim == 3 else photo.astype(float)
+    uv, _ = camera.project(np.asarray(edge_point, float)[None])
+    row = int(round(float(uv[0, 1])))
+    ys, xs = np.nonzero(solid)
+    x0, x1 = (int(x) for x in np.percentile(xs, [30, 70]))
+    if row - band < ys.min() or row + band > ys.max() or x1 <= x0:
+        return False
+    above = gray[row - band:row - 1, x0:x1 + 1][solid[row - band:row - 1, x0:x1 + 1]]
+    below = gray[row + 2:row + band + 1, x0:x1 + 1][solid[row + 2:row + band + 1, x0:x1 + 1]]
+    if len(above) < 4 or len(below) < 4:
+        return False
+    step = abs(float(above.mean()) - float(below.mean()))
+    spread = math.sqrt(0.5 * (float(above.var()) + float(below.var())))
+    return step >= max(CUBOID_STEP, CUBOID_STEP_NOISE * spread)
+
+
 def cuboid_from_faces(solid, camera, photo, left, right, z, contact, normal, tangent, base_z):
     """(vertices, faces, info) of a box whose front side and top the photo shows, or None where it does not.
 
@@ -256,6 +280,8 @@ def cuboid_from_faces(solid, camera, photo, left, right, z, contact, normal, tan
     depth = float((back - contact) @ normal) if np.all(np.isfinite(back)) else -1.0
     front = z <= base_z + height + 1e-9
     if depth <= 0 or not front.any():
+        return None
+    if not _edge_is_a_step(photo, solid, camera, contact + [0.0, 0.0, height]):
         return None
     lo = float(((left[front] - contact) @ tangent).min())
     hi = float(((right[front] - contact) @ tangent).max())
