@@ -29,6 +29,8 @@ import cv2
 import numpy as np
 import trimesh
 
+from .sections import bulge, inflated_rings, loft, span_samples
+
 #: Cells across the footprint's ground-grid raster.
 GRID_CELLS = 256
 #: A footprint whose IoU with its fitted circle reaches this is round.
@@ -258,7 +260,6 @@ def fine_faces(verts: np.ndarray, faces: np.ndarray, camera) -> tuple[np.ndarray
 def inflated_footprint(fp: np.ndarray, base_z: float, height: float, sections: int = 16):
     """(vertices, faces) of a dome over the ground outline ``fp`` (m, 2): flat below, √(2Rd − d²)-shaped above,
     ``height`` at its thickest, cut into ``INFLATE_SECTIONS`` sections along y and lofted (closed)."""
-    from .lift import bulge, inflated_rings, loft, span_samples
 
     lo = fp.min(0)
     cell = float(np.ptp(fp, axis=0).max()) / INFLATE_CELLS
