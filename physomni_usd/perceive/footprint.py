@@ -259,7 +259,8 @@ def fine_faces(verts: np.ndarray, faces: np.ndarray, camera) -> tuple[np.ndarray
 
 def inflated_footprint(fp: np.ndarray, base_z: float, height: float, sections: int = 16):
     """(vertices, faces) of a dome over the ground outline ``fp`` (m, 2): flat below, √(2Rd − d²)-shaped above,
-    ``height`` at its thickest, cut into ``INFLATE_SECTIONS`` sections along y and lofted (closed)."""
+    ``height`` at its thickest, cut into ``INFLATE_SECTIONS`` sections along y and lofted (closed); None for an
+    outline too thin to cut into two sections."""
 
     lo = fp.min(0)
     cell = float(np.ptp(fp, axis=0).max()) / INFLATE_CELLS
@@ -269,6 +270,8 @@ def inflated_footprint(fp: np.ndarray, base_z: float, height: float, sections: i
     dist = cv2.distanceTransform(raster, cv2.DIST_L2, 5)
     big = float(dist.max())
     rows = np.nonzero(raster.any(axis=1))[0]
+    if len(rows) < 2 or big <= 0:
+        return None
     pick = np.unique(np.round(np.linspace(rows[0], rows[-1], INFLATE_SECTIONS)).astype(int))
     left = np.array([np.argmax(raster[r]) for r in pick], float)
     right = np.array([raster.shape[1] - np.argmax(raster[r, ::-1]) for r in pick], float)
@@ -342,9 +345,9 @@ def lift_footprint(mask: np.ndarray, camera, height_hint: float | None, prior_sh
         shape = "disc" if height < 0.5 * radius else "cylinder"
         mesh = trimesh.creation.cylinder(radius=radius, height=height, sections=sections)
         mesh.apply_translation([centre[0], centre[1], base_z + 0.5 * height])
-    elif kind == "organic" and not flat_prior:
+    elif kind == "organic" and not flat_prior and (dome := inflated_footprint(fp, base_z, height)) is not None:
         shape = "inflated"
-        mesh = trimesh.Trimesh(*inflated_footprint(fp, base_z, height), process=False)
+        mesh = trimesh.Trimesh(*dome, process=False)
     else:
         (_, _), (a, b), _ = cv2.minAreaRect(fp.astype(np.float32))
         shape = "plate" if height <= PLATE_RATIO * min(a, b) else "prism"
