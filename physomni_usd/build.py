@@ -247,6 +247,8 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
                                                    scene.shapes)
         notes = [[] for _ in objects]
         align_info = scene.info
+        for warning in (align_info.get("scale") or {}).get("warnings", []):
+            echo(f"warning: {warning}")
     centre = centring_offset(verts)
     verts = [v + centre for v in verts]
     projected = [v + centre for v in projected]

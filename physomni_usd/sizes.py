@@ -18,6 +18,11 @@ lose their ``s``); a word that marks a toy or a model (``toy``, ``model``,
 ``rubber``, ``plastic``, ``miniature``, ``mini``) makes a large thing
 toy-sized. The first keyword of the table found among the words wins.
 ``python -m physomni_usd.sizes`` prints the table as Markdown.
+
+Besides sizes, a label says what kind of body the built-in lifter should
+give an outline (:func:`body_kind`): ``organic`` things (fruit, toys, bags,
+animals) are rounded, inflated solids; ``boxy`` ones (boxes, books) have
+flat faces and square edges; the rest take what their outline says.
 """
 
 from __future__ import annotations
@@ -56,7 +61,9 @@ SIZES: tuple[SizePrior, ...] = (
     _p("remote", 0.18, 0.02), _p("letter", 0.06, 0.015), _p("shell", 0.08, 0.04), _p("dice", 0.016, 0.016),
     _p("die", 0.016, 0.016), _p("cube", 0.057, 0.057), _p("candle", 0.15, 0.15, "round"),
     _p("camera", 0.12, 0.08), _p("candy", 0.015, 0.008, "round"), _p("sweet", 0.015, 0.008, "round"),
-    _p("button", 0.02, 0.003, "round"),
+    _p("button", 0.02, 0.003, "round"), _p("washer", 0.02, 0.002, "round"), _p("token", 0.025, 0.003, "round"),
+    _p("ticket", 0.1, 0.001), _p("paper", 0.3, 0.001), _p("sheet", 0.3, 0.002), _p("tile", 0.1, 0.008),
+    _p("part", 0.06, 0.005), _p("bracket", 0.06, 0.005), _p("chip", 0.03, 0.003, "round"),
     # kitchen and table
     _p("saucer", 0.15, 0.02, "round"), _p("plate", 0.26, 0.02, "round"), _p("bowl", 0.16, 0.07, "round"),
     _p("cup", 0.11, 0.095, "round"), _p("mug", 0.12, 0.095, "round"), _p("glass", 0.12, 0.12, "round"),
@@ -139,6 +146,29 @@ def size_prior(label: str) -> SizePrior | None:
         return SizePrior(f"{'+'.join(sorted(TOY_WORDS & set(words)))} {found.keyword}", TOY.longest_m,
                          TOY.height_m, found.shape)
     return found
+
+
+#: Keywords of things with soft, rounded bodies: the lifter inflates their outline.
+ORGANIC = frozenset({
+    "apple", "orange", "lemon", "lime", "tomato", "onion", "potato", "pear", "banana", "carrot", "egg", "melon",
+    "watermelon", "pumpkin", "fruit", "vegetable", "bread", "donut", "sandwich", "teddy", "plush", "doll", "toy",
+    "figure", "figurine", "pillow", "cushion", "bag", "backpack", "shoe", "hat", "cat", "dog", "bird", "whale",
+    "fish", "duck", "animal", "rock", "stone", "shell", "sponge", "mouse", "wallet"})
+#: Keywords of things with flat faces and square edges: the lifter gives them a cuboid.
+BOXY = frozenset({
+    "box", "book", "notebook", "carton", "package", "parcel", "crate", "brick", "block", "cube", "dice", "die",
+    "laptop", "keyboard", "phone", "remote", "stapler", "eraser", "lighter", "suitcase", "speaker", "monitor",
+    "tv", "shelf", "bin", "cabinet", "drawer"})
+
+
+def body_kind(label: str) -> str | None:
+    """'organic', 'boxy' or None (the outline decides) for a label, from its words (a toy word makes it organic)."""
+    words = set(label_words(label))
+    if words & BOXY and not words & TOY_WORDS:
+        return "boxy"
+    if words & ORGANIC or words & TOY_WORDS:
+        return "organic"
+    return None
 
 
 def markdown_table() -> str:

@@ -17,9 +17,19 @@ The camera is a level pinhole (no roll) looking down by ``pitch``. Cues:
   alone gives the pitch under the field of view in use.
 - **horizon**: a straight edge crossing most of the photo above every
   object's foot (a sea or plain horizon, the far edge of a floor), weakly.
+- **identical objects** (weight up to 2): flat things of one label whose
+  outlines match (a tray of identical parts, a row of coins) are one size on
+  the ground; the pitch is the one under which their outlines, cast onto the
+  ground, have the same area. Seen straight down they show the same image
+  size wherever they lie in the frame, and only a camera looking straight
+  down (the support seen face-on) agrees.
 - **where the objects stand**: every foot must lie below the horizon, which
   bounds the pitch from below; with no other cue, the smallest tilt ≥ 10°
   that does so (the previous default), weakly.
+
+Edges that do not converge in either image direction (a rectangle that stays a
+rectangle) are either a level camera's verticals or a support seen face-on;
+then the level reading counts only weakly.
 
 Each cue reports its estimate and weight; the pitch is the weighted median,
 never above 89.5° nor below what the feet need. All of it goes to
@@ -35,7 +45,7 @@ import cv2
 import numpy as np
 
 from ..sizes import size_prior
-from ..perceive.lift import fill_holes
+from ..perceive.lift import FLAT_PRIOR_RATIO, fill_holes
 from ..geometry.camera import HORIZON_MARGIN_DEG, MIN_AUTO_PITCH_DEG, PinholeCamera
 
 DEFAULT_FOV_DEG = 50.0
@@ -63,6 +73,14 @@ MAX_AXIS_TURN_DEG = 20.0
 STEEP_DEG = 45.0
 #: Fields of view a vanishing-point pair may give (degrees); outside, the pair is not trusted.
 FOV_RANGE = (15.0, 120.0)
+#: Outlines match when OpenCV's Hu-moment distance (``CONTOURS_MATCH_I1``) between them is at most this.
+SAME_OUTLINE = 0.15
+#: Identical objects whose centres span less than this fraction of the photo's height say little about pitch.
+IDENTICAL_ROW_SPAN = 0.2
+#: The identical-objects cue counts when its best pitch leaves their ground sizes this close (log spread) and
+#: the worst pitch spreads them at least IDENTICAL_CONTRAST times as far.
+IDENTICAL_SPREAD = math.log(1.12)
+IDENTICAL_CONTRAST = 3.0
 
 
 @dataclass
@@ -396,7 +414,7 @@ def vanishing_cues(photo: np.ndarray, fov_deg: float | None, fov_given: bool, ob
     cx, cy = 0.5 * w, 0.5 * h
     seg = line_segments(photo)
     vps = vanishing_points(seg, with_segments=True)
-    vertical, horizon = None, []
+    vertical, horizon, across = None, [], False
     diag = math.hypot(w, h)
     for vp in vps:
         p = vp["point"]
@@ -404,6 +422,7 @@ def vanishing_cues(photo: np.ndarray, fov_deg: float | None, fov_given: bool, ob
         if far:
             if abs(p[1]) > 10 * abs(p[0]) and vertical is None:  # parallel verticals: a level camera
                 vertical = {"v": math.inf, **vp}
+            across |= abs(p[0]) > 10 * abs(p[1])
             continue  # parallel horizontal lines (no roll): no information
         u, v = p[0] / p[2], p[1] / p[2]
         # no roll: verticals meet straight below the centre, ground-parallel lines on the horizon above it
@@ -429,7 +448,8 @@ def vanishing_cues(photo: np.ndarray, fov_deg: float | None, fov_given: bool, ob
         pitch = 0.0 if not math.isfinite(vertical["v"]) else math.degrees(math.atan2(f_use, vertical["v"] - cy))
         pitch_cues.append(Cue("vertical vanishing point", pitch, support(vertical),
                               detail={"row": None if not math.isfinite(vertical["v"]) else round(vertical["v"], 1),
-                                      "segments": vertical["inliers"]}))
+                                      "segments": vertical["inliers"]}
+                              | ({"face_on": True} if across and not math.isfinite(vertical["v"]) else {})))
     if v_h is not None:
         pitch = math.degrees(math.atan2(cy - v_h, f_use))
         pitch_cues.append(Cue("horizon vanishing points", pitch, support(*horizon),
@@ -445,6 +465,80 @@ def vanishing_cues(photo: np.ndarray, fov_deg: float | None, fov_given: bool, ob
                                   detail={"row": round(row, 1)}))
     return pitch_cues, fov_cues, v_h
 
+
+# identical objects --------------------------------------------------------------------------------
+
+def _hull(mask: np.ndarray) -> np.ndarray | None:
+    contours, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    if not contours:
+        return None
+    return cv2.convexHull(np.vstack(contours))[:, 0, :].astype(float) + 0.5
+
+
+def identical_groups(masks, labels) -> list[list[int]]:
+    """Indices of objects that are the same thing: one label (or no label's size) and matching outlines.
+
+    Only things that lie flat (their label's typical height at most ``FLAT_PRIOR_RATIO`` of their length) or
+    whose label has no typical size enter: a tall thing's outline is not its footprint.
+    """
+    keys = {}
+    for i, label in enumerate(labels):
+        prior = size_prior(label)
+        if prior is not None and (not prior.votes or not prior.height_m
+                                  or prior.height_m > FLAT_PRIOR_RATIO * prior.longest_m):
+            continue
+        keys.setdefault(prior.keyword if prior else label.strip().lower(), []).append(i)
+    groups = []
+    for members in keys.values():
+        left = list(members)
+        while len(left) >= 2:
+            seed, rest = left[0], left[1:]
+            same = [seed] + [j for j in rest if cv2.matchShapes(masks[seed].astype(np.uint8), masks[j].astype(np.uint8),
+                                                                cv2.CONTOURS_MATCH_I1, 0.0) <= SAME_OUTLINE]
+            if len(same) >= 2:
+                groups.append(same)
+            left = [j for j in left if j not in same]
+    return groups
+
+
+def _log_spread(x) -> float:
+    x = np.log(np.asarray(x, float))
+    return float(np.ptp(x))
+
+
+def identical_cue(masks, labels, width: int, height: int, fov_deg: float) -> Cue | None:
+    """The pitch under which identical flat objects cast onto the ground come out one size (see the module)."""
+    best = None
+    for group in identical_groups(masks, labels):
+        hulls = [_hull(masks[i]) for i in group]
+        if any(h is None or len(h) < 3 for h in hulls):
+            continue
+        rows = [float(h[:, 1].mean()) for h in hulls]
+        if max(rows) - min(rows) < IDENTICAL_ROW_SPAN * height:
+            continue
+        spreads = []
+        for pitch in np.arange(0.0, MAX_PITCH_DEG + 1e-9, 0.5):
+            cam = PinholeCamera(width, height, fov_deg, float(pitch))
+            areas = []
+            for h in hulls:
+                g = cam.ground_points(h[:, 0], h[:, 1])
+                if not np.all(np.isfinite(g)):
+                    break
+                areas.append(abs(cv2.contourArea(g[:, :2].astype(np.float32))))
+            if len(areas) == len(hulls) and min(areas) > 0:
+                spreads.append((_log_spread(areas), float(pitch)))
+        if len(spreads) < 2:
+            continue
+        low, pitch = min(spreads)
+        high = max(s for s, _ in spreads)
+        if low > IDENTICAL_SPREAD or high < IDENTICAL_CONTRAST * max(low, 0.02):
+            continue
+        weight = min(2.0, 0.5 * len(group)) * min(1.0, (high / max(low, 0.02)) / 10.0)
+        if best is None or weight > best.weight:
+            best = Cue("identical objects", pitch, weight,
+                       detail={"objects": len(group), "label": labels[group[0]],
+                               "ground_size_spread": round(math.exp(0.5 * low), 4)})
+    return best
 
 # combined -----------------------------------------------------------------------------------------
 
@@ -482,6 +576,14 @@ def estimate_camera(photo: np.ndarray, masks, labels, foot_rows, fov_deg: float 
     else:
         fov, fov_source = DEFAULT_FOV_DEG, f"default {DEFAULT_FOV_DEG:g}° (a phone's main camera)"
     pitch_cues += ellipse_cues(outlines, w, h, fov)
+    same = identical_cue(masks, labels, w, h, fov)
+    if same is not None:
+        pitch_cues.append(same)
+        # lines parallel both ways are a level camera's verticals or a support seen face-on: identical objects
+        # of one size across the frame say which
+        for c in pitch_cues:
+            if c.detail.get("face_on") and abs(c.pitch_deg - same.pitch_deg) > 10.0:
+                c.weight, c.detail["outvoted_by"] = min(c.weight, 0.1), same.kind
     lowest = min_pitch(fov, h, foot_rows)
     # Lines meeting far above the image are ground lines seen from above, or the verticals of a camera tilted
     # up (which this camera model cannot be): a steep horizon counts only when another cue agrees.

@@ -51,7 +51,8 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
         hint = prior.height_m / scale if prior is not None and prior.height_m else None
         base = float(out[supports[i][0]].vertices[:, 2].max()) if i in supports else 0.0
         flat = bool(prior and prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * prior.longest_m)
-        kwargs = dict(height_hint=hint, prior_shape=prior.shape if prior else None, flat=flat, photo=photo)
+        kwargs = dict(height_hint=hint, prior_shape=prior.shape if prior else None, flat=flat, photo=photo,
+                      label=labels[i])
         try:
             out[i] = lift_silhouette(masks[i], camera, settings.lift, base_z=base, **kwargs)
         except ValueError:

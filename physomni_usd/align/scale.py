@@ -8,6 +8,18 @@ scale, so one mislabelled or badly cut object cannot drag the scene. Sizes the
 user gives (``--size LABEL=METRES``, longest dimension) replace the votes;
 ``--camera-height`` replaces them too. With neither, nor any label in the
 table, the camera is taken to stand 1 m above the ground, as before.
+
+Objects of one label are one thing seen several times: they vote once, with
+the median of their sizes, so that eleven sweets do not outvote the one cup.
+When the votes disagree by more than ``DISAGREE_FACTOR`` (a whale among toys,
+a car on a desk: no single scale makes both labels right), averaging them
+gives a scene that is wrong for all; instead each reading (the votes that
+agree with one another) is tried, and the one whose camera a person could
+hold (at most ``MAX_HANDHELD_M`` above the ground) with most labels wins;
+among equals, one under which no thing of a table-top scene grows past
+``TABLE_TOP_MAX_M``; readings that are still equal share the scale (the
+robust mean of their votes). The losers, or the compromise, are named in
+``warnings``.
 """
 
 from __future__ import annotations
@@ -23,6 +35,13 @@ from ..sizes import size_prior
 #: Votes farther than this (natural log) from the median are outliers even when the MAD is tiny.
 MIN_OUTLIER_LOG = math.log(1.5)
 DEFAULT_CAMERA_HEIGHT_M = 1.0
+#: Votes further apart than this factor cannot both be right: the scene is read one way or the other.
+DISAGREE_FACTOR = 3.0
+#: A photo of things a person handles is taken from at most this high (metres).
+MAX_HANDHELD_M = 3.0
+#: Labels whose typical size is at most this are table-top things; under a reading, nothing in a photo of
+#: them grows past it (metres).
+TABLE_TOP_MAX_M = 1.0
 
 
 @dataclass
@@ -30,10 +49,13 @@ class ScaleFit:
     factor: float  # multiply the scene (built under a camera at height_unit) by this
     source: str  # 'size' | 'camera-height' | 'priors' | 'default'
     votes: list[dict] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)  # votes overruled because no scale agrees with them
+    readings: list[dict] = field(default_factory=list)  # the readings tried when the votes disagreed
 
     def as_dict(self, camera_height_m: float) -> dict:
         return {"factor": round(self.factor, 6), "source": self.source, "camera_height_m": round(camera_height_m, 4),
-                "votes": self.votes}
+                "votes": self.votes} | ({"warnings": self.warnings, "readings": self.readings}
+                                        if self.warnings or self.readings else {})
 
 
 def parse_sizes(specs, objects) -> dict[str, float]:
@@ -100,9 +122,54 @@ def fit_scale(names, labels, longest_m, user_sizes: dict[str, float] | None = No
         return ScaleFit(camera_height_m / unit_height_m, "camera-height", votes)
     priors = [v for v in votes if v["size_m"] is not None and v["measured_m"] > 0]
     if priors:
-        logs = [math.log(v["size_m"] / v["measured_m"]) for v in priors]
-        mean, inlier = robust_log_mean(logs)
-        for v, ok in zip(priors, inlier):
-            v["inlier"] = bool(ok)
-        return ScaleFit(math.exp(mean), "priors", votes)
+        return _fit_priors(priors, votes, unit_height_m)
     return ScaleFit(DEFAULT_CAMERA_HEIGHT_M / unit_height_m, "default", votes)
+
+
+def _fit_priors(priors: list[dict], votes: list[dict], unit_height_m: float) -> ScaleFit:
+    """The label priors' scale: one vote per label, and one reading of the scene where the votes disagree."""
+    by_label: dict[str, list[dict]] = {}
+    for v in priors:
+        by_label.setdefault(v["from"], []).append(v)
+    labels = list(by_label)
+    logs = np.array([math.log(by_label[k][0]["size_m"] / float(np.median([v["measured_m"] for v in by_label[k]])))
+                     for k in labels])
+    mean, inlier = robust_log_mean(logs)
+    readings, warnings = [], []
+    if float(np.ptp(logs)) > math.log(DISAGREE_FACTOR):
+        # every group of labels agreeing within the factor is a reading of the scene
+        tried = []
+        for seed in np.argsort(logs):
+            members = np.abs(logs - logs[seed]) <= math.log(DISAGREE_FACTOR)
+            m, _ = robust_log_mean(logs[members])
+            factor = math.exp(m)
+            biggest_m = max(v["measured_m"] for v in priors) * factor
+            table_top = all(by_label[k][0]["size_m"] <= TABLE_TOP_MAX_M for k, ok in zip(labels, members) if ok)
+            plausible = factor * unit_height_m <= MAX_HANDHELD_M
+            reading = {"labels": [by_label[k][0]["label"] for k, ok in zip(labels, members) if ok],
+                       "factor": round(factor, 6), "camera_height_m": round(factor * unit_height_m, 4),
+                       "plausible": plausible, "largest_m": round(biggest_m, 4)}
+            if reading["labels"] in [r["labels"] for r in readings]:
+                continue
+            readings.append(reading)
+            # a person's camera first, then most labels, then no table-top scene with a thing past a metre
+            tried.append(((plausible, int(members.sum()), not (table_top and biggest_m > TABLE_TOP_MAX_M)), members))
+        top = max(key for key, _ in tried)
+        chosen = np.logical_or.reduce([members for key, members in tried if key == top])
+        if chosen.sum() < len(labels):
+            mean, inlier = robust_log_mean(logs[chosen])[0], chosen
+        winners = [v["name"] for k, ok in zip(labels, chosen) if ok for v in by_label[k]]
+        losers = [v["name"] for k, ok in zip(labels, chosen) if not ok for v in by_label[k]]
+        if losers:
+            warnings.append(f"typical sizes disagree by more than {DISAGREE_FACTOR:g}×: {', '.join(losers)} against "
+                            f"{', '.join(winners)}; the scale follows {', '.join(winners)} (a camera "
+                            f"{math.exp(mean) * unit_height_m:.2g} m high), so {', '.join(losers)} are not the size "
+                            f"their labels suggest (give --size to say otherwise)")
+        else:  # no reading is better than another: their compromise, said so
+            warnings.append(f"typical sizes disagree by more than {DISAGREE_FACTOR:g}× among {', '.join(winners)} "
+                            f"and none reads the scene better; the scale is their compromise (a camera "
+                            f"{math.exp(mean) * unit_height_m:.2g} m high; give --size to say otherwise)")
+    for k, ok in zip(labels, inlier):
+        for v in by_label[k]:
+            v["inlier"] = bool(ok)
+    return ScaleFit(math.exp(mean), "priors", votes, warnings, readings)

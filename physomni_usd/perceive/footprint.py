@@ -14,7 +14,11 @@ their top, where the photo shows one consistently across the object. Where the s
 from the horizontal) or the outline is not round, the height is the label's
 typical height (``materials/sizes.py``), and without one half the
 footprint's width. Round footprints become cylinders (a disc when flat), or
-spheres where the label is a ball's; others the prism of their convex hull.
+spheres where the label is a ball's; organic things (``sizes.body_kind``:
+fruit, toys, bags) that are not balls an inflated dome of their footprint
+(√(2Rd − d²) of the distance d to its outline, up to the height); others the
+prism of their convex hull, called a plate when it is thinner than
+``PLATE_RATIO`` of its footprint (coins, cards, parts).
 """
 
 from __future__ import annotations
@@ -24,6 +28,8 @@ import math
 import cv2
 import numpy as np
 import trimesh
+
+from .sections import bulge, inflated_rings, loft, span_samples
 
 #: Cells across the footprint's ground-grid raster.
 GRID_CELLS = 256
@@ -35,6 +41,11 @@ SIDES_VISIBLE_DEG = 80.0
 SIDES_PRIOR_FACTOR = 3.0
 #: Height of an object without a typical height, as a fraction of its footprint's width.
 DEFAULT_HEIGHT_RATIO = 0.5
+#: A prism at most this tall for the smaller side of its footprint is a plate.
+PLATE_RATIO = 0.15
+#: Cells across an inflated footprint's raster, and the sections it is cut into.
+INFLATE_CELLS = 96
+INFLATE_SECTIONS = 24
 
 
 def outline(mask: np.ndarray) -> np.ndarray:
@@ -246,9 +257,38 @@ def fine_faces(verts: np.ndarray, faces: np.ndarray, camera) -> tuple[np.ndarray
     return np.asarray(v, float), np.asarray(f, np.int32)
 
 
+def inflated_footprint(fp: np.ndarray, base_z: float, height: float, sections: int = 16):
+    """(vertices, faces) of a dome over the ground outline ``fp`` (m, 2): flat below, √(2Rd − d²)-shaped above,
+    ``height`` at its thickest, cut into ``INFLATE_SECTIONS`` sections along y and lofted (closed); None for an
+    outline too thin to cut into two sections."""
+
+    lo = fp.min(0)
+    cell = float(np.ptp(fp, axis=0).max()) / INFLATE_CELLS
+    shape = (int(math.ceil(np.ptp(fp[:, 1]) / cell)) + 3, int(math.ceil(np.ptp(fp[:, 0]) / cell)) + 3)
+    raster = np.zeros(shape, np.uint8)
+    cv2.fillPoly(raster, [np.round((fp - lo) / cell * 16 + 16).astype(np.int32)], 1, shift=4)
+    dist = cv2.distanceTransform(raster, cv2.DIST_L2, 5)
+    big = float(dist.max())
+    rows = np.nonzero(raster.any(axis=1))[0]
+    if len(rows) < 2 or big <= 0:
+        return None
+    pick = np.unique(np.round(np.linspace(rows[0], rows[-1], INFLATE_SECTIONS)).astype(int))
+    left = np.array([np.argmax(raster[r]) for r in pick], float)
+    right = np.array([raster.shape[1] - np.argmax(raster[r, ::-1]) for r in pick], float)
+    cols = span_samples(left, right, sections // 2 + 1)
+    inside = dist[pick[:, None], np.clip(cols.astype(int), 0, raster.shape[1] - 1)]
+    # cell centres back to metres (the raster has a one-cell margin)
+    x = (cols - 1.0) * cell + lo[0]
+    y = np.broadcast_to(((pick + 0.5 - 1.0) * cell + lo[1])[:, None], cols.shape)
+    half = 0.5 * height * bulge(inside, big)
+    middle = np.stack([x, y, base_z + half], axis=-1)
+    rings = inflated_rings(middle, half, np.array([0.0, 0.0, 1.0]))
+    return loft(rings)
+
+
 def lift_footprint(mask: np.ndarray, camera, height_hint: float | None, prior_shape: str | None,
                    base_z: float = 0.0, sections: int = 32, photo: np.ndarray | None = None,
-                   flat_prior: bool = False):
+                   flat_prior: bool = False, kind: str | None = None):
     """(vertices, faces, shape, contact (3,), info) of the object seen from above, or None if its outline does
     not meet the ground."""
     poly_uv = outline(mask)
@@ -305,8 +345,12 @@ def lift_footprint(mask: np.ndarray, camera, height_hint: float | None, prior_sh
         shape = "disc" if height < 0.5 * radius else "cylinder"
         mesh = trimesh.creation.cylinder(radius=radius, height=height, sections=sections)
         mesh.apply_translation([centre[0], centre[1], base_z + 0.5 * height])
+    elif kind == "organic" and not flat_prior and (dome := inflated_footprint(fp, base_z, height)) is not None:
+        shape = "inflated"
+        mesh = trimesh.Trimesh(*dome, process=False)
     else:
-        shape = "prism"
+        (_, _), (a, b), _ = cv2.minAreaRect(fp.astype(np.float32))
+        shape = "plate" if height <= PLATE_RATIO * min(a, b) else "prism"
         hull = cv2.convexHull(fp.astype(np.float32))[:, 0, :].astype(float)
         pts = np.vstack([np.c_[hull, np.full(len(hull), base_z)], np.c_[hull, np.full(len(hull), base_z + height)]])
         mesh = trimesh.convex.convex_hull(pts)

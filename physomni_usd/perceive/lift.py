@@ -17,10 +17,20 @@ assumes the object stands on the ground facing the camera:
      bottom edge): circles, a surface of revolution whose axis follows the
      silhouette's mid-line — cups, bottles, balls; all but balls get a flat
      base;
+   - ``inflated`` (a label of a soft, rounded thing, ``sizes.body_kind``,
+     whose outline is not mirror-symmetric — fruit, toys, bags): each
+     point of the outline's inside bulges towards and away from the camera
+     by √(2Rd − d²), d its distance to the outline and R the largest such
+     distance, so a disc becomes a ball and a long outline a rounded tube
+     as thick as it is high (:func:`inflated_rings`);
+   - ``cuboid`` (a boxy label — boxes, books — whose top shows above its
+     front side): the front side's top edge in the photo gives the height
+     (``footprint.height_from_edge``), the outline's top row cast onto that
+     height gives the depth, and the box has square edges;
    - ``extrude`` (otherwise): a slab of the outline whose depth is
      ``depth_ratio`` times the smaller of its width and height, with sides
      along the camera's rays so that it hides behind its own front —
-     boxes, vehicles, furniture.
+     vehicles, furniture, and boxes whose top does not show.
 
 Rows are spanned from the leftmost to the rightmost pixel, so concavities
 (a handle's hole, the gap between wheels) are filled; the mesh's texture
@@ -29,6 +39,7 @@ carries the mask as alpha and renderers cut those pixels away.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import cv2
@@ -36,6 +47,8 @@ import numpy as np
 
 from ..geometry.camera import PinholeCamera
 from ..settings import LiftSettings
+from ..sizes import body_kind
+from .sections import bulge, inflated_rings, loft, span_samples
 
 #: Fraction of a round object's height that forms its flat base (balls excepted).
 BASE_BAND = 0.15
@@ -47,6 +60,12 @@ BALL_IOU = 0.9
 
 #: Superellipse exponent of round cross-sections (2: a circle).
 ROUND_EXPONENT = 2.0
+#: A cuboid needs its top to show: the front side's top edge at most this fraction of the silhouette's height,
+#: and the photo's brightness across that edge changing by at least CUBOID_STEP grey levels and
+#: CUBOID_STEP_NOISE times the bands' own spread (a top lit unlike the front, not a texture's grain).
+CUBOID_TOP_SHOWS = 0.9
+CUBOID_STEP = 10.0
+CUBOID_STEP_NOISE = 1.5
 
 
 @dataclass
@@ -144,31 +163,6 @@ def superellipse(n: int, exponent: float) -> np.ndarray:
     return np.stack([np.sign(c) * np.abs(c) ** e, np.sign(s) * np.abs(s) ** e], axis=1)
 
 
-def loft(rings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Closed tube through cross-sections ``rings`` (K, n, 3), top first, with a fan cap at each end.
-
-    Every ring must list its n points in the same rotational order. Returns
-    vertices (K·n + 2, 3) and outward triangles (M, 3).
-    """
-    k, sections = rings.shape[:2]
-    verts = rings.reshape(-1, 3)
-    top, bottom = len(verts), len(verts) + 1
-    verts = np.vstack([verts, rings[0].mean(0), rings[-1].mean(0)])
-    faces = []
-    j = np.arange(sections)
-    jn = (j + 1) % sections
-    for i in range(k - 1):
-        a, b = i * sections + j, i * sections + jn
-        c, d = (i + 1) * sections + j, (i + 1) * sections + jn
-        faces.append(np.stack([a, c, b], 1))
-        faces.append(np.stack([b, c, d], 1))
-    faces.append(np.stack([np.full(sections, top), j, jn], 1))
-    last = (k - 1) * sections
-    faces.append(np.stack([np.full(sections, bottom), last + jn, last + j], 1))
-    faces = np.concatenate(faces).astype(np.int32)
-    return verts, _outward(verts, faces)
-
-
 def round_rings(centres, radii, tangent, normal, sections: int) -> np.ndarray:
     """Polygons (K, n, 3) circumscribing circles of ``radii`` about ``centres``, in the horizontal plane."""
     ring = superellipse(sections, ROUND_EXPONENT) / np.cos(np.pi / sections)
@@ -199,11 +193,57 @@ def ray_slab_rings(front_left, front_right, dir_left, dir_right, normal, depth: 
     return np.concatenate(parts, axis=1)
 
 
-def _outward(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Flip every face if the signed volume is negative (the tube's handedness depends on the axes)."""
-    a, b, c = verts[faces[:, 0]], verts[faces[:, 1]], verts[faces[:, 2]]
-    volume = np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0
-    return faces[:, ::-1].copy() if volume < 0 else faces
+def _edge_is_a_step(photo, solid, camera, edge_point, band: int = 4) -> bool:
+    """Whether the photo's brightness steps across the image row where ``edge_point`` (3,) projects, inside the
+    middle of the silhouette: the front side below and the top above are lit differently."""
+    gray = cv2.cvtColor(photo, cv2.COLOR_RGB2GRAY).astype(float) if photo.ndim == 3 else photo.astype(float)
+    uv, _ = camera.project(np.asarray(edge_point, float)[None])
+    row = int(round(float(uv[0, 1])))
+    ys, xs = np.nonzero(solid)
+    x0, x1 = (int(x) for x in np.percentile(xs, [30, 70]))
+    if row - band < ys.min() or row + band > ys.max() or x1 <= x0:
+        return False
+    above = gray[row - band:row - 1, x0:x1 + 1][solid[row - band:row - 1, x0:x1 + 1]]
+    below = gray[row + 2:row + band + 1, x0:x1 + 1][solid[row + 2:row + band + 1, x0:x1 + 1]]
+    if len(above) < 4 or len(below) < 4:
+        return False
+    step = abs(float(above.mean()) - float(below.mean()))
+    spread = math.sqrt(0.5 * (float(above.var()) + float(below.var())))
+    return step >= max(CUBOID_STEP, CUBOID_STEP_NOISE * spread)
+
+
+def cuboid_from_faces(solid, camera, photo, left, right, z, contact, normal, tangent, base_z):
+    """(vertices, faces, info) of a box whose front side and top the photo shows, or None where it does not.
+
+    ``left``/``right`` (K, 3) are the silhouette's rows cast onto the front plane, ``z`` their heights.
+    """
+    from .footprint import fine_faces, height_from_edge
+
+    height = height_from_edge(photo, solid, camera, base_z)
+    if height is None or height > CUBOID_TOP_SHOWS * float(z.max() - base_z):
+        return None
+    ys, xs = np.nonzero(solid)
+    top = ys.min()
+    cols = xs[ys == top]
+    back = plane_points(camera, float(np.median(cols)) + 0.5, float(top), base_z + height)
+    depth = float((back - contact) @ normal) if np.all(np.isfinite(back)) else -1.0
+    front = z <= base_z + height + 1e-9
+    if depth <= 0 or not front.any():
+        return None
+    if not _edge_is_a_step(photo, solid, camera, contact + [0.0, 0.0, height]):
+        return None
+    lo = float(((left[front] - contact) @ tangent).min())
+    hi = float(((right[front] - contact) @ tangent).max())
+    corners = [contact + a * tangent + b * normal + c * np.array([0.0, 0.0, 1.0])
+               for a in (lo, hi) for b in (0.0, depth) for c in (0.0, height)]
+    corners = np.asarray(corners)
+    corners[:, 2] = np.where(corners[:, 2] > base_z + 0.5 * height, base_z + height, base_z)
+    import trimesh
+
+    box = trimesh.convex.convex_hull(corners)
+    verts, faces = fine_faces(np.asarray(box.vertices, float), np.asarray(box.faces, np.int64), camera)
+    return verts, faces, {"height_m": round(height, 5), "depth_m": round(depth, 5),
+                          "height_source": "visible sides (edge of the top)"}
 
 
 #: Where every ray through the silhouette looks down at least this steeply (degrees), it is a footprint.
@@ -247,7 +287,8 @@ def plane_points(camera: PinholeCamera, u, v, z: float = 0.0) -> np.ndarray:
 
 def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSettings = LiftSettings(),
                     height_hint: float | None = None, prior_shape: str | None = None,
-                    base_z: float = 0.0, flat: bool = False, photo: np.ndarray | None = None) -> LiftedMesh:
+                    base_z: float = 0.0, flat: bool = False, photo: np.ndarray | None = None,
+                    label: str | None = None) -> LiftedMesh:
     """Closed mesh of the object whose silhouette is ``mask`` (H, W) bool, standing on z = ``base_z``.
 
     ``height_hint`` (the camera's units) and ``prior_shape`` come from the
@@ -255,13 +296,17 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
     ``flat``: the label's thing lies flat (a coin, a pencil), so a footprint
     from any view steeper than ``FLAT_FOOTPRINT_MIN_DEG``. ``photo`` (H, W, 3)
     lets a footprint take its height from the edges of its visible sides.
+    ``label`` chooses the body (``sizes.body_kind``): inflated for organic
+    things, a cuboid for boxy ones.
     """
+    kind = body_kind(label) if label else None
     solid = fill_holes(mask)
     mode = lift_mode(solid, camera, settings, flat)
     if mode == "footprint":
         from .footprint import lift_footprint
 
-        found = lift_footprint(solid, camera, height_hint, prior_shape, base_z, photo=photo, flat_prior=flat)
+        found = lift_footprint(solid, camera, height_hint, prior_shape, base_z, photo=photo, flat_prior=flat,
+                               kind=kind)
         if found is not None:
             verts, faces, shape, contact, info = found
             return LiftedMesh(verts, faces, shape, contact, foot_pixel(solid)[1], info)
@@ -277,6 +322,10 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
     shape = settings.shape
     if shape == "auto":
         shape = "round" if mirror_iou(solid) >= settings.symmetry_iou and not flat_bottom(solid) else "extrude"
+        if kind == "organic" and shape == "extrude":
+            shape = "inflated"
+        elif kind == "boxy" and shape == "extrude" and photo is not None:
+            shape = "cuboid"
 
     origin = camera.origin
     # The object's plane faces the camera's horizontal forward direction; with a camera
@@ -316,12 +365,37 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
         centres += ((contact - centres) @ normal + radius)[:, None] * normal
         centres[:, 2] = z
         rings = round_rings(centres, radius, tangent, normal, settings.sections)
+    elif shape == "inflated":
+        dist = cv2.distanceTransform(solid.astype(np.uint8), cv2.DIST_L2, 5)
+        big = float(dist.max())
+        rows_px = np.clip(edges.astype(int), ys[0], ys[-1])
+        per_px = np.linalg.norm(right - left, axis=1) / np.maximum(spans[:, 1] - spans[:, 0], 1e-9)
+        # the outline is widest half-way through the body: cast it onto the plane that far behind the front
+        middle_at = contact + big * float(np.median(per_px)) * normal
+        cols = span_samples(spans[:, 0], spans[:, 1], settings.sections // 2 + 1)
+        middle = on_plane(cols, np.broadcast_to(edges[:, None], cols.shape), middle_at)
+        per_px = np.linalg.norm(middle[:, -1] - middle[:, 0], axis=1) / np.maximum(spans[:, 1] - spans[:, 0], 1e-9)
+        inside = dist[rows_px[:, None], np.clip(cols.astype(int), 0, solid.shape[1] - 1)]
+        along = camera.rays(cols, np.broadcast_to(edges[:, None], cols.shape))
+        along = along / (along @ normal)[..., None]  # one metre of depth along each pixel's own ray
+        rings = inflated_rings(middle, big * bulge(inside, big) * per_px[:, None], along)
     else:
         width = float(np.linalg.norm(right - left, axis=1).max())
         depth = settings.depth_ratio * min(width, float(z.max() - z.min()) or width)
         rings = ray_slab_rings(left, right, camera.rays(spans[:, 0], edges), camera.rays(spans[:, 1], edges),
                                normal, depth, settings.sections)
+    info = {"mode": "standing", "shape": shape, "height_source": "silhouette"}
+    if shape == "cuboid":
+        box = cuboid_from_faces(solid, camera, photo, left, right, z, contact, normal, tangent, base_z)
+        if box is not None:
+            return LiftedMesh(box[0], box[1], shape, contact, v_foot, info | box[2])
+        shape = info["shape"] = "extrude"  # the top does not show: the slab of the outline made above
     verts, faces = loft(rings)
+    if shape == "inflated":
+        # its back bulges below the ground along the foot's rays: shrink it towards the camera until it rests
+        # there, which leaves every vertex where the photo shows it
+        k = (origin[2] - base_z) / (origin[2] - verts[:, 2].min())
+        verts = origin + k * (verts - origin)
+        contact = origin + k * (contact - origin)
     verts[:, 2] += base_z - verts[:, 2].min()  # rounding only: the foot row is already at z = base_z
-    return LiftedMesh(verts, faces, shape, contact, v_foot, {"mode": "standing", "shape": shape,
-                                                              "height_source": "silhouette"})
+    return LiftedMesh(verts, faces, shape, contact, v_foot, info)

@@ -1,0 +1,111 @@
+"""Shapes per label: inflated organic things, cuboids for boxes, thin plates from above; all closed."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+import trimesh
+
+from physomni_usd.bench.photos import make_known_scene
+from physomni_usd.geometry.camera import PinholeCamera
+from physomni_usd.perceive.lift import lift_silhouette
+from physomni_usd.sizes import body_kind, size_prior
+
+
+def _blob() -> np.ndarray:
+    """A lopsided outline (a body and a head), not mirror-symmetric: no surface of revolution fits it."""
+    m = np.zeros((240, 320), np.uint8)
+    cv2.ellipse(m, (160, 170), (60, 25), 10, 0, 360, 1, -1)
+    cv2.circle(m, (110, 160), 18, 1, -1)
+    return m > 0
+
+
+def _closed(lifted) -> trimesh.Trimesh:
+    mesh = trimesh.Trimesh(lifted.vertices, lifted.faces, process=False)
+    assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0
+    return mesh
+
+
+def _silhouette(camera, mesh) -> np.ndarray:
+    uv, _ = camera.project(mesh.vertices)
+    out = np.zeros((camera.height, camera.width), np.uint8)
+    for tri in mesh.faces:
+        cv2.fillPoly(out, [np.round(uv[tri] * 16).astype(np.int32)], 1, shift=4)
+    return out > 0
+
+
+def test_labels_choose_the_body():
+    assert body_kind("lime") == "organic" and body_kind("rubber_whale") == "organic" and body_kind("bag") == "organic"
+    assert body_kind("book") == "boxy" and body_kind("cookie box") == "boxy"
+    assert body_kind("toy box") == "organic"  # a toy word wins: a toy is rounded
+    assert body_kind("cup") is None and body_kind("gizmo") is None
+
+
+@pytest.mark.parametrize("label", ["lime", "rubber whale", "bag"])
+def test_organic_outlines_inflate_into_a_solid_deeper_than_a_slab_that_still_matches_the_photo(label):
+    camera = PinholeCamera(320, 240, 50.0, 10.0, (0.0, 0.0, 1.0))
+    mask = _blob()
+    inflated = lift_silhouette(mask, camera, label=label)
+    slab = lift_silhouette(mask, camera)
+    assert (inflated.shape, slab.shape) == ("inflated", "extrude")
+    mesh = _closed(inflated)
+    _closed(slab)
+    # across the camera's view the inflated body is about as deep as the outline is high; the slab is not
+    depth = lambda m: float(np.ptp(m.vertices[:, 1]))  # noqa: E731 (the camera looks along +y)
+    assert depth(inflated) > 1.5 * depth(slab)
+    assert depth(inflated) > 0.6 * inflated.height
+    seen = _silhouette(camera, mesh)
+    assert (seen & mask).sum() / (seen | mask).sum() >= 0.85
+    assert inflated.vertices[:, 2].min() == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_box_whose_top_shows_becomes_a_cuboid_of_its_faces():
+    scene = make_known_scene(20.0)
+    i = scene.labels.index("box")
+    prior = size_prior("box")
+    lifted = lift_silhouette(scene.masks[i], scene.camera, height_hint=prior.height_m, prior_shape=prior.shape,
+                             photo=scene.photo, label="box")
+    assert lifted.shape == "cuboid"
+    _closed(lifted)
+    truth = scene.meshes[i].extents
+    extent = np.ptp(lifted.vertices, axis=0)
+    assert extent[2] == pytest.approx(truth[2], rel=0.15)  # height from the edge of its top
+    assert extent[1] == pytest.approx(truth[1], rel=0.25)  # depth from the top's far edge (the box is turned)
+    # the slab the same outline gave before is a third as deep
+    slab = lift_silhouette(scene.masks[i], scene.camera, height_hint=prior.height_m, prior_shape=prior.shape,
+                           photo=scene.photo)
+    assert slab.shape == "extrude" and np.ptp(slab.vertices[:, 1]) < 0.6 * extent[1]
+
+
+def test_seen_from_above_flat_parts_are_thin_plates_and_organic_things_domes():
+    camera = PinholeCamera(320, 240, 50.0, 85.0, (0.0, 0.0, 0.5))
+    mask = np.zeros((240, 320), np.uint8)
+    cv2.fillPoly(mask, [np.array([[100, 80], [200, 80], [200, 110], [140, 110], [140, 170], [100, 170]])], 1)
+    part = size_prior("part")
+    plate = lift_silhouette(mask > 0, camera, height_hint=part.height_m, prior_shape=part.shape, flat=True,
+                            label="part")
+    assert plate.info["mode"] == "footprint" and plate.shape == "plate"
+    assert plate.height == pytest.approx(part.height_m)
+    _closed(plate)
+    banana = size_prior("banana")
+    dome = lift_silhouette(_blob(), camera, height_hint=banana.height_m, prior_shape=banana.shape, label="banana")
+    assert dome.shape == "inflated"
+    mesh = _closed(dome)
+    assert dome.height == pytest.approx(banana.height_m, rel=0.05)
+    # rounded: its volume is well under the prism of its footprint and height
+    prism = lift_silhouette(_blob(), camera, height_hint=banana.height_m, prior_shape=banana.shape)
+    assert prism.shape == "prism" and mesh.volume < 0.85 * trimesh.Trimesh(prism.vertices, prism.faces).volume
+
+
+def test_a_box_whose_top_does_not_show_stays_a_slab():
+    """A front face alone (one colour with grain, no top lit apart) has no top edge to fit a cuboid to."""
+    camera = PinholeCamera(320, 240, 50.0, 10.0, (0.0, 0.0, 1.0))
+    rng = np.random.default_rng(3)
+    photo = np.clip(np.full((240, 320, 3), 120.0) + rng.normal(0, 6, (240, 320, 1)), 0, 255).astype(np.uint8)
+    mask = np.zeros((240, 320), bool)
+    mask[130:200, 120:220] = True
+    photo[mask] = np.clip(np.array([70, 110, 190]) + rng.normal(0, 6, (int(mask.sum()), 1)), 0, 255)
+    lifted = lift_silhouette(mask, camera, photo=photo, label="box")
+    assert lifted.shape == "extrude"
+    _closed(lifted)

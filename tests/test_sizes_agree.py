@@ -1,0 +1,123 @@
+"""Sizes that agree and a support seen face-on: identical parts on a lightbox, a whale among toys."""
+
+from __future__ import annotations
+
+import json
+import pathlib
+
+import cv2
+import numpy as np
+import pytest
+
+from physomni_usd.align.cues import estimate_camera
+from physomni_usd.align.scale import fit_scale
+from physomni_usd.perceive.lift import fill_holes, foot_pixel
+
+from .conftest import cli
+
+#: An L-shaped bracket with a notch, pixels: straight edges only, nothing round for the ellipse cue.
+PART = np.array([[0, 0], [50, 0], [50, 14], [18, 14], [18, 40], [0, 40]], np.int32)
+
+
+def lightbox(folder: pathlib.Path) -> dict:
+    """Four identical flat parts photographed straight down on a light background; writes photo and masks."""
+    folder.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(1)
+    img = np.full((240, 320, 3), 235.0) + rng.normal(0, 3, (240, 320, 1))
+    paths = {"photo": folder / "photo.png"}
+    for k, (x, y) in enumerate([(40, 40), (200, 40), (40, 150), (200, 150)]):
+        m = np.zeros((240, 320), np.uint8)
+        cv2.fillPoly(m, [PART + [x, y]], 1)
+        img[m > 0] = np.array([60, 65, 75]) + rng.normal(0, 4, (int(m.sum()), 1))
+        paths[f"part_{k}"] = folder / f"part_{k}.png"
+        cv2.imwrite(str(paths[f"part_{k}"]), m * 255)
+    cv2.imwrite(str(paths["photo"]), np.clip(img, 0, 255).astype(np.uint8))
+    return paths
+
+
+@pytest.fixture(scope="module")
+def box_photo(tmp_path_factory):
+    return lightbox(tmp_path_factory.mktemp("lightbox"))
+
+
+def _report(folder):
+    return json.loads((folder / "report.json").read_text())
+
+
+def test_identical_flat_parts_seen_straight_down_give_a_top_down_camera(box_photo):
+    photo = cv2.cvtColor(cv2.imread(str(box_photo["photo"])), cv2.COLOR_BGR2RGB)
+    masks = [cv2.imread(str(box_photo[f"part_{k}"]), 0) > 0 for k in range(4)]
+    est = estimate_camera(photo, masks, ["part"] * 4, [foot_pixel(fill_holes(m))[1] for m in masks])
+    assert est.pitch_deg >= 70.0
+    same = next(c for c in est.cues if c.kind == "identical objects")
+    assert same.detail["objects"] == 4 and same.pitch_deg >= 85.0
+    # the parts' parallel edges alone read as a level camera; the identical parts outvote that reading
+    level = [c for c in est.cues if c.kind == "vertical vanishing point" and c.pitch_deg == 0.0]
+    assert all(c.weight <= 0.1 for c in level)
+    # different labels are not one thing seen several times: no cue
+    est = estimate_camera(photo, masks, ["part", "bolt", "nut", "washer"], [200.0] * 4)
+    assert not any(c.kind == "identical objects" for c in est.cues)
+
+
+@pytest.mark.parametrize("pitch", [None, 30, 60, 90])
+def test_the_lightbox_builds_at_any_workable_pitch_with_parts_of_one_size(tmp_path, box_photo, pitch):
+    masks = [a for k in range(4) for a in ("--mask", f"{box_photo[f'part_{k}']}:part")]
+    extra = [] if pitch is None else ["--pitch", str(pitch)]
+    cli("build", box_photo["photo"], "-o", tmp_path, "-q", *masks, *extra, check=True)
+    report = _report(tmp_path)
+    longest = [max(o["size_m"]) for o in report["objects"]]
+    assert max(longest) < 1.0
+    if pitch in (None, 90):  # the right pitch: the four parts come out one size
+        assert max(longest) / min(longest) <= 1.3
+    if pitch is None:
+        assert report["shot"]["pitch_deg"] >= 70.0
+
+
+def test_a_level_pitch_that_leaves_parts_above_the_horizon_is_refused_in_one_line(tmp_path, box_photo):
+    masks = [a for k in range(4) for a in ("--mask", f"{box_photo[f'part_{k}']}:part")]
+    proc = cli("build", box_photo["photo"], "-o", tmp_path / "s", "-q", *masks, "--pitch", "0")
+    assert proc.returncode == 2
+    assert "--pitch 0" in proc.stderr and "use at least" in proc.stderr
+    assert not (tmp_path / "s" / "shot.usda").exists()
+
+
+def test_objects_of_one_label_vote_once():
+    # eleven sweets measured alike and one cup: the cup's vote counts as much as all the sweets'
+    names = [f"sweet_{i}" for i in range(11)] + ["cup_11"]
+    labels = ["sweet"] * 11 + ["cup"]
+    fit = fit_scale(names, labels, [0.015 * 2.0] * 11 + [0.11 * 1.0])
+    assert fit.factor == pytest.approx(np.sqrt(0.5), rel=1e-6)  # the geometric mean of ×0.5 and ×1
+
+
+def test_priors_that_disagree_choose_a_plausible_camera_and_name_the_losers():
+    fit = fit_scale(["whale_0", "box_1", "car_2"], ["whale", "box", "car"], [0.2, 0.15, 0.1])
+    assert len(fit.warnings) == 1
+    assert "whale_0" in fit.warnings[0] and "car_2" in fit.warnings[0] and "box_1" in fit.warnings[0]
+    assert fit.factor == pytest.approx(0.4 / 0.15)  # the box's reading: a camera under 3 m
+    assert max(m * fit.factor for m in (0.2, 0.15, 0.1)) < 1.0
+    assert any(not r["plausible"] for r in fit.readings)
+    # --size still wins, and priors that agree give no warning
+    assert fit_scale(["whale_0", "box_1"], ["whale", "box"], [0.2, 0.15], {"whale_0": 15.0}).source == "size"
+    assert not fit_scale(["cup_0", "mug_1"], ["cup", "mug"], [0.1, 0.12]).warnings
+
+
+def test_a_whale_among_toys_on_a_desk_warns_once_and_stays_table_top(tmp_path):
+    rng = np.random.default_rng(2)
+    img = np.clip(np.full((240, 320, 3), 150.0) + rng.normal(0, 5, (240, 320, 1)), 0, 255)
+    args = []
+    for name, colour, draw in (
+            ("whale", (60, 90, 200), lambda m: cv2.ellipse(m, (80, 160), (45, 22), 0, 0, 360, 1, -1)),
+            ("box", (200, 150, 60), lambda m: cv2.rectangle(m, (140, 120), (190, 185), 1, -1)),
+            ("car", (200, 40, 40), lambda m: cv2.rectangle(m, (220, 150), (290, 185), 1, -1))):
+        m = np.zeros((240, 320), np.uint8)
+        draw(m)
+        img[m > 0] = colour
+        cv2.imwrite(str(tmp_path / f"{name}.png"), m * 255)
+        args += ["--mask", f"{tmp_path / name}.png:{name}"]
+    cv2.imwrite(str(tmp_path / "photo.png"), img.astype(np.uint8))
+    proc = cli("build", tmp_path / "photo.png", "-o", tmp_path / "shot", *args, check=True)
+    said = [line for line in (proc.stdout + proc.stderr).splitlines() if "typical sizes disagree" in line]
+    assert len(said) == 1 and all(n in said[0] for n in ("whale_0", "car_2", "box_1"))
+    report = _report(tmp_path / "shot")
+    assert max(max(o["size_m"]) for o in report["objects"]) < 1.0
+    assert report["shot"]["scale"]["warnings"] == [said[0].split("warning: ", 1)[1]]
