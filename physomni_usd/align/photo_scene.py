@@ -1,10 +1,13 @@
 """The built-in (no model) scene from a photo: camera, lifted objects, real scale, support, room.
 
-Owns the order of the silhouette path of ``build``: the camera is estimated
-from the photo (``align/cues.py``) under a unit camera height, every object
-is lifted (``perceive/lift.py``), the scene's scale is fixed from the objects'
-typical sizes (``align/scale.py``), objects resting on others are stood on
-them (``align/support.py``), and the rest are kept apart (``align/place.py``).
+Owns the order of the silhouette path, in two halves that ``build`` runs as
+its *lift* and *place* stages. :func:`lift_photo_scene` (the built-in
+lifter): the camera is estimated from the photo (``align/cues.py``) under a
+unit camera height, objects resting on others are found (``align/support.py``),
+every object is lifted (``perceive/lift.py``) and the scene's scale is fixed
+from the objects' typical sizes (``align/scale.py``). :func:`place_on_ground`:
+objects resting on others move with them, the rest are kept apart
+(``align/place.py``).
 """
 
 from __future__ import annotations
@@ -13,6 +16,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..backends.protocols import GroundEvidence, LiftedObject
+from ..rotations import to_wxyz
 from ..sizes import size_prior
 from ..perceive.lift import FLAT_PRIOR_RATIO, fill_holes, foot_pixel, lift_silhouette
 from ..settings import BuildSettings
@@ -65,8 +70,12 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
     return out
 
 
-def build_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_sizes=None) -> PhotoScene:
-    """Camera, meshes and placement for objects seen only as masks in ``photo``."""
+def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_sizes=None) -> list[LiftedObject]:
+    """Each object of ``photo`` lifted from its mask and stood, at the photo's scale, where the photo shows it.
+
+    Returns one :class:`~physomni_usd.backends.protocols.LiftedObject` per mask whose mesh frame is the
+    world (z up, metres) and whose ``ground`` holds the camera, the contact point and the support found.
+    """
     h, w = photo.shape[:2]
     cam_cfg = settings.camera
     feet = [foot_pixel(fill_holes(m))[1] for m in masks]
@@ -92,14 +101,27 @@ def build_photo_scene(masks, labels, names, photo, settings: BuildSettings, user
     scale = fit.factor
     lifted = [replace(m, vertices=m.vertices * scale, contact=m.contact * scale) for m in lifted]
     camera = PinholeCamera(w, h, unit.fov_deg, unit.pitch_deg, (0.0, 0.0, scale))
+    scene = {"scale": fit.as_dict(camera.origin[2]), "camera": camera_info}
+    # the protocol's pose: world (the mesh frame) → OpenCV camera
+    to_camera = camera.world_from_camera.T
+    pose = dict(rotation_wxyz=tuple(float(x) for x in to_wxyz(to_camera)),
+                translation=tuple(float(x) for x in -to_camera @ camera.origin))
+    return [LiftedObject(m.vertices, m.faces, shape=m.shape, **pose,
+                         ground=GroundEvidence(camera, m.contact, m.info.get("mode") == "footprint",
+                                               supports.get(i), m.info, scene))
+            for i, m in enumerate(lifted)]
 
-    # objects resting on others move with them; the rest keep clear of each other
+
+def place_on_ground(lifted: list[LiftedObject], names, gap_m: float) -> PhotoScene:
+    """The scene of meshes lifted on a measured ground (:func:`lift_photo_scene`): objects resting on others
+    move with them; the rest are made shallower, then moved apart, until their footprints are ``gap_m`` apart."""
+    camera = lifted[0].ground.camera
+    supports = {i: o.ground.support for i, o in enumerate(lifted) if o.ground.support is not None}
     free = [i for i in range(len(lifted)) if i not in supports]
-    room, scales_free = make_room([lifted[i].vertices for i in free], [lifted[i].contact for i in free],
-                                  camera.origin, settings.gap_m,
-                                  fixed_depth=[lifted[i].info.get("mode") == "footprint" for i in free])
-    moves_free = separate(room, settings.gap_m)
-    projected = [m.vertices for m in lifted]
+    room, scales_free = make_room([lifted[i].vertices for i in free], [lifted[i].ground.contact for i in free],
+                                  camera.origin, gap_m, fixed_depth=[lifted[i].ground.fixed_depth for i in free])
+    moves_free = separate(room, gap_m)
+    projected = [o.vertices for o in lifted]
     depth_scales = [1.0] * len(lifted)
     moves = [np.zeros(3)] * len(lifted)
     for k, i in enumerate(free):
@@ -109,7 +131,7 @@ def build_photo_scene(masks, labels, names, photo, settings: BuildSettings, user
     verts = [v + d for v, d in zip(projected, moves)]
     info = {"variant": "silhouette", "depth_scales": [round(k, 4) for k in depth_scales],
             "moved_apart_m": [round(float(np.linalg.norm(d)), 4) for d in moves],
-            "scale": fit.as_dict(camera.origin[2]), "camera": camera_info,
-            "lift": [m.info for m in lifted],
+            **lifted[0].ground.scene,
+            "lift": [o.ground.info for o in lifted],
             "supports": {names[i]: {"on": names[j], "seen": how} for i, (j, how) in supports.items()}}
-    return PhotoScene(camera, verts, projected, [m.faces for m in lifted], [m.shape for m in lifted], info)
+    return PhotoScene(camera, verts, projected, [o.faces for o in lifted], [o.shape for o in lifted], info)

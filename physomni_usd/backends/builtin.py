@@ -67,16 +67,32 @@ class MirrorOutpainter(_Builtin):
 
 
 class SilhouetteLifter(_Builtin):
-    """Silhouette lofting on the ground (``perceive.lift``): ``build``'s own placement, not a camera pose."""
+    """Silhouette lofting (``perceive.lift``) on the ground it measures in the photo (``align.photo_scene``).
+
+    Its meshes come in the world of that ground with the camera that sees it (``LiftedObject.ground``)."""
 
     kind, name = "lifter", "silhouette"
-    #: ``build`` lifts and places with its silhouette path rather than calling :meth:`lift`.
-    placement = "ground"
 
-    def lift_world(self, mask, camera, settings):
-        from ..perceive.lift import lift_silhouette
+    def lift(self, photo, masks, labels, *, settings=None, names=None, sizes=None):
+        from ..align.photo_scene import lift_photo_scene
+        from ..settings import BuildSettings
 
-        return lift_silhouette(mask, camera, settings)
+        names = names or [f"{label}_{i}" for i, label in enumerate(labels)]
+        return lift_photo_scene(masks, labels, names, photo, settings or BuildSettings(), sizes or {})
+
+
+class MeshFolderLifter(_Builtin):
+    """The meshes and camera poses a folder holds (``build --meshes``: ``poses.json`` and one mesh per label)."""
+
+    kind, name = "lifter", "meshes"
+
+    def __init__(self, folder):
+        self.folder = folder
+
+    def lift(self, photo, masks, labels):
+        from ..align.external import read_lifted
+
+        return read_lifted(self.folder, labels)
 
 
 class RulesEstimator(_Builtin):
