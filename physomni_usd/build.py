@@ -25,12 +25,14 @@ from .align.external import place_external, posed_entries
 from .align.photo_scene import place_on_ground
 from .align.place import centring_offset
 from .align.scale import parse_sizes
+from .align.support import start_contacts
 from .backends import steps as backend_steps
 from .backends.builtin import MeshFolderLifter
 from .errors import InputError
 from .fields import parse_force_options
 from .materials.defaults import GROUND_MATERIAL
 from .materials.report import material_report
+from .perceive.amodal import complete, complete_texture
 from .perceive.masks import contact_sheet, read_photo
 from .perceive.plate import object_texture
 from .perceive.sides import corner_st, two_sided_texture
@@ -180,6 +182,9 @@ class ShotObject:
     (place) and its texture (texture)."""
 
     mask: object  # perceive.masks.ObjectMask
+    amodal: np.ndarray | None = None  # (H, W) bool: the mask completed behind what hides it (complete)
+    occluders: list = field(default_factory=list)  # indices of the objects that hide part of it
+    completion: str = "whole"  # how the hidden part was closed (perceive.amodal.Completion.how)
     lifted: object = None  # backends.protocols.LiftedObject
     vertices: np.ndarray | None = None  # (N, 3) world metres, placed
     projected: np.ndarray | None = None  # (N, 3) world metres, where the photo saw it (texture coordinates)
@@ -187,6 +192,7 @@ class ShotObject:
     shape: str = ""
     notes: list = field(default_factory=list)
     report: dict = field(default_factory=dict)
+    rest: dict = field(default_factory=dict)  # what it stands on and how far from it (align.support)
 
     @property
     def name(self) -> str:
@@ -247,6 +253,8 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
 
     with timer.step("perceive.plate"):
         _plate(scene)
+    with timer.step("perceive.complete"):
+        _complete(scene)
     with timer.step("perceive.lift"):
         _lift(scene, lifter, user_sizes, out)
     with timer.step("align.place"):
@@ -275,6 +283,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
     if old:
         write_bytes(out / REPORT, (json.dumps(old, indent=2) + "\n").encode())
     camera, align_info = scene.camera, scene.align_info
+    occlusion = [{"front": scene.objects[k].name, "behind": o.name} for o in scene.objects for k in o.occluders]
     report_objects = [o.report for o in scene.objects]
     update_report(out, objects=report_objects, estimate=material_report(stage, scene.config.source),
                   shot={"photo": str(photo_path), "width": w, "height": h,
@@ -285,6 +294,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
                         "fps": settings.fps},
                   build={"seconds": timer.seconds, "total_seconds": timer.total, "files": sorted(files),
                          "checks": checks, "masks_sheet": MASKS_SHEET, "backends": backend_steps.report(chosen),
+                         **({"occlusion": occlusion} if occlusion else {}),
                          **depth_info})
     return BuildResult(out, shot, report_objects, timer.seconds)
 
@@ -296,9 +306,17 @@ def _plate(scene: Scene) -> None:
     scene.wide_plate, scene.margins = backend_steps.make_wide_plate(scene.plate, scene.backends["outpainter"])
 
 
+def _complete(scene: Scene) -> None:
+    """Who hides whom, and each hidden object's outline completed behind its occluders."""
+    for o, c in zip(scene.objects, complete(scene.masks)):
+        o.amodal, o.occluders, o.completion = c.amodal, c.occluders, c.how
+
+
 def _lift(scene: Scene, lifter, user_sizes: dict, out: pathlib.Path) -> None:
-    """Every object's mesh and pose from the lifter, built-in or plugin alike; a model's are kept in the shot."""
-    lifted = backend_steps.lift(lifter, scene.photo, [o.mask for o in scene.objects], scene.settings, user_sizes)
+    """Every object's mesh and pose from the lifter, built-in or plugin alike, from the completed outlines;
+    a model's are kept in the shot."""
+    lifted = backend_steps.lift(lifter, scene.photo, [o.mask for o in scene.objects], scene.settings, user_sizes,
+                                masks=[o.amodal for o in scene.objects])
     if lifted[0].ground is None and not isinstance(lifter, MeshFolderLifter):
         backend_steps.record_lifted(lifted, [o.mask for o in scene.objects], out / INPUTS / "lifted")
     for o, m in zip(scene.objects, lifted):
@@ -337,6 +355,11 @@ def _place(scene: Scene) -> None:
     scene.align_info = align_info
     for o, v, seen, f, shape, note in zip(scene.objects, verts, projected, faces, shapes, notes):
         o.vertices, o.projected, o.faces, o.shape, o.notes = v + centre, seen + centre, f, shape, note
+    supports = {i: m.ground.support for i, m in enumerate(lifted) if m.ground is not None and m.ground.support}
+    rest = start_contacts([o.vertices for o in scene.objects], [o.faces for o in scene.objects], supports,
+                          [o.name for o in scene.objects])
+    for o, r in zip(scene.objects, rest):
+        o.rest = r
 
 
 def _texture(scene: Scene, out: pathlib.Path) -> None:
@@ -347,7 +370,8 @@ def _texture(scene: Scene, out: pathlib.Path) -> None:
     make_dirs(out / TEXTURES)
     for so in scene.objects:
         o, v, f = so.mask, so.vertices, so.faces
-        rgba, (x0, y0) = object_texture(photo, o.mask)
+        # where others hide it, the object is painted from its own visible surface (perceive/amodal.py)
+        rgba, (x0, y0) = object_texture(complete_texture(photo, o.mask, so.amodal), so.amodal)
         # texture coordinates: the photo projected from the camera onto the object where it was seen, and
         # a planar map for the sides it saw edge-on (perceive/sides.py)
         st = corner_st(so.projected, np.asarray(f), camera, (rgba.shape[1], rgba.shape[0]), (x0, y0))
@@ -365,9 +389,14 @@ def _texture(scene: Scene, out: pathlib.Path) -> None:
             "position_m": origin.round(4).tolist(), "watertight": bool(tm.is_watertight), "notes": so.notes,
             "mask_quality": o.quality,
         }
+        so.report["start"] = so.rest
+        if so.occluders:
+            so.report["occluded_by"] = [scene.objects[k].name for k in so.occluders]
+            so.report["completed"] = {"how": so.completion, "pixels": int((so.amodal & ~o.mask).sum())}
     _write_png(out / TEXTURES / "plate.png", scene.plate)
     _write_png(out / TEXTURES / WIDE_PLATE, scene.wide_plate)
-    _write_png(out / MASKS_SHEET, contact_sheet(photo, [o.mask for o in scene.objects]))
+    _write_png(out / MASKS_SHEET, contact_sheet(photo, [o.mask for o in scene.objects],
+                                                 completed=[o.amodal for o in scene.objects]))
     # the inputs, so that later stages (estimate's crops) work from the shot folder alone
     make_dirs(out / INPUTS / "masks")
     _write_png(out / INPUTS / "photo.png", photo)

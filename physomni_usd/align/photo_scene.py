@@ -43,18 +43,40 @@ class PhotoScene:
     info: dict
 
 
+def surface_under(lower, upper_mask: np.ndarray, camera: PinholeCamera) -> float:
+    """Height of ``lower``'s surface (a lifted mesh) where the object of ``upper_mask`` stands on it.
+
+    The ray through the upper object's foot pixel is cast into the lower mesh; the lower mesh's top surface
+    straight above where it enters is the height (a cup stands on the saucer's floor, not on its rim's
+    height nor in front of it). A ray that misses the lower mesh takes its top, as a box on a crate does.
+    """
+    import trimesh
+
+    top = float(lower.vertices[:, 2].max())
+    mesh = trimesh.Trimesh(lower.vertices, lower.faces, process=False)
+    u, v = foot_pixel(fill_holes(upper_mask))
+    hits, _, _ = mesh.ray.intersects_location(camera.origin[None], camera.rays(u, v)[None])
+    if not len(hits):
+        return top
+    first = hits[np.argmin(np.linalg.norm(hits - camera.origin, axis=1))]
+    above = np.array([[first[0], first[1], top + 1.0]])
+    down, _, _ = mesh.ray.intersects_location(above, np.array([[0.0, 0.0, -1.0]]))
+    return float(down[:, 2].max()) if len(down) else top
+
+
 def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scale: float, supports=None,
              photo=None):
     """Each mask lifted under ``camera`` (unit height); ``scale`` turns a prior's metres into the camera's units.
 
-    ``supports`` ({upper: (lower, how)}) stands each upper object on its lower one's top.
+    ``supports`` ({upper: (lower, how)}) stands each upper object on its lower one's surface where it
+    meets it (:func:`surface_under`).
     """
     supports = supports or {}
     out = [None] * len(masks)
     for i in support_order(len(masks), supports):
         prior = size_prior(labels[i])
         hint = prior.height_m / scale if prior is not None and prior.height_m else None
-        base = float(out[supports[i][0]].vertices[:, 2].max()) if i in supports else 0.0
+        base = surface_under(out[supports[i][0]], masks[i], camera) if i in supports else 0.0
         flat = bool(prior and prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * prior.longest_m)
         kwargs = dict(height_hint=hint, prior_shape=prior.shape if prior else None, flat=flat, photo=photo)
         try:

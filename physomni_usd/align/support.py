@@ -107,3 +107,30 @@ def root_of(i: int, supports: dict[int, tuple[int, str]]) -> int:
     while i in supports:
         i = supports[i][0]
     return i
+
+
+def start_contacts(vertex_sets, faces, supports: dict[int, tuple[int, str]], names) -> list[dict]:
+    """What each placed object stands on and how far from it it starts, for ``report.json``.
+
+    ``support``: 'ground' or the name of the object it rests on; ``clearance_m``: the gap under it (its
+    lowest point above the ground, or its lowest vertices' distance outside the supporter's mesh; < 0 when
+    inside); ``overlap_m``: the deepest any vertex of it lies inside another object's mesh (0 when none).
+    """
+    import trimesh
+
+    from ..metrics.geometry import max_penetration
+
+    meshes = [trimesh.Trimesh(v, f, process=False) for v, f in zip(vertex_sets, faces)]
+    out = []
+    for i, m in enumerate(meshes):
+        z = m.vertices[:, 2]
+        entry = {"support": "ground", "clearance_m": round(float(z.min()), 4)}
+        if i in supports:
+            j = supports[i][0]
+            low = m.vertices[z <= z.min() + 0.2 * max(float(np.ptp(z)), 1e-9)]
+            outside = -trimesh.proximity.signed_distance(meshes[j], low)  # signed distance is > 0 inside
+            entry = {"support": names[j], "clearance_m": round(float(outside.min()), 4)}
+        entry["overlap_m"] = round(max((max_penetration({"a": m, "b": meshes[k]}) for k in range(len(meshes))
+                                        if k != i), default=0.0), 4)
+        out.append(entry)
+    return out

@@ -123,16 +123,18 @@ def make_plate(photo: np.ndarray, masks, dilation: float, inpainter) -> np.ndarr
     return np.where(where[..., None], np.clip(filled, 0, 255).astype(np.uint8), photo)
 
 
-def lift(lifter, photo: np.ndarray, objects, settings, sizes: dict) -> list:
+def lift(lifter, photo: np.ndarray, objects, settings, sizes: dict, masks=None) -> list:
     """Every object's mesh and pose from ``lifter`` (any :class:`~.protocols.Lifter`), checked.
 
-    The keywords ``settings``, ``names`` and ``sizes`` go to a lifter whose ``lift`` takes them."""
+    ``masks``: the outlines to lift, (H, W) bool each (default the objects' own). The keywords
+    ``settings``, ``names`` and ``sizes`` go to a lifter whose ``lift`` takes them."""
     import inspect
 
     params = inspect.signature(lifter.lift).parameters
     context = {k: v for k, v in (("settings", settings), ("names", [o.name for o in objects]), ("sizes", sizes))
                if k in params}
-    lifted = list(lifter.lift(photo, [o.mask for o in objects], [o.label for o in objects], **context))
+    masks = [o.mask for o in objects] if masks is None else masks
+    lifted = list(lifter.lift(photo, masks, [o.label for o in objects], **context))
     name = type(lifter).name
     if len(lifted) != len(objects):
         raise InputError(f"lifter {name} returned {len(lifted)} meshes for {len(objects)} objects")
