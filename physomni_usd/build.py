@@ -54,6 +54,9 @@ INPUTS = "inputs"
 WIDE_PLATE = "plate_wide.png"
 #: The contact sheet of the masks over the photo, in the shot folder.
 MASKS_SHEET = "masks.png"
+#: Texture alpha of what the complete stage painted behind an object's occluders: opaque to every
+#: renderer's cut-out, yet not 255, the alpha of the pixels the photo shows of the object.
+COMPLETED_ALPHA = 254
 #: Solver defaults written to the physics layer (the physics benchmark revisits them).
 DEFAULT_SOLVER = "xpbd"
 
@@ -253,6 +256,8 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
 
     with timer.step("perceive.plate"):
         _plate(scene)
+    with timer.step("perceive.outpaint"):
+        _outpaint(scene)
     with timer.step("perceive.complete"):
         _complete(scene)
     with timer.step("perceive.lift"):
@@ -300,9 +305,13 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
 
 
 def _plate(scene: Scene) -> None:
-    """The background plate behind the objects, and its widening for camera moves."""
+    """The background plate behind the objects."""
     scene.plate = backend_steps.make_plate(scene.photo, scene.masks, scene.settings.plate_dilation,
                                            scene.backends["inpainter"])
+
+
+def _outpaint(scene: Scene) -> None:
+    """The plate widened for camera moves."""
     scene.wide_plate, scene.margins = backend_steps.make_wide_plate(scene.plate, scene.backends["outpainter"])
 
 
@@ -372,6 +381,9 @@ def _texture(scene: Scene, out: pathlib.Path) -> None:
         o, v, f = so.mask, so.vertices, so.faces
         # where others hide it, the object is painted from its own visible surface (perceive/amodal.py)
         rgba, (x0, y0) = object_texture(complete_texture(photo, o.mask, so.amodal), so.amodal)
+        # drawn like the rest, but not the photo's pixels of it: renderers show the photo only at 255
+        hidden = (so.amodal & ~o.mask)[y0:y0 + rgba.shape[0], x0:x0 + rgba.shape[1]]
+        rgba[..., 3][hidden] = COMPLETED_ALPHA
         # texture coordinates: the photo projected from the camera onto the object where it was seen, and
         # a planar map for the sides it saw edge-on (perceive/sides.py)
         st = corner_st(so.projected, np.asarray(f), camera, (rgba.shape[1], rgba.shape[0]), (x0, y0))

@@ -105,3 +105,24 @@ def test_the_saucers_mesh_covers_its_whole_outline(cup_on_saucer):
     seen = render_truth(camera, [saucer])[1][0]
     whole = cup_on_saucer["whole"]
     assert (seen & whole).sum() >= 0.9 * whole.sum()
+
+
+def test_with_the_cup_gone_the_saucer_shows_where_it_stood(cup_on_saucer):
+    from pxr import Gf, Usd, UsdGeom
+
+    from physomni_usd.render.video import ShotRenderer
+
+    stage = Usd.Stage.Open(str(cup_on_saucer["out"] / "shot.usda"))
+    with Usd.EditContext(stage, stage.GetSessionLayer()):  # the cup pushed 1 m aside, off the saucer
+        op = UsdGeom.Xformable(stage.GetPrimAtPath("/World/Objects/cup_1")).GetOrderedXformOps()[0]
+        op.Set(op.Get() + Gf.Vec3d(1.0, 0.0, 0.0))
+    frame = ShotRenderer(stage).frame(float(stage.GetStartTimeCode())).astype(int)
+    plate = cv2.cvtColor(cv2.imread(str(cup_on_saucer["out"] / "textures" / "plate.png")), cv2.COLOR_BGR2RGB)
+    photo = cup_on_saucer["photo"].astype(int)
+    where = cup_on_saucer["whole"] & cup_on_saucer["cup"]
+    where = cv2.erode(where.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0  # away from the edges
+    saucer = np.median(photo[cup_on_saucer["saucer"]], axis=0)
+    off_saucer = np.abs(frame[where] - saucer).max(1)
+    off_table = np.abs(frame[where] - plate[where].astype(int)).max(1)
+    assert where.sum() > 200
+    assert (off_saucer < off_table).mean() >= 0.9  # saucer colour, not the table's

@@ -30,7 +30,6 @@ from dataclasses import dataclass, field
 import numpy as np
 import trimesh
 
-from ..backends.protocols import LiftedObject
 from ..errors import InputError
 from ..rotations import from_wxyz
 from ..geometry.camera import PinholeCamera
@@ -54,11 +53,16 @@ class PlacedScene:
 
 def load_poses(folder, labels: list[str]) -> list[tuple[trimesh.Trimesh, np.ndarray, np.ndarray, float, list[str]]]:
     """Meshes and poses for ``labels`` (mask order) from ``folder/poses.json``; one clear line on any problem."""
-    return posed_entries(read_lifted(folder, labels))
+    out = []
+    for mesh, wxyz, t, s in read_poses(folder, labels):
+        mesh, notes = repair_mesh(trimesh.Trimesh(np.asarray(mesh.vertices), np.asarray(mesh.faces), process=True))
+        out.append((mesh, from_wxyz(wxyz), np.asarray(t, float), s, notes))
+    return out
 
 
-def read_lifted(folder, labels: list[str]) -> list[LiftedObject]:
-    """What ``folder/poses.json`` and its meshes say of each of ``labels`` (mask order), as a lifter's output."""
+def read_poses(folder, labels: list[str]) -> list[tuple[trimesh.Trimesh, tuple, np.ndarray, float]]:
+    """(mesh as read, rotation_wxyz as written, translation (3,), scale) of each of ``labels`` (mask order)
+    from ``folder/poses.json`` and its meshes; one clear line on any problem."""
     folder = pathlib.Path(folder)
     path = folder / "poses.json"
     if not path.is_file():
@@ -91,14 +95,14 @@ def read_lifted(folder, labels: list[str]) -> list[LiftedObject]:
             raise InputError(f"{path}: the pose of {label!r} has non-finite values or a scale ≤ 0")
         if t[2] <= 0:
             raise InputError(f"{path}: {label!r} is behind the camera (translation z = {t[2]:g} ≤ 0)")
-        mesh = _load_mesh(mesh_file)
-        out.append(LiftedObject(np.asarray(mesh.vertices), np.asarray(mesh.faces), wxyz, tuple(t), s))
+        out.append((_load_mesh(mesh_file), wxyz, t, s))
     return out
 
 
-def posed_entries(lifted: list[LiftedObject]):
-    """(mesh, rotation (3, 3), translation (3,), scale, notes) of each lifted object, its mesh repaired
-    (:func:`repair_mesh`): what :func:`place_external` takes."""
+def posed_entries(lifted):
+    """(mesh, rotation (3, 3), translation (3,), scale, notes) of each lifted object
+    (``backends.protocols.LiftedObject``), its mesh repaired (:func:`repair_mesh`): what
+    :func:`place_external` takes."""
     out = []
     for o in lifted:
         mesh, notes = repair_mesh(trimesh.Trimesh(np.asarray(o.vertices, float), np.asarray(o.faces), process=True))

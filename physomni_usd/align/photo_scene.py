@@ -16,8 +16,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..backends.protocols import GroundEvidence, LiftedObject
-from ..rotations import to_wxyz
 from ..sizes import size_prior
 from ..perceive.lift import FLAT_PRIOR_RATIO, fill_holes, foot_pixel, lift_silhouette
 from ..settings import BuildSettings
@@ -92,12 +90,19 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
     return out
 
 
-def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_sizes=None) -> list[LiftedObject]:
-    """Each object of ``photo`` lifted from its mask and stood, at the photo's scale, where the photo shows it.
+@dataclass
+class GroundLift:
+    """Every object lifted on the ground measured in the photo: world metres, z up, the ground at z = 0."""
 
-    Returns one :class:`~physomni_usd.backends.protocols.LiftedObject` per mask whose mesh frame is the
-    world (z up, metres) and whose ``ground`` holds the camera, the contact point and the support found.
-    """
+    camera: PinholeCamera
+    lifted: list  # perceive.lift.LiftedMesh, one per mask, at the photo's scale
+    supports: dict[int, tuple[int, str]]  # {upper: (lower, how it was seen)}
+    info: dict  # the camera's cues and the scale's votes, for the report
+
+
+def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_sizes=None) -> GroundLift:
+    """Each object of ``photo`` lifted from its mask and stood, at the photo's scale, where the photo shows it
+    (on the ground, or on the object it rests on)."""
     h, w = photo.shape[:2]
     cam_cfg = settings.camera
     feet = [foot_pixel(fill_holes(m))[1] for m in masks]
@@ -123,20 +128,13 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
     scale = fit.factor
     lifted = [replace(m, vertices=m.vertices * scale, contact=m.contact * scale) for m in lifted]
     camera = PinholeCamera(w, h, unit.fov_deg, unit.pitch_deg, (0.0, 0.0, scale))
-    scene = {"scale": fit.as_dict(camera.origin[2]), "camera": camera_info}
-    # the protocol's pose: world (the mesh frame) → OpenCV camera
-    to_camera = camera.world_from_camera.T
-    pose = dict(rotation_wxyz=tuple(float(x) for x in to_wxyz(to_camera)),
-                translation=tuple(float(x) for x in -to_camera @ camera.origin))
-    return [LiftedObject(m.vertices, m.faces, shape=m.shape, **pose,
-                         ground=GroundEvidence(camera, m.contact, m.info.get("mode") == "footprint",
-                                               supports.get(i), m.info, scene))
-            for i, m in enumerate(lifted)]
+    return GroundLift(camera, lifted, supports, {"scale": fit.as_dict(camera.origin[2]), "camera": camera_info})
 
 
-def place_on_ground(lifted: list[LiftedObject], names, gap_m: float) -> PhotoScene:
-    """The scene of meshes lifted on a measured ground (:func:`lift_photo_scene`): objects resting on others
-    move with them; the rest are made shallower, then moved apart, until their footprints are ``gap_m`` apart."""
+def place_on_ground(lifted, names, gap_m: float) -> PhotoScene:
+    """The scene of ``lifted`` meshes (``backends.protocols.LiftedObject`` with ``ground`` evidence, lifted by
+    :func:`lift_photo_scene`): objects resting on others move with them; the rest are made shallower, then
+    moved apart, until their footprints are ``gap_m`` apart."""
     camera = lifted[0].ground.camera
     supports = {i: o.ground.support for i, o in enumerate(lifted) if o.ground.support is not None}
     free = [i for i in range(len(lifted)) if i not in supports]

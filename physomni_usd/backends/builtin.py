@@ -75,10 +75,21 @@ class SilhouetteLifter(_Builtin):
 
     def lift(self, photo, masks, labels, *, settings=None, names=None, sizes=None):
         from ..align.photo_scene import lift_photo_scene
+        from ..rotations import to_wxyz
         from ..settings import BuildSettings
+        from .protocols import GroundEvidence, LiftedObject
 
         names = names or [f"{label}_{i}" for i, label in enumerate(labels)]
-        return lift_photo_scene(masks, labels, names, photo, settings or BuildSettings(), sizes or {})
+        found = lift_photo_scene(masks, labels, names, photo, settings or BuildSettings(), sizes or {})
+        camera = found.camera
+        # the protocol's pose: the world (each mesh's frame) → OpenCV camera
+        to_camera = camera.world_from_camera.T
+        pose = dict(rotation_wxyz=tuple(float(x) for x in to_wxyz(to_camera)),
+                    translation=tuple(float(x) for x in -to_camera @ camera.origin))
+        return [LiftedObject(m.vertices, m.faces, shape=m.shape, **pose,
+                             ground=GroundEvidence(camera, m.contact, m.info.get("mode") == "footprint",
+                                                   found.supports.get(i), m.info, found.info))
+                for i, m in enumerate(found.lifted)]
 
 
 class MeshFolderLifter(_Builtin):
@@ -90,9 +101,13 @@ class MeshFolderLifter(_Builtin):
         self.folder = folder
 
     def lift(self, photo, masks, labels):
-        from ..align.external import read_lifted
+        import numpy as np
 
-        return read_lifted(self.folder, labels)
+        from ..align.external import read_poses
+        from .protocols import LiftedObject
+
+        return [LiftedObject(np.asarray(mesh.vertices), np.asarray(mesh.faces), wxyz, tuple(t), s)
+                for mesh, wxyz, t, s in read_poses(self.folder, labels)]
 
 
 class RulesEstimator(_Builtin):
