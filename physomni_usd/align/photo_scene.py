@@ -25,7 +25,7 @@ from ..geometry.mesh import longest_dimension
 from .cues import MAX_PITCH_DEG, estimate_camera
 from .place import make_room, separate
 from .scale import fit_scale
-from .support import find_supports, root_of, support_order
+from .support import find_supports, root_of, settle_on_supports, support_order
 
 #: Scale-and-lift rounds: an object's height from its prior depends on the scale, the scale on the lifted sizes.
 SCALE_ROUNDS = 3
@@ -134,7 +134,8 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
 def place_on_ground(lifted, names, gap_m: float) -> PhotoScene:
     """The scene of ``lifted`` meshes (``backends.protocols.LiftedObject`` with ``ground`` evidence, lifted by
     :func:`lift_photo_scene`): objects resting on others move with them; the rest are made shallower, then
-    moved apart, until their footprints are ``gap_m`` apart."""
+    moved apart, until their footprints are ``gap_m`` apart; an object left inside what holds it is raised
+    onto it (``align.support.settle_on_supports``)."""
     camera = lifted[0].ground.camera
     supports = {i: o.ground.support for i, o in enumerate(lifted) if o.ground.support is not None}
     free = [i for i in range(len(lifted)) if i not in supports]
@@ -148,9 +149,11 @@ def place_on_ground(lifted, names, gap_m: float) -> PhotoScene:
         projected[i], depth_scales[i], moves[i] = room[k], scales_free[k], moves_free[k]
     for i in supports:
         moves[i] = moves[root_of(i, supports)]
-    verts = [v + d for v, d in zip(projected, moves)]
+    verts, rise = settle_on_supports([v + d for v, d in zip(projected, moves)], [o.faces for o in lifted], supports)
     info = {"variant": "silhouette", "depth_scales": [round(k, 4) for k in depth_scales],
             "moved_apart_m": [round(float(np.linalg.norm(d)), 4) for d in moves],
+            **({"raised_onto_support_m": {names[i]: round(r, 4) for i, r in enumerate(rise) if r > 0}}
+               if any(rise) else {}),
             **lifted[0].ground.scene,
             "lift": [o.ground.info for o in lifted],
             "supports": {names[i]: {"on": names[j], "seen": how} for i, (j, how) in supports.items()}}

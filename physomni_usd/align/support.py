@@ -11,8 +11,11 @@ From the masks alone: object A rests on object B when
 
 The masks cannot tell a cup on a saucer from a cup hidden behind the saucer's
 rim; the first reading is taken, which the README states. Each upper object
-then stands on its lower one's top (``base_z``) instead of on the ground, and
-moves with it when objects are moved apart.
+then stands on its lower one's surface (``align.photo_scene.surface_under``)
+instead of on the ground, moves with it when objects are moved apart, and is
+raised out of it where it starts inside it (:func:`settle_on_supports`).
+:func:`start_contacts` says, for the report, what each object starts on and
+how far from it.
 """
 
 from __future__ import annotations
@@ -134,3 +137,47 @@ def start_contacts(vertex_sets, faces, supports: dict[int, tuple[int, str]], nam
                                         if k != i), default=0.0), 4)
         out.append(entry)
     return out
+
+
+#: An object starting deeper than this inside what holds it is raised out of it (metres).
+SETTLE_TOLERANCE_M = 0.0005
+
+
+def settle_on_supports(vertex_sets, faces, supports: dict[int, tuple[int, str]]) -> tuple[list[np.ndarray], list[float]]:
+    """Vertex sets with every object that starts inside what holds it raised until it rests on it, and each
+    object's rise (metres). Objects resting on a raised one rise with it; lower objects first.
+
+    Standing on the supporter's surface where the foot's ray meets it (``align.photo_scene.surface_under``)
+    can leave the rest of an object's base inside a supporter that is higher elsewhere (a cup's back over a
+    saucer's rim); a simulation would push it out with energy it never had.
+    """
+    import trimesh
+
+    verts = [np.asarray(v, float).copy() for v in vertex_sets]
+    rise = [0.0] * len(verts)
+    for i in support_order(len(verts), supports):
+        if i not in supports:
+            continue
+        j = supports[i][0]
+        z = verts[i][:, 2]
+        low = verts[i][z <= z.min() + 0.2 * max(float(np.ptp(z)), 1e-9)]
+        inside = float(trimesh.proximity.signed_distance(trimesh.Trimesh(verts[j], faces[j], process=False),
+                                                         low).max())  # > 0 inside
+        if inside > SETTLE_TOLERANCE_M:
+            up = np.array([0.0, 0.0, inside])
+            for k in range(len(verts)):
+                if k == i or _rests_on(k, i, supports):
+                    verts[k] = verts[k] + up
+                    rise[k] += inside
+    return verts, rise
+
+
+def _rests_on(k: int, i: int, supports: dict[int, tuple[int, str]]) -> bool:
+    """Whether ``k`` rests, directly or through others, on ``i``."""
+    seen = set()
+    while k in supports and k not in seen:
+        seen.add(k)
+        k = supports[k][0]
+        if k == i:
+            return True
+    return False
