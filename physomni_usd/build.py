@@ -23,7 +23,7 @@ from .align.camera_search import search_camera
 from .align.cues import DEFAULT_FOV_DEG
 from .align.external import place_external, posed_entries
 from .align.photo_scene import place_on_ground
-from .align.place import centring_offset
+from .align.place import centring_offset, occlusion_kept
 from .align.scale import parse_sizes
 from .align.support import start_contacts
 from .backends import steps as backend_steps
@@ -288,7 +288,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
     if old:
         write_bytes(out / REPORT, (json.dumps(old, indent=2) + "\n").encode())
     camera, align_info = scene.camera, scene.align_info
-    occlusion = [{"front": scene.objects[k].name, "behind": o.name} for o in scene.objects for k in o.occluders]
+    occlusion = _occlusion_report(scene)
     report_objects = [o.report for o in scene.objects]
     update_report(out, objects=report_objects, estimate=material_report(stage, scene.config.source),
                   shot={"photo": str(photo_path), "width": w, "height": h,
@@ -369,6 +369,22 @@ def _place(scene: Scene) -> None:
                           [o.name for o in scene.objects])
     for o, r in zip(scene.objects, rest):
         o.rest = r
+
+
+def _occlusion_report(scene: Scene) -> list[dict]:
+    """Who hides whom in the photo, and how much of it the placed meshes keep (``kept``: the fraction of the
+    pixels where the photo shows the one in front whose ray meets its mesh before the other's)."""
+    import trimesh
+
+    out = []
+    for o in scene.objects:
+        for k in o.occluders:
+            front = scene.objects[k]
+            ys, xs = np.nonzero(front.mask.mask & o.amodal)
+            kept = occlusion_kept(scene.camera, trimesh.Trimesh(front.vertices, front.faces, process=False),
+                                  trimesh.Trimesh(o.vertices, o.faces, process=False), np.stack([xs, ys], 1))
+            out.append({"front": front.name, "behind": o.name, "kept": None if kept is None else round(kept, 3)})
+    return out
 
 
 def _texture(scene: Scene, out: pathlib.Path) -> None:
