@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import json
 import pathlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -21,15 +21,18 @@ import numpy as np
 from ._files import all_or_nothing, check_writable, make_dirs, remove_file, write_bytes
 from .align.camera_search import search_camera
 from .align.cues import DEFAULT_FOV_DEG
-from .align.external import load_poses, place_external
-from .align.photo_scene import build_photo_scene
-from .align.place import centring_offset
+from .align.external import place_external, posed_entries
+from .align.photo_scene import place_on_ground
+from .align.place import centring_offset, occlusion_kept
 from .align.scale import parse_sizes
+from .align.support import start_contacts
 from .backends import steps as backend_steps
+from .backends.builtin import MeshFolderLifter
 from .errors import InputError
 from .fields import parse_force_options
 from .materials.defaults import GROUND_MATERIAL
 from .materials.report import material_report
+from .perceive.amodal import complete, complete_texture
 from .perceive.masks import contact_sheet, read_photo
 from .perceive.plate import object_texture
 from .perceive.sides import corner_st, two_sided_texture
@@ -51,6 +54,9 @@ INPUTS = "inputs"
 WIDE_PLATE = "plate_wide.png"
 #: The contact sheet of the masks over the photo, in the shot folder.
 MASKS_SHEET = "masks.png"
+#: Texture alpha of what the complete stage painted behind an object's occluders: opaque to every
+#: renderer's cut-out, yet not 255, the alpha of the pixels the photo shows of the object.
+COMPLETED_ALPHA = 254
 #: Solver defaults written to the physics layer (the physics benchmark revisits them).
 DEFAULT_SOLVER = "xpbd"
 
@@ -177,6 +183,51 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
                            sizes, backends, find, finder)
 
 
+@dataclass
+class ShotObject:
+    """One object as the stages fill it in: the mask (segment), the mesh and pose (lift), where it stands
+    (place) and its texture (texture)."""
+
+    mask: object  # perceive.masks.ObjectMask
+    amodal: np.ndarray | None = None  # (H, W) bool: the mask completed behind what hides it (complete)
+    occluders: list = field(default_factory=list)  # indices of the objects that hide part of it
+    completion: str = "whole"  # how the hidden part was closed (perceive.amodal.Completion.how)
+    lifted: object = None  # backends.protocols.LiftedObject
+    vertices: np.ndarray | None = None  # (N, 3) world metres, placed
+    projected: np.ndarray | None = None  # (N, 3) world metres, where the photo saw it (texture coordinates)
+    faces: np.ndarray | None = None
+    shape: str = ""
+    notes: list = field(default_factory=list)
+    report: dict = field(default_factory=dict)
+    rest: dict = field(default_factory=dict)  # what it stands on and how far from it (align.support)
+
+    @property
+    def name(self) -> str:
+        return self.mask.name
+
+
+@dataclass
+class Scene:
+    """The shot being built: what every stage reads and fills, in stage order."""
+
+    photo: np.ndarray
+    settings: BuildSettings
+    objects: list[ShotObject]
+    backends: dict
+    plate: np.ndarray | None = None
+    wide_plate: np.ndarray | None = None
+    margins: tuple = ()
+    camera: object = None  # geometry.camera.PinholeCamera
+    align_info: dict = field(default_factory=dict)
+    scene_objects: list = field(default_factory=list)  # usd.author.SceneObject, by the texture stage
+    config: object = None  # materials.config.SceneConfig, by the estimate stage
+    physics_objects: list = field(default_factory=list)  # usd.author.PhysicsObject, by the estimate stage
+
+    @property
+    def masks(self) -> list[np.ndarray]:
+        return [o.mask.mask for o in self.objects]
+
+
 def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, forces, fixed, meshes_dir,
                 sizes, backends, find=None, finder=None) -> BuildResult:
     from .backends.finders import find_objects, load_finder
@@ -185,6 +236,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
     with timer.step("read"):
         chosen = backend_steps.resolve(backends, meshes_dir=meshes_dir)
         finding = load_finder(find, finder)
+        lifter = chosen["lifter"] if meshes_dir is None else MeshFolderLifter(meshes_dir)
         out = pathlib.Path(out_dir)
         if out.exists() and not out.is_dir():
             raise InputError(f"output {out} exists and is not a directory")
@@ -210,117 +262,26 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
     for o in objects:
         if o.quality and o.quality.get("warning"):
             echo(f"warning: mask of {o.name}: {o.quality['warning']}")
+    scene = Scene(photo, settings, [ShotObject(o) for o in objects], chosen)
 
     with timer.step("perceive.plate"):
-        plate = backend_steps.make_plate(photo, [o.mask for o in objects], settings.plate_dilation,
-                                         chosen["inpainter"])
+        _plate(scene)
     with timer.step("perceive.outpaint"):
-        wide_plate, margins = backend_steps.make_wide_plate(plate, chosen["outpainter"])
-
-    if meshes_dir is None and backend_steps.lifts_in_camera(chosen["lifter"]):
-        with timer.step("perceive.lift"):
-            meshes_dir = backend_steps.lift_to_folder(chosen["lifter"], photo, objects, out / INPUTS / "lifted")
-
-    if meshes_dir is not None:
-        with timer.step("align.external"):
-            placed = place_external(load_poses(meshes_dir, [o.label for o in objects]), w, h,
-                                    settings.camera.fov_deg or DEFAULT_FOV_DEG, settings.alignment,
-                                    masks=[o.mask for o in objects])
-        camera, faces, verts, projected = placed.camera, placed.faces, placed.vertices, placed.projected
-        shapes = ["external"] * len(objects)
-        notes = placed.info["mesh_notes"]
-        align_info = placed.info
-        if settings.camera_search:
-            with timer.step("align.camera_search"):
-                found = search_camera(camera, verts, faces, photo, [o.mask for o in objects], plate,
-                                      max_evals=settings.camera_search_evals)
-            camera = found.camera
-            align_info["camera_search"] = {
-                "loss": round(found.loss, 6), "initial_loss": round(found.initial_loss, 6),
-                "evaluations": found.evaluations, "seconds": round(found.seconds, 3),
-                "loss_curve": found.curve[:: max(1, len(found.curve) // 100)]}
-    else:
-        with timer.step("align.photo"):
-            scene = build_photo_scene([o.mask for o in objects], [o.label for o in objects],
-                                      [o.name for o in objects], photo, settings, user_sizes)
-        camera, verts, projected, faces, shapes = (scene.camera, scene.vertices, scene.projected, scene.faces,
-                                                   scene.shapes)
-        notes = [[] for _ in objects]
-        align_info = scene.info
-        for warning in (align_info.get("scale") or {}).get("warnings", []):
-            echo(f"warning: {warning}")
-    centre = centring_offset(verts)
-    verts = [v + centre for v in verts]
-    projected = [v + centre for v in projected]
-    camera = camera.moved(centre)
-
+        _outpaint(scene)
+    with timer.step("perceive.complete"):
+        _complete(scene)
+    with timer.step("perceive.lift"):
+        _lift(scene, lifter, user_sizes, out)
+    with timer.step("align.place"):
+        _place(scene)
+    for warning in (scene.align_info.get("scale") or {}).get("warnings", []):
+        echo(f"warning: {warning}")
     with timer.step("perceive.texture"):
-        import trimesh
-
-        make_dirs(out / TEXTURES)
-        scene_objects, report_objects = [], []
-        for o, v, seen, f, shape, note in zip(objects, verts, projected, faces, shapes, notes):
-            rgba, (x0, y0) = object_texture(photo, o.mask)
-            # texture coordinates: the photo projected from the camera onto the object where it was seen, and
-            # a planar map for the sides it saw edge-on (perceive/sides.py)
-            st = corner_st(seen, np.asarray(f), camera, (rgba.shape[1], rgba.shape[0]), (x0, y0))
-            rgba = two_sided_texture(rgba)
-            tm = trimesh.Trimesh(v, f, process=False)
-            origin = tm.center_mass if tm.is_volume else v.mean(0)
-            rel = f"{TEXTURES}/{o.name}.png"
-            _write_png(out / rel, rgba)
-            scene_objects.append(SceneObject(o.name, o.label, o.index, v - origin, f,
-                                             np.asarray(tm.vertex_normals), st, origin, f"./{rel}", shape,
-                                             texture_origin=(x0, y0), st_per_corner=True))
-            report_objects.append({
-                "name": o.name, "label": o.label, "mask_index": o.index, "source": o.source,
-                "shape": shape, "pixels": int(o.mask.sum()), "size_m": np.ptp(v, axis=0).round(4).tolist(),
-                "position_m": origin.round(4).tolist(), "watertight": bool(tm.is_watertight), "notes": note,
-                "mask_quality": o.quality,
-            })
-        _write_png(out / TEXTURES / "plate.png", plate)
-        _write_png(out / TEXTURES / WIDE_PLATE, wide_plate)
-        _write_png(out / MASKS_SHEET, contact_sheet(photo, objects))
-        # the inputs, so that later stages (estimate's crops) work from the shot folder alone
-        make_dirs(out / INPUTS / "masks")
-        _write_png(out / INPUTS / "photo.png", photo)
-        for o in objects:
-            _write_png(out / INPUTS / "masks" / f"{o.name}.png",
-                       np.repeat(o.mask[..., None] * 255, 3, 2).astype(np.uint8))
-
+        _texture(scene, out)
     with timer.step("estimate"):
-        config = chosen["estimator"].estimate(photo, [o.mask for o in objects], [o.label for o in objects],
-                                               settings.fps)
-        physics_objects = []
-        for o, cfg in zip(objects, config.objects):
-            velocity, at = push.get(o.name, (None, 0.0))
-            physics_objects.append(PhysicsObject(
-                o.name, cfg.material, cfg.params, config.source, velocity=velocity if at == 0 else None,
-                fixed=o.name in fixed_names,
-                delayed_velocity=(velocity, at) if velocity is not None and at > 0 else None))
-        for o, rep in zip(objects, report_objects):
-            if o.name in push:
-                rep["push"] = {"velocity_m_s": list(push[o.name][0]), "at_s": push[o.name][1]}
-            if o.name in fixed_names:
-                rep["fixed"] = True
-
+        _estimate(scene, push, fixed_names)
     with timer.step("write"):
-        extent = max(np.abs(np.vstack(verts)[:, :2]).max() * 4.0, 20.0 * abs(float(camera.origin[2])))
-        write_scene_layer(out / layers.SCENE, fps=settings.fps, image_size=(w, h), camera=camera,
-                          plate=f"./{TEXTURES}/plate.png", objects=scene_objects, ground_size=float(extent),
-                          extra={"physomni:photo": str(pathlib.Path(photo_path).name),
-                                 **({"physomni:userSizes": {k: float(v) for k, v in user_sizes.items()}}
-                                    if user_sizes else {})},
-                          photo=f"./{INPUTS}/photo.png", wide_plate=(f"./{TEXTURES}/{WIDE_PLATE}", margins))
-        write_physics_layer(out / layers.PHYSICS, out / layers.SCENE, fps=settings.fps, objects=physics_objects,
-                            ground=GROUND_MATERIAL, solver=DEFAULT_SOLVER, substeps=DEFAULT_SUBSTEPS,
-                            iterations=DEFAULT_ITERATIONS, forces=fields)
-        layers.reset_sim_layer(out, settings.fps)
-        layers.ensure_edits_layer(out, settings.fps)
-        shot = layers.write_shot_layer(out, settings.fps)
-        stale = _stale_files(out, files)
-        for path in stale:
-            remove_file(path)
+        shot, stale = _write(scene, out, photo_path, user_sizes, fields, files)
     echo("build: wrote " + ", ".join([layers.SCENE, layers.PHYSICS, layers.SHOT]))
     if stale:
         echo("build: removed what the previous build made for the old shot: "
@@ -338,16 +299,192 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         old.get("stages", {}).pop(key, None)
     if old:
         write_bytes(out / REPORT, (json.dumps(old, indent=2) + "\n").encode())
-    update_report(out, objects=report_objects, estimate=material_report(stage, config.source), shot={"photo": str(photo_path), "width": w, "height": h,
-                                                    "fov_deg": round(camera.fov_deg, 4),
-                                                    "pitch_deg": round(camera.pitch_deg, 4), "alignment": align_info,
-                                                    "camera_height_m": round(float(camera.origin[2]), 4),
-                                                    "scale": align_info.get("scale"),
-                                                    "fps": settings.fps},
+    camera, align_info = scene.camera, scene.align_info
+    occlusion = _occlusion_report(scene)
+    report_objects = [o.report for o in scene.objects]
+    update_report(out, objects=report_objects, estimate=material_report(stage, scene.config.source),
+                  shot={"photo": str(photo_path), "width": w, "height": h,
+                        "fov_deg": round(camera.fov_deg, 4),
+                        "pitch_deg": round(camera.pitch_deg, 4), "alignment": align_info,
+                        "camera_height_m": round(float(camera.origin[2]), 4),
+                        "scale": align_info.get("scale"),
+                        "fps": settings.fps},
                   build={"seconds": timer.seconds, "total_seconds": timer.total, "files": sorted(files),
                          "checks": checks, "masks_sheet": MASKS_SHEET, "backends": backend_steps.report(chosen),
+                         **({"occlusion": occlusion} if occlusion else {}),
                          **depth_info})
     return BuildResult(out, shot, report_objects, timer.seconds)
+
+
+def _plate(scene: Scene) -> None:
+    """The background plate behind the objects."""
+    scene.plate = backend_steps.make_plate(scene.photo, scene.masks, scene.settings.plate_dilation,
+                                           scene.backends["inpainter"])
+
+
+def _outpaint(scene: Scene) -> None:
+    """The plate widened for camera moves."""
+    scene.wide_plate, scene.margins = backend_steps.make_wide_plate(scene.plate, scene.backends["outpainter"])
+
+
+def _complete(scene: Scene) -> None:
+    """Who hides whom, and each hidden object's outline completed behind its occluders."""
+    for o, c in zip(scene.objects, complete(scene.masks)):
+        o.amodal, o.occluders, o.completion = c.amodal, c.occluders, c.how
+
+
+def _lift(scene: Scene, lifter, user_sizes: dict, out: pathlib.Path) -> None:
+    """Every object's mesh and pose from the lifter, built-in or plugin alike, from the completed outlines;
+    a model's are kept in the shot."""
+    lifted = backend_steps.lift(lifter, scene.photo, [o.mask for o in scene.objects], scene.settings, user_sizes,
+                                masks=[o.amodal for o in scene.objects])
+    if lifted[0].ground is None and not isinstance(lifter, MeshFolderLifter):
+        backend_steps.record_lifted(lifted, [o.mask for o in scene.objects], out / INPUTS / "lifted")
+    for o, m in zip(scene.objects, lifted):
+        o.lifted = m
+
+
+def _place(scene: Scene) -> None:
+    """All objects in one world: on the ground the lifter measured, or on the ground fitted to posed meshes;
+    then centred on the origin."""
+    lifted = [o.lifted for o in scene.objects]
+    settings = scene.settings
+    if lifted[0].ground is not None:
+        placed = place_on_ground(lifted, [o.name for o in scene.objects], settings.gap_m)
+        camera, verts, projected, faces, shapes = (placed.camera, placed.vertices, placed.projected,
+                                                   placed.faces, placed.shapes)
+        notes = [list(m.notes) for m in lifted]
+        align_info = placed.info
+    else:
+        h, w = scene.photo.shape[:2]
+        placed = place_external(posed_entries(lifted), w, h, settings.camera.fov_deg or DEFAULT_FOV_DEG,
+                                settings.alignment, masks=scene.masks)
+        camera, faces, verts, projected = placed.camera, placed.faces, placed.vertices, placed.projected
+        shapes = ["external"] * len(lifted)
+        notes = placed.info["mesh_notes"]
+        align_info = placed.info
+        if settings.camera_search:
+            found = search_camera(camera, verts, faces, scene.photo, scene.masks, scene.plate,
+                                  max_evals=settings.camera_search_evals)
+            camera = found.camera
+            align_info["camera_search"] = {
+                "loss": round(found.loss, 6), "initial_loss": round(found.initial_loss, 6),
+                "evaluations": found.evaluations, "seconds": round(found.seconds, 3),
+                "loss_curve": found.curve[:: max(1, len(found.curve) // 100)]}
+    centre = centring_offset(verts)
+    scene.camera = camera.moved(centre)
+    scene.align_info = align_info
+    for o, v, seen, f, shape, note in zip(scene.objects, verts, projected, faces, shapes, notes):
+        o.vertices, o.projected, o.faces, o.shape, o.notes = v + centre, seen + centre, f, shape, note
+    supports = {i: m.ground.support for i, m in enumerate(lifted) if m.ground is not None and m.ground.support}
+    rest = start_contacts([o.vertices for o in scene.objects], [o.faces for o in scene.objects], supports,
+                          [o.name for o in scene.objects])
+    for o, r in zip(scene.objects, rest):
+        o.rest = r
+
+
+def _occlusion_report(scene: Scene) -> list[dict]:
+    """Who hides whom in the photo, and how much of it the placed meshes keep (``kept``: the fraction of the
+    pixels where the photo shows the one in front whose ray meets its mesh before the other's)."""
+    import trimesh
+
+    out = []
+    for o in scene.objects:
+        for k in o.occluders:
+            front = scene.objects[k]
+            ys, xs = np.nonzero(front.mask.mask & o.amodal)
+            kept = occlusion_kept(scene.camera, trimesh.Trimesh(front.vertices, front.faces, process=False),
+                                  trimesh.Trimesh(o.vertices, o.faces, process=False), np.stack([xs, ys], 1))
+            out.append({"front": front.name, "behind": o.name, "kept": None if kept is None else round(kept, 3)})
+    return out
+
+
+def _texture(scene: Scene, out: pathlib.Path) -> None:
+    """Each object's texture from the photo, the plate, the contact sheet and the inputs, into the shot."""
+    import trimesh
+
+    photo, camera = scene.photo, scene.camera
+    make_dirs(out / TEXTURES)
+    for so in scene.objects:
+        o, v, f = so.mask, so.vertices, so.faces
+        # where others hide it, the object is painted from its own visible surface (perceive/amodal.py)
+        rgba, (x0, y0) = object_texture(complete_texture(photo, o.mask, so.amodal), so.amodal)
+        # drawn like the rest, but not the photo's pixels of it: renderers show the photo only at 255
+        hidden = (so.amodal & ~o.mask)[y0:y0 + rgba.shape[0], x0:x0 + rgba.shape[1]]
+        rgba[..., 3][hidden] = COMPLETED_ALPHA
+        # texture coordinates: the photo projected from the camera onto the object where it was seen, and
+        # a planar map for the sides it saw edge-on (perceive/sides.py)
+        st = corner_st(so.projected, np.asarray(f), camera, (rgba.shape[1], rgba.shape[0]), (x0, y0))
+        rgba = two_sided_texture(rgba)
+        tm = trimesh.Trimesh(v, f, process=False)
+        origin = tm.center_mass if tm.is_volume else v.mean(0)
+        rel = f"{TEXTURES}/{o.name}.png"
+        _write_png(out / rel, rgba)
+        scene.scene_objects.append(SceneObject(o.name, o.label, o.index, v - origin, f,
+                                               np.asarray(tm.vertex_normals), st, origin, f"./{rel}", so.shape,
+                                               texture_origin=(x0, y0), st_per_corner=True))
+        so.report = {
+            "name": o.name, "label": o.label, "mask_index": o.index, "source": o.source,
+            "shape": so.shape, "pixels": int(o.mask.sum()), "size_m": np.ptp(v, axis=0).round(4).tolist(),
+            "position_m": origin.round(4).tolist(), "watertight": bool(tm.is_watertight), "notes": so.notes,
+            "mask_quality": o.quality,
+        }
+        so.report["start"] = so.rest
+        if so.occluders:
+            so.report["occluded_by"] = [scene.objects[k].name for k in so.occluders]
+            so.report["completed"] = {"how": so.completion, "pixels": int((so.amodal & ~o.mask).sum())}
+    _write_png(out / TEXTURES / "plate.png", scene.plate)
+    _write_png(out / TEXTURES / WIDE_PLATE, scene.wide_plate)
+    _write_png(out / MASKS_SHEET, contact_sheet(photo, [o.mask for o in scene.objects],
+                                                 completed=[o.amodal for o in scene.objects]))
+    # the inputs, so that later stages (estimate's crops) work from the shot folder alone
+    make_dirs(out / INPUTS / "masks")
+    _write_png(out / INPUTS / "photo.png", photo)
+    for o in scene.objects:
+        _write_png(out / INPUTS / "masks" / f"{o.name}.png",
+                   np.repeat(o.mask.mask[..., None] * 255, 3, 2).astype(np.uint8))
+
+
+def _estimate(scene: Scene, push: dict, fixed_names: set[str]) -> None:
+    """Each object's material from the estimator, its push and whether it is fixed."""
+    scene.config = scene.backends["estimator"].estimate(scene.photo, scene.masks,
+                                                        [o.mask.label for o in scene.objects], scene.settings.fps)
+    for o in scene.objects:
+        if o.name in push:
+            o.report["push"] = {"velocity_m_s": list(push[o.name][0]), "at_s": push[o.name][1]}
+        if o.name in fixed_names:
+            o.report["fixed"] = True
+    scene.physics_objects = []
+    for o, cfg in zip(scene.objects, scene.config.objects):
+        velocity, at = push.get(o.name, (None, 0.0))
+        scene.physics_objects.append(PhysicsObject(
+            o.name, cfg.material, cfg.params, scene.config.source, velocity=velocity if at == 0 else None,
+            fixed=o.name in fixed_names,
+            delayed_velocity=(velocity, at) if velocity is not None and at > 0 else None))
+
+
+def _write(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, fields, files: set[str]):
+    """The shot's layers; returns the shot layer's path and the stale files of the previous build it removed."""
+    settings, camera = scene.settings, scene.camera
+    h, w = scene.photo.shape[:2]
+    verts = [o.vertices for o in scene.objects]
+    extent = max(np.abs(np.vstack(verts)[:, :2]).max() * 4.0, 20.0 * abs(float(camera.origin[2])))
+    write_scene_layer(out / layers.SCENE, fps=settings.fps, image_size=(w, h), camera=camera,
+                      plate=f"./{TEXTURES}/plate.png", objects=scene.scene_objects, ground_size=float(extent),
+                      extra={"physomni:photo": str(pathlib.Path(photo_path).name),
+                             **({"physomni:userSizes": {k: float(v) for k, v in user_sizes.items()}}
+                                if user_sizes else {})},
+                      photo=f"./{INPUTS}/photo.png", wide_plate=(f"./{TEXTURES}/{WIDE_PLATE}", scene.margins))
+    write_physics_layer(out / layers.PHYSICS, out / layers.SCENE, fps=settings.fps, objects=scene.physics_objects,
+                        ground=GROUND_MATERIAL, solver=DEFAULT_SOLVER, substeps=DEFAULT_SUBSTEPS,
+                        iterations=DEFAULT_ITERATIONS, forces=fields)
+    layers.reset_sim_layer(out, settings.fps)
+    layers.ensure_edits_layer(out, settings.fps)
+    shot = layers.write_shot_layer(out, settings.fps)
+    stale = _stale_files(out, files)
+    for path in stale:
+        remove_file(path)
+    return shot, stale
 
 
 def _write_png(path: pathlib.Path, image: np.ndarray) -> None:

@@ -53,6 +53,16 @@ class PlacedScene:
 
 def load_poses(folder, labels: list[str]) -> list[tuple[trimesh.Trimesh, np.ndarray, np.ndarray, float, list[str]]]:
     """Meshes and poses for ``labels`` (mask order) from ``folder/poses.json``; one clear line on any problem."""
+    out = []
+    for mesh, wxyz, t, s in read_poses(folder, labels):
+        mesh, notes = repair_mesh(trimesh.Trimesh(np.asarray(mesh.vertices), np.asarray(mesh.faces), process=True))
+        out.append((mesh, from_wxyz(wxyz), np.asarray(t, float), s, notes))
+    return out
+
+
+def read_poses(folder, labels: list[str]) -> list[tuple[trimesh.Trimesh, tuple, np.ndarray, float]]:
+    """(mesh as read, rotation_wxyz as written, translation (3,), scale) of each of ``labels`` (mask order)
+    from ``folder/poses.json`` and its meshes; one clear line on any problem."""
     folder = pathlib.Path(folder)
     path = folder / "poses.json"
     if not path.is_file():
@@ -74,7 +84,8 @@ def load_poses(folder, labels: list[str]) -> list[tuple[trimesh.Trimesh, np.ndar
         entry = poses[label]
         try:
             mesh_file = folder / entry["mesh"]
-            r = from_wxyz(entry.get("rotation_wxyz", [1, 0, 0, 0]))
+            wxyz = tuple(float(x) for x in entry.get("rotation_wxyz", [1, 0, 0, 0]))
+            r = from_wxyz(wxyz)
             t = np.asarray(entry.get("translation", [0, 0, 0]), float).reshape(3)
             s = float(entry.get("scale", 1.0))
         except (KeyError, TypeError, ValueError) as exc:
@@ -84,13 +95,23 @@ def load_poses(folder, labels: list[str]) -> list[tuple[trimesh.Trimesh, np.ndar
             raise InputError(f"{path}: the pose of {label!r} has non-finite values or a scale ≤ 0")
         if t[2] <= 0:
             raise InputError(f"{path}: {label!r} is behind the camera (translation z = {t[2]:g} ≤ 0)")
-        mesh, notes = read_mesh(mesh_file)
-        out.append((mesh, r, t, s, notes))
+        out.append((_load_mesh(mesh_file), wxyz, t, s))
     return out
 
 
-def read_mesh(path: pathlib.Path) -> tuple[trimesh.Trimesh, list[str]]:
-    """A triangle mesh from OBJ, GLB, PLY, …, with normals made consistent and simple holes filled."""
+def posed_entries(lifted):
+    """(mesh, rotation (3, 3), translation (3,), scale, notes) of each lifted object
+    (``backends.protocols.LiftedObject``), its mesh repaired (:func:`repair_mesh`): what
+    :func:`place_external` takes."""
+    out = []
+    for o in lifted:
+        mesh, notes = repair_mesh(trimesh.Trimesh(np.asarray(o.vertices, float), np.asarray(o.faces), process=True))
+        out.append((mesh, from_wxyz(o.rotation_wxyz), np.asarray(o.translation, float).reshape(3),
+                    float(o.scale), list(o.notes) + notes))
+    return out
+
+
+def _load_mesh(path: pathlib.Path) -> trimesh.Trimesh:
     if not path.is_file():
         raise InputError(f"mesh not found: {path}")
     try:
@@ -99,6 +120,16 @@ def read_mesh(path: pathlib.Path) -> tuple[trimesh.Trimesh, list[str]]:
         raise InputError(f"cannot read mesh {path.name}: {exc}") from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise InputError(f"{path.name} holds no triangles")
+    return mesh
+
+
+def read_mesh(path: pathlib.Path) -> tuple[trimesh.Trimesh, list[str]]:
+    """A triangle mesh from OBJ, GLB, PLY, …, with normals made consistent and simple holes filled."""
+    return repair_mesh(_load_mesh(path))
+
+
+def repair_mesh(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, list[str]]:
+    """``mesh`` with simple holes filled and normals made consistent (in place), and what was done."""
     notes = []
     if not mesh.is_watertight:
         trimesh.repair.fill_holes(mesh)

@@ -1,10 +1,13 @@
 """The built-in (no model) scene from a photo: camera, lifted objects, real scale, support, room.
 
-Owns the order of the silhouette path of ``build``: the camera is estimated
-from the photo (``align/cues.py``) under a unit camera height, every object
-is lifted (``perceive/lift.py``), the scene's scale is fixed from the objects'
-typical sizes (``align/scale.py``), objects resting on others are stood on
-them (``align/support.py``), and the rest are kept apart (``align/place.py``).
+Owns the order of the silhouette path, in two halves that ``build`` runs as
+its *lift* and *place* stages. :func:`lift_photo_scene` (the built-in
+lifter): the camera is estimated from the photo (``align/cues.py``) under a
+unit camera height, objects resting on others are found (``align/support.py``),
+every object is lifted (``perceive/lift.py``) and the scene's scale is fixed
+from the objects' typical sizes (``align/scale.py``). :func:`place_on_ground`:
+objects resting on others move with them, the rest are kept apart
+(``align/place.py``).
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from ..geometry.mesh import longest_dimension
 from .cues import MAX_PITCH_DEG, estimate_camera
 from .place import make_room, separate
 from .scale import fit_scale
-from .support import find_supports, root_of, support_order
+from .support import find_supports, root_of, settle_on_supports, support_order
 
 #: Scale-and-lift rounds: an object's height from its prior depends on the scale, the scale on the lifted sizes.
 SCALE_ROUNDS = 3
@@ -38,18 +41,40 @@ class PhotoScene:
     info: dict
 
 
+def surface_under(lower, upper_mask: np.ndarray, camera: PinholeCamera) -> float:
+    """Height of ``lower``'s surface (a lifted mesh) where the object of ``upper_mask`` stands on it.
+
+    The ray through the upper object's foot pixel is cast into the lower mesh; the lower mesh's top surface
+    straight above where it enters is the height (a cup stands on the saucer's floor, not on its rim's
+    height nor in front of it). A ray that misses the lower mesh takes its top, as a box on a crate does.
+    """
+    import trimesh
+
+    top = float(lower.vertices[:, 2].max())
+    mesh = trimesh.Trimesh(lower.vertices, lower.faces, process=False)
+    u, v = foot_pixel(fill_holes(upper_mask))
+    hits, _, _ = mesh.ray.intersects_location(camera.origin[None], camera.rays(u, v)[None])
+    if not len(hits):
+        return top
+    first = hits[np.argmin(np.linalg.norm(hits - camera.origin, axis=1))]
+    above = np.array([[first[0], first[1], top + 1.0]])
+    down, _, _ = mesh.ray.intersects_location(above, np.array([[0.0, 0.0, -1.0]]))
+    return float(down[:, 2].max()) if len(down) else top
+
+
 def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scale: float, supports=None,
              photo=None):
     """Each mask lifted under ``camera`` (unit height); ``scale`` turns a prior's metres into the camera's units.
 
-    ``supports`` ({upper: (lower, how)}) stands each upper object on its lower one's top.
+    ``supports`` ({upper: (lower, how)}) stands each upper object on its lower one's surface where it
+    meets it (:func:`surface_under`).
     """
     supports = supports or {}
     out = [None] * len(masks)
     for i in support_order(len(masks), supports):
         prior = size_prior(labels[i])
         hint = prior.height_m / scale if prior is not None and prior.height_m else None
-        base = float(out[supports[i][0]].vertices[:, 2].max()) if i in supports else 0.0
+        base = surface_under(out[supports[i][0]], masks[i], camera) if i in supports else 0.0
         flat = bool(prior and prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * prior.longest_m)
         kwargs = dict(height_hint=hint, prior_shape=prior.shape if prior else None, flat=flat, photo=photo,
                       label=labels[i])
@@ -66,8 +91,19 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
     return out
 
 
-def build_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_sizes=None) -> PhotoScene:
-    """Camera, meshes and placement for objects seen only as masks in ``photo``."""
+@dataclass
+class GroundLift:
+    """Every object lifted on the ground measured in the photo: world metres, z up, the ground at z = 0."""
+
+    camera: PinholeCamera
+    lifted: list  # perceive.lift.LiftedMesh, one per mask, at the photo's scale
+    supports: dict[int, tuple[int, str]]  # {upper: (lower, how it was seen)}
+    info: dict  # the camera's cues and the scale's votes, for the report
+
+
+def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_sizes=None) -> GroundLift:
+    """Each object of ``photo`` lifted from its mask and stood, at the photo's scale, where the photo shows it
+    (on the ground, or on the object it rests on)."""
     h, w = photo.shape[:2]
     cam_cfg = settings.camera
     feet = [foot_pixel(fill_holes(m))[1] for m in masks]
@@ -93,24 +129,33 @@ def build_photo_scene(masks, labels, names, photo, settings: BuildSettings, user
     scale = fit.factor
     lifted = [replace(m, vertices=m.vertices * scale, contact=m.contact * scale) for m in lifted]
     camera = PinholeCamera(w, h, unit.fov_deg, unit.pitch_deg, (0.0, 0.0, scale))
+    return GroundLift(camera, lifted, supports, {"scale": fit.as_dict(camera.origin[2]), "camera": camera_info})
 
-    # objects resting on others move with them; the rest keep clear of each other
+
+def place_on_ground(lifted, names, gap_m: float) -> PhotoScene:
+    """The scene of ``lifted`` meshes (``backends.protocols.LiftedObject`` with ``ground`` evidence, lifted by
+    :func:`lift_photo_scene`): objects resting on others move with them; the rest are made shallower, then
+    moved apart, until their footprints are ``gap_m`` apart; an object left inside what holds it is raised
+    onto it (``align.support.settle_on_supports``)."""
+    camera = lifted[0].ground.camera
+    supports = {i: o.ground.support for i, o in enumerate(lifted) if o.ground.support is not None}
     free = [i for i in range(len(lifted)) if i not in supports]
-    room, scales_free = make_room([lifted[i].vertices for i in free], [lifted[i].contact for i in free],
-                                  camera.origin, settings.gap_m,
-                                  fixed_depth=[lifted[i].info.get("mode") == "footprint" for i in free])
-    moves_free = separate(room, settings.gap_m)
-    projected = [m.vertices for m in lifted]
+    room, scales_free = make_room([lifted[i].vertices for i in free], [lifted[i].ground.contact for i in free],
+                                  camera.origin, gap_m, fixed_depth=[lifted[i].ground.fixed_depth for i in free])
+    moves_free = separate(room, gap_m)
+    projected = [o.vertices for o in lifted]
     depth_scales = [1.0] * len(lifted)
     moves = [np.zeros(3)] * len(lifted)
     for k, i in enumerate(free):
         projected[i], depth_scales[i], moves[i] = room[k], scales_free[k], moves_free[k]
     for i in supports:
         moves[i] = moves[root_of(i, supports)]
-    verts = [v + d for v, d in zip(projected, moves)]
+    verts, rise = settle_on_supports([v + d for v, d in zip(projected, moves)], [o.faces for o in lifted], supports)
     info = {"variant": "silhouette", "depth_scales": [round(k, 4) for k in depth_scales],
             "moved_apart_m": [round(float(np.linalg.norm(d)), 4) for d in moves],
-            "scale": fit.as_dict(camera.origin[2]), "camera": camera_info,
-            "lift": [m.info for m in lifted],
+            **({"raised_onto_support_m": {names[i]: round(r, 4) for i, r in enumerate(rise) if r > 0}}
+               if any(rise) else {}),
+            **lifted[0].ground.scene,
+            "lift": [o.ground.info for o in lifted],
             "supports": {names[i]: {"on": names[j], "seen": how} for i, (j, how) in supports.items()}}
-    return PhotoScene(camera, verts, projected, [m.faces for m in lifted], [m.shape for m in lifted], info)
+    return PhotoScene(camera, verts, projected, [o.faces for o in lifted], [o.shape for o in lifted], info)

@@ -11,8 +11,11 @@ From the masks alone: object A rests on object B when
 
 The masks cannot tell a cup on a saucer from a cup hidden behind the saucer's
 rim; the first reading is taken, which the README states. Each upper object
-then stands on its lower one's top (``base_z``) instead of on the ground, and
-moves with it when objects are moved apart.
+then stands on its lower one's surface (``align.photo_scene.surface_under``)
+instead of on the ground, moves with it when objects are moved apart, and is
+raised out of it where it starts inside it (:func:`settle_on_supports`).
+:func:`start_contacts` says, for the report, what each object starts on and
+how far from it.
 """
 
 from __future__ import annotations
@@ -107,3 +110,74 @@ def root_of(i: int, supports: dict[int, tuple[int, str]]) -> int:
     while i in supports:
         i = supports[i][0]
     return i
+
+
+def start_contacts(vertex_sets, faces, supports: dict[int, tuple[int, str]], names) -> list[dict]:
+    """What each placed object stands on and how far from it it starts, for ``report.json``.
+
+    ``support``: 'ground' or the name of the object it rests on; ``clearance_m``: the gap under it (its
+    lowest point above the ground, or its lowest vertices' distance outside the supporter's mesh; < 0 when
+    inside); ``overlap_m``: the deepest any vertex of it lies inside another object's mesh (0 when none).
+    """
+    import trimesh
+
+    from ..metrics.geometry import max_penetration
+
+    meshes = [trimesh.Trimesh(v, f, process=False) for v, f in zip(vertex_sets, faces)]
+    out = []
+    for i, m in enumerate(meshes):
+        z = m.vertices[:, 2]
+        entry = {"support": "ground", "clearance_m": round(float(z.min()), 4)}
+        if i in supports:
+            j = supports[i][0]
+            low = m.vertices[z <= z.min() + 0.2 * max(float(np.ptp(z)), 1e-9)]
+            outside = -trimesh.proximity.signed_distance(meshes[j], low)  # signed distance is > 0 inside
+            entry = {"support": names[j], "clearance_m": round(float(outside.min()), 4)}
+        entry["overlap_m"] = round(max((max_penetration({"a": m, "b": meshes[k]}) for k in range(len(meshes))
+                                        if k != i), default=0.0), 4)
+        out.append(entry)
+    return out
+
+
+#: An object starting deeper than this inside what holds it is raised out of it (metres).
+SETTLE_TOLERANCE_M = 0.0005
+
+
+def settle_on_supports(vertex_sets, faces, supports: dict[int, tuple[int, str]]) -> tuple[list[np.ndarray], list[float]]:
+    """Vertex sets with every object that starts inside what holds it raised until it rests on it, and each
+    object's rise (metres). Objects resting on a raised one rise with it; lower objects first.
+
+    Standing on the supporter's surface where the foot's ray meets it (``align.photo_scene.surface_under``)
+    can leave the rest of an object's base inside a supporter that is higher elsewhere (a cup's back over a
+    saucer's rim); a simulation would push it out with energy it never had.
+    """
+    import trimesh
+
+    verts = [np.asarray(v, float).copy() for v in vertex_sets]
+    rise = [0.0] * len(verts)
+    for i in support_order(len(verts), supports):
+        if i not in supports:
+            continue
+        j = supports[i][0]
+        z = verts[i][:, 2]
+        low = verts[i][z <= z.min() + 0.2 * max(float(np.ptp(z)), 1e-9)]
+        inside = float(trimesh.proximity.signed_distance(trimesh.Trimesh(verts[j], faces[j], process=False),
+                                                         low).max())  # > 0 inside
+        if inside > SETTLE_TOLERANCE_M:
+            up = np.array([0.0, 0.0, inside])
+            for k in range(len(verts)):
+                if k == i or _rests_on(k, i, supports):
+                    verts[k] = verts[k] + up
+                    rise[k] += inside
+    return verts, rise
+
+
+def _rests_on(k: int, i: int, supports: dict[int, tuple[int, str]]) -> bool:
+    """Whether ``k`` rests, directly or through others, on ``i``."""
+    seen = set()
+    while k in supports and k not in seen:
+        seen.add(k)
+        k = supports[k][0]
+        if k == i:
+            return True
+    return False

@@ -67,16 +67,47 @@ class MirrorOutpainter(_Builtin):
 
 
 class SilhouetteLifter(_Builtin):
-    """Silhouette lofting on the ground (``perceive.lift``): ``build``'s own placement, not a camera pose."""
+    """Silhouette lofting (``perceive.lift``) on the ground it measures in the photo (``align.photo_scene``).
+
+    Its meshes come in the world of that ground with the camera that sees it (``LiftedObject.ground``)."""
 
     kind, name = "lifter", "silhouette"
-    #: ``build`` lifts and places with its silhouette path rather than calling :meth:`lift`.
-    placement = "ground"
 
-    def lift_world(self, mask, camera, settings):
-        from ..perceive.lift import lift_silhouette
+    def lift(self, photo, masks, labels, *, settings=None, names=None, sizes=None):
+        from ..align.photo_scene import lift_photo_scene
+        from ..rotations import to_wxyz
+        from ..settings import BuildSettings
+        from .protocols import GroundEvidence, LiftedObject
 
-        return lift_silhouette(mask, camera, settings)
+        names = names or [f"{label}_{i}" for i, label in enumerate(labels)]
+        found = lift_photo_scene(masks, labels, names, photo, settings or BuildSettings(), sizes or {})
+        camera = found.camera
+        # the protocol's pose: the world (each mesh's frame) → OpenCV camera
+        to_camera = camera.world_from_camera.T
+        pose = dict(rotation_wxyz=tuple(float(x) for x in to_wxyz(to_camera)),
+                    translation=tuple(float(x) for x in -to_camera @ camera.origin))
+        return [LiftedObject(m.vertices, m.faces, shape=m.shape, **pose,
+                             ground=GroundEvidence(camera, m.contact, m.info.get("mode") == "footprint",
+                                                   found.supports.get(i), m.info, found.info))
+                for i, m in enumerate(found.lifted)]
+
+
+class MeshFolderLifter(_Builtin):
+    """The meshes and camera poses a folder holds (``build --meshes``: ``poses.json`` and one mesh per label)."""
+
+    kind, name = "lifter", "meshes"
+
+    def __init__(self, folder):
+        self.folder = folder
+
+    def lift(self, photo, masks, labels):
+        import numpy as np
+
+        from ..align.external import read_poses
+        from .protocols import LiftedObject
+
+        return [LiftedObject(np.asarray(mesh.vertices), np.asarray(mesh.faces), wxyz, tuple(t), s)
+                for mesh, wxyz, t, s in read_poses(self.folder, labels)]
 
 
 class RulesEstimator(_Builtin):

@@ -69,12 +69,36 @@ class LiftedObject:
     rotation_wxyz: tuple[float, float, float, float]  # unit quaternion, mesh frame → OpenCV camera
     translation: tuple[float, float, float]  # metres, OpenCV camera
     scale: float = 1.0
+    #: How the mesh was made, as ``report.json`` names it ('external' for a model's or a user's mesh).
+    shape: str = "external"
+    #: Lines about the mesh for the report (holes filled, normals made consistent).
+    notes: list[str] = field(default_factory=list)
+    #: Set only by a lifter that stood the mesh on a ground it measured in the photo (the built-in): the
+    #: mesh frame is then that world (z up, ground at z = 0, metres) and this is a
+    #: :class:`GroundEvidence`; ``build`` places such meshes on that ground instead of fitting one.
+    ground: "GroundEvidence | None" = None
+
+
+@dataclass
+class GroundEvidence:
+    """What a lifter that measured the ground tells *place* about one object (mesh frame = world)."""
+
+    camera: object  # geometry.camera.PinholeCamera of the photo, in the world of the mesh
+    contact: np.ndarray  # (3,) where the object's outline meets what it stands on, world metres
+    fixed_depth: bool = False  # seen from above: its depth was measured, not guessed
+    support: tuple[int, str] | None = None  # (index of the object it rests on, how that was seen)
+    info: dict = field(default_factory=dict)  # how it was lifted, for the report
+    scene: dict = field(default_factory=dict)  # what was measured of the whole scene (camera, scale)
 
 
 @runtime_checkable
 class Lifter(Protocol):
     def lift(self, photo: np.ndarray, masks: list[np.ndarray], labels: list[str]) -> list[LiftedObject]:
-        """One mesh and camera pose per mask; ``build`` then aligns them as it does ``--meshes``."""
+        """One mesh and camera pose per mask, in order; ``build`` places every lifter's meshes in one scene.
+
+        A lifter whose ``lift`` also takes the keywords ``settings`` (``settings.BuildSettings``), ``names``
+        (the objects' prim names) and ``sizes`` (prim name → longest side in metres, the user's ``--size``)
+        is given them."""
 
 
 @dataclass

@@ -35,11 +35,6 @@ def resolve(choices: dict | None, meshes_dir=None) -> dict:
     return out
 
 
-def lifts_in_camera(lifter) -> bool:
-    """Whether ``lifter`` returns meshes with camera poses (a model) rather than lifting on the ground itself."""
-    return not hasattr(lifter, "placement")
-
-
 def apply_depth(depth_backend, photo: np.ndarray, objects, settings):
     """Settings with the pitch of the ground the depth model sees (unless the user gave one), and report fields."""
     if depth_backend is None:
@@ -133,18 +128,36 @@ def make_plate(photo: np.ndarray, masks, dilation: float, inpainter) -> np.ndarr
     return np.where(where[..., None], np.clip(filled, 0, 255).astype(np.uint8), photo)
 
 
-def lift_to_folder(lifter, photo: np.ndarray, objects, folder: pathlib.Path) -> pathlib.Path:
-    """Run a camera-pose lifter and write what ``build --meshes`` reads: one PLY per object and poses.json."""
+def lift(lifter, photo: np.ndarray, objects, settings, sizes: dict, masks=None) -> list:
+    """Every object's mesh and pose from ``lifter`` (any :class:`~.protocols.Lifter`), checked.
+
+    ``masks``: the outlines to lift, (H, W) bool each (default the objects' own). The keywords
+    ``settings``, ``names`` and ``sizes`` go to a lifter whose ``lift`` takes them."""
+    import inspect
+
+    params = inspect.signature(lifter.lift).parameters
+    context = {k: v for k, v in (("settings", settings), ("names", [o.name for o in objects]), ("sizes", sizes))
+               if k in params}
+    masks = [o.mask for o in objects] if masks is None else masks
+    lifted = list(lifter.lift(photo, masks, [o.label for o in objects], **context))
+    name = type(lifter).name
+    if len(lifted) != len(objects):
+        raise InputError(f"lifter {name} returned {len(lifted)} meshes for {len(objects)} objects")
+    for o, m in zip(objects, lifted):
+        if len(m.vertices) < 4 or len(m.faces) < 4:
+            raise InputError(f"lifter {name} returned an empty mesh for {o.label!r}")
+    if len({m.ground is None for m in lifted}) > 1:
+        raise InputError(f"lifter {name} stood some meshes on a measured ground and posed others in the camera")
+    return lifted
+
+
+def record_lifted(lifted, objects, folder: pathlib.Path) -> pathlib.Path:
+    """Write what a model lifter returned as ``build --meshes`` reads it: one PLY per object and poses.json."""
     import trimesh
 
-    lifted = lifter.lift(photo, [o.mask for o in objects], [o.label for o in objects])
-    if len(lifted) != len(objects):
-        raise InputError(f"lifter {type(lifter).name} returned {len(lifted)} meshes for {len(objects)} objects")
     folder.mkdir(parents=True, exist_ok=True)
     poses = {}
     for o, m in zip(objects, lifted):
-        if len(m.vertices) < 4 or len(m.faces) < 4:
-            raise InputError(f"lifter {type(lifter).name} returned an empty mesh for {o.label!r}")
         name = f"{o.name}.ply"
         data = trimesh.Trimesh(np.asarray(m.vertices, float), np.asarray(m.faces, np.int64), process=False)
         write_bytes(folder / name, data.export(file_type="ply"))

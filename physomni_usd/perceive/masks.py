@@ -378,9 +378,10 @@ def _warning(q: dict) -> str | None:
     return None
 
 
-def contact_sheet(photo: np.ndarray, objects) -> np.ndarray:
+def contact_sheet(photo: np.ndarray, objects, completed=None) -> np.ndarray:
     """(H, W, 3) uint8: the photo, dimmed, with each object's mask tinted in its own colour, outlined, and
-    labelled with its name (and a warning mark when its quality says so)."""
+    labelled with its name (and a warning mark when its quality says so). ``completed``: each object's
+    outline completed behind what hides it, (H, W) bool, drawn as a thin line in its colour."""
     out = photo.astype(np.float32) * 0.55
     h, w = photo.shape[:2]
     scale = max(0.35, min(h, w) / 700.0)
@@ -394,6 +395,11 @@ def contact_sheet(photo: np.ndarray, objects) -> np.ndarray:
     for o, colour in zip(objects, colours):
         contours, _ = cv2.findContours(o.mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
         cv2.drawContours(out, contours, -1, colour, max(1, int(round(2 * scale))))
+    for o, colour, whole in zip(objects, colours, completed or [None] * len(objects)):
+        if whole is not None and (whole & ~o.mask).any():
+            contours, _ = cv2.findContours(whole.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+            cv2.drawContours(out, contours, -1, colour, 1, cv2.LINE_AA)
+    for o, colour in zip(objects, colours):
         ys, xs = np.nonzero(o.mask)
         text = o.name + (" (?)" if o.quality and o.quality.get("warning") else "")
         org = (int(xs.min()), max(int(14 * scale) + 2, int(ys.min()) - 4))

@@ -127,7 +127,8 @@ class ShotRenderer:
             o = self.objects[k]
             x0, y0 = o.origin
             mask = np.zeros((h, w), bool)
-            a = o.texture[:, : o.texture.shape[1] // 2 if o.two_sided else None, 3] >= 128  # the photo crop
+            # the photo crop: 255 where the photo shows the object; build paints what others hide at 254
+            a = o.texture[:, : o.texture.shape[1] // 2 if o.two_sided else None, 3] == 255
             th, tw = min(a.shape[0], h - y0), min(a.shape[1], w - x0)
             if th <= 0 or tw <= 0:
                 continue
@@ -321,8 +322,9 @@ class ShotRenderer:
         my = np.where(hit, px[..., 1] - 0.5, -10).astype(np.float32)
         colour = cv2.remap(self.atlas_rgb, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         alpha = cv2.remap(self.atlas_alpha, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        if self.photo is not None:  # an object in place is the photo itself, without resampling
-            colour = self.photo + moved[obj][..., None] * (colour - self.photo)
+        if self.photo is not None:  # an object in place is the photo itself, without resampling, unless the
+            # object the photo shows there has left (the saucer where the cup stood shows its texture)
+            colour = self.photo + np.maximum(moved[obj], moved[owner])[..., None] * (colour - self.photo)
         a = np.where(hit, np.clip(alpha, 0.0, 1.0), 0.0)[..., None]
         out = out * (1.0 - a) + colour * a
         if self.particles:

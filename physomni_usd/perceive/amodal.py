@@ -1,0 +1,136 @@
+"""Who hides whom in the photo, and each hidden object completed behind what hides it (outline and texture).
+
+Owns the occlusion order and the amodal completion that ``build`` runs between
+segmenting and lifting. A user's or a segmenter's mask is the object's
+*visible* part. Where two masks meet, the occluder's outline is whole and the
+occluded one's is cut: the occluded object's convex closure reaches into the
+occluder's pixels, the occluder's does not reach into it. The hidden part is
+then completed by an ellipse where the visible outline is round (a saucer
+seen at an angle, a plate), else by the convex closure, and only behind the
+occluders (anywhere else the photo would have shown it). Its texture there is
+filled from the object's own visible surface, never from the occluder's or the
+background's pixels, so that a saucer the cup leaves is whole.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+#: The occluded object's convex closure must take in this fraction of the occluder's visible pixels.
+MIN_HIDDEN_FRACTION = 0.02
+#: ... and at least this many times the fraction of its own pixels the occluder's closure takes in.
+ORDER_RATIO = 3.0
+#: An ellipse completes an outline when it holds this fraction of the visible pixels and the visible
+#: pixels fill this fraction of it outside the occluders.
+ELLIPSE_HOLDS = 0.97
+ELLIPSE_FILLS = 0.9
+
+
+@dataclass
+class Completion:
+    """One object's completion: its amodal mask (H, W) bool, the objects hiding it, and how it was closed."""
+
+    amodal: np.ndarray
+    occluders: list[int] = field(default_factory=list)
+    how: str = "whole"  # 'whole' (nothing hides it) | 'ellipse' | 'convex'
+
+    def hidden_pixels(self, visible: np.ndarray) -> int:
+        return int((self.amodal & ~visible).sum())
+
+
+def _hull(mask: np.ndarray) -> np.ndarray:
+    """The filled convex hull (H, W) bool of ``mask``."""
+    pts = cv2.findNonZero(mask.astype(np.uint8))
+    out = np.zeros(mask.shape, np.uint8)
+    if pts is not None:
+        cv2.fillConvexPoly(out, cv2.convexHull(pts), 1)
+    return out > 0
+
+
+def _touch(a: np.ndarray, b: np.ndarray, reach: int) -> bool:
+    grown = cv2.dilate(a.astype(np.uint8), np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)) > 0
+    return bool((grown & b).any())
+
+
+def occlusion_order(masks: list[np.ndarray]) -> list[tuple[int, int]]:
+    """``(occluder, occluded)`` index pairs of the (H, W) bool visible masks that hide one another."""
+    if not masks:
+        return []
+    reach = max(2, int(round(0.01 * masks[0].shape[0])))
+    hulls = [_hull(m) for m in masks]
+    areas = [max(int(m.sum()), 1) for m in masks]
+    out = []
+    for i in range(len(masks)):
+        for j in range(i + 1, len(masks)):
+            if not _touch(masks[i], masks[j], reach):
+                continue
+            into_j = (hulls[i] & masks[j]).sum() / areas[j]  # how much of j lies inside i's closure
+            into_i = (hulls[j] & masks[i]).sum() / areas[i]
+            if into_j >= MIN_HIDDEN_FRACTION and into_j >= ORDER_RATIO * into_i:
+                out.append((j, i))
+            elif into_i >= MIN_HIDDEN_FRACTION and into_i >= ORDER_RATIO * into_j:
+                out.append((i, j))
+    return out
+
+
+def complete(masks: list[np.ndarray], order: list[tuple[int, int]] | None = None) -> list[Completion]:
+    """Each visible mask completed behind its occluders (``order`` from :func:`occlusion_order` if not given)."""
+    order = occlusion_order(masks) if order is None else order
+    out = []
+    for k, m in enumerate(masks):
+        occluders = sorted({a for a, b in order if b == k})
+        if not occluders:
+            out.append(Completion(m.copy()))
+            continue
+        behind = np.any([masks[a] for a in occluders], axis=0) & ~m
+        ellipse = _ellipse(m, behind)
+        closure, how = (ellipse, "ellipse") if ellipse is not None else (_hull(m), "convex")
+        out.append(Completion(m | (closure & behind), occluders, how))
+    return out
+
+
+def _ellipse(visible: np.ndarray, behind: np.ndarray) -> np.ndarray | None:
+    """The filled ellipse (H, W) bool through the visible outline away from the occluders, if it fits."""
+    contours, _ = cv2.findContours(visible.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    if not contours:
+        return None
+    pts = max(contours, key=len)[:, 0]
+    near = cv2.dilate(behind.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    free = pts[~near[pts[:, 1], pts[:, 0]]]  # outline the photo shows, not the cut
+    if len(free) < 10:
+        return None
+    box = cv2.fitEllipse(free.astype(np.float32))
+    if not all(np.isfinite(box[1])) or min(box[1]) < 2:
+        return None
+    filled = np.zeros(visible.shape, np.uint8)
+    cv2.ellipse(filled, box, 1, -1)
+    filled = filled > 0
+    holds = (filled & visible).sum() / max(visible.sum(), 1)
+    seen = filled & ~behind
+    fills = (seen & visible).sum() / max(seen.sum(), 1)
+    return filled if holds >= ELLIPSE_HOLDS and fills >= ELLIPSE_FILLS else None
+
+
+def complete_texture(photo: np.ndarray, visible: np.ndarray, amodal: np.ndarray) -> np.ndarray:
+    """The photo (H, W, 3) uint8 with the hidden part of one object (``amodal`` but not ``visible``) painted
+    from that object's own visible pixels: each hidden pixel takes the colour of the nearest visible one,
+    softened across the fill so that no seam of single pixels is repeated."""
+    hidden = amodal & ~visible
+    if not hidden.any() or not visible.any():
+        return photo.copy()
+    # labels of the nearest zero pixel: the zeros are the object's visible pixels, so colours come from them
+    _, labels = cv2.distanceTransformWithLabels((~visible).astype(np.uint8), cv2.DIST_L2, 5,
+                                                labelType=cv2.DIST_LABEL_PIXEL)
+    ys, xs = np.nonzero(visible)
+    colour_of = np.zeros((int(labels.max()) + 1, 3), np.float32)
+    colour_of[labels[ys, xs]] = photo[ys, xs]
+    filled = colour_of[labels]
+    r = max(1, int(round(0.02 * max(visible.shape))))
+    weight = cv2.blur(amodal.astype(np.float32), (2 * r + 1, 2 * r + 1))
+    soft = cv2.blur(filled * amodal[..., None], (2 * r + 1, 2 * r + 1)) / np.maximum(weight, 1e-6)[..., None]
+    out = photo.copy()
+    out[hidden] = np.clip(soft[hidden] + 0.5, 0, 255).astype(np.uint8)
+    return out

@@ -1,0 +1,55 @@
+"""Occlusion order and amodal completion from visible masks: a cup standing on its saucer hides the saucer's
+middle; the saucer is completed behind it, outline and colour, from its own visible pixels."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from physomni_usd.perceive.amodal import complete, complete_texture, occlusion_order
+
+H, W = 160, 220
+
+
+def _cup_on_saucer():
+    saucer = np.zeros((H, W), np.uint8)
+    cv2.ellipse(saucer, (110, 110), (80, 24), 0, 0, 360, 1, -1)
+    cup = np.zeros((H, W), np.uint8)
+    cv2.rectangle(cup, (80, 40), (140, 112), 1, -1)
+    cv2.ellipse(cup, (110, 112), (30, 8), 0, 0, 360, 1, -1)
+    whole = saucer > 0
+    cup = cup > 0
+    return whole & ~cup, cup, whole
+
+
+def test_the_cup_hides_the_saucer_and_side_by_side_objects_hide_nothing():
+    saucer, cup, _ = _cup_on_saucer()
+    assert occlusion_order([saucer, cup]) == [(1, 0)]
+    left = np.zeros((H, W), bool)
+    left[40:120, 20:100] = True
+    right = np.zeros((H, W), bool)
+    right[50:120, 100:180] = True
+    assert occlusion_order([left, right]) == []
+
+
+def test_the_saucer_is_completed_behind_the_cup_as_an_ellipse():
+    saucer, cup, whole = _cup_on_saucer()
+    done = complete([saucer, cup])
+    assert done[0].occluders == [1] and done[0].how == "ellipse"
+    iou = (done[0].amodal & whole).sum() / (done[0].amodal | whole).sum()
+    assert iou > 0.97
+    assert not (done[0].amodal & ~(saucer | cup)).any()  # only behind the cup, never over the background
+    assert done[1].how == "whole" and (done[1].amodal == cup).all()
+    assert done[0].hidden_pixels(saucer) == int((done[0].amodal & ~saucer).sum()) > 0.9 * (whole & cup).sum()
+
+
+def test_the_hidden_part_takes_the_saucers_colour_not_the_cups():
+    saucer, cup, _ = _cup_on_saucer()
+    photo = np.full((H, W, 3), 90, np.uint8)
+    photo[saucer] = (230, 230, 210)
+    photo[cup] = (200, 40, 40)
+    done = complete([saucer, cup])
+    painted = complete_texture(photo, saucer, done[0].amodal)
+    hidden = done[0].amodal & ~saucer
+    assert np.abs(painted[hidden].astype(int) - (230, 230, 210)).max() <= 2
+    assert (painted[~hidden] == photo[~hidden]).all()
