@@ -772,8 +772,8 @@ def bench_alignment_command(quick, only, stacks, json_path):
     stacked scenes with truth (a cup on its saucer with a spoon, three boxes stacked, a bowl of balls, a
     tray of identical parts from straight above) built as a user's photo would be and simulated 2 s with
     nothing pushed: per object, mask IoU from the photo's view and orbited ±45°, position error over the
-    camera distance, size error and rest drift. Targets: IoU ≥ 0.85 (≥ 0.7 orbited), positions within 5 %,
-    drift ≤ 1 cm, start overlaps ≤ 2 mm.
+    camera distance, size error and rest drift, each against the holistic targets (STACK_LIMITS in
+    physomni_usd/bench/alignment.py).
 
     \b
     Example:
