@@ -129,27 +129,28 @@ def compare(scene: KnownScene, shot_folder) -> dict:
            "objects": {}}
     out["pitch_error_deg"] = abs(out["pitch_deg"] - scene.pitch_deg)
     out["fov_error_frac"] = abs(out["fov_deg"] - true.fov_deg) / true.fov_deg
-    by_label = {o["label"]: o for o in report["objects"]}
     rows = []
-    for label, mesh in zip(scene.labels, scene.meshes):
-        o = by_label[label]
+    # the report's objects are in the order the masks were given, which is the scene's order (labels may repeat)
+    for label, mesh, o in zip(scene.labels, scene.meshes, report["objects"]):
         prim = stage.GetPrimAtPath(f"/World/Objects/{o['name']}")
         pts = np.asarray(UsdGeom.Mesh(prim).GetPointsAttr().Get(), float)
         xf = np.array(UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(0), float)
         world = pts @ xf[:3, :3] + xf[3, :3]
         est_cam = (0.5 * (world.min(0) + world.max(0)) - est_origin) @ est_axes.T
         true_cam = (0.5 * (mesh.bounds[0] + mesh.bounds[1]) - true.origin) @ true.world_from_camera
-        rows.append((label, o, world, est_cam, true_cam, mesh))
+        rows.append((o["name"], o, world, est_cam, true_cam, mesh))
     # "after scale": the one factor a photo cannot show, fitted to the positions (least squares)
     est_all = np.array([r[3] for r in rows])
     true_all = np.array([r[4] for r in rows])
     k = float((est_all * true_all).sum() / max((est_all * est_all).sum(), 1e-12))
     out["scale_error_frac"] = abs(1.0 / k - 1.0)
-    for label, o, world, est_cam, true_cam, mesh in rows:
+    out["position_scale"] = k
+    for key, o, world, est_cam, true_cam, mesh in rows:
         dist = float(np.linalg.norm(true_cam))
         true_h = float(np.ptp(mesh.vertices[:, 2]))
         est_h = float(np.ptp(world[:, 2]))
-        out["objects"][label] = {"position_error_frac": float(np.linalg.norm(k * est_cam - true_cam)) / dist,
+        key = o["label"] if sum(lab == o["label"] for lab in scene.labels) == 1 else key
+        out["objects"][key] = {"position_error_frac": float(np.linalg.norm(k * est_cam - true_cam)) / dist,
                                  "raw_position_error_frac": float(np.linalg.norm(est_cam - true_cam)) / dist,
                                  "height_m": round(est_h, 4), "true_height_m": round(true_h, 4),
                                  "height_error_frac": abs(k * est_h - true_h) / true_h,

@@ -108,7 +108,6 @@ def run_photo(name: str, record: dict, folder, seconds: float = 2.0, render: boo
     """One real photo through ``build`` (and ``simulate`` for ``seconds``) against its hand-measured truth."""
     import physomni_usd as api
 
-    from ..settings import SimulateSettings
     from .photos import frame0_ssim
 
     folder = pathlib.Path(folder)
@@ -150,12 +149,17 @@ def run_photo(name: str, record: dict, folder, seconds: float = 2.0, render: boo
     if seconds > 0:
         t1 = time.perf_counter()
         try:
-            api.simulate(result.shot, SimulateSettings(seconds=seconds))
+            row["rest"] = rest_check(result.shot, seconds=seconds)
         except Exception as exc:  # noqa: BLE001
             row["finished"], row["error"] = False, f"{type(exc).__name__}: {exc}"
         row["simulate_seconds"] = time.perf_counter() - t1
     row["seconds"] = time.perf_counter() - t0
     return row
+
+
+def _mm(row: dict, key: str) -> str:
+    rest = row.get("rest")
+    return "—" if not rest else f"{1000 * rest[key]:.1f}"
 
 
 def bench_real_photos(names=None, seconds: float = 2.0, echo=print) -> list[dict]:
@@ -170,7 +174,7 @@ def bench_real_photos(names=None, seconds: float = 2.0, echo=print) -> list[dict
         for n in names:
             rows.append(run_photo(n, truth[n], pathlib.Path(tmp) / n, seconds=seconds))
     echo(f"{'photo':<12}{'view':<11}{'pitch':>6}{'est':>7}{'err°':>6}{'size%':>7}{'worst×':>8}{'scale':>9}"
-         f"{'cam h m':>9}{'SSIM0':>7}{'s':>6}  finished")
+         f"{'cam h m':>9}{'SSIM0':>7}{'s':>6}  finished{'drift mm':>10}{'overlap mm':>12}")
     for r in rows:
         if not r.get("built"):
             echo(f"{r['photo']:<12}{r['view']:<11}{r['pitch_true']:>6.0f}   build failed: {r['error']}")
@@ -179,9 +183,44 @@ def bench_real_photos(names=None, seconds: float = 2.0, echo=print) -> list[dict
         worst = "—" if r["worst_size_factor"] is None else f"{r['worst_size_factor']:.2f}"
         echo(f"{r['photo']:<12}{r['view']:<11}{r['pitch_true']:>6.0f}{r['pitch_deg']:>7.1f}"
              f"{r['pitch_error_deg']:>6.1f}{size:>7}{worst:>8}{r['scale_source']:>9}{r['camera_height_m']:>9.3f}"
-             f"{(r['ssim_frame0'] or math.nan):>7.3f}{r['seconds']:>6.1f}  {'yes' if r['finished'] else 'no'}")
+             f"{(r['ssim_frame0'] or math.nan):>7.3f}{r['seconds']:>6.1f}  {'yes' if r['finished'] else 'no':<8}"
+             f"{_mm(r, 'max_drift_m'):>10}{_mm(r, 'max_overlap_m'):>12}")
         for o in r["objects"]:
             if o["ratio"] is not None:
                 echo(f"    {o['name']:<16}{100 * o['longest_m']:>8.1f} cm  truth {100 * o['true_longest_m']:.1f} cm"
                      f"  ×{o['ratio']:.2f}")
     return rows
+
+
+#: The regression net's limits (issue 21's acceptance): nothing pushed, over ``REST_SECONDS`` simulated seconds,
+#: no rigid object's point moves farther than ``REST_DRIFT_M``, and no two meshes start deeper in each other
+#: than ``START_OVERLAP_M``.
+REST_SECONDS = 2.0
+REST_DRIFT_M = 0.01
+START_OVERLAP_M = 0.002
+
+
+def rest_check(shot, seconds: float = REST_SECONDS, particle_spacing: float | None = None) -> dict:
+    """Simulate a built ``shot`` with nothing pushed and measure how still its rigid objects stay.
+
+    Returns ``rigid`` (the names of the rigid objects: sand, water, jelly and cloth are meant to move under
+    gravity and are left out of the drift), ``drift_m`` (rigid prim name → largest point displacement over
+    the take, metres), ``overlap_m`` ("a|b" → deepest start overlap of the two meshes, metres, pairs that
+    overlap only) and the worst of each, ``max_drift_m`` and ``max_overlap_m``. A failed simulation raises.
+    """
+    import physomni_usd as api
+
+    from ..metrics.geometry import overlaps, rest_drift, world_meshes
+    from ..settings import SimulateSettings
+    from ..usd import layers
+
+    section = api.simulate(shot, SimulateSettings(seconds=seconds, particle_spacing=particle_spacing))
+    rigid = sorted(n for n, o in section["objects"].items() if o["solver"] == "rigid")
+    stage = layers.open_shot(shot)
+    start = world_meshes(stage, stage.GetStartTimeCode())
+    drift = rest_drift(stage, names=set(rigid))
+    overlap = {f"{a}|{b}": d for (a, b), d in overlaps(start).items()}
+    return {"rigid": rigid, "drift_m": {k: round(v, 5) for k, v in drift.items()},
+            "overlap_m": {k: round(v, 5) for k, v in overlap.items()},
+            "max_drift_m": round(max(drift.values(), default=0.0), 5),
+            "max_overlap_m": round(max(overlap.values(), default=0.0), 5)}

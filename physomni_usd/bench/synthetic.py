@@ -2,6 +2,8 @@
 
 :func:`make_scene` returns the photo, the masks (visible parts, occlusion
 included), the true meshes in world coordinates and the true camera;
+:func:`make_stack` the scenes of a holistic scene — objects resting on objects,
+hiding one another, piled, or seen straight down (:data:`STACKS`);
 :func:`write_inputs` writes what a reconstruction model would hand over —
 each mesh in its own frame, with a pose in OpenCV camera coordinates carrying
 rotation, scale and translation noise — so that ``build --meshes`` can be run
@@ -65,6 +67,70 @@ def make_scene(kind: str = "tabletop", width: int = 320, height: int = 240, fov_
     offsets, _ = resolve_penetration([m.vertices for _, m in placed], [m.faces for _, m in placed], gap=0.005)
     for (_, m), o in zip(placed, offsets):
         m.apply_translation(o)
+    photo, masks = render_truth(camera, [m for _, m in placed], rng)
+    return SyntheticScene(photo, masks, [label for label, _ in placed], [m for _, m in placed], camera)
+
+
+#: The holistic scenes of :func:`make_stack`: name → (camera distance to the scene's middle m, pitch °).
+STACKS = {"cup_saucer_spoon": (0.32, 35.0), "three_boxes": (0.9, 30.0), "bowl_of_spheres": (0.42, 45.0),
+          "tray_of_parts": (0.5, 90.0)}
+
+
+def _stack_objects(kind: str, rng) -> list[tuple[str, trimesh.Trimesh]]:
+    """Labelled meshes resting where they rest (z up, the ground at 0, the scene's middle over the origin)."""
+    turn = lambda m, a: m.apply_transform(trimesh.transformations.rotation_matrix(a, [0, 0, 1]))  # noqa: E731
+    if kind == "cup_saucer_spoon":  # the spoon lies in the saucer's ring, beside the cup
+        saucer = trimesh.creation.cylinder(0.075, 0.02, sections=64)
+        saucer.apply_translation([0, 0, 0.01])
+        cup = trimesh.creation.cylinder(0.04, 0.095, sections=48)
+        cup.apply_translation([0, 0, 0.02 + 0.0475])
+        spoon = trimesh.creation.box((0.09, 0.014, 0.005))
+        spoon.apply_translation([0.0, -0.057, 0.0225])
+        turn(spoon, 0.5)
+        return [("cup", cup), ("saucer", saucer), ("spoon", spoon)]
+    if kind == "three_boxes":  # each smaller box on the one below it, a little turned
+        out, z = [], 0.0
+        for label, (sx, sy, sz) in (("box", (0.34, 0.26, 0.14)), ("box", (0.26, 0.20, 0.11)),
+                                    ("box", (0.18, 0.14, 0.09))):
+            m = trimesh.creation.box((sx, sy, sz))
+            turn(m, rng.uniform(-0.25, 0.25))
+            m.apply_translation([rng.uniform(-0.02, 0.02), rng.uniform(-0.02, 0.02), z + sz / 2])
+            out.append((label, m))
+            z += sz
+        return out
+    if kind == "bowl_of_spheres":  # a bowl (1 cm walls, 6 cm deep) holding three balls that rise above its rim
+        profile = [[0.0, 0.0], [0.09, 0.0], [0.12, 0.06], [0.11, 0.06], [0.085, 0.01], [0.0, 0.01]]
+        bowl = trimesh.creation.revolve(profile, sections=64)
+        out = [("bowl", bowl)]
+        for k in range(3):
+            a = 2 * np.pi * k / 3 + 0.3
+            ball = trimesh.creation.icosphere(subdivisions=3, radius=0.03)
+            ball.apply_translation([0.04 * np.cos(a), 0.04 * np.sin(a), 0.01 + 0.03 + 1e-4])
+            out.append(("ball", ball))
+        return out
+    if kind == "tray_of_parts":  # four identical flat rectangular parts on a thin tray, seen straight down
+        tray = trimesh.creation.box((0.40, 0.30, 0.015))
+        tray.apply_translation([0, 0, 0.0075])
+        out = [("tray", tray)]
+        for (x, y), a in zip([(-0.1, -0.07), (0.1, -0.07), (-0.1, 0.07), (0.1, 0.07)], rng.uniform(-0.5, 0.5, 4)):
+            part = trimesh.creation.box((0.12, 0.04, 0.006))
+            turn(part, a)
+            part.apply_translation([x, y, 0.015 + 0.003])
+            out.append(("part", part))
+        return out
+    raise ValueError(f"no stacked scene named {kind!r} (known: {', '.join(STACKS)})")
+
+
+def make_stack(kind: str, width: int = 480, height: int = 360, fov_deg: float = 55.0,
+               seed: int = 0) -> SyntheticScene:
+    """One of :data:`STACKS` under a level-rolled camera at its distance and pitch, looking at the scene's middle."""
+    rng = np.random.default_rng(seed)
+    distance, pitch = STACKS[kind]
+    placed = _stack_objects(kind, rng)
+    middle_z = 0.5 * max(m.bounds[1][2] for _, m in placed)
+    p = np.radians(pitch)
+    camera = PinholeCamera(width, height, fov_deg, pitch,
+                           (0.0, -distance * np.cos(p), middle_z + distance * np.sin(p)))
     photo, masks = render_truth(camera, [m for _, m in placed], rng)
     return SyntheticScene(photo, masks, [label for label, _ in placed], [m for _, m in placed], camera)
 
@@ -135,4 +201,4 @@ def write_inputs(scene: SyntheticScene, folder, rot_deg: float = 0.0, scale_nois
             "fov": scene.camera.fov_deg}
 
 
-__all__ = ["SyntheticScene", "make_scene", "render_truth", "write_inputs"]
+__all__ = ["STACKS", "SyntheticScene", "make_scene", "make_stack", "render_truth", "write_inputs"]

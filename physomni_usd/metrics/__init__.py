@@ -1,6 +1,6 @@
 """Metrics of the paper and of our own checks, as plain functions over arrays."""
 
-from .geometry import max_penetration, world_meshes
+from .geometry import max_penetration, overlaps, rest_drift, world_meshes
 from .image import mask_iou, ssim
 
-__all__ = ["mask_iou", "max_penetration", "ssim", "world_meshes"]
+__all__ = ["mask_iou", "max_penetration", "overlaps", "rest_drift", "ssim", "world_meshes"]

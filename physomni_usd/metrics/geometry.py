@@ -63,3 +63,40 @@ def _deepest_inside(points: np.ndarray, mesh: trimesh.Trimesh) -> float:
 
 def _bounds_overlap(a: trimesh.Trimesh, b: trimesh.Trimesh) -> bool:
     return bool(np.all(a.bounds[0] <= b.bounds[1]) and np.all(b.bounds[0] <= a.bounds[1]))
+
+
+def overlaps(meshes: dict[str, trimesh.Trimesh]) -> dict[tuple[str, str], float]:
+    """Deepest overlap of each pair of meshes whose bounds meet, metres, keyed by the (sorted) pair of names.
+
+    The depth is the deepest vertex of either mesh inside the other (signed distances), as
+    :func:`max_penetration` takes it; pairs that do not overlap are left out.
+    """
+    names = sorted(meshes)
+    out = {}
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            if not _bounds_overlap(meshes[a], meshes[b]):
+                continue
+            depth = max(_deepest_inside(meshes[a].vertices, meshes[b]), _deepest_inside(meshes[b].vertices, meshes[a]))
+            if depth > 0:
+                out[(a, b)] = depth
+    return out
+
+
+def rest_drift(stage: Usd.Stage, names=None) -> dict[str, float]:
+    """Largest displacement of any point of each object over the stage's frames, metres, prim name → metres.
+
+    Compares every authored frame (start to end time code, step 1) with the start frame, in world
+    coordinates, so that a rigid body that slides, tips or falls shows how far its farthest point went.
+    ``names`` keeps those prims only (e.g. the rigid ones); the default is every Mesh under /World/Objects.
+    """
+    start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
+    first = world_meshes(stage, start)
+    keep = [n for n in first if names is None or n in names]
+    drift = dict.fromkeys(keep, 0.0)
+    for t in np.arange(start + 1, end + 0.5):
+        now = world_meshes(stage, float(t))
+        for n in keep:
+            d = np.linalg.norm(now[n].vertices - first[n].vertices, axis=1).max()
+            drift[n] = max(drift[n], float(d))
+    return drift

@@ -1,0 +1,199 @@
+"""The regression net of a holistic scene: every bundled example and every real bench photo, nothing pushed, stays
+where the photo put it.
+
+Each case is built as a user would build it (the example's masks, boxes and sizes, or the photo's records in
+``bench/real/photos.json``; no pushes, no forces) and simulated for 2 s at the shot's frame rate through
+``physomni_usd.simulate``, the function ``simulate`` runs (an exception here is a non-zero exit there). Then:
+
+- the simulation finished;
+- every *rigid* object's largest point displacement over the take is at most 1 cm. Sand, water, jelly and cloth
+  are meant to move under gravity, so in those examples only their rigid objects (the crates) are held still;
+  the MPM ones (jelly, water) run at a particle spacing of 10 cm (``PARTICLE_SPACING_M``) to keep time down —
+  the crates' rest does not depend on it;
+- no two objects' meshes start deeper in each other than 2 mm (signed distances, mesh against mesh).
+
+An example with no rigid object at all (the sand) has nothing to hold still: only its start is checked, and it is
+not simulated here (``tests/test_deformables.py`` runs it).
+
+A case that does not hold on today's code is marked ``xfail(strict=True)`` with the figures measured when the
+mark was set: once a change to perceive or align fixes it, it XPASSes and fails the run — remove its mark then.
+"""
+
+from __future__ import annotations
+
+import json
+import pathlib
+
+import pytest
+
+import physomni_usd as api
+from physomni_usd.bench.real_photos import (REST_DRIFT_M, REST_SECONDS, START_OVERLAP_M, load_photo, load_truth,
+                                            rest_check, write_inputs)
+
+EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
+SPECS = {p.parent.name: p for p in sorted(EXAMPLES.glob("*/example.json"))}
+PHOTOS = load_truth()
+PARTICLE_SPACING_M = 0.1
+DEFORMABLE = {"cloth", "jelly", "sand", "water"}
+
+#: Cases that fail on the code the net was cast on, with what was measured (see the module's docstring).
+KNOWN = {
+    "photo:fruits": "measured: the lime (behind the lemon) falls 117 mm; the banana moves 1.3 mm",
+    "photo:heap": "measured: the cookie box falls 688 mm and the bag 542 mm",
+    "photo:parts": "measured: part_5 moves 455 mm (the parts come out 0.74-10.5 m, seen at 17° for 85°)",
+}
+
+
+def _cases():
+    out = []
+    for kind, names in (("example", SPECS), ("photo", PHOTOS)):
+        for name in names:
+            case = f"{kind}:{name}"
+            marks = [pytest.mark.xfail(strict=True, reason=KNOWN[case])] if case in KNOWN else []
+            out.append(pytest.param(case, marks=marks, id=case))
+    return out
+
+
+def _build(case: str, folder: pathlib.Path):
+    """(build result, lines the build echoed) of one case, as a user would build it."""
+    kind, name = case.split(":", 1)
+    said = []
+    if kind == "example":
+        spec_path = SPECS[name]
+        spec = json.loads(spec_path.read_text())
+        masks = [str(spec_path.parent / m) for m in spec.get("masks", [])]
+        return api.build(spec_path.parent / spec["photo"], folder / "shot", masks, spec.get("boxes", []),
+                         sizes=spec.get("size", []), echo=said.append), said
+    record = PHOTOS[name]
+    if record["photo"].startswith("skimage:"):
+        pytest.importorskip("skimage")
+    path, masks, boxes = write_inputs(record, load_photo(record), folder / "input")
+    return api.build(path, folder / "shot", masks, boxes, echo=said.append), said
+
+
+@pytest.fixture(scope="session")
+def built(tmp_path_factory):
+    """case → (build result, echoed lines), each case built once per session (the size tests reuse them)."""
+    cache = {}
+
+    def get(case):
+        if case not in cache:
+            cache[case] = _build(case, tmp_path_factory.mktemp(case.replace(":", "-")))
+        return cache[case]
+    return get
+
+
+def _has_rigid(shot) -> bool:
+    from physomni_usd.physics.objects import scene_objects
+    from physomni_usd.usd import layers
+
+    return any(o.family == "rigid" for o in scene_objects(layers.open_shot(shot)))
+
+
+@pytest.mark.parametrize("case", _cases())
+def test_nothing_pushed_nothing_moves(case, built):
+    result, _ = built(case)
+    name = case.split(":", 1)[1]
+    if not _has_rigid(result.shot):  # the sand: nothing is meant to stay; only its start is checked
+        from physomni_usd.metrics.geometry import max_penetration, world_meshes
+        from physomni_usd.usd import layers
+
+        stage = layers.open_shot(result.shot)
+        deepest = max_penetration(world_meshes(stage, stage.GetStartTimeCode()))
+        assert deepest <= START_OVERLAP_M, f"{case}: meshes start {deepest} m in each other"
+        return
+    spacing = PARTICLE_SPACING_M if case.startswith("example:") and name in DEFORMABLE else None
+    rest = rest_check(result.shot, seconds=REST_SECONDS, particle_spacing=spacing)
+    print(f"{case}: worst drift {1000 * rest['max_drift_m']:.1f} mm of {len(rest['rigid'])} rigid, "
+          f"worst start overlap {1000 * rest['max_overlap_m']:.1f} mm")  # the figures, under -s
+    moved = {k: v for k, v in rest["drift_m"].items() if v > REST_DRIFT_M}
+    deep = {k: v for k, v in rest["overlap_m"].items() if v > START_OVERLAP_M}
+    assert not moved and not deep, (f"{case}: moved (m) {moved}; start overlaps (m) {deep}; "
+                                    f"worst drift {rest['max_drift_m']} m, worst overlap {rest['max_overlap_m']} m")
+
+
+def test_every_example_and_photo_is_a_case():
+    ids = {p.values[0] for p in _cases()}
+    assert {f"example:{n}" for n in SPECS} | {f"photo:{n}" for n in PHOTOS} == ids
+    assert len(SPECS) >= 8 and len(PHOTOS) >= 9
+    assert set(KNOWN) <= ids, sorted(set(KNOWN) - ids)
+
+
+# --- sizes and pitch on the same builds (issue 21's acceptance: identical objects alike, table tops under 1 m,
+# disagreeing priors named, a top-down photo of flat parts seen top-down) ---------------------------------------
+
+#: Photos of things on a table, a desk or a lightbox: nothing in them is larger than a metre.
+TABLE_TOP = ("desk", "smarties", "coffee", "rubberwhale", "fruits", "heap", "parts")
+#: Photos of identical objects: they must come out within 1.3× of each other.
+IDENTICAL = ("smarties", "parts")
+KNOWN_SIZES = {
+    ("identical", "parts"): "measured: the six identical parts come out 0.74, 0.97, 1.41, 2.03, 3.45 and 10.5 m",
+    ("table", "heap"): "measured: the 24 cm book comes out 1.64 m",
+    ("table", "parts"): "measured: five of the six parts come out 0.97-10.5 m",
+    ("pitch", "parts"): "measured: pitch 17.2° for a view from straight above",
+    ("priors", "whale"): "measured: no warning; the toy whale comes out 4.07 m and the toy box 1.47 m",
+    ("given pitch", 0.0): "measured: build stops with '--pitch 0 puts an object's foot above the horizon; use at "
+                          "least 18'",
+    ("given pitch", 30.0): "measured: build stops with 'object 0 (part): its lowest pixel is above the horizon of a "
+                           "camera pitched 30° down'",
+    ("given pitch", 60.0): "measured: build stops with 'object 0 (part): its lowest pixel is above the horizon of a "
+                           "camera pitched 60° down'",
+    ("given pitch", 90.0): "measured: builds, but the upright part_0 is 753 m long, the other five 0.27-0.36 m",
+}
+
+
+def _sizes(result) -> dict[str, tuple[str, float]]:
+    from physomni_usd.bench.real_photos import _longest
+
+    return _longest(result.folder)
+
+
+def _mark(key):
+    return [pytest.mark.xfail(strict=True, reason=KNOWN_SIZES[key])] if key in KNOWN_SIZES else []
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=_mark(("identical", n)), id=n) for n in IDENTICAL])
+def test_identical_objects_come_out_alike(name, built):
+    result, _ = built(f"photo:{name}")
+    sizes = [m for _, m in _sizes(result).values()]
+    assert max(sizes) <= 1.3 * min(sizes), f"{name}: {min(sizes):.3f}-{max(sizes):.3f} m"
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=_mark(("table", n)), id=n) for n in TABLE_TOP])
+def test_nothing_on_a_table_top_is_larger_than_a_metre(name, built):
+    result, _ = built(f"photo:{name}")
+    big = {k: round(m, 2) for k, (_, m) in _sizes(result).items() if m > 1.0}
+    assert not big, f"{name}: {big} m"
+
+
+@pytest.mark.parametrize("labels", [pytest.param(("whale", "box"), marks=_mark(("priors", "whale")), id="whale-box")])
+def test_disagreeing_size_priors_are_named_in_one_warning(labels, tmp_path):
+    """The rubber whale photo as the issue tells it: the toy labelled 'whale' (a 15 m animal in the size table)
+    beside the yellow toy box labelled 'box' (0.4 m): one warning names both, and neither is over a metre."""
+    record = PHOTOS["rubberwhale"]
+    path, _, _ = write_inputs({**record, "objects": []}, load_photo(record), tmp_path / "input")
+    boxes = [f"215,88,320,186:{labels[0]}", f"392,250,584,388:{labels[1]}"]  # the yellow box runs out of frame
+    said = []
+    result = api.build(path, tmp_path / "shot", [], boxes, echo=said.append)
+    naming = [ln for ln in said if "warning" in ln.lower() and all(lab in ln for lab in labels)]
+    sizes = {k: round(m, 2) for k, (_, m) in _sizes(result).items()}
+    assert len(naming) == 1 and max(sizes.values()) <= 1.0, f"warnings {naming}; sizes {sizes} m"
+
+
+@pytest.mark.parametrize("name", [pytest.param("parts", marks=_mark(("pitch", "parts")))])
+def test_flat_parts_from_above_are_seen_from_above(name, built):
+    result, _ = built(f"photo:{name}")
+    pitch = json.loads((result.folder / "report.json").read_text())["shot"]["pitch_deg"]
+    assert pitch >= 70.0, f"{name}: pitch {pitch:.1f}°"
+
+
+@pytest.mark.parametrize("pitch", [pytest.param(p, marks=_mark(("given pitch", p)), id=f"pitch{p:g}")
+                                   for p in (0.0, 30.0, 60.0, 90.0)])
+def test_a_given_pitch_builds_the_parts(pitch, tmp_path):
+    from physomni_usd.settings import BuildSettings, CameraSettings
+
+    record = PHOTOS["parts"]
+    path, masks, boxes = write_inputs(record, load_photo(record), tmp_path / "input")
+    result = api.build(path, tmp_path / "shot", masks, boxes, BuildSettings(camera=CameraSettings(pitch_deg=pitch)))
+    big = {k: round(m, 2) for k, (_, m) in _sizes(result).items() if m > 1.0}
+    assert not big, f"--pitch {pitch:g}: {big} m"
