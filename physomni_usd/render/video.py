@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import pathlib
 import time
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -20,6 +21,7 @@ from ..errors import InputError
 from ..report import prepare_writes, update_report
 from ..settings import RenderSettings
 from ..usd import layers
+from ..geometry.camera import RenderCamera
 from ..geometry.raycast import RayCaster, covered_pixels
 from ..usd.author import write_render_layer
 from .moves import MAX_AMOUNT, MOVES, move_matrices
@@ -40,8 +42,24 @@ IN_PLACE_PX = 0.75
 REVEAL_PX = 2.0
 
 
+@dataclass(frozen=True)
+class FrameState:
+    """What one frame was rendered from, returned beside its image by :meth:`ShotRenderer.render`: the control
+    passes (:func:`~physomni_usd.render.passes.frame_passes`) are computed from it alone, so that a frame's
+    passes can never be read off another frame's camera or hits. Its arrays are not changed by later frames
+    (the rays are shared, read-only, by the frames of one camera)."""
+    time: float  # time code
+    camera: RenderCamera
+    rays: np.ndarray  # (H, W, 3) float32 unit primary rays in world, one per pixel centre
+    points: np.ndarray | None = None  # (N, 3) world points of every object mesh at ``time``; None without meshes
+    mesh_face: np.ndarray | None = None  # (H, W) int32 first face on each ray whatever the texture's alpha, −1 none
+    mesh_depth: np.ndarray | None = None  # (H, W) float32 metres along the ray to that face
+    bary: np.ndarray | None = None  # (H, W, 2) float32 barycentric (u, v) on that face
+
+
 class ShotRenderer:
-    """Renders frames of one composed stage; build once, call :meth:`frame` per time code."""
+    """Renders frames of one composed stage; build once, call :meth:`frame` (the image) or :meth:`render`
+    (the image and its :class:`FrameState`) per time code."""
 
     def __init__(self, stage: Usd.Stage, settings: RenderSettings = RenderSettings()):
         self.stage = stage
@@ -171,10 +189,12 @@ class ShotRenderer:
         self.faces = np.concatenate(faces) if faces else np.zeros((0, 3), np.int64)
         self.caster = None
         if len(self.faces):
-            pts = self._points(Usd.TimeCode(0))
+            pts = self.points_at(Usd.TimeCode(0))
             self.caster = RayCaster(pts, self.faces, np.concatenate(corners), self.atlas_alpha, self.device)
 
-    def _points(self, time: Usd.TimeCode) -> np.ndarray:
+    def points_at(self, time: Usd.TimeCode) -> np.ndarray:
+        """(N, 3) world points of every object mesh at ``time``, in the ray caster's order (a hidden object's
+        collapsed onto one point, so that nothing hits it)."""
         cache = UsdGeom.XformCache(time)
         out = []
         for o in self.objects:
@@ -275,28 +295,35 @@ class ShotRenderer:
 
     def frame(self, t: float) -> np.ndarray:
         """The composited frame at time code ``t``, (H, W, 3) uint8."""
+        return self.render(t)[0]
+
+    def render(self, t: float) -> tuple[np.ndarray, FrameState]:
+        """The composited frame at time code ``t``, (H, W, 3) uint8, and what it was rendered from."""
         time_code = Usd.TimeCode(t)
         cam = read_camera(self.stage, time_code, self.width, self.height)
         key = (tuple(np.round(cam.axes.ravel(), 9)), cam.fx, cam.fy)
         if key != self._rays_key:
             self._rays = cam.rays()
+            self._rays.flags.writeable = False  # shared by every FrameState of this camera
             self._shadow_rays = cam.rays(SHADOW_STEP)
             self._rays_key = key
         # read once a frame: both the particles' shadows and their splats need them
         particles = self._visible_particles(time_code)
-        self.camera = cam
         if self._is_photo_camera(cam):
             plate, photo, owner = self.plate, self.photo, self.owner
         else:
             plate, photo, owner = self._world_background(cam)
         if self.caster is None:
             out = plate * (1.0 - self._particle_shadow(cam, particles)[..., None])
-            return np.clip(self._splat(out, cam, particles, None) + 0.5, 0, 255).astype(np.uint8)
-        points = self._points(time_code)
-        self.points = points  # what the frame was rendered from (the control passes read it)
+            image = np.clip(self._splat(out, cam, particles, None) + 0.5, 0, 255).astype(np.uint8)
+            return image, FrameState(float(t), cam, self._rays)
+        points = self.points_at(time_code)
         self.caster.update(points)
         face, px, h = self.caster.cast(cam.origin, self._rays, self._shadow_rays, 1e6, 10.0 * self.size,
                                        pixels=covered_pixels(cam, points, self.faces))
+        # the caster's buffers are overwritten by the next cast: the state keeps its own
+        state = FrameState(float(t), cam, self._rays, points, self.caster.mesh_face.copy(),
+                           self.caster.mesh_depth.copy(), self.caster.bary.copy())
         hit = face >= 0
         obj = np.where(hit, self.face_object[np.maximum(face, 0)], -1)
         moved = self._moved(obj, px)
@@ -327,7 +354,7 @@ class ShotRenderer:
         out = out * (1.0 - a) + colour * a
         if self.particles:
             out = self._splat(np.ascontiguousarray(out, np.float32), cam, particles, self.caster.depth)
-        return np.clip(out + 0.5, 0, 255).astype(np.uint8)
+        return np.clip(out + 0.5, 0, 255).astype(np.uint8), state
 
 
 def _environment(renderer: ShotRenderer):
@@ -335,7 +362,7 @@ def _environment(renderer: ShotRenderer):
     cam = renderer.photo_camera
     farthest = 0.0
     if renderer.caster is not None:
-        d = renderer._points(Usd.TimeCode(renderer.stage.GetStartTimeCode())) - cam.origin
+        d = renderer.points_at(Usd.TimeCode(renderer.stage.GetStartTimeCode())) - cam.origin
         farthest = float(np.max(np.hypot(d[:, 0], d[:, 1])))
     return photo_environment(cam, farthest)
 
@@ -428,9 +455,10 @@ def _render_shot(shot, output, settings: RenderSettings, progress, passes=(), pa
                                     pixelformat="yuv420p", ffmpeg_log_level="error")
         try:
             for k, t in enumerate(range(start, end + 1)):
-                writer.append_data(even_sides(renderer.frame(float(t))))
+                image, state = renderer.render(float(t))
+                writer.append_data(even_sides(image))
                 if pass_writer:
-                    pass_writer.add(float(t), float(t + 1) if t < end else None)
+                    pass_writer.add(state, float(t + 1) if t < end else None)
                 if progress:
                     progress(k + 1, n)
         except BaseException:
