@@ -1,0 +1,65 @@
+"""What is left where an object stood: bench look's figures, on a made-up frame and on the desk example."""
+
+from __future__ import annotations
+
+import json
+import pathlib
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from physomni_usd.bench.look import contact_sheet, revealed_figures, within_targets
+
+EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
+
+
+def _frame(fill: str) -> tuple:
+    """A 120×160 wood-like frame whose disc (where an object stood, now gone) is filled as ``fill`` says."""
+    rng = np.random.default_rng(3)
+    y, x = np.mgrid[:120, :160]
+    wood = 120 + 25 * np.sin(x / 3.0 + 2 * np.sin(y / 17.0)) + rng.normal(0, 4, (120, 160))
+    img = np.repeat(wood[..., None], 3, -1)
+    disc = (x - 80) ** 2 + (y - 60) ** 2 < 25 ** 2
+    if fill == "flat":
+        img[disc] = img[disc].mean(0)
+    img = np.clip(img, 0, 255).astype(np.uint8)
+    tex = np.zeros((120, 160, 4), np.uint8)
+    tex[..., 3] = disc * 255
+    obj = SimpleNamespace(origin=(0, 0), texture=tex, two_sided=False, path="/World/Objects/ball")
+    renderer = SimpleNamespace(objects=[obj], width=160, height=120, to_frame=(1.0, 1.0))
+    state = SimpleNamespace(mesh_face=np.full((120, 160), -1, np.int32))
+    return renderer, img, state
+
+
+def test_a_fill_that_continues_the_surface_is_on_target_and_a_flat_patch_is_not():
+    good = revealed_figures(*_frame("texture"))
+    flat = revealed_figures(*_frame("flat"))
+    assert len(good) == len(flat) == 1
+    assert within_targets(good[0]), good
+    assert flat[0]["gradient_ratio"] < 0.6 and not within_targets(flat[0]), flat
+
+
+def test_contact_sheet_is_one_row_of_equal_heights():
+    sheet = contact_sheet([("a", np.zeros((100, 150, 3), np.uint8)), ("missing", None)])
+    assert sheet.shape[0] == 240 and sheet.shape[2] == 3 and sheet.shape[1] > 240 + 360
+
+
+def test_where_the_desk_ball_stood_the_plate_continues_the_wood(tmp_path):
+    """The bundled desk example, its ball pushed for half a second: in the last frame the area it left
+    has the wood's grain, no outline and the wood's colour."""
+    import physomni_usd as api
+    from physomni_usd.render.video import ShotRenderer
+    from physomni_usd.settings import RenderSettings, SimulateSettings
+    from physomni_usd.usd import layers
+
+    folder = EXAMPLES / "desk"
+    spec = json.loads((folder / "example.json").read_text())
+    result = api.build(folder / spec["photo"], tmp_path / "shot", (), spec["boxes"], pushes=spec["push"])
+    api.simulate(result.shot, SimulateSettings(seconds=0.6))
+    stage = layers.open_shot(result.shot)
+    renderer = ShotRenderer(stage, RenderSettings(max_size=480))
+    image, state = renderer.render(float(stage.GetEndTimeCode()))
+    figures = {f["object"].rsplit("/", 1)[-1].split("_")[0]: f for f in revealed_figures(renderer, image, state)}
+    assert "ball" in figures, figures
+    assert within_targets(figures["ball"]), figures["ball"]
