@@ -493,7 +493,10 @@ def estimate(shot, estimator, vlm_url, vlm_model, vlm_api_key, vlm_timeout, sets
 @click.option("--record", is_flag=True, help="On exit, write the take since the last reset to sim.usdc.")
 @click.option("--open/--no-open", "open_browser", default=None,
               help="Open the page in a web browser [default: where one is available].")
-def preview(shot, host, port, duration, record, open_browser):
+@click.option("--play", is_flag=True,
+              help="Start the simulation at once [default: the page opens paused on frame 0, the photo, "
+                   "until Play or a drag on an object].")
+def preview(shot, host, port, duration, record, open_browser, play):
     """Simulate the composed shot live in the browser: push objects with the mouse, change fields,
     materials and gravity from the panel, keep the take (sim.usdc) or the settings (edits.usda).
 
@@ -516,7 +519,8 @@ def preview(shot, host, port, duration, record, open_browser):
     with _errors():
         from .preview.app import Options, Preview
 
-        options = Options(host=host, port=port, duration=duration, record=record, open_browser=open_browser)
+        options = Options(host=host, port=port, duration=duration, record=record, open_browser=open_browser,
+                          play=play)
         session = Preview(shot, options)
         session.start()
         result = session.run()
