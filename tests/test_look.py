@@ -6,6 +6,7 @@ import json
 import pathlib
 from types import SimpleNamespace
 
+import cv2
 import numpy as np
 import pytest
 
@@ -63,3 +64,39 @@ def test_where_the_desk_ball_stood_the_plate_continues_the_wood(tmp_path):
     figures = {f["object"].rsplit("/", 1)[-1].split("_")[0]: f for f in revealed_figures(renderer, image, state)}
     assert "ball" in figures, figures
     assert within_targets(figures["ball"]), figures["ball"]
+
+
+def _two_surfaces() -> np.ndarray:
+    """A 120×160 plate: a striped wall above, a speckled floor below (different colours and grains)."""
+    rng = np.random.default_rng(5)
+    y, x = np.mgrid[:120, :160]
+    wall = np.stack([150 + 30 * np.sin(x / 2.5 + rng.normal(0, 0.2, x.shape))] * 3, -1) * [1.0, 0.8, 0.6]
+    floor = 110 + rng.normal(0, 18, (120, 160, 1)) * [1, 1, 1]
+    plate = np.where((y < 50)[..., None], wall, cv2.GaussianBlur(floor, (0, 0), 1.0))
+    return np.clip(plate, 0, 255).astype(np.uint8)
+
+
+def _ncc(a: np.ndarray, b: np.ndarray) -> float:
+    a, b = a.astype(float).ravel() - a.mean(), b.astype(float).ravel() - b.mean()
+    return float(a @ b / (np.linalg.norm(a) * np.linalg.norm(b) + 1e-9))
+
+
+def test_exemplar_margins_continue_each_surface_and_mirror_nothing():
+    from physomni_usd.perceive.plate import exemplar_outpaint, mirror_outpaint
+
+    plate = _two_surfaces()
+    m = (60, 60, 80, 80)
+    wide, mirrored = exemplar_outpaint(plate, m), mirror_outpaint(plate, m)
+    assert wide.shape == (240, 320, 3) and np.array_equal(wide[60:180, 80:240], plate)
+    # the left margin beside the floor, past the seam, against the floor's mirror image
+    margin = (slice(130, 175), slice(50, 76))
+    mirror_of_it = plate[70:115, 4:31][:, ::-1][:, :26]
+    assert _ncc(mirrored[margin], mirror_of_it) > 0.6  # the check sees a mirror where there is one
+    assert abs(_ncc(wide[margin], mirror_of_it)) < 0.3
+    # below the floor: the floor's colour and grain; above the wall: the wall's
+    grad = lambda im: float(np.abs(np.diff(im.astype(float).mean(-1), axis=1)).mean())
+    below, floor = wide[190:235, 100:220], plate[60:120]
+    above, wall = wide[5:55, 100:220], plate[:50]
+    assert np.abs(below.reshape(-1, 3).mean(0) - floor.reshape(-1, 3).mean(0)).max() < 10
+    assert np.abs(above.reshape(-1, 3).mean(0) - wall.reshape(-1, 3).mean(0)).max() < 15
+    assert 0.5 < grad(below) / grad(floor) < 1.5 and 0.5 < grad(above) / grad(wall) < 1.5
