@@ -100,3 +100,29 @@ def test_exemplar_margins_continue_each_surface_and_mirror_nothing():
     assert np.abs(below.reshape(-1, 3).mean(0) - floor.reshape(-1, 3).mean(0)).max() < 10
     assert np.abs(above.reshape(-1, 3).mean(0) - wall.reshape(-1, 3).mean(0)).max() < 15
     assert 0.5 < grad(below) / grad(floor) < 1.5 and 0.5 < grad(above) / grad(wall) < 1.5
+
+
+def test_particles_read_as_one_shaded_surface_without_their_lattice():
+    """A ball of particles on a regular lattice (as MPM seeds them), drawn over grey: its interior is
+    smooth (no disc or highlight per particle), and it is lit from above on the left, shaded below right."""
+    from physomni_usd.geometry.camera import RenderCamera
+    from physomni_usd.render.video import ShotRenderer
+
+    w, h = 200, 160
+    cam = RenderCamera(w, h, 400.0, 400.0, np.zeros(3), np.eye(3))  # looking along +z, y down
+    g = np.arange(-0.15, 0.151, 0.02)
+    pts = np.stack(np.meshgrid(g, g, g), -1).reshape(-1, 3)
+    pts = pts[np.linalg.norm(pts, axis=1) <= 0.15] + [0.0, 0.0, 1.0]
+    fake = SimpleNamespace(width=w, height=h)
+    fake._on_screen = lambda uv, z: ShotRenderer._on_screen(fake, uv, z)
+    part = SimpleNamespace(colour=np.array([200.0, 170.0, 120.0]), width=0.02)
+    out = ShotRenderer._splat(fake, np.full((h, w, 3), 90.0, np.float32), cam, [(part, pts)], None)
+    grey = cv2.cvtColor(np.clip(out, 0, 255).astype(np.uint8), cv2.COLOR_RGB2GRAY).astype(float)
+    y, x = np.mgrid[:h, :w]
+    r = np.hypot(x + 0.5 - w / 2, y + 0.5 - h / 2)
+    inside = r < 0.7 * 0.15 * 400 / 1.0
+    detail = grey - cv2.GaussianBlur(grey, (0, 0), 6)
+    assert detail[inside].std() < 4.0, detail[inside].std()  # a disc and a highlight per particle: 23
+    upper_left = inside & (x < w / 2) & (y < h / 2)
+    lower_right = inside & (x >= w / 2) & (y >= h / 2)
+    assert grey[upper_left].mean() - grey[lower_right].mean() > 10

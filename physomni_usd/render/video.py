@@ -40,6 +40,15 @@ IN_PLACE_PX = 0.75
 #: Further motion, in pixels, over which an object changes from the photo to its texture over the plate
 #: (the plate without it and its contact shadow, and its synthetic shadow wherever it now is).
 REVEAL_PX = 2.0
+#: Particles are drawn as spheres spread over this multiple of their projected radius (they overlap, so
+#: that a set of them reads as one surface), shaded by a light travelling along PARTICLE_LIGHT (camera axes:
+#: right, down, forward: from above the camera, to its left) with PARTICLE_AMBIENT of their colour in full shade.
+PARTICLE_SPREAD = 1.6
+#: Smoothing of the particles' surface (Gaussian sigma) in units of that spread radius: wide enough that
+#: the lattice MPM seeds them on does not show as bumps in the shading.
+PARTICLE_SMOOTH = 2.0
+PARTICLE_LIGHT = (0.4, 0.7, 0.6)
+PARTICLE_AMBIENT = 0.55
 
 
 @dataclass(frozen=True)
@@ -242,27 +251,60 @@ class ShotRenderer:
         return shadow
 
     def _splat(self, out: np.ndarray, cam, particles: list, depth: np.ndarray | None) -> np.ndarray:
-        """Draw ``particles`` (from :meth:`_visible_particles`) as shaded discs, far to near, hidden where a
-        surface is nearer."""
+        """Draw ``particles`` (from :meth:`_visible_particles`) as one shaded surface per set, hidden where a
+        mesh is nearer (``depth``: distance along each pixel's ray, or None).
+
+        Each particle is a sphere of its prim's width seen through the pixel of its centre; the nearest
+        sphere's front per pixel, spread over the spheres' projected radius (a min filter), is smoothed
+        into a surface whose screen-space normals shade the set's colour from a light above and in front.
+        Nothing of the particles' lattice shows: no disc outlines, no highlight per particle."""
         for part, pts in particles:
             uv, z = cam.project(pts)
-            dist = np.linalg.norm(pts - cam.origin, axis=1)
             ok = self._on_screen(uv, z)
+            if not ok.any():
+                continue
+            uv, z, pts = uv[ok], z[ok], pts[ok]
+            r_px = 0.5 * part.width * cam.fx / z  # each sphere's radius on screen
+            radius = max(1, int(round(float(np.median(r_px)) * PARTICLE_SPREAD)))
+            iu = np.clip(uv[:, 0].astype(np.int64), 0, self.width - 1)
+            iv = np.clip(uv[:, 1].astype(np.int64), 0, self.height - 1)
+            front = np.full(self.height * self.width, np.inf, np.float32)
+            np.minimum.at(front, iv * self.width + iu, (np.linalg.norm(pts - cam.origin, axis=1)
+                                                       - 0.5 * part.width).astype(np.float32))
+            front = front.reshape(self.height, self.width)
+            big = np.float32(1e30)
+            kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
+            spread = cv2.erode(np.where(np.isfinite(front), front, big), kernel)
+            cover = (spread < big).astype(np.uint8)
+            # gaps between the spheres are the lattice showing through, not the pile's shape
+            cover = cv2.morphologyEx(cover, cv2.MORPH_CLOSE, kernel).astype(np.float32)
+            spread = np.where(cover > 0, np.minimum(spread, cv2.dilate(np.where(spread < big, spread, 0), kernel)),
+                              big)
             if depth is not None:
-                iu = np.clip(uv[:, 0].astype(int), 0, self.width - 1)
-                iv = np.clip(uv[:, 1].astype(int), 0, self.height - 1)
-                ok &= dist < depth[iv, iu] + 0.5 * part.width
-            order = np.argsort(-dist[ok])
-            uv, z = uv[ok][order], z[ok][order]
-            radius = np.maximum(0.6 * part.width * cam.fx / z, 1.0)
-            base = tuple(float(c) for c in np.clip(part.colour * 0.8, 0, 255))
-            light = tuple(float(c) for c in np.clip(part.colour * 1.1 + 12, 0, 255))
-            for (u, v), r in zip(uv, radius):
-                centre = (int(round(u)), int(round(v)))
-                cv2.circle(out, centre, int(round(r)), base, -1, lineType=cv2.LINE_AA)
-                if r >= 2.5:
-                    cv2.circle(out, (int(round(u - 0.3 * r)), int(round(v - 0.3 * r))), int(round(0.4 * r)),
-                               light, -1, lineType=cv2.LINE_AA)
+                cover *= (spread < depth + 0.5 * part.width).astype(np.float32)
+            if not cover.any():
+                continue
+            # a smooth surface through the fronts, normalised by coverage so that its rim does not sink
+            sigma = max(1.0, PARTICLE_SMOOTH * radius)
+            filled = np.where(cover > 0, spread, 0.0).astype(np.float32)
+            smooth = cv2.GaussianBlur(filled, (0, 0), sigma) / np.maximum(cv2.GaussianBlur(cover, (0, 0), sigma),
+                                                                          1e-6)
+            # screen-space normal: metres of depth per metre across (a pixel spans distance / fx metres)
+            per_px = np.maximum(smooth, 1e-6) / cam.fx
+            gx = cv2.Sobel(smooth, cv2.CV_32F, 1, 0, ksize=3) / (8.0 * per_px)
+            gy = cv2.Sobel(smooth, cv2.CV_32F, 0, 1, ksize=3) / (8.0 * per_px)
+            # the rim, where the surface turns away, leans outward by the coverage's own gradient
+            soft = cv2.GaussianBlur(cover, (0, 0), sigma)
+            gx -= 2.0 * cv2.Sobel(soft, cv2.CV_32F, 1, 0, ksize=3) / 8.0 * radius
+            gy -= 2.0 * cv2.Sobel(soft, cv2.CV_32F, 0, 1, ksize=3) / 8.0 * radius
+            n = np.stack([gx, gy, -np.ones_like(gx)], -1)  # toward the camera; axes: right, down, forward
+            n /= np.linalg.norm(n, axis=-1, keepdims=True)
+            light = np.array(PARTICLE_LIGHT, np.float32)
+            lambert = np.clip(-(n @ (light / np.linalg.norm(light))), 0.0, 1.0)
+            shade = PARTICLE_AMBIENT + (1.0 - PARTICLE_AMBIENT) * lambert
+            colour = part.colour.astype(np.float32)[None, None, :] * shade[..., None] * 1.15
+            alpha = cv2.GaussianBlur(cover, (0, 0), 0.6)[..., None] * cover[..., None]
+            out = out * (1.0 - alpha) + np.clip(colour, 0, 255) * alpha
         return out
 
     def _moved(self, obj: np.ndarray, px: np.ndarray) -> np.ndarray:
