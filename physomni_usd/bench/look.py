@@ -7,8 +7,10 @@ left to right: the photo, frames 0, middle and last, the last frame under
 ``--camera orbit-left``, and the live preview's opening view as headless
 Chromium shows it (where Playwright and a Chromium are installed).
 
-The figures, on the last frame, for each object that left pixels it covered in
-the photo (the *revealed* area, at least :data:`MIN_REVEALED` pixels):
+The figures, on the last frame, for each object that left the part of the plate
+that replaces it and its contact shadow in the photo (the *revealed* area, the
+pixels where the plate differs from the photo that touch the object, no object
+in front of them now; at least :data:`MIN_REVEALED` pixels):
 
 * ``gradient_ratio``: mean gradient magnitude inside the revealed area (its
   border left out) over that of a ring around it (the plate's surface nearby,
@@ -69,15 +71,40 @@ def _disk(r: int) -> np.ndarray:
     return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
 
 
+def plate_holes(renderer, masks: list[np.ndarray | None]) -> list[np.ndarray | None]:
+    """Per object, (H, W) bool: the pixels of the plate that replace it and its contact shadow (where the
+    plate differs from the photo, in the parts that touch the object's mask, nearer to it than to any other
+    object); its mask alone for shots without the photo."""
+    photo, plate = getattr(renderer, "photo", None), getattr(renderer, "plate", None)
+    owner = getattr(renderer, "owner", None)
+    if photo is None or plate is None or owner is None:
+        return list(masks)
+    differs = (np.abs(np.asarray(plate, np.float32) - photo).max(-1) > 1.5).astype(np.uint8)
+    n, labels = cv2.connectedComponents(differs, connectivity=8)
+    out = []
+    for k, m in enumerate(masks):
+        if m is None:
+            out.append(None)
+            continue
+        touching = np.unique(labels[(cv2.dilate(m.astype(np.uint8), _disk(2)) > 0) & (labels > 0)])
+        out.append(m | (np.isin(labels, touching) & (owner == k)))
+    return out
+
+
 def revealed_figures(renderer, image: np.ndarray, state) -> list[dict]:
-    """The figures of the module's docstring for each object whose photo pixels ``image`` (a frame of
-    ``renderer``, rendered from ``state``) no longer covers with any object."""
+    """The figures of the module's docstring for each object whose part of the plate (:func:`plate_holes`)
+    ``image`` (a frame of ``renderer``, rendered from ``state``) shows with no object in front of it."""
     h, w = image.shape[:2]
-    masks = photo_masks(renderer)
+    masks = plate_holes(renderer, photo_masks(renderer))
     placed = [m for m in masks if m is not None]
     if not placed or state.mesh_face is None:
         return []
     now = cv2.dilate((state.mesh_face >= 0).astype(np.uint8), _disk(2)) > 0  # any object in this frame
+    near_now = cv2.dilate(now.astype(np.uint8), _disk(3)) > 0  # and its edge's own gradient
+    photo = getattr(renderer, "photo", None)
+    # where the frame still shows the photo (an object in place), nothing was revealed
+    as_photo = (np.abs(image.astype(np.float32) - photo).max(-1) <= 1.5 if photo is not None
+                else np.zeros((h, w), bool))
     photo_any = cv2.dilate(np.any(placed, axis=0).astype(np.uint8), _disk(2)) > 0
     grey = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY).astype(np.float32)
     grad = np.hypot(cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3), cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3))
@@ -86,14 +113,16 @@ def revealed_figures(renderer, image: np.ndarray, state) -> list[dict]:
     for k, m in enumerate(masks):
         if m is None:
             continue
-        revealed = m & ~now
+        revealed = m & ~now & ~as_photo
         if revealed.sum() < MIN_REVEALED:
             continue
         r8 = revealed.astype(np.uint8)
         inner = cv2.erode(r8, _disk(2)) > 0
-        border = (cv2.dilate(r8, _disk(1)) > 0) & ~(cv2.erode(r8, _disk(1)) > 0) & ~now
-        border &= ~(photo_any & ~(cv2.dilate(m.astype(np.uint8), _disk(1)) > 0))  # not another object's edge
         ring = (cv2.dilate(r8, _disk(ring_px)) > 0) & ~photo_any & ~now
+        # the seam between the fill and the surface around it: the area's edge where the ring meets it (not
+        # where an object stands now or stood in the photo)
+        border = ((cv2.dilate(r8, _disk(1)) > 0) & ~(cv2.erode(r8, _disk(1)) > 0)
+                  & (cv2.dilate(ring.astype(np.uint8), _disk(2)) > 0) & ~near_now)
         if inner.sum() < MIN_REVEALED // 2 or ring.sum() < MIN_REVEALED or not border.any():
             continue
         g_ring = max(float(grad[ring].mean()), 1e-6)

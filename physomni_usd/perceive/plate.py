@@ -37,6 +37,9 @@ SHADING_DEPTH = 0.012
 #: A pixel near an object's foot is in its contact shadow when it is darker than this fraction of the
 #: surface's brightness around it.
 SHADOW_RATIO = 0.85
+#: The shadow's soft edge: pixels joined to a contact shadow and darker than this fraction of the surface
+#: around them go with it, so that the fill's border lies on lit surface, not on a dark rim of penumbra.
+PENUMBRA_RATIO = 0.96
 
 #: How far below an object its contact shadow may reach, as a fraction of the object's height in the photo.
 SHADOW_REACH = 0.25
@@ -120,6 +123,10 @@ def contact_shadow(lum: np.ndarray, mask: np.ndarray, hole: np.ndarray) -> np.nd
     n, labels = cv2.connectedComponents((dark | seed).astype(np.uint8), connectivity=8)
     touching = np.unique(labels[seed & (labels > 0)])
     shadow = np.isin(labels, touching) & dark
+    if shadow.any():  # grow it through its penumbra
+        soft = band & (smooth < PENUMBRA_RATIO * surround) & (weight > 0.05)
+        n, labels = cv2.connectedComponents((soft | shadow).astype(np.uint8), connectivity=8)
+        shadow |= np.isin(labels, np.unique(labels[shadow & (labels > 0)])) & soft
     return _dilate(shadow, 2) & near
 
 
