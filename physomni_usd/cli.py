@@ -527,7 +527,10 @@ def estimate(shot, estimator, vlm_url, vlm_model, vlm_api_key, vlm_timeout, sets
               help="Open the page in a web browser [default: where one is available].")
 @click.option("-o", "--output", "out_dir", default=None, type=click.Path(path_type=pathlib.Path),
               help="Given a photo instead of a shot: the folder the set-up page (`studio`) builds the shot into.")
-def preview(shot, host, port, duration, record, open_browser, out_dir):
+@click.option("--play", is_flag=True,
+              help="Start the simulation at once [default: the page opens paused on frame 0, the photo, "
+                   "until Play or a drag on an object].")
+def preview(shot, host, port, duration, record, open_browser, out_dir, play):
     """Simulate the composed shot live in the browser: push objects with the mouse, change fields,
     materials and gravity from the panel, keep the take (sim.usdc) or the settings (edits.usda).
 
@@ -563,7 +566,8 @@ def preview(shot, host, port, duration, record, open_browser, out_dir):
             return
         from .preview.app import Options, Preview
 
-        options = Options(host=host, port=port, duration=duration, record=record, open_browser=open_browser)
+        options = Options(host=host, port=port, duration=duration, record=record, open_browser=open_browser,
+                          play=play)
         session = Preview(shot, options)
         session.start()
         result = session.run()
@@ -846,6 +850,38 @@ def bench_plate_command(quick, json_path):
             from ._files import write_json
 
             write_json(json_path, numbers)
+
+
+@bench.command("look")
+@click.option("--example", "examples", type=click.Path(file_okay=False, path_type=pathlib.Path), multiple=True,
+              help="Example folder with example.json (repeatable) [default: every folder of examples/].")
+@click.option("-o", "--output", "out_dir", type=click.Path(file_okay=False, path_type=pathlib.Path),
+              default=pathlib.Path("out/look"), show_default=True, help="Folder for the sheets and look.json.")
+@click.option("--size", type=click.IntRange(64, 4096), default=880, show_default=True,
+              help="Longer side of the rendered frames, pixels.")
+@click.option("--seconds", type=click.FloatRange(0.1, 30), default=None,
+              help="Simulated seconds [default: each example's own].")
+@click.option("--no-browser", is_flag=True, help="Leave out the preview's opening view (no Chromium needed).")
+def bench_look_command(examples, out_dir, size, seconds, no_browser):
+    """A contact sheet per bundled example and the figures of what is left where objects stood.
+
+    \b
+    Sheet: the photo, frames 0, middle and last, the last frame under --camera orbit-left, and the
+    preview's opening view in headless Chromium. Figures, on the last frame, for each revealed area
+    against a ring around it: gradient ratio (target 0.6-1.6), border gradient ratio (<= 1.3), colour
+    difference (<= 8 levels); frame 0's PSNR against the photo; the opening view's SSIM.
+
+    \b
+    Example:
+      physomni-usd bench look --example examples/desk -o out/look
+    """
+    with _errors():
+        from .bench.look import bench_look
+
+        chosen = list(examples) or sorted(p.parent for p in pathlib.Path("examples").glob("*/example.json"))
+        if not chosen:
+            _fail("bench look: no --example given and no examples/*/example.json here", 2)
+        bench_look(chosen, out_dir, size=size, seconds=seconds, browser=not no_browser, echo=click.echo)
 
 
 @bench.command("alignment")

@@ -113,9 +113,11 @@ def session(moto, tmp_path_factory):
                 "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox"])
             page = browser.new_page(viewport={"width": 1600, "height": 720})
             page.goto(url)
-            page.get_by_role("button", name="Pause").wait_for(timeout=60000)
+            # the page opens paused on frame 0: its button offers Play, and the rate line stays on frame 0
+            page.get_by_role("button", name="Play").wait_for(timeout=60000)
             page.wait_for_timeout(3500)  # at least one rate report
             out["rate_text"] = page.get_by_text(re.compile(r"[\d.]+ fps")).first.inner_text()
+            out["frame_text"] = page.get_by_text(re.compile(r"· frame \d+")).first.inner_text()
 
             def button(name):
                 try:
@@ -130,21 +132,17 @@ def session(moto, tmp_path_factory):
                 page.get_by_text(f"take {n} saved").wait_for(timeout=30000)
                 return tracks(sim)
 
-            # the opening view: paused at frame 0, seen through the photo's camera
-            button("Pause")
-            button("Reset to frame 0")
-            page.wait_for_timeout(1500)
+            # the opening view, untouched: paused at frame 0, seen through the photo's camera
             out["screenshot"] = page.screenshot()
             out["canvas"] = page.locator("canvas").first.bounding_box()
             out["overlays"] = page.evaluate(
                 "() => Array.from(document.querySelectorAll('[role=alert]')).map(e => e.getBoundingClientRect())"
                 ".map(r => [r.x, r.y, r.width, r.height])")
             canvas = out["canvas"]
-            scale = canvas["height"] / view.height
-            left = canvas["x"] + canvas["width"] / 2 - view.width * scale / 2
+            scale, left, top = letterbox(canvas, view.width, view.height)
 
             def screen(u, v):
-                return left + u * scale, canvas["y"] + v * scale
+                return left + u * scale, top + v * scale
 
             def drag(u, v, pixels=160, seconds=1.0, steps=20):
                 x, y = screen(u, v)
@@ -199,6 +197,14 @@ def session(moto, tmp_path_factory):
     return out
 
 
+def letterbox(canvas: dict, w: int, h: int) -> tuple[float, float, float]:
+    """Screen pixels per photo pixel and the photo's top-left corner on the screen, for a canvas (its
+    bounding box) that shows the whole photo, centred."""
+    scale = min(canvas["width"] / w, canvas["height"] / h)
+    return (scale, canvas["x"] + (canvas["width"] - w * scale) / 2,
+            canvas["y"] + (canvas["height"] - h * scale) / 2)
+
+
 def _common(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     n = min(len(a), len(b))
     return a[:n], b[:n]
@@ -210,26 +216,28 @@ def test_opening_view_reproduces_the_photo(session):
     img = cv2.imdecode(np.frombuffer(session["screenshot"], np.uint8), cv2.IMREAD_GRAYSCALE)
     photo = cv2.imread(str(EXAMPLE / "photo.png"), cv2.IMREAD_GRAYSCALE)
     h, w = photo.shape
-    c = session["canvas"]
-    scale = c["height"] / h
-    x0 = int(round(c["x"] + c["width"] / 2 - w * scale / 2))
-    y0 = int(round(c["y"]))
+    scale, left, top = letterbox(session["canvas"], w, h)
+    x0, y0 = int(round(left)), int(round(top))
     assert x0 >= 0 and x0 + w * scale <= img.shape[1] + 1, "the photo's view must fit the page for this test"
     mask = np.ones(img.shape, bool)
     for x, y, bw, bh in session["overlays"]:  # notifications over the canvas are not the view
         mask[int(y):int(np.ceil(y + bh)), int(x):int(np.ceil(x + bw))] = False
+    if x0 >= 8:  # the letterbox is black: the page shows nothing beside the photo's view
+        bar = (slice(y0 + 5, y0 + int(h * scale) - 5), slice(2, x0 - 4))
+        assert img[bar][mask[bar]].max() < 16
     view = img[y0:y0 + int(round(h * scale)), x0:x0 + int(round(w * scale))]
     m = mask[y0:y0 + view.shape[0], x0:x0 + view.shape[1]]
     view = cv2.resize(view, (w, h), interpolation=cv2.INTER_AREA)
     m = cv2.resize(m.astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST) > 0
     assert m.mean() > 0.7
     score = ssim(view, photo, mask=m)
-    assert score >= 0.6, score
+    assert score >= 0.9, score
 
 
 def test_page_and_stderr_report_the_rate(session):
     assert session["url_line"].startswith("http://127.0.0.1:")
     assert re.search(r"[\d.]+ fps", session["rate_text"])
+    assert "frame 0 " in session["frame_text"], session["frame_text"]  # opened paused: nothing stepped
     rates = [float(m.group(1)) for x in session["stderr"] if (m := re.fullmatch(r"preview: ([\d.]+) fps", x))]
     assert rates and max(rates) > 0  # 0 while paused
 

@@ -41,8 +41,8 @@ def _gradient(frame: np.ndarray, where: np.ndarray) -> float:
     return float(g[inner].mean())
 
 
-def _faces_toward(renderer: ShotRenderer, prim: Usd.Prim, edge_on_in_photo: bool) -> np.ndarray:
-    """(H, W) bool: where the object's faces that face the render's camera project — only those the photo saw
+def _faces_toward(renderer: ShotRenderer, camera, prim: Usd.Prim, edge_on_in_photo: bool) -> np.ndarray:
+    """(H, W) bool: where the object's faces that face the frame's ``camera`` project — only those the photo saw
     edge-on when ``edge_on_in_photo`` (its sides), whatever its texture's alpha lets through."""
     mesh = UsdGeom.Mesh(prim)
     local = np.asarray(mesh.GetPointsAttr().Get(), float)
@@ -52,14 +52,14 @@ def _faces_toward(renderer: ShotRenderer, prim: Usd.Prim, edge_on_in_photo: bool
     tri, tri0 = pts[faces], local[faces]
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     n0 = np.cross(tri0[:, 1] - tri0[:, 0], tri0[:, 2] - tri0[:, 0])  # unturned (the prim has no rotation of its own)
-    cam, photo_cam = renderer.camera.origin, renderer.photo_camera.origin
+    cam, photo_cam = camera.origin, renderer.photo_camera.origin
     toward = np.einsum("ij,ij->i", n / np.linalg.norm(n, axis=1, keepdims=True),
                        (cam - tri.mean(1)) / np.linalg.norm(cam - tri.mean(1), axis=1, keepdims=True)) > 0.3
     if edge_on_in_photo:
         c0 = tri0.mean(1) + m[3, :3]
         d0 = (photo_cam - c0) / np.linalg.norm(photo_cam - c0, axis=1, keepdims=True)
         toward &= np.abs(np.einsum("ij,ij->i", n0 / np.linalg.norm(n0, axis=1, keepdims=True), d0)) < 0.3
-    uv, _ = renderer.camera.project(pts)
+    uv, _ = camera.project(pts)
     out = np.zeros((renderer.height, renderer.width), np.uint8)
     for f in faces[toward]:  # one at a time: fillPoly would cancel where faces overlap
         cv2.fillConvexPoly(out, np.round(uv[f] * 16).astype(np.int32), 1, shift=4)
@@ -72,8 +72,8 @@ def test_a_quarter_turn_shows_a_side_as_detailed_as_the_front(slab):
     assert prim.GetAttribute("primvars:st").GetMetadata("interpolation") == UsdGeom.Tokens.faceVarying
     settings = RenderSettings(max_size=240)
     r = ShotRenderer(stage, settings)
-    front = r.frame(0.0)
-    front_g = _gradient(front, _faces_toward(r, prim, edge_on_in_photo=False))
+    front, state = r.render(0.0)
+    front_g = _gradient(front, _faces_toward(r, state.camera, prim, edge_on_in_photo=False))
     ratios = []
     for angle in (90.0, -90.0):
         stage.GetSessionLayer().Clear()
@@ -81,8 +81,8 @@ def test_a_quarter_turn_shows_a_side_as_detailed_as_the_front(slab):
         q = Gf.Rotation(Gf.Vec3d(0, 0, 1), angle).GetQuat()
         prim.GetAttribute("xformOp:orient").Set(Gf.Quatf(q))
         r = ShotRenderer(stage, settings)
-        turned = r.frame(0.0)
-        side = _faces_toward(r, prim, edge_on_in_photo=True)
+        turned, state = r.render(0.0)
+        side = _faces_toward(r, state.camera, prim, edge_on_in_photo=True)
         ratios.append(_gradient(turned, side) / front_g)
         # the side is solid (no see-through where its texture's alpha would cut it) and shows the object's
         # pattern, not its plain rim drawn out

@@ -146,3 +146,15 @@ class VLMEstimator(_Builtin):
         from ..materials.vlm import estimate_vlm
 
         return estimate_vlm(self.settings, photo, masks, labels, fps)
+
+
+class ExemplarOutpainter(_Builtin):
+    """The plate's margins quilted from its own surfaces (``perceive.plate.exemplar_outpaint``): camera moves
+    reveal more floor, table and wall, and no mirrored copy of the photo."""
+
+    kind, name = "outpainter", "exemplar"
+
+    def outpaint(self, plate: np.ndarray, margins: tuple[int, int, int, int]) -> np.ndarray:
+        from ..perceive.plate import exemplar_outpaint
+
+        return exemplar_outpaint(plate, margins)

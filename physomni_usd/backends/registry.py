@@ -30,6 +30,7 @@ BUILTINS = {
     ("segmenter", "grabcut"): "physomni_usd.backends.builtin:GrabCutSegmenter",
     ("inpainter", "builtin"): "physomni_usd.backends.builtin:BuiltinInpainter",
     ("outpainter", "mirror"): "physomni_usd.backends.builtin:MirrorOutpainter",
+    ("outpainter", "exemplar"): "physomni_usd.backends.builtin:ExemplarOutpainter",
     ("lifter", "silhouette"): "physomni_usd.backends.builtin:SilhouetteLifter",
     ("estimator", "rules"): "physomni_usd.backends.builtin:RulesEstimator",
     ("estimator", "vlm"): "physomni_usd.backends.builtin:VLMEstimator",

@@ -33,9 +33,11 @@ def rendered_frames(stage, max_size: int, progress=None) -> tuple[np.ndarray, Co
     renderer = ShotRenderer(stage, RenderSettings(max_size=max_size))
     start, end = int(stage.GetStartTimeCode()), int(stage.GetEndTimeCode())
     frames, depth, ids, motion = [], [], [], []
+    cache: dict = {}
     for k, t in enumerate(range(start, end + 1)):
-        frames.append(renderer.frame(float(t)))
-        p = frame_passes(renderer, float(t), float(t + 1) if t < end else None)
+        image, state = renderer.render(float(t))
+        frames.append(image)
+        p = frame_passes(renderer, state, float(t + 1) if t < end else None, cache)
         depth.append(p["Z"])
         ids.append(p["objectId"])
         motion.append(p["motion"])

@@ -37,6 +37,9 @@ SHADING_DEPTH = 0.012
 #: A pixel near an object's foot is in its contact shadow when it is darker than this fraction of the
 #: surface's brightness around it.
 SHADOW_RATIO = 0.85
+#: The shadow's soft edge: pixels joined to a contact shadow and darker than this fraction of the surface
+#: around them go with it, so that the fill's border lies on lit surface, not on a dark rim of penumbra.
+PENUMBRA_RATIO = 0.96
 
 #: How far below an object its contact shadow may reach, as a fraction of the object's height in the photo.
 SHADOW_REACH = 0.25
@@ -120,6 +123,10 @@ def contact_shadow(lum: np.ndarray, mask: np.ndarray, hole: np.ndarray) -> np.nd
     n, labels = cv2.connectedComponents((dark | seed).astype(np.uint8), connectivity=8)
     touching = np.unique(labels[seed & (labels > 0)])
     shadow = np.isin(labels, touching) & dark
+    if shadow.any():  # grow it through its penumbra
+        soft = band & (smooth < PENUMBRA_RATIO * surround) & (weight > 0.05)
+        n, labels = cv2.connectedComponents((soft | shadow).astype(np.uint8), connectivity=8)
+        shadow |= np.isin(labels, np.unique(labels[shadow & (labels > 0)])) & soft
     return _dilate(shadow, 2) & near
 
 
@@ -383,5 +390,113 @@ def mirror_outpaint(plate: np.ndarray, margins: tuple[int, int, int, int]) -> np
                       interpolation=cv2.INTER_LINEAR)
     a = np.clip(d / (MIRROR_FADE * size), 0.0, 1.0)[..., None]
     result = np.clip(wide * (1.0 - a) + blur * a + 0.5, 0, 255).astype(np.uint8)
+    result[t:t + h, l:l + w] = plate
+    return result
+
+
+#: Side of the patches an exemplar margin is quilted from, as a fraction of the plate's shorter side.
+OUTPAINT_PATCH = 0.1
+#: Depth of the plate along each edge that its margin takes patches from, as a fraction of the plate's side
+#: across that edge: the floor continues the floor, the wall the wall.
+OUTPAINT_BAND = 0.2
+#: Scale of the shading an exemplar margin keeps from the plate's edge (Gaussian sigma, fraction of the
+#: plate's longer side): only light and colour this coarse carry over, never a recognisable copy.
+OUTPAINT_SHADING = 0.04
+#: Width of the seam along the photo's edge over which a margin blends in from the edge's own pixels, as a
+#: fraction of the plate's longer side.
+OUTPAINT_SEAM = 0.01
+#: Candidate patches drawn for each place in a margin; the one that best matches what already lies under
+#: its overlap is kept (image quilting), so neighbouring patches continue each other.
+OUTPAINT_CANDIDATES = 12
+#: Longest side of the plate at which margins are quilted; larger plates are quilted smaller and the margins
+#: scaled up (the patches are searched per place: the time grows with the margins' area).
+OUTPAINT_MAX_SIDE = 640
+
+
+def exemplar_outpaint(plate: np.ndarray, margins: tuple[int, int, int, int], seed: int = 0) -> np.ndarray:
+    """``plate`` (H, W, 3) uint8 widened by (top, bottom, left, right) pixels → (H+t+b, W+l+r, 3) uint8, each
+    margin quilted from the plate's own surfaces: overlapping patches (side :data:`OUTPAINT_PATCH`),
+    feathered together, laid from the photo's edge outward, each the best matching of a few drawn at random
+    from the band of the plate along the nearest edge (its corner region for a corner) near the same
+    position along it. Their fine texture is kept; their shading is
+    replaced by the plate edge's, heavily blurred, so that light and colour continue across the edge. Unlike
+    a mirror, no part of the photo appears again as a recognisable copy. The original pixels are kept at
+    [t:t+H, l:l+W]."""
+    t, b, l, r = (int(m) for m in margins)
+    h, w = plate.shape[:2]
+    if not (t or b or l or r):
+        return plate.copy()
+    k = OUTPAINT_MAX_SIDE / max(h, w)
+    if k < 1.0:
+        small = cv2.resize(plate, (max(8, round(w * k)), max(8, round(h * k))), interpolation=cv2.INTER_AREA)
+        wide = exemplar_outpaint(small, tuple(round(m * k) for m in margins), seed)
+        result = cv2.resize(wide, (w + l + r, h + t + b), interpolation=cv2.INTER_CUBIC)
+        result[t:t + h, l:l + w] = plate
+        return result
+    rng = np.random.default_rng(seed)
+    H, W = h + t + b, w + l + r
+    size = float(max(h, w))
+    p = max(8, int(round(OUTPAINT_PATCH * min(h, w))))
+    step = max(4, p // 2)
+    band_y, band_x = max(p, int(OUTPAINT_BAND * h)), max(p, int(OUTPAINT_BAND * w))
+    band_y, band_x = min(band_y, h), min(band_x, w)
+    p = min(p, h, w)
+    window = np.outer(np.hanning(p + 2)[1:-1], np.hanning(p + 2)[1:-1]).astype(np.float32) + 1e-4
+    src = plate.astype(np.float32)
+    acc = np.zeros((H, W, 3), np.float32)
+    weight = np.zeros((H, W), np.float32)
+    acc[t:t + h, l:l + w], weight[t:t + h, l:l + w] = src, 1.0  # the first patches continue the plate
+    outside = np.ones((H, W), bool)
+    outside[t:t + h, l:l + w] = False
+
+    def source_range(centre: float, lo_edge: int, extent: int, band: int) -> tuple[int, int]:
+        """Where along one axis of the plate a patch whose centre lies at ``centre`` (plate coordinates) may
+        come from: the band at the near edge when it lies beyond one, else around its own position."""
+        if centre < 0:
+            return 0, band - p
+        if centre >= extent:
+            return extent - band, extent - p
+        c = int(np.clip(centre - p / 2, 0, extent - p))
+        return max(0, c - p), min(extent - p, c + p)
+
+    places = [(y, x) for y in range(-step, H, step) for x in range(-step, W, step)
+              if outside[max(0, y):min(H, y + p), max(0, x):min(W, x + p)].any()]
+    # nearest the photo first, so that the margin grows outward from it
+    places.sort(key=lambda q: max(t - (q[0] + p), q[0] - (t + h), l - (q[1] + p), q[1] - (l + w), 0) ** 2
+                + min(abs(q[0] + p / 2 - t - h / 2) / max(h, 1), abs(q[1] + p / 2 - l - w / 2) / max(w, 1)))
+    for y, x in places:
+        y0, y1, x0, x1 = max(0, y), min(H, y + p), max(0, x), min(W, x + p)
+        cy, cx = y + p / 2 - t, x + p / 2 - l  # the patch's centre in plate coordinates
+        sy0, sy1 = source_range(cy, 0, h, band_y)
+        sx0, sx1 = source_range(cx, 0, w, band_x)
+        win = window[y0 - y:y1 - y, x0 - x:x1 - x]
+        have = weight[y0:y1, x0:x1]
+        laid = have > 0.05
+        best, best_err = None, np.inf
+        for _ in range(OUTPAINT_CANDIDATES if laid.any() else 1):
+            sy = int(rng.integers(sy0, max(sy0, sy1) + 1))
+            sx = int(rng.integers(sx0, max(sx0, sx1) + 1))
+            patch = src[sy:sy + p, sx:sx + p][y0 - y:y1 - y, x0 - x:x1 - x]
+            if not laid.any():
+                best = patch
+                break
+            now = acc[y0:y1, x0:x1][laid] / have[laid][:, None]
+            err = float(np.mean((patch[laid] - now) ** 2))
+            if err < best_err:
+                best, best_err = patch, err
+        acc[y0:y1, x0:x1] += best * win[..., None]
+        weight[y0:y1, x0:x1] += win
+    acc[t:t + h, l:l + w], weight[t:t + h, l:l + w] = src, 1.0
+    quilt = acc / np.maximum(weight, 1e-6)[..., None]
+    # shading: the plate's edge pixels carried outward, blurred far beyond any shape
+    edge = cv2.copyMakeBorder(plate, t, b, l, r, cv2.BORDER_REPLICATE).astype(np.float32)
+    sigma = max(2.0, OUTPAINT_SHADING * size)
+    shading = cv2.GaussianBlur(edge, (0, 0), sigma)
+    quilt_shading = cv2.GaussianBlur(quilt, (0, 0), sigma)
+    wide = shading + (quilt - quilt_shading)
+    d = cv2.distanceTransform(outside.astype(np.uint8), cv2.DIST_L2, 3)
+    a = np.clip(d / max(1.0, OUTPAINT_SEAM * size), 0.0, 1.0)[..., None]
+    reflect = cv2.copyMakeBorder(plate, t, b, l, r, cv2.BORDER_REFLECT_101).astype(np.float32)
+    result = np.clip(reflect * (1.0 - a) + wide * a + 0.5, 0, 255).astype(np.uint8)
     result[t:t + h, l:l + w] = plate
     return result

@@ -20,12 +20,17 @@ import numpy as np
 
 from ..errors import InputError
 from .engine import Engine, field_label
-from .scene import background_card, drawn_objects, mean_colour, photo_view, textured_glb
+from .scene import (background_card, drawn_objects, fitted_fov, mean_colour, opening_card, opening_frame,
+                    photo_view, textured_glb)
 
 #: Seconds between two ``preview: N fps`` lines on stderr (and updates of the page's rate).
 REPORT_EVERY = 3.0
 #: A pose change smaller than this (m, or quaternion component) is not sent again.
 SEND_TOLERANCE = 1e-5
+#: A page's camera within this distance (m) of the photo's, looking the same way, sees the opening view.
+AT_PHOTO_M = 1e-3
+#: The opening view's card stands this far (m) in front of the photo's camera, nearer than any object.
+OPENING_DISTANCE = 0.05
 
 
 @dataclass
@@ -37,6 +42,7 @@ class Options:
     open_browser: bool | None = None  # None: where one is available
     paced: bool = True  # real time; False runs as fast as the CPU allows (bench)
     capture: bool = True  # replay each frame's launches as one graph where it can
+    play: bool = True  # step from the start; the command opens paused on frame 0 unless --play
     report_every: float = REPORT_EVERY  # seconds between rate reports
     echo: object = field(default=lambda m: print(m, file=sys.stderr, flush=True))
 
@@ -81,8 +87,10 @@ class Preview:
         self.view, self.fx = photo_view(stage)
         self.plate = background_card(stage, self.view)
         self.drawn = drawn_objects(stage)
+        self.opening = opening_frame(stage)
         self.actions: queue.Queue = queue.Queue()
-        self.playing = True
+        self.playing = options.play
+        self._cards: dict = {}  # client id → (its opening-view card, whether its camera is the photo's)
         self.time_scale = 1.0
         self.status = ""
         self.saved = 0
@@ -110,13 +118,14 @@ class Preview:
 
     def _photo_camera(self, cam) -> None:
         v = self.view
-        if hasattr(cam, "up_direction"):  # a connected page's camera
+        if hasattr(cam, "up_direction"):  # a connected page's camera: its canvas's aspect is known
             cam.up_direction = (0.0, 0.0, 1.0)
+            cam.fov = fitted_fov(v, cam.aspect)
         else:  # what a page starts with
             cam.up = (0.0, 0.0, 1.0)
+            cam.fov = v.fov
         cam.position = v.position
         cam.look_at = v.look_at
-        cam.fov = v.fov
         cam.near = 0.01
         cam.far = 1000.0
 
@@ -125,7 +134,11 @@ class Preview:
         s.scene.configure_environment_map(hdri=None)
         s.scene.configure_default_lights(enabled=True, cast_shadow=False)
         s.scene.set_up_direction("+z")
+        # nothing drawn is black: outside the photo's view the page is letterboxed
+        s.scene.set_background_image(np.zeros((2, 2, 3), np.uint8), format="png")
         self._photo_camera(s.initial_camera)
+        s.on_client_connect(self._connected)
+        s.on_client_disconnect(lambda client: self._cards.pop(client.client_id, None))
         plate, centre, wxyz, w, h = self.plate
         s.scene.add_image("/plate", plate, w, h, format="jpeg", jpeg_quality=92, position=centre, wxyz=wxyz,
                           cast_shadow=False, receive_shadow=False)
@@ -158,12 +171,55 @@ class Preview:
                                                         colors=colour, point_size=float(e.sim.mpm.spacing),
                                                         point_shape="circle")
 
+    # --- the opening view ---------------------------------------------------------------------------
+    def _connected(self, client) -> None:
+        """A new page: its camera is the photo's, fitted to its canvas, and until something moves it shows
+        the first frame as ``render`` draws it (the photo where nothing has moved) on a card filling that view."""
+        self._photo_camera(client.camera)
+        centre, wxyz, w, h = opening_card(self.view, self.fx, OPENING_DISTANCE)
+        card = client.scene.add_image("/opening", self.opening, w, h, format="png", position=centre, wxyz=wxyz,
+                                      cast_shadow=False, receive_shadow=False, visible=self._at_opening())
+        self._cards[client.client_id] = [card, True]
+        client.camera.on_update(lambda cam, cid=client.client_id: self._camera_moved(cid, cam))
+
+    def _at_opening(self) -> bool:
+        """Whether the scene is as the first frame shows it: paused, at frame 0."""
+        return not self.playing and self.engine.frame == 0
+
+    def _camera_moved(self, client_id, cam) -> None:
+        entry = self._cards.get(client_id)
+        if entry is None:
+            return
+        v = self.view
+        ahead = np.asarray(cam.look_at, float) - np.asarray(cam.position, float)
+        entry[1] = bool(np.linalg.norm(np.asarray(cam.position, float) - v.position) < AT_PHOTO_M
+                        and np.dot(ahead / max(np.linalg.norm(ahead), 1e-12), v.axes[2]) > 1 - 1e-6)
+        if entry[1] and abs(cam.fov - fitted_fov(v, cam.aspect)) > 1e-4:
+            cam.fov = fitted_fov(v, cam.aspect)  # the canvas changed shape: keep the photo letterboxed
+        self._show_opening()
+
+    def _show_opening(self) -> None:
+        """The opening card on each page whose camera is the photo's, while the scene is at the opening."""
+        at = self._at_opening()
+        for card, at_photo in list(self._cards.values()):
+            show = at and at_photo
+            if card.visible != show:
+                card.visible = show
+
+    def _set_playing(self, playing: bool) -> None:
+        self.playing = playing
+        if getattr(self, "play_button", None) is not None:
+            self.play_button.label = "Pause" if playing else "Play"
+        self._show_opening()
+
     def _draggable(self, handle, body: int) -> None:
         engine = self.engine
 
         @handle.on_drag("left")
         async def _(event) -> None:
             if event.phase == "start":
+                if not self.playing:  # a drag on an object starts the simulation, as Play does
+                    self._set_playing(True)
                 engine.grab(body, np.asarray(event.start_position, float))
                 engine.pull_to(np.asarray(event.end_position, float))
             elif event.phase == "update":
@@ -178,7 +234,8 @@ class Preview:
         gui.main_panel.dock_right()  # beside the view, not over the photo
         self.rate_text = gui.add_markdown("**rate:** starting")
         with gui.add_folder("Playback"):
-            play = gui.add_button("Pause", icon=None)
+            play = gui.add_button("Pause" if self.playing else "Play", icon=None)
+            self.play_button = play
             step = gui.add_button("Step")
             reset = gui.add_button("Reset to frame 0")
             scale = gui.add_slider("Time scale", 0.1, 2.0, 0.05, 1.0)
@@ -186,8 +243,7 @@ class Preview:
 
             @play.on_click
             def _(_) -> None:
-                self.playing = not self.playing
-                play.label = "Pause" if self.playing else "Play"
+                self._set_playing(not self.playing)
 
             @step.on_click
             def _(_) -> None:
@@ -204,6 +260,10 @@ class Preview:
             @photo.on_click
             def _(event) -> None:
                 self._photo_camera(event.client.camera)
+                entry = self._cards.get(event.client.client_id)
+                if entry is not None:
+                    entry[1] = True
+                self._show_opening()
 
         if e.field_list:
             with gui.add_folder("Force fields"):
@@ -266,6 +326,7 @@ class Preview:
                 h.vertices = e.world_surface(path, surfaces[path]).astype(np.float32)
             for name, pts in (e.particles().items() if self.clouds else ()):
                 self.clouds[name].points = pts.astype(np.float32)
+        self._show_opening()
 
     def _handle(self, action: str) -> None:
         e = self.engine

@@ -1,6 +1,7 @@
-"""What the preview page draws, read from the composed stage: the photo's camera, the background
-plate on its card, each object's mesh with its projected photo texture (unlit: emissive only, so
-the opening view is the photo), and flat-coloured live meshes or point clouds for deformables."""
+"""What the preview page draws, read from the composed stage: the photo's camera, the opening view
+(frame 0 as ``render`` draws it, on a card that fills the photo camera's view), the background plate on
+its card, each object's mesh with its projected photo texture (unlit: emissive only), and flat-coloured
+live meshes or point clouds for deformables."""
 
 from __future__ import annotations
 
@@ -61,6 +62,33 @@ def photo_view(stage: Usd.Stage) -> tuple[View, float]:
     fov = 2.0 * np.arctan(0.5 * h / cam.fy)
     return View(np.asarray(cam.origin, float), cam.origin + forward * min(dist, 50.0), -axes[1], float(fov), w, h,
                 axes), float(cam.fx)
+
+
+def opening_frame(stage: Usd.Stage) -> np.ndarray:
+    """(H, W, 3) uint8: the shot's first frame as ``render`` draws it through the photo's camera, at the
+    photo's size up to ``render``'s longest side (the photo itself wherever nothing has moved)."""
+    from ..render.video import ShotRenderer
+
+    return ShotRenderer(stage).frame(float(stage.GetStartTimeCode()))
+
+
+def opening_card(view: View, fx: float, distance: float) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """Where an image fills the photo camera's view exactly, ``distance`` metres in front of it: the card's
+    centre (3,), orientation (wxyz; image x right, y down, z into the scene) and width and height in metres."""
+    from scipy.spatial.transform import Rotation
+
+    q = Rotation.from_matrix(view.axes.T).as_quat()  # columns: right, down, forward
+    fy = 0.5 * view.height / np.tan(0.5 * view.fov)
+    return (view.position + view.axes[2] * distance, np.array([q[3], q[0], q[1], q[2]]),
+            view.width * distance / fx, view.height * distance / fy)
+
+
+def fitted_fov(view: View, aspect: float) -> float:
+    """Vertical field of view (radians) that shows the whole photo on a canvas of ``aspect`` (width /
+    height): the photo's own where the canvas is wider than the photo, wider where it is narrower, so that
+    the photo is letterboxed, never cropped."""
+    half_w = np.tan(0.5 * view.fov) * view.width / view.height  # tan of the photo's half horizontal fov
+    return float(max(view.fov, 2.0 * np.arctan(half_w / max(aspect, 1e-6))))
 
 
 def background_card(stage: Usd.Stage, view: View) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:

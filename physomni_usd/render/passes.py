@@ -1,7 +1,8 @@
 """Control passes of a rendered shot: depth, normals, forward motion and object ids, exact from the stage.
 
 Each frame's passes come from the same primary rays as its image (the ray
-caster's face, barycentric coordinates and distance per pixel) and, for the
+caster's face, barycentric coordinates and distance per pixel, handed over in
+the :class:`~physomni_usd.render.video.FrameState` that rendered it) and, for the
 pixels that see no object, from the environment the renderer stands the
 objects in (:class:`~physomni_usd.render.world.Environment`). They are written
 as one multi-channel float32 OpenEXR per frame, ``passes.####.exr`` (the frame
@@ -58,27 +59,28 @@ def parse_passes(text: str | None) -> tuple[str, ...]:
     return tuple(p for p in PASSES if p in names)
 
 
-def frame_passes(renderer, t: float, t_next: float | None) -> dict[str, np.ndarray]:
-    """The passes of the frame ``renderer`` (a ShotRenderer) has just rendered at time code ``t``:
-    ``Z`` (H, W), ``N`` (H, W, 3), ``motion`` (H, W, 2), all float32, and ``objectId`` (H, W) int32.
-    ``t_next`` is the next frame's time code (None for the last frame: zero motion)."""
+def frame_passes(renderer, state, t_next: float | None, cache: dict | None = None) -> dict[str, np.ndarray]:
+    """The passes of one frame of ``renderer`` (a ShotRenderer), from the ``state`` (a FrameState) its
+    ``render`` returned with the image: ``Z`` (H, W), ``N`` (H, W, 3), ``motion`` (H, W, 2), all float32, and
+    ``objectId`` (H, W) int32. ``t_next`` is the next frame's time code (None for the last frame: zero motion).
+    ``cache`` (any dict, kept by the caller from frame to frame) spares recomputing the environment while the
+    camera holds."""
     from pxr import Usd
 
     from .stage import read_camera
 
-    cam = renderer.camera
+    cam = state.camera
     h, w = renderer.height, renderer.width
-    env = _environment(renderer, cam)
+    env = _environment(renderer, state, {} if cache is None else cache)
     dist, normal = env["t"].copy(), env["normal"].copy()  # flat (H·W,) and (H·W, 3)
     object_id = np.zeros(h * w, np.int32)
     motion = np.zeros((h * w, 2), np.float32)
-    caster = renderer.caster
-    idx = np.flatnonzero(caster.mesh_face >= 0) if caster is not None else np.zeros(0, np.int64)
+    idx = np.flatnonzero(state.mesh_face >= 0) if state.mesh_face is not None else np.zeros(0, np.int64)
     if len(idx):  # flat indices: much cheaper than boolean masks over the whole frame
-        face = caster.mesh_face.reshape(-1)[idx]
+        face = state.mesh_face.reshape(-1)[idx]
         object_id[idx] = renderer.face_object[face] + 1
-        dist[idx] = caster.mesh_depth.reshape(-1)[idx]
-        tri = renderer.points[renderer.faces[face]]  # (P, 3, 3) at t
+        dist[idx] = state.mesh_depth.reshape(-1)[idx]
+        tri = state.points[renderer.faces[face]]  # (P, 3, 3) at t
         n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-20)
         n *= np.where(np.einsum("ij,ij->i", n, env["rays"][idx]) > 0, -1.0, 1.0)[:, None]
@@ -91,30 +93,30 @@ def frame_passes(renderer, t: float, t_next: float | None) -> dict[str, np.ndarr
             points = np.asarray(cam.origin, np.float64) + env["rays"] * env["t"][:, None].astype(np.float64)
             motion = (cam1.project(points)[0] - env["centre"]).astype(np.float32)
         if len(idx):
-            bary = caster.bary.reshape(-1, 2)[idx].astype(np.float64)
+            bary = state.bary.reshape(-1, 2)[idx].astype(np.float64)
             u, v = bary[:, 0:1], bary[:, 1:2]
-            tri1 = renderer._points(Usd.TimeCode(t_next))[renderer.faces[face]]
+            tri1 = renderer.points_at(Usd.TimeCode(t_next))[renderer.faces[face]]
             p1 = tri1[:, 0] * u + tri1[:, 1] * v + tri1[:, 2] * (1.0 - u - v)
             motion[idx] = cam1.project(p1)[0] - env["centre"][idx]
     return {"Z": (dist * env["cos"]).reshape(h, w), "N": normal.reshape(h, w, 3),
             "motion": motion.reshape(h, w, 2), "objectId": object_id.reshape(h, w)}
 
 
-def _environment(renderer, cam) -> dict[str, np.ndarray]:
-    """What the passes need of the camera and the environment, cached while the camera holds, flat over the
-    pixels: the rays (H·W, 3), their cosine to the optical axis (H·W,), the environment's distance (H·W,) and
-    normal (H·W, 3) along each ray (float32), and the pixel centres (H·W, 2)."""
+def _environment(renderer, state, cache: dict) -> dict[str, np.ndarray]:
+    """What the passes need of the frame's camera and the environment, flat over the pixels: the rays
+    (H·W, 3), their cosine to the optical axis (H·W,), the environment's distance (H·W,) and normal (H·W, 3)
+    along each ray (float32), and the pixel centres (H·W, 2); kept in ``cache`` while the camera holds."""
+    cam = state.camera
     key = (tuple(np.asarray(cam.origin, float)), tuple(np.asarray(cam.axes, float).ravel()), cam.fx, cam.fy)
-    cached = getattr(renderer, "_passes_environment", None)
-    if cached is not None and cached[0] == key:
-        return cached[1]
-    h, w = renderer._rays.shape[:2]
-    rays = renderer._rays.reshape(-1, 3).astype(np.float64)  # unit, from this camera (the frame just rendered)
+    if cache.get("key") == key:
+        return cache["env"]
+    h, w = state.rays.shape[:2]
+    rays = state.rays.reshape(-1, 3).astype(np.float64)  # unit, from this frame's camera
     t, _, normal = renderer.environment.intersect(cam.origin, rays)
     env = {"rays": rays, "cos": (rays @ np.asarray(cam.axes[2], np.float64)).astype(np.float32),
            "t": t.astype(np.float32), "normal": normal.astype(np.float32),
            "centre": np.stack(np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5), -1).reshape(-1, 2)}
-    renderer._passes_environment = (key, env)
+    cache.update(key=key, env=env)
     return env
 
 
@@ -200,6 +202,7 @@ class PassWriter:
         self.folder, self.passes, self.renderer = pathlib.Path(folder), passes, renderer
         make_dirs(self.folder)
         self.scale: dict = {}
+        self._environment: dict = {}  # frame_passes' cache of the environment along the camera's rays
         self.frames: list[int] = []
         self._paths = [atomic_path(self.folder / f"{p}.mp4") for p in passes]
         self.writers = []
@@ -209,11 +212,13 @@ class PassWriter:
                                                    quality=quality, macro_block_size=1, pixelformat="yuv420p",
                                                    ffmpeg_log_level="error"))
 
-    def add(self, t: float, t_next: float | None) -> None:
-        """The passes of the frame just rendered at ``t`` (``t_next``: the next frame's time code or None)."""
+    def add(self, state, t_next: float | None) -> None:
+        """The passes of the frame the renderer rendered from ``state`` (a FrameState; ``t_next``: the next
+        frame's time code or None)."""
         from .encode import even_sides
 
-        buffers = frame_passes(self.renderer, t, t_next)
+        t = state.time
+        buffers = frame_passes(self.renderer, state, t_next, self._environment)
         write_exr(self.folder / f"passes.{int(t):04d}.exr", exr_channels(self.passes, buffers))
         for name, writer in zip(self.passes, self.writers):
             writer.append_data(even_sides(preview(name, buffers, self.scale)))

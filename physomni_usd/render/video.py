@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import pathlib
 import time
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -20,6 +21,7 @@ from ..errors import InputError
 from ..report import prepare_writes, update_report
 from ..settings import RenderSettings
 from ..usd import layers
+from ..geometry.camera import RenderCamera
 from ..geometry.raycast import RayCaster, covered_pixels
 from ..usd.author import write_render_layer
 from .moves import MAX_AMOUNT, MOVES, move_matrices
@@ -38,10 +40,35 @@ IN_PLACE_PX = 0.75
 #: Further motion, in pixels, over which an object changes from the photo to its texture over the plate
 #: (the plate without it and its contact shadow, and its synthetic shadow wherever it now is).
 REVEAL_PX = 2.0
+#: Particles are drawn as spheres spread over this multiple of their projected radius (they overlap, so
+#: that a set of them reads as one surface), shaded by a light travelling along PARTICLE_LIGHT (camera axes:
+#: right, down, forward: from above the camera, to its left) with PARTICLE_AMBIENT of their colour in full shade.
+PARTICLE_SPREAD = 1.6
+#: Smoothing of the particles' surface (Gaussian sigma) in units of that spread radius: wide enough that
+#: the lattice MPM seeds them on does not show as bumps in the shading.
+PARTICLE_SMOOTH = 2.0
+PARTICLE_LIGHT = (0.4, 0.7, 0.6)
+PARTICLE_AMBIENT = 0.55
+
+
+@dataclass(frozen=True)
+class FrameState:
+    """What one frame was rendered from, returned beside its image by :meth:`ShotRenderer.render`: the control
+    passes (:func:`~physomni_usd.render.passes.frame_passes`) are computed from it alone, so that a frame's
+    passes can never be read off another frame's camera or hits. Its arrays are not changed by later frames
+    (the rays are shared, read-only, by the frames of one camera)."""
+    time: float  # time code
+    camera: RenderCamera
+    rays: np.ndarray  # (H, W, 3) float32 unit primary rays in world, one per pixel centre
+    points: np.ndarray | None = None  # (N, 3) world points of every object mesh at ``time``; None without meshes
+    mesh_face: np.ndarray | None = None  # (H, W) int32 first face on each ray whatever the texture's alpha, −1 none
+    mesh_depth: np.ndarray | None = None  # (H, W) float32 metres along the ray to that face
+    bary: np.ndarray | None = None  # (H, W, 2) float32 barycentric (u, v) on that face
 
 
 class ShotRenderer:
-    """Renders frames of one composed stage; build once, call :meth:`frame` per time code."""
+    """Renders frames of one composed stage; build once, call :meth:`frame` (the image) or :meth:`render`
+    (the image and its :class:`FrameState`) per time code."""
 
     def __init__(self, stage: Usd.Stage, settings: RenderSettings = RenderSettings()):
         self.stage = stage
@@ -172,10 +199,12 @@ class ShotRenderer:
         self.faces = np.concatenate(faces) if faces else np.zeros((0, 3), np.int64)
         self.caster = None
         if len(self.faces):
-            pts = self._points(Usd.TimeCode(0))
+            pts = self.points_at(Usd.TimeCode(0))
             self.caster = RayCaster(pts, self.faces, np.concatenate(corners), self.atlas_alpha, self.device)
 
-    def _points(self, time: Usd.TimeCode) -> np.ndarray:
+    def points_at(self, time: Usd.TimeCode) -> np.ndarray:
+        """(N, 3) world points of every object mesh at ``time``, in the ray caster's order (a hidden object's
+        collapsed onto one point, so that nothing hits it)."""
         cache = UsdGeom.XformCache(time)
         out = []
         for o in self.objects:
@@ -223,27 +252,60 @@ class ShotRenderer:
         return shadow
 
     def _splat(self, out: np.ndarray, cam, particles: list, depth: np.ndarray | None) -> np.ndarray:
-        """Draw ``particles`` (from :meth:`_visible_particles`) as shaded discs, far to near, hidden where a
-        surface is nearer."""
+        """Draw ``particles`` (from :meth:`_visible_particles`) as one shaded surface per set, hidden where a
+        mesh is nearer (``depth``: distance along each pixel's ray, or None).
+
+        Each particle is a sphere of its prim's width seen through the pixel of its centre; the nearest
+        sphere's front per pixel, spread over the spheres' projected radius (a min filter), is smoothed
+        into a surface whose screen-space normals shade the set's colour from a light above and in front.
+        Nothing of the particles' lattice shows: no disc outlines, no highlight per particle."""
         for part, pts in particles:
             uv, z = cam.project(pts)
-            dist = np.linalg.norm(pts - cam.origin, axis=1)
             ok = self._on_screen(uv, z)
+            if not ok.any():
+                continue
+            uv, z, pts = uv[ok], z[ok], pts[ok]
+            r_px = 0.5 * part.width * cam.fx / z  # each sphere's radius on screen
+            radius = max(1, int(round(float(np.median(r_px)) * PARTICLE_SPREAD)))
+            iu = np.clip(uv[:, 0].astype(np.int64), 0, self.width - 1)
+            iv = np.clip(uv[:, 1].astype(np.int64), 0, self.height - 1)
+            front = np.full(self.height * self.width, np.inf, np.float32)
+            np.minimum.at(front, iv * self.width + iu, (np.linalg.norm(pts - cam.origin, axis=1)
+                                                       - 0.5 * part.width).astype(np.float32))
+            front = front.reshape(self.height, self.width)
+            big = np.float32(1e30)
+            kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
+            spread = cv2.erode(np.where(np.isfinite(front), front, big), kernel)
+            cover = (spread < big).astype(np.uint8)
+            # gaps between the spheres are the lattice showing through, not the pile's shape
+            cover = cv2.morphologyEx(cover, cv2.MORPH_CLOSE, kernel).astype(np.float32)
+            spread = np.where(cover > 0, np.minimum(spread, cv2.dilate(np.where(spread < big, spread, 0), kernel)),
+                              big)
             if depth is not None:
-                iu = np.clip(uv[:, 0].astype(int), 0, self.width - 1)
-                iv = np.clip(uv[:, 1].astype(int), 0, self.height - 1)
-                ok &= dist < depth[iv, iu] + 0.5 * part.width
-            order = np.argsort(-dist[ok])
-            uv, z = uv[ok][order], z[ok][order]
-            radius = np.maximum(0.6 * part.width * cam.fx / z, 1.0)
-            base = tuple(float(c) for c in np.clip(part.colour * 0.8, 0, 255))
-            light = tuple(float(c) for c in np.clip(part.colour * 1.1 + 12, 0, 255))
-            for (u, v), r in zip(uv, radius):
-                centre = (int(round(u)), int(round(v)))
-                cv2.circle(out, centre, int(round(r)), base, -1, lineType=cv2.LINE_AA)
-                if r >= 2.5:
-                    cv2.circle(out, (int(round(u - 0.3 * r)), int(round(v - 0.3 * r))), int(round(0.4 * r)),
-                               light, -1, lineType=cv2.LINE_AA)
+                cover *= (spread < depth + 0.5 * part.width).astype(np.float32)
+            if not cover.any():
+                continue
+            # a smooth surface through the fronts, normalised by coverage so that its rim does not sink
+            sigma = max(1.0, PARTICLE_SMOOTH * radius)
+            filled = np.where(cover > 0, spread, 0.0).astype(np.float32)
+            smooth = cv2.GaussianBlur(filled, (0, 0), sigma) / np.maximum(cv2.GaussianBlur(cover, (0, 0), sigma),
+                                                                          1e-6)
+            # screen-space normal: metres of depth per metre across (a pixel spans distance / fx metres)
+            per_px = np.maximum(smooth, 1e-6) / cam.fx
+            gx = cv2.Sobel(smooth, cv2.CV_32F, 1, 0, ksize=3) / (8.0 * per_px)
+            gy = cv2.Sobel(smooth, cv2.CV_32F, 0, 1, ksize=3) / (8.0 * per_px)
+            # the rim, where the surface turns away, leans outward by the coverage's own gradient
+            soft = cv2.GaussianBlur(cover, (0, 0), sigma)
+            gx -= 2.0 * cv2.Sobel(soft, cv2.CV_32F, 1, 0, ksize=3) / 8.0 * radius
+            gy -= 2.0 * cv2.Sobel(soft, cv2.CV_32F, 0, 1, ksize=3) / 8.0 * radius
+            n = np.stack([gx, gy, -np.ones_like(gx)], -1)  # toward the camera; axes: right, down, forward
+            n /= np.linalg.norm(n, axis=-1, keepdims=True)
+            light = np.array(PARTICLE_LIGHT, np.float32)
+            lambert = np.clip(-(n @ (light / np.linalg.norm(light))), 0.0, 1.0)
+            shade = PARTICLE_AMBIENT + (1.0 - PARTICLE_AMBIENT) * lambert
+            colour = part.colour.astype(np.float32)[None, None, :] * shade[..., None] * 1.15
+            alpha = cv2.GaussianBlur(cover, (0, 0), 0.6)[..., None] * cover[..., None]
+            out = out * (1.0 - alpha) + np.clip(colour, 0, 255) * alpha
         return out
 
     def _moved(self, obj: np.ndarray, px: np.ndarray) -> np.ndarray:
@@ -276,28 +338,35 @@ class ShotRenderer:
 
     def frame(self, t: float) -> np.ndarray:
         """The composited frame at time code ``t``, (H, W, 3) uint8."""
+        return self.render(t)[0]
+
+    def render(self, t: float) -> tuple[np.ndarray, FrameState]:
+        """The composited frame at time code ``t``, (H, W, 3) uint8, and what it was rendered from."""
         time_code = Usd.TimeCode(t)
         cam = read_camera(self.stage, time_code, self.width, self.height)
         key = (tuple(np.round(cam.axes.ravel(), 9)), cam.fx, cam.fy)
         if key != self._rays_key:
             self._rays = cam.rays()
+            self._rays.flags.writeable = False  # shared by every FrameState of this camera
             self._shadow_rays = cam.rays(SHADOW_STEP)
             self._rays_key = key
         # read once a frame: both the particles' shadows and their splats need them
         particles = self._visible_particles(time_code)
-        self.camera = cam
         if self._is_photo_camera(cam):
             plate, photo, owner = self.plate, self.photo, self.owner
         else:
             plate, photo, owner = self._world_background(cam)
         if self.caster is None:
             out = plate * (1.0 - self._particle_shadow(cam, particles)[..., None])
-            return np.clip(self._splat(out, cam, particles, None) + 0.5, 0, 255).astype(np.uint8)
-        points = self._points(time_code)
-        self.points = points  # what the frame was rendered from (the control passes read it)
+            image = np.clip(self._splat(out, cam, particles, None) + 0.5, 0, 255).astype(np.uint8)
+            return image, FrameState(float(t), cam, self._rays)
+        points = self.points_at(time_code)
         self.caster.update(points)
         face, px, h = self.caster.cast(cam.origin, self._rays, self._shadow_rays, 1e6, 10.0 * self.size,
                                        pixels=covered_pixels(cam, points, self.faces))
+        # the caster's buffers are overwritten by the next cast: the state keeps its own
+        state = FrameState(float(t), cam, self._rays, points, self.caster.mesh_face.copy(),
+                           self.caster.mesh_depth.copy(), self.caster.bary.copy())
         hit = face >= 0
         obj = np.where(hit, self.face_object[np.maximum(face, 0)], -1)
         moved = self._moved(obj, px)
@@ -329,7 +398,7 @@ class ShotRenderer:
         out = out * (1.0 - a) + colour * a
         if self.particles:
             out = self._splat(np.ascontiguousarray(out, np.float32), cam, particles, self.caster.depth)
-        return np.clip(out + 0.5, 0, 255).astype(np.uint8)
+        return np.clip(out + 0.5, 0, 255).astype(np.uint8), state
 
 
 def _environment(renderer: ShotRenderer):
@@ -337,7 +406,7 @@ def _environment(renderer: ShotRenderer):
     cam = renderer.photo_camera
     farthest = 0.0
     if renderer.caster is not None:
-        d = renderer._points(Usd.TimeCode(renderer.stage.GetStartTimeCode())) - cam.origin
+        d = renderer.points_at(Usd.TimeCode(renderer.stage.GetStartTimeCode())) - cam.origin
         farthest = float(np.max(np.hypot(d[:, 0], d[:, 1])))
     return photo_environment(cam, farthest)
 
@@ -430,9 +499,10 @@ def _render_shot(shot, output, settings: RenderSettings, progress, passes=(), pa
                                     pixelformat="yuv420p", ffmpeg_log_level="error")
         try:
             for k, t in enumerate(range(start, end + 1)):
-                writer.append_data(even_sides(renderer.frame(float(t))))
+                image, state = renderer.render(float(t))
+                writer.append_data(even_sides(image))
                 if pass_writer:
-                    pass_writer.add(float(t), float(t + 1) if t < end else None)
+                    pass_writer.add(state, float(t + 1) if t < end else None)
                 if progress:
                     progress(k + 1, n)
         except BaseException:

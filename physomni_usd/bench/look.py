@@ -1,0 +1,276 @@
+"""``bench look``: what a person sees, per bundled example, as a contact sheet and the figures behind it.
+
+Each example is built as its example.json says (photo, masks or boxes, sizes,
+pushes), simulated for its seconds, and rendered as the product renders it
+(``ShotRenderer``, the photo's camera, longer side ``size``). The sheet holds,
+left to right: the photo, frames 0, middle and last, the last frame under
+``--camera orbit-left``, and the live preview's opening view as headless
+Chromium shows it (where Playwright and a Chromium are installed).
+
+The figures, on the last frame, for each object that left the part of the plate
+that replaces it and its contact shadow in the photo (the *revealed* area, the
+pixels where the plate differs from the photo that touch the object, no object
+in front of them now; at least :data:`MIN_REVEALED` pixels):
+
+* ``gradient_ratio``: mean gradient magnitude inside the revealed area (its
+  border left out) over that of a ring around it (the plate's surface nearby,
+  without any object of the photo or of the frame): 1 where the fill carries the
+  surface's texture, near 0 for a flat patch. Target 0.6–1.6.
+* ``border_ratio``: mean gradient magnitude along the revealed area's border
+  over the ring's: above 1 where an outline shows. Target ≤ 1.3.
+* ``colour_difference``: the largest difference of the channels' means, revealed
+  area against ring, in 0–255 levels. Target ≤ 8.
+
+Frame 0 against the photo (PSNR, dB) and the preview's opening view against the
+photo (SSIM on grey) are reported beside them.
+"""
+
+from __future__ import annotations
+
+import json
+import pathlib
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+
+import cv2
+import numpy as np
+
+from ..errors import InputError
+
+#: Revealed areas smaller than this many pixels (at the rendered size) say nothing and are not measured.
+MIN_REVEALED = 60
+#: Width of the ring around a revealed area, as a fraction of the frame's diagonal (at least 6 pixels).
+RING = 0.025
+#: Height in pixels of each picture on a contact sheet.
+TILE_HEIGHT = 240
+#: The targets the figures are held to (issue "what a person sees").
+TARGETS = {"gradient_ratio": (0.6, 1.6), "border_ratio": (0.0, 1.3), "colour_difference": (0.0, 8.0)}
+
+
+def photo_masks(renderer) -> list[np.ndarray | None]:
+    """Per object of ``renderer`` (a ShotRenderer), (H, W) bool at the frame's size: where the photo shows
+    it (its texture's photo crop, opaque), None for an object not placed in the photo."""
+    out = []
+    sx, sy = getattr(renderer, "to_frame", (1.0, 1.0))
+    for o in renderer.objects:
+        if o.origin is None:
+            out.append(None)
+            continue
+        a = o.texture[:, : o.texture.shape[1] // 2 if o.two_sided else None, 3]
+        x0, y0 = o.origin
+        m = cv2.warpAffine(a, np.float32([[sx, 0, x0 * sx], [0, sy, y0 * sy]]), (renderer.width, renderer.height),
+                           flags=cv2.INTER_LINEAR)
+        out.append(m >= 128)
+    return out
+
+
+def _disk(r: int) -> np.ndarray:
+    return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+
+
+def plate_holes(renderer, masks: list[np.ndarray | None]) -> list[np.ndarray | None]:
+    """Per object, (H, W) bool: the pixels of the plate that replace it and its contact shadow (where the
+    plate differs from the photo, in the parts that touch the object's mask, nearer to it than to any other
+    object); its mask alone for shots without the photo."""
+    photo, plate = getattr(renderer, "photo", None), getattr(renderer, "plate", None)
+    owner = getattr(renderer, "owner", None)
+    if photo is None or plate is None or owner is None:
+        return list(masks)
+    differs = (np.abs(np.asarray(plate, np.float32) - photo).max(-1) > 1.5).astype(np.uint8)
+    n, labels = cv2.connectedComponents(differs, connectivity=8)
+    out = []
+    for k, m in enumerate(masks):
+        if m is None:
+            out.append(None)
+            continue
+        touching = np.unique(labels[(cv2.dilate(m.astype(np.uint8), _disk(2)) > 0) & (labels > 0)])
+        out.append(m | (np.isin(labels, touching) & (owner == k)))
+    return out
+
+
+def revealed_figures(renderer, image: np.ndarray, state) -> list[dict]:
+    """The figures of the module's docstring for each object whose part of the plate (:func:`plate_holes`)
+    ``image`` (a frame of ``renderer``, rendered from ``state``) shows with no object in front of it."""
+    h, w = image.shape[:2]
+    masks = plate_holes(renderer, photo_masks(renderer))
+    placed = [m for m in masks if m is not None]
+    if not placed or state.mesh_face is None:
+        return []
+    now = cv2.dilate((state.mesh_face >= 0).astype(np.uint8), _disk(2)) > 0  # any object in this frame
+    near_now = cv2.dilate(now.astype(np.uint8), _disk(3)) > 0  # and its edge's own gradient
+    photo = getattr(renderer, "photo", None)
+    # where the frame still shows the photo (an object in place), nothing was revealed
+    as_photo = (np.abs(image.astype(np.float32) - photo).max(-1) <= 1.5 if photo is not None
+                else np.zeros((h, w), bool))
+    photo_any = cv2.dilate(np.any(placed, axis=0).astype(np.uint8), _disk(2)) > 0
+    grey = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY).astype(np.float32)
+    grad = np.hypot(cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3), cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3))
+    ring_px = max(6, int(round(RING * np.hypot(w, h))))
+    out = []
+    for k, m in enumerate(masks):
+        if m is None:
+            continue
+        revealed = m & ~now & ~as_photo
+        if revealed.sum() < MIN_REVEALED:
+            continue
+        r8 = revealed.astype(np.uint8)
+        inner = cv2.erode(r8, _disk(2)) > 0
+        ring = (cv2.dilate(r8, _disk(ring_px)) > 0) & ~photo_any & ~now
+        # the seam between the fill and the surface around it: the area's edge where the ring meets it (not
+        # where an object stands now or stood in the photo)
+        border = ((cv2.dilate(r8, _disk(1)) > 0) & ~(cv2.erode(r8, _disk(1)) > 0)
+                  & (cv2.dilate(ring.astype(np.uint8), _disk(2)) > 0) & ~near_now)
+        if inner.sum() < MIN_REVEALED // 2 or ring.sum() < MIN_REVEALED or not border.any():
+            continue
+        g_ring = max(float(grad[ring].mean()), 1e-6)
+        colour = np.abs(image[inner].reshape(-1, 3).mean(0) - image[ring].reshape(-1, 3).mean(0))
+        out.append({"object": renderer.objects[k].path, "revealed_px": int(revealed.sum()),
+                    "gradient_ratio": round(float(grad[inner].mean()) / g_ring, 3),
+                    "border_ratio": round(float(grad[border].mean()) / g_ring, 3),
+                    "colour_difference": round(float(colour.max()), 2)})
+    return out
+
+
+def within_targets(figure: dict) -> bool:
+    return all(lo <= figure[k] <= hi for k, (lo, hi) in TARGETS.items())
+
+
+def contact_sheet(tiles: list[tuple[str, np.ndarray | None]]) -> np.ndarray:
+    """One row of labelled pictures (RGB uint8, each scaled to :data:`TILE_HEIGHT`); a missing one is grey."""
+    row = []
+    for label, img in tiles:
+        if img is None:
+            img = np.full((TILE_HEIGHT, TILE_HEIGHT, 3), 90, np.uint8)
+        scale = TILE_HEIGHT / img.shape[0]
+        tile = cv2.resize(img, (max(1, round(img.shape[1] * scale)), TILE_HEIGHT), interpolation=cv2.INTER_AREA)
+        tile = np.ascontiguousarray(tile)
+        cv2.rectangle(tile, (0, 0), (8 + 9 * len(label), 22), (0, 0, 0), -1)
+        cv2.putText(tile, label, (4, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1, cv2.LINE_AA)
+        row.extend([tile, np.full((TILE_HEIGHT, 4, 3), 255, np.uint8)])
+    return np.concatenate(row[:-1], axis=1)
+
+
+def preview_opening(shot: pathlib.Path, timeout: float = 240.0) -> np.ndarray | None:
+    """The preview's opening view of ``shot`` as headless Chromium shows it, cut to the photo's letterboxed
+    rectangle (RGB uint8, the canvas's pixels); None where Playwright or Chromium is not installed."""
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        return None
+    chromium = next((p for p in ("/usr/bin/chromium", "/usr/bin/chromium-browser") if pathlib.Path(p).exists()),
+                    None)
+    if chromium is None:
+        return None
+    from ..preview.scene import photo_view
+    from ..usd import layers
+
+    view, _ = photo_view(layers.open_shot(shot))
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    proc = subprocess.Popen([sys.executable, "-m", "physomni_usd.cli", "preview", str(shot), "--port", str(port),
+                             "--no-open", "--duration", str(timeout)], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True)
+    ready = threading.Event()
+
+    def read():
+        for line in proc.stderr:
+            if line.startswith("preview: http://"):
+                ready.set()
+        ready.set()
+
+    threading.Thread(target=read, daemon=True).start()
+    try:
+        if not ready.wait(timeout) or proc.poll() is not None:
+            return None
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=chromium, args=[
+                "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox"])
+            page = browser.new_page(viewport={"width": 1600, "height": 720})
+            page.goto(f"http://127.0.0.1:{port}")
+            page.get_by_role("button", name="Play").wait_for(timeout=120000)
+            for close in page.locator("[role=alert] button").all():  # notifications are not the view
+                close.click()
+            page.wait_for_timeout(2500)
+            png = page.screenshot()
+            c = page.locator("canvas").first.bounding_box()
+            browser.close()
+    finally:
+        proc.terminate()
+        proc.wait(60)
+    img = cv2.cvtColor(cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
+    scale = min(c["width"] / view.width, c["height"] / view.height)
+    x0 = int(round(c["x"] + (c["width"] - view.width * scale) / 2))
+    y0 = int(round(c["y"] + (c["height"] - view.height * scale) / 2))
+    return img[y0:y0 + int(round(view.height * scale)), x0:x0 + int(round(view.width * scale))]
+
+
+def look_example(example: pathlib.Path, work: pathlib.Path, size: int, seconds: float | None,
+                 browser: bool = True) -> tuple[dict, np.ndarray]:
+    """Build, simulate and render one example in ``work``; returns its figures and its contact sheet."""
+    import physomni_usd as api
+
+    from ..metrics import ssim
+    from ..render.video import ShotRenderer, render_shot
+    from ..settings import RenderSettings, SimulateSettings
+    from ..usd import layers
+
+    spec_path = example / "example.json"
+    if not spec_path.is_file():
+        raise InputError(f"{example} has no example.json (photo, masks or boxes, push)")
+    spec = json.loads(spec_path.read_text())
+    masks = [str(example / m) for m in spec.get("masks", [])]
+    result = api.build(example / spec["photo"], work / "shot", masks, spec.get("boxes", []),
+                       pushes=spec.get("push", []), sizes=spec.get("size", []))
+    api.simulate(result.shot, SimulateSettings(seconds=float(seconds or spec.get("seconds", 3))))
+    settings = RenderSettings(max_size=size)
+    stage = layers.open_shot(result.shot)
+    renderer = ShotRenderer(stage, settings)
+    start, end = int(stage.GetStartTimeCode()), int(stage.GetEndTimeCode())
+    frame0 = renderer.frame(float(start))
+    middle = renderer.frame(float((start + end) // 2))
+    last, state = renderer.render(float(end))
+    photo = cv2.cvtColor(cv2.imread(str(example / spec["photo"])), cv2.COLOR_BGR2RGB)
+    small = cv2.resize(photo, frame0.shape[1::-1], interpolation=cv2.INTER_AREA)
+    figures = {"example": example.name, "frames": end - start + 1, "width": renderer.width,
+               "height": renderer.height, "push": spec.get("push", []),
+               "frame0_psnr_db": round(float(cv2.PSNR(frame0, small)), 2),
+               "revealed": revealed_figures(renderer, last, state)}
+    opening = preview_opening(result.shot) if browser else None
+    if opening is not None:
+        o = cv2.resize(opening, photo.shape[1::-1], interpolation=cv2.INTER_AREA)
+        figures["preview_ssim"] = round(float(ssim(cv2.cvtColor(o, cv2.COLOR_RGB2GRAY),
+                                                   cv2.cvtColor(photo, cv2.COLOR_RGB2GRAY))), 4)
+    render_shot(result.shot, work / "orbit.mp4", settings, camera="orbit-left")
+    orbit = ShotRenderer(layers.open_shot(result.shot), settings).frame(float(end))
+    sheet = contact_sheet([("photo", small), ("frame 0", frame0), ("middle", middle), ("last", last),
+                           ("orbit-left, last", orbit), ("preview opening", opening)])
+    return figures, sheet
+
+
+def bench_look(examples: list[pathlib.Path], out_dir: pathlib.Path, size: int = 880, seconds: float | None = None,
+               browser: bool = True, echo=print) -> dict:
+    """A contact sheet (``out_dir/<example>.png``) and the figures of every example in ``examples``;
+    returns the figures by example (also written to ``out_dir/look.json``)."""
+    from .._files import make_dirs, write_json
+
+    make_dirs(out_dir)
+    out = {}
+    echo(f"{'example':<12}{'frame 0 dB':>11}{'preview SSIM':>14}  revealed: px, gradient, border, colour")
+    for example in examples:
+        with tempfile.TemporaryDirectory(prefix="physomni-look-") as tmp:
+            figures, sheet = look_example(pathlib.Path(example), pathlib.Path(tmp), size, seconds, browser)
+        ok = cv2.imwrite(str(out_dir / f"{figures['example']}.png"), cv2.cvtColor(sheet, cv2.COLOR_RGB2BGR))
+        if not ok:
+            raise InputError(f"cannot write {out_dir / (figures['example'] + '.png')}")
+        out[figures["example"]] = figures
+        rev = "; ".join(f"{r['object'].rsplit('/', 1)[-1]} {r['revealed_px']} px, {r['gradient_ratio']:.2f}, "
+                        f"{r['border_ratio']:.2f}, {r['colour_difference']:.1f}"
+                        + ("" if within_targets(r) else " (off target)") for r in figures["revealed"]) or "none"
+        ssim_text = f"{figures['preview_ssim']:.3f}" if "preview_ssim" in figures else "-"
+        echo(f"{figures['example']:<12}{figures['frame0_psnr_db']:>11.2f}{ssim_text:>14}  {rev}")
+    write_json(out_dir / "look.json", out)
+    return out

@@ -1,0 +1,128 @@
+"""What is left where an object stood: bench look's figures, on a made-up frame and on the desk example."""
+
+from __future__ import annotations
+
+import json
+import pathlib
+from types import SimpleNamespace
+
+import cv2
+import numpy as np
+import pytest
+
+from physomni_usd.bench.look import contact_sheet, revealed_figures, within_targets
+
+EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
+
+
+def _frame(fill: str) -> tuple:
+    """A 120×160 wood-like frame whose disc (where an object stood, now gone) is filled as ``fill`` says."""
+    rng = np.random.default_rng(3)
+    y, x = np.mgrid[:120, :160]
+    wood = 120 + 25 * np.sin(x / 3.0 + 2 * np.sin(y / 17.0)) + rng.normal(0, 4, (120, 160))
+    img = np.repeat(wood[..., None], 3, -1)
+    disc = (x - 80) ** 2 + (y - 60) ** 2 < 25 ** 2
+    if fill == "flat":
+        img[disc] = img[disc].mean(0)
+    img = np.clip(img, 0, 255).astype(np.uint8)
+    tex = np.zeros((120, 160, 4), np.uint8)
+    tex[..., 3] = disc * 255
+    obj = SimpleNamespace(origin=(0, 0), texture=tex, two_sided=False, path="/World/Objects/ball")
+    renderer = SimpleNamespace(objects=[obj], width=160, height=120, to_frame=(1.0, 1.0))
+    state = SimpleNamespace(mesh_face=np.full((120, 160), -1, np.int32))
+    return renderer, img, state
+
+
+def test_a_fill_that_continues_the_surface_is_on_target_and_a_flat_patch_is_not():
+    good = revealed_figures(*_frame("texture"))
+    flat = revealed_figures(*_frame("flat"))
+    assert len(good) == len(flat) == 1
+    assert within_targets(good[0]), good
+    assert flat[0]["gradient_ratio"] < 0.6 and not within_targets(flat[0]), flat
+
+
+def test_contact_sheet_is_one_row_of_equal_heights():
+    sheet = contact_sheet([("a", np.zeros((100, 150, 3), np.uint8)), ("missing", None)])
+    assert sheet.shape[0] == 240 and sheet.shape[2] == 3 and sheet.shape[1] > 240 + 360
+
+
+def test_where_the_desk_ball_stood_the_plate_continues_the_wood(tmp_path):
+    """The bundled desk example, its ball pushed for half a second: in the last frame the area it left
+    has the wood's grain, no outline and the wood's colour."""
+    import physomni_usd as api
+    from physomni_usd.render.video import ShotRenderer
+    from physomni_usd.settings import RenderSettings, SimulateSettings
+    from physomni_usd.usd import layers
+
+    folder = EXAMPLES / "desk"
+    spec = json.loads((folder / "example.json").read_text())
+    result = api.build(folder / spec["photo"], tmp_path / "shot", (), spec["boxes"], pushes=spec["push"])
+    api.simulate(result.shot, SimulateSettings(seconds=0.6))
+    stage = layers.open_shot(result.shot)
+    renderer = ShotRenderer(stage, RenderSettings(max_size=480))
+    image, state = renderer.render(float(stage.GetEndTimeCode()))
+    figures = {f["object"].rsplit("/", 1)[-1].split("_")[0]: f for f in revealed_figures(renderer, image, state)}
+    assert "ball" in figures, figures
+    assert within_targets(figures["ball"]), figures["ball"]
+
+
+def _two_surfaces() -> np.ndarray:
+    """A 120×160 plate: a striped wall above, a speckled floor below (different colours and grains)."""
+    rng = np.random.default_rng(5)
+    y, x = np.mgrid[:120, :160]
+    wall = np.stack([150 + 30 * np.sin(x / 2.5 + rng.normal(0, 0.2, x.shape))] * 3, -1) * [1.0, 0.8, 0.6]
+    floor = 110 + rng.normal(0, 18, (120, 160, 1)) * [1, 1, 1]
+    plate = np.where((y < 50)[..., None], wall, cv2.GaussianBlur(floor, (0, 0), 1.0))
+    return np.clip(plate, 0, 255).astype(np.uint8)
+
+
+def _ncc(a: np.ndarray, b: np.ndarray) -> float:
+    a, b = a.astype(float).ravel() - a.mean(), b.astype(float).ravel() - b.mean()
+    return float(a @ b / (np.linalg.norm(a) * np.linalg.norm(b) + 1e-9))
+
+
+def test_exemplar_margins_continue_each_surface_and_mirror_nothing():
+    from physomni_usd.perceive.plate import exemplar_outpaint, mirror_outpaint
+
+    plate = _two_surfaces()
+    m = (60, 60, 80, 80)
+    wide, mirrored = exemplar_outpaint(plate, m), mirror_outpaint(plate, m)
+    assert wide.shape == (240, 320, 3) and np.array_equal(wide[60:180, 80:240], plate)
+    # the left margin beside the floor, past the seam, against the floor's mirror image
+    margin = (slice(130, 175), slice(50, 76))
+    mirror_of_it = plate[70:115, 4:31][:, ::-1][:, :26]
+    assert _ncc(mirrored[margin], mirror_of_it) > 0.6  # the check sees a mirror where there is one
+    assert abs(_ncc(wide[margin], mirror_of_it)) < 0.3
+    # below the floor: the floor's colour and grain; above the wall: the wall's
+    grad = lambda im: float(np.abs(np.diff(im.astype(float).mean(-1), axis=1)).mean())
+    below, floor = wide[190:235, 100:220], plate[60:120]
+    above, wall = wide[5:55, 100:220], plate[:50]
+    assert np.abs(below.reshape(-1, 3).mean(0) - floor.reshape(-1, 3).mean(0)).max() < 10
+    assert np.abs(above.reshape(-1, 3).mean(0) - wall.reshape(-1, 3).mean(0)).max() < 15
+    assert 0.5 < grad(below) / grad(floor) < 1.5 and 0.5 < grad(above) / grad(wall) < 1.5
+
+
+def test_particles_read_as_one_shaded_surface_without_their_lattice():
+    """A ball of particles on a regular lattice (as MPM seeds them), drawn over grey: its interior is
+    smooth (no disc or highlight per particle), and it is lit from above on the left, shaded below right."""
+    from physomni_usd.geometry.camera import RenderCamera
+    from physomni_usd.render.video import ShotRenderer
+
+    w, h = 200, 160
+    cam = RenderCamera(w, h, 400.0, 400.0, np.zeros(3), np.eye(3))  # looking along +z, y down
+    g = np.arange(-0.15, 0.151, 0.02)
+    pts = np.stack(np.meshgrid(g, g, g), -1).reshape(-1, 3)
+    pts = pts[np.linalg.norm(pts, axis=1) <= 0.15] + [0.0, 0.0, 1.0]
+    fake = SimpleNamespace(width=w, height=h)
+    fake._on_screen = lambda uv, z: ShotRenderer._on_screen(fake, uv, z)
+    part = SimpleNamespace(colour=np.array([200.0, 170.0, 120.0]), width=0.02)
+    out = ShotRenderer._splat(fake, np.full((h, w, 3), 90.0, np.float32), cam, [(part, pts)], None)
+    grey = cv2.cvtColor(np.clip(out, 0, 255).astype(np.uint8), cv2.COLOR_RGB2GRAY).astype(float)
+    y, x = np.mgrid[:h, :w]
+    r = np.hypot(x + 0.5 - w / 2, y + 0.5 - h / 2)
+    inside = r < 0.7 * 0.15 * 400 / 1.0
+    detail = grey - cv2.GaussianBlur(grey, (0, 0), 6)
+    assert detail[inside].std() < 4.0, detail[inside].std()  # a disc and a highlight per particle: 23
+    upper_left = inside & (x < w / 2) & (y < h / 2)
+    lower_right = inside & (x >= w / 2) & (y >= h / 2)
+    assert grey[upper_left].mean() - grey[lower_right].mean() > 10
