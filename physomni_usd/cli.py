@@ -79,8 +79,10 @@ def _errors():
         _fail(f"{where}{shown}: {msg}", 2)
     except PermissionError as exc:  # the checks before each command should have caught it
         _fail(f"cannot write {exc.filename}: permission denied", 2)
-    except KeyboardInterrupt:
-        _fail("interrupted; the shot's files are as they were before this command", 130)
+    except KeyboardInterrupt as exc:
+        name, signum = getattr(exc, "name", "SIGINT"), getattr(exc, "signum", 2)
+        _fail(f"interrupted by {name}: the shot's files are put back as they were before this command",
+              128 + signum)
     except Exception as exc:  # a bug, not bad input
         if os.environ.get("PHYSOMNI_DEBUG"):
             raise
@@ -146,6 +148,32 @@ def main():
       physomni-usd run photo.png -o shot/ --mask cup.png:cup --push cup=0.5,0,0
       physomni-usd validate shot/shot.usda
     """
+    _stop_on_signals()
+
+
+def _stop_on_signals() -> None:
+    """SIGTERM and SIGHUP (what `timeout`, farm managers and Kubernetes send) unwind a command as Ctrl-C
+    does, so its files are put back; SIGINT too where it was inherited ignored (a script's background
+    job). A SIGHUP ignored on purpose (nohup) stays ignored; a second signal while unwinding is ignored."""
+    import signal
+    import threading
+
+    from .errors import Interrupted
+
+    if threading.current_thread() is not threading.main_thread():
+        return
+    state = {"stopping": False}
+
+    def stop(signum, frame):
+        if state["stopping"]:
+            return
+        state["stopping"] = True
+        raise Interrupted(signum)
+
+    signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGINT, stop)
+    if signal.getsignal(signal.SIGHUP) is not signal.SIG_IGN:
+        signal.signal(signal.SIGHUP, stop)
 
 
 def build_options(f):
@@ -184,6 +212,10 @@ def build_options(f):
         click.option("--force", "forces", multiple=True, metavar="KIND:key=value,...",
                      help="A force field (constant, wind, point, drag, vortex, turbulence, noise), e.g. "
                           "'wind:direction=1,0,0,strength=30'. Accelerations in m/s²; times in seconds. Repeatable."),
+        click.option("--max-pixels", type=int, default=BuildSettings().max_pixels, show_default=True,
+                     help="Refuse a larger photo (width × height), judged from its header before decoding. "
+                          f"Range: {limits(BuildSettings, 'max_pixels')}. At most "
+                          f"{BuildSettings().max_objects} objects (--mask and --box together)."),
     ]
     for opt in reversed(opts):
         f = opt(f)
@@ -215,11 +247,22 @@ def backend_options(f):
     return wrapper
 
 
-def _build_settings(fov, pitch, camera_height, shape, fps):
+def _build_settings(fov, pitch, camera_height, shape, fps, max_pixels=None, photo=None, objects=0):
+    """The build's settings; with ``photo``, also refuse (before any work) a photo over ``max_pixels``
+    and more than ``max_objects`` masks and boxes."""
+    from .errors import InputError
     from .settings import BuildSettings, CameraSettings, LiftSettings
 
-    return BuildSettings(camera=CameraSettings(fov_deg=fov, pitch_deg=pitch, height_m=camera_height),
-                         lift=LiftSettings(shape=shape), fps=fps)
+    extra = {} if max_pixels is None else {"max_pixels": max_pixels}
+    settings = BuildSettings(camera=CameraSettings(fov_deg=fov, pitch_deg=pitch, height_m=camera_height),
+                             lift=LiftSettings(shape=shape), fps=fps, **extra)
+    if objects > settings.max_objects:
+        raise InputError(f"--mask/--box: {objects} objects; a shot has at most {settings.max_objects}")
+    if photo is not None:
+        from .perceive.masks import check_photo_size
+
+        check_photo_size(photo, settings.max_pixels)
+    return settings
 
 
 @main.command(epilog=EPILOG_BUILD)
@@ -232,12 +275,12 @@ def _build_settings(fov, pitch, camera_height, shape, fps):
               help=PUSH_HELP)
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, fps, meshes_dir, fixed, forces, pushes,
-          quiet, backends):
+          quiet, backends, max_pixels):
     """Photo → scene.usda, physics.usda and the root shot.usda (perceive, align, estimate)."""
     with _errors():
         import physomni_usd
 
-        settings = _build_settings(fov, pitch, camera_height, shape, fps)
+        settings = _build_settings(fov, pitch, camera_height, shape, fps, max_pixels, photo, len(masks) + len(boxes))
         result = physomni_usd.build(photo, out_dir, masks, boxes, settings, pushes=pushes, echo=_say(quiet),
                                     forces=forces, fixed=fixed, meshes_dir=meshes_dir, sizes=sizes, backends=backends)
         if not quiet:
@@ -285,6 +328,9 @@ def _render(shot, output, quiet, max_size=1920, passes=None, passes_dir=None, ca
         from .errors import InputError
 
         raise InputError("--passes-dir needs --passes (e.g. --passes depth,normal,flow,mask)")
+    from .validate import check_shot_values
+
+    check_shot_values(shot)
     with _progress("render  ", not quiet) as bar:
         section = physomni_usd.render(shot, output, RenderSettings(max_size=max_size), progress=bar, passes=names,
                                       passes_dir=passes_dir, camera=camera, camera_amount=camera_amount)
@@ -406,7 +452,7 @@ def render(shot, output, max_size, quiet, passes, passes_dir, camera, camera_amo
               help="Size of the move as a multiple of its default. Range: 0 < value ≤ 4.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, fps, meshes_dir, fixed, forces, seconds,
-        pushes, particle_spacing, mpm_steps, camera, camera_amount, quiet, backends):
+        pushes, particle_spacing, mpm_steps, camera, camera_amount, quiet, backends, max_pixels):
     """build + simulate + render in one go; writes DIR/shot.usda, DIR/video.mp4, DIR/report.json.
 
     \b
@@ -421,7 +467,7 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, f
 
         # refuse absurd values, and a video that could not be written, before any work
         SimulateSettings(seconds=seconds, particle_spacing=particle_spacing, mpm_steps=mpm_steps)
-        settings = _build_settings(fov, pitch, camera_height, shape, fps)
+        settings = _build_settings(fov, pitch, camera_height, shape, fps, max_pixels, photo, len(masks) + len(boxes))
         from .render.video import check_camera_move
 
         check_camera_move(camera, camera_amount)

@@ -20,3 +20,15 @@ class InputError(PhysOmniError):
     """The user's input cannot be used (exit code 2, as for usage errors)."""
 
     exit_code = 2
+
+
+class Interrupted(KeyboardInterrupt):
+    """A terminating signal (SIGTERM, SIGHUP, SIGINT) as Ctrl-C: it unwinds the command, so that every
+    ``all_or_nothing`` block puts its files back; the CLI exits with 128 + the signal's number."""
+
+    def __init__(self, signum: int):
+        import signal
+
+        super().__init__(signal.Signals(signum).name)
+        self.signum = int(signum)
+        self.name = signal.Signals(signum).name
