@@ -57,7 +57,9 @@ def _range_help(text: str, model, field: str) -> str:
 
 
 def _fail(message: str, code: int) -> None:
-    click.echo(f"error: {message}", err=True)
+    from .errors import redact
+
+    click.echo(f"error: {redact(message)}", err=True)
     sys.exit(code)
 
 
@@ -125,6 +127,17 @@ def _progress(label: str, enabled: bool = True):
     finally:
         if state["bar"] is not None:
             state["bar"].__exit__(None, None, None)
+
+
+@contextmanager
+def _shot_lock(shot):
+    """Hold the shot folder's lock from before the command reads the shot to after its last write, so that
+    two commands on one shot (two `estimate --set`) run one after the other and no update is lost."""
+    from ._files import folder_lock
+    from .usd import layers
+
+    with folder_lock(layers.shot_folder(shot)):
+        yield
 
 
 def _say(quiet: bool):
@@ -385,7 +398,7 @@ def simulate(shot, seconds, fps, substeps, particle_spacing, mpm_steps, quiet):
     A quick preview of an elastic shot (4 MPM steps a frame instead of 16):
       physomni-usd simulate shot/shot.usda --mpm-steps 4
     """
-    with _errors(), all_or_nothing():
+    with _errors(), all_or_nothing(), _shot_lock(shot):
         _simulate(shot, seconds, fps, substeps, quiet, particle_spacing, mpm_steps)
 
 
@@ -514,7 +527,7 @@ def estimate(shot, estimator, vlm_url, vlm_model, vlm_api_key, vlm_timeout, sets
       physomni-usd estimate shot/shot.usda --estimator vlm --vlm-url http://localhost:8000/v1 \\
           --vlm-model Qwen2.5-VL-72B-Instruct
     """
-    with _errors():
+    with _errors(), all_or_nothing(), _shot_lock(shot):
         import physomni_usd
 
         vlm = None
@@ -973,6 +986,7 @@ def plugins_command():
     """
     with _errors():
         from .backends import registry
+        from .errors import redact
 
         entries = registry.entries()
         for kind in registry.KINDS:
@@ -986,8 +1000,8 @@ def plugins_command():
                 default = " (default)" if registry.DEFAULTS.get(kind) == e.name else ""
                 origin = "built-in" if e.builtin else "plugin"
                 state = "ready" if ready else "not ready"
-                click.echo(f"  {e.name}{default}: {origin}, {e.package} {e.version}, {state}"
-                           + (f": {note}" if note else ""))
+                click.echo(redact(f"  {e.name}{default}: {origin}, {e.package} {e.version}, {state}"
+                                  + (f": {note}" if note else "")))
 
 
 @main.command()
