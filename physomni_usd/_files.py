@@ -67,9 +67,13 @@ class _Lock:
                 break
             os.close(fd)
         self.fd = fd
-        _recover(folder, self.read())
-        self.journal = {"pid": os.getpid(), "saved": {}, "temporary": []}
-        self.write()
+        try:
+            _recover(folder, self.read())
+            self.journal = {"pid": os.getpid(), "saved": {}, "temporary": []}
+            self.write()
+        except BaseException:
+            self.release()
+            raise
 
     def read(self) -> dict | None:
         try:
@@ -80,9 +84,12 @@ class _Lock:
 
     def write(self) -> None:
         data = json.dumps(self.journal).encode()
-        os.ftruncate(self.fd, 0)
-        os.pwrite(self.fd, data, 0)
-        os.fsync(self.fd)
+        try:
+            os.ftruncate(self.fd, 0)
+            os.pwrite(self.fd, data, 0)
+            os.fsync(self.fd)
+        except OSError as exc:  # a full disk shows here first: name the folder, not our lock file
+            raise OSError(exc.errno, exc.strerror, str(self.folder)) from None
 
     def release(self) -> None:
         try:
@@ -304,7 +311,17 @@ def atomic_path(path: os.PathLike | str):
         os.close(fd)
         writes.note_temporary(pathlib.Path(tmp))
         try:
-            yield pathlib.Path(tmp)
+            try:
+                yield pathlib.Path(tmp)
+            except OSError as exc:  # a write that failed names the file it was for, not the temporary
+                if exc.errno in IO_FAILURES and not exc.filename:
+                    raise OSError(exc.errno, exc.strerror, str(path)) from None
+                raise
+            except Exception as exc:  # USD's own error for a full disk (pxr.Tf.ErrorException)
+                why = next((e for e in IO_FAILURES if os.strerror(e) in str(exc)), None)
+                if why is not None:
+                    raise OSError(why, os.strerror(why), str(path)) from None
+                raise
             os.chmod(tmp, 0o666 & ~_umask())
             writes.keep(path)
             os.replace(tmp, path)
@@ -358,3 +375,32 @@ def _probe(folder: pathlib.Path) -> str | None:
     os.close(fd)
     os.unlink(tmp)
     return None
+
+
+#: I/O failures that are the disk's or the file system's, not a bug: errno → (what to say, exit code).
+IO_FAILURES = {errno.ENOSPC: ("no space left on the device", 1), errno.EDQUOT: ("disk quota exceeded", 1),
+               errno.EFBIG: ("the file would be too large", 1), errno.EIO: ("input/output error", 1),
+               errno.EROFS: ("the file system is read-only", 2), errno.EACCES: ("permission denied", 2),
+               errno.EPERM: ("the operation is not permitted (an immutable file?)", 2)}
+
+
+def shown_name(path) -> str:
+    """The file a user knows for ``path``: a temporary file beside it (``.sim.physomni-XXXX.usdc``) is
+    named as the file it was to replace (``sim.usdc``)."""
+    if path is None:
+        return "a file"
+    p = pathlib.Path(os.fsdecode(path))
+    stem, sep, rest = p.name.partition(f".{TAG}")
+    if sep and stem.startswith("."):
+        suffix = rest.partition(".")[2]
+        return str(p.with_name(stem[1:] + (f".{suffix}" if suffix and suffix != "keep" else "")))
+    return str(p)
+
+
+def io_failure(exc: OSError) -> tuple[str, int] | None:
+    """``(one line, exit code)`` for an :class:`OSError` of the disk (full, read-only, failing), else None."""
+    known = IO_FAILURES.get(exc.errno)
+    if known is None:
+        return None
+    why, code = known
+    return f"cannot write {shown_name(exc.filename)}: {why}; the shot's files are as they were", code

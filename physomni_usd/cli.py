@@ -80,7 +80,18 @@ def _errors():
         shown = f" {value:g}" if isinstance(value, float) else (f" {value}" if isinstance(value, (int, str)) else "")
         _fail(f"{where}{shown}: {msg}", 2)
     except PermissionError as exc:  # the checks before each command should have caught it
-        _fail(f"cannot write {exc.filename}: permission denied", 2)
+        from ._files import shown_name
+
+        _fail(f"cannot write {shown_name(exc.filename)}: permission denied", 2)
+    except OSError as exc:
+        from ._files import io_failure
+
+        failure = io_failure(exc)
+        if failure is None:
+            if os.environ.get("PHYSOMNI_DEBUG"):
+                raise
+            _fail(f"internal error: {type(exc).__name__}: {exc} (set PHYSOMNI_DEBUG=1 for the traceback)", 3)
+        _fail(*failure)
     except KeyboardInterrupt as exc:
         name, signum = getattr(exc, "name", "SIGINT"), getattr(exc, "signum", 2)
         _fail(f"interrupted by {name}: the shot's files are put back as they were before this command",
