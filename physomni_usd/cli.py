@@ -985,6 +985,35 @@ def bench_preview_command(quick, json_path):
             write_json(json_path, numbers)
 
 
+@bench.command("faults")
+@click.option("--only", "only", multiple=True, metavar="CASE",
+              help="Run only this case (repeatable); the cases are the rows the command prints.")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
+              help="Also write the matrix to this JSON file.")
+def bench_faults_command(only, json_path):
+    """The reliability matrix: signals, kills, a photo bomb, two writers, NaNs, another origin, secrets, a
+    full disk, each against a tiny shot through the CLI; one row per case with trials tried and clean.
+
+    \b
+    Example:
+      physomni-usd bench faults --only "photo bomb"
+    """
+    with _errors():
+        from .bench.faults import CASES, bench_faults
+        from .errors import InputError
+
+        unknown = [c for c in only if c not in CASES]
+        if unknown:
+            raise InputError(f"--only {unknown[0]!r}: not a case; one of {', '.join(CASES)}")
+        rows = bench_faults(only=only, echo=click.echo)
+        if json_path:
+            from ._files import write_json
+
+            write_json(json_path, rows)
+        if any(r["clean"] < r["tried"] for r in rows.values()):
+            sys.exit(1)
+
+
 @main.command("plugins")
 def plugins_command():
     """List every backend by kind: built in or from a plugin, its package and version, and whether it is ready.
