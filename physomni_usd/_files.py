@@ -365,6 +365,32 @@ def check_writable(paths) -> None:
             probed[parent] = _probe(parent)
         if probed[parent] is not None:
             raise InputError(f"cannot write {p}: {probed[parent]}")
+        if p.is_file() and _locked_down(p):
+            raise InputError(f"cannot replace {p}: the file is immutable or append-only (lsattr shows it; "
+                             "chattr -i or -a lifts it)")
+
+
+#: Linux's inode flags ioctl (FS_IOC_GETFLAGS) and its immutable and append-only bits.
+_GETFLAGS, _IMMUTABLE, _APPEND = 0x80086601, 0x10, 0x20
+
+
+def _locked_down(path: pathlib.Path) -> bool:
+    """Whether ``path`` is immutable or append-only: even root cannot rename over it, which a write
+    would find only after all its work."""
+    import array
+
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    except OSError:
+        return False
+    try:
+        flags = array.array("l", [0])
+        fcntl.ioctl(fd, _GETFLAGS, flags, True)
+        return bool(flags[0] & (_IMMUTABLE | _APPEND))
+    except OSError:  # a file system without these flags
+        return False
+    finally:
+        os.close(fd)
 
 
 def _probe(folder: pathlib.Path) -> str | None:

@@ -20,7 +20,7 @@ def base(shot):
 def test_fault_is_handled_cleanly(name, base, tmp_path):
     trials = faults.CASES[name](base, tmp_path)
     if not trials:
-        pytest.skip(f"{name}: not possible here (a tmpfs mount needs root)")
+        pytest.skip(f"{name}: not possible here (a tmpfs mount and chattr need root)")
     assert all(ok for ok, _ in trials), "\n".join(f"{'ok' if ok else 'NOT'} {d}" for ok, d in trials)
 
 

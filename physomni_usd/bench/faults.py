@@ -354,10 +354,30 @@ def case_full_disk(base, work):
         subprocess.run(["umount", str(mount)], check=False)
 
 
+def case_immutable_file(base, work):
+    """An immutable sim.usdc is refused before simulating, naming sim.usdc (root with chattr only)."""
+    folder = copy_shot(base, work / "immutable")
+    target = folder / "sim.usdc"
+    if shutil.which("chattr") is None or subprocess.run(["chattr", "+i", str(target)],
+                                                         capture_output=True).returncode:
+        return []
+    try:
+        before = snapshot(folder)
+        t0 = time.perf_counter()
+        proc = cli("simulate", folder / "shot.usda", "-q")
+        seconds = time.perf_counter() - t0
+        ok = (proc.returncode == 2 and one_error_line(proc.stderr, str(target), "immutable")
+              and snapshot(folder) == before and seconds < 15)
+        return [(ok, f"exit {proc.returncode} after {seconds:.1f} s: {proc.stderr.strip().splitlines()[-1:]}")]
+    finally:
+        subprocess.run(["chattr", "-i", str(target)], check=False)
+
+
 CASES = {"terminated re-run": case_terminated_rerun, "terminated new folder": case_terminated_new_folder,
          "killed leftovers": case_killed_leftovers, "photo bomb": case_photo_bomb,
          "concurrent --set": case_concurrent_set, "non-finite values": case_non_finite,
-         "preview origin": case_preview_origin, "secrets": case_secrets, "full disk": case_full_disk}
+         "preview origin": case_preview_origin, "secrets": case_secrets, "full disk": case_full_disk,
+         "immutable file": case_immutable_file}
 
 
 def base_shot(work: pathlib.Path, example: pathlib.Path | None = None, echo=print) -> dict:
