@@ -279,9 +279,32 @@ def case_preview_origin(base, work):
         proc.send_signal(signal.SIGTERM)
         proc.wait(timeout=60)
     same = snapshot(folder) == before
-    return [(evil == "refused 403", f"Origin evil.example: {evil}"),
-            (rebound == "refused 403", f"rebound DNS name: {rebound}"),
-            (own == "accepted" and same, f"its own page: {own}; files {'unchanged' if same else 'CHANGED'}")]
+    trials = [(evil == "refused 403", f"Origin evil.example: {evil}"),
+              (rebound == "refused 403", f"rebound DNS name: {rebound}"),
+              (own == "accepted" and same, f"its own page: {own}; files {'unchanged' if same else 'CHANGED'}")]
+    # started in a script's background (SIGINT ignored), with --record: Ctrl-C still stops it, take saved
+    take = folder / "sim.usdc"
+    old_take = take.read_bytes()
+    proc = subprocess.Popen(command("preview", folder / "shot.usda", "--port", _free_port(), "--duration", 300,
+                                    "--no-open", "--record"), stderr=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                            text=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    err = []
+    for line in proc.stderr:
+        err.append(line)
+        if line.startswith("preview: http"):
+            time.sleep(2)
+            proc.send_signal(signal.SIGINT)
+            break
+    try:
+        err.append(proc.communicate(timeout=120)[1])
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        err.append(proc.communicate()[1])
+    saved = "take written" in "".join(err) and take.read_bytes() != old_take
+    trials.append((proc.returncode == 0 and saved,
+                   f"--record, SIGINT inherited ignored, then Ctrl-C: exit {proc.returncode}, take "
+                   f"{'saved' if saved else 'NOT saved'}"))
+    return trials
 
 
 def case_secrets(base, work):
@@ -328,9 +351,9 @@ def case_secrets(base, work):
     return trials
 
 
-def case_full_disk(base, work):
-    """On a full disk `estimate --set`, `simulate` and `render` end in one line naming the file, exit 1,
-    nothing replaced. Needs a small tmpfs (root); skipped (not counted) elsewhere."""
+def case_full_disk(base, work, commands=("estimate", "simulate")):
+    """On a full disk `estimate --set` and `simulate` end in one line naming the file, exit 1, nothing
+    replaced. Needs a small tmpfs (root); skipped (not counted) elsewhere."""
     mount = work / "full"
     mount.mkdir()
     if os.geteuid() != 0 or subprocess.run(["mount", "-t", "tmpfs", "-o", "size=2m", "tmpfs", str(mount)],
@@ -343,8 +366,10 @@ def case_full_disk(base, work):
         (mount / "filler").write_bytes(b"\0" * max(0, free - 12 * 1024))
         before = snapshot(folder)
         trials = []
-        for args in (("estimate", folder / "shot.usda", "--set", f"{base['labels'][0]}.density=300"),
-                     ("simulate", folder / "shot.usda", "--seconds", "0.2"), ("render", folder / "shot.usda")):
+        runs = {"estimate": ("estimate", folder / "shot.usda", "--set", f"{base['labels'][0]}.density=300"),
+                "simulate": ("simulate", folder / "shot.usda", "--seconds", "0.2"),
+                "render": ("render", folder / "shot.usda")}
+        for args in (runs[c] for c in commands):
             proc = cli(*args, "-q")
             ok = (proc.returncode == 1 and one_error_line(proc.stderr, "no space left") and snapshot(folder) == before
                   and len(proc.stderr.strip().splitlines()) == 1)  # -q: nothing but that line, no library noise
@@ -373,10 +398,16 @@ def case_immutable_file(base, work):
         subprocess.run(["chattr", "-i", str(target)], check=False)
 
 
+def case_full_disk_render(base, work):
+    """`render` on a full disk: as :func:`case_full_disk`; ffmpeg's own error lines still reach stderr."""
+    return case_full_disk(base, work, ("render",))
+
+
 CASES = {"terminated re-run": case_terminated_rerun, "terminated new folder": case_terminated_new_folder,
          "killed leftovers": case_killed_leftovers, "photo bomb": case_photo_bomb,
          "concurrent --set": case_concurrent_set, "non-finite values": case_non_finite,
          "preview origin": case_preview_origin, "secrets": case_secrets, "full disk": case_full_disk,
+         "full disk render": case_full_disk_render,
          "immutable file": case_immutable_file}
 
 
