@@ -28,7 +28,6 @@ MAX_DISTANCE = 1e6  # m from the origin: a shot is a photo's scene, metres acros
 
 def check_inputs(stage: Usd.Stage) -> None:
     """Raise :class:`InputError` on the first authored value the simulator cannot use as given."""
-    check_values(stage)
     seen = set()
     colliders = [p for p in stage.Traverse() if p.HasAPI(UsdPhysics.CollisionAPI)]
     for prim in object_prims(stage) + colliders:
@@ -43,6 +42,7 @@ def check_inputs(stage: Usd.Stage) -> None:
     for prim in stage.Traverse():
         if prim.HasAPI("PhysOmniForceFieldAPI"):
             check_force_field(prim)
+    check_values(stage)  # after the checks above, whose lines also say the allowed range
 
 
 def check_material(mat: Usd.Prim) -> str:
