@@ -172,20 +172,25 @@ def main():
       physomni-usd run photo.png -o shot/ --mask cup.png:cup --push cup=0.5,0,0
       physomni-usd validate shot/shot.usda
     """
-    _stop_on_signals()
+    previous = _stop_on_signals()
+    if previous:  # an in-process caller (a test, a script) gets its own handlers back afterwards
+        import signal
+
+        click.get_current_context().call_on_close(lambda: [signal.signal(k, v) for k, v in previous.items()])
 
 
-def _stop_on_signals() -> None:
+def _stop_on_signals() -> dict:
     """SIGTERM and SIGHUP (what `timeout`, farm managers and Kubernetes send) unwind a command as Ctrl-C
     does, so its files are put back; SIGINT too where it was inherited ignored (a script's background
-    job). A SIGHUP ignored on purpose (nohup) stays ignored; a second signal while unwinding is ignored."""
+    job). A SIGHUP ignored on purpose (nohup) stays ignored; a second signal while unwinding is ignored.
+    Returns the handlers it replaced."""
     import signal
     import threading
 
     from .errors import Interrupted
 
     if threading.current_thread() is not threading.main_thread():
-        return
+        return {}
     state = {"stopping": False}
 
     def stop(signum, frame):
@@ -194,10 +199,14 @@ def _stop_on_signals() -> None:
         state["stopping"] = True
         raise Interrupted(signum)
 
-    signal.signal(signal.SIGTERM, stop)
-    signal.signal(signal.SIGINT, stop)
-    if signal.getsignal(signal.SIGHUP) is not signal.SIG_IGN:
-        signal.signal(signal.SIGHUP, stop)
+    previous = {}
+    for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
+        old = signal.getsignal(sig)
+        if sig == signal.SIGHUP and old is signal.SIG_IGN:
+            continue
+        previous[sig] = old if old is not None else signal.SIG_DFL
+        signal.signal(sig, stop)
+    return previous
 
 
 def build_options(f):
