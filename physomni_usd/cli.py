@@ -17,7 +17,7 @@ from pydantic import ValidationError
 
 from ._files import all_or_nothing
 from .errors import PhysOmniError
-from .settings import RenderSettings, SimulateSettings
+from .settings import MAX_SOLVER_STEPS, RenderSettings, SimulateSettings
 
 PUSH_HELP = ("Give an object this velocity in m/s (each component at most 1000 in size) at T seconds "
              "(default 0, T ≥ 0); world axes: Z up, +Y away from the camera, +X to the image's right. A label "
@@ -332,6 +332,15 @@ def _simulate(shot, seconds, fps, substeps, quiet, particle_spacing=None, mpm_st
 
     settings = SimulateSettings(seconds=seconds, fps=fps, substeps=substeps, particle_spacing=particle_spacing,
                                 mpm_steps=mpm_steps)
+    if substeps is not None:  # refused before any work, not after an hour of it
+        from .errors import InputError
+
+        root = layers.shot_file(shot)
+        rate = fps or (layers.check_layer(root).timeCodesPerSecond if root.is_file() else 30.0)
+        steps = round(seconds * rate) * substeps
+        if steps > MAX_SOLVER_STEPS:
+            raise InputError(f"--substeps {substeps}: {seconds:g} s at {rate:g} fps is {steps:,} solver steps; at "
+                             f"most {MAX_SOLVER_STEPS:,} (fewer --seconds, --fps or --substeps)")
     with _progress("simulate", not quiet) as bar:
         section = physomni_usd.simulate(shot, settings, progress=bar, echo=_say(quiet))
     if not quiet:
@@ -383,7 +392,8 @@ def _render(shot, output, quiet, max_size=1920, passes=None, passes_dir=None, ca
               help=f"Frames per second [default: the shot's]. Range: {limits(SimulateSettings, 'fps')}.")
 @click.option("--substeps", type=int, default=None,
               help="Solver steps per frame [default: chosen from the shot's materials and speeds]. "
-                   f"Range: {limits(SimulateSettings, 'substeps')}.")
+                   f"Range: {limits(SimulateSettings, 'substeps')}; at most {MAX_SOLVER_STEPS:,} steps in all "
+                   "(frames × substeps).")
 @click.option("--particle-spacing", type=float, default=None, metavar="METRES",
               help="MPM particle spacing [default: the smallest MPM object 10 particles across, at most "
                    f"15,000 particles]. Range: {limits(SimulateSettings, 'particle_spacing')}.")

@@ -67,6 +67,11 @@ class BuildSettings(_Settings):
                                          "a lift, a texture and a body, and the alignment grows with their pairs.")
 
 
+#: Most solver steps one `simulate` may ask for (frames × --substeps): 20 s at 100 fps × 500 substeps, about
+#: a quarter of an hour of stepping even at a millisecond a step.
+MAX_SOLVER_STEPS = 1_000_000
+
+
 class SimulateSettings(_Settings):
     seconds: float = Field(3.0, gt=0.0, le=600.0, description="Simulated seconds.")
     fps: float | None = Field(None, ge=1.0, le=1000.0, description="Frames per second; None keeps the shot's.")

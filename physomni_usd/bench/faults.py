@@ -149,7 +149,8 @@ def huge_png(path: pathlib.Path, w: int = 30000, h: int = 30000) -> pathlib.Path
 
 
 def case_photo_bomb(base, work):
-    """A 30000 × 30000 PNG is refused from its header: under 5 s and under 1 GB; 65 boxes are refused."""
+    """A 30000 × 30000 PNG is refused from its header: under 5 s and under 1 GB; 65 boxes and 600 s × 1000
+    substeps are refused before any work."""
     photo = huge_png(work / "huge.png")
     t0 = time.perf_counter()
     proc = subprocess.Popen(command("build", photo, "-o", work / "bomb", "--box", "1,1,50,50"),
@@ -164,6 +165,11 @@ def case_photo_bomb(base, work):
     proc = cli("build", base["photo"], "-o", work / "boxes", *boxes)
     trials.append((proc.returncode == 2 and one_error_line(proc.stderr, "at most") and not (work / "boxes").exists(),
                    f"65 boxes: exit {proc.returncode}"))
+    folder = copy_shot(base, work / "steps")
+    before = snapshot(folder)
+    proc = cli("simulate", folder / "shot.usda", "--seconds", 600, "--substeps", 1000)
+    trials.append((proc.returncode == 2 and one_error_line(proc.stderr, "--substeps", "solver steps")
+                   and snapshot(folder) == before, f"600 s × 1000 substeps: exit {proc.returncode}"))
     return trials
 
 
