@@ -1,17 +1,36 @@
 """Writing files so that a crash never leaves one half-written (a temporary file, then a rename), checking
 before any work that every file a command will write can be written, and grouping a command's writes so
-that either all of them take effect or none (:func:`all_or_nothing`)."""
+that either all of them take effect or none (:func:`all_or_nothing`).
+
+A command that writes into a folder holds an advisory lock there (``fcntl.flock`` on ``.physomni.lock``)
+until its last file is in place, so two writers never interleave; the lock file doubles as the command's
+journal (which files it replaced, where their old content is kept, which temporary files it made). The
+kernel drops a dead process's lock, so whoever next gets the lock and finds a journal knows its writer is
+gone, and puts the folder back as it was before that command (see :func:`_recover`).
+"""
 
 from __future__ import annotations
 
 import contextvars
+import errno
+import fcntl
+import json
 import os
 import pathlib
 import shutil
 import tempfile
+import time
 from contextlib import contextmanager
 
-from .errors import InputError
+from .errors import InputError, PhysOmniError
+
+#: The lock (and journal) file in each folder a command writes to; removed when the command ends.
+LOCK = ".physomni.lock"
+#: Seconds a second writer waits for the folder's lock before it gives up with one line.
+LOCK_WAIT_S = float(os.environ.get("PHYSOMNI_LOCK_WAIT", "120"))
+#: What our temporary and kept files are called, so that leftovers of a killed run are recognised and
+#: nothing a user named is ever taken for one: ``.NAME.physomni-XXXX.keep``, ``.STEM.physomni-XXXX.EXT``.
+TAG = "physomni-"
 
 
 def _umask() -> int:
@@ -20,35 +39,155 @@ def _umask() -> int:
     return mask
 
 
+class _Lock:
+    """The lock of one folder, held by this process; its file holds the journal of what was changed."""
+
+    def __init__(self, folder: pathlib.Path, wait_s: float | None = None):
+        self.folder = folder
+        self.path = folder / LOCK
+        wait_s = LOCK_WAIT_S if wait_s is None else wait_s
+        deadline = time.monotonic() + wait_s
+        while True:
+            try:
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666 & ~_umask())
+            except OSError as exc:
+                if exc.errno not in (errno.EACCES, errno.EPERM, errno.EROFS):
+                    raise
+                raise InputError(f"cannot write in {folder}: the folder {folder} is not writable "
+                                 f"({exc.strerror})") from None
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                os.close(fd)
+                if time.monotonic() >= deadline:
+                    raise PhysOmniError(f"{folder} is being written by another physomni-usd command "
+                                        f"({_holder(self.path)}); waited {wait_s:g} s (set PHYSOMNI_LOCK_WAIT "
+                                        "to wait longer)") from None
+                time.sleep(0.1)
+                continue
+            try:  # the file may have been removed by the holder we waited for: lock the one on disk
+                same = os.fstat(fd).st_ino == os.stat(self.path).st_ino
+            except FileNotFoundError:
+                same = False
+            if same:
+                break
+            os.close(fd)
+        self.fd = fd
+        try:
+            _recover(folder, self.read())
+            self.journal = {"pid": os.getpid(), "saved": {}, "temporary": []}
+            self.write()
+        except BaseException:
+            self.release()
+            raise
+
+    def read(self) -> dict | None:
+        try:
+            data = os.pread(self.fd, 1 << 20, 0)
+            return json.loads(data) if data.strip() else None
+        except (OSError, ValueError):
+            return None
+
+    def write(self) -> None:
+        data = json.dumps(self.journal).encode()
+        try:
+            os.ftruncate(self.fd, 0)
+            os.pwrite(self.fd, data, 0)
+            os.fsync(self.fd)
+        except OSError as exc:  # a full disk shows here first: name the folder, not our lock file
+            raise OSError(exc.errno, exc.strerror, str(self.folder)) from None
+
+    def release(self) -> None:
+        try:
+            os.unlink(self.path)  # while still held: a waiter re-checks the inode and takes a fresh file
+        except OSError:
+            pass
+        os.close(self.fd)
+
+
+def _holder(path: pathlib.Path) -> str:
+    try:
+        pid = json.loads(path.read_text() or "{}").get("pid")
+    except (OSError, ValueError):
+        pid = None
+    return f"pid {pid}" if pid else "another process"
+
+
+def _recover(folder: pathlib.Path, journal: dict | None) -> None:
+    """Put ``folder`` back as it was before a command that died while it held the lock (its journal says
+    what it had changed), and remove our temporary and kept files any earlier run left behind."""
+    if journal:
+        for name, backup in (journal.get("saved") or {}).items():
+            path = folder / name
+            try:
+                if backup is None:
+                    if path.is_file():
+                        path.unlink()
+                elif (folder / backup).is_file():
+                    os.replace(folder / backup, path)
+            except OSError:
+                pass
+    # with the lock held nobody else writes here: any of our temporary files left is an orphan
+    for p in list(folder.glob(f".*.{TAG}*")) + list(folder.glob(".physomni-probe.*")):
+        try:
+            if p.is_file():
+                p.unlink()
+        except OSError:
+            pass
+
+
 class _Writes:
     """What one command changed on disk, so that a failure can put everything back.
 
     ``saved`` maps each replaced or removed file to a hard link (or copy) of its old content, or to
-    ``None`` where the command created it; ``dirs`` are the folders the command created.
+    ``None`` where the command created it; ``dirs`` are the folders the command created; ``locks`` the
+    folders it holds (each with the journal of what was changed there).
     """
 
     def __init__(self):
         self.saved: dict[pathlib.Path, pathlib.Path | None] = {}
         self.dirs: list[pathlib.Path] = []
+        self.locks: dict[pathlib.Path, _Lock] = {}
+
+    def hold(self, folder: pathlib.Path) -> _Lock:
+        """The lock of ``folder``, taken on the first write there and kept to the end of the command."""
+        folder = pathlib.Path(os.path.abspath(folder))
+        if folder not in self.locks:
+            self.locks[folder] = _Lock(folder)
+        return self.locks[folder]
+
+    def note_temporary(self, tmp: pathlib.Path) -> None:
+        lock = self.hold(tmp.parent)
+        lock.journal["temporary"].append(tmp.name)
+        lock.write()
 
     def keep(self, path: pathlib.Path) -> None:
         """Remember ``path``'s content before its first change in this command."""
         path = pathlib.Path(os.path.abspath(path))
         if path in self.saved:
             return
+        lock = self.hold(path.parent)
         if not path.is_file():
             self.saved[path] = None
-            return
-        fd, backup = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".keep", dir=path.parent)
-        os.close(fd)
-        os.unlink(backup)
-        try:
-            os.link(path, backup)
-        except OSError:  # a file system without hard links
-            shutil.copy2(path, backup)
-        self.saved[path] = pathlib.Path(backup)
+        else:
+            fd, backup = tempfile.mkstemp(prefix=f".{path.name}.{TAG}", suffix=".keep", dir=path.parent)
+            os.close(fd)
+            os.unlink(backup)
+            try:
+                os.link(path, backup)
+            except OSError:  # a file system without hard links
+                shutil.copy2(path, backup)
+            self.saved[path] = pathlib.Path(backup)
+        # journal first, change after: a kill between the two leaves a journal that restores nothing new
+        lock.journal["saved"][path.name] = None if self.saved[path] is None else self.saved[path].name
+        lock.write()
 
     def commit(self) -> None:
+        """The command's files are all in place: emptying the journals is the commit (a kill before it
+        puts the old shot back, one after it keeps the new); then the kept old contents go."""
+        for lock in self.locks.values():
+            lock.journal = {"pid": os.getpid(), "saved": {}, "temporary": []}
+            lock.write()
         for backup in self.saved.values():
             if backup is not None and backup.exists():
                 backup.unlink()
@@ -63,6 +202,19 @@ class _Writes:
                     os.replace(backup, path)
             except OSError:
                 pass
+        for lock in self.locks.values():
+            for name in lock.journal.get("temporary", ()):
+                try:
+                    (lock.folder / name).unlink()
+                except OSError:
+                    pass
+            lock.journal = {"pid": os.getpid(), "saved": {}, "temporary": []}
+            lock.write()
+
+    def release(self) -> None:
+        for lock in self.locks.values():
+            lock.release()
+        self.locks.clear()
         for folder in reversed(self.dirs):
             try:
                 folder.rmdir()  # only if empty: never anything a user put there
@@ -93,8 +245,32 @@ def all_or_nothing():
         raise
     else:
         writes.commit()
+        writes.dirs.clear()  # kept: the command succeeded
     finally:
         _ACTIVE.reset(token)
+        writes.release()
+
+
+@contextmanager
+def folder_lock(folder: os.PathLike | str):
+    """Hold ``folder``'s lock from now on: inside :func:`all_or_nothing` to the end of the command (so that
+    what a command reads there before it writes cannot change under it: ``estimate --set`` reading
+    ``edits.usda``), else for the block. A folder that does not exist yet is locked on its first write."""
+    folder = pathlib.Path(folder)
+    writes = _ACTIVE.get()
+    if not folder.is_dir():
+        yield
+    elif writes is not None:
+        writes.hold(folder)
+        yield
+    else:
+        lock = _Lock(pathlib.Path(os.path.abspath(folder)))
+        try:
+            yield
+        finally:
+            lock.journal = {}
+            lock.write()
+            lock.release()
 
 
 def make_dirs(path: os.PathLike | str) -> pathlib.Path:
@@ -134,18 +310,30 @@ def atomic_path(path: os.PathLike | str):
     and ``path`` is left as it was.
     """
     path = pathlib.Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        yield pathlib.Path(tmp)
-        os.chmod(tmp, 0o666 & ~_umask())
+    with all_or_nothing():  # a lone write still takes the folder's lock and journals its temporary file
         writes = _ACTIVE.get()
-        if writes is not None:
+        writes.hold(path.parent)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.{TAG}", suffix=path.suffix, dir=path.parent)
+        os.close(fd)
+        writes.note_temporary(pathlib.Path(tmp))
+        try:
+            try:
+                yield pathlib.Path(tmp)
+            except OSError as exc:  # a write that failed names the file it was for, not the temporary
+                if exc.errno in IO_FAILURES and not exc.filename:
+                    raise OSError(exc.errno, exc.strerror, str(path)) from None
+                raise
+            except Exception as exc:  # USD's own error for a full disk (pxr.Tf.ErrorException)
+                why = next((e for e in IO_FAILURES if os.strerror(e) in str(exc)), None)
+                if why is not None:
+                    raise OSError(why, os.strerror(why), str(path)) from None
+                raise
+            os.chmod(tmp, 0o666 & ~_umask())
             writes.keep(path)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+            os.replace(tmp, path)
+        finally:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
 
 
 def write_bytes(path: os.PathLike | str, data: bytes) -> pathlib.Path:
@@ -183,6 +371,32 @@ def check_writable(paths) -> None:
             probed[parent] = _probe(parent)
         if probed[parent] is not None:
             raise InputError(f"cannot write {p}: {probed[parent]}")
+        if p.is_file() and _locked_down(p):
+            raise InputError(f"cannot replace {p}: the file is immutable or append-only (lsattr shows it; "
+                             "chattr -i or -a lifts it)")
+
+
+#: Linux's inode flags ioctl (FS_IOC_GETFLAGS) and its immutable and append-only bits.
+_GETFLAGS, _IMMUTABLE, _APPEND = 0x80086601, 0x10, 0x20
+
+
+def _locked_down(path: pathlib.Path) -> bool:
+    """Whether ``path`` is immutable or append-only: even root cannot rename over it, which a write
+    would find only after all its work."""
+    import array
+
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    except OSError:
+        return False
+    try:
+        flags = array.array("l", [0])
+        fcntl.ioctl(fd, _GETFLAGS, flags, True)
+        return bool(flags[0] & (_IMMUTABLE | _APPEND))
+    except OSError:  # a file system without these flags
+        return False
+    finally:
+        os.close(fd)
 
 
 def _probe(folder: pathlib.Path) -> str | None:
@@ -193,3 +407,32 @@ def _probe(folder: pathlib.Path) -> str | None:
     os.close(fd)
     os.unlink(tmp)
     return None
+
+
+#: I/O failures that are the disk's or the file system's, not a bug: errno → (what to say, exit code).
+IO_FAILURES = {errno.ENOSPC: ("no space left on the device", 1), errno.EDQUOT: ("disk quota exceeded", 1),
+               errno.EFBIG: ("the file would be too large", 1), errno.EIO: ("input/output error", 1),
+               errno.EROFS: ("the file system is read-only", 2), errno.EACCES: ("permission denied", 2),
+               errno.EPERM: ("the operation is not permitted (an immutable file?)", 2)}
+
+
+def shown_name(path) -> str:
+    """The file a user knows for ``path``: a temporary file beside it (``.sim.physomni-XXXX.usdc``) is
+    named as the file it was to replace (``sim.usdc``)."""
+    if path is None:
+        return "a file"
+    p = pathlib.Path(os.fsdecode(path))
+    stem, sep, rest = p.name.partition(f".{TAG}")
+    if sep and stem.startswith("."):
+        suffix = rest.partition(".")[2]
+        return str(p.with_name(stem[1:] + (f".{suffix}" if suffix and suffix != "keep" else "")))
+    return str(p)
+
+
+def io_failure(exc: OSError) -> tuple[str, int] | None:
+    """``(one line, exit code)`` for an :class:`OSError` of the disk (full, read-only, failing), else None."""
+    known = IO_FAILURES.get(exc.errno)
+    if known is None:
+        return None
+    why, code = known
+    return f"cannot write {shown_name(exc.filename)}: {why}; the shot's files are as they were", code

@@ -240,7 +240,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         out = pathlib.Path(out_dir)
         if out.exists() and not out.is_dir():
             raise InputError(f"output {out} exists and is not a directory")
-        photo = read_photo(photo_path)
+        photo = read_photo(photo_path, settings.max_pixels)
         objects = (backend_steps.collect_objects(photo, masks, boxes, chosen["segmenter"])
                    if masks or boxes or finding is None else [])
         if finding is not None:

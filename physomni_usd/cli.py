@@ -17,7 +17,7 @@ from pydantic import ValidationError
 
 from ._files import all_or_nothing
 from .errors import PhysOmniError
-from .settings import RenderSettings, SimulateSettings
+from .settings import MAX_SOLVER_STEPS, RenderSettings, SimulateSettings
 
 PUSH_HELP = ("Give an object this velocity in m/s (each component at most 1000 in size) at T seconds "
              "(default 0, T ≥ 0); world axes: Z up, +Y away from the camera, +X to the image's right. A label "
@@ -59,7 +59,9 @@ def _range_help(text: str, model, field: str) -> str:
 
 
 def _fail(message: str, code: int) -> None:
-    click.echo(f"error: {message}", err=True)
+    from .errors import redact
+
+    click.echo(f"error: {redact(message)}", err=True)
     sys.exit(code)
 
 
@@ -80,9 +82,22 @@ def _errors():
         shown = f" {value:g}" if isinstance(value, float) else (f" {value}" if isinstance(value, (int, str)) else "")
         _fail(f"{where}{shown}: {msg}", 2)
     except PermissionError as exc:  # the checks before each command should have caught it
-        _fail(f"cannot write {exc.filename}: permission denied", 2)
-    except KeyboardInterrupt:
-        _fail("interrupted; the shot's files are as they were before this command", 130)
+        from ._files import shown_name
+
+        _fail(f"cannot write {shown_name(exc.filename)}: permission denied", 2)
+    except OSError as exc:
+        from ._files import io_failure
+
+        failure = io_failure(exc)
+        if failure is None:
+            if os.environ.get("PHYSOMNI_DEBUG"):
+                raise
+            _fail(f"internal error: {type(exc).__name__}: {exc} (set PHYSOMNI_DEBUG=1 for the traceback)", 3)
+        _fail(*failure)
+    except KeyboardInterrupt as exc:
+        name, signum = getattr(exc, "name", "SIGINT"), getattr(exc, "signum", 2)
+        _fail(f"interrupted by {name}: the shot's files are put back as they were before this command",
+              128 + signum)
     except Exception as exc:  # a bug, not bad input
         if os.environ.get("PHYSOMNI_DEBUG"):
             raise
@@ -127,6 +142,17 @@ def _progress(label: str, enabled: bool = True):
             state["bar"].__exit__(None, None, None)
 
 
+@contextmanager
+def _shot_lock(shot):
+    """Hold the shot folder's lock from before the command reads the shot to after its last write, so that
+    two commands on one shot (two `estimate --set`) run one after the other and no update is lost."""
+    from ._files import folder_lock
+    from .usd import layers
+
+    with folder_lock(layers.shot_folder(shot)):
+        yield
+
+
 def _say(quiet: bool):
     return (lambda msg: None) if quiet else (lambda msg: click.echo(msg, err=True))
 
@@ -149,6 +175,41 @@ def main():
       physomni-usd run photo.png -o shot/ --mask cup.png:cup --push cup=0.5,0,0
       physomni-usd validate shot/shot.usda
     """
+    previous = _stop_on_signals()
+    if previous:  # an in-process caller (a test, a script) gets its own handlers back afterwards
+        import signal
+
+        click.get_current_context().call_on_close(lambda: [signal.signal(k, v) for k, v in previous.items()])
+
+
+def _stop_on_signals() -> dict:
+    """SIGTERM and SIGHUP (what `timeout`, farm managers and Kubernetes send) unwind a command as Ctrl-C
+    does, so its files are put back; SIGINT too where it was inherited ignored (a script's background
+    job). A SIGHUP ignored on purpose (nohup) stays ignored; a second signal while unwinding is ignored.
+    Returns the handlers it replaced."""
+    import signal
+    import threading
+
+    from .errors import Interrupted
+
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    state = {"stopping": False}
+
+    def stop(signum, frame):
+        if state["stopping"]:
+            return
+        state["stopping"] = True
+        raise Interrupted(signum)
+
+    previous = {}
+    for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
+        old = signal.getsignal(sig)
+        if sig == signal.SIGHUP and old is signal.SIG_IGN:
+            continue
+        previous[sig] = old if old is not None else signal.SIG_DFL
+        signal.signal(sig, stop)
+    return previous
 
 
 def build_options(f):
@@ -196,6 +257,10 @@ def build_options(f):
         click.option("--force", "forces", multiple=True, metavar="KIND:key=value,...",
                      help="A force field (constant, wind, point, drag, vortex, turbulence, noise), e.g. "
                           "'wind:direction=1,0,0,strength=30'. Accelerations in m/s²; times in seconds. Repeatable."),
+        click.option("--max-pixels", type=int, default=BuildSettings().max_pixels, show_default=True,
+                     help="Refuse a larger photo (width × height), judged from its header before decoding. "
+                          f"Range: {limits(BuildSettings, 'max_pixels')}. At most "
+                          f"{BuildSettings().max_objects} objects (--mask and --box together)."),
     ]
     for opt in reversed(opts):
         f = opt(f)
@@ -227,11 +292,22 @@ def backend_options(f):
     return wrapper
 
 
-def _build_settings(fov, pitch, camera_height, shape, fps):
+def _build_settings(fov, pitch, camera_height, shape, fps, max_pixels=None, photo=None, objects=0):
+    """The build's settings; with ``photo``, also refuse (before any work) a photo over ``max_pixels``
+    and more than ``max_objects`` masks and boxes."""
+    from .errors import InputError
     from .settings import BuildSettings, CameraSettings, LiftSettings
 
-    return BuildSettings(camera=CameraSettings(fov_deg=fov, pitch_deg=pitch, height_m=camera_height),
-                         lift=LiftSettings(shape=shape), fps=fps)
+    extra = {} if max_pixels is None else {"max_pixels": max_pixels}
+    settings = BuildSettings(camera=CameraSettings(fov_deg=fov, pitch_deg=pitch, height_m=camera_height),
+                             lift=LiftSettings(shape=shape), fps=fps, **extra)
+    if objects > settings.max_objects:
+        raise InputError(f"--mask/--box: {objects} objects; a shot has at most {settings.max_objects}")
+    if photo is not None:
+        from .perceive.masks import check_photo_size
+
+        check_photo_size(photo, settings.max_pixels)
+    return settings
 
 
 @main.command(epilog=EPILOG_BUILD)
@@ -244,12 +320,12 @@ def _build_settings(fov, pitch, camera_height, shape, fps):
               help=PUSH_HELP)
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def build(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, fps, meshes_dir, fixed, forces, pushes,
-          quiet, backends, find=None, finder=None):
+          quiet, backends, max_pixels, find=None, finder=None):
     """Photo → scene.usda, physics.usda and the root shot.usda (perceive, align, estimate)."""
     with _errors():
         import physomni_usd
 
-        settings = _build_settings(fov, pitch, camera_height, shape, fps)
+        settings = _build_settings(fov, pitch, camera_height, shape, fps, max_pixels, photo, len(masks) + len(boxes))
         result = physomni_usd.build(photo, out_dir, masks, boxes, settings, pushes=pushes, echo=_say(quiet),
                                     forces=forces, fixed=fixed, meshes_dir=meshes_dir, sizes=sizes, backends=backends,
                                     find=find, finder=finder)
@@ -269,6 +345,15 @@ def _simulate(shot, seconds, fps, substeps, quiet, particle_spacing=None, mpm_st
 
     settings = SimulateSettings(seconds=seconds, fps=fps, substeps=substeps, particle_spacing=particle_spacing,
                                 mpm_steps=mpm_steps)
+    if substeps is not None:  # refused before any work, not after an hour of it
+        from .errors import InputError
+
+        root = layers.shot_file(shot)
+        rate = fps or (layers.check_layer(root).timeCodesPerSecond if root.is_file() else 30.0)
+        steps = round(seconds * rate) * substeps
+        if steps > MAX_SOLVER_STEPS:
+            raise InputError(f"--substeps {substeps}: {seconds:g} s at {rate:g} fps is {steps:,} solver steps; at "
+                             f"most {MAX_SOLVER_STEPS:,} (fewer --seconds, --fps or --substeps)")
     with _progress("simulate", not quiet) as bar:
         section = physomni_usd.simulate(shot, settings, progress=bar, echo=_say(quiet))
     if not quiet:
@@ -301,6 +386,9 @@ def _render(shot, output, quiet, max_size=1920, passes=None, passes_dir=None, ca
         from .errors import InputError
 
         raise InputError("--passes-dir needs --passes (e.g. --passes depth,normal,flow,mask)")
+    from .validate import check_shot_values
+
+    check_shot_values(shot)
     with _progress("render  ", not quiet) as bar:
         section = physomni_usd.render(shot, output, RenderSettings(max_size=max_size), progress=bar, passes=names,
                                       passes_dir=passes_dir, camera=camera, camera_amount=camera_amount)
@@ -320,7 +408,8 @@ def _render(shot, output, quiet, max_size=1920, passes=None, passes_dir=None, ca
               help=f"Frames per second [default: the shot's]. Range: {limits(SimulateSettings, 'fps')}.")
 @click.option("--substeps", type=int, default=None,
               help="Solver steps per frame [default: chosen from the shot's materials and speeds]. "
-                   f"Range: {limits(SimulateSettings, 'substeps')}.")
+                   f"Range: {limits(SimulateSettings, 'substeps')}; at most {MAX_SOLVER_STEPS:,} steps in all "
+                   "(frames × substeps).")
 @click.option("--particle-spacing", type=float, default=None, metavar="METRES",
               help="MPM particle spacing [default: the smallest MPM object 10 particles across, at most "
                    f"15,000 particles]. Range: {limits(SimulateSettings, 'particle_spacing')}.")
@@ -355,7 +444,7 @@ def simulate(shot, seconds, fps, substeps, particle_spacing, mpm_steps, quiet):
     A quick preview of an elastic shot (4 MPM steps a frame instead of 16):
       physomni-usd simulate shot/shot.usda --mpm-steps 4
     """
-    with _errors(), all_or_nothing():
+    with _errors(), all_or_nothing(), _shot_lock(shot):
         _simulate(shot, seconds, fps, substeps, quiet, particle_spacing, mpm_steps)
 
 
@@ -437,7 +526,7 @@ def _check_simulated(shot) -> None:
               help="Size of the move as a multiple of its default. Range: 0 < value ≤ 4.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, fps, meshes_dir, fixed, forces, seconds,
-        pushes, particle_spacing, mpm_steps, camera, camera_amount, quiet, backends, find=None, finder=None):
+        pushes, particle_spacing, mpm_steps, camera, camera_amount, quiet, backends, max_pixels, find=None, finder=None):
     """build + simulate + render in one go; writes DIR/shot.usda, DIR/video.mp4, DIR/report.json.
 
     \b
@@ -452,7 +541,7 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, f
 
         # refuse absurd values, and a video that could not be written, before any work
         SimulateSettings(seconds=seconds, particle_spacing=particle_spacing, mpm_steps=mpm_steps)
-        settings = _build_settings(fov, pitch, camera_height, shape, fps)
+        settings = _build_settings(fov, pitch, camera_height, shape, fps, max_pixels, photo, len(masks) + len(boxes))
         from .render.video import check_camera_move
 
         check_camera_move(camera, camera_amount)
@@ -500,7 +589,7 @@ def estimate(shot, estimator, vlm_url, vlm_model, vlm_api_key, vlm_timeout, sets
       physomni-usd estimate shot/shot.usda --estimator vlm --vlm-url http://localhost:8000/v1 \\
           --vlm-model Qwen2.5-VL-72B-Instruct
     """
-    with _errors():
+    with _errors(), all_or_nothing(), _shot_lock(shot):
         import physomni_usd
 
         vlm = None
@@ -1062,6 +1151,35 @@ def bench_preview_command(quick, json_path):
             write_json(json_path, numbers)
 
 
+@bench.command("faults")
+@click.option("--only", "only", multiple=True, metavar="CASE",
+              help="Run only this case (repeatable); the cases are the rows the command prints.")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
+              help="Also write the matrix to this JSON file.")
+def bench_faults_command(only, json_path):
+    """The reliability matrix: signals, kills, a photo bomb, two writers, NaNs, another origin, secrets, a
+    full disk, each against a tiny shot through the CLI; one row per case with trials tried and clean.
+
+    \b
+    Example:
+      physomni-usd bench faults --only "photo bomb"
+    """
+    with _errors():
+        from .bench.faults import CASES, bench_faults
+        from .errors import InputError
+
+        unknown = [c for c in only if c not in CASES]
+        if unknown:
+            raise InputError(f"--only {unknown[0]!r}: not a case; one of {', '.join(CASES)}")
+        rows = bench_faults(only=only, echo=click.echo)
+        if json_path:
+            from ._files import write_json
+
+            write_json(json_path, rows)
+        if any(r["clean"] < r["tried"] for r in rows.values()):
+            sys.exit(1)
+
+
 @main.command("plugins")
 def plugins_command():
     """List every backend by kind: built in or from a plugin, its package and version, and its state.
@@ -1079,6 +1197,7 @@ def plugins_command():
     """
     with _errors():
         from .backends import registry
+        from .errors import redact
 
         entries = registry.entries()
         for kind in registry.KINDS:
@@ -1094,8 +1213,8 @@ def plugins_command():
                 # a backend that can run but waits for a setting (a server's address) is not "ready"
                 state = "not ready" if not ready else ("needs setting up" if note.startswith("needs ") else "ready")
                 note = note[len("needs "):] if state == "needs setting up" else note
-                click.echo(f"  {e.name}{default}: {origin}, {e.package} {e.version}, {state}"
-                           + (f": {note}" if note else ""))
+                click.echo(redact(f"  {e.name}{default}: {origin}, {e.package} {e.version}, {state}"
+                           + (f": {note}" if note else "")))
 
 
 @main.command()

@@ -58,6 +58,18 @@ class BuildSettings(_Settings):
                                                    "meshes (coarse-to-fine: random samples, then Powell).")
     camera_search_evals: int = Field(300, ge=1, le=100000, description="Cap on renders of the camera search.")
     gap_m: float = Field(0.002, ge=0.0, le=1.0, description="Clearance left between objects' footprints, metres.")
+    # 40 MP covers a full-frame camera's photo; what a build needs grows with the pixels (gigabytes at 48 MP)
+    max_pixels: int = Field(40_000_000, ge=65_536, le=1_000_000_000,
+                            description="Largest photo, in pixels (width × height), read from its header before "
+                                        "anything decodes it.")
+    max_objects: int = Field(64, ge=1, le=1000,
+                             description="Most objects one shot may have (--mask and --box together); each costs "
+                                         "a lift, a texture and a body, and the alignment grows with their pairs.")
+
+
+#: Most solver steps one `simulate` may ask for (frames × --substeps): 20 s at 100 fps × 500 substeps, about
+#: a quarter of an hour of stepping even at a millisecond a step.
+MAX_SOLVER_STEPS = 1_000_000
 
 
 class SimulateSettings(_Settings):

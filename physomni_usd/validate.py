@@ -216,6 +216,9 @@ def validate_stage(path) -> list[Finding]:
     else:
         layers.check_shot_layers(p)
         stage = Usd.Stage.Open(str(p))
+    from .physics.checks import check_values
+
+    check_values(stage)  # a NaN or an absurd value is bad input (exit 2), not a finding among others
     findings = usd_validation(stage)
     findings += time_code_checks(stage)
     if stage.GetPrimAtPath("/World") and stage.GetPrimAtPath("/World/Camera"):
@@ -223,3 +226,11 @@ def validate_stage(path) -> list[Finding]:
         findings += scene_checks(stage)
     findings += sim_layer_checks(stage)
     return findings
+
+
+def check_shot_values(shot) -> None:
+    """Refuse (one line, exit 2) a shot whose composed stage holds a non-finite or absurd value: what every
+    command that reads a shot checks before it computes or replaces anything."""
+    from .physics.checks import check_values
+
+    check_values(layers.open_shot(shot))

@@ -14,13 +14,14 @@ import os
 import socket
 import time
 import urllib.error
+import urllib.parse
 import urllib.request
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
 
-from ..errors import PhysOmniError
+from ..errors import PhysOmniError, redact
 from .parse import parse_reply
 
 ENV_URL, ENV_MODEL, ENV_KEY = "PHYSOMNI_VLM_URL", "PHYSOMNI_VLM_MODEL", "PHYSOMNI_VLM_API_KEY"
@@ -61,7 +62,7 @@ Answer with ONLY one JSON object: {"objects": [{"index": 0, "name": "...", "mate
 class VLMSettings:
     url: str
     model: str
-    api_key: str | None = None
+    api_key: str | None = field(default=None, repr=False)  # never printed, never in a report
     timeout_s: float = 120.0
     retries: int = 2
     backoff_s: float = 1.0
@@ -112,21 +113,42 @@ def build_messages(photo: np.ndarray, masks: list[np.ndarray], labels: list[str]
     return [{"role": "system", "content": SYSTEM_PROMPT}, {"role": "user", "content": content}]
 
 
+class _SameHostRedirects(urllib.request.HTTPRedirectHandler):
+    """Follow a redirect only to the host (and port and scheme) the user named: the API key goes nowhere
+    else, and an answer from elsewhere is not taken for the server's."""
+
+    def redirect_request(self, req, fp, code, msg, headers, newurl):
+        old, new = urllib.parse.urlsplit(req.full_url), urllib.parse.urlsplit(newurl)
+        if (old.scheme, old.hostname, old.port) != (new.scheme, new.hostname, new.port):
+            raise PhysOmniError(f"VLM server at {redact(req.full_url)} redirected to another host "
+                                f"({redact(newurl)}); the request (and its API key) goes only to the host "
+                                "given in --vlm-url: give the new address there")
+        return super().redirect_request(req, fp, code, msg, headers, newurl)
+
+
+_OPENER = urllib.request.build_opener(_SameHostRedirects)
+
+
 def chat(settings: VLMSettings, messages: list[dict]) -> str:
     """The reply text of one chat completion, with retries on timeouts, lost connections and 5xx/429."""
     body = json.dumps({"model": settings.model, "messages": messages, "temperature": 0.2,
                        "max_tokens": 2048}).encode()
     headers = {"Content-Type": "application/json"}
+    parts = urllib.parse.urlsplit(settings.url)
     if settings.api_key:
         headers["Authorization"] = f"Bearer {settings.api_key}"
-    endpoint = f"{settings.url}/chat/completions"
+    elif parts.username is not None:  # http://user:password@host/v1: HTTP basic authentication
+        pair = f"{urllib.parse.unquote(parts.username)}:{urllib.parse.unquote(parts.password or '')}"
+        headers["Authorization"] = "Basic " + base64.b64encode(pair.encode()).decode()
+    bare = parts._replace(netloc=parts.netloc.rpartition("@")[2])  # urllib would take user:secret for the host
+    endpoint = f"{urllib.parse.urlunsplit(bare)}/chat/completions"
     last = "no attempt made"
     for attempt in range(settings.retries + 1):
         if attempt:
             time.sleep(settings.backoff_s * 2 ** (attempt - 1))
         request = urllib.request.Request(endpoint, data=body, headers=headers, method="POST")
         try:
-            with urllib.request.urlopen(request, timeout=settings.timeout_s) as response:
+            with _OPENER.open(request, timeout=settings.timeout_s) as response:
                 payload = json.loads(response.read().decode("utf-8", errors="replace"))
             return _reply_text(payload)
         except urllib.error.HTTPError as exc:

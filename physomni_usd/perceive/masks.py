@@ -64,11 +64,43 @@ def decode_image(path: pathlib.Path) -> np.ndarray | None:
         cv2.utils.logging.setLogLevel(level)
 
 
-def read_photo(path: str | pathlib.Path) -> np.ndarray:
-    """The photo as (H, W, 3) uint8 RGB; alpha is dropped, grey becomes RGB."""
+def photo_size(path: pathlib.Path) -> tuple[int, int] | None:
+    """(width, height) from the image file's header alone (nothing is decoded), or None where Pillow
+    cannot read the header (OpenCV may still decode the file)."""
+    from PIL import Image
+
+    bomb, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None  # we judge the size ourselves, from the header
+    try:
+        with Image.open(path) as im:  # reads the header only
+            return int(im.size[0]), int(im.size[1])
+    except Exception:  # not an image Pillow knows, or a damaged header: decoding will say so
+        return None
+    finally:
+        Image.MAX_IMAGE_PIXELS = bomb
+
+
+def check_photo_size(path: str | pathlib.Path, max_pixels: int) -> None:
+    """Refuse (one line, exit 2) a photo larger than ``max_pixels`` before anything decodes it: decoding
+    a 30000 × 30000 PNG of a few MB takes gigabytes."""
+    p = pathlib.Path(path)
+    size = photo_size(p) if p.is_file() else None
+    if size is not None and size[0] * size[1] > max_pixels:
+        w, h = size
+        raise InputError(f"{p} is {w}×{h} pixels ({w * h / 1e6:.1f} MP); at most {max_pixels / 1e6:g} MP "
+                         "(--max-pixels): scale the photo down, or raise --max-pixels where the memory is there")
+
+
+def read_photo(path: str | pathlib.Path, max_pixels: int | None = None) -> np.ndarray:
+    """The photo as (H, W, 3) uint8 RGB; alpha is dropped, grey becomes RGB. ``max_pixels``: refuse a
+    larger photo from its header, before decoding [default: ``BuildSettings().max_pixels``]."""
     p = pathlib.Path(path)
     if not p.is_file():
         raise InputError(f"photo not found: {p}")
+    if max_pixels is None:
+        from ..settings import BuildSettings
+
+        max_pixels = BuildSettings().max_pixels
+    check_photo_size(p, max_pixels)
     img = decode_image(p)
     if img is None:
         raise InputError(f"cannot read {p} as an image (PNG, JPEG, TIFF, …)")

@@ -1,8 +1,10 @@
 """Refusing absurd authored input before anything is built: every object's and collider's physics
 material (its type and each of the type's parameters, against the material catalog's ranges), rigid
 bodies' masses and velocities, per-object controls, and every force field (its kind and values,
-against the field ranges of :mod:`.forces`), from whichever layer they come. Each refusal is one line
-naming the prim and the attribute and what is allowed."""
+against the field ranges of :mod:`.forces`), from whichever layer they come; and, for every command
+(``validate`` and ``render`` included, :func:`check_values`), any non-finite number anywhere in the composed
+stage, a position beyond :data:`MAX_DISTANCE` and a gravity beyond :data:`MAX_GRAVITY`. Each refusal is one
+line naming the prim and the attribute and what is allowed."""
 
 from __future__ import annotations
 
@@ -20,6 +22,8 @@ LIMITS = {"physics:density": (PARAMS["density"].lo, PARAMS["density"].hi), "phys
 MAX_SPEED = 1000.0  # m/s
 MAX_SPIN = 36000.0  # deg/s
 MAX_START = 1e4  # s
+MAX_GRAVITY = 1000.0  # m/s², about 100 g: the preview's gravity control stops there too
+MAX_DISTANCE = 1e6  # m from the origin: a shot is a photo's scene, metres across
 
 
 def check_inputs(stage: Usd.Stage) -> None:
@@ -38,6 +42,7 @@ def check_inputs(stage: Usd.Stage) -> None:
     for prim in stage.Traverse():
         if prim.HasAPI("PhysOmniForceFieldAPI"):
             check_force_field(prim)
+    check_values(stage)  # after the checks above, whose lines also say the allowed range
 
 
 def check_material(mat: Usd.Prim) -> str:
@@ -115,3 +120,63 @@ def _number(value) -> bool:
 
 def _show(value) -> str:
     return repr(value) if isinstance(value, str) else f"{value}"
+
+
+def check_values(stage: Usd.Stage) -> None:
+    """Raise :class:`InputError` (one line naming prim and attribute) on the first non-finite number
+    authored anywhere in the composed ``stage`` (defaults and every time sample: transforms, velocities,
+    materials, fields, points), a translation farther than :data:`MAX_DISTANCE`, a gravity stronger than
+    :data:`MAX_GRAVITY` or a rigid body's velocity beyond :data:`MAX_SPEED` / :data:`MAX_SPIN`."""
+    import numpy as np
+
+    for prim in stage.TraverseAll():
+        for attr in prim.GetAuthoredAttributes():
+            if not _numeric(attr):
+                continue
+            times = attr.GetTimeSamples() if attr.GetNumTimeSamples() else []
+            for t in [Usd.TimeCode.Default()] + list(times):
+                value = attr.Get(t)
+                if value is None:
+                    continue
+                a = _array(value)
+                if a is None:
+                    continue
+                when = "" if isinstance(t, Usd.TimeCode) else f" at time {t:g}"
+                if not np.isfinite(a).all():
+                    raise InputError(f"{prim.GetPath()}.{attr.GetName()}{when} is not finite "
+                                     f"({_first_bad(a)}): every number in a shot must be finite")
+                name = attr.GetName()
+                if name == "xformOp:translate" and np.abs(a).max(initial=0) > MAX_DISTANCE:
+                    raise InputError(f"{prim.GetPath()}.{name}{when} = {tuple(a.tolist())} is more than "
+                                     f"{MAX_DISTANCE:g} m from the origin")
+                if name == "physics:gravityMagnitude" and not (abs(float(a.ravel()[0])) <= MAX_GRAVITY):
+                    raise InputError(f"{prim.GetPath()}.{name}{when} = {float(a.ravel()[0]):g} is outside "
+                                     f"[0, {MAX_GRAVITY:g}] m/s²")
+                bound = {"physics:velocity": MAX_SPEED, "physics:angularVelocity": MAX_SPIN}.get(name)
+                if bound is not None and np.abs(a).max(initial=0) > bound:
+                    raise InputError(f"{prim.GetPath()}.{name}{when} = {tuple(a.tolist())} is beyond "
+                                     f"{bound:g} {'m/s' if name == 'physics:velocity' else 'deg/s'}")
+
+
+def _numeric(attr) -> bool:
+    scalar = attr.GetTypeName().scalarType.type.typeName
+    return any(k in scalar for k in ("float", "double", "half", "Vec", "Quat", "Matrix"))
+
+
+def _array(value):
+    import numpy as np
+
+    if hasattr(value, "GetReal"):  # a quaternion
+        value = (value.GetReal(), *value.GetImaginary())
+    try:
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        return None
+    return a
+
+
+def _first_bad(a) -> str:
+    import numpy as np
+
+    flat = a.ravel()
+    return f"{flat[~np.isfinite(flat)][0]}"

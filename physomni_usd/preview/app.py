@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
+from . import security
 from .engine import Engine, field_label
 from .scene import (background_card, drawn_objects, fitted_fov, mean_colour, opening_card, opening_frame,
                     photo_view, textured_glb)
@@ -45,6 +46,18 @@ class Options:
     play: bool = True  # step from the start; the command opens paused on frame 0 unless --play
     report_every: float = REPORT_EVERY  # seconds between rate reports
     echo: object = field(default=lambda m: print(m, file=sys.stderr, flush=True))
+
+
+def _set(apply, value, lo: float, hi: float) -> None:
+    """Hand a control's value to ``apply`` clamped to the CLI's range; a non-number from a page is dropped."""
+    v = security.clamp(value, lo, hi)
+    if v is not None:
+        apply(v)
+
+
+def _within(value, lo: float, hi: float, old: float) -> float:
+    v = security.clamp(value, lo, hi)
+    return old if v is None else v
 
 
 def check_port(host: str, port: int) -> None:
@@ -104,9 +117,10 @@ class Preview:
         import viser
 
         o = self.options
-        with contextlib.redirect_stdout(io.StringIO()):  # viser prints a banner of its own on stdout
+        guard = security.Guard(o.host)
+        with contextlib.redirect_stdout(io.StringIO()), security.guarded_server(guard):  # viser's banner
             self.server = viser.ViserServer(host=o.host, port=o.port, label="physomni-usd preview", verbose=False)
-        url = f"http://{o.host}:{self.server.get_port()}"
+        url = guard.url(self.server.get_port())
         self._build_scene()
         self._build_panel()
         self.echo(f"preview: {url}")
@@ -255,7 +269,7 @@ class Preview:
 
             @scale.on_update
             def _(_) -> None:
-                self.time_scale = float(scale.value)
+                self.time_scale = _within(scale.value, 0.1, 2.0, self.time_scale)
 
             @photo.on_click
             def _(event) -> None:
@@ -271,7 +285,7 @@ class Preview:
                     self._field_controls(gui, i, f)
         with gui.add_folder("Scene"):
             g = gui.add_slider("Gravity (m/s²)", 0.0, 20.0, 0.01, round(e.gravity, 2))
-            g.on_update(lambda _: e.set_gravity(float(g.value)))
+            g.on_update(lambda _: _set(e.set_gravity, g.value, *security.gravity_range()))
         rigid = [o for o in e.objects if o.body is not None and "friction" in o.params]
         if rigid:
             with gui.add_folder("Objects", expand_by_default=False):
@@ -292,7 +306,8 @@ class Preview:
         lo = -top if f.strength < 0 or f.kind == "point" else 0.0
         strength = gui.add_slider(f"{label} strength", lo, top, top / 200.0, float(f.strength))
         on.on_update(lambda _: e.set_field(i, enabled=bool(on.value)))
-        strength.on_update(lambda _: e.set_field(i, strength=float(strength.value)))
+        strength.on_update(lambda _: _set(lambda v: e.set_field(i, strength=v), strength.value,
+                                          *security.field_strength_range()))
 
     def _object_controls(self, gui, o) -> None:
         e = self.engine
@@ -305,7 +320,8 @@ class Preview:
                                           round(o.params["restitution"], 3)),
         }
         for key, s in sliders.items():
-            s.on_update(lambda _, key=key, s=s: e.set_param(o.name, key, float(s.value)))
+            s.on_update(lambda _, key=key, s=s: _set(lambda v, key=key: e.set_param(o.name, key, v), s.value,
+                                                     *security.param_range(key)))
 
     # --- loop -------------------------------------------------------------------------------------
     def publish(self) -> None:

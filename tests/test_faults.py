@@ -1,0 +1,60 @@
+"""The reliability matrix (issue: faults, hostile input and a shared farm): each case of
+``physomni_usd.bench.faults`` on the session's finished shot, every trial clean. ``bench faults`` runs the
+same cases and prints them as a table."""
+
+from __future__ import annotations
+
+import pytest
+
+from physomni_usd.bench import faults
+
+
+@pytest.fixture(scope="module")
+def base(shot):
+    return {"dir": shot["dir"], "photo": shot["photo"], "labels": ("cup", "box"),
+            "masks": [f"{shot['cup']}:cup", f"{shot['box']}:box"],
+            "run": ["--push", "box=0.6,0,0", "--seconds", "1.5", "--fps", "20", "--camera-height", "1"]}
+
+
+#: Rows not clean yet, each with why: the test holds them to failing, so that a fix is noticed.
+KNOWN = {"full disk render": "ffmpeg prints its own error lines (render/video.py's writer keeps its stderr)"}
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.xfail(reason=KNOWN[n], strict=True))
+                                  if n in KNOWN else n for n in faults.CASES])
+def test_fault_is_handled_cleanly(name, base, tmp_path):
+    trials = faults.CASES[name](base, tmp_path)
+    if not trials:
+        pytest.skip(f"{name}: not possible here (a tmpfs mount and chattr need root)")
+    assert all(ok for ok, _ in trials), "\n".join(f"{'ok' if ok else 'NOT'} {d}" for ok, d in trials)
+
+
+def test_redact_hides_url_credentials():
+    from physomni_usd.errors import PhysOmniError, redact
+
+    assert redact("at http://me:pw@host:1/v1 and https://tok@x/") == "at http://***@host:1/v1 and https://***@x/"
+    assert "pw" not in str(PhysOmniError("VLM server at http://me:pw@h/v1 refused"))
+
+
+def test_preview_guard_rules():
+    from physomni_usd.preview.security import Guard, clamp
+
+    local = Guard("127.0.0.1")
+    assert local.token is None
+    assert local.refusal({"Host": "127.0.0.1:8080", "Origin": "http://127.0.0.1:8080"}, "/") is None
+    assert local.refusal({"Host": "127.0.0.1:8080", "Origin": "http://evil.example"}, "/")
+    assert local.refusal({"Host": "evil.example:8080", "Origin": "http://evil.example:8080"}, "/")
+    wide = Guard("0.0.0.0")
+    assert wide.token and wide.url(8080).endswith(f"?token={wide.token}")
+    assert wide.refusal({"Host": "10.0.0.5:8080"}, "/")
+    assert wide.refusal({"Host": "10.0.0.5:8080"}, f"/?token={wide.token}") is None
+    assert wide.refusal({"Host": "10.0.0.5:8080", "Cookie": f"physomni_preview={wide.token}"}, "/") is None
+    assert wide.refusal({"Host": "10.0.0.5:8080", "Cookie": "physomni_preview=guess"}, "/")
+    assert clamp(-5, 0.001, 1e5) == 0.001 and clamp(1e30, 0, 1000) == 1000 and clamp(float("nan"), 0, 1) is None
+
+
+def test_temporary_names_are_shown_as_their_target():
+    from physomni_usd._files import shown_name
+
+    assert shown_name("/s/.sim.physomni-ab12cd.usdc") == "/s/sim.usdc"
+    assert shown_name("/s/report.json") == "/s/report.json"
