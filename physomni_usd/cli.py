@@ -926,7 +926,7 @@ def plugins_command():
       physomni-usd build photo.png -o shot/ --box 120,40,380,300:box --inpainter lama
     """
     with _errors():
-        from .backends import registry
+        from .plugins import registry
 
         entries = registry.entries()
         for kind in registry.KINDS:
@@ -972,7 +972,7 @@ def rerender(shot, model, strength, steps, prompt, seed, max_size, output, quiet
       physomni-usd rerender shot/shot.usda --model wan-vace --strength 0.5 --steps 20 -o shot/wan.mp4
     """
     with _errors():
-        from .backends.rerender import rerender_shot
+        from .rerender import rerender_shot
 
         with _progress("render  ", not quiet) as bar:
             section = rerender_shot(shot, model, strength, steps, output, prompt, seed, max_size, progress=bar)

@@ -8,7 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from physomni_usd.backends import protocols, registry, steps
+from physomni_usd.backends import steps
+from physomni_usd.plugins import protocols, registry
 from physomni_usd.errors import InputError
 
 from .conftest import cli
