@@ -13,10 +13,9 @@ import time
 from contextlib import contextmanager
 
 import click
-from pydantic import ValidationError
 
 from ._files import all_or_nothing
-from .errors import PhysOmniError
+from .failure import failure_of
 from .settings import RenderSettings, SimulateSettings
 
 PUSH_HELP = ("Give an object this velocity in m/s (each component at most 1000 in size) at T seconds "
@@ -30,12 +29,6 @@ Examples:
   physomni-usd build photo.png -o shot/ --mask cup.png:cup --mask saucer.png
   physomni-usd build photo.png -o shot/ --box 120,40,380,300:box --fov 60
 """
-
-
-#: Settings fields → the options that set them, so that a refused value is named as the user typed it.
-OPTIONS = {"fov_deg": "--fov", "pitch_deg": "--pitch", "height_m": "--camera-height", "shape": "--shape",
-           "fps": "--fps", "seconds": "--seconds", "substeps": "--substeps", "iterations": "--iterations",
-           "particle_spacing": "--particle-spacing", "mpm_steps": "--mpm-steps", "max_size": "--max-size"}
 
 
 def limits(model, field: str) -> str:
@@ -63,28 +56,14 @@ def _fail(message: str, code: int) -> None:
 
 @contextmanager
 def _errors():
-    """Turn our exceptions and pydantic's into one line and an exit code."""
+    """Turn our exceptions and pydantic's into one line and an exit code (:func:`failure.failure_of`)."""
     try:
         yield
-    except PhysOmniError as exc:
-        _fail(str(exc), exc.exit_code)
-    except ValidationError as exc:
-        first = exc.errors()[0]
-        loc = [str(x) for x in first.get("loc", ())]
-        where = OPTIONS.get(loc[-1], ".".join(loc)) if loc else "value"
-        msg = str(first.get("msg", "is not valid"))
-        msg = msg[len("Input "):] if msg.startswith("Input ") else msg
-        value = first.get("input")
-        shown = f" {value:g}" if isinstance(value, float) else (f" {value}" if isinstance(value, (int, str)) else "")
-        _fail(f"{where}{shown}: {msg}", 2)
-    except PermissionError as exc:  # the checks before each command should have caught it
-        _fail(f"cannot write {exc.filename}: permission denied", 2)
-    except KeyboardInterrupt:
-        _fail("interrupted; the shot's files are as they were before this command", 130)
-    except Exception as exc:  # a bug, not bad input
-        if os.environ.get("PHYSOMNI_DEBUG"):
+    except (Exception, KeyboardInterrupt) as exc:
+        found = failure_of(exc)
+        if found.internal and os.environ.get("PHYSOMNI_DEBUG"):
             raise
-        _fail(f"internal error: {type(exc).__name__}: {exc} (set PHYSOMNI_DEBUG=1 for the traceback)", 3)
+        _fail(found.message, found.exit_code)
 
 
 #: Where stderr is no terminal (a log, CI), progress is a plain line at every tenth of the work, and at
@@ -258,15 +237,26 @@ def _simulate(shot, seconds, fps, substeps, quiet, particle_spacing=None, mpm_st
                                 mpm_steps=mpm_steps)
     with _progress("simulate", not quiet) as bar:
         section = physomni_usd.simulate(shot, settings, progress=bar, echo=_say(quiet))
-    if not quiet:
-        click.echo(f"simulate: {section['frames']} frames, {section['bodies']} rigid bodies, "
-                   f"{len(section['moving_prims'])} moving, dt {section['dt'] * 1000:.2f} ms, "
-                   f"{section['total_seconds']:.2f} s", err=True)
+    _said("simulate", section, quiet)
     return section
 
 
-#: Simulated seconds of `run`, and of `simulate` on a shot that has no length yet.
-DEFAULT_SECONDS = 3.0
+def _said(stage: str, section, quiet: bool) -> None:
+    """The one line a stage ends with."""
+    if quiet:
+        return
+    if stage == "simulate":
+        click.echo(f"simulate: {section['frames']} frames, {section['bodies']} rigid bodies, "
+                   f"{len(section['moving_prims'])} moving, dt {section['dt'] * 1000:.2f} ms, "
+                   f"{section['total_seconds']:.2f} s", err=True)
+    elif stage == "render":
+        click.echo(f"render: {section['video']} ({section['frames']} frames, "
+                   f"{section['frames_per_second']:.1f} frames/s)", err=True)
+
+
+#: Simulated seconds of `run` (:func:`physomni_usd.run`'s default), and of `simulate` on a shot that has no
+#: length yet.
+DEFAULT_SECONDS = SimulateSettings.model_fields["seconds"].default
 
 
 def _camera_moves():
@@ -288,9 +278,7 @@ def _render(shot, output, quiet, max_size=1920, passes=None, passes_dir=None, ca
     with _progress("render  ", not quiet) as bar:
         section = physomni_usd.render(shot, output, RenderSettings(max_size=max_size), progress=bar, passes=names,
                                       passes_dir=passes_dir, camera=camera, camera_amount=camera_amount)
-    if not quiet:
-        click.echo(f"render: {section['video']} ({section['frames']} frames, "
-                   f"{section['frames_per_second']:.1f} frames/s)", err=True)
+    _said("render", section, quiet)
     return section
 
 
@@ -414,28 +402,64 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, f
       physomni-usd run examples/motorcycle/photo.png -o out/ \\
           --mask examples/motorcycle/motorcycle.png --push motorcycle=0,0.8,0
     """
-    with _errors(), all_or_nothing():
-        from ._files import check_writable
+    with _errors():
         import physomni_usd
-        from .report import update_report
 
-        # refuse absurd values, and a video that could not be written, before any work
-        SimulateSettings(seconds=seconds, particle_spacing=particle_spacing, mpm_steps=mpm_steps)
-        settings = _build_settings(fov, pitch, camera_height, shape, fps)
-        from .render.video import check_camera_move
-
-        check_camera_move(camera, camera_amount)
-        check_writable([out_dir / "video.mp4"])
-        t0 = time.perf_counter()
-        result = physomni_usd.build(photo, out_dir, masks, boxes, settings, pushes=pushes, echo=_say(quiet),
-                                    forces=forces, fixed=fixed, meshes_dir=meshes_dir, sizes=sizes, backends=backends)
-        _simulate(result.shot, seconds, None, None, quiet, particle_spacing, mpm_steps)
-        section = _render(result.shot, None, quiet, camera=camera, camera_amount=camera_amount)
-        total = round(time.perf_counter() - t0, 3)
-        update_report(result.folder, run={"total_seconds": total})
+        params = dict(photo=photo, out_dir=out_dir, masks=masks, boxes=boxes, fov=fov, pitch=pitch,
+                      camera_height=camera_height, sizes=sizes, shape=shape, fps=fps, meshes_dir=meshes_dir,
+                      fixed=fixed, forces=forces, seconds=seconds, pushes=pushes, particle_spacing=particle_spacing,
+                      mpm_steps=mpm_steps, camera=camera, camera_amount=camera_amount, backends=backends)
+        with _run_display(quiet) as display:
+            done = physomni_usd.run(**_run_call(params), echo=_say(quiet), **display)
         if not quiet:
-            click.echo(f"done in {total:.1f} s: {result.shot}, {section['video']}, "
+            result = done["build"]
+            click.echo(f"done in {done['total_seconds']:.1f} s: {result.shot}, {done['render']['video']}, "
                        f"{result.folder / 'report.json'}", err=True)
+
+
+def _run_call(params: dict) -> dict:
+    """``run``'s option values (as its parser makes them, or with ``backends`` already gathered) → the
+    keyword arguments of :func:`physomni_usd.run`; refuses absurd values before any work."""
+    from .backends.steps import BUILD_KINDS
+    from .settings import SimulateSettings
+
+    p = dict(params)
+    backends = p.pop("backends", None) or {kind: p.pop(kind, None) for kind in BUILD_KINDS}
+    simulate = SimulateSettings(seconds=p["seconds"], particle_spacing=p["particle_spacing"],
+                                mpm_steps=p["mpm_steps"])
+    return dict(photo=p["photo"], out_dir=p["out_dir"], masks=p["masks"], boxes=p["boxes"],
+                settings=_build_settings(p["fov"], p["pitch"], p["camera_height"], p["shape"], p["fps"]),
+                simulate_settings=simulate, camera=p["camera"], camera_amount=p["camera_amount"],
+                pushes=p["pushes"], forces=p["forces"], fixed=p["fixed"], meshes_dir=p["meshes_dir"],
+                sizes=p["sizes"], backends=backends)
+
+
+def _run_arguments(args: list[str]) -> dict:
+    """One shot line of ``batch`` → the keyword arguments of :func:`physomni_usd.run` (raises like ``run``)."""
+    return _run_call(_run_parser(list(args)))
+
+
+@contextmanager
+def _run_display(quiet: bool):
+    """``progress`` and ``on_stage`` for :func:`physomni_usd.run`: one bar (or log lines) per stage, and the
+    line each stage ends with, as the commands ``simulate`` and ``render`` print them."""
+    from contextlib import ExitStack
+
+    bars = ExitStack()
+    current = {}
+
+    def progress(stage, done, total):
+        if stage not in current:
+            current[stage] = bars.enter_context(_progress("render  " if stage == "render" else stage, not quiet))
+        current[stage](done, total)
+
+    def on_stage(stage, result):
+        if result is not None and stage in ("simulate", "render"):
+            bars.close()  # the bar ends before its stage's line
+            _said(stage, result, quiet)
+
+    with bars:
+        yield {"progress": progress, "on_stage": on_stage}
 
 
 @main.command()
