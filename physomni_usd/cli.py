@@ -642,7 +642,7 @@ def batch(shots, address, workers, retries, force, summary_path, cpus_per_shot, 
         summary = run_batch(shot_list, address=address, workers=workers, retries=retries, force=force,
                             cpus_per_shot=cpus_per_shot, gpus_per_shot=gpus_per_shot,
                             progress=Quiet() if quiet else Progress(), summary_path=summary_path,
-                            upload=run if upload else None)
+                            upload=run if upload else None, call=_run_arguments)
         click.echo(f"batch: {summary['ok']} ok, {summary['skipped']} skipped, {summary['failed']} failed "
                    f"in {summary['seconds']:.1f} s" + (f"; summary: {summary_path}" if summary_path else ""),
                    err=True)
