@@ -950,7 +950,7 @@ def plugins_command():
       physomni-usd build photo.png -o shot/ --box 120,40,380,300:box --inpainter lama
     """
     with _errors():
-        from .plugins import registry
+        from .swappable import registry
 
         entries = registry.entries()
         for kind in registry.KINDS:

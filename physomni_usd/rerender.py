@@ -18,9 +18,9 @@ import numpy as np
 
 from ._files import atomic_path
 from .errors import InputError
-from .plugins import registry
-from .plugins.protocols import ControlPasses
 from .report import update_report
+from .swappable import registry
+from .swappable.protocols import ControlPasses
 from .usd import layers
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from physomni_usd.backends import steps
-from physomni_usd.plugins import protocols, registry
+from physomni_usd.swappable import protocols, registry
 from physomni_usd.errors import InputError
 
 from .conftest import cli

@@ -22,7 +22,7 @@ RANKS = {
     "errors": 0, "_files": 0, "_warp": 0, "_version": 0,
     "usd": 1,
     "rotations": 2, "settings": 2, "report": 2, "metrics": 2, "geometry": 2, "sizes": 2, "fields": 2,
-    "plugins": 2,
+    "swappable": 2,
     "perceive": 3,
     "align": 4,
     "materials": 5,

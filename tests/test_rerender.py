@@ -10,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 from pxr import Usd
 
-from physomni_usd.plugins import registry
+from physomni_usd.swappable import registry
 from physomni_usd.rerender import rerender_shot
 from physomni_usd.cli import main
 from physomni_usd.errors import InputError

@@ -4,7 +4,7 @@ Generated values (rules, vlm) replace ``physics.usda``; what a user gave on
 the command line before — pushes, fixed objects, force fields of source
 ``user``, solver settings — is carried over. ``--set`` values are checked
 here against the catalog and go to the artist's ``edits.usda`` through
-:func:`physomni_usd.usd.contract.author_user_values`: authored on that layer
+:func:`physomni_usd.usd.overrides.add_overrides`: authored on that layer
 itself through Sdf (every prim, property, time sample and layer metadata already
 in it stays; ``#`` comments, which are not part of USD's data model, do not
 survive any USD save) and saved through a temporary file and a rename. Without
@@ -20,13 +20,14 @@ from pxr import Sdf, Usd, UsdPhysics
 
 from ..errors import InputError
 from ..fields import parse_force_options, read_force_fields
-from ..plugins import registry
 from .._files import all_or_nothing
 from ..settings import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
 from ..report import Timer, prepare_writes, update_report
+from ..swappable import registry
 from ..usd import layers
 from ..usd.author import PhysicsObject, write_physics_layer
-from ..usd.contract import MATERIAL_TYPE, author_user_values, bound_material, object_prims
+from ..usd.contract import MATERIAL_TYPE, bound_material, object_prims
+from ..usd.overrides import add_overrides
 from .catalog import PARAMS, canonical_key, check_params, keys_of, material_type
 from .defaults import GROUND_MATERIAL
 from .report import material_report
@@ -79,8 +80,8 @@ def parse_sets(specs, objects: list[Usd.Prim]) -> list[tuple[Usd.Prim, str, obje
 
 def apply_sets(folder: pathlib.Path, sets) -> list[str]:
     """Check ``--set`` values against the objects' physics materials and author them in ``edits.usda``
-    (:func:`physomni_usd.usd.contract.author_user_values`, which keeps every spec already there); returns
-    what was set. Nothing is written when one value is refused."""
+    (:func:`physomni_usd.usd.overrides.add_overrides`, which keeps every spec already there, as for the
+    preview's "Keep settings"); returns what was set. Nothing is written when one value is refused."""
     if not sets:
         return []
     stage = layers.open_shot(folder, mute_sim=True)
@@ -95,7 +96,7 @@ def apply_sets(folder: pathlib.Path, sets) -> list[str]:
         where = f"{mat.GetPath()}"
         if key == "material":
             types[mat.GetPath()] = value
-            writes.append((mat.GetPath(), MATERIAL_TYPE, value))
+            writes.append((str(mat.GetPath()), MATERIAL_TYPE, value))
             done.append(f"{prim.GetName()}.material = {value}")
             continue
         material = types.get(mat.GetPath()) or mat.GetAttribute(MATERIAL_TYPE).Get() or "rigid"
@@ -103,9 +104,9 @@ def apply_sets(folder: pathlib.Path, sets) -> list[str]:
         for t in targets:
             if t not in keys_of(material):
                 raise InputError(f"{where}: a {material} material has no {t}; it takes {', '.join(keys_of(material))}")
-            writes.append((mat.GetPath(), PARAMS[t].attr, value))
+            writes.append((str(mat.GetPath()), PARAMS[t].attr, value))
             done.append(f"{prim.GetName()}.{t} = {value}")
-    author_user_values(folder, writes)
+    add_overrides(folder, writes, mute_sim=True)
     return done
 
 
