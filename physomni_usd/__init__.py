@@ -40,7 +40,8 @@ sys.modules[__name__].__class__ = _Package
 def build(photo, out_dir, masks=(), boxes=(), settings=None, **options):
     """Build a shot from ``photo`` (a path) into ``out_dir``: plate, textures, ``scene.usda``, ``physics.usda``
     and an empty ``edits.usda``. ``masks`` are ``PATH[:LABEL]`` specs, ``boxes`` ``X0,Y0,X1,Y1[:LABEL]`` in
-    pixels (as ``--mask`` and ``--box`` take them); ``settings`` a :class:`physomni_usd.settings.BuildSettings` (defaults when None); ``options`` as
+    pixels (as ``--mask`` and ``--box`` take them); ``settings`` a
+    :class:`physomni_usd.settings.BuildSettings` (defaults when None); ``options`` as
     :func:`physomni_usd.build.build_shot` takes them (pushes, forces, fixed, meshes_dir, sizes, backends, echo).
     Returns the build result; its ``shot`` is the path of ``shot.usda``."""
     from .build import build_shot

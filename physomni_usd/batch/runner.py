@@ -184,8 +184,9 @@ def run_batch(shots: list[Shot], *, address: str | None = None, workers: int | N
     """Run every unfinished shot; returns the summary (also written to ``summary_path`` after each shot).
 
     ``call``: a shot's arguments → the keyword arguments of :func:`physomni_usd.run` (``run``'s own parser;
-    a module-level function, pickled by reference into each shot's process). ``upload``: ``run``'s click command, to ship inputs and outputs through Ray (see :mod:`.upload`)
-    instead of reading and writing them at their paths on every node.
+    a module-level function, pickled by reference into each shot's process). ``upload``: ``run``'s click
+    command, to ship inputs and outputs through Ray (see :mod:`.upload`) instead of reading and writing them
+    at their paths on every node.
     """
     progress = progress or Quiet()
     t0 = time.perf_counter()
