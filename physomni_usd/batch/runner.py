@@ -180,7 +180,7 @@ def start_ray(address: str | None, include_gpus: bool = True) -> str:
 
 def run_batch(shots: list[Shot], *, address: str | None = None, workers: int | None = None, retries: int = 2,
               force: bool = False, cpus_per_shot: float = 1.0, gpus_per_shot: float = 0.0, progress=None,
-              summary_path: pathlib.Path | None = None, upload=None, call=None) -> dict:
+              summary_path: pathlib.Path | None = None, upload=None, call) -> dict:
     """Run every unfinished shot; returns the summary (also written to ``summary_path`` after each shot).
 
     ``call``: a shot's arguments → the keyword arguments of :func:`physomni_usd.run` (``run``'s own parser;
