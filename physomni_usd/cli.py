@@ -1,7 +1,10 @@
-"""The ``physomni-usd`` command: one subcommand per stage, plus ``run`` and ``validate``.
+"""The ``physomni-usd`` command: one subcommand per stage (build, estimate, simulate, render), ``run``
+for the three of them, and ``preview``, ``validate``, ``batch``, ``bench``, ``plugins``, ``rerender``.
 
-Exit codes: 0 success, 1 a stage failed or validation found errors,
-2 bad input or usage, 3 an internal error (a bug: please report it).
+Each command parses its options, calls the public API (:mod:`physomni_usd`) and shows what it did;
+an exception becomes one ``error:`` line and an exit code (:func:`physomni_usd.failure.failure_of`):
+0 success, 1 a stage failed or validation found errors, 2 bad input or usage, 3 an internal error (a
+bug: please report it), 130 interrupted.
 """
 
 from __future__ import annotations
