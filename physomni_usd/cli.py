@@ -2,9 +2,10 @@
 for the three of them, and ``preview``, ``validate``, ``batch``, ``bench``, ``plugins``, ``rerender``.
 
 The stage commands and ``run`` parse their options, call the public API (:mod:`physomni_usd`) and show
-what it did; the others call the module that owns them. In every command an exception becomes one ``error:`` line and an exit code (:func:`physomni_usd.failure.failure_of`):
-0 success, 1 a stage failed or validation found errors, 2 bad input or usage, 3 an internal error (a
-bug: please report it), 130 interrupted.
+what it did; the others call the module that owns them. In every command an exception becomes one
+``error:`` line and an exit code (:func:`physomni_usd.failure.failure_of`): 0 success, 1 a stage failed
+or validation found errors, 2 bad input or usage, 3 an internal error (a bug: please report it), 130
+interrupted.
 """
 
 from __future__ import annotations
