@@ -15,12 +15,12 @@ folder and the output folders at the same paths as the driver (shared storage).
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 import pathlib
-import shutil
-import json
 import pickle
+import shutil
 import signal
 import socket
 import subprocess
@@ -208,7 +208,7 @@ def run_batch(shots: list[Shot], *, address: str | None = None, workers: int | N
 
     def save():
         if summary_path:
-            write_bytes(summary_path, (__import__("json").dumps(summary(), indent=2) + "\n").encode())
+            write_bytes(summary_path, (json.dumps(summary(), indent=2) + "\n").encode())
 
     progress.start(entries)
     for e in entries:
