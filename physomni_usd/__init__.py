@@ -6,8 +6,12 @@ when it runs.
 
 The public API is one function per stage, paths in and the stage's section of
 ``report.json`` out: :func:`build`, :func:`estimate`, :func:`simulate`,
-:func:`render`. Bad input raises :class:`physomni_usd.errors.InputError` with
-one line naming the option or file; nothing the user made is overwritten then.
+:func:`render`, and :func:`run` for the three that ``physomni-usd run`` chains
+(build, simulate, render), with its defaults. Each imports its stage only when
+called. Bad input raises :class:`physomni_usd.errors.InputError` with one line
+naming the option or file; nothing the user made is overwritten then.
+:func:`physomni_usd.failure.failure_of` turns any exception into the line and
+exit code the CLI prints.
 """
 
 import sys
@@ -35,8 +39,9 @@ sys.modules[__name__].__class__ = _Package
 
 def build(photo, out_dir, masks=(), boxes=(), settings=None, **options):
     """Build a shot from ``photo`` (a path) into ``out_dir``: plate, textures, ``scene.usda``, ``physics.usda``
-    and an empty ``edits.usda``. ``masks`` are ``PATH[=LABEL]`` specs, ``boxes`` ``x0,y0,x1,y1[=LABEL]`` in
-    pixels; ``settings`` a :class:`physomni_usd.settings.BuildSettings` (defaults when None); ``options`` as
+    and an empty ``edits.usda``. ``masks`` are ``PATH[:LABEL]`` specs, ``boxes`` ``X0,Y0,X1,Y1[:LABEL]`` in
+    pixels (as ``--mask`` and ``--box`` take them); ``settings`` a
+    :class:`physomni_usd.settings.BuildSettings` (defaults when None); ``options`` as
     :func:`physomni_usd.build.build_shot` takes them (pushes, forces, fixed, meshes_dir, sizes, backends, echo).
     Returns the build result; its ``shot`` is the path of ``shot.usda``."""
     from .build import build_shot
@@ -75,4 +80,64 @@ def render(shot, output=None, settings=None, progress=None, **options) -> dict:
     return render_shot(shot, output, settings or RenderSettings(), progress=progress, **options)
 
 
-__all__ = ["__version__", "register_schema", "build", "estimate", "simulate", "render"]
+#: The stages of :func:`run`, in order; ``check`` is the checking of every option before any work.
+RUN_STAGES = ("check", "build", "simulate", "render")
+
+
+def run(photo, out_dir, masks=(), boxes=(), settings=None, simulate_settings=None, render_settings=None, *,
+        camera=None, camera_amount=1.0, progress=None, on_stage=None, echo=lambda m: None, **options) -> dict:
+    """Build, simulate and render a shot in one go, as ``physomni-usd run`` does: ``out_dir`` gets
+    ``shot.usda``, ``video.mp4`` and ``report.json`` (with a ``run`` section, its total seconds).
+
+    ``photo``, ``masks``, ``boxes``, ``settings`` and ``options`` as :func:`build` takes them;
+    ``simulate_settings`` a :class:`physomni_usd.settings.SimulateSettings` (its defaults, 3 simulated
+    seconds at the shot's frame rate, when None), ``render_settings`` a
+    :class:`physomni_usd.settings.RenderSettings`; ``camera`` and ``camera_amount`` as :func:`render` takes
+    them. Every option is checked, and the video's path found writable, before any work.
+    ``progress(stage, done, total)`` follows simulate and render frame by frame; ``on_stage(stage, result)``
+    is called as each of :data:`RUN_STAGES` starts (``result`` None) and ends (its section; the
+    :class:`physomni_usd.build.BuildResult` for ``build``). On failure the stage's exception is raised as it
+    is, and nothing this call wrote is left (``physomni_usd._files.all_or_nothing``).
+
+    Returns ``{"build": BuildResult, "simulate": section, "render": section, "total_seconds": float}``.
+    """
+    import pathlib
+    import time
+
+    from ._files import all_or_nothing, check_writable
+    from .render.video import check_camera_move
+    from .report import update_report
+    from .settings import BuildSettings, RenderSettings, SimulateSettings
+
+    def stage(name, result=None):
+        if on_stage is not None:
+            on_stage(name, result)
+
+    def follow(name):
+        return None if progress is None else (lambda done, total: progress(name, done, total))
+
+    with all_or_nothing():
+        stage("check")
+        settings = settings or BuildSettings()
+        simulate_settings = simulate_settings or SimulateSettings()
+        render_settings = render_settings or RenderSettings()
+        check_camera_move(camera, camera_amount)
+        check_writable([pathlib.Path(out_dir) / "video.mp4"])
+        stage("check", {})
+        t0 = time.perf_counter()
+        stage("build")
+        built = build(photo, out_dir, masks, boxes, settings, echo=echo, **options)
+        stage("build", built)
+        stage("simulate")
+        simulated = simulate(built.shot, simulate_settings, progress=follow("simulate"), echo=echo)
+        stage("simulate", simulated)
+        stage("render")
+        rendered = render(built.shot, None, render_settings, progress=follow("render"), camera=camera,
+                          camera_amount=camera_amount)
+        stage("render", rendered)
+        total = round(time.perf_counter() - t0, 3)
+        update_report(built.folder, run={"total_seconds": total})
+    return {"build": built, "simulate": simulated, "render": rendered, "total_seconds": total}
+
+
+__all__ = ["__version__", "register_schema", "build", "estimate", "simulate", "render", "run", "RUN_STAGES"]

@@ -1,7 +1,11 @@
-"""The ``physomni-usd`` command: one subcommand per stage, plus ``run`` and ``validate``.
+"""The ``physomni-usd`` command: one subcommand per stage (build, estimate, simulate, render), ``run``
+for the three of them, and ``preview``, ``validate``, ``batch``, ``bench``, ``plugins``, ``rerender``.
 
-Exit codes: 0 success, 1 a stage failed or validation found errors,
-2 bad input or usage, 3 an internal error (a bug: please report it).
+The stage commands and ``run`` parse their options, call the public API (:mod:`physomni_usd`) and show
+what it did; the others call the module that owns them. In every command an exception becomes one
+``error:`` line and an exit code (:func:`physomni_usd.failure.failure_of`): 0 success, 1 a stage failed
+or validation found errors, 2 bad input or usage, 3 an internal error (a bug: please report it), 130
+interrupted.
 """
 
 from __future__ import annotations
@@ -13,10 +17,9 @@ import time
 from contextlib import contextmanager
 
 import click
-from pydantic import ValidationError
 
 from ._files import all_or_nothing
-from .errors import PhysOmniError
+from .failure import failure_of
 from .settings import MAX_SOLVER_STEPS, RenderSettings, SimulateSettings
 
 PUSH_HELP = ("Give an object this velocity in m/s (each component at most 1000 in size) at T seconds "
@@ -32,12 +35,6 @@ Examples:
   physomni-usd build photo.png -o shot/ --box 120,40,380,300:cup:-130,60   (a click off the cup)
   physomni-usd build photo.png -o shot/ --find "cup, saucer, spoon"        (needs physomni-sam3)
 """
-
-
-#: Settings fields → the options that set them, so that a refused value is named as the user typed it.
-OPTIONS = {"fov_deg": "--fov", "pitch_deg": "--pitch", "height_m": "--camera-height", "shape": "--shape",
-           "fps": "--fps", "seconds": "--seconds", "substeps": "--substeps", "iterations": "--iterations",
-           "particle_spacing": "--particle-spacing", "mpm_steps": "--mpm-steps", "max_size": "--max-size"}
 
 
 def limits(model, field: str) -> str:
@@ -67,41 +64,14 @@ def _fail(message: str, code: int) -> None:
 
 @contextmanager
 def _errors():
-    """Turn our exceptions and pydantic's into one line and an exit code."""
+    """Turn our exceptions and pydantic's into one line and an exit code (:func:`failure.failure_of`)."""
     try:
         yield
-    except PhysOmniError as exc:
-        _fail(str(exc), exc.exit_code)
-    except ValidationError as exc:
-        first = exc.errors()[0]
-        loc = [str(x) for x in first.get("loc", ())]
-        where = OPTIONS.get(loc[-1], ".".join(loc)) if loc else "value"
-        msg = str(first.get("msg", "is not valid"))
-        msg = msg[len("Input "):] if msg.startswith("Input ") else msg
-        value = first.get("input")
-        shown = f" {value:g}" if isinstance(value, float) else (f" {value}" if isinstance(value, (int, str)) else "")
-        _fail(f"{where}{shown}: {msg}", 2)
-    except PermissionError as exc:  # the checks before each command should have caught it
-        from ._files import shown_name
-
-        _fail(f"cannot write {shown_name(exc.filename)}: permission denied", 2)
-    except OSError as exc:
-        from ._files import io_failure
-
-        failure = io_failure(exc)
-        if failure is None:
-            if os.environ.get("PHYSOMNI_DEBUG"):
-                raise
-            _fail(f"internal error: {type(exc).__name__}: {exc} (set PHYSOMNI_DEBUG=1 for the traceback)", 3)
-        _fail(*failure)
-    except KeyboardInterrupt as exc:
-        name, signum = getattr(exc, "name", "SIGINT"), getattr(exc, "signum", 2)
-        _fail(f"interrupted by {name}: the shot's files are put back as they were before this command",
-              128 + signum)
-    except Exception as exc:  # a bug, not bad input
-        if os.environ.get("PHYSOMNI_DEBUG"):
+    except (Exception, KeyboardInterrupt) as exc:
+        found = failure_of(exc)
+        if found.internal and os.environ.get("PHYSOMNI_DEBUG"):
             raise
-        _fail(f"internal error: {type(exc).__name__}: {exc} (set PHYSOMNI_DEBUG=1 for the traceback)", 3)
+        _fail(found.message, found.exit_code)
 
 
 #: Where stderr is no terminal (a log, CI), progress is a plain line at every tenth of the work, and at
@@ -356,18 +326,29 @@ def _simulate(shot, seconds, fps, substeps, quiet, particle_spacing=None, mpm_st
                              f"most {MAX_SOLVER_STEPS:,} (fewer --seconds, --fps or --substeps)")
     with _progress("simulate", not quiet) as bar:
         section = physomni_usd.simulate(shot, settings, progress=bar, echo=_say(quiet))
-    if not quiet:
-        click.echo(f"simulate: {section['frames']} frames, {section['bodies']} rigid bodies, "
-                   f"{len(section['moving_prims'])} moving, dt {section['dt'] * 1000:.2f} ms, "
-                   f"{section['total_seconds']:.2f} s", err=True)
+    _said("simulate", section, quiet)
     return section
 
 
 #: What `preview` takes for a photo (and hands to the set-up page) rather than a shot.
 PHOTO_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
 
-#: Simulated seconds of `run`, and of `simulate` on a shot that has no length yet.
-DEFAULT_SECONDS = 3.0
+def _said(stage: str, section, quiet: bool) -> None:
+    """The one line a stage ends with."""
+    if quiet:
+        return
+    if stage == "simulate":
+        click.echo(f"simulate: {section['frames']} frames, {section['bodies']} rigid bodies, "
+                   f"{len(section['moving_prims'])} moving, dt {section['dt'] * 1000:.2f} ms, "
+                   f"{section['total_seconds']:.2f} s", err=True)
+    elif stage == "render":
+        click.echo(f"render: {section['video']} ({section['frames']} frames, "
+                   f"{section['frames_per_second']:.1f} frames/s)", err=True)
+
+
+#: Simulated seconds of `run` (:func:`physomni_usd.run`'s default), and of `simulate` on a shot that has no
+#: length yet.
+DEFAULT_SECONDS = SimulateSettings.model_fields["seconds"].default
 
 
 def _camera_moves():
@@ -392,9 +373,7 @@ def _render(shot, output, quiet, max_size=1920, passes=None, passes_dir=None, ca
     with _progress("render  ", not quiet) as bar:
         section = physomni_usd.render(shot, output, RenderSettings(max_size=max_size), progress=bar, passes=names,
                                       passes_dir=passes_dir, camera=camera, camera_amount=camera_amount)
-    if not quiet:
-        click.echo(f"render: {section['video']} ({section['frames']} frames, "
-                   f"{section['frames_per_second']:.1f} frames/s)", err=True)
+    _said("render", section, quiet)
     return section
 
 
@@ -534,29 +513,66 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, f
       physomni-usd run examples/motorcycle/photo.png -o out/ \\
           --mask examples/motorcycle/motorcycle.png --push motorcycle=0,0.8,0
     """
-    with _errors(), all_or_nothing():
-        from ._files import check_writable
+    with _errors():
         import physomni_usd
-        from .report import update_report
 
-        # refuse absurd values, and a video that could not be written, before any work
-        SimulateSettings(seconds=seconds, particle_spacing=particle_spacing, mpm_steps=mpm_steps)
-        settings = _build_settings(fov, pitch, camera_height, shape, fps, max_pixels, photo, len(masks) + len(boxes))
-        from .render.video import check_camera_move
-
-        check_camera_move(camera, camera_amount)
-        check_writable([out_dir / "video.mp4"])
-        t0 = time.perf_counter()
-        result = physomni_usd.build(photo, out_dir, masks, boxes, settings, pushes=pushes, echo=_say(quiet),
-                                    forces=forces, fixed=fixed, meshes_dir=meshes_dir, sizes=sizes, backends=backends,
-                                    find=find, finder=finder)
-        _simulate(result.shot, seconds, None, None, quiet, particle_spacing, mpm_steps)
-        section = _render(result.shot, None, quiet, camera=camera, camera_amount=camera_amount)
-        total = round(time.perf_counter() - t0, 3)
-        update_report(result.folder, run={"total_seconds": total})
+        params = dict(photo=photo, out_dir=out_dir, masks=masks, boxes=boxes, fov=fov, pitch=pitch,
+                      camera_height=camera_height, sizes=sizes, shape=shape, fps=fps, meshes_dir=meshes_dir,
+                      fixed=fixed, forces=forces, seconds=seconds, pushes=pushes, particle_spacing=particle_spacing,
+                      mpm_steps=mpm_steps, camera=camera, camera_amount=camera_amount, backends=backends,
+                      max_pixels=max_pixels, find=find, finder=finder)
+        with _run_display(quiet) as display:
+            done = physomni_usd.run(**_run_call(params), echo=_say(quiet), **display)
         if not quiet:
-            click.echo(f"done in {total:.1f} s: {result.shot}, {section['video']}, "
+            result = done["build"]
+            click.echo(f"done in {done['total_seconds']:.1f} s: {result.shot}, {done['render']['video']}, "
                        f"{result.folder / 'report.json'}", err=True)
+
+
+def _run_call(params: dict) -> dict:
+    """``run``'s option values (as its parser makes them, or with ``backends`` already gathered) → the
+    keyword arguments of :func:`physomni_usd.run`; refuses absurd values before any work."""
+    from .backends.steps import BUILD_KINDS
+    from .settings import SimulateSettings
+
+    p = dict(params)
+    backends = p.pop("backends", None) or {kind: p.pop(kind, None) for kind in BUILD_KINDS}
+    simulate = SimulateSettings(seconds=p["seconds"], particle_spacing=p["particle_spacing"],
+                                mpm_steps=p["mpm_steps"])
+    return dict(photo=p["photo"], out_dir=p["out_dir"], masks=p["masks"], boxes=p["boxes"],
+                settings=_build_settings(p["fov"], p["pitch"], p["camera_height"], p["shape"], p["fps"],
+                                         p.get("max_pixels"), p["photo"], len(p["masks"]) + len(p["boxes"])),
+                simulate_settings=simulate, camera=p["camera"], camera_amount=p["camera_amount"],
+                pushes=p["pushes"], forces=p["forces"], fixed=p["fixed"], meshes_dir=p["meshes_dir"],
+                sizes=p["sizes"], backends=backends, find=p.get("find"), finder=p.get("finder"))
+
+
+def _run_arguments(args: list[str]) -> dict:
+    """One shot line of ``batch`` → the keyword arguments of :func:`physomni_usd.run` (raises like ``run``)."""
+    return _run_call(_run_parser(list(args)))
+
+
+@contextmanager
+def _run_display(quiet: bool):
+    """``progress`` and ``on_stage`` for :func:`physomni_usd.run`: one bar (or log lines) per stage, and the
+    line each stage ends with, as the commands ``simulate`` and ``render`` print them."""
+    from contextlib import ExitStack
+
+    bars = ExitStack()
+    current = {}
+
+    def progress(stage, done, total):
+        if stage not in current:
+            current[stage] = bars.enter_context(_progress("render  " if stage == "render" else stage, not quiet))
+        current[stage](done, total)
+
+    def on_stage(stage, result):
+        if result is not None and stage in ("simulate", "render"):
+            bars.close()  # the bar ends before its stage's line
+            _said(stage, result, quiet)
+
+    with bars:
+        yield {"progress": progress, "on_stage": on_stage}
 
 
 @main.command()
@@ -801,7 +817,7 @@ def batch(shots, address, workers, retries, force, summary_path, cpus_per_shot, 
         summary = run_batch(shot_list, address=address, workers=workers, retries=retries, force=force,
                             cpus_per_shot=cpus_per_shot, gpus_per_shot=gpus_per_shot,
                             progress=Quiet() if quiet else Progress(), summary_path=summary_path,
-                            upload=run if upload else None)
+                            upload=run if upload else None, call=_run_arguments)
         click.echo(f"batch: {summary['ok']} ok, {summary['skipped']} skipped, {summary['failed']} failed "
                    f"in {summary['seconds']:.1f} s" + (f"; summary: {summary_path}" if summary_path else ""),
                    err=True)
@@ -1196,8 +1212,8 @@ def plugins_command():
       physomni-usd build photo.png -o shot/ --box 120,40,380,300:box --inpainter lama
     """
     with _errors():
-        from .backends import registry
         from .errors import redact
+        from .swappable import registry
 
         entries = registry.entries()
         for kind in registry.KINDS:
@@ -1245,7 +1261,7 @@ def rerender(shot, model, strength, steps, prompt, seed, max_size, output, quiet
       physomni-usd rerender shot/shot.usda --model wan-vace --strength 0.5 --steps 20 -o shot/wan.mp4
     """
     with _errors():
-        from .backends.rerender import rerender_shot
+        from .rerender import rerender_shot
 
         with _progress("render  ", not quiet) as bar:
             section = rerender_shot(shot, model, strength, steps, output, prompt, seed, max_size, progress=bar)

@@ -30,7 +30,7 @@ class CameraSettings(_Settings):
     height_m: float | None = Field(None, gt=0.01, le=1000.0,
                                    description="Height of the camera above the ground, metres; it sets the scene's "
                                                "scale. None: the scale comes from the objects' typical sizes "
-                                               "(materials/sizes.py), or a camera 1 m high if no label has one.")
+                                               "(physomni_usd/sizes.py), or a camera 1 m high if no label has one.")
 
 
 class LiftSettings(_Settings):

@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import json
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 
-from physomni_usd.backends import protocols, registry, steps
+from physomni_usd.backends import steps
+from physomni_usd.swappable import protocols, registry
 from physomni_usd.errors import InputError
 
 from .conftest import cli
@@ -119,3 +122,13 @@ def test_estimate_with_an_unknown_estimator_is_refused(shot):
     assert proc.returncode == 2
     assert "--estimator nope" in proc.stderr and "rules" in proc.stderr
     assert (shot["dir"] / "physics.usda").read_bytes() == before
+
+
+def test_a_plugin_importing_the_old_paths_gets_the_same_modules():
+    """Installed plugins written before the plugin interface moved to swappable/ import it from backends/."""
+    code = ("from physomni_usd.backends import registry as r\n"
+            "from physomni_usd.backends.protocols import DepthMap\n"
+            "import physomni_usd.backends.registry, physomni_usd.swappable.registry as new\n"
+            "from physomni_usd.swappable import protocols\n"
+            "assert r is new and physomni_usd.backends.registry is new and DepthMap is protocols.DepthMap\n")
+    subprocess.run([sys.executable, "-c", code], check=True)

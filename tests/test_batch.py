@@ -112,12 +112,30 @@ def test_failed_shot_fails_alone(first_pass):
     entries = _entries(first_pass["summary"])
     assert {k: e["status"] for k, e in entries.items()} == {"cup": "ok", "box": "ok", "missing": "failed"}
     assert "nothere.png" in entries["missing"]["reason"]
+    assert entries["missing"]["failure"]["stage"] == "check" and entries["missing"]["failure"]["exit_code"] == 2
     assert "photos/nothere.png" in first_pass["stderr"]
     for name in ("cup", "box"):
         out = first_pass["folder"] / "out" / name
         assert (out / "video.mp4").stat().st_size > 0 and (out / "sim.usdc").stat().st_size > 0
         assert entries[name]["node"] and entries[name]["node_id"] and entries[name]["seconds"] > 0
     assert not (first_pass["folder"] / "out" / "missing").exists()  # nothing written for bad input
+
+
+def test_a_failed_shot_tells_its_stage_type_and_exit_code(tmp_path):
+    """The shot's process hands its failure to the task as data (not as a line in its log)."""
+    synthetic_photo(tmp_path / "photos")
+    shots = tmp_path / "shots.txt"
+    shots.write_text("photos/photo.png -o out/absurd --mask photos/box.png:box --seconds 9999\n")
+    summary = tmp_path / "summary.json"
+    proc = subprocess.run(_batch_argv(shots, "--summary", summary, "--retries", "1"), capture_output=True,
+                          text=True)
+    assert proc.returncode == 1, proc.stderr
+    entry = _entries(summary)["absurd"]
+    assert entry["status"] == "failed" and entry["attempts"] == 1  # bad input: not retried
+    assert entry["failure"] == {"message": entry["reason"], "exit_code": 2, "type": "ValidationError",
+                                "stage": "check", "internal": False}
+    assert entry["reason"].startswith("--seconds 9999")
+    assert f"error: {entry['reason']}" in (tmp_path / "out/absurd/batch.log").read_text()
 
 
 def test_killed_worker_is_retried_and_others_undisturbed(first_pass):

@@ -1,4 +1,4 @@
-"""The package's public API: one function per stage, importable without anything heavy."""
+"""The package's public API: one function per stage and ``run``, importable without anything heavy."""
 
 import subprocess
 import sys
@@ -12,6 +12,7 @@ from physomni_usd.errors import InputError
 def test_importing_the_package_imports_no_stage_and_nothing_heavy():
     code = ("import sys, physomni_usd\n"
             "assert callable(physomni_usd.build) and callable(physomni_usd.simulate)\n"
+            "assert callable(physomni_usd.run)\n"
             "heavy = [m for m in ('torch', 'warp', 'newton', 'cv2', 'physomni_usd.build', 'physomni_usd.physics',"
             " 'physomni_usd.render') if m in sys.modules]\n"
             "print(heavy)\n")
@@ -29,7 +30,20 @@ def test_a_stage_on_a_missing_shot_is_bad_input_naming_it(tmp_path, stage):
 
 def test_build_of_a_missing_photo_is_bad_input_naming_it(tmp_path):
     with pytest.raises(InputError, match="absent.png"):
-        physomni_usd.build(tmp_path / "absent.png", tmp_path / "out", boxes=["1,1,5,5=box"])
+        physomni_usd.build(tmp_path / "absent.png", tmp_path / "out", boxes=["1,1,5,5:box"])
+    assert not (tmp_path / "out").exists()
+
+
+def test_build_reads_labels_after_a_colon_as_its_docstring_says(tmp_path, photo):
+    """The specs reach the parsers (the photo exists): ``PATH:LABEL`` and ``X0,Y0,X1,Y1:LABEL`` are read as
+    documented, and the ``=`` form, once documented by mistake, is refused naming the box."""
+    assert "PATH[:LABEL]" in physomni_usd.build.__doc__ and "=LABEL" not in physomni_usd.build.__doc__
+    with pytest.raises(InputError, match="mask not found: nothere.png$"):
+        physomni_usd.build(photo["photo"], tmp_path / "out", masks=["nothere.png:cup"])
+    with pytest.raises(InputError, match="smaller than 4×4"):
+        physomni_usd.build(photo["photo"], tmp_path / "out", boxes=["10,10,12,12:box"])
+    with pytest.raises(InputError, match="expected X0,Y0,X1,Y1"):
+        physomni_usd.build(photo["photo"], tmp_path / "out", boxes=["10,10,50,50=box"])
     assert not (tmp_path / "out").exists()
 
 

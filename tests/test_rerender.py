@@ -10,8 +10,8 @@ import pytest
 from click.testing import CliRunner
 from pxr import Usd
 
-from physomni_usd.backends import registry
-from physomni_usd.backends.rerender import rerender_shot
+from physomni_usd.swappable import registry
+from physomni_usd.rerender import rerender_shot
 from physomni_usd.cli import main
 from physomni_usd.errors import InputError
 

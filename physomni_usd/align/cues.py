@@ -4,7 +4,7 @@ The camera is a level pinhole (no roll) looking down by ``pitch``. Cues:
 
 - **ellipses** (weight 1, less as the outline nears a circle, where the
   ratio hardly changes with the pitch): a round, flat outline (a coin, a plate, a saucer: labels
-  whose typical shape is round and low, ``materials/sizes.py``) seen along a
+  whose typical shape is round and low, ``physomni_usd/sizes.py``) seen along a
   ray that meets the ground at angle ε shows minor/major ≈ sin ε. The pitch
   is the one under which a cylinder of the label's typical proportions,
   projected where the mask is, shows the mask's ratio (OpenCV ``fitEllipse``

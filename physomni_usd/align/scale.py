@@ -1,7 +1,7 @@
 """The scene's one unknown scale, fixed from what the objects' labels say about their sizes.
 
 A single photo fixes shapes and positions up to one scale. Each object whose
-label has a typical size (``materials/sizes.py``) votes with the log of
+label has a typical size (``physomni_usd/sizes.py``) votes with the log of
 (typical longest dimension / lifted longest dimension); the votes' median,
 then the mean of the votes within max(3 MADs, log 1.5) of it, gives the
 scale, so one mislabelled or badly cut object cannot drag the scene. Sizes the

@@ -1,7 +1,20 @@
-"""Swappable steps: one protocol per step, built-in backends, and the registry that finds plugins.
+"""The built-in backends and the running of the chosen ones inside ``build``.
 
-``protocols`` says what each kind of backend takes and returns; ``registry``
-lists and loads backends by kind and name (built-ins here, plugins through the
-``physomni_usd.backends`` entry-point group); ``steps`` runs a chosen backend
-inside ``build``. Nothing here imports a plugin's module until it is selected.
+``builtin`` adapts the protocols of :mod:`physomni_usd.swappable.protocols` to
+the classical code in perceive/ and materials/; ``steps`` runs the backends
+``build`` chose (objects from prompts, the plate, lifting, the depth's ground).
+The protocols and the registry that finds plugins are in
+:mod:`physomni_usd.swappable`.
+
+A plugin written when the protocols and the registry lived here imports
+``physomni_usd.backends.registry`` or ``.protocols``: both names stay bound to
+the modules of :mod:`physomni_usd.swappable` themselves (the same module
+objects, not copies), so such a plugin keeps working unchanged.
 """
+
+import sys
+
+from ..swappable import protocols, registry
+
+sys.modules[f"{__name__}.protocols"] = protocols
+sys.modules[f"{__name__}.registry"] = registry

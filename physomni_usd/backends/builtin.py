@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from .protocols import Prompt
+from ..swappable.protocols import Prompt
 
 
 class _Builtin:

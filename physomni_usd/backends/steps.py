@@ -11,8 +11,8 @@ import numpy as np
 
 from .._files import write_bytes
 from ..errors import InputError
-from . import registry
-from .protocols import Prompt
+from ..swappable import registry
+from ..swappable.protocols import Prompt
 
 #: The options ``build``/``run`` take, one per kind used during build, and the kind each selects.
 BUILD_KINDS = ("segmenter", "inpainter", "outpainter", "lifter", "depth", "estimator")

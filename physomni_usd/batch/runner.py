@@ -1,10 +1,13 @@
-"""Running a shot list on Ray: one Ray task per shot, each wrapping one ``physomni-usd run`` process.
+"""Running a shot list on Ray: one Ray task per shot, each running :func:`physomni_usd.run` in its own process.
 
 The driver skips finished shots, submits the rest (at most ``workers`` at a
 time), and resubmits a shot whose attempt failed in a way a retry can help: a
 crash, a killed process or worker, a lost node, a stage that failed (a diverged
-simulation). Bad input (``run`` exit code 2) is not retried. Nothing a shot does
-reaches another: each runs in its own process with its log in its own folder.
+simulation). Bad input (exit code 2) is not retried. Nothing a shot does
+reaches another: each runs in its own process (:mod:`.child`) with its log in
+its own folder, and tells its failure as a structured
+:class:`physomni_usd.failure.Failure` (stage, exception type, message, exit
+code), which the summary keeps.
 
 Paths are read where the task runs, so a cluster must see the shot list's
 folder and the output folders at the same paths as the driver (shared storage).
@@ -12,9 +15,11 @@ folder and the output folders at the same paths as the driver (shared storage).
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 import pathlib
+import pickle
 import shutil
 import signal
 import socket
@@ -26,31 +31,20 @@ from dataclasses import dataclass, field
 
 from .._files import write_bytes
 from ..errors import InputError
+from ..failure import Failure
 from .shots import LOG, OUTPUTS, Shot, inputs_hash, is_finished, mark_finished, mark_started, missing_input
 
 #: The object store holds only each shot's small result; Ray's default (30 % of memory) is wasted here.
 LOCAL_OBJECT_STORE_BYTES = 256 * 1024 * 1024
 _POLL_S = 0.5
 
-# The shot's process ends with the task's worker: PR_SET_PDEATHSIG on Linux, so that a killed
-# worker leaves no orphan writing into a folder that a retry is about to write too. (Ray's raylet
-# also kills a dead worker's children by default; this holds whatever it is configured to do.)
-_CHILD = (
-    "import sys\n"
-    "if sys.platform.startswith('linux'):\n"
-    "    import ctypes, os, signal\n"
-    "    ctypes.CDLL(None).prctl(1, signal.SIGKILL)\n"
-    "    if os.getppid() != int(sys.argv[1]):\n"
-    "        sys.exit(137)\n"
-    "from physomni_usd.cli import main\n"
-    "main(sys.argv[2:], prog_name='physomni-usd')\n"
-)
+def run_shot(call, args: list[str], cwd: str, output: str, digest: str, attempt: int,
+             files: dict | None = None) -> dict:
+    """One attempt of one shot, in the Ray worker: :func:`physomni_usd.run` with the keyword arguments
+    ``call(args)`` gives, in a child process (:mod:`.child`) working in ``cwd``.
 
-
-def run_shot(args: list[str], cwd: str, output: str, digest: str, attempt: int, files: dict | None = None) -> dict:
-    """One attempt of one shot, in the Ray worker: ``physomni-usd run ARGS`` in a child process.
-
-    Returns ``{'ok', 'retry', 'reason', 'seconds', 'node', 'node_ip', 'node_id'}``. With ``files``
+    Returns ``{'ok', 'retry', 'reason', 'failure', 'seconds', 'node', 'node_ip', 'node_id'}``; ``failure``
+    is the child's structured failure (None when it ended without telling one: killed). With ``files``
     (``--upload``) the shot runs in a temporary folder holding them, and the result carries its
     output folder as ``'archive'`` (tar bytes) for the driver to unpack.
     """
@@ -64,7 +58,7 @@ def run_shot(args: list[str], cwd: str, output: str, digest: str, attempt: int, 
         root = pathlib.Path(tempfile.mkdtemp(prefix="physomni-shot-"))
         try:
             write_staged(root, files)
-            result = run_shot(args, str(root), str(root / "out"), digest, attempt, files=None)
+            result = run_shot(call, args, str(root), str(root / "out"), digest, attempt, files=None)
             result["archive"] = pack(root / "out")
             return result
         finally:
@@ -79,13 +73,24 @@ def run_shot(args: list[str], cwd: str, output: str, digest: str, attempt: int, 
         return {"ok": False, "retry": False, "reason": f"cannot write output {folder}: {exc.strerror or exc}",
                 "seconds": 0.0, **where}
     with log:
-        start = log.tell()
         log.write(f"== attempt {attempt} on {where['node']} ({where['node_ip']}), "
                   f"{time.strftime('%Y-%m-%d %H:%M:%S')}: physomni-usd run {' '.join(args)}\n".encode())
         log.flush()
         env = dict(os.environ, PYTHONUNBUFFERED="1")
-        proc = subprocess.Popen([sys.executable, "-c", _CHILD, str(os.getpid()), "run", *args], cwd=cwd,
-                                stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT, env=env)
+        told, tell = os.pipe()
+        try:
+            proc = subprocess.Popen([sys.executable, "-m", "physomni_usd.batch.child", str(os.getpid()), str(tell),
+                                     "run", *args], cwd=cwd, stdin=subprocess.PIPE, stdout=log,
+                                    stderr=subprocess.STDOUT, env=env, pass_fds=(tell,))
+        finally:
+            os.close(tell)
+        with os.fdopen(told, "rb") as answer:
+            try:
+                proc.stdin.write(pickle.dumps(call))
+                proc.stdin.close()
+            except BrokenPipeError:  # the child is already gone; its exit code says how
+                pass
+            failure = _failure(answer.read())
         code = proc.wait()
         seconds = round(time.perf_counter() - t0, 3)
         log.write(f"== exit code {code} after {seconds:.1f} s\n".encode())
@@ -95,22 +100,21 @@ def run_shot(args: list[str], cwd: str, output: str, digest: str, attempt: int, 
             return {"ok": False, "retry": True, "seconds": seconds, **where,
                     "reason": f"run ended without {', '.join(missing)}"}
         mark_finished(folder, digest, attempts=attempt, seconds=seconds, **where)
-        return {"ok": True, "retry": False, "reason": None, "seconds": seconds, **where}
-    return {"ok": False, "retry": code != 2, "reason": _reason(folder / LOG, start, code), "seconds": seconds,
-            **where}
+        return {"ok": True, "retry": False, "reason": None, "failure": None, "seconds": seconds, **where}
+    return {"ok": False, "retry": code != 2, "reason": failure["message"] if failure else _ended(code),
+            "failure": failure, "seconds": seconds, **where}
 
 
-def _reason(log: pathlib.Path, start: int, code: int) -> str:
-    """The one-line reason of a failed attempt: ``run``'s ``error:`` line, or how the process ended."""
+def _failure(told: bytes) -> dict | None:
+    """The child's structured failure, from the line it wrote (None if it wrote none)."""
     try:
-        with open(log, "rb") as f:
-            f.seek(start)
-            lines = f.read().decode(errors="replace").splitlines()
-    except OSError:
-        lines = []
-    errors = [line for line in lines if line.startswith("error: ")]
-    if errors:
-        return errors[-1][len("error: "):]
+        return json.loads(told.decode()) if told.strip() else None
+    except (UnicodeDecodeError, json.JSONDecodeError):
+        return None
+
+
+def _ended(code: int) -> str:
+    """How a child that told no failure ended."""
     if code < 0:
         try:
             return f"killed by {signal.Signals(-code).name}"
@@ -131,6 +135,7 @@ class Entry:
     node_ip: str | None = None
     node_id: str | None = None
     reason: str | None = None
+    failure: dict | None = None  # the last attempt's structured failure: stage, type, message, exit_code
     digest: str = field(default="", repr=False)
 
     def as_json(self) -> dict:
@@ -140,6 +145,7 @@ class Entry:
                "log": str(self.shot.output / LOG) if self.attempts else None}
         if self.status == "failed":
             out["reason"] = self.reason
+            out["failure"] = self.failure
         return out
 
 
@@ -174,11 +180,13 @@ def start_ray(address: str | None, include_gpus: bool = True) -> str:
 
 def run_batch(shots: list[Shot], *, address: str | None = None, workers: int | None = None, retries: int = 2,
               force: bool = False, cpus_per_shot: float = 1.0, gpus_per_shot: float = 0.0, progress=None,
-              summary_path: pathlib.Path | None = None, upload=None) -> dict:
+              summary_path: pathlib.Path | None = None, upload=None, call) -> dict:
     """Run every unfinished shot; returns the summary (also written to ``summary_path`` after each shot).
 
-    ``upload``: ``run``'s click command, to ship inputs and outputs through Ray (see :mod:`.upload`)
-    instead of reading and writing them at their paths on every node.
+    ``call``: a shot's arguments → the keyword arguments of :func:`physomni_usd.run` (``run``'s own parser;
+    a module-level function, pickled by reference into each shot's process). ``upload``: ``run``'s click
+    command, to ship inputs and outputs through Ray (see :mod:`.upload`) instead of reading and writing them
+    at their paths on every node.
     """
     progress = progress or Quiet()
     t0 = time.perf_counter()
@@ -189,6 +197,7 @@ def run_batch(shots: list[Shot], *, address: str | None = None, workers: int | N
             e.status = "skipped"
         elif (reason := missing_input(e.shot)) is not None:
             e.status, e.reason = "failed", reason
+            e.failure = Failure(reason, 2, "InputError", "check").as_json()
     todo = [e for e in entries if e.status == "pending"]
     state = {"where": None}
 
@@ -199,7 +208,7 @@ def run_batch(shots: list[Shot], *, address: str | None = None, workers: int | N
 
     def save():
         if summary_path:
-            write_bytes(summary_path, (__import__("json").dumps(summary(), indent=2) + "\n").encode())
+            write_bytes(summary_path, (json.dumps(summary(), indent=2) + "\n").encode())
 
     progress.start(entries)
     for e in entries:
@@ -211,7 +220,7 @@ def run_batch(shots: list[Shot], *, address: str | None = None, workers: int | N
 
         state["where"] = start_ray(address)
         try:
-            _drive(ray, todo, entries, workers, retries, cpus_per_shot, gpus_per_shot, progress, save, upload)
+            _drive(ray, todo, entries, workers, retries, cpus_per_shot, gpus_per_shot, progress, save, upload, call)
         except KeyboardInterrupt:
             for e in todo:
                 if e.status in ("pending", "running"):
@@ -227,7 +236,7 @@ def run_batch(shots: list[Shot], *, address: str | None = None, workers: int | N
     return summary()
 
 
-def _drive(ray, todo, entries, workers, retries, cpus_per_shot, gpus_per_shot, progress, save, upload):
+def _drive(ray, todo, entries, workers, retries, cpus_per_shot, gpus_per_shot, progress, save, upload, call):
     task = ray.remote(run_shot).options(num_cpus=cpus_per_shot, num_gpus=gpus_per_shot, max_retries=0,
                                         name="physomni-usd run")
     queue = list(todo)
@@ -241,7 +250,7 @@ def _drive(ray, todo, entries, workers, retries, cpus_per_shot, gpus_per_shot, p
                 e.status, e.attempts = "running", e.attempts + 1
                 s = e.shot
                 if upload is None:
-                    ref = task.remote(list(s.args), str(s.cwd), str(s.output), e.digest, e.attempts)
+                    ref = task.remote(call, list(s.args), str(s.cwd), str(s.output), e.digest, e.attempts)
                 else:
                     if id(e) not in staged:
                         from .upload import stage
@@ -250,7 +259,7 @@ def _drive(ray, todo, entries, workers, retries, cpus_per_shot, gpus_per_shot, p
                         staged[id(e)] = (args, ray.put(files))
                         mark_started(s.output)
                     args, files = staged[id(e)]
-                    ref = task.remote(args, str(s.cwd), str(s.output), e.digest, e.attempts, files)
+                    ref = task.remote(call, args, str(s.cwd), str(s.output), e.digest, e.attempts, files)
                 running[ref] = e
             progress.update(entries)
             done, _ = ray.wait(list(running), num_returns=1, timeout=_POLL_S)
@@ -260,7 +269,7 @@ def _drive(ray, todo, entries, workers, retries, cpus_per_shot, gpus_per_shot, p
                     result = ray.get(ref)
                 except ray.exceptions.RayError as exc:
                     # the worker or its node died under the shot: the process is gone, a retry can help
-                    result = {"ok": False, "retry": True, "seconds": 0.0,
+                    result = {"ok": False, "retry": True, "seconds": 0.0, "failure": None,
                               "reason": f"the Ray worker was lost ({type(exc).__name__})"}
                 if result.get("archive") is not None:
                     from .upload import unpack
@@ -269,6 +278,7 @@ def _drive(ray, todo, entries, workers, retries, cpus_per_shot, gpus_per_shot, p
                 e.seconds += result.get("seconds") or 0.0
                 for key in ("node", "node_ip", "node_id"):
                     setattr(e, key, result.get(key, getattr(e, key)))
+                e.failure = result.get("failure")
                 if result["ok"]:
                     e.status, e.reason = "ok", None
                     progress.event("ok", e)

@@ -2,11 +2,13 @@
 
 Generated values (rules, vlm) replace ``physics.usda``; what a user gave on
 the command line before — pushes, fixed objects, force fields of source
-``user``, solver settings — is carried over. ``--set`` values go to the
-artist's ``edits.usda``: authored on that layer itself through Sdf (every prim,
-property, time sample and layer metadata already in it stays; ``#`` comments,
-which are not part of USD's data model, do not survive any USD save) and saved
-through a temporary file and a rename. Without ``--set`` the file is not touched.
+``user``, solver settings — is carried over. ``--set`` values are checked
+here against the catalog and go to the artist's ``edits.usda`` through
+:func:`physomni_usd.usd.overrides.add_overrides`: authored on that layer
+itself through Sdf (every prim, property, time sample and layer metadata already
+in it stays; ``#`` comments, which are not part of USD's data model, do not
+survive any USD save) and saved through a temporary file and a rename. Without
+``--set`` the file is not touched. This module writes no USD itself.
 """
 
 from __future__ import annotations
@@ -16,17 +18,19 @@ import pathlib
 import cv2
 from pxr import Sdf, Usd, UsdPhysics
 
-from ..backends import registry
 from ..errors import InputError
 from ..fields import parse_force_options, read_force_fields
 from .._files import all_or_nothing
 from ..settings import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
 from ..report import Timer, prepare_writes, update_report
+from ..swappable import registry
 from ..usd import layers
-from ..usd.author import PhysicsObject, set_param, write_physics_layer
+from ..usd.author import PhysicsObject, write_physics_layer
+from ..usd.contract import MATERIAL_TYPE, bound_material, object_prims
+from ..usd.overrides import add_overrides
 from .catalog import PARAMS, canonical_key, check_params, keys_of, material_type
 from .defaults import GROUND_MATERIAL
-from .report import bound_material, material_report, object_prims
+from .report import material_report
 
 INPUTS = "inputs"
 
@@ -78,20 +82,14 @@ def parse_sets(specs, objects: list[Usd.Prim]) -> list[tuple[Usd.Prim, str, obje
 
 
 def apply_sets(folder: pathlib.Path, sets) -> list[str]:
-    """Author ``--set`` values in ``edits.usda`` on the objects' bound physics materials; returns what was set.
-
-    The values are authored on the edits layer itself (the composed stage's edit target), so every spec
-    already in it stays; the layer is then exported to a temporary file that replaces ``edits.usda``. A
-    layer without a frame rate gets the root's here (without it USD rescales its time samples).
-    """
+    """Check ``--set`` values against the objects' physics materials and author them in ``edits.usda``
+    (:func:`physomni_usd.usd.overrides.add_overrides`, which keeps every spec already there, as for the
+    preview's "Keep settings"); returns what was set. Nothing is written when one value is refused."""
     if not sets:
         return []
     stage = layers.open_shot(folder, mute_sim=True)
-    layers.ensure_edits_layer(folder, stage.GetTimeCodesPerSecond() or 30.0)
-    edits = Sdf.Layer.FindOrOpen(str(folder / layers.EDITS))
-    layers.add_edits_time_codes(edits, stage.GetTimeCodesPerSecond() or 30.0)
-    stage.SetEditTarget(Usd.EditTarget(edits))
-    done = []
+    types: dict = {}  # material prim path → the type it will have (a material may be shared)
+    writes, done = [], []
     # material types first, so that parameters are checked against the type they will have
     for prim, key, value in sorted(sets, key=lambda s: s[1] != "material"):
         prim = stage.GetPrimAtPath(prim.GetPath())
@@ -100,19 +98,18 @@ def apply_sets(folder: pathlib.Path, sets) -> list[str]:
             raise InputError(f"{prim.GetPath()} has no physics material; run `physomni-usd build` again")
         where = f"{mat.GetPath()}"
         if key == "material":
-            attr = mat.GetAttribute("physomni:materialType")
-            attr.Set(value)
-            attr.SetCustomDataByKey("physomni:source", "user")
+            types[mat.GetPath()] = value
+            writes.append((str(mat.GetPath()), MATERIAL_TYPE, value))
             done.append(f"{prim.GetName()}.material = {value}")
             continue
-        material = mat.GetAttribute("physomni:materialType").Get() or "rigid"
+        material = types.get(mat.GetPath()) or mat.GetAttribute(MATERIAL_TYPE).Get() or "rigid"
         targets = ("static_friction", "dynamic_friction") if key == "friction" else (key,)
         for t in targets:
             if t not in keys_of(material):
                 raise InputError(f"{where}: a {material} material has no {t}; it takes {', '.join(keys_of(material))}")
-            set_param(mat, PARAMS[t].attr, value, "user")
+            writes.append((str(mat.GetPath()), PARAMS[t].attr, value))
             done.append(f"{prim.GetName()}.{t} = {value}")
-    layers.save_layer(edits, folder / layers.EDITS)
+    add_overrides(folder, writes, mute_sim=True)
     return done
 
 

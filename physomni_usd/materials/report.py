@@ -2,27 +2,10 @@
 
 from __future__ import annotations
 
-from pxr import Usd, UsdShade
+from pxr import Usd
 
-from ..usd.author import OBJECTS
+from ..usd.contract import bound_material, object_prims
 from .catalog import PARAMS
-
-
-def object_prims(stage: Usd.Stage) -> list[Usd.Prim]:
-    """Objects under /World/Objects in mask order (``physomni:maskIndex``), then by name."""
-    root = stage.GetPrimAtPath(OBJECTS)
-    prims = [p for p in (root.GetChildren() if root else []) if p.HasAPI("PhysOmniObjectAPI")]
-
-    def key(p):
-        idx = p.GetAttribute("physomni:maskIndex").Get()
-        return (idx if idx is not None else 1 << 30, p.GetName())
-
-    return sorted(prims, key=key)
-
-
-def bound_material(prim: Usd.Prim) -> Usd.Prim | None:
-    mat, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial("physics")
-    return mat.GetPrim() if mat else None
 
 
 def material_report(stage: Usd.Stage, estimator: str) -> dict:

@@ -12,7 +12,7 @@ whose footprint is as deep as it is wide, and the H that makes it so is the
 height; other outlines take it from the edge between their front side and
 their top, where the photo shows one consistently across the object. Where the sides hardly show (rays steeper than ``SIDES_VISIBLE_DEG``
 from the horizontal) or the outline is not round, the height is the label's
-typical height (``materials/sizes.py``), and without one half the
+typical height (``physomni_usd/sizes.py``), and without one half the
 footprint's width. Round footprints become cylinders (a disc when flat), or
 spheres where the label is a ball's; organic things (``sizes.body_kind``:
 fruit, toys, bags) that are not balls an inflated dome of their footprint

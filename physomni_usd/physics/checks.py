@@ -14,7 +14,7 @@ from pxr import Usd, UsdPhysics
 
 from ..errors import InputError
 from ..materials.catalog import PARAMS, keys_of, material_type
-from ..materials.report import bound_material, object_prims
+from ..usd.contract import bound_material, object_prims
 from ..fields import FIELD_ATTRS, field_value_problem
 
 #: (lowest, highest) accepted per attribute of a body: the material catalog's density, and a mass.

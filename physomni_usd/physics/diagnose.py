@@ -1,7 +1,7 @@
 """Checking a scene against what a photo of objects allows, and naming the likely cause of a failed run.
 
 :func:`scene_findings` compares the composed stage at frame 0 with the
-objects' typical sizes (``materials/sizes.py``) and with physics: absurd
+objects' typical sizes (``physomni_usd/sizes.py``) and with physics: absurd
 sizes and masses, objects starting inside each other, floating above or sunk
 into the ground, a camera inside an object. ``build`` prints and records
 them, ``validate`` reports them (errors make it exit 1), ``simulate`` refuses

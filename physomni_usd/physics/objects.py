@@ -10,7 +10,7 @@ from pxr import Usd, UsdGeom, UsdPhysics
 
 from ..errors import InputError
 from ..materials.catalog import CATALOG, PARAMS, keys_of, material_type
-from ..materials.report import bound_material, object_prims
+from ..usd.contract import bound_material, object_prims
 from .mpm import MPM_TYPES
 
 #: Solver family per material type; what is not listed here is rigid.

@@ -180,7 +180,7 @@ class Engine:
         return float(g) if g is not None and g >= 0 else 9.81
 
     def _live_objects(self, objects) -> list[LiveObject]:
-        from ..materials.report import bound_material
+        from ..usd.contract import bound_material
 
         out = []
         for o in objects:

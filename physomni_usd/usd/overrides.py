@@ -1,5 +1,6 @@
-"""The artist's layer, added to: values a user chose (in the preview's panel) authored as ``over``s in
-``edits.usda`` through Sdf, every opinion already there kept, the file replaced atomically."""
+"""The artist's layer, added to: values a user chose (``estimate --set``, the preview's "Keep settings")
+authored as ``over``s in ``edits.usda`` through Sdf, every opinion already there kept, the file replaced
+atomically."""
 
 from __future__ import annotations
 
@@ -9,17 +10,20 @@ from pxr import Sdf
 
 from . import layers
 
-_FALLBACK_TYPES = {bool: Sdf.ValueTypeNames.Bool, float: Sdf.ValueTypeNames.Float, int: Sdf.ValueTypeNames.Int}
+_FALLBACK_TYPES = {bool: Sdf.ValueTypeNames.Bool, float: Sdf.ValueTypeNames.Float, int: Sdf.ValueTypeNames.Int,
+                   str: Sdf.ValueTypeNames.Token}
 
 
-def add_overrides(folder: pathlib.Path, values: list[tuple[str, str, object]], source: str = "user") -> pathlib.Path:
+def add_overrides(folder: pathlib.Path, values: list[tuple[str, str, object]], source: str = "user", *,
+                  mute_sim: bool = False) -> pathlib.Path:
     """Author ``(prim path, attribute name, value)`` triples in ``folder/edits.usda``; returns its path.
 
     Each attribute takes the type the composed stage gives it (the schema's where it defines it); a
     value already in the layer for that attribute is replaced, everything else in the layer stays.
-    Each authored value records ``physomni:source`` in its customData, as ``estimate --set`` does."""
+    Each authored value records ``physomni:source`` in its customData. ``mute_sim``: the types are read
+    without the simulation layer (which may then be missing or damaged), as ``estimate`` reads the shot."""
     folder = pathlib.Path(folder)
-    stage = layers.open_shot(folder)
+    stage = layers.open_shot(folder, mute_sim=mute_sim)
     fps = stage.GetTimeCodesPerSecond() or 30.0
     path = layers.ensure_edits_layer(folder, fps)
     edits = Sdf.Layer.FindOrOpen(str(path))

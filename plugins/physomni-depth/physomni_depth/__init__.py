@@ -18,7 +18,7 @@ import pathlib
 
 import numpy as np
 
-from physomni_usd.backends import registry
+from physomni_usd.swappable import registry
 
 ENV = "PHYSOMNI_DEPTH_WEIGHTS"
 WHAT = "a depth model folder saved by transformers' from_pretrained (e.g. depth-anything/Depth-Anything-V2-Small-hf)"
@@ -56,7 +56,7 @@ class DepthAnything:
         import cv2
         import torch
 
-        from physomni_usd.backends.protocols import DepthMap
+        from physomni_usd.swappable.protocols import DepthMap
 
         inputs = self.processor(images=photo, return_tensors="pt").to(self.device)
         with torch.inference_mode():

@@ -13,7 +13,7 @@ import os
 
 import numpy as np
 
-from physomni_usd.backends import registry
+from physomni_usd.swappable import registry
 
 ENV = "PHYSOMNI_LAMA_WEIGHTS"
 WHAT = "LaMa's TorchScript file (big-lama.pt)"

@@ -15,7 +15,7 @@ import pathlib
 
 import numpy as np
 
-from physomni_usd.backends import registry
+from physomni_usd.swappable import registry
 
 ENV = "PHYSOMNI_SAM_WEIGHTS"
 WHAT = "a SAM or SAM 2 folder saved by transformers' from_pretrained (e.g. facebook/sam-vit-base)"

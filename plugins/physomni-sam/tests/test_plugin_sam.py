@@ -65,7 +65,7 @@ def test_missing_weights_is_one_line_and_writes_nothing(tmp_path):
 def test_box_is_cut_by_the_model_and_reported(tmp_path, monkeypatch):
     from physomni_sam import SamSegmenter
 
-    from physomni_usd.backends.protocols import Prompt
+    from physomni_usd.swappable.protocols import Prompt
 
     paths = synthetic_photo(tmp_path / "in")
     weights = tiny_sam(tmp_path / "sam")

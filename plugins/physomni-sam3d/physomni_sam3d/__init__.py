@@ -20,7 +20,7 @@ import os
 
 import numpy as np
 
-from physomni_usd.backends import registry
+from physomni_usd.swappable import registry
 
 ENV = "PHYSOMNI_SAM3D_CONFIG"
 WHAT = "SAM 3D Objects' checkpoints/<tag>/pipeline.yaml (its checkpoints beside it)"
@@ -80,7 +80,7 @@ def _mesh(output: dict):
 
 def to_camera_pose(output: dict):
     """A ``LiftedObject`` (OpenCV camera) from one SAM 3D Objects output dict."""
-    from physomni_usd.backends.protocols import LiftedObject
+    from physomni_usd.swappable.protocols import LiftedObject
     from physomni_usd.rotations import from_wxyz, to_wxyz
 
     verts, faces = _mesh(output)

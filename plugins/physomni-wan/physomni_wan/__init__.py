@@ -29,7 +29,7 @@ import pathlib
 
 import numpy as np
 
-from physomni_usd.backends import registry
+from physomni_usd.swappable import registry
 
 ENV = "PHYSOMNI_WAN_WEIGHTS"
 ENV_CACHE = "PHYSOMNI_WAN_CACHE"

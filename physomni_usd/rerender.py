@@ -16,19 +16,19 @@ import time
 import cv2
 import numpy as np
 
-from .._files import atomic_path
-from ..errors import InputError
-from ..report import update_report
-from ..usd import layers
-from . import registry
-from .protocols import ControlPasses
+from ._files import atomic_path
+from .errors import InputError
+from .report import update_report
+from .swappable import registry
+from .swappable.protocols import ControlPasses
+from .usd import layers
 
 
 def rendered_frames(stage, max_size: int, progress=None) -> tuple[np.ndarray, ControlPasses, float]:
     """Every frame of the composed stage (T, H, W, 3) uint8, their control passes, and the fps."""
-    from ..render.passes import frame_passes
-    from ..render.video import ShotRenderer
-    from ..settings import RenderSettings
+    from .render.passes import frame_passes
+    from .render.video import ShotRenderer
+    from .settings import RenderSettings
 
     renderer = ShotRenderer(stage, RenderSettings(max_size=max_size))
     start, end = int(stage.GetStartTimeCode()), int(stage.GetEndTimeCode())
@@ -70,7 +70,7 @@ def default_model() -> str:
 
 def default_prompt(stage) -> str:
     """A plain description from the objects' labels, e.g. 'a cup and a box on the ground, photorealistic'."""
-    from ..materials.report import object_prims
+    from .usd.contract import object_prims
 
     labels = [p.GetAttribute("physomni:label").Get() or p.GetName() for p in object_prims(stage)]
     things = " and ".join(f"a {label}" for label in labels) or "a scene"
@@ -83,7 +83,7 @@ def rerender_shot(shot, model: str | None, strength: float = 0.6, steps: int = 2
     ``rerender.mp4``) and the report."""
     import imageio.v2 as imageio
 
-    from ..render.encode import even_sides
+    from .render.encode import even_sides
 
     if not 0.0 < strength <= 1.0:
         raise InputError(f"--strength {strength:g}: must be in (0, 1]")

@@ -1,0 +1,64 @@
+"""What a failed command says to a person: one line and an exit code, for the CLI and for ``batch`` alike.
+
+Exit codes: 1 a stage failed (or the disk did), 2 bad input, 3 an internal error (a bug),
+128 + the signal's number when interrupted (130 for Ctrl-C, 143 for SIGTERM). A pydantic refusal names the option that set the field, as
+the user typed it (``--fov 500: ...``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+from pydantic import ValidationError
+
+from ._files import io_failure, shown_name
+from .errors import PhysOmniError
+
+#: Settings fields → the options that set them, so that a refused value is named as the user typed it.
+OPTIONS = {"fov_deg": "--fov", "pitch_deg": "--pitch", "height_m": "--camera-height", "shape": "--shape",
+           "fps": "--fps", "seconds": "--seconds", "substeps": "--substeps", "iterations": "--iterations",
+           "particle_spacing": "--particle-spacing", "mpm_steps": "--mpm-steps", "max_size": "--max-size"}
+
+INTERRUPTED = "interrupted by {name}: the shot's files are put back as they were before this command"
+
+
+@dataclass(frozen=True)
+class Failure:
+    """Why a command ended: ``message`` one line, ``exit_code`` as above, ``type`` the exception's class name,
+    ``stage`` the stage of ``run`` it happened in (None outside ``run``); ``internal``: a bug, not the input."""
+
+    message: str
+    exit_code: int
+    type: str
+    stage: str | None = None
+    internal: bool = False
+
+    def as_json(self) -> dict:
+        return asdict(self)
+
+
+def failure_of(exc: BaseException, stage: str | None = None) -> Failure:
+    """The failure ``exc`` stands for."""
+    kind = type(exc).__name__
+    if isinstance(exc, PhysOmniError):
+        return Failure(str(exc), exc.exit_code, kind, stage)
+    if isinstance(exc, ValidationError):
+        first = exc.errors()[0]
+        loc = [str(x) for x in first.get("loc", ())]
+        where = OPTIONS.get(loc[-1], ".".join(loc)) if loc else "value"
+        msg = str(first.get("msg", "is not valid"))
+        msg = msg[len("Input "):] if msg.startswith("Input ") else msg
+        value = first.get("input")
+        shown = f" {value:g}" if isinstance(value, float) else (f" {value}" if isinstance(value, (int, str)) else "")
+        return Failure(f"{where}{shown}: {msg}", 2, kind, stage)
+    if isinstance(exc, PermissionError):  # the checks before each command should have caught it
+        return Failure(f"cannot write {shown_name(exc.filename)}: permission denied", 2, kind, stage)
+    if isinstance(exc, OSError):
+        disk = io_failure(exc)  # full, read-only or failing: the disk's fault, not a bug
+        if disk is not None:
+            return Failure(disk[0], disk[1], kind, stage)
+    if isinstance(exc, KeyboardInterrupt):  # Ctrl-C, or a terminating signal raised as one (errors.Interrupted)
+        name, signum = getattr(exc, "name", "SIGINT"), getattr(exc, "signum", 2)
+        return Failure(INTERRUPTED.format(name=name), 128 + signum, kind, stage)
+    return Failure(f"internal error: {kind}: {exc} (set PHYSOMNI_DEBUG=1 for the traceback)", 3, kind, stage,
+                   internal=True)
