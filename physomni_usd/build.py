@@ -192,7 +192,7 @@ class ShotObject:
     amodal: np.ndarray | None = None  # (H, W) bool: the mask completed behind what hides it (complete)
     occluders: list = field(default_factory=list)  # indices of the objects that hide part of it
     completion: str = "whole"  # how the hidden part was closed (perceive.amodal.Completion.how)
-    lifted: object = None  # backends.protocols.LiftedObject
+    lifted: object = None  # swappable.protocols.LiftedObject
     vertices: np.ndarray | None = None  # (N, 3) world metres, placed
     projected: np.ndarray | None = None  # (N, 3) world metres, where the photo saw it (texture coordinates)
     faces: np.ndarray | None = None

@@ -8,7 +8,7 @@ import importlib
 import numpy as np
 import trimesh
 
-from physomni_usd.backends import protocols, registry
+from physomni_usd.swappable import protocols, registry
 from physomni_usd.backends import steps as backend_steps
 from physomni_usd.backends.builtin import SilhouetteLifter
 

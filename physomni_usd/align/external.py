@@ -101,7 +101,7 @@ def read_poses(folder, labels: list[str]) -> list[tuple[trimesh.Trimesh, tuple, 
 
 def posed_entries(lifted):
     """(mesh, rotation (3, 3), translation (3,), scale, notes) of each lifted object
-    (``backends.protocols.LiftedObject``), its mesh repaired (:func:`repair_mesh`): what
+    (``swappable.protocols.LiftedObject``), its mesh repaired (:func:`repair_mesh`): what
     :func:`place_external` takes."""
     out = []
     for o in lifted:

@@ -133,7 +133,7 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
 
 
 def place_on_ground(lifted, names, gap_m: float) -> PhotoScene:
-    """The scene of ``lifted`` meshes (``backends.protocols.LiftedObject`` with ``ground`` evidence, lifted by
+    """The scene of ``lifted`` meshes (``swappable.protocols.LiftedObject`` with ``ground`` evidence, lifted by
     :func:`lift_photo_scene`): objects resting on others move with them; the rest are made shallower, then
     moved apart, until their footprints are ``gap_m`` apart; an object left inside what holds it is raised
     onto it (``align.support.settle_on_supports``)."""

@@ -45,7 +45,7 @@ class Studio:
     """One photo, one shot folder, one page."""
 
     def __init__(self, photo, output, options: Options = Options(), segmenter: str = "grabcut"):
-        from ..backends import registry
+        from ..swappable import registry
         from ..perceive.masks import read_photo
         from ..preview.app import check_port
 

@@ -100,7 +100,7 @@ def test_empty_mask_from_the_model_is_the_usual_error(tmp_path):
 def test_clicks_after_the_box_are_the_models_point_prompts(tmp_path, monkeypatch):
     from physomni_sam import SamSegmenter
 
-    from physomni_usd.backends.protocols import Prompt
+    from physomni_usd.swappable.protocols import Prompt
 
     paths = synthetic_photo(tmp_path / "in")
     weights = tiny_sam(tmp_path / "sam")

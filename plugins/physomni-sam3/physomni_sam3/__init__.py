@@ -17,7 +17,7 @@ import pathlib
 import cv2
 import numpy as np
 
-from physomni_usd.backends import registry
+from physomni_usd.swappable import registry
 
 ENV = "PHYSOMNI_SAM3_WEIGHTS"
 WHAT = "a SAM 3 folder saved by transformers' from_pretrained (e.g. facebook/sam3)"
