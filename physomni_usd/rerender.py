@@ -81,9 +81,7 @@ def rerender_shot(shot, model: str | None, strength: float = 0.6, steps: int = 2
                   seed: int = 0, max_size: int = 832, progress=None) -> dict:
     """Re-render ``shot`` with re-renderer ``model`` (None: the one installed); writes the video (default
     ``rerender.mp4``) and the report."""
-    import imageio.v2 as imageio
-
-    from .render.encode import even_sides
+    from .render.encode import even_sides, video_writer
 
     if not 0.0 < strength <= 1.0:
         raise InputError(f"--strength {strength:g}: must be in (0, 1]")
@@ -113,8 +111,7 @@ def rerender_shot(shot, model: str | None, strength: float = 0.6, steps: int = 2
     t_model = time.perf_counter()
     out.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(out) as tmp:
-        writer = imageio.get_writer(str(tmp), format="FFMPEG", mode="I", fps=fps, codec="libx264", quality=8,
-                                    macro_block_size=1, pixelformat="yuv420p", ffmpeg_log_level="error")
+        writer = video_writer(tmp, fps, 8)
         try:
             for f in new:
                 writer.append_data(even_sides(np.clip(f, 0, 255).astype(np.uint8)))

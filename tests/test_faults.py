@@ -17,7 +17,7 @@ def base(shot):
 
 
 #: Rows not clean yet, each with why: the test holds them to failing, so that a fix is noticed.
-KNOWN = {"full disk render": "ffmpeg prints its own error lines (render/video.py's writer keeps its stderr)"}
+KNOWN: dict[str, str] = {}
 
 
 @pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.xfail(reason=KNOWN[n], strict=True))

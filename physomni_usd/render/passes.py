@@ -195,9 +195,8 @@ class PassWriter:
     pass, and ``passes.json`` on :meth:`close`."""
 
     def __init__(self, folder: pathlib.Path, passes: tuple[str, ...], renderer, fps: float, quality: int):
-        import imageio.v2 as imageio
-
         from .._files import atomic_path, make_dirs
+        from .encode import video_writer
 
         self.folder, self.passes, self.renderer = pathlib.Path(folder), passes, renderer
         make_dirs(self.folder)
@@ -208,9 +207,7 @@ class PassWriter:
         self.writers = []
         for ctx in self._paths:
             tmp = ctx.__enter__()
-            self.writers.append(imageio.get_writer(str(tmp), format="FFMPEG", mode="I", fps=fps, codec="libx264",
-                                                   quality=quality, macro_block_size=1, pixelformat="yuv420p",
-                                                   ffmpeg_log_level="error"))
+            self.writers.append(video_writer(tmp, fps, quality))
 
     def add(self, state, t_next: float | None) -> None:
         """The passes of the frame the renderer rendered from ``state`` (a FrameState; ``t_next``: the next

@@ -25,7 +25,7 @@ from ..geometry.camera import RenderCamera
 from ..geometry.raycast import RayCaster, covered_pixels
 from ..usd.author import write_render_layer
 from .moves import MAX_AMOUNT, MOVES, move_matrices
-from .encode import even_sides
+from .encode import encoder_failure, even_sides, video_writer
 from .passes import PassWriter, pass_files
 from .stage import (read_camera, read_objects, read_particles, read_photo, read_photo_camera,
                     read_photo_camera_matrix, read_plate, read_wide_plate, visible, world_points)
@@ -467,8 +467,6 @@ def _objects_centre(stage: Usd.Stage, time: Usd.TimeCode) -> np.ndarray:
 
 def _render_shot(shot, output, settings: RenderSettings, progress, passes=(), passes_dir=None, camera=None,
                  camera_amount: float = 1.0) -> dict:
-    import imageio.v2 as imageio
-
     t0 = time.perf_counter()
     check_camera_move(camera, camera_amount)
     folder = layers.shot_folder(shot)
@@ -493,25 +491,26 @@ def _render_shot(shot, output, settings: RenderSettings, progress, passes=(), pa
     t_setup = time.perf_counter()
     n = end - start + 1
     pass_writer = PassWriter(pass_dir, passes, renderer, fps, settings.quality) if passes else None
-    with atomic_path(out) as tmp:
-        writer = imageio.get_writer(str(tmp), format="FFMPEG", mode="I", fps=fps, codec="libx264",
-                                    quality=settings.quality, macro_block_size=1,
-                                    pixelformat="yuv420p", ffmpeg_log_level="error")
-        try:
-            for k, t in enumerate(range(start, end + 1)):
-                image, state = renderer.render(float(t))
-                writer.append_data(even_sides(image))
+    try:
+        with atomic_path(out) as tmp:
+            writer = video_writer(tmp, fps, settings.quality)
+            try:
+                for k, t in enumerate(range(start, end + 1)):
+                    image, state = renderer.render(float(t))
+                    writer.append_data(even_sides(image))
+                    if pass_writer:
+                        pass_writer.add(state, float(t + 1) if t < end else None)
+                    if progress:
+                        progress(k + 1, n)
+            except BaseException:
                 if pass_writer:
-                    pass_writer.add(state, float(t + 1) if t < end else None)
-                if progress:
-                    progress(k + 1, n)
-        except BaseException:
-            if pass_writer:
-                pass_writer.close(ok=False)
-            raise
-        finally:
-            writer.close()
-    pass_section = pass_writer.close() if pass_writer else None
+                    pass_writer.close(ok=False)
+                raise
+            finally:
+                writer.close()
+        pass_section = pass_writer.close() if pass_writer else None
+    except OSError as exc:
+        raise encoder_failure(exc, out) from None
     t_end = time.perf_counter()
     section = {"video": str(out), "frames": n, "fps": fps, "width": renderer.width - renderer.width % 2,
                "height": renderer.height - renderer.height % 2,
