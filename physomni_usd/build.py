@@ -241,7 +241,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         if out.exists() and not out.is_dir():
             raise InputError(f"output {out} exists and is not a directory")
         photo = read_photo(photo_path, settings.max_pixels)
-        objects = (backend_steps.collect_objects(photo, masks, boxes, chosen["segmenter"])
+        objects = (backend_steps.collect_objects(photo, masks, boxes, chosen["segmenter"], _box_progress(echo))
                    if masks or boxes or finding is None else [])
         if finding is not None:
             objects += find_objects(photo, find, finding, len(objects), echo)
@@ -264,6 +264,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
             echo(f"warning: mask of {o.name}: {o.quality['warning']}")
     scene = Scene(photo, settings, [ShotObject(o) for o in objects], chosen)
 
+    echo("perceive: filling the background plate behind the objects")
     with timer.step("perceive.plate"):
         _plate(scene)
     with timer.step("perceive.outpaint"):
@@ -331,6 +332,15 @@ def _complete(scene: Scene) -> None:
     """Who hides whom, and each hidden object's outline completed behind its occluders."""
     for o, c in zip(scene.objects, complete(scene.masks)):
         o.amodal, o.occluders, o.completion = c.amodal, c.occluders, c.how
+
+
+def _box_progress(echo):
+    """``progress(done, total)`` for the boxes' masks: one line each once there are several, since each box
+    runs GrabCut (seconds on a large photo) before anything else is said."""
+    def progress(done: int, total: int) -> None:
+        if total > 1:
+            echo(f"perceive: mask {done}/{total} cut from its box")
+    return progress
 
 
 def _lift(scene: Scene, lifter, user_sizes: dict, out: pathlib.Path) -> None:

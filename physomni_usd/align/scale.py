@@ -163,8 +163,10 @@ def _fit_priors(priors: list[dict], votes: list[dict], unit_height_m: float) -> 
         if losers:
             warnings.append(f"typical sizes disagree by more than {DISAGREE_FACTOR:g}×: {', '.join(losers)} against "
                             f"{', '.join(winners)}; the scale follows {', '.join(winners)} (a camera "
-                            f"{math.exp(mean) * unit_height_m:.2g} m high), so {', '.join(losers)} are not the size "
-                            f"their labels suggest (give --size to say otherwise)")
+                            f"{math.exp(mean) * unit_height_m:.2g} m high), so {', '.join(losers)} "
+                            f"{'is' if len(losers) == 1 else 'are'} not the size "
+                            f"{'its label suggests' if len(losers) == 1 else 'their labels suggest'} "
+                            f"(give --size to say otherwise)")
         else:  # no reading is better than another: their compromise, said so
             warnings.append(f"typical sizes disagree by more than {DISAGREE_FACTOR:g}× among {', '.join(winners)} "
                             f"and none reads the scene better; the scale is their compromise (a camera "

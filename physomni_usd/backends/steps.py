@@ -55,12 +55,12 @@ def report(backends: dict) -> dict:
     return {kind: registry.describe(b) for kind, b in backends.items() if b is not None}
 
 
-def collect_objects(photo: np.ndarray, mask_specs, box_specs, segmenter):
-    """Like ``perceive.masks.collect_masks``, but boxes are cut by ``segmenter``."""
+def collect_objects(photo: np.ndarray, mask_specs, box_specs, segmenter, progress=None):
+    """Like ``perceive.masks.collect_masks`` (``progress`` as it takes it), but boxes are cut by ``segmenter``."""
     from ..perceive.masks import ObjectMask, box_clicks, checked_mask, collect_masks, parse_box, read_mask
 
     if type(segmenter).name == "grabcut" or not box_specs:
-        return collect_masks(photo, mask_specs, box_specs)
+        return collect_masks(photo, mask_specs, box_specs, progress)
     specs = list(mask_specs or ())
     objects = [read_mask(s, photo.shape[:2], i) for i, s in enumerate(specs)]
     h, w = photo.shape[:2]

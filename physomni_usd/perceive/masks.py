@@ -462,8 +462,9 @@ def checked_mask(mask: np.ndarray, what: str) -> np.ndarray:
     return mask
 
 
-def collect_masks(photo: np.ndarray, mask_specs, box_specs) -> list[ObjectMask]:
-    """All objects, numbered in the order given: masks first, then boxes."""
+def collect_masks(photo: np.ndarray, mask_specs, box_specs, progress=None) -> list[ObjectMask]:
+    """All objects, numbered in the order given: masks first, then boxes. ``progress(done, total)`` is told
+    after each box's mask is cut (GrabCut takes seconds a box on a large photo)."""
     specs = list(mask_specs or ())
     boxes = list(box_specs or ())
     if not specs and not boxes:
@@ -471,7 +472,10 @@ def collect_masks(photo: np.ndarray, mask_specs, box_specs) -> list[ObjectMask]:
                          "at least once (or pick them in the browser: physomni-usd studio PHOTO -o DIR)")
     shape = photo.shape[:2]
     objects = [read_mask(s, shape, i) for i, s in enumerate(specs)]
-    objects += [mask_from_box(photo, s, len(specs) + j) for j, s in enumerate(boxes)]
+    for j, s in enumerate(boxes):
+        objects.append(mask_from_box(photo, s, len(specs) + j))
+        if progress is not None:
+            progress(j + 1, len(boxes))
     for o in objects:
         if o.quality is not None and "edge_agreement" not in o.quality:
             o.quality = dict(mask_quality(photo, o.mask), method=o.quality["method"])
