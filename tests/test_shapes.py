@@ -13,10 +13,11 @@ from physomni_usd.perceive.lift import lift_silhouette
 from physomni_usd.sizes import body_kind, size_prior
 
 
-def _blob() -> np.ndarray:
-    """A lopsided outline (a body and a head), not mirror-symmetric: no surface of revolution fits it."""
+def _blob(tilt_deg: float = 0.0) -> np.ndarray:
+    """A lopsided outline (a body and a head), not mirror-symmetric: no surface of revolution fits it. With
+    ``tilt_deg`` the body's far end dips below the rest, so the body touches the ground only out there."""
     m = np.zeros((240, 320), np.uint8)
-    cv2.ellipse(m, (160, 170), (60, 25), 10, 0, 360, 1, -1)
+    cv2.ellipse(m, (160, 170), (60, 25), tilt_deg, 0, 360, 1, -1)
     cv2.circle(m, (110, 160), 18, 1, -1)
     return m > 0
 
@@ -33,6 +34,20 @@ def _silhouette(camera, mesh) -> np.ndarray:
     for tri in mesh.faces:
         cv2.fillPoly(out, [np.round(uv[tri] * 16).astype(np.int32)], 1, shift=4)
     return out > 0
+
+
+def test_an_inflated_body_rests_on_a_flat_patch_or_is_the_slab():
+    """The photo shows it at rest: its weight must fall over what touches the ground, or it would roll away."""
+    from physomni_usd.perceive.lift import stands
+
+    camera = PinholeCamera(320, 240, 50.0, 10.0, (0.0, 0.0, 1.0))
+    level = lift_silhouette(_blob(), camera, label="lime")
+    assert level.shape == "inflated" and stands(level.vertices, level.faces)
+    z = level.vertices[:, 2]
+    touching = level.vertices[z <= z.min() + 1e-9]
+    assert np.ptp(touching[:, 0]) > 0.2 * np.ptp(level.vertices[:, 0])  # a patch, not a point
+    tipped = lift_silhouette(_blob(10.0), camera, label="lime")  # its low end is far from its weight
+    assert tipped.shape == "extrude"  # the slab, as such outlines were lifted before there were soft bodies
 
 
 def test_labels_choose_the_body():

@@ -398,4 +398,46 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
         verts = origin + k * (verts - origin)
         contact = origin + k * (contact - origin)
     verts[:, 2] += base_z - verts[:, 2].min()  # rounding only: the foot row is already at z = base_z
+    if shape == "inflated":
+        # A soft body at rest sits on a patch of itself, not on a point: without one it rolls away from where
+        # the photo shows it still. Its lowest band comes down onto the ground; where no such patch holds its
+        # weight, the photo's rest says it is the slab, which stands.
+        for band in SOFT_BASE_BANDS:
+            based = flat_base(verts, band)
+            if stands(based, faces):
+                verts = based
+                break
+        else:
+            return lift_silhouette(mask, camera, settings, height_hint, prior_shape, base_z, flat, photo)
     return LiftedMesh(verts, faces, shape, contact, v_foot, info)
+
+
+#: The shares of an inflated body's height that may rest flat on the ground (:func:`flat_base`), tried in
+#: turn: the thinnest patch that holds the body's weight is taken.
+SOFT_BASE_BANDS = (0.1,)
+
+
+def flat_base(verts: np.ndarray, band: float) -> np.ndarray:
+    """``verts`` (N, 3) metres, z up, with every vertex lower than ``band`` of the height above the lowest
+    brought down to the lowest: a flat patch to rest on. Nothing else moves."""
+    out = verts.copy()
+    z0 = out[:, 2].min()
+    out[out[:, 2] < z0 + band * float(np.ptp(out[:, 2])), 2] = z0
+    return out
+
+
+def stands(verts: np.ndarray, faces: np.ndarray) -> bool:
+    """Whether the closed mesh (``verts`` (N, 3) metres, z up, ``faces`` (M, 3)) can stand still on the ground
+    its lowest points rest on: its centre of mass lies over the convex hull of those points."""
+    import trimesh
+    from scipy.spatial import ConvexHull, QhullError
+
+    z = verts[:, 2]
+    low = verts[z <= z.min() + 1e-6 * max(float(np.ptp(z)), 1e-9), :2]
+    mesh = trimesh.Trimesh(verts, faces, process=False)
+    centre = (mesh.center_mass if mesh.is_volume else verts.mean(0))[:2]
+    try:
+        hull = ConvexHull(low)
+    except (QhullError, ValueError):  # one point or a line: nothing that holds it
+        return False
+    return bool(np.all(hull.equations[:, :2] @ centre + hull.equations[:, 2] <= 0.0))
