@@ -125,3 +125,26 @@ def test_start_overlaps_settle_in_the_preview(tmp_path, watched, scene):
     assert len(watched) == int(SECONDS * e.fps) + 1
     assert e.run.depenetration.depth >= 0.004
     _check_settled(watched, scene, e.run.depenetration.depth)
+
+
+def test_simulate_and_the_preview_step_through_the_same_loop(tmp_path, monkeypatch):
+    """The shared guarded step, patched once, is what both ``simulate`` and the preview's engine call."""
+    from physomni_usd.physics import stepping
+    from physomni_usd.preview.engine import Engine
+
+    calls = []
+    frame = stepping.FrameGraphs.frame
+
+    def counted(self, *args, **kwargs):
+        calls.append(self.stepper)
+        return frame(self, *args, **kwargs)
+
+    monkeypatch.setattr(stepping.FrameGraphs, "frame", counted)
+    shot = write_bench_shot(tmp_path, _stacked_boxes())
+    report = simulate_shot(shot, SimulateSettings(seconds=0.2))
+    by_simulate = len(calls)
+    assert by_simulate >= report["frames"] - 1
+    e = Engine(shot)
+    for _ in range(3):
+        e.step()
+    assert len(calls) == by_simulate + 3 and calls[-1] is e.stepper

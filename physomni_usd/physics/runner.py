@@ -1,11 +1,11 @@
-"""The one guarded stepping loop, used by ``simulate``, the live preview and the benchmarks: a frame at a
-time through :class:`~.stepping.FrameGraphs` (replayed graphs where the frame allows), start overlaps held to
-a bounded separation speed (:mod:`.depenetration`), and every few frames the guard's check of
-finiteness, speed and energy against the work done. When energy grows the loop first finds why: the
-solver separating a start overlap (counted as its work, the frame kept), a force field's work the
-estimate missed (counted), or a step too long for a stiff material or contact (rolled back to the last
-good check and redone at half the step). Every roll-back and every counted growth is logged with its
-cause and remedy, for the report."""
+"""The one guarded stepping loop, used by ``simulate``, the live preview and the benchmarks that run
+them: a frame at a time through :class:`~.stepping.FrameGraphs` (replayed graphs where a frame allows),
+start overlaps held to a bounded separation speed (:mod:`.depenetration`), and every few frames the
+guard's check of finiteness, speed and energy against the work done. When energy grows the loop first
+finds why: the solver separating a start overlap (counted as its work, the frame kept), or a step too
+long for a stiff material, contact or force (rolled back to the last good check and redone at half the
+step; a field's work is counted step by step, and the diagnosis says how much it was). Every roll-back
+and every counted growth is logged with its cause and remedy, for the report."""
 
 from __future__ import annotations
 
@@ -29,8 +29,6 @@ MAX_RETRIES = 4
 #: Frames between the guard's checks (each a read-back of the state and a checkpoint to roll back to):
 #: 5 frames at 30 fps, so a divergence is caught within a sixth of a second of simulated time.
 CHECK_EVERY = 5
-#: A field's work estimate (trapezoidal, per substep) may miss this fraction of the work done.
-FIELD_WORK_SLACK = 0.25
 
 
 class GuardedRun:
@@ -41,14 +39,19 @@ class GuardedRun:
     retry instead of raising (the preview)."""
 
     def __init__(self, stepper, plan: StepPlan, *, capture: bool = True, tolerance: float = ENERGY_TOLERANCE,
-                 check_every: int = CHECK_EVERY, stage=None, give_up: bool = True, echo=lambda m: None):
+                 check_every: int = CHECK_EVERY, stage=None, give_up: bool = True, echo=lambda m: None,
+                 graphs: FrameGraphs | None = None):
         self.stepper, self.base_plan, self.plan = stepper, plan, plan
-        self.graphs = FrameGraphs(stepper, enabled=capture)
+        self.graphs = graphs if graphs is not None else FrameGraphs(stepper, enabled=capture)
         self.stage, self.give_up, self.echo = stage, give_up, echo
         self.check_every = max(1, int(check_every))
         self.tolerance = tolerance
         with _device(stepper):
-            stepper.depenetration = self.depenetration = Depenetration(stepper, plan.acceleration)
+            # a rewound model keeps its bound: its captured graphs read the bound's arrays
+            old = stepper.depenetration
+            if old is None or old.acceleration != plan.acceleration:
+                stepper.depenetration = Depenetration(stepper, plan.acceleration)
+            self.depenetration = stepper.depenetration
             self._start = stepper.checkpoint()
         self.log: list[dict] = []  # every roll-back and every growth counted, with cause and remedy
         self._restart()
@@ -117,6 +120,7 @@ class GuardedRun:
             self._retry_frame = None
             return True
         failed = self.frame
+        field_work = self.guard.work - self._saved[5]
         if len(self.rollbacks) >= MAX_RETRIES or time.perf_counter() - self._t_frame > FRAME_WALL_BUDGET_S:
             if not self.give_up:
                 self._saved = self._checkpoint()  # stepping on, as the preview does, from here
@@ -128,9 +132,14 @@ class GuardedRun:
         self._back(self._saved)
         self.plan = self.plan.refined()
         self._retry_frame = self.frame + 1
-        self.log.append({"frame": failed, "why": why, "cause": "stiff",
-                         "found": "energy grew with no start overlap separating and no field to account for it"
-                         if finite and speed <= self.guard.max_speed else why,
+        if not finite or speed > self.guard.max_speed:
+            found = why
+        elif self.stepper.fields:
+            found = (f"energy grew beyond the {field_work:.3g} J the force fields did since the last check "
+                     "(counted) with no start overlap separating: the step is too long for the forces")
+        else:
+            found = "energy grew with no start overlap separating and no work done: the step is too long"
+        self.log.append({"frame": failed, "why": why, "cause": "stiff", "found": found,
                          "remedy": f"halved the step: {self.plan.substeps} substeps per frame",
                          "substeps": self.plan.substeps, "mpm_steps": self.plan.mpm_steps})
         self.echo(f"simulate: frame {failed}: {why}; going back to frame {self.frame} with {self.plan.substeps} "
@@ -138,8 +147,9 @@ class GuardedRun:
         return False
 
     def _count(self, energy: float) -> bool:
-        """Whether the growth above the guard's budget is work it can name (then counted): the solver
-        separating start overlaps, or a force field's work beyond its estimate."""
+        """Whether the growth above the guard's budget is work the solver did separating start overlaps
+        (then counted). A force field's work is already counted step by step, so growth beyond it is the
+        step's, and is refined."""
         g = self.guard
         budget = g.initial + g.work
         growth = energy - budget
@@ -156,13 +166,6 @@ class GuardedRun:
                                  "remedy": "kept the frame: separated at a bounded speed, the energy counted as "
                                            "the solver's work"})
                 return True
-        field_work = abs(g.work - self._saved[5])
-        if self.stepper.fields and field_work > 0 and growth - slack <= FIELD_WORK_SLACK * field_work:
-            g.add_work(max(growth, 0.0))
-            self.log.append({"frame": self.frame, "cause": "field", "energy_j": round(growth, 6),
-                             "found": f"a force field's work ({field_work:.3g} J since the last check) under-estimated",
-                             "remedy": "kept the frame: the difference counted as the field's work"})
-            return True
         return False
 
     def report(self) -> dict:
@@ -175,9 +178,11 @@ class GuardedRun:
 def run_guarded(models, plan: StepPlan, frames: int, progress=None, echo=lambda m: None) -> dict:
     """Step ``frames − 1`` frames of ``models`` (a :class:`~.assembly.ShotModels`) under the guard.
     Returns what the writer needs: the final plan, the recorded frames, timings and the guard's log."""
-    run = GuardedRun(models.stepper, plan, capture=CAPTURE, stage=models.stage, echo=echo)
+    run = GuardedRun(models.stepper, plan, capture=CAPTURE, stage=models.stage, echo=echo,
+                     graphs=models.frame_graphs(CAPTURE))
     rec = Recorder(models, frames)
     rec.record(0)
+    replayed, captures = run.graphs.captured_frames, run.graphs.captures  # the graphs outlive a run
     t1 = time.perf_counter()
     last = frames - 1
     while run.frame < last:
@@ -193,8 +198,9 @@ def run_guarded(models, plan: StepPlan, frames: int, progress=None, echo=lambda 
     t_step = time.perf_counter() - t1
     graphs = run.graphs
     return {"plan": run.plan, "body_q": rec.body_q, "surfaces": rec.surfaces, "mpm_points": rec.mpm_points,
-            "t_step": t_step, "capture": {"enabled": graphs.enabled, "frames_replayed": graphs.captured_frames,
-                                          "graphs": graphs.captures, "error": graphs.error},
+            "t_step": t_step, "capture": {"enabled": graphs.enabled, "frames_replayed": graphs.captured_frames - replayed,
+                                          "graphs": graphs.captures - captures, "graphs_kept": len(graphs.graphs),
+                                          "error": graphs.error},
             "max_speed": round(run.max_speed, 4), "notes": sorted(set(models.notes)), "guard": run.report()}
 
 
