@@ -109,6 +109,9 @@ class ShotModels:
             pipeline, contacts = contact_pipeline(model) if solver else (None, None)
             self.stepper = Stepper(model, solver, pipeline=pipeline, contacts=contacts, fields=self.fields,
                                    mpm=self.mpm, pushes=pushes, air=air)
+            # start overlaps of cloth are held to the separation bound; a soft body's own elasticity separates it
+            cloth = [np.arange(s, s + n) for o in objects if o.family == "cloth" for s, n in [self.ranges[o.path]]]
+            self.stepper.separating_particles = np.concatenate(cloth) if cloth else np.zeros(0, int)
             if pipeline:
                 # Newton builds the narrow phase's kernels per pipeline, so warp hashes its module again
                 # on the first search (~0.5 s here): pay it while setting up, not in the first frame

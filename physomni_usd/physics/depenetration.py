@@ -2,7 +2,7 @@
 millimetres inside each other, and XPBD separates them by moving their positions, from which it derives
 their velocities — 5 mm corrected in one 4 ms substep is 1.2 m/s, and halving the step doubles it. For the
 first moments of a run (:attr:`Depenetration.until`), every body found in a start overlap and every
-particle that starts at rest is kept below ``SEPARATION_SPEED`` plus what gravity and the force fields
+cloth particle that starts at rest is kept below ``SEPARATION_SPEED`` plus what gravity and the force fields
 alone could have given it since t = 0 (the way PhysX bounds its depenetration velocity): the positions
 separate, the velocity the correction would inject does not appear, and nothing that was at rest in the
 photo gains speed from it. The energy the separation adds (lifting a body out of another) is the solver's
@@ -40,6 +40,8 @@ class Depenetration:
         self.bodies, self.depth = _overlapping_bodies(stepper)
         self.bodies = np.array([b for b in self.bodies if b not in pushed_bodies], int)
         self.particles = _resting_particles(model, state, stepper.pending)
+        if stepper.separating_particles is not None:
+            self.particles = np.intersect1d(self.particles, stepper.separating_particles)
         if model.particle_count and len(self.particles):
             self.depth = max(self.depth, _particle_depth(stepper))
         self.until = float(np.clip(3.0 * self.depth / SEPARATION_SPEED, *WINDOW_S)) if self.any else 0.0

@@ -103,9 +103,10 @@ class GuardedRun:
             return self._check()
 
     def _must_check(self) -> bool:
-        # the frames a separation runs in and the frame after are checked one by one: a growth found there
-        # is told apart from divergence by when it happened
-        return self.depenetration.active(self.t - 1.0 / self.plan.fps)
+        # the first frames, and those a separation runs in and the frame after, are checked one by one: a
+        # scene that diverges at once is caught at once, and a growth found while overlaps separate is told
+        # apart from divergence by when it happened
+        return self.frame <= self.check_every or self.depenetration.active(self.t - 1.0 / self.plan.fps)
 
     def _check(self) -> bool:
         energy, speed, finite = _energy(self.stepper)
@@ -152,6 +153,8 @@ class GuardedRun:
         (then counted). A force field's work is already counted step by step, so growth beyond it is the
         step's, and is refined."""
         g = self.guard
+        if g.initial is None:  # no frame has been accepted to measure from
+            return False
         budget = g.initial + g.work
         growth = energy - budget
         slack = self.tolerance * max(abs(budget), abs(g.initial), ENERGY_FLOOR) + ENERGY_FLOOR

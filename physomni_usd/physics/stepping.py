@@ -72,6 +72,9 @@ class Stepper:
         self.count_work = True
         #: the bound on the speed start overlaps separate at (``depenetration.Depenetration``), or None
         self.depenetration = None
+        #: the particles that bound may hold (cloth: an elastic solid's own oscillation must not be
+        #: clipped), or None for every particle
+        self.separating_particles = None
 
     def checkpoint(self):
         """Copies of the state (the MPM scene's included) and the pending pushes, for :meth:`restore`."""
