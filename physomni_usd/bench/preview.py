@@ -130,7 +130,6 @@ def stepping_ten_boxes(capture: bool = True, seconds: float = 2.0) -> dict:
         frames = int(round(seconds * e.fps))
         for _ in range(frames):  # warm: kernels loaded, each schedule the run meets captured once
             e.step()
-        warm = dict(e.seconds)  # noqa: F841
         costs = []
         for _ in range(3):
             e._reset()
