@@ -1,9 +1,12 @@
 """The Newton models of one shot, assembled from the composed stage: rigid bodies through Newton's USD
 import (plus stand-ins for objects switched to rigid by a layer), cloth and soft bodies, the MPM
-scene, fixed bodies, pushes and force fields, and the :class:`~.stepping.Stepper` that advances them."""
+scene, fixed bodies, pushes and force fields, and the :class:`~.stepping.Stepper` that advances them;
+:func:`shot_models` keeps the last one built, so that a process simulating the same composed stage again
+(a bench, a batch, a script calling ``simulate_shot`` twice) reuses its model and its captured graphs."""
 
 from __future__ import annotations
 
+import hashlib
 import re
 import time
 import warnings
@@ -22,7 +25,7 @@ from .forces import FieldSet, body_samples
 from .mpm import bind_surface, build_mpm_scene
 from .objects import SimObject
 from .params import particle_friction
-from .stepping import Stepper, contact_pipeline, xpbd_solver
+from .stepping import FrameGraphs, Stepper, contact_pipeline, xpbd_solver
 from .support import add_hidden_support
 
 #: Newton simplifies convex hulls to this many vertices; its default (64) cuts the corners of
@@ -106,6 +109,9 @@ class ShotModels:
             pipeline, contacts = contact_pipeline(model) if solver else (None, None)
             self.stepper = Stepper(model, solver, pipeline=pipeline, contacts=contacts, fields=self.fields,
                                    mpm=self.mpm, pushes=pushes, air=air)
+            # start overlaps of cloth are held to the separation bound; a soft body's own elasticity separates it
+            cloth = [np.arange(s, s + n) for o in objects if o.family == "cloth" for s, n in [self.ranges[o.path]]]
+            self.stepper.separating_particles = np.concatenate(cloth) if cloth else np.zeros(0, int)
             if pipeline:
                 # Newton builds the narrow phase's kernels per pipeline, so warp hashes its module again
                 # on the first search (~0.5 s here): pay it while setting up, not in the first frame
@@ -117,6 +123,39 @@ class ShotModels:
         self.cloth_stiffness = max((float(model.spring_stiffness.numpy().max()) if model.spring_count else 0.0), 0.0)
         self.t_model = time.perf_counter() - t0
         self.t_built = time.perf_counter()
+        with wp.ScopedDevice(self.device):
+            self._start = self.stepper.checkpoint()
+        self._buffers = (self.stepper.state, self.stepper.state_next)
+        self._graphs = None
+        self.reused = False
+
+    def frame_graphs(self, enabled: bool = True) -> FrameGraphs:
+        """The stepper's captured frames, kept with the model: a run of the same schedule replays them."""
+        if self._graphs is None or self._graphs.enabled != (enabled and FrameGraphs.supported(self.stepper)):
+            self._graphs = FrameGraphs(self.stepper, enabled=enabled)
+        return self._graphs
+
+    @property
+    def reusable(self) -> bool:
+        """Whether a rewound model steps exactly as a new one: rigid bodies only, no noise field (whose
+        random state moves on), nothing changed by hand (the preview builds its own)."""
+        return (self.mpm is None and not self.model.particle_count
+                and not any(f.kind == "noise" for f in self.fields.fields))
+
+    def rewind(self) -> None:
+        """Back to the state as built: poses, velocities, pending pushes, and the contacts found at the start
+        (searched twice, as a new model's are, so that sticky contact matching starts alike)."""
+        self.t_built = time.perf_counter()
+        self.t_model = 0.0
+        with self.wp.ScopedDevice(self.device):
+            # the run starts from the buffer it first started from, as the graphs captured then expect
+            self.stepper.state, self.stepper.state_next = self._buffers
+            self.stepper.restore(self._start)
+            if self.stepper.pipeline is not None:
+                for _ in range(2):
+                    self.stepper.pipeline.collide(self.stepper.state, self.stepper.contacts)
+        self.reused = True
+
 
     def field_acceleration(self, seconds: float) -> float:
         """Largest acceleration (m/s²) the force fields give at the objects' centres over the run."""
@@ -157,3 +196,26 @@ def _add_stand_ins(builder, objects: list[SimObject], newton, wp) -> dict:
                                                              hull.faces.ravel().astype(np.int32)), cfg=cfg)
         out[o.path] = body
     return out
+
+
+#: The last shot's models, by the composed stage's content and the settings that shape them.
+_LAST: dict = {}
+
+
+def shot_models(stage: Usd.Stage, objects: list[SimObject], cfg: dict, settings: SimulateSettings) -> ShotModels:
+    """The :class:`ShotModels` of ``stage``: the last one built, rewound, when the composed stage (every
+    layer's content) and the settings are the same and the model can be rewound exactly; else a new one."""
+    flat = stage.Flatten()
+    flat.startTimeCode = flat.endTimeCode = 0.0  # the run's length (which the last run wrote) builds nothing
+    text = flat.ExportToString()
+    key = (hashlib.sha256(text.encode()).hexdigest(), tuple(sorted(cfg.items())), settings.device,
+           settings.particle_spacing)
+    models = _LAST.get(key)
+    if models is not None and models.reusable:
+        models.rewind()
+        return models
+    _LAST.clear()
+    models = ShotModels(stage, objects, cfg, settings)
+    if models.reusable:
+        _LAST[key] = models
+    return models

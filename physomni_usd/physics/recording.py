@@ -118,5 +118,14 @@ def shot_checks(stage, frames: int) -> dict:
     final = world_meshes(stage, frames - 1)
     return {
         "final_lowest_z_m": {name: round(float(m.vertices[:, 2].min()), 5) for name, m in final.items()},
-        "max_penetration_m": round(max(max_penetration(world_meshes(stage, t)) for t in range(frames)), 5),
+        "max_penetration_m": round(max(_penetration(world_meshes(stage, t)) for t in range(frames)), 5),
     }
+
+
+def _penetration(meshes: dict) -> float:
+    """``max_penetration`` of the meshes whose boxes touch another's (the rest cannot overlap), the boxes
+    taken from plain arrays: most frames of a spread-out scene then cost no mesh query at all."""
+    boxes = {n: (m.vertices.min(axis=0), m.vertices.max(axis=0)) for n, m in meshes.items()}
+    close = {a for a in boxes for b in boxes
+             if a != b and np.all(boxes[a][0] <= boxes[b][1]) and np.all(boxes[b][0] <= boxes[a][1])}
+    return max_penetration({n: meshes[n] for n in close}) if close else 0.0

@@ -1,85 +1,236 @@
-"""A run under the stability guard: every frame checked for non-finite values, speeds and energy
-beyond the work done; a failed frame is rolled back and redone at half the step."""
+"""The one guarded stepping loop, used by ``simulate``, the live preview and the benchmarks that run
+them: a frame at a time through :class:`~.stepping.FrameGraphs` (replayed graphs where a frame allows),
+start overlaps held to a bounded separation speed (:mod:`.depenetration`), and every few frames the
+guard's check of finiteness, speed and energy against the work done. When energy grows the loop first
+finds why: the solver separating a start overlap (counted as its work, the frame kept), or a step too
+long for a stiff material, contact or force (rolled back to the last good check and redone at half the
+step; a field's work is counted step by step, and the diagnosis says how much it was). Every roll-back
+and every counted growth is logged with its cause and remedy, for the report."""
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
 
 from ..errors import PhysOmniError
-from .recording import Recorder
+from .depenetration import Depenetration
 from .diagnose import FRAME_WALL_BUDGET_S, failure_line
-from .stability import Guard, StepPlan
+from .recording import Recorder
+from .stability import ENERGY_FLOOR, ENERGY_TOLERANCE, Guard, StepPlan
 from .stepping import FrameGraphs
 
 #: Whether frames of rigid XPBD scenes are captured as warp graphs and replayed (False: launch by launch).
 CAPTURE = True
 
-#: How often a diverging frame is rolled back and redone, each time with half the step.
+#: How often a diverging stretch is rolled back and redone, each time with half the step.
 MAX_RETRIES = 4
+#: Frames between the guard's checks (each a read-back of the state and a checkpoint to roll back to):
+#: 5 frames at 30 fps, so a divergence is caught within a sixth of a second of simulated time.
+CHECK_EVERY = 5
+
+
+class GuardedRun:
+    """A shot's stepper advanced frame by frame from t = 0 under the guard. ``frame`` is the last frame
+    completed (0: the start); after :meth:`advance` it may have gone back (a roll-back), so callers record
+    the frame ``frame`` names. ``tolerance`` is the guard's (``math.inf``: speed and finiteness only, as the
+    preview, whose hand's work is not known, runs it); ``give_up`` False keeps stepping after the last
+    retry instead of raising (the preview)."""
+
+    def __init__(self, stepper, plan: StepPlan, *, capture: bool = True, tolerance: float = ENERGY_TOLERANCE,
+                 check_every: int = CHECK_EVERY, stage=None, give_up: bool = True, echo=lambda m: None,
+                 graphs: FrameGraphs | None = None):
+        self.stepper, self.base_plan, self.plan = stepper, plan, plan
+        self.graphs = graphs if graphs is not None else FrameGraphs(stepper, enabled=capture)
+        self.stage, self.give_up, self.echo = stage, give_up, echo
+        self.check_every = max(1, int(check_every))
+        self.tolerance = tolerance
+        with _device(stepper):
+            # a rewound model keeps its bound: its captured graphs read the bound's arrays
+            old = stepper.depenetration
+            if old is None or old.acceleration != plan.acceleration:
+                stepper.depenetration = Depenetration(stepper, plan.acceleration)
+            self.depenetration = stepper.depenetration
+            self._start = stepper.checkpoint()
+        self.log: list[dict] = []  # every roll-back and every growth counted, with cause and remedy
+        self._restart()
+
+    def _restart(self) -> None:
+        self.t, self.step, self.frame = 0.0, 0, 0
+        self.guard = Guard(self.tolerance)
+        self.separation_j = 0.0  # energy the solver added separating start overlaps
+        energy, speed, finite = _energy(self.stepper)
+        self.guard.check(energy, speed, finite)
+        self.speed = self.max_speed = speed
+        self._saved = self._checkpoint()
+        self._t_frame, self._retry_frame = time.perf_counter(), None
+
+    def reset(self) -> None:
+        """Back to frame 0 (the state as built; pending pushes again) at the first plan."""
+        with _device(self.stepper):
+            self.stepper.restore(self._start)
+        self.plan = self.base_plan
+        self._restart()
+
+    @property
+    def rollbacks(self) -> list[dict]:
+        return [e for e in self.log if e["remedy"].startswith("halved")]
+
+    def _checkpoint(self):
+        return (self.stepper.checkpoint(), self.frame, self.t, self.step, self.speed, self.guard.work,
+                self.separation_j)
+
+    def _back(self, saved) -> None:
+        snap, self.frame, self.t, self.step, self.speed, self.guard.work, self.separation_j = saved
+        self.stepper.restore(snap)
+
+    def advance(self) -> bool:
+        """One frame. Returns False where a check failed and the run went back to its last good check
+        (``frame`` is then that frame's), True otherwise."""
+        stepper, plan = self.stepper, self.plan
+        with _device(stepper):
+            if self._retry_frame != self.frame + 1:
+                self._t_frame = time.perf_counter()
+            self.graphs.frame(plan, self.t, self.step, self.guard.add_work, self.speed)
+            self.frame += 1
+            self.step += plan.substeps
+            self.t = self.frame / plan.fps
+            if self.frame % self.check_every and not self._must_check():
+                # the contact cadence of the next frame follows the speed; no energy between checks
+                self.speed = _top_speed(stepper) if plan.collide_every > 1 else self.speed
+                return True
+            return self._check()
+
+    def _must_check(self) -> bool:
+        # the first frames, and those a separation runs in and the frame after, are checked one by one: a
+        # scene that diverges at once is caught at once, and a growth found while overlaps separate is told
+        # apart from divergence by when it happened
+        return self.frame <= self.check_every or self.depenetration.active(self.t - 1.0 / self.plan.fps)
+
+    def _check(self) -> bool:
+        energy, speed, finite = _energy(self.stepper)
+        why = self.guard.check(energy, speed, finite)
+        if why is not None and finite and speed <= self.guard.max_speed:
+            counted = self._count(energy)
+            if counted:
+                why = self.guard.check(energy, speed, finite)
+        if why is None:
+            self.speed = speed
+            self.max_speed = max(self.max_speed, speed)
+            self._saved = self._checkpoint()
+            self._retry_frame = None
+            return True
+        failed = self.frame
+        field_work = self.guard.work - self._saved[5]
+        if len(self.rollbacks) >= MAX_RETRIES or time.perf_counter() - self._t_frame > FRAME_WALL_BUDGET_S:
+            if not self.give_up:
+                self._saved = self._checkpoint()  # stepping on, as the preview does, from here
+                return True
+            what = (f"simulation diverged at frame {failed}: {why}, even at {self.plan.substeps} substeps per frame"
+                    if len(self.rollbacks) >= MAX_RETRIES else
+                    f"simulation stuck at frame {failed}: {why}, {FRAME_WALL_BUDGET_S:g} s spent on it")
+            raise PhysOmniError(failure_line(self.stage, what) if self.stage is not None else what)
+        self._back(self._saved)
+        self.plan = self.plan.refined()
+        self._retry_frame = self.frame + 1
+        if not finite or speed > self.guard.max_speed:
+            found = why
+        elif self.stepper.fields:
+            found = (f"energy grew beyond the {field_work:.3g} J the force fields did since the last check "
+                     "(counted) with no start overlap separating: the step is too long for the forces")
+        else:
+            found = "energy grew with no start overlap separating and no work done: the step is too long"
+        self.log.append({"frame": failed, "why": why, "cause": "stiff", "found": found,
+                         "remedy": f"halved the step: {self.plan.substeps} substeps per frame",
+                         "substeps": self.plan.substeps, "mpm_steps": self.plan.mpm_steps})
+        self.echo(f"simulate: frame {failed}: {why}; going back to frame {self.frame} with {self.plan.substeps} "
+                  "substeps per frame")
+        return False
+
+    def _count(self, energy: float) -> bool:
+        """Whether the growth above the guard's budget is work the solver did separating start overlaps
+        (then counted). A force field's work is already counted step by step, so growth beyond it is the
+        step's, and is refined."""
+        g = self.guard
+        if g.initial is None:  # no frame has been accepted to measure from
+            return False
+        budget = g.initial + g.work
+        growth = energy - budget
+        slack = self.tolerance * max(abs(budget), abs(g.initial), ENERGY_FLOOR) + ENERGY_FLOOR
+        t_checked = self._saved[2]
+        if t_checked < self.depenetration.until and self.depenetration.any:
+            room = self.depenetration.energy_bound(self.t) - self.separation_j
+            if growth - slack <= room:
+                amount = max(growth, 0.0)
+                self.separation_j += amount
+                g.add_work(amount)
+                self.log.append({"frame": self.frame, "cause": "overlap", "energy_j": round(amount, 6),
+                                 "found": f"start overlaps up to {self.depenetration.depth * 1000:.2g} mm separating",
+                                 "remedy": "kept the frame: separated at a bounded speed, the energy counted as "
+                                           "the solver's work"})
+                return True
+        return False
+
+    def report(self) -> dict:
+        g = self.guard
+        return {"energy_initial_j": g.initial, "energy_final_j": g.last_energy, "work_j": g.work,
+                "separation_work_j": self.separation_j, "tolerance": g.tolerance, "check_every_frames": self.check_every,
+                "rollbacks": self.rollbacks, "diagnoses": self.log, "depenetration": self.depenetration.as_dict()}
 
 
 def run_guarded(models, plan: StepPlan, frames: int, progress=None, echo=lambda m: None) -> dict:
     """Step ``frames − 1`` frames of ``models`` (a :class:`~.assembly.ShotModels`) under the guard.
     Returns what the writer needs: the final plan, the recorded frames, timings and the guard's log."""
-    wp = models.wp
-    stepper = models.stepper
-    graphs = FrameGraphs(stepper, enabled=CAPTURE)
-    guard = Guard()
-    rollbacks = []
+    run = GuardedRun(models.stepper, plan, capture=CAPTURE, stage=models.stage, echo=echo,
+                     graphs=models.frame_graphs(CAPTURE))
     rec = Recorder(models, frames)
-    with wp.ScopedDevice(models.device):
-        energy, speed, finite = _energy(stepper)
-        guard.check(energy, speed, finite)
-        rec.record(0)
-        max_speed = speed
-        t1 = time.perf_counter()
-        t, step, f = 0.0, 0, 1
-        t_frame, frame_of_t = time.perf_counter(), 1
-        while f < frames:
-            if f != frame_of_t:
-                t_frame, frame_of_t = time.perf_counter(), f
-            saved = stepper.checkpoint()
-            work = guard.work
-            graphs.frame(plan, t, step, guard.add_work, speed)
-            before = speed
-            energy, speed, finite = _energy(stepper)
-            why = guard.check(energy, speed, finite)
-            if why is not None:
-                if len(rollbacks) >= MAX_RETRIES:
-                    raise PhysOmniError(failure_line(models.stage, f"simulation diverged at frame {f}: {why}, "
-                                                     f"even at {plan.substeps} substeps per frame"))
-                if time.perf_counter() - t_frame > FRAME_WALL_BUDGET_S:
-                    raise PhysOmniError(failure_line(models.stage, f"simulation stuck at frame {f}: {why}, "
-                                                     f"{FRAME_WALL_BUDGET_S:g} s spent on it"))
-                stepper.restore(saved)
-                guard.work = work
-                speed = before
-                plan = plan.refined()
-                rollbacks.append({"frame": f, "why": why, "substeps": plan.substeps, "mpm_steps": plan.mpm_steps})
-                echo(f"simulate: frame {f}: {why}; going back to frame {f - 1} with {plan.substeps} "
-                     "substeps per frame")
+    rec.record(0)
+    replayed, captures = run.graphs.captured_frames, run.graphs.captures  # the graphs outlive a run
+    t1 = time.perf_counter()
+    last = frames - 1
+    while run.frame < last:
+        ok = run.advance()
+        if not ok:
+            continue
+        if run.frame == last and run.frame % run.check_every:
+            if not run._check():  # the last frame is always checked
                 continue
-            step += plan.substeps
-            t = f / plan.fps
-            max_speed = max(max_speed, speed)
-            rec.record(f)
-            if progress:
-                progress(f, frames - 1)
-            f += 1
-        t_step = time.perf_counter() - t1
-    return {"plan": plan, "body_q": rec.body_q, "surfaces": rec.surfaces, "mpm_points": rec.mpm_points,
-            "t_step": t_step, "capture": {"enabled": graphs.enabled, "frames_replayed": graphs.captured_frames,
-                                          "graphs": graphs.captures, "error": graphs.error},
-            "max_speed": round(max_speed, 4), "notes": sorted(set(models.notes)),
-            "guard": {"energy_initial_j": guard.initial, "energy_final_j": guard.last_energy,
-                      "work_j": guard.work, "tolerance": guard.tolerance, "rollbacks": rollbacks}}
+        rec.record(run.frame)
+        if progress:
+            progress(run.frame, last)
+    t_step = time.perf_counter() - t1
+    graphs = run.graphs
+    return {"plan": run.plan, "body_q": rec.body_q, "surfaces": rec.surfaces, "mpm_points": rec.mpm_points,
+            "t_step": t_step, "capture": {"enabled": graphs.enabled, "frames_replayed": graphs.captured_frames - replayed,
+                                          "graphs": graphs.captures - captures, "graphs_kept": len(graphs.graphs),
+                                          "error": graphs.error},
+            "max_speed": round(run.max_speed, 4), "notes": sorted(set(models.notes)), "guard": run.report()}
+
+
+def _device(stepper):
+    import warp as wp
+
+    return wp.ScopedDevice(stepper.model.device)
+
+
+def _top_speed(stepper) -> float:
+    """The fastest body's or particle's speed (m/s), as :meth:`~.stepping.Stepper.energy` reads it."""
+    s, m = stepper.state, stepper.model
+    speeds = [0.0]
+    if m.body_count:
+        speeds.append(float(np.linalg.norm(s.body_qd.numpy()[:, :3], axis=1).max()))
+    for model, state in ((m, s), (stepper.mpm.model, stepper.mpm.state) if stepper.mpm else (None, None)):
+        if model is not None and model.particle_count:
+            moving = model.particle_mass.numpy() > 0
+            if moving.any():
+                speeds.append(float(np.linalg.norm(state.particle_qd.numpy()[moving], axis=1).max()))
+    return max(speeds)
 
 
 def _energy(stepper) -> tuple[float, float, bool]:
     energy, speed = stepper.energy()
-    return energy, speed, all(np.isfinite(a.numpy()).all() for a in _arrays(stepper))
+    return energy, speed, math.isfinite(energy) and all(np.isfinite(a.numpy()).all() for a in _arrays(stepper))
 
 
 def _arrays(stepper):
@@ -88,4 +239,3 @@ def _arrays(stepper):
     if stepper.mpm:
         out += [stepper.mpm.state.particle_q, stepper.mpm.state.particle_qd]
     return out
-

@@ -14,7 +14,7 @@ from ..report import prepare_writes, update_report
 from ..settings import SimulateSettings
 from ..usd import layers
 from ..usd.author import OBJECTS
-from .assembly import ShotModels
+from .assembly import shot_models
 from .checks import check_inputs
 from .diagnose import refuse_broken_scene
 from .objects import scene_objects
@@ -49,6 +49,23 @@ def scene_settings(stage: Usd.Stage, settings: SimulateSettings) -> dict:
     return out
 
 
+def _kernels_first_use():
+    """The marker to write once this machine's warp kernel cache holds the simulator's kernels, or None
+    when it already does (the marker names the versions of warp and Newton whose kernels it holds)."""
+    import pathlib
+
+    import newton
+
+    from .._warp import load_warp
+
+    wp = load_warp()
+    cache = pathlib.Path(wp.config.kernel_cache_dir or "")
+    if not cache.is_dir():
+        return None
+    marker = cache / f"physomni-kernels-warp{wp.__version__}-newton{newton.__version__}"
+    return None if marker.exists() else marker
+
+
 def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progress=None, echo=lambda m: None) -> dict:
     """Simulate the composed stage of ``shot`` and write ``sim.usdc`` beside it; returns the report section."""
     t_start = time.perf_counter()
@@ -67,7 +84,10 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     refuse_broken_scene(stage)
     frames = int(round(settings.seconds * cfg["fps"])) + 1
 
-    sim = ShotModels(stage, objects, cfg, settings)
+    first_use = _kernels_first_use()
+    if first_use is not None:
+        echo("simulate: compiling physics kernels, once per machine (a minute or two) ...")
+    sim = shot_models(stage, objects, cfg, settings)
     plan = plan_steps(objects, cfg["fps"], cfg["substeps"], base_iterations=cfg["iterations"], mpm=sim.mpm,
                       acceleration=sim.field_acceleration(settings.seconds), cloth_masses=sim.cloth_masses,
                       field_kinds=[f.kind for f in sim.fields.fields], particles=bool(sim.model.particle_count),
@@ -80,6 +100,9 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
         echo(f"simulate: {', '.join(sim.supported)} cannot stand on what the photo shows of "
              f"{'it' if len(sim.supported) == 1 else 'them'}: standing on {'its' if len(sim.supported) == 1 else 'their'} footprint")
     run = run_guarded(sim, plan, frames, progress, echo)
+    if first_use is not None:
+        first_use.touch()
+        echo(f"simulate: physics kernels compiled in {time.perf_counter() - t_start:.0f} s; later runs start at once")
 
     t_write = time.perf_counter()
     plan = run["plan"]
@@ -103,6 +126,7 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
         "max_speed_m_s": run["max_speed"], "captured_step": run["capture"],
         "hidden_support": sim.supported, **checks,
         "modules": {"torch": "torch" in sys.modules},
+        "model_reused": sim.reused,
         "seconds": {"read": round(sim.t_built - t_start - sim.t_model, 4), "build_model": round(sim.t_model, 4),
                     "step": round(run["t_step"], 4), "write": round(t_end - t_write, 4)},
         "total_seconds": round(t_end - t_start, 4),

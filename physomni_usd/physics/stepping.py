@@ -70,6 +70,11 @@ class Stepper:
         #: whether the fields' work is summed for the guard (kernels a substep, a read-back a frame);
         #: off where no guard reads it, so that a frame can be captured as one graph
         self.count_work = True
+        #: the bound on the speed start overlaps separate at (``depenetration.Depenetration``), or None
+        self.depenetration = None
+        #: the particles that bound may hold (cloth: an elastic solid's own oscillation must not be
+        #: clipped), or None for every particle
+        self.separating_particles = None
 
     def checkpoint(self):
         """Copies of the state (the MPM scene's included) and the pending pushes, for :meth:`restore`."""
@@ -97,11 +102,12 @@ class Stepper:
         return e_b + e_p + e_m, max(v_b, v_p, v_m)
 
     def frame(self, plan: StepPlan, t0: float, step0: int, add_work=None, speed: float | None = None,
-              after_mpm_step=None, read_work: bool = True) -> None:
+              after_mpm_step=None, read_work: bool = True, capturing: bool = False) -> None:
         """One frame from time ``t0`` (substep counter ``step0``), the fastest body moving at ``speed`` m/s
         at its start (None: read from the state); the work pushes and fields do goes to ``add_work`` (J);
         ``after_mpm_step(t)`` is called after each MPM step. ``read_work`` False leaves the fields' work summed
-        on the device (a frame being captured reads nothing back; :meth:`take_work` reads it after)."""
+        on the device (a frame being captured reads nothing back; :meth:`take_work` reads it after); ``capturing``
+        says the frame is being recorded as a graph, whose caller writes the frame's time to the device."""
         add_work = add_work or _ignore
         if speed is None:
             speed = self.energy()[1] if plan.collide_every > 1 else 0.0
@@ -118,6 +124,9 @@ class Stepper:
         dt = plan.dt
         step = step0
         fields = self.fields
+        bound = self.depenetration if self.depenetration is not None and self.depenetration.active(t0) else None
+        if bound is not None and not capturing:
+            bound.set_time(t0)
         for _ in range(groups):
             for _ in range(per):
                 t = t0 + (step - step0) * dt
@@ -139,6 +148,8 @@ class Stepper:
                         self.pipeline.collide(self.state, self.contacts)
                     self.solver.step(self.state, self.state_next, self.control, self.contacts, dt)
                     self.state, self.state_next = self.state_next, self.state
+                    if bound is not None:
+                        bound.apply(self.model, self.state, (step - step0 + 1) * dt)
                     if held is not None:
                         self._work_after(held, self.state, dt)
                 step += 1
@@ -266,8 +277,11 @@ class FrameGraphs:
             if any(f.kind == "noise" and on for f, on in zip(fields.fields, active)):
                 return None
             fields._set_time(t0)  # the mask the graph reads, written outside the capture
+        bound = stepper.depenetration is not None and stepper.depenetration.active(t0)
+        if bound:
+            stepper.depenetration.set_time(t0)  # likewise the time the overlap bound reads
         return (plan.substeps, plan.iterations, plan.restitution, plan.collide_interval(speed),
-                id(stepper.state), active, stepper.count_work)
+                id(stepper.state), active, stepper.count_work, bound, id(fields))
 
     def frame(self, plan: StepPlan, t0: float, step0: int, add_work=None, speed: float = 0.0) -> bool:
         """One frame as :meth:`Stepper.frame` steps it; returns whether it was replayed from a graph."""
@@ -289,7 +303,7 @@ class FrameGraphs:
             device = stepper.model.device
             try:
                 with wp.ScopedCapture(device=device) as capture:
-                    stepper.frame(plan, t0, step0, add_work, speed, read_work=False)
+                    stepper.frame(plan, t0, step0, add_work, speed, read_work=False, capturing=True)
             except Exception as exc:  # an operation warp cannot record: this scene steps launch by launch
                 stepper.state, stepper.state_next = before
                 self.enabled, self.error = False, f"{type(exc).__name__}: {exc}"

@@ -1,8 +1,9 @@
 """The preview's one door into the simulator: the shot's Newton models built exactly as ``simulate``
 builds them (``physics.assembly``: every material, every force field, the artist's layer), stepped a
-frame at a time by ``simulate``'s stepper on its schedule, plus what only a live session has — a hand
-that pulls bodies toward the cursor, parameters changed while it runs, a take kept and written by
-``simulate``'s writer under its contract.
+frame at a time by ``simulate``'s own guarded loop (``physics.runner.GuardedRun``: the same graphs, the
+same bound on start overlaps, the same guard), plus what only a live session has — a hand that pulls
+bodies toward the cursor, parameters changed while it runs, a take kept and written by ``simulate``'s
+writer under its contract.
 
 Every use of the simulator's internals is in this module, so that the rest of the preview reads the
 small API of :class:`Engine` and the simulator can change behind it.
@@ -27,8 +28,9 @@ from ..fields import ForceField
 from ..physics.forces import FieldSet
 from ..physics.objects import scene_objects
 from ..physics.recording import Recorder, write_take
+from ..physics.runner import GuardedRun
 from ..physics.simulate import scene_settings
-from ..physics.stability import Guard, plan_steps
+from ..physics.stability import plan_steps
 from ..settings import SimulateSettings
 from ..usd import layers
 from ..usd.author import OBJECTS
@@ -139,7 +141,6 @@ class Engine:
             acceleration=sim.field_acceleration(self.settings.seconds), cloth_masses=sim.cloth_masses,
             field_kinds=[f.kind for f in sim.fields.fields], particles=bool(sim.model.particle_count),
             cloth_stiffness=sim.cloth_stiffness, soft_dt=sim.soft_dt, mpm_steps=None)
-        self.plan = self.base_plan
         self.hand = _Hand(sim.model, self.device)
         self.stepper.extra_forces.append(self.hand)
         # the preview's guard watches speed and finiteness only (the hand's work is not known), so the
@@ -159,15 +160,10 @@ class Engine:
         self._recorder = Recorder(sim, 1)
         self._lock = threading.Lock()
         self._pending: list = []
-        self.capture = capture
-        self._graphs: dict = {}
-        self.captured_frames = 0
-        self.capture_error = None
-        #: wall seconds spent advancing the solvers, and on the rest of a frame (snapshot, read-back, record)
-        self.seconds = {"advance": 0.0, "frame_other": 0.0, "capture": 0.0}
-        self.captures = 0
-        with self.wp.ScopedDevice(self.device):
-            self._start = self.stepper.checkpoint()
+        #: wall seconds spent advancing the solvers, and on the rest of a frame (checks, read-back, record)
+        self.seconds = {"advance": 0.0, "frame_other": 0.0}
+        # the preview's guard watches speed and finiteness only (the hand's work is not known)
+        self.run = GuardedRun(self.stepper, self.base_plan, capture=capture, tolerance=math.inf, give_up=False)
         self._reset_counters()
 
     # --- reading the scene ------------------------------------------------------------------------
@@ -204,11 +200,31 @@ class Engine:
         return dict(self.sim.path_body)
 
     # --- the loop ---------------------------------------------------------------------------------
+    @property
+    def plan(self):
+        return self.run.plan
+
+    @property
+    def frame(self) -> int:
+        return self.run.frame
+
+    @property
+    def t(self) -> float:
+        return self.run.t
+
+    @property
+    def captured_frames(self) -> int:
+        return self.run.graphs.captured_frames
+
+    @property
+    def captures(self) -> int:
+        return self.run.graphs.captures
+
+    @property
+    def capture_error(self) -> str | None:
+        return self.run.graphs.error
+
     def _reset_counters(self) -> None:
-        self.t, self.step_index, self.frame = 0.0, 0, 0
-        self.speed = 0.0
-        self.guard = Guard(tolerance=math.inf)  # speed and finiteness; the hand's work is not accounted
-        self.rollbacks = 0
         self.take_body_q: list[np.ndarray] = []
         self.take_surfaces: dict[str, list[np.ndarray]] = {}
         self.take_mpm: list[np.ndarray] = []
@@ -216,83 +232,26 @@ class Engine:
         self._record()
 
     def step(self) -> None:
-        """Advance one frame (1/fps seconds of simulated time) and record it in the take."""
+        """Advance one frame (1/fps seconds of simulated time) and record it in the take; where the guard
+        sends the run back a few frames, the take goes back with it."""
         t0 = time.perf_counter()
         self._apply_pending()
-        sim, wp = self.sim, self.wp
-        with wp.ScopedDevice(self.device):
-            saved = self.stepper.checkpoint()
-            t1 = time.perf_counter()
-            self._advance()
-            t2 = time.perf_counter()
-            self.seconds["advance"] += t2 - t1
-            q, qd = self.body_state()
-            finite = bool(np.isfinite(q).all() and np.isfinite(qd).all()) if len(q) else True
-            if sim.mpm:
-                finite = finite and bool(np.isfinite(sim.mpm.state.particle_q.numpy()).all())
-            speed = float(np.linalg.norm(qd[:, :3], axis=1).max()) if len(qd) else 0.0
-            if self.guard.check(0.0, speed, finite) is not None and self.rollbacks < 4:
-                self.stepper.restore(saved)
-                self.plan = self.plan.refined()
-                self.rollbacks += 1
-                self._graphs.clear()
-                return
-        self.speed = speed
-        self.step_index += self.plan.substeps
-        self.frame += 1
-        self.t = self.frame / self.plan.fps
-        self._record()
+        t1 = time.perf_counter()
+        ok = self.run.advance()
+        t2 = time.perf_counter()
+        self.seconds["advance"] += t2 - t1
+        if not ok:
+            self._truncate(self.run.frame + 1)
+        else:
+            self._record()
         self.seconds["frame_other"] += time.perf_counter() - t0 - (t2 - t1)
 
-    def _advance(self) -> None:
-        """One frame by the stepper, replayed from a captured graph where the frame allows one."""
-        stepper, plan = self.stepper, self.plan
-        key = self._capture_key()
-        if key is None:
-            stepper.frame(plan, self.t, self.step_index, speed=self.speed)
-            return
-        graph = self._graphs.get(key)
-        if graph is None:
-            t0 = time.perf_counter()
-            before = (stepper.state, stepper.state_next)
-            try:
-                with self.wp.ScopedCapture(device=self.device) as capture:
-                    stepper.frame(plan, self.t, self.step_index, speed=self.speed)
-            except Exception as exc:  # an operation warp cannot replay: this scene steps launch by launch
-                stepper.state, stepper.state_next = before
-                self.capture = False
-                self.capture_error = f"{type(exc).__name__}: {exc}"
-                stepper.frame(plan, self.t, self.step_index, speed=self.speed)
-                return
-            # a replay reads and writes the arrays the capture did: it ends in the state the capture ended in
-            graph = (capture.graph, stepper.state, stepper.state_next)
-            stepper.state, stepper.state_next = before
-            self._graphs[key] = graph
-            self.captures += 1
-            self.seconds["capture"] += time.perf_counter() - t0
-        self.wp.capture_launch(graph[0])
-        stepper.state, stepper.state_next = graph[1], graph[2]
-        self.captured_frames += 1
-
-    def _capture_key(self):
-        """What a captured frame depends on, or None where a frame must run step by step (pushes due,
-        MPM, noise fields, a field switching on or off within the frame)."""
-        stepper = self.stepper
-        if not self.capture or stepper.mpm or stepper.solver is None:
-            return None
-        frame = 1.0 / self.plan.fps
-        if stepper.pending and stepper.pending[0].at < self.t + frame + 1e-9:
-            return None
-        fields = stepper.fields
-        active = tuple(f.active(self.t) for f in fields.fields)
-        if fields.fields:
-            if active != tuple(f.active(self.t + frame) for f in fields.fields):
-                return None
-            if any(f.kind == "noise" and f.active(self.t) for f in fields.fields):
-                return None
-            fields._set_time(self.t)  # the mask the graph reads, set outside the capture
-        return (self.plan.substeps, self.plan.iterations, self.plan.restitution,
-                self.plan.collide_interval(self.speed), id(stepper.state), id(fields), active)
+    def _truncate(self, frames: int) -> None:
+        del self.take_body_q[frames:]
+        for v in self.take_surfaces.values():
+            del v[frames:]
+        del self.take_mpm[frames:]
+        self.take_full = len(self.take_body_q) >= MAX_TAKE_FRAMES
 
     def body_state(self) -> tuple[np.ndarray, np.ndarray]:
         """Rigid bodies' poses (B, 7: x, y, z, qx, qy, qz, qw) and velocities (B, 6)."""
@@ -380,7 +339,7 @@ class Engine:
         if self._samples is not None:
             fs.set_body_samples(self._samples)
         self.sim.fields = self.stepper.fields = fs
-        self._graphs.clear()
+        self.run.graphs.graphs.clear()
 
     def set_gravity(self, magnitude: float) -> None:
         """Gravity along −Z, m/s²."""
@@ -394,7 +353,7 @@ class Engine:
             model.set_gravity((0.0, 0.0, -g))
         if self.stepper.solver is not None:
             self.stepper.solver.notify_model_changed(ModelFlags.MODEL_PROPERTIES)
-        self._graphs.clear()
+        self.run.graphs.graphs.clear()
 
     def set_param(self, name: str, key: str, value: float) -> None:
         """Change a rigid object's density (kg/m³), friction or restitution while it runs."""
@@ -432,18 +391,16 @@ class Engine:
                 m.shape_material_restitution.assign(e)
             flags |= ModelFlags.SHAPE_PROPERTIES
         self.stepper.solver.notify_model_changed(flags)
-        self._graphs.clear()
+        self.run.graphs.graphs.clear()
 
     def reset(self) -> None:
         """Back to frame 0 (the changed parameters stay); the take starts again."""
         self._later(self._reset)
 
     def _reset(self) -> None:
-        with self.wp.ScopedDevice(self.device):
-            self.stepper.restore(self._start)
+        self.run.reset()  # the graphs stay: they read the same arrays, restored in place
         self.hand.body.assign(np.asarray([-1], np.int32))
-        self.plan = self.base_plan
-        self._reset_counters()  # the graphs stay: they read the same arrays, restored in place
+        self._reset_counters()
 
     # --- keeping --------------------------------------------------------------------------------
     def changed_settings(self) -> list[tuple[str, str, object]]:

@@ -1,0 +1,227 @@
+"""Start overlaps resolved at a bounded separation speed: objects lifted from a photo often start a few
+millimetres inside each other, and XPBD separates them by moving their positions, from which it derives
+their velocities — 5 mm corrected in one 4 ms substep is 1.2 m/s, and halving the step doubles it. For the
+first moments of a run (:attr:`Depenetration.until`), every body found in a start overlap and every
+cloth particle that starts at rest is kept below ``SEPARATION_SPEED`` plus what gravity and the force fields
+alone could have given it since t = 0 (the way PhysX bounds its depenetration velocity): the positions
+separate, the velocity the correction would inject does not appear, and nothing that was at rest in the
+photo gains speed from it. The energy the separation adds (lifting a body out of another) is the solver's
+work, bounded by :meth:`Depenetration.energy_bound`, and the guard counts it as such."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from .stability import GRAVITY
+
+#: m/s: the fastest a start overlap is pushed apart (PhysX's default bound is 5 m/s for games; objects on a
+#: table that start 5 mm inside each other separate in 50 ms at this speed, too slow to be seen as a jump).
+SEPARATION_SPEED = 0.1
+#: Overlaps shallower than this (m) are the contact margin, not an overlap.
+OVERLAP_MIN_M = 1e-4
+#: How long the bound holds (s): at least the first, at most the second, else three times the time the
+#: deepest overlap takes to separate at ``SEPARATION_SPEED``.
+WINDOW_S = (0.1, 0.5)
+
+
+class Depenetration:
+    """The velocity bound of a :class:`~.stepping.Stepper`'s start overlaps. ``bodies`` and ``particles``
+    are the indices bounded, ``depth`` the deepest start overlap (m), ``until`` the time (s) the bound
+    ends; a stepper holding one calls :meth:`apply` after each substep before ``until``."""
+
+    def __init__(self, stepper, acceleration: float = GRAVITY):
+        import warp as wp
+
+        model, state = stepper.model, stepper.state
+        self.acceleration = float(acceleration)
+        pushed_bodies = {p.body for p in stepper.pending if p.body is not None}
+        self.bodies, self.depth = _overlapping_bodies(stepper)
+        self.bodies = np.array([b for b in self.bodies if b not in pushed_bodies], int)
+        self.particles = _resting_particles(model, state, stepper.pending)
+        if stepper.separating_particles is not None:
+            self.particles = np.intersect1d(self.particles, stepper.separating_particles)
+        if model.particle_count and len(self.particles):
+            self.depth = max(self.depth, _particle_depth(stepper))
+        self.until = float(np.clip(3.0 * self.depth / SEPARATION_SPEED, *WINDOW_S)) if self.any else 0.0
+        device = model.device
+        self._t = wp.zeros(1, dtype=float, device=device)  # the frame's start time, written outside a capture
+        self._body_cap = self._caps(model.body_count, self.bodies, device)
+        self._particle_cap = self._caps(model.particle_count, self.particles, device)
+        self._radius = None
+        if model.body_count:
+            # an angular speed ω moves a body's surface at ω·r: bound it through the radius of gyration
+            mass = np.maximum(model.body_mass.numpy(), 1e-12)
+            inertia = model.body_inertia.numpy()
+            r = np.sqrt(np.trace(inertia, axis1=1, axis2=2) / mass)
+            self._radius = wp.array(np.maximum(r, 1e-3).astype(np.float32), dtype=float, device=device)
+        self._masses = (model.body_mass.numpy()[self.bodies] if len(self.bodies) else np.zeros(0),
+                        model.particle_mass.numpy()[self.particles] if len(self.particles) else np.zeros(0))
+
+    @staticmethod
+    def _caps(count: int, indices: np.ndarray, device):
+        import warp as wp
+
+        if not count:
+            return None
+        caps = np.full(count, -1.0, np.float32)  # −1: not bounded
+        caps[indices] = SEPARATION_SPEED
+        return wp.array(caps, dtype=float, device=device)
+
+    @property
+    def any(self) -> bool:
+        return bool(len(self.bodies) or len(self.particles))
+
+    def active(self, t0: float) -> bool:
+        """Whether the bound acts in a frame starting at ``t0`` (s)."""
+        return self.any and t0 < self.until
+
+    def set_time(self, t0: float) -> None:
+        """The frame's start time, read by the kernels (a captured frame reads it from the device)."""
+        self._t.fill_(float(t0))
+
+    def apply(self, model, state, t_offset: float) -> None:
+        """Bound the velocities in ``state``, ``t_offset`` seconds after the frame's start."""
+        import warp as wp
+
+        body_kernel, particle_kernel = _kernels()
+        if self._body_cap is not None and len(self.bodies):
+            wp.launch(body_kernel, dim=model.body_count,
+                      inputs=[state.body_qd, self._body_cap, self._radius, self._t, t_offset, self.acceleration,
+                              self.until], device=model.device)
+        if self._particle_cap is not None and len(self.particles):
+            wp.launch(particle_kernel, dim=model.particle_count,
+                      inputs=[state.particle_qd, self._particle_cap, self._t, t_offset, self.acceleration,
+                              self.until], device=model.device)
+
+    def energy_bound(self, t: float) -> float:
+        """Most energy (J) the separation can have added by time ``t``: each bounded mass lifted by the
+        deepest overlap plus the kinetic energy of the bound's speed (the fall gravity gives is not counted:
+        it converts energy, it adds none)."""
+        m = float(self._masses[0].sum() + self._masses[1].sum())
+        return m * (GRAVITY * self.depth + 0.5 * SEPARATION_SPEED ** 2) if self.any and t > 0 else 0.0
+
+    def as_dict(self) -> dict:
+        return {"bodies": len(self.bodies), "particles": len(self.particles), "deepest_m": round(self.depth, 5),
+                "until_s": round(self.until, 4), "separation_speed_m_s": SEPARATION_SPEED}
+
+
+def _overlapping_bodies(stepper) -> tuple[list[int], float]:
+    """Dynamic bodies in a rigid contact deeper than ``OVERLAP_MIN_M`` at the start, and the deepest."""
+    model, state = stepper.model, stepper.state
+    if stepper.pipeline is None or not model.body_count:
+        return [], 0.0
+    c = stepper.contacts
+    stepper.pipeline.collide(state, c)
+    n = int(c.rigid_contact_count.numpy()[0])
+    if not n:
+        return [], 0.0
+    from scipy.spatial.transform import Rotation
+
+    shape_body = model.shape_body.numpy()
+    q = state.body_q.numpy().astype(np.float64)
+    inv_mass = model.body_inv_mass.numpy()
+    s0, s1 = c.rigid_contact_shape0.numpy()[:n], c.rigid_contact_shape1.numpy()[:n]
+    p0, p1 = c.rigid_contact_point0.numpy()[:n], c.rigid_contact_point1.numpy()[:n]
+    normal = c.rigid_contact_normal.numpy()[:n]
+    margin = c.rigid_contact_margin0.numpy()[:n] + c.rigid_contact_margin1.numpy()[:n]
+
+    def world(shapes, points):
+        b = shape_body[shapes]
+        out = points.astype(np.float64).copy()
+        on_body = b >= 0
+        if on_body.any():
+            qb = q[b[on_body]]
+            out[on_body] = Rotation.from_quat(qb[:, 3:7]).apply(points[on_body]) + qb[:, :3]
+        return out, b
+
+    w0, b0 = world(s0, p0)
+    w1, b1 = world(s1, p1)
+    depth = -(np.einsum("ij,ij->i", normal, w1 - w0) - margin)
+    deep = depth > OVERLAP_MIN_M
+    # contacts with the ground or a fixed body count too: a body sunk into the floor separates as slowly
+    bodies = {int(b) for b in np.concatenate([b0[deep], b1[deep]]) if b >= 0 and inv_mass[b] > 0}
+    return sorted(bodies), float(depth[deep].max()) if deep.any() else 0.0
+
+
+def _resting_particles(model, state, pending) -> np.ndarray:
+    """Particles (cloth, soft bodies) that start at rest, are not pinned, and get no push."""
+    if not model.particle_count:
+        return np.zeros(0, int)
+    v = np.linalg.norm(state.particle_qd.numpy(), axis=1)
+    keep = (model.particle_mass.numpy() > 0) & (v == 0)
+    for p in pending:
+        if p.particles and not p.mpm:
+            keep[p.particles[0]:p.particles[0] + p.particles[1]] = False
+    return np.flatnonzero(keep)
+
+
+def _particle_depth(stepper) -> float:
+    """Deepest a particle's sphere starts inside a shape (m), from the contacts the search found."""
+    model, state, c = stepper.model, stepper.state, stepper.contacts
+    if c is None:
+        return 0.0
+    n = int(c.soft_contact_count.numpy()[0])
+    if not n:
+        return 0.0
+    from scipy.spatial.transform import Rotation
+
+    idx = c.soft_contact_indices.numpy()[:n, 0]
+    shapes = c.soft_contact_shape.numpy()[:n]
+    pos = c.soft_contact_body_pos.numpy()[:n].astype(np.float64)
+    normal = c.soft_contact_normal.numpy()[:n]
+    shape_body = model.shape_body.numpy()
+    q = state.body_q.numpy().astype(np.float64) if model.body_count else np.zeros((0, 7))
+    b = shape_body[shapes]
+    on_body = b >= 0
+    if on_body.any():
+        qb = q[b[on_body]]
+        pos[on_body] = Rotation.from_quat(qb[:, 3:7]).apply(pos[on_body]) + qb[:, :3]
+    ok = idx >= 0
+    x = state.particle_q.numpy()[idx[ok]]
+    r = model.particle_radius.numpy()[idx[ok]]
+    depth = r - np.einsum("ij,ij->i", normal[ok], x - pos[ok])
+    return float(max(depth.max(), 0.0)) if len(depth) else 0.0
+
+
+@lru_cache(maxsize=1)
+def _kernels():
+    import warp as wp
+
+    @wp.kernel
+    def bound_bodies(qd: wp.array(dtype=wp.spatial_vector), cap: wp.array(dtype=float), radius: wp.array(dtype=float),
+                     t0: wp.array(dtype=float), t_offset: float, accel: float, until: float):
+        b = wp.tid()
+        c = cap[b]
+        t = t0[0] + t_offset
+        if c < 0.0 or t >= until:
+            return
+        c = c + accel * t
+        w = qd[b]
+        v = wp.spatial_top(w)
+        om = wp.spatial_bottom(w)
+        n = wp.length(v)
+        if n > c:
+            v = v * (c / n)
+        m = wp.length(om)
+        c_w = c / radius[b]
+        if m > c_w:
+            om = om * (c_w / m)
+        qd[b] = wp.spatial_vector(v, om)
+
+    @wp.kernel
+    def bound_particles(qd: wp.array(dtype=wp.vec3), cap: wp.array(dtype=float), t0: wp.array(dtype=float),
+                        t_offset: float, accel: float, until: float):
+        i = wp.tid()
+        c = cap[i]
+        t = t0[0] + t_offset
+        if c < 0.0 or t >= until:
+            return
+        c = c + accel * t
+        v = qd[i]
+        n = wp.length(v)
+        if n > c:
+            qd[i] = v * (c / n)
+
+    return bound_bodies, bound_particles

@@ -1,0 +1,150 @@
+"""Objects that start inside each other settle instead of exploding, in ``simulate`` and in the preview,
+both stepping through the one guarded loop (``physics.runner.GuardedRun``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from physomni_usd.bench.scenes import BenchObject, write_bench_shot
+from physomni_usd.physics import runner
+from physomni_usd.physics.simulate import simulate_shot
+from physomni_usd.physics.stability import GRAVITY
+from physomni_usd.settings import SimulateSettings
+
+SECONDS = 0.5
+
+
+def _stacked_boxes():
+    """A 1 kg box started 5 mm down inside a 2 kg box it stands on."""
+    a = trimesh.creation.box((0.2, 0.2, 0.1))
+    a.apply_translation((0.0, 0.0, 0.05))
+    b = trimesh.creation.box((0.1, 0.1, 0.1))
+    b.apply_translation((0.02, 0.0, 0.15 - 0.005))
+    return [BenchObject("a", a), BenchObject("b", b)]
+
+
+def _spoon_on_saucer(spoon_material: str):
+    """A steel spoon (a 16 × 2.5 × 0.6 cm bar) started 5 mm into its saucer, as a lift from a photo leaves
+    them; as cloth, its particles' spheres start 1.5 cm inside the saucer."""
+    saucer = trimesh.creation.cylinder(radius=0.08, height=0.015, sections=24)
+    saucer.apply_translation((0.0, 0.0, 0.0075))
+    spoon = trimesh.creation.box((0.16, 0.025, 0.006))
+    spoon.apply_translation((0.03, 0.0, 0.015 + 0.003 - 0.005))
+    params = {"density": 7800.0} if spoon_material == "rigid" else {}
+    return [BenchObject("saucer", saucer, "rigid", {"density": 2000.0}), BenchObject("spoon", spoon, spoon_material, params)]
+
+
+SCENES = {"boxes": _stacked_boxes, "spoon": lambda: _spoon_on_saucer("rigid"),
+          "cloth_spoon": lambda: _spoon_on_saucer("pbd_cloth")}
+
+
+def _kinetic(stepper) -> float:
+    """Kinetic energy (J) of everything the stepper moves."""
+    from physomni_usd.physics.stability import body_energy, particle_energy
+
+    model, state = stepper.model, stepper.state
+    total = 0.0
+    if model.body_count:
+        e, _ = body_energy(model, state)
+        q = state.body_q.numpy().astype(np.float64)
+        from scipy.spatial.transform import Rotation
+
+        com = q[:, :3] + Rotation.from_quat(q[:, 3:7]).apply(model.body_com.numpy())
+        total += e - float((model.body_mass.numpy() * GRAVITY * com[:, 2]).sum())
+    if model.particle_count:
+        e, _ = particle_energy(model, state)
+        m = model.particle_mass.numpy().astype(np.float64)
+        total += e - float((m * GRAVITY * state.particle_q.numpy()[:, 2]).sum())
+    return total
+
+
+def _positions(stepper) -> np.ndarray:
+    """Where the moving things are: body centres (B, 3), then particles (P, 3)."""
+    s = stepper.state
+    parts = [s.body_q.numpy()[:, :3]] if stepper.model.body_count else []
+    if stepper.model.particle_count:
+        parts.append(s.particle_q.numpy())
+    return np.concatenate(parts).astype(np.float64)
+
+
+def _falling_1cm(stepper) -> float:
+    m = stepper.model
+    mass = (m.body_mass.numpy().sum() if m.body_count else 0.0) + (m.particle_mass.numpy().sum() if m.particle_count else 0.0)
+    return float(mass) * GRAVITY * 0.01
+
+
+@pytest.fixture
+def watched(monkeypatch):
+    """Every frame the shared guarded loop steps, whoever steps it: (kinetic J, positions) after it."""
+    seen = []
+    advance = runner.GuardedRun.advance
+
+    def watching(self):
+        if not seen:
+            seen.append((_kinetic(self.stepper), _positions(self.stepper), _falling_1cm(self.stepper)))
+        ok = advance(self)
+        seen.append((_kinetic(self.stepper), _positions(self.stepper), _falling_1cm(self.stepper)))
+        return ok
+
+    monkeypatch.setattr(runner.GuardedRun, "advance", watching)
+    return seen
+
+
+def _check_settled(seen, scene, depth):
+    """Kinetic energy within falling 1 cm, and an end within 1 cm of the start — for the cloth, whose
+    particles' spheres start ``depth`` inside the saucer, within 1 cm of where separating puts them."""
+    start = seen[0][1]
+    kinetic = np.array([k for k, _, _ in seen])
+    bound = seen[0][2]
+    assert kinetic.max() <= bound, (kinetic.max(), bound)
+    moved = np.linalg.norm(seen[-1][1] - start, axis=1).max()
+    assert moved <= 0.01 + (depth if scene == "cloth_spoon" else 0.0), moved
+
+
+@pytest.mark.parametrize("scene", list(SCENES))
+def test_start_overlaps_settle_in_simulate(tmp_path, watched, scene):
+    """Through ``simulate_shot``: the run ends (no divergence), the kinetic energy never exceeds what
+    falling 1 cm would give everything moving, and everything ends within 1 cm of where it started."""
+    report = simulate_shot(write_bench_shot(tmp_path, SCENES[scene]()), SimulateSettings(seconds=SECONDS))
+    assert report["guard"]["depenetration"]["deepest_m"] >= 0.004  # the overlap was found
+    assert report["guard"]["rollbacks"] == []  # separated, not refined
+    assert len(watched) >= report["frames"]  # the start, then every frame stepped
+    _check_settled(watched, scene, report["guard"]["depenetration"]["deepest_m"])
+
+
+@pytest.mark.parametrize("scene", ["boxes", "cloth_spoon"])
+def test_start_overlaps_settle_in_the_preview(tmp_path, watched, scene):
+    """The preview's engine steps the same loop: the same bound on kinetic energy and displacement."""
+    from physomni_usd.preview.engine import Engine
+
+    e = Engine(write_bench_shot(tmp_path, SCENES[scene]()))
+    for _ in range(int(SECONDS * e.fps)):
+        e.step()
+    assert len(watched) == int(SECONDS * e.fps) + 1
+    assert e.run.depenetration.depth >= 0.004
+    _check_settled(watched, scene, e.run.depenetration.depth)
+
+
+def test_simulate_and_the_preview_step_through_the_same_loop(tmp_path, monkeypatch):
+    """The shared guarded step, patched once, is what both ``simulate`` and the preview's engine call."""
+    from physomni_usd.physics import stepping
+    from physomni_usd.preview.engine import Engine
+
+    calls = []
+    frame = stepping.FrameGraphs.frame
+
+    def counted(self, *args, **kwargs):
+        calls.append(self.stepper)
+        return frame(self, *args, **kwargs)
+
+    monkeypatch.setattr(stepping.FrameGraphs, "frame", counted)
+    shot = write_bench_shot(tmp_path, _stacked_boxes())
+    report = simulate_shot(shot, SimulateSettings(seconds=0.2))
+    by_simulate = len(calls)
+    assert by_simulate >= report["frames"] - 1
+    e = Engine(shot)
+    for _ in range(3):
+        e.step()
+    assert len(calls) == by_simulate + 3 and calls[-1] is e.stepper
