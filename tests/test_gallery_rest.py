@@ -129,16 +129,9 @@ IDENTICAL = ("smarties", "parts")
 KNOWN_SIZES = {
     ("identical", "parts"): "measured: the six identical parts come out 0.74, 0.97, 1.41, 2.03, 3.45 and 10.5 m",
     ("table", "heap"): "measured: the 24 cm book comes out 1.64 m",
-    ("table", "parts"): "measured: five of the six parts come out 0.97-10.5 m",
     ("pitch", "parts"): "measured: pitch 17.2° for a view from straight above",
-    ("priors", "whale"): "measured: no warning; the toy whale comes out 4.07 m and the toy box 1.47 m",
     ("given pitch", 0.0): "measured: build stops with '--pitch 0 puts an object's foot above the horizon; use at "
                           "least 18'",
-    ("given pitch", 30.0): "measured: build stops with 'object 0 (part): its lowest pixel is above the horizon of a "
-                           "camera pitched 30° down'",
-    ("given pitch", 60.0): "measured: build stops with 'object 0 (part): its lowest pixel is above the horizon of a "
-                           "camera pitched 60° down'",
-    ("given pitch", 90.0): "measured: builds, but the upright part_0 is 753 m long, the other five 0.27-0.36 m",
 }
 
 
