@@ -20,7 +20,7 @@ import click
 
 from ._files import all_or_nothing
 from .failure import failure_of
-from .settings import MAX_SOLVER_STEPS, RenderSettings, SimulateSettings
+from .settings import MAX_PARTICLES, MAX_SOLVER_STEPS, RenderSettings, SimulateSettings
 
 PUSH_HELP = ("Give an object this velocity in m/s (each component at most 1000 in size) at T seconds "
              "(default 0, T ≥ 0); world axes: Z up, +Y away from the camera, +X to the image's right. A label "
@@ -391,7 +391,8 @@ def _render(shot, output, quiet, max_size=1920, passes=None, passes_dir=None, ca
                    "(frames × substeps).")
 @click.option("--particle-spacing", type=float, default=None, metavar="METRES",
               help="MPM particle spacing [default: the smallest MPM object 10 particles across, at most "
-                   f"15,000 particles]. Range: {limits(SimulateSettings, 'particle_spacing')}.")
+                   f"15,000 particles]. Range: {limits(SimulateSettings, 'particle_spacing')}, and at most "
+                   f"{MAX_PARTICLES:,} particles in all.")
 @click.option("--mpm-steps", type=int, default=None,
               help="MPM steps per frame [default: what the bench found accurate for the shot's materials "
                    "(elastic 16, sand 4, liquid 2 at 30 fps), fewer where the CFL bound allows; fewer is a "
@@ -495,7 +496,8 @@ def _check_simulated(shot) -> None:
               help=PUSH_HELP)
 @click.option("--particle-spacing", type=float, default=None, metavar="METRES",
               help="MPM particle spacing [default: chosen from the objects' sizes]. "
-                   f"Range: {limits(SimulateSettings, 'particle_spacing')}.")
+                   f"Range: {limits(SimulateSettings, 'particle_spacing')}, and at most {MAX_PARTICLES:,} "
+                   "particles in all.")
 @click.option("--mpm-steps", type=int, default=None,
               help="MPM steps per frame [default: chosen from the materials; see simulate --help]. "
                    f"Range: {limits(SimulateSettings, 'mpm_steps')}.")

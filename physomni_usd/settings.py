@@ -72,6 +72,11 @@ class BuildSettings(_Settings):
 MAX_SOLVER_STEPS = 1_000_000
 
 
+#: Most MPM particles one shot may hold when --particle-spacing is given: each costs its grid cells and a
+#: transfer each step (about 4 GB of state and hours of stepping on a CPU at this count).
+MAX_PARTICLES = 2_000_000
+
+
 class SimulateSettings(_Settings):
     seconds: float = Field(3.0, gt=0.0, le=600.0, description="Simulated seconds.")
     fps: float | None = Field(None, ge=1.0, le=1000.0, description="Frames per second; None keeps the shot's.")

@@ -58,3 +58,19 @@ def test_temporary_names_are_shown_as_their_target():
 
     assert shown_name("/s/.sim.physomni-ab12cd.usdc") == "/s/sim.usdc"
     assert shown_name("/s/report.json") == "/s/report.json"
+
+
+def test_a_particle_spacing_that_would_fill_memory_is_refused_before_sampling():
+    """--particle-spacing 0.0002 on a 10 cm cube would be 1.25e11 particles: one line naming the option."""
+    import trimesh
+
+    from physomni_usd.errors import InputError
+    from physomni_usd.physics.mpm import choose_spacing
+    from physomni_usd.settings import MAX_PARTICLES
+
+    cube = trimesh.creation.box((0.1, 0.1, 0.1))
+    with pytest.raises(InputError, match=r"--particle-spacing 0.0002: .* at most 2,000,000") as info:
+        choose_spacing([cube], 0.0002)
+    assert "\n" not in str(info.value)
+    assert choose_spacing([cube], 0.01) == 0.01  # 1000 particles: as asked
+    assert (0.1 ** 3) / choose_spacing([cube], (0.1 ** 3 / MAX_PARTICLES) ** (1 / 3) * 1.01) ** 3 <= MAX_PARTICLES

@@ -82,6 +82,15 @@ def choose_spacing(meshes: list, override: float | None = None, max_particles: i
     """Particle spacing (m) for a set of trimesh meshes: ``override`` if given, else the smallest object
     ``PARTICLES_ACROSS`` particles across, coarsened until the scene holds at most ``max_particles``."""
     if override:
+        from ..errors import InputError
+        from ..settings import MAX_PARTICLES as MOST
+
+        volume = sum(abs(float(m.volume)) if m.is_volume else float(np.prod(m.extents)) for m in meshes)
+        count = volume / float(override) ** 3
+        if count > MOST:  # refused before a particle is sampled, not after the memory is gone
+            raise InputError(f"--particle-spacing {override:g}: the MPM objects would hold about {count:,.0f} "
+                             f"particles; at most {MOST:,} (use at least "
+                             f"{(volume / MOST) ** (1 / 3):.3g} m)")
         return float(override)
     smallest = min(float(np.min(m.extents)) for m in meshes)
     spacing = max(smallest / PARTICLES_ACROSS, 1e-3)
