@@ -267,6 +267,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
     echo("perceive: filling the background plate behind the objects")
     with timer.step("perceive.plate"):
         _plate(scene)
+    echo("perceive: widening the plate beyond the photo's frame (for camera moves)")
     with timer.step("perceive.outpaint"):
         _outpaint(scene)
     with timer.step("perceive.complete"):
