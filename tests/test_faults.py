@@ -74,3 +74,19 @@ def test_a_particle_spacing_that_would_fill_memory_is_refused_before_sampling():
     assert "\n" not in str(info.value)
     assert choose_spacing([cube], 0.01) == 0.01  # 1000 particles: as asked
     assert (0.1 ** 3) / choose_spacing([cube], (0.1 ** 3 / MAX_PARTICLES) ** (1 / 3) * 1.01) ** 3 <= MAX_PARTICLES
+
+
+def test_a_build_of_several_boxes_says_each_mask_as_it_is_cut():
+    """GrabCut takes seconds a box on a large photo: a build of many boxes is never silent until the last."""
+    import numpy as np
+
+    from physomni_usd.build import _box_progress
+    from physomni_usd.perceive.masks import collect_masks
+
+    photo = np.full((64, 96, 3), 200, np.uint8)
+    photo[20:40, 10:30] = (200, 40, 40)
+    photo[20:40, 60:80] = (40, 40, 200)
+    said = []
+    objects = collect_masks(photo, (), ["8,18,32,42:red", "58,18,82,42:blue"], _box_progress(said.append))
+    assert [o.label for o in objects] == ["red", "blue"]
+    assert said == ["perceive: mask 1/2 cut from its box", "perceive: mask 2/2 cut from its box"]
