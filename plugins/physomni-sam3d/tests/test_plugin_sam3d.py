@@ -74,7 +74,7 @@ def test_build_aligns_the_lifters_meshes(tmp_path, fake_sam3d):
     assert np.allclose(poses["cup"]["translation"], [-0.1, 0.2, 2.0]) and poses["cup"]["scale"] == 1.5
     report = json.loads((out / "report.json").read_text())
     assert report["stages"]["build"]["backends"]["lifter"]["name"] == "sam3d"
-    assert "align.external" in report["stages"]["build"]["seconds"]
+    assert "align.place" in report["stages"]["build"]["seconds"]  # placed from the posed meshes: shapes "external"
     assert all(o["shape"] == "external" for o in report["objects"])
 
 
