@@ -74,6 +74,8 @@ PENDING: set[str] = set()
 
 
 def dotted_exists(name: str) -> bool:
+    if _mapped_package(name):
+        return True
     parts = name.split(".")[1:]
     for cut in range(len(parts), -1, -1):
         base = PACKAGE.joinpath(*parts[:cut])
@@ -86,6 +88,16 @@ def dotted_exists(name: str) -> bool:
                 return False  # a folder that is no package
             return not rest or _defined(module, rest)
     return False
+
+
+def _mapped_package(name: str) -> bool:
+    """A package the install maps from elsewhere in the repository (pyproject's package-dir:
+    ``physomni_usd._schema`` is ``schemas/physomni``): it exists where that folder does."""
+    import tomllib
+
+    root = PACKAGE.parent
+    mapped = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"].get("package-dir", {})
+    return name in mapped and (root / mapped[name]).is_dir()
 
 
 def inside_exists(path: str) -> bool:
