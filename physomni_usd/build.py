@@ -35,7 +35,7 @@ from .materials.report import material_report
 from .perceive.amodal import complete, complete_texture
 from .perceive.masks import contact_sheet, read_photo
 from .perceive.plate import object_texture
-from .perceive.sides import corner_st, two_sided_texture
+from .lift.sides import corner_st, two_sided_texture
 from .physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
 from .report import REPORT, Timer, read_report, set_aside_damaged, update_report
 from .settings import BuildSettings
@@ -424,7 +424,7 @@ def _texture(scene: Scene, out: pathlib.Path) -> None:
         hidden = (so.amodal & ~o.mask)[y0:y0 + rgba.shape[0], x0:x0 + rgba.shape[1]]
         rgba[..., 3][hidden] = COMPLETED_ALPHA
         # texture coordinates: the photo projected from the camera onto the object where it was seen, and
-        # a planar map for the sides it saw edge-on (perceive/sides.py)
+        # a planar map for the sides it saw edge-on (lift/sides.py)
         st = corner_st(so.projected, np.asarray(f), camera, (rgba.shape[1], rgba.shape[0]), (x0, y0))
         rgba = two_sided_texture(rgba)
         tm = trimesh.Trimesh(v, f, process=False)

@@ -6,7 +6,7 @@ import pytest
 
 from physomni_usd.align.cues import estimate_camera
 from physomni_usd.bench.photos import make_known_scene
-from physomni_usd.perceive.lift import fill_holes, foot_pixel
+from physomni_usd.lift.silhouette import fill_holes, foot_pixel
 
 
 def _estimate(scene, **kw):

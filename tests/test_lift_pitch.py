@@ -7,7 +7,7 @@ import pytest
 
 from physomni_usd.bench.photos import make_known_scene
 from physomni_usd.sizes import size_prior
-from physomni_usd.perceive.lift import lift_silhouette
+from physomni_usd.lift.silhouette import lift_silhouette
 
 
 def _lift(scene, label):

@@ -11,7 +11,7 @@ from physomni_usd.geometry.camera import PinholeCamera, pick_pitch
 from physomni_usd.align.place import footprint, make_room, separate, separation
 from physomni_usd.errors import InputError
 from physomni_usd.metrics import mask_iou, ssim
-from physomni_usd.perceive.lift import flat_bottom, is_ball, lift_silhouette
+from physomni_usd.lift.silhouette import flat_bottom, is_ball, lift_silhouette
 from physomni_usd.perceive.masks import identifier, split_spec
 from physomni_usd.settings import LiftSettings
 

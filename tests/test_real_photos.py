@@ -20,7 +20,7 @@ from physomni_usd.align.cues import mask_ellipse
 from physomni_usd.bench.real_photos import REAL, SIZE_FACTOR, load_photo, load_truth, write_inputs
 from physomni_usd.geometry.camera import PinholeCamera
 from physomni_usd.geometry.mesh import longest_dimension
-from physomni_usd.perceive.footprint import outline, sphere_from_outline
+from physomni_usd.lift.footprint import outline, sphere_from_outline
 from physomni_usd.perceive.masks import segment_box
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"

@@ -9,7 +9,7 @@ import trimesh
 
 from physomni_usd.bench.photos import make_known_scene
 from physomni_usd.geometry.camera import PinholeCamera
-from physomni_usd.perceive.lift import lift_silhouette
+from physomni_usd.lift.silhouette import lift_silhouette
 from physomni_usd.sizes import body_kind, size_prior
 
 
@@ -38,7 +38,7 @@ def _silhouette(camera, mesh) -> np.ndarray:
 
 def test_an_inflated_body_rests_on_a_flat_patch_or_is_the_slab():
     """The photo shows it at rest: its weight must fall over what touches the ground, or it would roll away."""
-    from physomni_usd.perceive.lift import stands
+    from physomni_usd.lift.silhouette import stands
 
     camera = PinholeCamera(320, 240, 50.0, 10.0, (0.0, 0.0, 1.0))
     level = lift_silhouette(_blob(), camera, label="lime")

@@ -11,7 +11,7 @@ import pytest
 
 from physomni_usd.align.cues import estimate_camera
 from physomni_usd.align.scale import fit_scale
-from physomni_usd.perceive.lift import fill_holes, foot_pixel
+from physomni_usd.lift.silhouette import fill_holes, foot_pixel
 
 from .conftest import cli
 

@@ -45,7 +45,7 @@ import cv2
 import numpy as np
 
 from ..sizes import size_prior
-from ..perceive.lift import FLAT_PRIOR_RATIO, fill_holes
+from ..lift.silhouette import FLAT_PRIOR_RATIO, fill_holes
 from ..geometry.camera import HORIZON_MARGIN_DEG, MIN_AUTO_PITCH_DEG, PinholeCamera
 
 DEFAULT_FOV_DEG = 50.0

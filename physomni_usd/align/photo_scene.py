@@ -4,7 +4,7 @@ Owns the order of the silhouette path, in two halves that ``build`` runs as
 its *lift* and *place* stages. :func:`lift_photo_scene` (the built-in
 lifter): the camera is estimated from the photo (``align/cues.py``) under a
 unit camera height, objects resting on others are found (``align/support.py``),
-every object is lifted (``perceive/lift.py``) and the scene's scale is fixed
+every object is lifted (``lift/silhouette.py``) and the scene's scale is fixed
 from the objects' typical sizes (``align/scale.py``). :func:`place_on_ground`:
 objects resting on others move with them, the rest are kept apart
 (``align/place.py``).
@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..sizes import size_prior
-from ..perceive.lift import FLAT_PRIOR_RATIO, fill_holes, foot_pixel, lift_silhouette
+from ..lift.silhouette import FLAT_PRIOR_RATIO, fill_holes, foot_pixel, lift_silhouette
 from ..settings import BuildSettings
 from ..errors import InputError
 from ..geometry.camera import PinholeCamera, pick_pitch
@@ -96,7 +96,7 @@ class GroundLift:
     """Every object lifted on the ground measured in the photo: world metres, z up, the ground at z = 0."""
 
     camera: PinholeCamera
-    lifted: list  # perceive.lift.LiftedMesh, one per mask, at the photo's scale
+    lifted: list  # lift.silhouette.LiftedMesh, one per mask, at the photo's scale
     supports: dict[int, tuple[int, str]]  # {upper: (lower, how it was seen)}
     info: dict  # the camera's cues and the scale's votes, for the report
 

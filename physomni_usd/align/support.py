@@ -23,7 +23,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ..perceive.lift import fill_holes, foot_pixel
+from ..lift.silhouette import fill_holes, foot_pixel
 
 #: Fraction of A's lowest outline that must touch B (side view), or of the ring around A that must be B (above).
 CONTACT_FRACTION = 0.6

@@ -67,7 +67,7 @@ class MirrorOutpainter(_Builtin):
 
 
 class SilhouetteLifter(_Builtin):
-    """Silhouette lofting (``perceive.lift``) on the ground it measures in the photo (``align.photo_scene``).
+    """Silhouette lofting (``lift.silhouette``) on the ground it measures in the photo (``align.photo_scene``).
 
     Its meshes come in the world of that ground with the camera that sees it (``LiftedObject.ground``)."""
 

@@ -318,7 +318,7 @@ class ShotRenderer:
         if self.photo is None:
             return moved
         # only the photo crop of each texture says where the photo shows the object; its unseen sides'
-        # opaque copy (perceive/sides.py) lies to the right of it and says nothing
+        # opaque copy (lift/sides.py) lies to the right of it and says nothing
         hit = (obj >= 0) & (px[..., 0] < self.photo_width[np.maximum(obj, 0)])
         ys, xs = np.nonzero(hit)
         k = obj[hit]
