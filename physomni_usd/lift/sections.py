@@ -1,6 +1,6 @@
 """Closed triangle meshes from cross-sections: lofting, and the inflated sections of rounded bodies.
 
-Shared by the side-view lift (``lift.py``) and the lift from above
+Shared by the side-view lift (``silhouette.py``) and the lift from above
 (``footprint.py``): a tube through K sections of n points each, closed by a fan
 at each end, is watertight by construction.
 """
