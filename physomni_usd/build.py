@@ -30,6 +30,7 @@ from .backends import steps as backend_steps
 from .backends.builtin import MeshFolderLifter
 from .errors import InputError
 from .fields import parse_force_options
+from .geometry.depth import ground_pitch
 from .materials.defaults import GROUND_MATERIAL
 from .materials.report import material_report
 from .perceive.amodal import complete, complete_texture
@@ -245,7 +246,14 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
                    if masks or boxes or finding is None else [])
         if finding is not None:
             objects += find_objects(photo, find, finding, len(objects), echo)
-        settings, depth_info = backend_steps.apply_depth(chosen["depth"], photo, objects, settings)
+        depth_info = {}
+        if chosen["depth"] is not None:  # the ground the depth model sees gives the pitch, unless --pitch did
+            found = ground_pitch(chosen["depth"].depth(photo), settings.camera.fov_deg or DEFAULT_FOV_DEG,
+                                 ~np.any([o.mask for o in objects], axis=0))
+            depth_info = {"depth_ground": found}
+            if found is not None and settings.camera.pitch_deg is None:
+                seen = {"pitch_deg": float(np.clip(found["pitch_deg"], 0.0, 90.0))}
+                settings = settings.model_copy(update={"camera": settings.camera.model_copy(update=seen)})
         names = object_names(objects)
         push = parse_pushes(pushes, names, echo)
         fields = parse_force_options(forces)

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from physomni_usd.backends import steps
+from physomni_usd.geometry.depth import ground_pitch
 from physomni_usd.swappable import protocols, registry
 from physomni_usd.errors import InputError
 
@@ -99,8 +100,8 @@ def test_ground_pitch_from_a_depth_map_of_a_floor(pitch_deg, height, metric):
     down = -(rays @ up)
     depth = np.where(down > 1e-6, height / np.maximum(down, 1e-6), 0.0)  # z where the ray meets the floor
     scale = 1.0 if metric else 0.37
-    found = steps.ground_pitch(protocols.DepthMap((depth * scale).astype(np.float32), metric), fov,
-                               np.ones((h, w), bool))
+    found = ground_pitch(protocols.DepthMap((depth * scale).astype(np.float32), metric), fov,
+                         np.ones((h, w), bool))
     assert found is not None
     assert found["pitch_deg"] == pytest.approx(pitch_deg, abs=0.5)
     if metric:

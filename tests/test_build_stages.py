@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib
 
 import numpy as np
+import pytest
 import trimesh
 
 from physomni_usd.swappable import protocols, registry
@@ -88,3 +89,49 @@ def test_builtin_lifter_implements_the_lifter_protocol(photo):
         uv, _ = o.ground.camera.project(o.vertices)
         f = o.ground.camera.focal_px
         assert np.allclose(uv, cam[:, :2] / cam[:, 2:] * f + [120, 90], atol=1e-6)
+
+
+class StubDepth:
+    """A depth plugin that sees an endless floor under a camera pitched ``PITCH`` degrees down (vertical
+    field of view ``FOV``): z where each pixel's ray meets it."""
+
+    kind, name = "depth", "floor"
+    PITCH, FOV = 31.0, 50.0
+
+    @classmethod
+    def missing(cls):
+        return None
+
+    @classmethod
+    def weights(cls):
+        return None
+
+    def depth(self, photo):
+        h, w = photo.shape[:2]
+        f = 0.5 * h / np.tan(np.radians(self.FOV) / 2)
+        vv, uu = np.mgrid[0:h, 0:w] + 0.5
+        t = np.radians(self.PITCH)
+        down = ((vv - h / 2) / f) * np.cos(t) + np.sin(t)  # each ray (z = 1) · world down, in OpenCV axes
+        return protocols.DepthMap(np.where(down > 1e-6, 1.0 / np.maximum(down, 1e-6), 0.0).astype(np.float32), True)
+
+
+def test_the_depth_ground_sets_the_pitch_unless_the_user_gave_one(tmp_path, photo, monkeypatch):
+    """build reads the pitch from the depth backend's ground where it resolves its settings; --pitch wins."""
+    import json
+
+    from physomni_usd.settings import BuildSettings, CameraSettings
+
+    entry = registry.Entry("depth", "floor", f"{__name__}:StubDepth", "physomni-stub", "0")
+    real_entries = registry.entries
+    monkeypatch.setattr(registry, "entries", lambda: real_entries() + [entry])
+    masks = [f"{photo['cup']}:cup", f"{photo['box']}:box"]
+    pitches = {}
+    for given in (None, 12.0):
+        settings = BuildSettings(camera=CameraSettings(fov_deg=StubDepth.FOV, pitch_deg=given))
+        out = tmp_path / str(given)
+        build.build_shot(photo["photo"], out, masks=masks, settings=settings, backends={"depth": "floor"})
+        report = json.loads((out / "report.json").read_text())
+        assert report["stages"]["build"]["depth_ground"]["pitch_deg"] == pytest.approx(StubDepth.PITCH, abs=0.5)
+        pitches[given] = report["shot"]["pitch_deg"]
+    assert pitches[None] == pytest.approx(StubDepth.PITCH, abs=0.5)
+    assert pitches[12.0] == pytest.approx(12.0, abs=0.5)

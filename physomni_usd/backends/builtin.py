@@ -1,4 +1,5 @@
-"""The built-in backends: thin adapters from the protocols to the classical code in perceive/ and materials/."""
+"""The built-in backends: thin adapters from the protocols to the classical code in perceive/, lift/, align/ and
+materials/."""
 
 from __future__ import annotations
 

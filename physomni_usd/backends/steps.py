@@ -1,4 +1,4 @@
-"""Running the chosen backends inside ``build``: objects from prompts, the plate, lifting, the depth's ground."""
+"""Running the chosen backends inside ``build``: objects from prompts, the plate, lifting."""
 
 from __future__ import annotations
 
@@ -33,21 +33,6 @@ def resolve(choices: dict | None, meshes_dir=None) -> dict:
         name = choices.get(kind) or registry.DEFAULTS[kind]
         out[kind] = registry.load(kind, name) if name else None
     return out
-
-
-def apply_depth(depth_backend, photo: np.ndarray, objects, settings):
-    """Settings with the pitch of the ground the depth model sees (unless the user gave one), and report fields."""
-    if depth_backend is None:
-        return settings, {}
-    background = ~np.any([o.mask for o in objects], axis=0)
-    from ..align.cues import DEFAULT_FOV_DEG
-
-    found = ground_pitch(depth_backend.depth(photo), settings.camera.fov_deg or DEFAULT_FOV_DEG, background)
-    info = {"depth_ground": found}
-    if found is not None and settings.camera.pitch_deg is None:
-        pitch = float(np.clip(found["pitch_deg"], 0.0, 90.0))
-        settings = settings.model_copy(update={"camera": settings.camera.model_copy(update={"pitch_deg": pitch})})
-    return settings, info
 
 
 def report(backends: dict) -> dict:
@@ -165,51 +150,3 @@ def record_lifted(lifted, objects, folder: pathlib.Path) -> pathlib.Path:
                           "translation": [float(x) for x in m.translation], "scale": float(m.scale)}
     write_bytes(folder / "poses.json", (json.dumps(poses, indent=2) + "\n").encode())
     return folder
-
-
-def ground_pitch(depth, fov_deg: float, background: np.ndarray) -> dict | None:
-    """The camera's downward pitch (degrees) from a plane fitted to the ground seen in a depth map.
-
-    The lower half of the background pixels is back-projected with the
-    pinhole of vertical field of view ``fov_deg`` and a plane is fitted by
-    RANSAC; its normal gives the pitch, and with metric depth its distance
-    the camera height. Returns None when no plausible ground is seen.
-    """
-    d = np.asarray(depth.depth, np.float64)
-    h, w = d.shape
-    f = 0.5 * h / math.tan(math.radians(fov_deg) / 2)
-    vv, uu = np.mgrid[0:h, 0:w] + 0.5
-    use = background & (vv > h / 2) & np.isfinite(d) & (d > 0)
-    if use.sum() < 50:
-        return None
-    z = d[use]
-    pts = np.stack([(uu[use] - w / 2) / f * z, (vv[use] - h / 2) / f * z, z], 1)
-    rng = np.random.default_rng(0)
-    if len(pts) > 4000:
-        pts = pts[rng.choice(len(pts), 4000, replace=False)]
-    tol = 0.01 * float(np.median(z))
-    best, best_n = None, 0
-    for _ in range(300):
-        a, b, c = pts[rng.choice(len(pts), 3, replace=False)]
-        n = np.cross(b - a, c - a)
-        if np.linalg.norm(n) < 1e-12:
-            continue
-        n /= np.linalg.norm(n)
-        count = int((np.abs((pts - a) @ n) < tol).sum())
-        if count > best_n:
-            best, best_n = (n, a), count
-    if best is None:
-        return None
-    n, a = best
-    inl = pts[np.abs((pts - a) @ n) < tol]
-    centre = inl.mean(0)
-    n = np.linalg.svd(inl - centre)[2][-1]  # least squares over the inliers
-    if n[1] > 0:
-        n = -n  # up is -y in the camera
-    if -n[1] < 0.5:  # a ground tilted more than 60° from the image's vertical is not a floor
-        return None
-    pitch = math.degrees(math.asin(float(np.clip(-n[2], -1, 1))))
-    out = {"pitch_deg": round(pitch, 3), "inliers": int(len(inl)), "metric": bool(depth.metric)}
-    if depth.metric:
-        out["camera_height_m"] = round(float(abs(centre @ n)), 4)
-    return out
