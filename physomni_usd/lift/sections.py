@@ -1,8 +1,10 @@
-"""Closed triangle meshes from cross-sections: lofting, and the inflated sections of rounded bodies.
+"""Closed triangle meshes from cross-sections: the sections of each shape (round, a slab along the camera's
+rays, inflated) and lofting them.
 
-Shared by the side-view lift (``silhouette.py``) and the lift from above
-(``footprint.py``): a tube through K sections of n points each, closed by a fan
-at each end, is watertight by construction.
+Shared by the side-view lift (``silhouette.py``, which picks the shape and
+where each section stands) and the lift from above (``footprint.py``): a tube
+through K sections of n points each, closed by a fan at each end, is
+watertight by construction.
 """
 
 from __future__ import annotations
@@ -11,6 +13,8 @@ import numpy as np
 
 #: An inflated section is never thinner than this fraction of the object's largest bulge (no flat slivers).
 MIN_BULGE = 0.08
+#: Superellipse exponent of round cross-sections (2: a circle).
+ROUND_EXPONENT = 2.0
 
 
 def loft(rings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -49,6 +53,44 @@ def span_samples(left, right, count: int) -> np.ndarray:
     """(K, count) positions from ``left`` to ``right`` (K,), denser towards the ends where outlines curve."""
     t = 0.5 * (1.0 - np.cos(np.linspace(0.0, np.pi, count)))
     return left[:, None] + (right - left)[:, None] * t[None, :]
+
+
+def superellipse(n: int, exponent: float) -> np.ndarray:
+    """(n, 2) points (x, y) of the unit superellipse |x|^p + |y|^p = 1, counter-clockwise."""
+    t = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
+    c, s = np.cos(t), np.sin(t)
+    e = 2.0 / exponent
+    return np.stack([np.sign(c) * np.abs(c) ** e, np.sign(s) * np.abs(s) ** e], axis=1)
+
+
+def round_rings(centres, radii, tangent, normal, sections: int) -> np.ndarray:
+    """Polygons (K, n, 3) circumscribing circles of ``radii`` about ``centres``, in the horizontal plane."""
+    ring = superellipse(sections, ROUND_EXPONENT) / np.cos(np.pi / sections)
+    return (centres[:, None, :] + ring[None, :, 0:1] * radii[:, None, None] * tangent
+            + ring[None, :, 1:2] * radii[:, None, None] * normal)
+
+
+def ray_slab_rings(front_left, front_right, dir_left, dir_right, normal, depth: float, sections: int) -> np.ndarray:
+    """Quadrilateral sections (K, n, 3) whose sides follow the camera rays through the outline, seen from above.
+
+    The front edge of each section is the outline's row on the front plane and
+    the back edge lies ``depth`` further along ``normal`` at the same height;
+    the sides run along the rays' horizontal directions, so from the camera
+    they hide behind the front face's edges instead of widening the outline.
+    """
+    dir_left = dir_left * np.array([1.0, 1.0, 0.0])
+    dir_right = dir_right * np.array([1.0, 1.0, 0.0])
+    back_left = front_left + dir_left * (depth / (dir_left @ normal))[:, None]
+    back_right = front_right + dir_right * (depth / (dir_right @ normal))[:, None]
+    side = max(1, sections // 6)
+    face = max(1, (sections - 2 * side) // 2)
+    corners = [front_left, front_right, back_right, back_left]
+    counts = [face, side, sections - face - 2 * side, side]
+    parts = []
+    for c, (a, b) in zip(counts, zip(corners, corners[1:] + corners[:1])):
+        t = (np.arange(c) / c)[None, :, None]
+        parts.append(a[:, None, :] * (1 - t) + b[:, None, :] * t)
+    return np.concatenate(parts, axis=1)
 
 
 def inflated_rings(middle: np.ndarray, offsets: np.ndarray, direction: np.ndarray) -> np.ndarray:

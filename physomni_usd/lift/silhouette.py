@@ -48,7 +48,7 @@ import numpy as np
 from ..geometry.camera import PinholeCamera
 from ..settings import LiftSettings
 from ..sizes import body_kind
-from .sections import bulge, inflated_rings, loft, span_samples
+from .sections import bulge, inflated_rings, loft, ray_slab_rings, round_rings, span_samples
 
 #: Fraction of a round object's height that forms its flat base (balls excepted).
 BASE_BAND = 0.15
@@ -58,8 +58,6 @@ FLAT_BOTTOM_WIDTH = 0.85
 #: A silhouette this close to a circle (IoU with its fitted circle) is a ball and keeps a round bottom.
 BALL_IOU = 0.9
 
-#: Superellipse exponent of round cross-sections (2: a circle).
-ROUND_EXPONENT = 2.0
 #: A cuboid needs its top to show: the front side's top edge at most this fraction of the silhouette's height,
 #: and the photo's brightness across that edge changing by at least CUBOID_STEP grey levels and
 #: CUBOID_STEP_NOISE times the bands' own spread (a top lit unlike the front, not a texture's grain).
@@ -153,44 +151,6 @@ def row_spans(mask: np.ndarray, edges: np.ndarray) -> np.ndarray:
             sel = every == np.clip(int(edges[k]), rows[0], rows[-1])
         out[k] = left[sel].min(), right[sel].max()
     return out
-
-
-def superellipse(n: int, exponent: float) -> np.ndarray:
-    """(n, 2) points (x, y) of the unit superellipse |x|^p + |y|^p = 1, counter-clockwise."""
-    t = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
-    c, s = np.cos(t), np.sin(t)
-    e = 2.0 / exponent
-    return np.stack([np.sign(c) * np.abs(c) ** e, np.sign(s) * np.abs(s) ** e], axis=1)
-
-
-def round_rings(centres, radii, tangent, normal, sections: int) -> np.ndarray:
-    """Polygons (K, n, 3) circumscribing circles of ``radii`` about ``centres``, in the horizontal plane."""
-    ring = superellipse(sections, ROUND_EXPONENT) / np.cos(np.pi / sections)
-    return (centres[:, None, :] + ring[None, :, 0:1] * radii[:, None, None] * tangent
-            + ring[None, :, 1:2] * radii[:, None, None] * normal)
-
-
-def ray_slab_rings(front_left, front_right, dir_left, dir_right, normal, depth: float, sections: int) -> np.ndarray:
-    """Quadrilateral sections (K, n, 3) whose sides follow the camera rays through the outline, seen from above.
-
-    The front edge of each section is the outline's row on the front plane and
-    the back edge lies ``depth`` further along ``normal`` at the same height;
-    the sides run along the rays' horizontal directions, so from the camera
-    they hide behind the front face's edges instead of widening the outline.
-    """
-    dir_left = dir_left * np.array([1.0, 1.0, 0.0])
-    dir_right = dir_right * np.array([1.0, 1.0, 0.0])
-    back_left = front_left + dir_left * (depth / (dir_left @ normal))[:, None]
-    back_right = front_right + dir_right * (depth / (dir_right @ normal))[:, None]
-    side = max(1, sections // 6)
-    face = max(1, (sections - 2 * side) // 2)
-    corners = [front_left, front_right, back_right, back_left]
-    counts = [face, side, sections - face - 2 * side, side]
-    parts = []
-    for c, (a, b) in zip(counts, zip(corners, corners[1:] + corners[:1])):
-        t = (np.arange(c) / c)[None, :, None]
-        parts.append(a[:, None, :] * (1 - t) + b[:, None, :] * t)
-    return np.concatenate(parts, axis=1)
 
 
 def _edge_is_a_step(photo, solid, camera, edge_point, band: int = 4) -> bool:
