@@ -161,20 +161,20 @@ def test_an_object_above_the_horizon_is_named_in_one_line():
     """A ground object whose lowest pixel no ray down can reach stops the lift with an error naming it."""
     from physomni_usd.align.photo_scene import lift_all
     from physomni_usd.errors import InputError
-    from physomni_usd.settings import LiftSettings
+    from physomni_usd.settings import BuildSettings
 
     mask = np.zeros((240, 320), bool)
     mask[20:60, 140:180] = True  # the top of the photo: above a level camera's horizon
     camera = PinholeCamera(320, 240, 50.0, 0.0, (0.0, 0.0, 1.0))
     with pytest.raises(InputError, match=r"object 0 \(bin\).*above the horizon.*--pitch"):
-        lift_all([mask], ["bin"], camera, LiftSettings(), 1.0)
+        lift_all([mask], ["bin"], camera, BuildSettings(), 1.0)
 
 
 def test_a_supported_object_out_of_reach_stands_on_the_ground():
     """When the object below stands taller than the upper one's foot can reach, the upper one stands on the
     ground instead of failing the build."""
     from physomni_usd.align.photo_scene import lift_all
-    from physomni_usd.settings import LiftSettings
+    from physomni_usd.settings import BuildSettings
 
     camera = PinholeCamera(320, 240, 50.0, 10.0, (0.0, 0.0, 1.0))
     lower = np.zeros((240, 320), bool)
@@ -182,7 +182,7 @@ def test_a_supported_object_out_of_reach_stands_on_the_ground():
     upper = np.zeros((240, 320), bool)
     upper[100:125, 140:180] = True  # its foot near the horizon, where no ray meets the lower one's top
     supports = {0: (1, "contact")}
-    lifted = lift_all([upper, lower], ["box", "crate"], camera, LiftSettings(), 1.0, supports)
+    lifted = lift_all([upper, lower], ["box", "crate"], camera, BuildSettings(), 1.0, supports)
     assert supports == {}
     assert abs(float(lifted[0].vertices[:, 2].min())) < 1e-6
 

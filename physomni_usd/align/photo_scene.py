@@ -18,7 +18,7 @@ import numpy as np
 
 from ..sizes import size_prior
 from ..lift.silhouette import FLAT_PRIOR_RATIO, fill_holes, foot_pixel, lift_silhouette
-from ..settings import BuildSettings, LiftSettings
+from ..settings import BuildSettings
 from ..errors import InputError
 from ..geometry.camera import PinholeCamera, pick_pitch
 from ..geometry.mesh import longest_dimension
@@ -62,7 +62,8 @@ def surface_under(lower, upper_mask: np.ndarray, camera: PinholeCamera) -> float
     return float(down[:, 2].max()) if len(down) else top
 
 
-def lift_all(masks, labels, camera: PinholeCamera, lift: LiftSettings, scale: float, supports=None, photo=None):
+def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scale: float, supports=None,
+             photo=None):
     """Each mask lifted under ``camera`` (unit height); ``scale`` turns a prior's metres into the camera's units.
 
     ``supports`` ({upper: (lower, how)}) stands each upper object on its lower one's surface where it
@@ -78,7 +79,7 @@ def lift_all(masks, labels, camera: PinholeCamera, lift: LiftSettings, scale: fl
         kwargs = dict(height_hint=hint, prior_shape=prior.shape if prior else None, flat=flat, photo=photo,
                       label=labels[i])
         try:
-            out[i] = lift_silhouette(masks[i], camera, lift, base_z=base, **kwargs)
+            out[i] = lift_silhouette(masks[i], camera, settings.lift, base_z=base, **kwargs)
         except ValueError:
             if i not in supports:
                 raise InputError(f"object {i} ({labels[i]}): its lowest pixel is above the horizon of a camera "
@@ -86,7 +87,7 @@ def lift_all(masks, labels, camera: PinholeCamera, lift: LiftSettings, scale: fl
             # the lower object's top stands above where this one's foot looks (a wrong pitch, a mask that
             # takes in part of the other): the object stands on the ground instead of failing the build
             supports.pop(i)
-            out[i] = lift_silhouette(masks[i], camera, lift, base_z=0.0, **kwargs)
+            out[i] = lift_silhouette(masks[i], camera, settings.lift, base_z=0.0, **kwargs)
     return out
 
 
@@ -119,7 +120,7 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
     scale = 1.0
     fit = None
     for _ in range(SCALE_ROUNDS):
-        lifted = lift_all(masks, labels, unit, settings.lift, scale, supports, photo=photo)
+        lifted = lift_all(masks, labels, unit, settings, scale, supports, photo=photo)
         longest = [longest_dimension(m.vertices) for m in lifted]
         fit = fit_scale(names, labels, longest, user_sizes, cam_cfg.height_m)
         if abs(np.log(fit.factor / scale)) < 1e-3:
