@@ -24,7 +24,7 @@ from ..settings import BuildSettings
 from ..errors import InputError
 from ..geometry.camera import PinholeCamera, pick_pitch
 from ..geometry.mesh import longest_dimension
-from .cues import MAX_PITCH_DEG, estimate_camera
+from .cues import ELLIPSE_IOU, MAX_PITCH_DEG, estimate_camera, mask_ellipse
 from .place import footprint, make_room, separate
 from .scale import fit_scale
 from .support import find_supports, root_of, settle_on_supports, support_order
@@ -143,7 +143,8 @@ def foot_behind(mask: np.ndarray, occluder_masks, occluders, camera: PinholeCame
 
     Where the photo hides an object's foot, its completed outline (``perceive.amodal``) only closes what
     shows: cast onto the ground, that guessed foot can land far behind the objects in front (a book whose
-    lower half two boxes hide would come out metres tall). Of the readings the photo allows, the nearest
+    lower half two boxes hide would come out metres tall); a round one (an ellipse, a lime behind a lemon)
+    is whole and keeps its foot. Of the readings the photo allows, the nearest
     is taken: the object reaches down behind its occluders to the ground just behind them (the row where
     the highest of the occluders' base vertices project), each column continued only through pixels they
     hide, so frame 0 is unchanged. ``occluder_masks``: their visible masks; ``occluders``: their lifted
@@ -158,6 +159,9 @@ def foot_behind(mask: np.ndarray, occluder_masks, occluders, camera: PinholeCame
     hidden = cv2.dilate(hidden.astype(np.uint8), np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)) > 0
     u, v = foot_pixel(solid)
     if not hidden[min(int(v), h - 1), min(int(u), solid.shape[1] - 1)]:
+        return None
+    round_ = mask_ellipse(solid)
+    if round_ is not None and round_[1] >= ELLIPSE_IOU:  # a round outline completes whole: its foot is known
         return None
     back = []
     for m in occluders:
@@ -223,9 +227,20 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
     if est.min_pitch_deg > MAX_PITCH_DEG:
         raise InputError("objects' feet are too high in the photo for any camera pitch; give --pitch and --fov")
     pitch = est.pitch_deg
+    camera_warnings = []
     if cam_cfg.pitch_deg is not None:  # the user's, checked against the feet
-        pitch = min(pick_pitch(est.fov_deg, h, feet, cam_cfg.pitch_deg), MAX_PITCH_DEG)
+        given = float(cam_cfg.pitch_deg)
+        if given < est.min_pitch_deg:
+            # the feet above that camera's horizon could stand on no ground below it: of the cameras that
+            # stand every object on the ground, the one nearest the user's is taken, and said
+            given = est.min_pitch_deg + 1e-6
+            camera_warnings.append(f"--pitch {cam_cfg.pitch_deg:g} puts an object's foot above the horizon, where "
+                                   f"no ground below the camera can hold it; the camera is pitched {given:.1f}°, "
+                                   f"the least that stands every object on the ground")
+        pitch = min(pick_pitch(est.fov_deg, h, feet, given), MAX_PITCH_DEG)
     camera_info = est.as_dict() | {"pitch_deg": round(pitch, 3)}
+    if camera_warnings:
+        camera_info |= {"pitch_given_deg": float(cam_cfg.pitch_deg), "warnings": camera_warnings}
     unit = PinholeCamera(w, h, est.fov_deg, pitch, (0.0, 0.0, 1.0))
 
     supports = find_supports(masks)
