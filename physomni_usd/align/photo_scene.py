@@ -3,7 +3,9 @@
 Owns the order of the silhouette path, in two halves that ``build`` runs as
 its *lift* and *place* stages. :func:`lift_photo_scene` (the built-in
 lifter): the camera is estimated from the photo (``align/cues.py``) under a
-unit camera height, objects resting on others are found (``align/support.py``),
+unit camera height, objects resting on others are found (``align/support.py``)
+and read against the occlusion order (``perceive/amodal.py``: what an
+occluder hides is no contact, and a hidden foot reaches down behind it),
 every object is lifted (``perceive/lift.py``) and the scene's scale is fixed
 from the objects' typical sizes (``align/scale.py``). :func:`place_on_ground`:
 objects resting on others move with them, the rest are kept apart
@@ -93,15 +95,11 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
     hides = set(hides)
     out = [None] * len(masks)
     for i in support_order(len(masks), supports):
-        prior = size_prior(labels[i])
-        hint = prior.height_m / scale if prior is not None and prior.height_m else None
         if i in supports and (supports[i][0], i) in hides and behind_what_hides_it(out[supports[i][0]], masks[i],
                                                                                       camera):
             supports.pop(i)
         base = surface_under(out[supports[i][0]], masks[i], camera) if i in supports else 0.0
-        flat = bool(prior and prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * prior.longest_m)
-        kwargs = dict(height_hint=hint, prior_shape=prior.shape if prior else None, flat=flat, photo=photo,
-                      label=labels[i])
+        kwargs = _lift_options(labels[i], scale, photo)
         try:
             out[i] = lift_silhouette(masks[i], camera, settings.lift, base_z=base, **kwargs)
         except ValueError:
@@ -124,13 +122,14 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
         reached = foot_behind(masks[i], [visible[a] for a, b in hides if b == i],
                               [out[a] for a, b in hides if b == i], camera)
         if reached is not None:
-            kwargs = _lift_options(labels[i], scale, photo)
-            out[i] = lift_silhouette(reached, camera, settings.lift, base_z=0.0, **kwargs)
+            out[i] = lift_silhouette(reached, camera, settings.lift, base_z=0.0,
+                                     **_lift_options(labels[i], scale, photo))
             out[i].info["foot"] = "reached down behind what hides it"
     return out
 
 
 def _lift_options(label: str, scale: float, photo) -> dict:
+    """``lift_silhouette``'s keywords from ``label``'s typical size, at ``scale`` metres per camera unit."""
     prior = size_prior(label)
     hint = prior.height_m / scale if prior is not None and prior.height_m else None
     flat = bool(prior and prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * prior.longest_m)
