@@ -242,11 +242,14 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
         camera_info |= {"pitch_given_deg": float(cam_cfg.pitch_deg), "warnings": camera_warnings}
     unit = PinholeCamera(w, h, est.fov_deg, pitch, (0.0, 0.0, 1.0))
 
-    supports = find_supports(masks)
+    found = find_supports(masks)
     hides = occlusion_order(list(visible)) if visible is not None else []
     scale = 1.0
     fit = None
     for _ in range(SCALE_ROUNDS):
+        # every round judges the supports afresh: a first round's lift, at a guessed scale, can stand a cup
+        # off its saucer's back, and a support dropped then would stay dropped
+        supports = dict(found)
         lifted = lift_all(masks, labels, unit, settings, scale, supports, photo=photo, hides=hides,
                           visible=visible)
         longest = [longest_dimension(m.vertices) for m in lifted]
