@@ -119,13 +119,28 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
     for i in range(len(masks)) if visible is not None else ():
         if i in supports or any(j == i for j, _ in supports.values()):
             continue
-        reached = foot_behind(masks[i], [visible[a] for a, b in hides if b == i],
-                              [out[a] for a, b in hides if b == i], camera)
+        front = in_front_of(i, masks, visible, hides)
+        reached = foot_behind(masks[i], [visible[a] for a in front], [out[a] for a in front], camera)
         if reached is not None:
             out[i] = lift_silhouette(reached, camera, settings.lift, base_z=0.0,
                                      **_lift_options(labels[i], scale, photo))
             out[i].info["foot"] = "reached down behind what hides it"
     return out
+
+
+def in_front_of(i: int, masks, visible, hides) -> list[int]:
+    """The objects that hide ``i`` (``hides``) and those whose visible masks touch ``i``'s completed outline
+    from below: what its foot could stand behind. The occlusion order misses an occluder whose outline
+    meets ``i``'s along a straight cut (a box's lid under a book)."""
+    solid = fill_holes(masks[i])
+    reach = max(2, int(round(0.01 * solid.shape[0])))
+    grown = cv2.dilate(solid.astype(np.uint8), np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)) > 0
+    foot_row = foot_pixel(solid)[1]
+    out = {a for a, b in hides if b == i}
+    for j, m in enumerate(visible):
+        if j != i and (grown & m).any() and foot_pixel(fill_holes(m))[1] > foot_row:
+            out.add(j)
+    return sorted(out)
 
 
 def _lift_options(label: str, scale: float, photo) -> dict:
