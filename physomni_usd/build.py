@@ -284,7 +284,8 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         _lift(scene, lifter, user_sizes, out)
     with timer.step("align.place"):
         _place(scene)
-    for warning in (scene.align_info.get("scale") or {}).get("warnings", []):
+    for warning in ((scene.align_info.get("camera") or {}).get("warnings", [])
+                    + (scene.align_info.get("scale") or {}).get("warnings", [])):
         echo(f"warning: {warning}")
     with timer.step("perceive.texture"):
         _texture(scene, out)

@@ -30,3 +30,27 @@ def test_given_pitch_and_fov_win_over_the_cues():
     est = _estimate(scene, fov_deg=40.0, pitch_deg=50.0)
     assert (est.pitch_deg, est.fov_deg, est.pitch_source, est.fov_source) == (50.0, 40.0, "user", "user")
     assert est.cues  # still recorded
+
+
+def test_outlines_match_up_to_rotation_and_reflection_but_not_across_shapes():
+    import cv2
+    import numpy as np
+
+    from physomni_usd.align.cues import outline_iou, same_outline
+
+    def draw(poly, shape=(300, 300)):
+        m = np.zeros(shape, np.uint8)
+        cv2.fillPoly(m, [np.round(poly).astype(np.int32)], 1)
+        return m > 0
+
+    # a long, thin, lopsided part (like the lightbox's), and the same part turned over and rotated 35°
+    part = np.array([[0, 0], [180, 10], [200, 30], [170, 40], [0, 30]], float)
+    a = draw(part + 50)
+    t = np.radians(35)
+    turned = (part * [1, -1]) @ np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]]).T
+    b = draw(turned - turned.min(0) + 40)
+    assert same_outline(a, b) and outline_iou(a, b) >= 0.9
+    rect = draw(np.array([[50, 120], [250, 120], [250, 160], [50, 160]], float))
+    ellipse = np.zeros((300, 300), np.uint8)
+    cv2.ellipse(ellipse, (150, 150), (100, 20), 0, 0, 360, 1, -1)
+    assert outline_iou(rect, ellipse > 0) < 0.9

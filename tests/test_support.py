@@ -51,3 +51,71 @@ def test_a_cup_on_its_saucer_stays_on_it(tmp_path):
     assert abs(cup.vertices[:, 2].min() - saucer.vertices[:, 2].max()) <= 0.005
     sim = json.loads((out / "report.json").read_text())["stages"]["simulate"]
     assert sim["max_penetration_m"] <= 0.002
+
+
+def _camera():
+    from physomni_usd.geometry.camera import PinholeCamera
+
+    return PinholeCamera(320, 240, 50.0, 20.0, (0.0, 0.0, 1.0))
+
+
+def _block(centre, half):
+    """A mesh-like thing (``vertices`` only) of an axis-aligned block standing on the ground."""
+    from types import SimpleNamespace
+
+    import trimesh
+
+    box = trimesh.creation.box(extents=(2 * half[0], 2 * half[1], 2 * half[2]))
+    return SimpleNamespace(vertices=np.asarray(box.vertices) + [centre[0], centre[1], half[2]])
+
+
+def test_a_foot_its_occluder_hides_stands_behind_it_unless_it_lands_inside_its_footprint():
+    from physomni_usd.align.photo_scene import behind_what_hides_it
+
+    camera = _camera()
+    upper = np.zeros((240, 320), bool)
+    upper[80:160, 140:180] = True  # foot at row 160
+    g = camera.ground_points(160.0, 160.0)
+    in_front = _block((g[0], g[1] - 0.6), (0.4, 0.3, 0.3))  # the lemon before the lime: its footprint ends short
+    around = _block((g[0], g[1]), (0.4, 0.3, 0.1))  # the bowl under the ball: the foot lands inside it
+    assert behind_what_hides_it(in_front, upper, camera)
+    assert not behind_what_hides_it(around, upper, camera)
+
+
+def test_an_object_that_would_topple_off_its_supporter_does_not_balance_on_it():
+    from types import SimpleNamespace
+
+    from physomni_usd.align.photo_scene import balances_on
+
+    peak = SimpleNamespace(vertices=np.array([[-0.2, -0.2, 0.0], [0.2, -0.2, 0.0], [0.2, 0.2, 0.0], [-0.2, 0.2, 0.0],
+                                              [0.0, 0.0, 0.3], [0.01, 0.0, 0.3], [0.0, 0.01, 0.3]]))
+    slab = _block((0.0, 0.0), (0.2, 0.2, 0.15))
+    box = _block((0.1, 0.0), (0.1, 0.1, 0.1))
+    box.vertices[:, 2] += 0.3
+    assert balances_on(box, slab, 0.3)
+    assert not balances_on(box, peak, 0.3)  # a box on the crown of a crumpled bag
+
+
+def test_a_hidden_foot_reaches_down_behind_its_occluder_through_hidden_pixels_only():
+    from physomni_usd.align.photo_scene import foot_behind
+
+    camera = _camera()
+    occluder = np.zeros((240, 320), bool)
+    occluder[120:240, 60:260] = True
+    book = np.zeros((240, 320), bool)
+    book[10:121, 100:200] = True  # its lower part hidden: the visible outline ends on the occluder's edge
+    g = camera.ground_points(160.0, 180.0)  # the occluder's back meets the ground where row 180 looks
+    behind = _block((g[0], g[1] - 0.3), (1.0, 0.3, 0.2))
+    out = foot_behind(book, [occluder], [behind], camera)
+    assert out is not None
+    added = out & ~book
+    assert added.any() and not (added & ~occluder).any()
+    rows = np.nonzero(added.any(axis=1))[0]
+    assert abs(int(rows.max()) - 179) <= 2
+    # its foot shows: nothing to reach down for; a round outline keeps its completed foot
+    assert foot_behind(book, [np.zeros_like(occluder)], [behind], camera) is None
+    disc = np.zeros((240, 320), bool)
+    import cv2
+
+    cv2.circle(disc.view(np.uint8), (160, 90), 35, 1, -1)
+    assert foot_behind(disc, [occluder], [behind], camera) is None

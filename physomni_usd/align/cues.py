@@ -18,7 +18,8 @@ The camera is a level pinhole (no roll) looking down by ``pitch``. Cues:
 - **horizon**: a straight edge crossing most of the photo above every
   object's foot (a sea or plain horizon, the far edge of a floor), weakly.
 - **identical objects** (weight up to 2): flat things of one label whose
-  outlines match (a tray of identical parts, a row of coins) are one size on
+  outlines match up to rotation and reflection (a tray of identical parts,
+  some turned over; a row of coins) are one size on
   the ground; the pitch is the one under which their outlines, cast onto the
   ground, have the same area. Seen straight down they show the same image
   size wherever they lie in the frame, and only a camera looking straight
@@ -75,6 +76,11 @@ STEEP_DEG = 45.0
 FOV_RANGE = (15.0, 120.0)
 #: Outlines match when OpenCV's Hu-moment distance (``CONTOURS_MATCH_I1``) between them is at most this.
 SAME_OUTLINE = 0.15
+#: ... or when, turned to their principal axes at one area, their IoU (the best of the four mirrorings) is at
+#: least this (a rectangle against an ellipse of its proportions: 0.83; two of the lightbox's parts: 0.94-0.99).
+SAME_OUTLINE_IOU = 0.9
+#: Side in pixels of that comparison's grid.
+CANON_PX = 96
 #: Identical objects whose centres span less than this fraction of the photo's height say little about pitch.
 IDENTICAL_ROW_SPAN = 0.2
 #: The identical-objects cue counts when its best pitch leaves their ground sizes this close (log spread) and
@@ -493,12 +499,50 @@ def identical_groups(masks, labels) -> list[list[int]]:
         left = list(members)
         while len(left) >= 2:
             seed, rest = left[0], left[1:]
-            same = [seed] + [j for j in rest if cv2.matchShapes(masks[seed].astype(np.uint8), masks[j].astype(np.uint8),
-                                                                cv2.CONTOURS_MATCH_I1, 0.0) <= SAME_OUTLINE]
+            same = [seed] + [j for j in rest if same_outline(masks[seed], masks[j])]
             if len(same) >= 2:
                 groups.append(same)
             left = [j for j in left if j not in same]
     return groups
+
+
+def _canonical(mask: np.ndarray, n: int = CANON_PX, extent: float = 2.0) -> np.ndarray:
+    """(n, n) bool: ``mask`` centred on its centroid, turned to its principal axes (the major one along x) and
+    scaled to unit area, sampled over ±``extent`` of that unit."""
+    ys, xs = np.nonzero(mask)
+    p = np.stack([xs, ys], 1).astype(float) + 0.5
+    p -= p.mean(0)
+    if len(p) < 3:
+        return np.zeros((n, n), bool)
+    _, axes = np.linalg.eigh(np.cov(p.T))
+    q = (p @ axes[:, ::-1]) / math.sqrt(len(p))
+    idx = np.round((q + extent) / (2 * extent) * n).astype(int)
+    ok = ((idx >= 0) & (idx < n)).all(1)
+    out = np.zeros((n, n), np.uint8)
+    out[idx[ok, 1], idx[ok, 0]] = 1
+    return cv2.morphologyEx(out, cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8)) > 0
+
+
+def outline_iou(a: np.ndarray, b: np.ndarray) -> float:
+    """IoU of two (H, W) bool masks' outlines compared up to position, size, rotation and reflection: each
+    turned to its principal axes at unit area (:func:`_canonical`), the best of the four mirrorings.
+
+    Hu moments (``cv2.matchShapes``) tell a long thin part from its mirror image and swing with the near-zero
+    higher moments of elongated outlines: six identical parts on a lightbox, some turned over, score 0.1-1.3.
+    """
+    ca, cb = _canonical(a), _canonical(b)
+    best = 0.0
+    for flipped in (cb, cb[:, ::-1], cb[::-1], cb[::-1, ::-1]):
+        best = max(best, float((ca & flipped).sum() / max((ca | flipped).sum(), 1)))
+    return best
+
+
+def same_outline(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two masks show one outline: Hu moments within ``SAME_OUTLINE`` or, up to rotation and
+    reflection, an IoU of at least ``SAME_OUTLINE_IOU`` (:func:`outline_iou`)."""
+    a8, b8 = a.astype(np.uint8), b.astype(np.uint8)
+    return (cv2.matchShapes(a8, b8, cv2.CONTOURS_MATCH_I1, 0.0) <= SAME_OUTLINE
+            or outline_iou(a, b) >= SAME_OUTLINE_IOU)
 
 
 def _log_spread(x) -> float:

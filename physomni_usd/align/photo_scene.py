@@ -3,7 +3,9 @@
 Owns the order of the silhouette path, in two halves that ``build`` runs as
 its *lift* and *place* stages. :func:`lift_photo_scene` (the built-in
 lifter): the camera is estimated from the photo (``align/cues.py``) under a
-unit camera height, objects resting on others are found (``align/support.py``),
+unit camera height, objects resting on others are found (``align/support.py``)
+and read against the occlusion order (``perceive/amodal.py``: what an
+occluder hides is no contact, and a hidden foot reaches down behind it),
 every object is lifted (``lift/silhouette.py``) and the scene's scale is fixed
 from the objects' typical sizes (``align/scale.py``). :func:`place_on_ground`:
 objects resting on others move with them, the rest are kept apart
@@ -14,16 +16,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+import cv2
 import numpy as np
 
 from ..sizes import size_prior
-from ..lift.silhouette import FLAT_PRIOR_RATIO, fill_holes, foot_pixel, lift_silhouette
+from ..perceive.amodal import occlusion_order
+from ..lift.silhouette import FLAT_PRIOR_RATIO, fill_holes, foot_pixel, lift_silhouette, plane_points
 from ..settings import BuildSettings
 from ..errors import InputError
 from ..geometry.camera import PinholeCamera, pick_pitch
 from ..geometry.mesh import longest_dimension
-from .cues import MAX_PITCH_DEG, estimate_camera
-from .place import make_room, separate
+from .cues import ELLIPSE_IOU, MAX_PITCH_DEG, estimate_camera, mask_ellipse
+from .place import footprint, make_room, separate
 from .scale import fit_scale
 from .support import find_supports, root_of, settle_on_supports, support_order
 
@@ -62,22 +66,40 @@ def surface_under(lower, upper_mask: np.ndarray, camera: PinholeCamera) -> float
     return float(down[:, 2].max()) if len(down) else top
 
 
+def behind_what_hides_it(lower, upper_mask: np.ndarray, camera: PinholeCamera) -> bool:
+    """Whether the object of ``upper_mask``, whose lower part ``lower`` (a lifted mesh) hides, stands on the
+    ground behind it rather than on it: its foot (completed behind ``lower``) cast onto the ground lands
+    past ``lower``'s footprint. A lime behind a lemon touches the lemon's outline only where the lemon
+    hides it; a ball in a bowl, whose rim hides its bottom too, lands inside the bowl's footprint."""
+    u, v = foot_pixel(fill_holes(upper_mask))
+    ground = plane_points(camera, u, v, 0.0)
+    if not np.all(np.isfinite(ground)):
+        return False
+    hull = footprint(lower.vertices).astype(np.float32)
+    inside = cv2.pointPolygonTest(hull.reshape(-1, 1, 2), (float(ground[0]), float(ground[1])), False) >= 0
+    return not inside
+
+
 def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scale: float, supports=None,
-             photo=None):
+             photo=None, hides=(), visible=None):
     """Each mask lifted under ``camera`` (unit height); ``scale`` turns a prior's metres into the camera's units.
 
     ``supports`` ({upper: (lower, how)}) stands each upper object on its lower one's surface where it
-    meets it (:func:`surface_under`).
+    meets it (:func:`surface_under`). ``hides`` holds (occluder, occluded) index pairs (the photo's
+    occlusion order, ``perceive.amodal.occlusion_order``): an upper object its lower one hides stands on
+    the ground behind it where its foot lands there (:func:`behind_what_hides_it`); such supports are
+    dropped from ``supports``. With ``visible`` (what the photo shows of each), an object on the ground whose
+    foot they hide reaches down behind them (:func:`foot_behind`).
     """
     supports = supports or {}
+    hides = set(hides)
     out = [None] * len(masks)
     for i in support_order(len(masks), supports):
-        prior = size_prior(labels[i])
-        hint = prior.height_m / scale if prior is not None and prior.height_m else None
+        if i in supports and (supports[i][0], i) in hides and behind_what_hides_it(out[supports[i][0]], masks[i],
+                                                                                      camera):
+            supports.pop(i)
         base = surface_under(out[supports[i][0]], masks[i], camera) if i in supports else 0.0
-        flat = bool(prior and prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * prior.longest_m)
-        kwargs = dict(height_hint=hint, prior_shape=prior.shape if prior else None, flat=flat, photo=photo,
-                      label=labels[i])
+        kwargs = _lift_options(labels[i], scale, photo)
         try:
             out[i] = lift_silhouette(masks[i], camera, settings.lift, base_z=base, **kwargs)
         except ValueError:
@@ -88,7 +110,111 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
             # takes in part of the other): the object stands on the ground instead of failing the build
             supports.pop(i)
             out[i] = lift_silhouette(masks[i], camera, settings.lift, base_z=0.0, **kwargs)
+            continue
+        if i in supports and not balances_on(out[i], out[supports[i][0]], base):
+            # standing on the lower one's surface it would topple off it (a box on the crown of a crumpled
+            # bag): the photo shows it as well standing on the ground, where it stays
+            supports.pop(i)
+            out[i] = lift_silhouette(masks[i], camera, settings.lift, base_z=0.0, **kwargs)
+    for i in range(len(masks)) if visible is not None else ():
+        if i in supports or any(j == i for j, _ in supports.values()):
+            continue
+        front = in_front_of(i, masks, visible, hides)
+        reached = foot_behind(masks[i], [visible[a] for a in front], [out[a] for a in front], camera)
+        if reached is not None:
+            out[i] = lift_silhouette(reached, camera, settings.lift, base_z=0.0,
+                                     **_lift_options(labels[i], scale, photo))
+            out[i].info["foot"] = "reached down behind what hides it"
     return out
+
+
+def in_front_of(i: int, masks, visible, hides) -> list[int]:
+    """The objects that hide ``i`` (``hides``) and those whose visible masks touch ``i``'s completed outline
+    from below: what its foot could stand behind. The occlusion order misses an occluder whose outline
+    meets ``i``'s along a straight cut (a box's lid under a book)."""
+    solid = fill_holes(masks[i])
+    reach = max(2, int(round(0.01 * solid.shape[0])))
+    grown = cv2.dilate(solid.astype(np.uint8), np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)) > 0
+    foot_row = foot_pixel(solid)[1]
+    out = {a for a, b in hides if b == i}
+    for j, m in enumerate(visible):
+        if j != i and (grown & m).any() and foot_pixel(fill_holes(m))[1] > foot_row:
+            out.add(j)
+    return sorted(out)
+
+
+def _lift_options(label: str, scale: float, photo) -> dict:
+    """``lift_silhouette``'s keywords from ``label``'s typical size, at ``scale`` metres per camera unit."""
+    prior = size_prior(label)
+    hint = prior.height_m / scale if prior is not None and prior.height_m else None
+    flat = bool(prior and prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * prior.longest_m)
+    return dict(height_hint=hint, prior_shape=prior.shape if prior else None, flat=flat, photo=photo, label=label)
+
+
+def foot_behind(mask: np.ndarray, occluder_masks, occluders, camera: PinholeCamera) -> np.ndarray | None:
+    """``mask`` (H, W) bool reaching down, behind what hides its foot, to the ground just behind it; None when
+    its foot shows, or already stands at or in front of that ground.
+
+    Where the photo hides an object's foot, its completed outline (``perceive.amodal``) only closes what
+    shows: cast onto the ground, that guessed foot can land far behind the objects in front (a book whose
+    lower half two boxes hide would come out metres tall); a round one (an ellipse, a lime behind a lemon)
+    is whole and keeps its foot. Of the readings the photo allows, the nearest
+    is taken: the object reaches down behind its occluders to the ground just behind them (the row where
+    the highest of the occluders' base vertices project), each column continued only through pixels they
+    hide, so frame 0 is unchanged. ``occluder_masks``: their visible masks; ``occluders``: their lifted
+    meshes under ``camera``.
+    """
+    if not occluders:
+        return None
+    solid = fill_holes(mask)
+    h = solid.shape[0]
+    reach = max(2, int(round(0.01 * h)))
+    hidden = np.logical_or.reduce([np.asarray(m, bool) for m in occluder_masks])
+    hidden = cv2.dilate(hidden.astype(np.uint8), np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)) > 0
+    u, v = foot_pixel(solid)
+    if not hidden[min(int(v), h - 1), min(int(u), solid.shape[1] - 1)]:
+        return None
+    round_ = mask_ellipse(solid)
+    if round_ is not None and round_[1] >= ELLIPSE_IOU:  # a round outline completes whole: its foot is known
+        return None
+    back = []
+    for m in occluders:
+        z = m.vertices[:, 2]
+        base = m.vertices[z <= z.min() + 0.02 * max(float(np.ptp(z)), 1e-9)]
+        uv, depth = camera.project(base)
+        if (depth > 0).any():
+            back.append(float(uv[depth > 0, 1].min()))
+    if not back:
+        return None
+    target = int(np.floor(min(back))) - 1  # just behind the farthest of them
+    if target <= v:
+        return None
+    out = solid.copy()
+    for c in np.nonzero(solid.any(axis=0))[0]:
+        bottom = h - 1 - int(np.argmax(solid[::-1, c]))
+        r = bottom + 1
+        while r <= min(target, h - 1) and hidden[r, c] and not solid[r, c]:
+            out[r, c] = True
+            r += 1
+    return out if foot_pixel(out)[1] > v + 1 else None
+
+
+#: The part of a supporter an object can rest on: what lies within this fraction of its height below the
+#: surface the object stands on.
+TOP_BAND = 0.15
+
+
+def balances_on(upper, lower, base: float) -> bool:
+    """Whether ``upper`` (a lifted mesh standing at height ``base`` on ``lower``) has its centre over the part
+    of ``lower`` that reaches up to ``base``: seen from above, inside the convex hull of ``lower``'s vertices
+    no lower than ``TOP_BAND`` of its height below ``base``. Its vertices' mean stands for the centre of mass."""
+    z = lower.vertices[:, 2]
+    top = lower.vertices[z >= base - TOP_BAND * max(float(np.ptp(z)), 1e-9)]
+    if len(top) < 3:
+        return False
+    hull = footprint(top).astype(np.float32).reshape(-1, 1, 2)
+    centre = upper.vertices[:, :2].mean(0)
+    return cv2.pointPolygonTest(hull, (float(centre[0]), float(centre[1])), False) >= 0
 
 
 @dataclass
@@ -101,9 +227,13 @@ class GroundLift:
     info: dict  # the camera's cues and the scale's votes, for the report
 
 
-def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_sizes=None) -> GroundLift:
+def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_sizes=None,
+                     visible=None) -> GroundLift:
     """Each object of ``photo`` lifted from its mask and stood, at the photo's scale, where the photo shows it
-    (on the ground, or on the object it rests on)."""
+    (on the ground, or on the object it rests on).
+
+    ``masks`` are the outlines to lift (completed behind what hides them); ``visible`` (default ``masks``)
+    what the photo shows of each, from which the occlusion order is read."""
     h, w = photo.shape[:2]
     cam_cfg = settings.camera
     feet = [foot_pixel(fill_holes(m))[1] for m in masks]
@@ -111,16 +241,32 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
     if est.min_pitch_deg > MAX_PITCH_DEG:
         raise InputError("objects' feet are too high in the photo for any camera pitch; give --pitch and --fov")
     pitch = est.pitch_deg
+    camera_warnings = []
     if cam_cfg.pitch_deg is not None:  # the user's, checked against the feet
-        pitch = min(pick_pitch(est.fov_deg, h, feet, cam_cfg.pitch_deg), MAX_PITCH_DEG)
+        given = float(cam_cfg.pitch_deg)
+        if given < est.min_pitch_deg:
+            # the feet above that camera's horizon could stand on no ground below it: of the cameras that
+            # stand every object on the ground, the one nearest the user's is taken, and said
+            given = est.min_pitch_deg + 1e-6
+            camera_warnings.append(f"--pitch {cam_cfg.pitch_deg:g} puts an object's foot above the horizon, where "
+                                   f"no ground below the camera can hold it; the camera is pitched {given:.1f}°, "
+                                   f"the least that stands every object on the ground")
+        pitch = min(pick_pitch(est.fov_deg, h, feet, given), MAX_PITCH_DEG)
     camera_info = est.as_dict() | {"pitch_deg": round(pitch, 3)}
+    if camera_warnings:
+        camera_info |= {"pitch_given_deg": float(cam_cfg.pitch_deg), "warnings": camera_warnings}
     unit = PinholeCamera(w, h, est.fov_deg, pitch, (0.0, 0.0, 1.0))
 
-    supports = find_supports(masks)
+    found = find_supports(masks)
+    hides = occlusion_order(list(visible)) if visible is not None else []
     scale = 1.0
     fit = None
     for _ in range(SCALE_ROUNDS):
-        lifted = lift_all(masks, labels, unit, settings, scale, supports, photo=photo)
+        # every round judges the supports afresh: a first round's lift, at a guessed scale, can stand a cup
+        # off its saucer's back, and a support dropped then would stay dropped
+        supports = dict(found)
+        lifted = lift_all(masks, labels, unit, settings, scale, supports, photo=photo, hides=hides,
+                          visible=visible)
         longest = [longest_dimension(m.vertices) for m in lifted]
         fit = fit_scale(names, labels, longest, user_sizes, cam_cfg.height_m)
         if abs(np.log(fit.factor / scale)) < 1e-3:

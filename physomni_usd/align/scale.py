@@ -15,10 +15,10 @@ When the votes disagree by more than ``DISAGREE_FACTOR`` (a whale among toys,
 a car on a desk: no single scale makes both labels right), averaging them
 gives a scene that is wrong for all; instead each reading (the votes that
 agree with one another) is tried, and the one whose camera a person could
-hold (at most ``MAX_HANDHELD_M`` above the ground) with most labels wins;
-among equals, one under which no thing of a table-top scene grows past
-``TABLE_TOP_MAX_M``; readings that are still equal share the scale (the
-robust mean of their votes). The losers, or the compromise, are named in
+hold (at most ``MAX_HANDHELD_M`` above the ground) under which no thing of a
+table-top scene grows past ``TABLE_TOP_MAX_M`` wins; among equals, the one
+with most labels; readings that are still equal share the scale (the robust
+mean of their votes). The losers, or the compromise, are named in
 ``warnings``.
 """
 
@@ -152,8 +152,9 @@ def _fit_priors(priors: list[dict], votes: list[dict], unit_height_m: float) -> 
             if reading["labels"] in [r["labels"] for r in readings]:
                 continue
             readings.append(reading)
-            # a person's camera first, then most labels, then no table-top scene with a thing past a metre
-            tried.append(((plausible, int(members.sum()), not (table_top and biggest_m > TABLE_TOP_MAX_M)), members))
+            # a person's camera first, then a table-top scene with nothing past a metre (a generic 'box' prior
+            # outvoting a book's must not make the book a metre tall), then most labels
+            tried.append(((plausible, not (table_top and biggest_m > TABLE_TOP_MAX_M), int(members.sum())), members))
         top = max(key for key, _ in tried)
         chosen = np.logical_or.reduce([members for key, members in tried if key == top])
         if chosen.sum() < len(labels):

@@ -74,14 +74,15 @@ class SilhouetteLifter(_Builtin):
 
     kind, name = "lifter", "silhouette"
 
-    def lift(self, photo, masks, labels, *, settings=None, names=None, sizes=None):
+    def lift(self, photo, masks, labels, *, settings=None, names=None, sizes=None, visible=None):
         from ..align.photo_scene import lift_photo_scene
         from ..rotations import to_wxyz
         from ..settings import BuildSettings
         from .protocols import GroundEvidence, LiftedObject
 
         names = names or [f"{label}_{i}" for i, label in enumerate(labels)]
-        found = lift_photo_scene(masks, labels, names, photo, settings or BuildSettings(), sizes or {})
+        found = lift_photo_scene(masks, labels, names, photo, settings or BuildSettings(), sizes or {},
+                                 visible=visible)
         camera = found.camera
         # the protocol's pose: the world (each mesh's frame) → OpenCV camera
         to_camera = camera.world_from_camera.T

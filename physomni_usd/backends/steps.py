@@ -117,12 +117,13 @@ def lift(lifter, photo: np.ndarray, objects, settings, sizes: dict, masks=None) 
     """Every object's mesh and pose from ``lifter`` (any :class:`~.protocols.Lifter`), checked.
 
     ``masks``: the outlines to lift, (H, W) bool each (default the objects' own). The keywords
-    ``settings``, ``names`` and ``sizes`` go to a lifter whose ``lift`` takes them."""
+    ``settings``, ``names``, ``sizes`` and ``visible`` (the objects' own masks, what the photo shows of each
+    when ``masks`` are completed behind occluders) go to a lifter whose ``lift`` takes them."""
     import inspect
 
     params = inspect.signature(lifter.lift).parameters
-    context = {k: v for k, v in (("settings", settings), ("names", [o.name for o in objects]), ("sizes", sizes))
-               if k in params}
+    context = {k: v for k, v in (("settings", settings), ("names", [o.name for o in objects]), ("sizes", sizes),
+                                 ("visible", [o.mask for o in objects])) if k in params}
     masks = [o.mask for o in objects] if masks is None else masks
     lifted = list(lifter.lift(photo, masks, [o.label for o in objects], **context))
     name = type(lifter).name
