@@ -203,7 +203,8 @@ def occlusion_kept(camera, front, behind, pixels: np.ndarray, samples: int = 200
     def first_hit(mesh):
         out = np.full(len(dirs), np.inf)
         hits, ray, _ = mesh.ray.intersects_location(origins, dirs, multiple_hits=False)
-        out[ray] = np.linalg.norm(hits - camera.origin, axis=1)
+        if len(ray):  # with no hit trimesh gives hits of shape (0,), not (0, 3)
+            out[ray] = np.linalg.norm(np.reshape(hits, (-1, 3)) - camera.origin, axis=1)
         return out
 
     near, far = first_hit(front), first_hit(behind)

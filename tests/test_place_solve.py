@@ -1,0 +1,22 @@
+"""The place stage's checks on placed meshes and the lift's choice of shape for boxes, on tiny scenes."""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+
+from physomni_usd.align.place import occlusion_kept
+from physomni_usd.geometry.camera import PinholeCamera
+
+
+def test_occlusion_kept_when_no_ray_meets_the_hidden_object():
+    """Every ray through the occluder misses the object behind it (placed off to the side): the order holds."""
+    camera = PinholeCamera(64, 48, 50.0, 0.0, (0.0, -1.0, 0.1))
+    front = trimesh.creation.box((0.2, 0.05, 0.2))
+    front.apply_translation([0.0, 0.0, 0.1])
+    behind = trimesh.creation.box((0.1, 0.1, 0.1))
+    behind.apply_translation([5.0, 2.0, 0.05])
+    u, v = camera.project(np.array([[0.0, -0.025, 0.1]]))[0][0]
+    pixels = np.array([[u + dx, v + dy] for dx in (-2, 0, 2) for dy in (-2, 0, 2)])
+    assert occlusion_kept(camera, front, behind, pixels) == 1.0
+    assert occlusion_kept(camera, behind, front, pixels) is None  # no ray meets the far box at all
