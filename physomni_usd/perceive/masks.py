@@ -264,6 +264,7 @@ def segment_box(photo: np.ndarray, box: tuple[int, int, int, int]) -> tuple[np.n
     if _looks_like_background(scores[best]):
         bw, bh = x1 - x0, y1 - y0
         yy, xx = np.mgrid[0:bh, 0:bw].astype(np.float32)
+        inits = {}
         for name, (ax, ay, bx, by) in (("diagonal", (0, 0, bw, bh)), ("antidiagonal", (0, bh, bw, 0))):
             # distance of each pixel of the box from the diagonal, in pixels
             dist = np.abs((by - ay) * xx - (bx - ax) * yy + bx * ay - by * ax) / np.hypot(bx - ax, by - ay)
@@ -271,7 +272,9 @@ def segment_box(photo: np.ndarray, box: tuple[int, int, int, int]) -> tuple[np.n
             init = np.full(photo.shape[:2], cv2.GC_BGD, np.uint8)
             inner = np.where(dist <= band, cv2.GC_PR_FGD, np.where(dist <= 3 * band, cv2.GC_PR_BGD, cv2.GC_BGD))
             init[y0:y1, x0:x1] = inner
-            candidates[name] = _grabcut(bgr, box, init)
+            inits[name] = init
+        with ThreadPoolExecutor(max_workers=2) as pool:  # the two cuts side by side, as in collect_masks
+            candidates.update(zip(inits, pool.map(lambda init: _grabcut(bgr, box, init), inits.values())))
         candidates["colour"] = _colour_model(photo, box)
         for name, m in candidates.items():
             if name not in scores and m.sum() >= MIN_MASK_PIXELS:
