@@ -40,7 +40,6 @@ KNOWN_MISSES = {
     ("bowl_of_spheres", "iou"): "measured: bowl IoU 0.24, the balls 0.01-0.04 from the photo's view",
     ("bowl_of_spheres", "position"): "measured: the bowl 9.9 %, the balls 12-15 % of the camera distance off",
     ("bowl_of_spheres", "rest"): "measured: ball_3 falls 799 mm with nothing pushed",
-    ("tray_of_parts", "position"): "measured: pitch 6° for a 90° view; positions 18-82 % of the camera distance off",
 }
 
 
