@@ -3,10 +3,8 @@ can be trusted (:func:`mask_quality`), and a contact sheet of them over the phot
 
 from __future__ import annotations
 
-import os
 import pathlib
 import re
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import cv2
@@ -18,10 +16,6 @@ from ..errors import InputError
 #: Fewest pixels a mask may have and still describe an object.
 MIN_MASK_PIXELS = 16
 GRABCUT_ITERATIONS = 5
-#: GrabCut runs on a window around its box reaching this fraction of the box's larger side (and 16 pixels)
-#: beyond each edge: far background adds to its graph's size, not to the cut (a 640×480 photo's small
-#: boxes cut in a tenth of the time), while the band nearby still gives its background colour model.
-GRABCUT_CONTEXT = 1.0
 #: A mask looks like background when more than this fraction of its pixels have the colours of the
 #: surroundings of its box (a colour common there: within the distance below of at least
 #: BACKGROUND_SHARE of the pixels sampled around it) ...
@@ -264,7 +258,6 @@ def segment_box(photo: np.ndarray, box: tuple[int, int, int, int]) -> tuple[np.n
     if _looks_like_background(scores[best]):
         bw, bh = x1 - x0, y1 - y0
         yy, xx = np.mgrid[0:bh, 0:bw].astype(np.float32)
-        inits = {}
         for name, (ax, ay, bx, by) in (("diagonal", (0, 0, bw, bh)), ("antidiagonal", (0, bh, bw, 0))):
             # distance of each pixel of the box from the diagonal, in pixels
             dist = np.abs((by - ay) * xx - (bx - ax) * yy + bx * ay - by * ax) / np.hypot(bx - ax, by - ay)
@@ -272,9 +265,7 @@ def segment_box(photo: np.ndarray, box: tuple[int, int, int, int]) -> tuple[np.n
             init = np.full(photo.shape[:2], cv2.GC_BGD, np.uint8)
             inner = np.where(dist <= band, cv2.GC_PR_FGD, np.where(dist <= 3 * band, cv2.GC_PR_BGD, cv2.GC_BGD))
             init[y0:y1, x0:x1] = inner
-            inits[name] = init
-        with ThreadPoolExecutor(max_workers=2) as pool:  # the two cuts side by side, as in collect_masks
-            candidates.update(zip(inits, pool.map(lambda init: _grabcut(bgr, box, init), inits.values())))
+            candidates[name] = _grabcut(bgr, box, init)
         candidates["colour"] = _colour_model(photo, box)
         for name, m in candidates.items():
             if name not in scores and m.sum() >= MIN_MASK_PIXELS:
@@ -298,28 +289,26 @@ def _box_span(mask: np.ndarray, box) -> float:
 
 
 def _grabcut(bgr: np.ndarray, box, init: np.ndarray | None) -> np.ndarray:
-    """GrabCut's foreground (largest component), from the rectangle or from ``init`` labels (H, W) uint8
-    (background outside ``box``), cut in a window of :data:`GRABCUT_CONTEXT` around the box."""
+    """GrabCut's foreground (largest component), from the rectangle or from ``init`` labels.
+
+    It cuts the whole photo, one box after another in this thread. A window around the box would be faster
+    (far background only enlarges the graph) but changes the colour models and the smoothness weight, and so
+    the masks by a few per cent (enough to change where the desk example's pushed ball rolls); cuts in other
+    threads leave OpenCV's random generator in another state for the plate's shift-map fill, which draws from
+    it, and the plate changes from run to run."""
     x0, y0, x1, y1 = box
-    h, w = bgr.shape[:2]
-    m = int(GRABCUT_CONTEXT * max(x1 - x0, y1 - y0)) + 16
-    wx0, wy0, wx1, wy1 = max(0, x0 - m), max(0, y0 - m), min(w, x1 + m), min(h, y1 + m)
-    window = np.ascontiguousarray(bgr[wy0:wy1, wx0:wx1])
     cv2.setRNGSeed(0)  # GrabCut's colour models start from k-means: the same box gives the same mask every time
     bgd = np.zeros((1, 65), np.float64)
     fgd = np.zeros((1, 65), np.float64)
     if init is None:
-        mask = np.full(window.shape[:2], cv2.GC_BGD, np.uint8)
-        cv2.grabCut(window, mask, (x0 - wx0, y0 - wy0, x1 - x0, y1 - y0), bgd, fgd, GRABCUT_ITERATIONS,
-                    cv2.GC_INIT_WITH_RECT)
+        mask = np.full(bgr.shape[:2], cv2.GC_BGD, np.uint8)
+        cv2.grabCut(bgr, mask, (x0, y0, x1 - x0, y1 - y0), bgd, fgd, GRABCUT_ITERATIONS, cv2.GC_INIT_WITH_RECT)
     else:
-        mask = np.ascontiguousarray(init[wy0:wy1, wx0:wx1])
+        mask = init.copy()
         if not np.isin(mask, (cv2.GC_FGD, cv2.GC_PR_FGD)).any():
             return np.zeros(bgr.shape[:2], bool)
-        cv2.grabCut(window, mask, None, bgd, fgd, GRABCUT_ITERATIONS, cv2.GC_INIT_WITH_MASK)
-    out = np.zeros(bgr.shape[:2], bool)
-    out[wy0:wy1, wx0:wx1] = (mask == cv2.GC_FGD) | (mask == cv2.GC_PR_FGD)
-    return largest_component(out)
+        cv2.grabCut(bgr, mask, None, bgd, fgd, GRABCUT_ITERATIONS, cv2.GC_INIT_WITH_MASK)
+    return largest_component((mask == cv2.GC_FGD) | (mask == cv2.GC_PR_FGD))
 
 
 def _ring(shape, box, width: int) -> np.ndarray:
@@ -354,9 +343,10 @@ def _background_like(lab: np.ndarray, pixels: np.ndarray, colours: np.ndarray) -
     if len(colours) == 0 or len(pixels) == 0:
         return np.zeros(len(pixels), bool)
     weight = np.array([0.5, 1.0, 1.0], np.float32)  # lightness counts half: shading varies across a surface
-    # a k-d tree over the few hundred background colours counts each pixel's neighbours in one query
+    # a k-d tree over the few hundred background colours counts each pixel's neighbours in one query; it
+    # counts those at the radius too, and Lab's whole numbers sit there often: just under it is "within"
     tree = cKDTree(colours.astype(np.float64) * weight)
-    near = tree.query_ball_point(pixels.astype(np.float64) * weight, BACKGROUND_COLOUR_DISTANCE,
+    near = tree.query_ball_point(pixels.astype(np.float64) * weight, np.nextafter(BACKGROUND_COLOUR_DISTANCE, 0),
                                  return_length=True)
     return near >= max(1, BACKGROUND_SHARE * len(colours))
 
@@ -490,15 +480,10 @@ def collect_masks(photo: np.ndarray, mask_specs, box_specs, progress=None) -> li
                          "at least once (or pick them in the browser: physomni-usd studio PHOTO -o DIR)")
     shape = photo.shape[:2]
     objects = [read_mask(s, shape, i) for i, s in enumerate(specs)]
-    if boxes:
-        # GrabCut runs in OpenCV without the GIL (its seed is per thread): boxes are cut side by side, each as
-        # it would be alone, and the first bad box in the order given is the one named
-        with ThreadPoolExecutor(max_workers=max(1, min(len(boxes), os.cpu_count() or 1))) as pool:
-            cuts = pool.map(lambda j: mask_from_box(photo, boxes[j], len(specs) + j), range(len(boxes)))
-            for j, obj in enumerate(cuts):
-                objects.append(obj)
-                if progress is not None:
-                    progress(j + 1, len(boxes))
+    for j, s in enumerate(boxes):
+        objects.append(mask_from_box(photo, s, len(specs) + j))
+        if progress is not None:
+            progress(j + 1, len(boxes))
     for o in objects:
         if o.quality is not None and "edge_agreement" not in o.quality:
             o.quality = dict(mask_quality(photo, o.mask), method=o.quality["method"])

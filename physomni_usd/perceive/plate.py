@@ -12,9 +12,6 @@ frequencies are matched to a smooth interpolation of the hole's border.
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ThreadPoolExecutor
-
 import cv2
 import numpy as np
 
@@ -157,7 +154,6 @@ def fill_exemplar(photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
     out = photo.copy()
     n, labels, stats, _ = cv2.connectedComponentsWithStats(hole.astype(np.uint8), connectivity=8)
     total = max(1, int(hole.sum()))
-    windows = []
     for k in range(1, n):
         x, y, bw, bh = stats[k, :4]
         m = int(round(EXEMPLAR_CONTEXT * max(bw, bh))) + 8
@@ -166,17 +162,10 @@ def fill_exemplar(photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
         if win_hole.all():
             win_hole = hole  # no surface around this part: use the whole photo
             x0, y0, x1, y1 = 0, 0, w, h
-        windows.append((k, (x0, y0, x1, y1), win_hole, max(bw, bh), EXEMPLAR_HOLE_PIXELS * float(stats[k, 4]) / total))
-
-    def fill(window):
-        k, (x0, y0, x1, y1), win_hole, size, budget = window
-        return _exemplar_window(photo[y0:y1, x0:x1], win_hole, size, SHADING_DEPTH * np.hypot(h, w), budget)
-
-    # shift-map runs in OpenCV without the GIL: the windows are filled side by side, each as it would be alone
-    with ThreadPoolExecutor(max_workers=max(1, min(len(windows), os.cpu_count() or 1))) as pool:
-        for (k, (x0, y0, x1, y1), *_), filled in zip(windows, pool.map(fill, windows)):
-            own = labels[y0:y1, x0:x1] == k
-            out[y0:y1, x0:x1][own] = filled[own]
+        filled = _exemplar_window(photo[y0:y1, x0:x1], win_hole, max(bw, bh), SHADING_DEPTH * np.hypot(h, w),
+                                  EXEMPLAR_HOLE_PIXELS * float(stats[k, 4]) / total)
+        own = labels[y0:y1, x0:x1] == k
+        out[y0:y1, x0:x1][own] = filled[own]
     return out
 
 
