@@ -65,7 +65,8 @@ SIZES: tuple[SizePrior, ...] = (
     _p("ticket", 0.1, 0.001), _p("paper", 0.3, 0.001), _p("sheet", 0.3, 0.002), _p("tile", 0.1, 0.008),
     _p("part", 0.06, 0.005), _p("bracket", 0.06, 0.005), _p("chip", 0.03, 0.003, "round"),
     # kitchen and table
-    _p("saucer", 0.15, 0.02, "round"), _p("plate", 0.26, 0.02, "round"), _p("bowl", 0.16, 0.07, "round"),
+    _p("saucer", 0.15, 0.02, "round"), _p("plate", 0.26, 0.02, "round"), _p("tray", 0.4, 0.02),
+    _p("bowl", 0.16, 0.07, "round"),
     _p("cup", 0.11, 0.095, "round"), _p("mug", 0.12, 0.095, "round"), _p("glass", 0.12, 0.12, "round"),
     _p("jar", 0.13, 0.13, "round"), _p("can", 0.12, 0.12, "round"), _p("bottle", 0.25, 0.25, "round"),
     _p("vase", 0.3, 0.3, "round"), _p("teapot", 0.22, 0.16, "round"), _p("kettle", 0.25, 0.22, "round"),

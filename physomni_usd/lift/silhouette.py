@@ -284,7 +284,9 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
         shape = "round" if mirror_iou(solid) >= settings.symmetry_iou and not flat_bottom(solid) else "extrude"
         if kind == "organic" and shape == "extrude":
             shape = "inflated"
-        elif kind == "boxy" and shape == "extrude" and photo is not None:
+        elif kind == "boxy" and photo is not None:
+            # a box seen corner-on from above is a mirror-symmetric hexagon with no flat bottom, which would
+            # make it round: a boxy label keeps square edges whatever its outline's symmetry
             shape = "cuboid"
 
     origin = camera.origin

@@ -13,6 +13,7 @@ that uses only built-ins imports no torch.
 
 from __future__ import annotations
 
+import functools
 import importlib
 import importlib.util
 import os
@@ -63,6 +64,7 @@ class Entry:
         return obj
 
 
+@functools.lru_cache(maxsize=1)  # each lookup scans every installed distribution's metadata
 def _own_version() -> str:
     try:
         return metadata.version("physomni-usd")
