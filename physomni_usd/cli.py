@@ -1169,6 +1169,47 @@ def bench_preview_command(quick, json_path):
             write_json(json_path, numbers)
 
 
+@bench.command("peer")
+@click.option("--only", "only", multiple=True, type=click.Choice(["boxes_at_rest", "box_pile", "sand_column"]),
+              help="Run only this case (repeatable).")
+@click.option("--repeats", type=click.IntRange(1, 20), default=3, show_default=True,
+              help="Timed runs of each engine per case, alternating.")
+@click.option("--seconds", type=click.FloatRange(0.1, 20.0), default=2.0, show_default=True,
+              help="Simulated seconds a run.")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
+              help="Also write the numbers to this JSON file.")
+def bench_peer_command(only, repeats, seconds, json_path):
+    """The simulator against Genesis 1.4.5, in one process, case by case.
+
+    \b
+    Cases: ten boxes at rest on the ground; twenty boxes dropped in shifted layers so that they
+    collide and topple; a 0.1 × 0.1 × 0.2 m sand column on both engines' MPM at the same particle
+    spacing. Timed: ours is simulate_shot's stepping (the guarded loop with its checks and recording,
+    what `simulate` runs, reported as seconds.step); Genesis's is scene.step() over the same frames at
+    the same fps and substeps (for the sand: ours at its implicit MPM's steps a frame, Genesis's explicit
+    MPM at the substep it suggests, 0.02 s per metre of particle spacing).
+    Each engine's model build, kernel compiling and first run are left out alike. Prints, per case,
+    Genesis's time over ours, min / median / max over the runs (> 1: ours is faster).
+
+    \b
+    Genesis pins its own pillow: install it in an environment of its own (pip install torch==2.13.0
+    'physomni-usd[peer]'). Without it the command says so and exits 0 having run nothing. The first
+    run compiles Genesis's kernels (minutes).
+
+    \b
+    Example:
+      physomni-usd bench peer --only boxes_at_rest --json out/peer.json
+    """
+    with _errors():
+        from .bench.peer import bench_peer
+
+        numbers = bench_peer(only=only, repeats=repeats, seconds=seconds, echo=click.echo)
+        if json_path and numbers.get("genesis"):
+            from ._files import write_json
+
+            write_json(json_path, numbers)
+
+
 @bench.command("faults")
 @click.option("--only", "only", multiple=True, metavar="CASE",
               help="Run only this case (repeatable); the cases are the rows the command prints.")

@@ -11,21 +11,49 @@ from ..usd.author import OBJECTS
 
 def world_meshes(stage: Usd.Stage, time: float) -> dict[str, trimesh.Trimesh]:
     """Every Mesh under /World/Objects at ``time``, in world coordinates, keyed by prim name."""
-    root = stage.GetPrimAtPath(OBJECTS)
-    cache = UsdGeom.XformCache(Usd.TimeCode(time))
-    out = {}
-    for prim in (root.GetChildren() if root else []):
-        if not prim.IsA(UsdGeom.Mesh):
-            continue
-        mesh = UsdGeom.Mesh(prim)
-        pts = np.asarray(mesh.GetPointsAttr().Get(Usd.TimeCode(time)), float)
-        m = np.array(cache.GetLocalToWorldTransform(prim))
-        counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get())
-        if counts.size == 0 or np.any(counts != 3):
-            continue
-        faces = np.asarray(mesh.GetFaceVertexIndicesAttr().Get()).reshape(-1, 3)
-        out[prim.GetName()] = trimesh.Trimesh(pts @ m[:3, :3] + m[3, :3], faces, process=False)
-    return out
+    return WorldMeshes(stage).at(time)
+
+
+class WorldMeshes:
+    """The triangle Meshes under /World/Objects of ``stage``, read at any number of times: topology, and
+    points that no time sample moves, read once; a time's world vertices are then one transform each."""
+
+    def __init__(self, stage: Usd.Stage):
+        root = stage.GetPrimAtPath(OBJECTS)
+        self.meshes = []  # (name, points attribute, (F, 3) faces, (N, 3) still points or None, prim)
+        for prim in (root.GetChildren() if root else []):
+            if not prim.IsA(UsdGeom.Mesh):
+                continue
+            mesh = UsdGeom.Mesh(prim)
+            counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get())
+            if counts.size == 0 or np.any(counts != 3):
+                continue
+            faces = np.asarray(mesh.GetFaceVertexIndicesAttr().Get()).reshape(-1, 3)
+            points = mesh.GetPointsAttr()
+            still = None if points.ValueMightBeTimeVarying() else np.asarray(points.Get(), float)
+            self.meshes.append((prim.GetName(), points, faces, still, prim))
+
+    def vertices(self, time: float) -> dict[str, np.ndarray]:
+        """Prim name → (N, 3) world vertices (m) at ``time``."""
+        cache = UsdGeom.XformCache(Usd.TimeCode(time))
+        out = {}
+        for name, points, _faces, still, prim in self.meshes:
+            pts = still if still is not None else np.asarray(points.Get(Usd.TimeCode(time)), float)
+            m = np.array(cache.GetLocalToWorldTransform(prim))
+            out[name] = pts @ m[:3, :3] + m[3, :3]
+        return out
+
+    def faces(self, name: str) -> np.ndarray:
+        return next(f for n, _p, f, _s, _prim in self.meshes if n == name)
+
+    def at(self, time: float) -> dict[str, trimesh.Trimesh]:
+        """Prim name → world mesh at ``time``."""
+        return self.of(self.vertices(time))
+
+    def of(self, vertices: dict[str, np.ndarray], names=None) -> dict[str, trimesh.Trimesh]:
+        """The meshes of :meth:`vertices`' output (``names``: those only)."""
+        return {n: trimesh.Trimesh(v, self.faces(n), process=False) for n, v in vertices.items()
+                if names is None or n in names}
 
 
 def max_penetration(meshes: dict[str, trimesh.Trimesh]) -> float:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..metrics.geometry import max_penetration, world_meshes
+from ..metrics.geometry import WorldMeshes, max_penetration
 from ..usd import layers
 from ..usd.author import PARTICLES, write_sim_layer
 from .mpm import SURFACE_TYPES, deform_surface, particle_gradients
@@ -115,17 +115,24 @@ def _moved(pos: np.ndarray, quat: np.ndarray) -> bool:
 
 def shot_checks(stage, frames: int) -> dict:
     """What a user asks of a finished run: where objects end up, and whether meshes ever overlap."""
-    final = world_meshes(stage, frames - 1)
+    meshes = WorldMeshes(stage)
+    final = meshes.vertices(frames - 1)
     return {
-        "final_lowest_z_m": {name: round(float(m.vertices[:, 2].min()), 5) for name, m in final.items()},
-        "max_penetration_m": round(max(_penetration(world_meshes(stage, t)) for t in range(frames)), 5),
+        "final_lowest_z_m": {name: round(float(v[:, 2].min()), 5) for name, v in final.items()},
+        "max_penetration_m": round(max(_penetration(meshes, t) for t in range(frames)), 5),
     }
 
 
-def _penetration(meshes: dict) -> float:
-    """``max_penetration`` of the meshes whose boxes touch another's (the rest cannot overlap), the boxes
-    taken from plain arrays: most frames of a spread-out scene then cost no mesh query at all."""
-    boxes = {n: (m.vertices.min(axis=0), m.vertices.max(axis=0)) for n, m in meshes.items()}
-    close = {a for a in boxes for b in boxes
-             if a != b and np.all(boxes[a][0] <= boxes[b][1]) and np.all(boxes[b][0] <= boxes[a][1])}
-    return max_penetration({n: meshes[n] for n in close}) if close else 0.0
+def _penetration(meshes: WorldMeshes, time: float) -> float:
+    """``max_penetration`` at ``time`` of the meshes whose boxes touch another's (the rest cannot overlap),
+    the boxes taken from plain arrays: most frames of a spread-out scene then cost no mesh at all."""
+    verts = meshes.vertices(time)
+    if len(verts) < 2:
+        return 0.0
+    names = list(verts)
+    lo = np.array([verts[n].min(axis=0) for n in names])  # (n, 3) m
+    hi = np.array([verts[n].max(axis=0) for n in names])
+    touch = (lo[:, None] <= hi[None]).all(axis=2) & (lo[None] <= hi[:, None]).all(axis=2)
+    np.fill_diagonal(touch, False)
+    close = {n for n, row in zip(names, touch) if row.any()}
+    return max_penetration(meshes.of(verts, close)) if close else 0.0

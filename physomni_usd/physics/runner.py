@@ -116,6 +116,7 @@ class GuardedRun:
             if counted:
                 why = self.guard.check(energy, speed, finite)
         if why is None:
+            self._name_fields(energy)
             self.speed = speed
             self.max_speed = max(self.max_speed, speed)
             self._saved = self._checkpoint()
@@ -171,6 +172,28 @@ class GuardedRun:
                                            "the solver's work"})
                 return True
         return False
+
+    def _name_fields(self, energy: float) -> None:
+        """Where the energy stands above the start by more than the guard's slack and the force fields'
+        counted work covers it, say so once, naming the fields: their work, the step kept, nothing refined
+        (the entry's figures follow the latest check)."""
+        g, fields = self.guard, self.stepper.fields
+        if not fields or g.initial is None:
+            return
+        growth = energy - g.initial
+        done = g.work - self.separation_j  # the fields' work, and any push's
+        slack = self.tolerance * max(abs(g.initial), ENERGY_FLOOR) + ENERGY_FLOOR
+        if growth <= slack or done <= slack:
+            return
+        entry = next((e for e in self.log if e["cause"] == "field"), None)
+        if entry is None:
+            names = ", ".join(f"{f.kind} {f.path}".strip() for f in fields.fields)
+            entry = {"frame": self.frame, "cause": "field", "fields": names,
+                     "remedy": "kept the step: the growth is work done on the scene, counted"}
+            self.log.append(entry)
+        entry |= {"energy_growth_j": round(growth, 6), "work_j": round(done, 6),
+                  "found": f"energy up {growth:.3g} J since the start, within the {done:.3g} J of work "
+                           f"the force fields ({entry['fields']}) did"}
 
     def report(self) -> dict:
         g = self.guard
