@@ -126,3 +126,19 @@ def test_particles_read_as_one_shaded_surface_without_their_lattice():
     upper_left = inside & (x < w / 2) & (y < h / 2)
     lower_right = inside & (x >= w / 2) & (y >= h / 2)
     assert grey[upper_left].mean() - grey[lower_right].mean() > 10
+
+
+def test_the_default_build_widens_the_world_without_a_mirrored_copy_of_the_photo(shot):
+    """The wide plate ``build`` writes with its default outpainter: no margin is the photo reflected (the
+    same check finds the mirror outpainter's reflection in it)."""
+    from physomni_usd.metrics import mirror_similarity
+    from physomni_usd.perceive.plate import mirror_outpaint
+    from physomni_usd.render.stage import read_wide_plate
+    from physomni_usd.usd import layers
+
+    wide, margins = read_wide_plate(layers.open_shot(shot["shot"]))
+    t, b, l, r = margins
+    assert min(margins) > 0 and wide.shape[:2] == (H := 180 + t + b, 240 + l + r), (wide.shape, margins)
+    plate = wide[t:H - b, l:l + 240]
+    assert mirror_similarity(mirror_outpaint(plate, margins), margins) > 0.6  # the check sees a mirror
+    assert mirror_similarity(wide, margins) < 0.3
