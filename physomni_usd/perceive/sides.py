@@ -23,6 +23,29 @@ import numpy as np
 EDGE_ON = 0.3
 
 
+def _fold(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """``x`` reflected back and forth into [lo, hi] (a planar map wider than the texture repeats it mirrored,
+    where a clamp would repeat its last texel)."""
+    period = 2.0 * (hi - lo)
+    y = np.mod(x - lo, period)
+    return lo + np.where(y > hi - lo, period - y, y)
+
+
+def _fit_faces(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """Per face, its corners' coordinates ``x`` (F, 3) moved as one into [lo, hi]: the face's centre wrapped
+    into the range (a planar map wider than the texture repeats it), then the face shifted, or, larger
+    than the range, shrunk about its centre, until it lies inside. Each face keeps its own shape: folding or
+    clamping corners one by one would lay two corners on one texel and draw it out across the face."""
+    span = hi - lo
+    centre = x.mean(1, keepdims=True)
+    x = x + (lo + np.mod(centre - lo, span)) - centre
+    centre = x.mean(1, keepdims=True)
+    extent = x.max(1, keepdims=True) - x.min(1, keepdims=True)
+    x = centre + (x - centre) * np.minimum(1.0, span / np.maximum(extent, 1e-9))
+    x = x + np.maximum(lo - x.min(1, keepdims=True), 0.0) - np.maximum(x.max(1, keepdims=True) - hi, 0.0)
+    return x
+
+
 #: How many times a texel outside the silhouette is reflected back through its nearest silhouette pixel
 #: before it gives up and takes that pixel itself (a thin part, where each reflection leaves it again).
 REFLECTIONS = 4
@@ -52,7 +75,9 @@ def copy_sources(mask: np.ndarray) -> np.ndarray:
         qx = np.clip(np.rint(src[..., 0]), 0, w - 1).astype(np.int32)
         qy = np.clip(np.rint(src[..., 1]), 0, h - 1).astype(np.int32)
         n = nearest[labels[qy, qx]]
-        src = np.where(todo[..., None], np.clip(2.0 * n - src, 0, [w - 1, h - 1]), src)
+        q = 2.0 * n - src  # past the crop's edge: folded back into it, never clamped onto the edge
+        q = np.stack([_fold(q[..., 0], 0.0, w - 1.0), _fold(q[..., 1], 0.0, h - 1.0)], -1)
+        src = np.where(todo[..., None], q, src)
         todo &= ~mask[np.clip(np.rint(src[..., 1]), 0, h - 1).astype(np.int32),
                       np.clip(np.rint(src[..., 0]), 0, w - 1).astype(np.int32)]
     if todo.any():  # still outside: the nearest silhouette pixel of where it ended
@@ -69,14 +94,6 @@ def filled_copy(rgba: np.ndarray) -> np.ndarray:
     rgb = cv2.remap(np.ascontiguousarray(rgba[..., :3]), src[..., 0], src[..., 1], cv2.INTER_LINEAR,
                     borderMode=cv2.BORDER_REPLICATE)
     return np.dstack([rgb, np.full(rgba.shape[:2], 255, np.uint8)])
-
-
-def _fold(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
-    """``x`` reflected back and forth into [lo, hi] (a planar map wider than the texture repeats it mirrored,
-    where a clamp would repeat its last texel)."""
-    period = 2.0 * (hi - lo)
-    y = np.mod(x - lo, period)
-    return lo + np.where(y > hi - lo, period - y, y)
 
 
 def two_sided_texture(rgba: np.ndarray) -> np.ndarray:
@@ -119,7 +136,7 @@ def corner_st(points: np.ndarray, faces: np.ndarray, camera, texture_size: tuple
         d = tri[edge_on] - c
         a = np.einsum("fkj,fj->fk", d, side) * ppm + 0.5 * w
         b = -np.einsum("fkj,fj->fk", d, vert) * ppm + 0.5 * h
-        a, b = _fold(a, 0.5, w - 0.5), _fold(b, 0.5, h - 0.5)
+        a, b = _fit_faces(a, 0.5, w - 0.5), _fit_faces(b, 0.5, h - 0.5)
         st[edge_on, :, 0] = 0.5 + a / (2.0 * w)
         st[edge_on, :, 1] = 1.0 - b / h
     return st.reshape(-1, 2)
