@@ -22,7 +22,11 @@ in front of them now; at least :data:`MIN_REVEALED` pixels):
   area against ring, in 0–255 levels. Target ≤ 8.
 
 Frame 0 against the photo (PSNR, dB) and the preview's opening view against the
-photo (SSIM on grey) are reported beside them.
+photo (SSIM on grey) are reported beside them, and, under ``--camera orbit-left``
+at the last frame, each object's widest wall of stretched or repeated pixels
+(:func:`orbit_walls`, a fraction of the frame's width; target ≤ :data:`MAX_WALL`)
+and how much the wide plate's margins mirror the photo
+(``metrics.mirror_similarity``: near 1 for a mirror, near 0 otherwise).
 """
 
 from __future__ import annotations
@@ -240,8 +244,11 @@ def orbit_walls(renderer, state) -> list[dict]:
     flat = (np.abs(vx) + np.abs(vy)) < 1e-12
     vx, vy = np.where(flat, g - ((e + g) / 2 - root), vx), np.where(flat, 0.0, vy)
     across = np.abs(vx) >= np.abs(vy)
-    repeated = ok & (s_max < STRETCH)
-    stretched = ok & (s_min < STRETCH)
+    # a wall is an area: lines a pixel or two thick, where a difference straddles a seam of the texture
+    # between two faces, are not one
+    opened = lambda m: cv2.morphologyEx(m.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)) > 0  # noqa: E731
+    repeated = opened(ok & (s_max < STRETCH))
+    stretched = opened(ok & (s_min < STRETCH))
     out = []
     for i, o in enumerate(renderer.objects):
         mine = obj == i
@@ -333,7 +340,8 @@ def look_example(example: pathlib.Path, work: pathlib.Path, size: int, seconds: 
     """Build, simulate and render one example in ``work``; returns its figures and its contact sheet."""
     import physomni_usd as api
 
-    from ..metrics import ssim
+    from ..metrics import mirror_similarity, ssim
+    from ..render.stage import read_wide_plate
     from ..render.video import ShotRenderer, render_shot
     from ..settings import RenderSettings, SimulateSettings
     from ..usd import layers
@@ -365,7 +373,14 @@ def look_example(example: pathlib.Path, work: pathlib.Path, size: int, seconds: 
         figures["preview_ssim"] = round(float(ssim(cv2.cvtColor(o, cv2.COLOR_RGB2GRAY),
                                                    cv2.cvtColor(photo, cv2.COLOR_RGB2GRAY))), 4)
     render_shot(result.shot, work / "orbit.mp4", settings, camera="orbit-left")
-    orbit = ShotRenderer(layers.open_shot(result.shot), settings).frame(float(end))
+    orbit_renderer = ShotRenderer(layers.open_shot(result.shot), settings)
+    orbit, orbit_state = orbit_renderer.render(float(end))
+    walls = orbit_walls(orbit_renderer, orbit_state)
+    figures["orbit_walls"] = walls
+    figures["orbit_wall_max"] = max((x["wall_fraction"] for x in walls), default=0.0)
+    wide = read_wide_plate(stage)
+    if wide is not None:
+        figures["wide_plate_mirror"] = round(mirror_similarity(*wide), 3)
     sheet = contact_sheet([("photo", small), ("frame 0", frame0), ("middle", middle), ("last", last),
                            ("orbit-left, last", orbit), ("preview opening", opening)])
     return figures, sheet
@@ -379,7 +394,8 @@ def bench_look(examples: list[pathlib.Path], out_dir: pathlib.Path, size: int = 
 
     make_dirs(out_dir)
     out = {}
-    echo(f"{'example':<12}{'frame 0 dB':>11}{'preview SSIM':>14}  revealed: px, gradient, border, colour")
+    echo(f"{'example':<12}{'frame 0 dB':>11}{'preview SSIM':>14}{'orbit wall':>11}{'mirror':>8}"
+         "  revealed: px, gradient, border, colour")
     for example in examples:
         with tempfile.TemporaryDirectory(prefix="physomni-look-") as tmp:
             figures, sheet = look_example(pathlib.Path(example), pathlib.Path(tmp), size, seconds, browser)
@@ -391,6 +407,8 @@ def bench_look(examples: list[pathlib.Path], out_dir: pathlib.Path, size: int = 
                         f"{r['border_ratio']:.2f}, {r['colour_difference']:.1f}"
                         + ("" if within_targets(r) else " (off target)") for r in figures["revealed"]) or "none"
         ssim_text = f"{figures['preview_ssim']:.3f}" if "preview_ssim" in figures else "-"
-        echo(f"{figures['example']:<12}{figures['frame0_psnr_db']:>11.2f}{ssim_text:>14}  {rev}")
+        wall = f"{100 * figures['orbit_wall_max']:.1f} %" + ("" if figures["orbit_wall_max"] <= MAX_WALL else "!")
+        mirror = f"{figures['wide_plate_mirror']:.2f}" if "wide_plate_mirror" in figures else "-"
+        echo(f"{figures['example']:<12}{figures['frame0_psnr_db']:>11.2f}{ssim_text:>14}{wall:>11}{mirror:>8}  {rev}")
     write_json(out_dir / "look.json", out)
     return out
