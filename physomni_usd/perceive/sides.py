@@ -24,8 +24,8 @@ EDGE_ON = 0.3
 
 
 def _fold(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
-    """``x`` reflected back and forth into [lo, hi] (a planar map wider than the texture repeats it mirrored,
-    where a clamp would repeat its last texel)."""
+    """``x`` reflected back and forth into [lo, hi] (a reflection that leaves the crop comes back into it,
+    where a clamp would lay every such texel on the crop's last one)."""
     period = 2.0 * (hi - lo)
     y = np.mod(x - lo, period)
     return lo + np.where(y > hi - lo, period - y, y)
