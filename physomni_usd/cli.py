@@ -244,7 +244,7 @@ def backend_options(f):
     kinds = {"segmenter": "How --box becomes a mask [default: grabcut; plugin: sam].",
              "inpainter": "What fills the objects' holes in the plate [default: builtin; plugin: lama].",
              "outpainter": "What extends the plate beyond the photo's frame for camera moves "
-                           "[default: mirror].",
+                           "[default: exemplar; built in: mirror].",
              "lifter": "How masks become meshes [default: silhouette; plugin: sam3d].",
              "depth": "A depth model whose ground plane sets the camera's pitch when --pitch is not given "
                       "[default: none; plugin: depth-anything].",

@@ -55,7 +55,7 @@ def test_kind_without_any_backend_names_the_plugin(monkeypatch):
 def test_report_names_the_backends_of_a_default_build(shot):
     build = json.loads((shot["dir"] / "report.json").read_text())["stages"]["build"]
     assert {k: v["name"] for k, v in build["backends"].items()} == {
-        "segmenter": "grabcut", "inpainter": "builtin", "outpainter": "mirror", "lifter": "silhouette",
+        "segmenter": "grabcut", "inpainter": "builtin", "outpainter": "exemplar", "lifter": "silhouette",
         "estimator": "rules"}
     assert all(v["builtin"] and v["version"] for v in build["backends"].values())
 

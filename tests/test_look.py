@@ -126,3 +126,81 @@ def test_particles_read_as_one_shaded_surface_without_their_lattice():
     upper_left = inside & (x < w / 2) & (y < h / 2)
     lower_right = inside & (x >= w / 2) & (y >= h / 2)
     assert grey[upper_left].mean() - grey[lower_right].mean() > 10
+
+
+def test_the_default_build_widens_the_world_without_a_mirrored_copy_of_the_photo(shot):
+    """The wide plate ``build`` writes with its default outpainter: no margin is the photo reflected (the
+    same check finds the mirror outpainter's reflection in it)."""
+    from physomni_usd.metrics import mirror_similarity
+    from physomni_usd.perceive.plate import mirror_outpaint
+    from physomni_usd.render.stage import read_wide_plate
+    from physomni_usd.usd import layers
+
+    wide, margins = read_wide_plate(layers.open_shot(shot["shot"]))
+    t, b, l, r = margins
+    assert min(margins) > 0 and wide.shape[:2] == (H := 180 + t + b, 240 + l + r), (wide.shape, margins)
+    plate = wide[t:H - b, l:l + 240]
+    assert mirror_similarity(mirror_outpaint(plate, margins), margins) > 0.6  # the check sees a mirror
+    assert mirror_similarity(wide, margins) < 0.3
+
+
+def _one_quad(texture_corners: np.ndarray) -> tuple:
+    """A 100×80 frame fully covered by one object's two triangles, their corners at the frame's corners and at
+    ``texture_corners`` (4, 2) in its 100×80 texture (the photo crop at photo pixel (0, 0)): the renderer
+    and frame state :func:`orbit_walls` reads."""
+    w, h = 100, 80
+    screen = np.array([[0, 0], [w, 0], [w, h], [0, h]], float)
+    faces = np.array([[0, 1, 2], [0, 2, 3]])
+    y, x = np.mgrid[:h, :w] + 0.5
+    p = np.stack([x, y], -1)
+    face = np.where(x * h >= y * w, 0, 1).astype(np.int32)  # above the diagonal: the first triangle
+    bary = np.zeros((h, w, 2), np.float32)
+    for k, f in enumerate(faces):  # point = u·p0 + v·p1 + (1 − u − v)·p2
+        a, b, c = screen[f]
+        m = np.linalg.inv(np.stack([a - c, b - c], 1))
+        uv = (p - c) @ m.T
+        bary[face == k] = uv[face == k]
+    tex = np.full((h, w, 4), 255, np.uint8)
+    obj = SimpleNamespace(origin=(0, 0), texture=tex, two_sided=False, path="/World/Objects/slab")
+    renderer = SimpleNamespace(objects=[obj], caster=object(), corner_px=texture_corners[faces].reshape(-1, 2),
+                               atlas_alpha=np.ones((h, w), np.float32), atlas_rgb=np.zeros((h, w, 3), np.float32),
+                               face_object=np.zeros(2, np.int32), to_frame=(1.0, 1.0))
+    return renderer, SimpleNamespace(mesh_face=face, bary=bary)
+
+
+def test_orbit_walls_find_a_photo_column_smeared_across_the_frame_and_nothing_in_a_plain_view():
+    from physomni_usd.bench.look import orbit_walls
+
+    plain = orbit_walls(*_one_quad(np.array([[0, 0], [100, 0], [100, 80], [0, 80]], float)))
+    assert plain[0]["wall_fraction"] == 0 and plain[0]["stretched_px"] == 0, plain
+    # the texture's 5 columns at its left edge drawn across the whole width: a wall 100 % of the frame
+    smeared = orbit_walls(*_one_quad(np.array([[0, 0], [5, 0], [5, 80], [0, 80]], float)))
+    assert smeared[0]["wall_fraction"] > 0.85 and smeared[0]["stretched_px"] > 6500, smeared
+    # one texel over everything: repeated
+    one = orbit_walls(*_one_quad(np.array([[3, 3], [3.1, 3], [3.1, 3.1], [3, 3.1]], float)))
+    assert one[0]["repeated_px"] > 6500 and one[0]["wall_fraction"] > 0.85, one
+
+
+def test_under_an_orbit_the_motorcycle_example_shows_no_wall_of_stretched_pixels(tmp_path):
+    """The bundled motorcycle (its bench top and its own extruded sides were walls of stretched pixels 5.7 %
+    and 9 % of the frame wide) orbited left for a few frames: at the orbit's end no object shows a wall
+    wider than 2 % of the frame."""
+    import physomni_usd as api
+    from physomni_usd.bench.look import MAX_WALL, orbit_walls
+    from physomni_usd.render.video import ShotRenderer, write_camera_move
+    from physomni_usd.settings import RenderSettings, SimulateSettings
+    from physomni_usd.usd import layers
+
+    folder = EXAMPLES / "motorcycle"
+    spec = json.loads((folder / "example.json").read_text())
+    result = api.build(folder / spec["photo"], tmp_path / "shot", [str(folder / m) for m in spec["masks"]], ())
+    api.simulate(result.shot, SimulateSettings(seconds=0.2))
+    stage = layers.open_shot(result.shot)
+    write_camera_move(tmp_path / "shot", stage, "orbit-left", 1.0)
+    stage = layers.open_shot(result.shot)
+    renderer = ShotRenderer(stage, RenderSettings(max_size=600))
+    _, state = renderer.render(float(stage.GetEndTimeCode()))
+    assert not renderer._is_photo_camera(state.camera)
+    walls = orbit_walls(renderer, state)
+    assert {w["object"].rsplit("/", 1)[-1].split("_")[0] for w in walls} >= {"motorcycle", "bench"}, walls
+    assert all(w["wall_fraction"] <= MAX_WALL for w in walls), walls

@@ -122,3 +122,21 @@ def test_preview_keeps_each_faces_side_of_the_texture():
     assert len(mesh.vertices) == 6
     uv = np.asarray(mesh.visual.uv)
     assert np.allclose(np.sort(uv[:, 0]), np.sort(corner_st.reshape(-1, 2)[:, 0]), atol=1e-6)
+
+
+def test_the_opaque_copy_takes_the_interior_reflected_not_the_rim_drawn_out():
+    """Outside a disc, every texel of the copy comes from inside it, and neighbours from different places
+    (the nearest rim pixel would give a whole ray of texels one colour)."""
+    from physomni_usd.perceive.sides import copy_sources, filled_copy
+
+    y, x = np.mgrid[:60, :80]
+    mask = (x - 40) ** 2 + (y - 30) ** 2 < 18 ** 2
+    src = copy_sources(mask)
+    out = ~mask
+    sx, sy = np.rint(src[..., 0]).astype(int), np.rint(src[..., 1]).astype(int)
+    assert mask[sy[out], sx[out]].mean() > 0.95
+    same = (np.abs(np.diff(src, axis=1)).max(-1) < 0.5) & out[:, 1:] & out[:, :-1]
+    assert same.sum() < 0.05 * out.sum(), same.sum()
+    rgba = np.dstack([np.random.default_rng(0).integers(0, 255, (60, 80, 3)).astype(np.uint8), mask * 255])
+    filled = filled_copy(rgba.astype(np.uint8))
+    assert (filled[..., 3] == 255).all() and np.array_equal(filled[mask, :3], rgba[mask, :3])

@@ -56,8 +56,8 @@ class BuiltinInpainter(_Builtin):
 class MirrorOutpainter(_Builtin):
     """The plate mirrored across its edges, softened with the distance from them (``perceive.plate.mirror_outpaint``).
 
-    Seen only when the camera moves: it continues the floor and the walls' colours and textures without
-    inventing objects, where an exemplar fill of frame-wide margins repeats whole parts of the scene."""
+    Seen only when the camera moves: every margin is the photo reflected, so an orbit shows the scene again
+    as in a mirror; kept for shots that want no invented texture at all (``build --outpainter mirror``)."""
 
     kind, name = "outpainter", "mirror"
 
@@ -152,7 +152,7 @@ class VLMEstimator(_Builtin):
 
 class ExemplarOutpainter(_Builtin):
     """The plate's margins quilted from its own surfaces (``perceive.plate.exemplar_outpaint``): camera moves
-    reveal more floor, table and wall, and no mirrored copy of the photo."""
+    reveal more floor, table and wall, and no mirrored copy of the photo. The default."""
 
     kind, name = "outpainter", "exemplar"
 

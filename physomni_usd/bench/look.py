@@ -22,7 +22,11 @@ in front of them now; at least :data:`MIN_REVEALED` pixels):
   area against ring, in 0–255 levels. Target ≤ 8.
 
 Frame 0 against the photo (PSNR, dB) and the preview's opening view against the
-photo (SSIM on grey) are reported beside them.
+photo (SSIM on grey) are reported beside them, and, under ``--camera orbit-left``
+at the last frame, each object's widest wall of stretched or repeated pixels
+(:func:`orbit_walls`, a fraction of the frame's width; target ≤ :data:`MAX_WALL`)
+and how much the wide plate's margins mirror the photo
+(``metrics.mirror_similarity``: near 1 for a mirror, near 0 otherwise).
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
+from ..perceive.sides import copy_sources
 
 #: Revealed areas smaller than this many pixels (at the rendered size) say nothing and are not measured.
 MIN_REVEALED = 60
@@ -134,6 +139,128 @@ def revealed_figures(renderer, image: np.ndarray, state) -> list[dict]:
     return out
 
 
+#: A pixel of an object whose texture, traced back to the photo pixels it came from, changes by less than this
+#: many photo pixels per frame pixel in some direction shows one photo pixel smeared over more than
+#: 1 / STRETCH frame pixels that way (a wall of stretched pixels); by less than this in every direction, one
+#: photo pixel repeated over a patch.
+STRETCH = 0.25
+#: Neighbouring pixels whose sources lie more than this many photo pixels apart (per frame pixel) sit on two
+#: sides of a seam of the texture, not on one stretch of surface.
+SEAM = 4.0
+#: The target for the widest wall of stretched or repeated pixels of any object, as a fraction of the
+#: frame's width (issue "what a person sees": under --camera orbit-left).
+MAX_WALL = 0.02
+
+
+def source_atlas(renderer) -> np.ndarray:
+    """(H_atlas, W_atlas, 2) float32: for every texel of ``renderer``'s atlas, the photo pixel (x, y) its colour
+    came from — its own place for the photo crop; for the opaque copy of the unseen sides, the place
+    ``perceive.sides.copy_sources`` takes it from; NaN for objects not placed in the photo."""
+    atlas = np.full(renderer.atlas_rgb.shape[:2] + (2,), np.nan, np.float32)
+    row = 0
+    for o in renderer.objects:
+        th, tw = o.texture.shape[:2]
+        if o.origin is not None:
+            cw = tw // 2 if o.two_sided else tw
+            ys, xs = np.mgrid[:th, :cw].astype(np.float32)
+            own = np.stack([xs + o.origin[0], ys + o.origin[1]], -1)
+            atlas[row:row + th, :cw] = own
+            if o.two_sided:
+                atlas[row:row + th, cw:2 * cw] = copy_sources(o.texture[:, :cw, 3] >= 128) + o.origin
+        row += th
+    return atlas
+
+
+def _longest_runs(flag: np.ndarray) -> int:
+    """The longest run of True along the rows of ``flag`` (H, W) bool, in pixels."""
+    if not flag.any():
+        return 0
+    padded = np.pad(flag.astype(np.int8), ((0, 0), (1, 1)))
+    d = np.diff(padded, axis=1)
+    starts, ends = np.nonzero(d == 1)[1], np.nonzero(d == -1)[1]  # row-major: they pair up in order
+    return int((ends - starts).max())
+
+
+def orbit_walls(renderer, state) -> list[dict]:
+    """Per object seen in the frame ``state`` (a :class:`~physomni_usd.render.video.FrameState` of
+    ``renderer``) renders: the widest wall of its stretched or repeated pixels, as a fraction of the frame's
+    width (``wall_fraction``; target ≤ :data:`MAX_WALL`), and how many of its pixels are stretched and
+    repeated (:data:`STRETCH`).
+
+    Each opaque pixel of the object is traced back through its texture to the photo pixel its colour came
+    from (:func:`source_atlas`); the Jacobian of that map (photo pixels per frame pixel, by differences with
+    its neighbours on the same object) has a small singular value where one photo pixel is smeared across
+    many frame pixels — an extrusion's side wall textured by projection along the view ray, or a fill that
+    carries the silhouette's edge outward. A wall's width is its longest run along the direction it is
+    smeared in (rows for a smear mostly across, columns for one mostly down). The figures are the texture's,
+    wherever the frame shows it or the photo (an object in place)."""
+    if state.mesh_face is None or renderer.caster is None:
+        return []
+    h, w = state.mesh_face.shape
+    face = state.mesh_face
+    hit = face >= 0
+    f = np.maximum(face, 0)
+    u, v = state.bary[..., 0], state.bary[..., 1]
+    c = renderer.corner_px.reshape(-1, 3, 2)[f]  # (H, W, 3, 2)
+    px = u[..., None] * c[..., 0, :] + v[..., None] * c[..., 1, :] + (1.0 - u - v)[..., None] * c[..., 2, :]
+    mx = np.where(hit, px[..., 0] - 0.5, -10).astype(np.float32)
+    my = np.where(hit, px[..., 1] - 0.5, -10).astype(np.float32)
+    alpha = cv2.remap(renderer.atlas_alpha, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
+    src = cv2.remap(source_atlas(renderer), mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                    borderValue=np.nan)
+    obj = np.where(hit & (alpha >= 0.5) & np.isfinite(src).all(-1), renderer.face_object[f], -1)
+    scale = float(np.mean(getattr(renderer, "to_frame", (1.0, 1.0))))
+    src = src * scale  # photo pixels → frame pixels at the frame's scale
+
+    def derivative(axis: int) -> np.ndarray:
+        """d(source)/d(pixel) along ``axis``: forward where the next pixel continues the same surface, else
+        backward (a seam between two parts of the texture is no derivative: beside a small one it would
+        make the Jacobian look singular)."""
+        fwd = np.full(src.shape, np.nan, np.float32)
+        same = np.full(obj.shape, False)
+        sl_a, sl_b = [slice(None)] * 2, [slice(None)] * 2
+        sl_a[axis], sl_b[axis] = slice(None, -1), slice(1, None)
+        sl_a, sl_b = tuple(sl_a), tuple(sl_b)
+        fwd[sl_a] = src[sl_b] - src[sl_a]
+        same[sl_a] = (obj[sl_a] == obj[sl_b]) & (obj[sl_a] >= 0) & (np.abs(fwd[sl_a]).max(-1) < SEAM)
+        bwd = np.full(src.shape, np.nan, np.float32)
+        back = np.full(obj.shape, False)
+        back[sl_b] = same[sl_a]
+        bwd[sl_b] = fwd[sl_a]
+        return np.where(same[..., None], fwd, np.where(back[..., None], bwd, np.nan))
+
+    jx, jy = derivative(1), derivative(0)  # (H, W, 2): the Jacobian's columns
+    ok = (obj >= 0) & np.isfinite(jx).all(-1) & np.isfinite(jy).all(-1)
+    a, b = np.nan_to_num(jx[..., 0]), np.nan_to_num(jy[..., 0])
+    cc, d = np.nan_to_num(jx[..., 1]), np.nan_to_num(jy[..., 1])
+    # singular values of [[a, b], [c, d]] (rows: source x, y; columns: frame x, y)
+    e, g = a * a + cc * cc, b * b + d * d  # JᵀJ = [[e, k], [k, g]]
+    k = a * b + cc * d
+    root = np.sqrt(np.maximum((e - g) ** 2 / 4 + k * k, 0.0))
+    s_min = np.sqrt(np.maximum((e + g) / 2 - root, 0.0))
+    s_max = np.sqrt(np.maximum((e + g) / 2 + root, 0.0))
+    # the frame direction of the smear: JᵀJ's eigenvector of the smaller eigenvalue
+    vx, vy = k, ((e + g) / 2 - root) - e
+    flat = (np.abs(vx) + np.abs(vy)) < 1e-12
+    vx, vy = np.where(flat, g - ((e + g) / 2 - root), vx), np.where(flat, 0.0, vy)
+    across = np.abs(vx) >= np.abs(vy)
+    # a wall is an area: lines a pixel or two thick, where a difference straddles a seam of the texture
+    # between two faces, are not one
+    opened = lambda m: cv2.morphologyEx(m.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)) > 0  # noqa: E731
+    repeated = opened(ok & (s_max < STRETCH))
+    stretched = opened(ok & (s_min < STRETCH))
+    out = []
+    for i, o in enumerate(renderer.objects):
+        mine = obj == i
+        if not mine.any():
+            continue
+        si, ri = stretched & mine, repeated & mine
+        run = max(_longest_runs(si & (across | ri)), _longest_runs((si & (~across | ri)).T))
+        out.append({"object": o.path, "pixels": int(mine.sum()), "stretched_px": int(si.sum()),
+                    "repeated_px": int(ri.sum()), "wall_fraction": round(run / w, 4)})
+    return out
+
+
 def within_targets(figure: dict) -> bool:
     return all(lo <= figure[k] <= hi for k, (lo, hi) in TARGETS.items())
 
@@ -213,7 +340,8 @@ def look_example(example: pathlib.Path, work: pathlib.Path, size: int, seconds: 
     """Build, simulate and render one example in ``work``; returns its figures and its contact sheet."""
     import physomni_usd as api
 
-    from ..metrics import ssim
+    from ..metrics import mirror_similarity, ssim
+    from ..render.stage import read_wide_plate
     from ..render.video import ShotRenderer, render_shot
     from ..settings import RenderSettings, SimulateSettings
     from ..usd import layers
@@ -245,7 +373,14 @@ def look_example(example: pathlib.Path, work: pathlib.Path, size: int, seconds: 
         figures["preview_ssim"] = round(float(ssim(cv2.cvtColor(o, cv2.COLOR_RGB2GRAY),
                                                    cv2.cvtColor(photo, cv2.COLOR_RGB2GRAY))), 4)
     render_shot(result.shot, work / "orbit.mp4", settings, camera="orbit-left")
-    orbit = ShotRenderer(layers.open_shot(result.shot), settings).frame(float(end))
+    orbit_renderer = ShotRenderer(layers.open_shot(result.shot), settings)
+    orbit, orbit_state = orbit_renderer.render(float(end))
+    walls = orbit_walls(orbit_renderer, orbit_state)
+    figures["orbit_walls"] = walls
+    figures["orbit_wall_max"] = max((x["wall_fraction"] for x in walls), default=0.0)
+    wide = read_wide_plate(stage)
+    if wide is not None:
+        figures["wide_plate_mirror"] = round(mirror_similarity(*wide), 3)
     sheet = contact_sheet([("photo", small), ("frame 0", frame0), ("middle", middle), ("last", last),
                            ("orbit-left, last", orbit), ("preview opening", opening)])
     return figures, sheet
@@ -259,7 +394,8 @@ def bench_look(examples: list[pathlib.Path], out_dir: pathlib.Path, size: int = 
 
     make_dirs(out_dir)
     out = {}
-    echo(f"{'example':<12}{'frame 0 dB':>11}{'preview SSIM':>14}  revealed: px, gradient, border, colour")
+    echo(f"{'example':<12}{'frame 0 dB':>11}{'preview SSIM':>14}{'orbit wall':>11}{'mirror':>8}"
+         "  revealed: px, gradient, border, colour")
     for example in examples:
         with tempfile.TemporaryDirectory(prefix="physomni-look-") as tmp:
             figures, sheet = look_example(pathlib.Path(example), pathlib.Path(tmp), size, seconds, browser)
@@ -271,6 +407,8 @@ def bench_look(examples: list[pathlib.Path], out_dir: pathlib.Path, size: int = 
                         f"{r['border_ratio']:.2f}, {r['colour_difference']:.1f}"
                         + ("" if within_targets(r) else " (off target)") for r in figures["revealed"]) or "none"
         ssim_text = f"{figures['preview_ssim']:.3f}" if "preview_ssim" in figures else "-"
-        echo(f"{figures['example']:<12}{figures['frame0_psnr_db']:>11.2f}{ssim_text:>14}  {rev}")
+        wall = f"{100 * figures['orbit_wall_max']:.1f} %" + ("" if figures["orbit_wall_max"] <= MAX_WALL else "!")
+        mirror = f"{figures['wide_plate_mirror']:.2f}" if "wide_plate_mirror" in figures else "-"
+        echo(f"{figures['example']:<12}{figures['frame0_psnr_db']:>11.2f}{ssim_text:>14}{wall:>11}{mirror:>8}  {rev}")
     write_json(out_dir / "look.json", out)
     return out

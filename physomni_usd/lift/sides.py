@@ -6,7 +6,8 @@ front to back). Surfaces at a grazing angle to the photo's camera — an
 extrusion's walls, the flanks of a turned object — would take the rim's few
 pixels smeared along their whole width. They are textured instead by a planar map along their
 own tangent plane, at the photo's pixel density, into an opaque copy of the
-object's texture whose outside is filled from the silhouette's border; the
+object's texture whose outside is filled from its own interior, reflected
+through the silhouette (never the border's pixels drawn outward); the
 texture file holds [photo crop | opaque copy] side by side and ``st`` is
 faceVarying (one pair per triangle corner) so that a DCC tool shows the same.
 """
@@ -22,22 +23,77 @@ import numpy as np
 EDGE_ON = 0.3
 
 
+def _fold(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """``x`` reflected back and forth into [lo, hi] (a reflection that leaves the crop comes back into it,
+    where a clamp would lay every such texel on the crop's last one)."""
+    period = 2.0 * (hi - lo)
+    y = np.mod(x - lo, period)
+    return lo + np.where(y > hi - lo, period - y, y)
+
+
+def _fit_faces(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """Per face, its corners' coordinates ``x`` (F, 3) moved as one into [lo, hi]: the face's centre wrapped
+    into the range (a planar map wider than the texture repeats it), then the face shifted, or, larger
+    than the range, shrunk about its centre, until it lies inside. Each face keeps its own shape: folding or
+    clamping corners one by one would lay two corners on one texel and draw it out across the face."""
+    span = hi - lo
+    centre = x.mean(1, keepdims=True)
+    x = x + (lo + np.mod(centre - lo, span)) - centre
+    centre = x.mean(1, keepdims=True)
+    extent = x.max(1, keepdims=True) - x.min(1, keepdims=True)
+    x = centre + (x - centre) * np.minimum(1.0, span / np.maximum(extent, 1e-9))
+    x = x + np.maximum(lo - x.min(1, keepdims=True), 0.0) - np.maximum(x.max(1, keepdims=True) - hi, 0.0)
+    return x
+
+
+#: How many times a texel outside the silhouette is reflected back through its nearest silhouette pixel
+#: before it gives up and takes that pixel itself (a thin part, where each reflection leaves it again).
+REFLECTIONS = 4
+
+
+def copy_sources(mask: np.ndarray) -> np.ndarray:
+    """(h, w, 2) float32: for each texel of the opaque copy of a texture whose mask is ``mask`` (h, w) bool, the
+    crop pixel (x, y) its colour is taken from: itself inside the mask; outside it, the point reflected
+    through the nearest pixel of the mask, into the object's own interior (again from there, up to
+    :data:`REFLECTIONS` times, where a thin part lets it out on the other side). A reflection keeps the
+    texture's grain and scale: no pixel of the silhouette's edge is drawn out across the fill."""
+    h, w = mask.shape
+    ys, xs = np.mgrid[:h, :w].astype(np.float32)
+    own = np.stack([xs, ys], -1)
+    if not mask.any() or mask.all():
+        return own
+    _, labels = cv2.distanceTransformWithLabels((~mask).astype(np.uint8), cv2.DIST_L2, 5,
+                                                labelType=cv2.DIST_LABEL_PIXEL)
+    my, mx = np.nonzero(mask)
+    nearest = np.zeros((labels.max() + 1, 2), np.float32)
+    nearest[labels[my, mx]] = np.stack([mx, my], -1)  # label → the mask pixel it stands for
+    src = own.copy()
+    todo = ~mask
+    for _ in range(REFLECTIONS):
+        if not todo.any():
+            break
+        qx = np.clip(np.rint(src[..., 0]), 0, w - 1).astype(np.int32)
+        qy = np.clip(np.rint(src[..., 1]), 0, h - 1).astype(np.int32)
+        n = nearest[labels[qy, qx]]
+        q = 2.0 * n - src  # past the crop's edge: folded back into it, never clamped onto the edge
+        q = np.stack([_fold(q[..., 0], 0.0, w - 1.0), _fold(q[..., 1], 0.0, h - 1.0)], -1)
+        src = np.where(todo[..., None], q, src)
+        todo &= ~mask[np.clip(np.rint(src[..., 1]), 0, h - 1).astype(np.int32),
+                      np.clip(np.rint(src[..., 0]), 0, w - 1).astype(np.int32)]
+    if todo.any():  # still outside: the nearest silhouette pixel of where it ended
+        qx = np.clip(np.rint(src[..., 0]), 0, w - 1).astype(np.int32)
+        qy = np.clip(np.rint(src[..., 1]), 0, h - 1).astype(np.int32)
+        src = np.where(todo[..., None], nearest[labels[qy, qx]], src)
+    return src.astype(np.float32)
+
+
 def filled_copy(rgba: np.ndarray) -> np.ndarray:
-    """(h, w, 4) uint8: the texture's colours with its transparent part filled from the mask's border (the
-    nearest opaque pixel's colour, softened), fully opaque."""
-    mask = rgba[..., 3] >= 128
-    rgb = rgba[..., :3].copy()
-    if mask.any() and not mask.all():
-        _, labels = cv2.distanceTransformWithLabels((~mask).astype(np.uint8), cv2.DIST_L2, 5,
-                                                    labelType=cv2.DIST_LABEL_PIXEL)
-        ys, xs = np.nonzero(mask)
-        # label → the opaque pixel it stands for (labels number the zero pixels of the input: the mask)
-        lut = np.zeros((labels.max() + 1, 3), np.uint8)
-        lut[labels[ys, xs]] = rgb[ys, xs]
-        near = lut[labels]
-        soft = cv2.GaussianBlur(near, (0, 0), 2.0)
-        rgb = np.where(mask[..., None], rgb, soft)
-    return np.dstack([rgb, np.full(mask.shape, 255, np.uint8)])
+    """(h, w, 4) uint8: the texture's colours with its transparent part filled from the object's own interior
+    (:func:`copy_sources`), fully opaque."""
+    src = copy_sources(rgba[..., 3] >= 128)
+    rgb = cv2.remap(np.ascontiguousarray(rgba[..., :3]), src[..., 0], src[..., 1], cv2.INTER_LINEAR,
+                    borderMode=cv2.BORDER_REPLICATE)
+    return np.dstack([rgb, np.full(rgba.shape[:2], 255, np.uint8)])
 
 
 def two_sided_texture(rgba: np.ndarray) -> np.ndarray:
@@ -80,7 +136,7 @@ def corner_st(points: np.ndarray, faces: np.ndarray, camera, texture_size: tuple
         d = tri[edge_on] - c
         a = np.einsum("fkj,fj->fk", d, side) * ppm + 0.5 * w
         b = -np.einsum("fkj,fj->fk", d, vert) * ppm + 0.5 * h
-        a, b = np.clip(a, 0.5, w - 0.5), np.clip(b, 0.5, h - 0.5)
+        a, b = _fit_faces(a, 0.5, w - 0.5), _fit_faces(b, 0.5, h - 0.5)
         st[edge_on, :, 0] = 0.5 + a / (2.0 * w)
         st[edge_on, :, 1] = 1.0 - b / h
     return st.reshape(-1, 2)

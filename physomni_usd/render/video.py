@@ -197,10 +197,11 @@ class ShotRenderer:
         self.atlas_rgb = atlas[..., :3].astype(np.float32)
         self.atlas_alpha = atlas[..., 3].astype(np.float32) / 255.0
         self.faces = np.concatenate(faces) if faces else np.zeros((0, 3), np.int64)
+        self.corner_px = np.concatenate(corners) if corners else np.zeros((0, 2))  # (F·3, 2) atlas pixels
         self.caster = None
         if len(self.faces):
             pts = self.points_at(Usd.TimeCode(0))
-            self.caster = RayCaster(pts, self.faces, np.concatenate(corners), self.atlas_alpha, self.device)
+            self.caster = RayCaster(pts, self.faces, self.corner_px, self.atlas_alpha, self.device)
 
     def points_at(self, time: Usd.TimeCode) -> np.ndarray:
         """(N, 3) world points of every object mesh at ``time``, in the ray caster's order (a hidden object's

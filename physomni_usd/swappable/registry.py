@@ -37,7 +37,7 @@ BUILTINS = {
     ("estimator", "vlm"): "physomni_usd.backends.builtin:VLMEstimator",
 }
 #: What each step uses when no option names a backend (None: the step is skipped).
-DEFAULTS = {"segmenter": "grabcut", "inpainter": "builtin", "outpainter": "mirror", "lifter": "silhouette",
+DEFAULTS = {"segmenter": "grabcut", "inpainter": "builtin", "outpainter": "exemplar", "lifter": "silhouette",
             "depth": None, "estimator": "rules", "rerenderer": None, "finder": None}
 #: The plugin to install for each kind that has no built-in.
 SUGGESTED = {"outpainter": None, "depth": "physomni-depth", "rerenderer": "physomni-wan", "finder": "physomni-sam3"}
