@@ -44,7 +44,7 @@ PENUMBRA_RATIO = 0.96
 #: How far below an object its contact shadow may reach, as a fraction of the object's height in the photo.
 SHADOW_REACH = 0.25
 #: Width of the seam where the fill fades into the photo, as a fraction of the image diagonal (at least
-#: 2 pixels): the hole grows by it and, across it, the plate goes from the photo to the fill. Two textures
+#: 4 pixels): the hole grows by it and, across it, the plate goes from the photo to the fill. Two textures
 #: that meet on one pixel show as an outline (the gradient along a desk ball's hole was 2.2× the wood's
 #: around it); faded over about 5 pixels they meet without one (1.0×).
 FEATHER = 0.006
@@ -65,7 +65,7 @@ def background_plate(photo: np.ndarray, masks, dilation: float, method: str = "e
 
 def feather_px(shape) -> int:
     """Width in pixels of the seam :func:`plate_hole` adds around the hole of an image of ``shape`` (H, W, ...)."""
-    return max(2, int(round(FEATHER * np.hypot(shape[0], shape[1]))))
+    return max(4, int(round(FEATHER * np.hypot(shape[0], shape[1]))))
 
 
 def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = "exemplar", feather: int = 0) -> np.ndarray:
