@@ -128,3 +128,33 @@ def test_particles_read_as_one_shaded_surface_without_their_lattice():
     upper_left = inside & (x < w / 2) & (y < h / 2)
     lower_right = inside & (x >= w / 2) & (y >= h / 2)
     assert grey[upper_left].mean() - grey[lower_right].mean() > 10
+
+
+def test_a_turned_surface_keeps_the_light_where_it_was():
+    """A ball turned half round about the camera's axis: the face that was lit now faces away and is shaded
+    down to the ambient; the face that was in shade faces the light and is brightened no more than the cap;
+    unturned, nothing changes."""
+    import trimesh
+
+    from physomni_usd.geometry.camera import RenderCamera
+    from physomni_usd.render.video import PARTICLE_AMBIENT, TURN_BRIGHTEN, ShotRenderer
+
+    ball = trimesh.creation.icosphere(subdivisions=3)
+    rest = np.asarray(ball.vertices, np.float64) + [0.0, 0.0, 5.0]
+    cam = RenderCamera(8, 8, 40.0, 40.0, np.zeros(3), np.eye(3))  # looking along +z, y down
+    to_light = -np.array([0.4, 0.7, 0.6]) / np.linalg.norm([0.4, 0.7, 0.6])
+    lit = int(np.argmax(ball.face_normals @ to_light))
+    dark = int(np.argmin(ball.face_normals @ to_light))
+    half_turn = np.diag([-1.0, -1.0, 1.0])
+    turned = (rest - [0.0, 0.0, 5.0]) @ half_turn.T + [0.0, 0.0, 5.0]
+
+    def factor(points, f):
+        fake = SimpleNamespace(points_at=lambda t: rest, stage=SimpleNamespace(GetStartTimeCode=lambda: 0.0),
+                               faces=np.asarray(ball.faces), photo_camera=cam, _rest_normals=None)
+        state = SimpleNamespace(points=points, bary=np.full((1, 1, 2), 1.0 / 3.0, np.float32),
+                                mesh_face=np.array([[f]]), camera=cam)
+        return float(ShotRenderer._turned_shading(fake, np.array([[f]]), state)[0, 0])
+
+    assert factor(rest, lit) == pytest.approx(1.0) and factor(rest, dark) == pytest.approx(1.0)
+    assert factor(turned, lit) == pytest.approx(PARTICLE_AMBIENT, abs=0.05)
+    assert 1.0 < factor(turned, dark) <= TURN_BRIGHTEN + 1e-6
