@@ -317,12 +317,19 @@ class ShotRenderer:
         particles' light (fixed to the photo's camera) with the normal now, over the same with the normal in the
         first frame (smooth across each mesh); 1 where nothing has turned or bent."""
         out = np.ones(face.shape, np.float32)
-        hit = face >= 0
-        if not hit.any() or state.points is None or state.bary is None:
+        if state.points is None or state.bary is None or not len(self.faces):
             return out
         if getattr(self, "_rest_normals", None) is None:
             self._rest_normals = _vertex_normals(self.points_at(Usd.TimeCode(self.stage.GetStartTimeCode())),
                                                  self.faces)
+        normals = _vertex_normals(state.points, self.faces)
+        # only the faces that turned or bent (a shot's objects mostly stand or slide): the rest stay 1, cheaply
+        cos = np.einsum("ij,ij->i", normals, self._rest_normals) / np.maximum(
+            np.linalg.norm(normals, axis=1) * np.linalg.norm(self._rest_normals, axis=1), 1e-12)
+        turned = (cos < 1.0 - 1e-6)[self.faces].any(axis=1)
+        hit = (face >= 0) & turned[np.maximum(face, 0)]
+        if not hit.any():
+            return out
         f = face[hit]
         # the barycentrics are those of the first face on the ray; behind a cut-out pixel take the face's middle
         same = state.mesh_face[hit] == f
@@ -330,7 +337,7 @@ class ShotRenderer:
         v = np.where(same, state.bary[hit][:, 1], 1.0 / 3.0)
         w = np.stack([u, v, 1.0 - u - v], -1)[..., None]
         tri = self.faces[f]
-        now = (_vertex_normals(state.points, self.faces)[tri] * w).sum(1)
+        now = (normals[tri] * w).sum(1)
         rest = (self._rest_normals[tri] * w).sum(1)
         cam = self.photo_camera if self.photo_camera is not None else state.camera
         to_light = -(np.array(PARTICLE_LIGHT, np.float64) @ cam.axes)
