@@ -250,7 +250,10 @@ def _match_shading(img: np.ndarray, filled: np.ndarray, hole: np.ndarray, sigma:
     smooth = cv2.cvtColor(cv2.resize(smooth, (w, h), interpolation=cv2.INTER_CUBIC), cv2.COLOR_BGR2RGB)
     smooth = np.where(hole[..., None], smooth, img).astype(np.float32)
     f = filled.astype(np.float32)
-    corr = _blur(smooth, sigma) - _blur(f, sigma)
+    # averaged over the hole's own pixels only (outside it the two agree): a blur wider than a thin hole
+    # (the rocket's column) would otherwise thin the correction by the surface it also takes in
+    inside = hole.astype(np.float32)
+    corr = _blur((smooth - f) * inside[..., None], sigma) / np.maximum(_blur(inside, sigma), 1e-3)[..., None]
     dist = cv2.distanceTransform(hole.astype(np.uint8), cv2.DIST_L2, 5)
     corr *= np.exp(-dist / max(depth, 1.0))[..., None]
     out = f + corr
