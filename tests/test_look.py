@@ -48,7 +48,8 @@ def test_contact_sheet_is_one_row_of_equal_heights():
 
 def test_where_the_desk_ball_stood_the_plate_continues_the_wood(tmp_path):
     """The bundled desk example, its ball pushed for half a second: in the last frame the area it left
-    has the wood's grain, no outline and the wood's colour."""
+    has the wood's grain, no outline and the wood's colour, at 480 px and at the photo's own 640 px (the
+    size a render of 880 px gives it: frames are never larger than the photo)."""
     import physomni_usd as api
     from physomni_usd.render.video import ShotRenderer
     from physomni_usd.settings import RenderSettings, SimulateSettings
@@ -59,11 +60,12 @@ def test_where_the_desk_ball_stood_the_plate_continues_the_wood(tmp_path):
     result = api.build(folder / spec["photo"], tmp_path / "shot", (), spec["boxes"], pushes=spec["push"])
     api.simulate(result.shot, SimulateSettings(seconds=0.6))
     stage = layers.open_shot(result.shot)
-    renderer = ShotRenderer(stage, RenderSettings(max_size=480))
-    image, state = renderer.render(float(stage.GetEndTimeCode()))
-    figures = {f["object"].rsplit("/", 1)[-1].split("_")[0]: f for f in revealed_figures(renderer, image, state)}
-    assert "ball" in figures, figures
-    assert within_targets(figures["ball"]), figures["ball"]
+    for size in (480, 880):
+        renderer = ShotRenderer(stage, RenderSettings(max_size=size))
+        image, state = renderer.render(float(stage.GetEndTimeCode()))
+        figures = {f["object"].rsplit("/", 1)[-1].split("_")[0]: f for f in revealed_figures(renderer, image, state)}
+        assert "ball" in figures, (size, figures)
+        assert within_targets(figures["ball"]), (size, renderer.width, figures["ball"])
 
 
 def _two_surfaces() -> np.ndarray:
@@ -204,3 +206,33 @@ def test_under_an_orbit_the_motorcycle_example_shows_no_wall_of_stretched_pixels
     walls = orbit_walls(renderer, state)
     assert {w["object"].rsplit("/", 1)[-1].split("_")[0] for w in walls} >= {"motorcycle", "bench"}, walls
     assert all(w["wall_fraction"] <= MAX_WALL for w in walls), walls
+
+
+def test_a_turned_surface_keeps_the_light_where_it_was():
+    """A ball turned half round about the camera's axis: the face that was lit now faces away and is shaded
+    down to the ambient; the face that was in shade faces the light and is brightened no more than the cap;
+    unturned, nothing changes."""
+    import trimesh
+
+    from physomni_usd.geometry.camera import RenderCamera
+    from physomni_usd.render.video import PARTICLE_AMBIENT, TURN_BRIGHTEN, ShotRenderer
+
+    ball = trimesh.creation.icosphere(subdivisions=3)
+    rest = np.asarray(ball.vertices, np.float64) + [0.0, 0.0, 5.0]
+    cam = RenderCamera(8, 8, 40.0, 40.0, np.zeros(3), np.eye(3))  # looking along +z, y down
+    to_light = -np.array([0.4, 0.7, 0.6]) / np.linalg.norm([0.4, 0.7, 0.6])
+    lit = int(np.argmax(ball.face_normals @ to_light))
+    dark = int(np.argmin(ball.face_normals @ to_light))
+    half_turn = np.diag([-1.0, -1.0, 1.0])
+    turned = (rest - [0.0, 0.0, 5.0]) @ half_turn.T + [0.0, 0.0, 5.0]
+
+    def factor(points, f):
+        fake = SimpleNamespace(points_at=lambda t: rest, stage=SimpleNamespace(GetStartTimeCode=lambda: 0.0),
+                               faces=np.asarray(ball.faces), photo_camera=cam, _rest_normals=None)
+        state = SimpleNamespace(points=points, bary=np.full((1, 1, 2), 1.0 / 3.0, np.float32),
+                                mesh_face=np.array([[f]]), camera=cam)
+        return float(ShotRenderer._turned_shading(fake, np.array([[f]]), state)[0, 0])
+
+    assert factor(rest, lit) == pytest.approx(1.0) and factor(rest, dark) == pytest.approx(1.0)
+    assert factor(turned, lit) == pytest.approx(PARTICLE_AMBIENT, abs=0.05)
+    assert 1.0 < factor(turned, dark) <= TURN_BRIGHTEN + 1e-6

@@ -4,6 +4,7 @@ and frame 0 reproducing the photo."""
 from __future__ import annotations
 
 import json
+import pathlib
 
 import cv2
 import numpy as np
@@ -13,8 +14,10 @@ from pxr import Usd
 from physomni_usd.bench.plate import MAX_COLOUR_DIFF, RATIO_RANGE, gradient_ratio, measure
 from physomni_usd.metrics import ssim
 from physomni_usd.perceive.masks import _grabcut, mask_from_box, mask_quality
-from physomni_usd.perceive.plate import background_plate, plate_hole
+from physomni_usd.perceive.plate import background_plate, feather_px, fill_hole, plate_hole
 from physomni_usd.render.video import ShotRenderer
+
+EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
 
 
 def test_exemplar_fill_keeps_the_surface_grain():
@@ -34,6 +37,31 @@ def test_exemplar_fill_keeps_the_surface_grain():
     plate = background_plate(photo, [hole], 0.015)
     outside = ~plate_hole(photo, [hole], 0.015)
     assert np.array_equal(plate[outside], photo[outside])  # the plate is the photo outside the hole
+
+
+def _border_ratio(img: np.ndarray, hole: np.ndarray) -> float:
+    """Mean gradient along the edge of ``hole`` over that of a ring of surface 6-12 px outside it."""
+    grey = cv2.cvtColor(img, cv2.COLOR_RGB2GRAY).astype(np.float32)
+    g = np.hypot(cv2.Sobel(grey, cv2.CV_32F, 1, 0), cv2.Sobel(grey, cv2.CV_32F, 0, 1))
+    h8 = hole.astype(np.uint8)
+    disk = lambda r: cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+    ring = (cv2.dilate(h8, disk(12)) > 0) & ~(cv2.dilate(h8, disk(6)) > 0)
+    edge = (cv2.dilate(h8, disk(1)) > 0) & ~(cv2.erode(h8, disk(1)) > 0)
+    return float(g[edge].mean() / g[ring].mean())
+
+
+def test_the_fill_meets_the_surface_without_an_outline():
+    """Where the desk's ball stood (a crop of the bundled photo): faded into the photo over its seam, the
+    fill shows no outline along the hole's edge; the same fill cut in hard does."""
+    photo = cv2.cvtColor(cv2.imread(str(EXAMPLES / "desk" / "photo.jpg")), cv2.COLOR_BGR2RGB)[60:320, 260:520]
+    ball = np.zeros(photo.shape[:2], np.uint8)
+    cv2.circle(ball, (135, 126), 60, 1, -1)
+    hole = plate_hole(photo, [ball > 0], 0.01)
+    soft = fill_hole(photo, hole, feather=feather_px(photo.shape))
+    hard = fill_hole(photo, hole)
+    assert _border_ratio(hard, hole) > 1.4  # measured 1.68
+    assert _border_ratio(soft, hole) < 1.3  # measured 1.13; bench look's target
+    assert np.array_equal(soft[~hole], photo[~hole])
 
 
 def test_contact_shadow_is_removed_from_the_plate():

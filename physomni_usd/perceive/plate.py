@@ -31,9 +31,12 @@ EXEMPLAR_CONTEXT = 0.6
 MAX_SHIFTS = 128
 #: Width of the low-pass by which the exemplar fill's shading is matched to its border, as a fraction
 #: of the hole's larger side (at least 3 pixels), and the depth into the hole over which that match fades
-#: (1/e), as a fraction of the image diagonal: deep inside a large hole a smooth fill knows nothing.
+#: (1/e), as a fraction of the image diagonal. Patches copied from elsewhere bring their own brightness
+#: (a darker sky from above the rocket, a wall's colour onto the garage floor): at 0.012 the fill where the
+#: rocket stood was 35 levels off the sky around it and the motorcycle's 27 off the floor; at 0.1 the
+#: border's smooth colour reaches across the hole (16 and 9 levels) and the patches keep only their grain.
 SHADING_SIGMA = 0.08
-SHADING_DEPTH = 0.012
+SHADING_DEPTH = 0.1
 #: A pixel near an object's foot is in its contact shadow when it is darker than this fraction of the
 #: surface's brightness around it.
 SHADOW_RATIO = 0.85
@@ -43,6 +46,11 @@ PENUMBRA_RATIO = 0.96
 
 #: How far below an object its contact shadow may reach, as a fraction of the object's height in the photo.
 SHADOW_REACH = 0.25
+#: Width of the seam where the fill fades into the photo, as a fraction of the image diagonal (at least
+#: 4 pixels): the hole grows by it and, across it, the plate goes from the photo to the fill. Two textures
+#: that meet on one pixel show as an outline (the gradient along a desk ball's hole was 2.2× the wood's
+#: around it); faded over about 5 pixels they meet without one (1.0×).
+FEATHER = 0.006
 
 METHODS = ("exemplar", "telea")
 
@@ -55,11 +63,27 @@ def background_plate(photo: np.ndarray, masks, dilation: float, method: str = "e
     Outside the hole (:func:`plate_hole`) the plate is the photo, pixel for pixel.
     """
     hole = plate_hole(photo, masks, dilation, shadows)
-    return fill_hole(photo, hole, method)
+    return fill_hole(photo, hole, method, feather_px(photo.shape))
 
 
-def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = "exemplar") -> np.ndarray:
-    """``photo`` (H, W, 3) uint8 RGB with the pixels of ``hole`` (H, W) bool filled by ``method``."""
+def feather_px(shape) -> int:
+    """Width in pixels of the seam :func:`plate_hole` adds around the hole of an image of ``shape`` (H, W, ...)."""
+    return max(4, int(round(FEATHER * np.hypot(shape[0], shape[1]))))
+
+
+def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = "exemplar", feather: int = 0) -> np.ndarray:
+    """``photo`` (H, W, 3) uint8 RGB with the pixels of ``hole`` (H, W) bool filled by ``method``; with
+    ``feather`` > 0 the hole's outer ``feather`` pixels blend from the photo (at its edge) to the fill."""
+    filled = _fill_hole(photo, hole, method)
+    if feather <= 0 or not np.any(hole) or np.all(hole):
+        return filled
+    inside = cv2.distanceTransform(np.asarray(hole, np.uint8), cv2.DIST_L2, 5)
+    a = np.clip(inside / (feather + 1.0), 0.0, 1.0)[..., None]
+    blend = photo.astype(np.float32) * (1.0 - a) + filled.astype(np.float32) * a
+    return np.where(np.asarray(hole, bool)[..., None], np.clip(blend + 0.5, 0, 255), photo).astype(np.uint8)
+
+
+def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str) -> np.ndarray:
     if method not in METHODS:
         raise ValueError(f"unknown fill method {method!r} (known: {', '.join(METHODS)})")
     hole = np.asarray(hole, bool)
@@ -74,7 +98,8 @@ def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = "exemplar") -> 
 
 def plate_hole(photo: np.ndarray, masks, dilation: float, shadows: bool = True) -> np.ndarray:
     """(H, W) bool: the pixels the plate replaces, every mask dilated by ``dilation`` × the diagonal,
-    plus (with ``shadows``) the contact shadow found under each object (:func:`contact_shadow`)."""
+    plus (with ``shadows``) the contact shadow found under each object (:func:`contact_shadow`), and the
+    seam (:data:`FEATHER`) around all of it, over which the fill fades into the photo."""
     h, w = photo.shape[:2]
     union = np.zeros((h, w), bool)
     for m in masks:
@@ -84,7 +109,7 @@ def plate_hole(photo: np.ndarray, masks, dilation: float, shadows: bool = True) 
         lum = cv2.cvtColor(photo, cv2.COLOR_RGB2Lab)[..., 0].astype(np.float32)
         for m in masks:
             hole |= contact_shadow(lum, np.asarray(m, bool), hole)
-    return hole
+    return _dilate(hole, feather_px(photo.shape)) if hole.any() else hole
 
 
 def contact_shadow(lum: np.ndarray, mask: np.ndarray, hole: np.ndarray) -> np.ndarray:
@@ -225,7 +250,10 @@ def _match_shading(img: np.ndarray, filled: np.ndarray, hole: np.ndarray, sigma:
     smooth = cv2.cvtColor(cv2.resize(smooth, (w, h), interpolation=cv2.INTER_CUBIC), cv2.COLOR_BGR2RGB)
     smooth = np.where(hole[..., None], smooth, img).astype(np.float32)
     f = filled.astype(np.float32)
-    corr = _blur(smooth, sigma) - _blur(f, sigma)
+    # averaged over the hole's own pixels only (outside it the two agree): a blur wider than a thin hole
+    # (the rocket's column) would otherwise thin the correction by the surface it also takes in
+    inside = hole.astype(np.float32)
+    corr = _blur((smooth - f) * inside[..., None], sigma) / np.maximum(_blur(inside, sigma), 1e-3)[..., None]
     dist = cv2.distanceTransform(hole.astype(np.uint8), cv2.DIST_L2, 5)
     corr *= np.exp(-dist / max(depth, 1.0))[..., None]
     out = f + corr

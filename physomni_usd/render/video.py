@@ -49,6 +49,9 @@ PARTICLE_SPREAD = 1.6
 PARTICLE_SMOOTH = 2.0
 PARTICLE_LIGHT = (0.4, 0.7, 0.6)
 PARTICLE_AMBIENT = 0.55
+#: A turned surface is shaded by that light relative to how it faced it in the photo (``_turned_shading``), at
+#: most this much brighter than the photo shows it (its texture already holds the photo's light).
+TURN_BRIGHTEN = 1.2
 
 
 @dataclass(frozen=True)
@@ -309,6 +312,47 @@ class ShotRenderer:
             out = out * (1.0 - alpha) + np.clip(colour, 0, 255) * alpha
         return out
 
+    def _turned_shading(self, face: np.ndarray, state: FrameState) -> np.ndarray:
+        """(H, W) factor on the texture's colour of each surface seen: the photo's shading stays with the light,
+        not with a surface that has turned (a rolled ball's lit side does not roll with it). Lambert under the
+        particles' light (fixed to the photo's camera) with the normal now, over the same with the normal in the
+        first frame (smooth across each mesh); 1 where nothing has turned or bent."""
+        out = np.ones(face.shape, np.float32)
+        if state.points is None or state.bary is None or not len(self.faces):
+            return out
+        if getattr(self, "_rest_normals", None) is None:
+            self._rest_normals = _vertex_normals(self.points_at(Usd.TimeCode(self.stage.GetStartTimeCode())),
+                                                 self.faces)
+        normals = _vertex_normals(state.points, self.faces)
+        # only the faces that turned or bent (a shot's objects mostly stand or slide): the rest stay 1, cheaply
+        cos = np.einsum("ij,ij->i", normals, self._rest_normals) / np.maximum(
+            np.linalg.norm(normals, axis=1) * np.linalg.norm(self._rest_normals, axis=1), 1e-12)
+        turned = (cos < 1.0 - 1e-6)[self.faces].any(axis=1)
+        hit = (face >= 0) & turned[np.maximum(face, 0)]
+        if not hit.any():
+            return out
+        f = face[hit]
+        # the barycentrics are those of the first face on the ray; behind a cut-out pixel take the face's middle
+        same = state.mesh_face[hit] == f
+        u = np.where(same, state.bary[hit][:, 0], 1.0 / 3.0)
+        v = np.where(same, state.bary[hit][:, 1], 1.0 / 3.0)
+        w = np.stack([u, v, 1.0 - u - v], -1)[..., None]
+        tri = self.faces[f]
+        now = (normals[tri] * w).sum(1)
+        rest = (self._rest_normals[tri] * w).sum(1)
+        cam = self.photo_camera if self.photo_camera is not None else state.camera
+        to_light = -(np.array(PARTICLE_LIGHT, np.float64) @ cam.axes)
+        to_light /= np.linalg.norm(to_light)
+
+        def lambert(n):
+            n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-9)
+            return PARTICLE_AMBIENT + (1.0 - PARTICLE_AMBIENT) * np.clip(n @ to_light, 0.0, 1.0)
+
+        # a side the photo saw in shade is lit less than the photo would show it, and a copy of the seen side
+        # that now faces the light is brightened a little only: it already carries the photo's light
+        out[hit] = np.clip(lambert(now) / lambert(rest), PARTICLE_AMBIENT, TURN_BRIGHTEN)
+        return out
+
     def _moved(self, obj: np.ndarray, px: np.ndarray) -> np.ndarray:
         """(K,) per object, 0 where it is seen where the photo shows it, rising to 1 once it has moved
         :data:`IN_PLACE_PX` + :data:`REVEAL_PX` pixels (1 for objects not seen, or not placed in the photo).
@@ -391,6 +435,7 @@ class ShotRenderer:
         mx = np.where(hit, px[..., 0] - 0.5, -10).astype(np.float32)
         my = np.where(hit, px[..., 1] - 0.5, -10).astype(np.float32)
         colour = cv2.remap(self.atlas_rgb, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        colour *= self._turned_shading(face, state)[..., None]
         alpha = cv2.remap(self.atlas_alpha, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         if self.photo is not None:  # an object in place is the photo itself, without resampling, unless the
             # object the photo shows there has left (the saucer where the cup stood shows its texture)
@@ -400,6 +445,16 @@ class ShotRenderer:
         if self.particles:
             out = self._splat(np.ascontiguousarray(out, np.float32), cam, particles, self.caster.depth)
         return np.clip(out + 0.5, 0, 255).astype(np.uint8), state
+
+
+def _vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(N, 3) area-weighted normals (not normalised) of ``points`` (N, 3) metres under ``faces`` (F, 3)."""
+    p = np.asarray(points, np.float64)
+    fn = np.cross(p[faces[:, 1]] - p[faces[:, 0]], p[faces[:, 2]] - p[faces[:, 0]])
+    out = np.zeros_like(p)
+    for c in range(3):
+        out[:, c] = sum(np.bincount(faces[:, k], fn[:, c], len(p)) for k in range(3))
+    return out
 
 
 def _environment(renderer: ShotRenderer):
