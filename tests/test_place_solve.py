@@ -26,7 +26,7 @@ def test_a_box_seen_corner_on_keeps_square_edges():
     """The top box of the stack is a mirror-symmetric hexagon with no flat bottom, the outline of a round
     thing; its label makes it a cuboid (it was a surface of revolution, IoU 0.68 from the photo's view)."""
     from physomni_usd.bench.synthetic import make_stack
-    from physomni_usd.perceive.lift import lift_silhouette, mirror_iou
+    from physomni_usd.lift.silhouette import lift_silhouette, mirror_iou
 
     scene = make_stack("three_boxes", 240, 180)
     top = scene.masks[2]

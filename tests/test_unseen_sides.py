@@ -127,7 +127,7 @@ def test_preview_keeps_each_faces_side_of_the_texture():
 def test_the_opaque_copy_takes_the_interior_reflected_not_the_rim_drawn_out():
     """Outside a disc, every texel of the copy comes from inside it, and neighbours from different places
     (the nearest rim pixel would give a whole ray of texels one colour)."""
-    from physomni_usd.perceive.sides import copy_sources, filled_copy
+    from physomni_usd.lift.sides import copy_sources, filled_copy
 
     y, x = np.mgrid[:60, :80]
     mask = (x - 40) ** 2 + (y - 30) ** 2 < 18 ** 2
