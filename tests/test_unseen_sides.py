@@ -140,3 +140,28 @@ def test_the_opaque_copy_takes_the_interior_reflected_not_the_rim_drawn_out():
     rgba = np.dstack([np.random.default_rng(0).integers(0, 255, (60, 80, 3)).astype(np.uint8), mask * 255])
     filled = filled_copy(rgba.astype(np.uint8))
     assert (filled[..., 3] == 255).all() and np.array_equal(filled[mask, :3], rgba[mask, :3])
+
+
+def test_an_edge_on_face_over_the_background_between_two_parts_stays_transparent():
+    """Two parts of one mask with background between them (a mirror and a tail): a wall a lofted row lays across
+    the gap keeps the photo's projection, which is transparent there; a wall on a part takes the opaque
+    planar map."""
+    from physomni_usd.geometry.camera import PinholeCamera
+    from physomni_usd.lift.sides import corner_st
+
+    camera = PinholeCamera(200, 200, 60.0, 0.0)  # level, at (0, 0, 1), looking along +y
+    mask = np.zeros((100, 100), bool)
+    mask[40:60, 5:20] = mask[40:60, 80:95] = True
+    # two vertical walls along y, edge-on to the camera: one straight ahead, one 0.6 m to its left
+    wall = np.array([[0.0, 3.0, 1.0], [0.0, 3.2, 1.0], [0.0, 3.0, 1.05]])
+    points = np.vstack([wall, wall + [-0.6, 0.0, 0.0]])
+    faces = np.array([[0, 1, 2], [3, 4, 5]])
+    uv, _ = camera.project(points)
+    origin = (int(round(uv[:3, 0].mean())) - 50, int(round(uv[:, 1].mean())) - 50)
+    centres = np.stack([(uv[f] - origin).mean(0) for f in faces]).astype(int)
+    assert not mask[centres[0, 1], centres[0, 0]] and mask[centres[1, 1], centres[1, 0]], centres
+    plain = corner_st(points, faces, camera, (100, 100), origin).reshape(2, 3, 2)
+    cut = corner_st(points, faces, camera, (100, 100), origin, mask=mask).reshape(2, 3, 2)
+    assert (plain[..., 0] >= 0.5).all(), plain  # without the mask both take the opaque copy's planar map
+    assert (cut[0, :, 0] < 0.5).all(), cut[0]  # over the gap: the photo's half, transparent there
+    assert (cut[1, :, 0] >= 0.5).all(), cut[1]  # on a part: still the planar map

@@ -21,6 +21,12 @@ import numpy as np
 #: seen edge-on: their projected texture would be the rim smeared across them, so they take the planar map.
 #: (Where such a face shows in the photo, the frame shows the photo itself while the object is in place.)
 EDGE_ON = 0.3
+#: An edge-on face whose projection in the photo lies farther than this fraction of the crop's diagonal (and
+#: at least :data:`GAP_MIN_PX`) from the object's mask is not the object's side: it bridges a gap the photo
+#: shows background through (a lofted row spans a mirror and a tail with the wall between them). It keeps the
+#: photo's projection, which is transparent there, instead of an opaque planar map.
+GAP_FRACTION = 0.02
+GAP_MIN_PX = 3.0
 
 
 def _fold(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
@@ -101,11 +107,25 @@ def two_sided_texture(rgba: np.ndarray) -> np.ndarray:
     return np.concatenate([rgba, filled_copy(rgba)], axis=1)
 
 
+def _over_background(corners: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """(F,) bool: whether each projected triangle's centre (``corners`` (F, 3, 2) crop pixels) lies farther
+    from ``mask`` (h, w) bool than the gap threshold (:data:`GAP_FRACTION`)."""
+    h, w = mask.shape
+    far = cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, 3)
+    c = corners.mean(1)
+    inside = (c[:, 0] >= 0) & (c[:, 0] <= w - 1) & (c[:, 1] >= 0) & (c[:, 1] <= h - 1)
+    x = np.clip(np.rint(c[:, 0]), 0, w - 1).astype(np.int32)
+    y = np.clip(np.rint(c[:, 1]), 0, h - 1).astype(np.int32)
+    limit = max(GAP_MIN_PX, GAP_FRACTION * float(np.hypot(w, h)))
+    return inside & (far[y, x] > limit)
+
+
 def corner_st(points: np.ndarray, faces: np.ndarray, camera, texture_size: tuple[int, int],
-              origin: tuple[int, int]) -> np.ndarray:
+              origin: tuple[int, int], mask: np.ndarray | None = None) -> np.ndarray:
     """(F·3, 2) faceVarying ``st`` into a :func:`two_sided_texture`, for world ``points`` (N, 3) as the photo
     saw them and triangles ``faces`` (F, 3); ``texture_size`` (w, h) of the photo crop at photo pixel
-    ``origin`` (x0, y0)."""
+    ``origin`` (x0, y0). With the crop's ``mask`` (h, w) bool, edge-on faces that the photo shows as
+    background (:data:`GAP_FRACTION`) keep the projection, transparent there."""
     w, h = texture_size
     x0, y0 = origin
     uv, depth = camera.project(points)
@@ -118,6 +138,8 @@ def corner_st(points: np.ndarray, faces: np.ndarray, camera, texture_size: tuple
     to_cam = camera.origin - centre
     to_cam /= np.linalg.norm(to_cam, axis=1, keepdims=True)
     edge_on = np.abs(np.einsum("ij,ij->i", n, to_cam)) < EDGE_ON
+    if mask is not None and edge_on.any() and mask.any():
+        edge_on &= ~_over_background(corners, mask)
     st = np.empty((len(faces), 3, 2))
     st[..., 0] = corners[..., 0] / (2.0 * w)
     st[..., 1] = 1.0 - corners[..., 1] / h
