@@ -234,6 +234,23 @@ def test_opening_view_reproduces_the_photo(session):
     assert score >= 0.9, score
 
 
+def test_opening_view_of_a_deformable_reproduces_the_photo(tmp_path):
+    """The bundled sand column (mpm_sand: a point cloud once it moves), built only, grabbed as ``bench look``
+    grabs the opening view: the photo again, and an upside-down photo is not."""
+    from physomni_usd.bench.look import preview_opening
+    from physomni_usd.metrics.image import ssim
+
+    sand = EXAMPLE.parent / "sand"
+    cli("build", sand / "photo.png", "-o", tmp_path, "--mask", f"{sand / 'sand.png'}:sand", "-q", check=True)
+    view = preview_opening(tmp_path / "shot.usda", timeout=120.0)
+    assert view is not None, "the preview did not start, or Playwright or Chromium is missing"
+    photo = cv2.imread(str(sand / "photo.png"), cv2.IMREAD_GRAYSCALE)
+    grey = cv2.resize(cv2.cvtColor(view, cv2.COLOR_RGB2GRAY), photo.shape[::-1], interpolation=cv2.INTER_AREA)
+    score = ssim(grey, photo)
+    assert score >= 0.9, score
+    assert ssim(grey[::-1], photo) < 0.9  # the measure tells a wrong view from the photo
+
+
 def test_page_and_stderr_report_the_rate(session):
     assert session["url_line"].startswith("http://127.0.0.1:")
     assert re.search(r"[\d.]+ fps", session["rate_text"])
