@@ -52,8 +52,11 @@ SHADOW_REACH = 0.25
 #: Width of the seam where the fill fades into the photo, as a fraction of the image diagonal (at least
 #: 4 pixels): the hole grows by it and, across it, the plate goes from the photo to the fill. Two textures
 #: that meet on one pixel show as an outline (the gradient along a desk ball's hole was 2.2× the wood's
-#: around it); faded over about 5 pixels they meet without one (1.0×).
-FEATHER = 0.006
+#: around it); faded over about 5 pixels they meet without one (1.0×). At 0.006 the rocket's narrow column
+#: still showed its outline (border 1.46× the sky's): its patches are steps of a sky that darkens upward,
+#: and 5 pixels did not hide them; from 0.009 to 0.012 its border is 1.21× to 0.95× (0.010: 1.08×; the
+#: motorcycle's 1.06×, the desk's 0.94×).
+FEATHER = 0.010
 
 METHODS = ("exemplar", "telea")
 
