@@ -30,11 +30,14 @@ EXEMPLAR_CONTEXT = 0.6
 #: Most distinct shifts read back from one shift-map result (it uses a few dozen dominant offsets).
 MAX_SHIFTS = 128
 #: Width of the low-pass by which the exemplar fill's shading is matched to its border, as a fraction
-#: of the hole's larger side (at least 3 pixels), and the depth into the hole over which that match fades
+#: of the hole's narrower side (at least 3 pixels), and the depth into the hole over which that match fades
 #: (1/e), as a fraction of the image diagonal. Patches copied from elsewhere bring their own brightness
 #: (a darker sky from above the rocket, a wall's colour onto the garage floor): at 0.012 the fill where the
 #: rocket stood was 35 levels off the sky around it and the motorcycle's 27 off the floor; at 0.1 the
 #: border's smooth colour reaches across the hole (16 and 9 levels) and the patches keep only their grain.
+#: Sized by the larger side, the low-pass of a wide hole averaged its bright patches with the dark floor
+#: shadow beside them and left them lit (the motorcycle's revealed floor 13 levels off its ring; by the
+#: narrower side, 8.4).
 SHADING_SIGMA = 0.08
 SHADING_DEPTH = 0.1
 #: A pixel near an object's foot is in its contact shadow when it is darker than this fraction of the
@@ -49,8 +52,11 @@ SHADOW_REACH = 0.25
 #: Width of the seam where the fill fades into the photo, as a fraction of the image diagonal (at least
 #: 4 pixels): the hole grows by it and, across it, the plate goes from the photo to the fill. Two textures
 #: that meet on one pixel show as an outline (the gradient along a desk ball's hole was 2.2× the wood's
-#: around it); faded over about 5 pixels they meet without one (1.0×).
-FEATHER = 0.006
+#: around it); faded over about 5 pixels they meet without one (1.0×). At 0.006 the rocket's narrow column
+#: still showed its outline (border 1.46× the sky's): its patches are steps of a sky that darkens upward,
+#: and 5 pixels did not hide them; from 0.009 to 0.012 its border is 1.21× to 0.95× (0.010: 1.08×; the
+#: motorcycle's 1.06×, the desk's 0.94×).
+FEATHER = 0.010
 
 METHODS = ("exemplar", "telea")
 
@@ -187,7 +193,7 @@ def fill_exemplar(photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
         if win_hole.all():
             win_hole = hole  # no surface around this part: use the whole photo
             x0, y0, x1, y1 = 0, 0, w, h
-        filled = _exemplar_window(photo[y0:y1, x0:x1], win_hole, max(bw, bh), SHADING_DEPTH * np.hypot(h, w),
+        filled = _exemplar_window(photo[y0:y1, x0:x1], win_hole, min(bw, bh), SHADING_DEPTH * np.hypot(h, w),
                                   EXEMPLAR_HOLE_PIXELS * float(stats[k, 4]) / total)
         own = labels[y0:y1, x0:x1] == k
         out[y0:y1, x0:x1][own] = filled[own]
@@ -196,7 +202,8 @@ def fill_exemplar(photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
 
 def _exemplar_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float, budget: float) -> np.ndarray:
     """Fill ``hole`` of the window ``img`` (h, w, 3) RGB: shift-map on a copy reduced until the hole has
-    at most ``budget`` pixels (and the window :data:`EXEMPLAR_PIXELS`), its shifts applied at full resolution."""
+    at most ``budget`` pixels (and the window :data:`EXEMPLAR_PIXELS`), its shifts applied at full resolution;
+    ``size`` (pixels, the hole's narrower side) sets the shading match's low-pass (:data:`SHADING_SIGMA`)."""
     h, w = hole.shape
     f = max(1.0, float(np.sqrt(h * w / EXEMPLAR_PIXELS)), float(np.sqrt(hole.sum() / max(budget, 64.0))))
     for _ in range(4):
