@@ -42,6 +42,9 @@ MAX_HANDHELD_M = 3.0
 #: Labels whose typical size is at most this are table-top things; under a reading, nothing in a photo of
 #: them grows past it (metres).
 TABLE_TOP_MAX_M = 1.0
+#: An object whose vote is this many times off a reading's scale is a failed lift under it, not a thing that
+#: size: it does not stop the reading from being a table top (it is that reading's outlier, and reported so).
+FAILED_LIFT_FACTOR = 10.0
 
 
 @dataclass
@@ -143,7 +146,9 @@ def _fit_priors(priors: list[dict], votes: list[dict], unit_height_m: float) -> 
             members = np.abs(logs - logs[seed]) <= math.log(DISAGREE_FACTOR)
             m, _ = robust_log_mean(logs[members])
             factor = math.exp(m)
-            biggest_m = max(v["measured_m"] for v in priors) * factor
+            # what grows past a metre under this reading, leaving out lifts that are absurd under it
+            sane = np.abs(logs - m) <= math.log(FAILED_LIFT_FACTOR)
+            biggest_m = max(v["measured_m"] for k, ok in zip(labels, sane) if ok for v in by_label[k]) * factor
             table_top = all(by_label[k][0]["size_m"] <= TABLE_TOP_MAX_M for k, ok in zip(labels, members) if ok)
             plausible = factor * unit_height_m <= MAX_HANDHELD_M
             reading = {"labels": [by_label[k][0]["label"] for k, ok in zip(labels, members) if ok],
