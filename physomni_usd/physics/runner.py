@@ -18,7 +18,7 @@ from ..errors import PhysOmniError
 from .depenetration import Depenetration
 from .diagnose import FRAME_WALL_BUDGET_S, failure_line
 from .recording import Recorder
-from .stability import ENERGY_FLOOR, ENERGY_TOLERANCE, Guard, StepPlan
+from .stability import ENERGY_TOLERANCE, Guard, StepPlan
 from .stepping import FrameGraphs
 
 #: Whether frames of rigid XPBD scenes are captured as warp graphs and replayed (False: launch by launch).
@@ -158,7 +158,7 @@ class GuardedRun:
             return False
         budget = g.initial + g.work
         growth = energy - budget
-        slack = self.tolerance * max(abs(budget), abs(g.initial), ENERGY_FLOOR) + ENERGY_FLOOR
+        slack = g.slack(budget)
         t_checked = self._saved[2]
         if t_checked < self.depenetration.until and self.depenetration.any:
             room = self.depenetration.energy_bound(self.t) - self.separation_j
@@ -182,7 +182,7 @@ class GuardedRun:
             return
         growth = energy - g.initial
         done = g.work - self.separation_j  # the fields' work, and any push's
-        slack = self.tolerance * max(abs(g.initial), ENERGY_FLOOR) + ENERGY_FLOOR
+        slack = g.slack()
         if growth <= slack or done <= slack:
             return
         entry = next((e for e in self.log if e["cause"] == "field"), None)

@@ -246,6 +246,11 @@ class Guard:
         """Energy put in (positive) or taken out (negative) from outside — a push, a force field."""
         self.work += float(joules)
 
+    def slack(self, budget: float = 0.0) -> float:
+        """Joules the energy may stand above ``budget`` (the start plus the work counted) before it is growth:
+        the tolerance of the larger of the budget and the start, never under ``ENERGY_FLOOR``."""
+        return self.tolerance * max(abs(budget), abs(self.initial), ENERGY_FLOOR) + ENERGY_FLOOR
+
     def check(self, energy: float, speed: float, finite: bool) -> str | None:
         """``None`` when the frame is good, else why it is not."""
         if not finite or not math.isfinite(energy):
@@ -255,7 +260,7 @@ class Guard:
         if self.initial is None:
             self.initial = energy
         budget = self.initial + self.work
-        allowed = budget + self.tolerance * max(abs(budget), abs(self.initial), ENERGY_FLOOR) + ENERGY_FLOOR
+        allowed = budget + self.slack(budget)
         self.last_energy = energy
         if energy > allowed:
             return (f"the energy grew to {energy:.4g} J, above the initial {self.initial:.4g} J plus "
