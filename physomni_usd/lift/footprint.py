@@ -18,7 +18,9 @@ spheres where the label is a ball's; organic things (``sizes.body_kind``:
 fruit, toys, bags) that are not balls an inflated dome of their footprint
 (√(2Rd − d²) of the distance d to its outline, up to the height); others the
 prism of their convex hull, called a plate when it is thinner than
-``PLATE_RATIO`` of its footprint (coins, cards, parts).
+``PLATE_RATIO`` of its footprint (coins, cards, parts). A flat thing whose
+label's typical height would stand it on its edge lies on its broadest face
+instead (:func:`lying_height`).
 """
 
 from __future__ import annotations
@@ -286,6 +288,67 @@ def inflated_footprint(fp: np.ndarray, base_z: float, height: float, sections: i
     return loft(rings)
 
 
+#: The thinnest a flat thing may come out, as a fraction of its label's typical height (:func:`lying_height`).
+LYING_RANGE = 16.0
+#: Heights tried between that and the typical height, evenly on a log scale.
+LYING_STEPS = 17
+#: Heights whose prisms cover the outline within this IoU of the best fit it equally well.
+LYING_IOU_TIE = 0.01
+
+
+def _narrow_side(poly_uv: np.ndarray, camera, base_z: float, height: float) -> tuple[float, np.ndarray | None]:
+    """(the narrow side of the footprint's least rectangle, metres; the footprint) at ``height``."""
+    fp = footprint(poly_uv, camera, base_z, height)
+    if fp is None or len(fp) < 3:
+        return 0.0, None
+    (_, _), (a, b), _ = cv2.minAreaRect(fp.astype(np.float32))
+    return float(min(a, b)), fp
+
+
+def prism_iou(poly_uv: np.ndarray, fp: np.ndarray, camera, base_z: float, height: float) -> float:
+    """IoU, in the photo, of the outline ``poly_uv`` (n, 2 px) with the prism of ground outline ``fp`` (m, 2)
+    from ``base_z`` up ``height``: both convex, so each is the filled hull of its points (1/16 px)."""
+    hull = cv2.convexHull(fp.astype(np.float32))[:, 0, :].astype(float)
+    corners = np.vstack([np.c_[hull, np.full(len(hull), base_z)], np.c_[hull, np.full(len(hull), base_z + height)]])
+    uv, depth = camera.project(corners)
+    if (depth <= 0).any():
+        return 0.0
+    lo = np.floor(np.minimum(uv.min(0), poly_uv.min(0))) - 2
+    size = (np.ceil(np.maximum(uv.max(0), poly_uv.max(0)) - lo) + 3).astype(int)
+    fill = lambda p: cv2.fillConvexPoly(np.zeros((size[1], size[0]), np.uint8),  # noqa: E731
+                                        np.round((cv2.convexHull(p.astype(np.float32))[:, 0, :] - lo) * 16)
+                                        .astype(np.int32), 1, shift=4) > 0
+    a, b = fill(uv), fill(poly_uv)
+    return float((a & b).sum() / max((a | b).sum(), 1))
+
+
+def lying_height(poly_uv: np.ndarray, camera, base_z: float, height: float) -> float | None:
+    """The height of a flat thing (a spoon, a key) that its label's typical ``height`` would stand on its edge,
+    or None when that height already lies flat.
+
+    A flat thing's typical height counts what it spans when it lies (a spoon's curved bowl), not how thick
+    it is; as a prism's thickness it shrinks the footprint A₀ ∩ A_H to a sliver narrower than it is tall, a
+    fin on its edge (a 9 × 1.4 × 0.5 cm bar came out 8 × 0.3 × 2 cm). Lying, the thing rests on its broadest
+    face, so its height is at most its footprint's narrow side. Of the heights down to 1/``LYING_RANGE`` of
+    the typical one that lie so, those whose prisms cover the outline in the photo (:func:`prism_iou`) within
+    ``LYING_IOU_TIE`` of the best fit it equally well (a thinner prism casts a wider footprint, and the
+    outline's pixels cannot tell them apart): their geometric middle is taken. A choice among shapes that
+    all fit, not a measurement.
+    """
+    narrow, _ = _narrow_side(poly_uv, camera, base_z, height)
+    if narrow >= height:
+        return None
+    fits = []
+    for h in np.geomspace(height / LYING_RANGE, height, LYING_STEPS):
+        narrow, fp = _narrow_side(poly_uv, camera, base_z, float(h))
+        if fp is not None and narrow >= h:
+            fits.append((float(h), prism_iou(poly_uv, fp, camera, base_z, float(h))))
+    if not fits:
+        return None
+    best = max(iou for _, iou in fits)
+    return float(np.exp(np.mean([np.log(h) for h, iou in fits if iou >= best - LYING_IOU_TIE])))
+
+
 def lift_footprint(mask: np.ndarray, camera, height_hint: float | None, prior_shape: str | None,
                    base_z: float = 0.0, sections: int = 32, photo: np.ndarray | None = None,
                    flat_prior: bool = False, kind: str | None = None):
@@ -331,6 +394,11 @@ def lift_footprint(mask: np.ndarray, camera, height_hint: float | None, prior_sh
         width = float(np.ptp(flat, axis=0).max())
         height, source = DEFAULT_HEIGHT_RATIO * width, f"{DEFAULT_HEIGHT_RATIO:g} × the footprint's width"
     height = min(height, 0.9 * (camera.origin[2] - base_z))
+    if flat_prior and source and source.startswith("typical") and prior_shape not in ("round", "ball") \
+            and kind != "organic" and steep < SIDES_VISIBLE_DEG:
+        lying = lying_height(poly_uv, camera, base_z, height)
+        if lying is not None:
+            height, source = lying, "the outline (the flat thing lies on its broadest face)"
     fp = footprint(poly_uv, camera, base_z, height)
     if fp is None or len(fp) < 3:
         return None
