@@ -25,6 +25,7 @@ from .align.external import place_external, posed_entries
 from .align.photo_scene import place_on_ground
 from .align.place import centring_offset, occlusion_kept
 from .align.scale import parse_sizes
+from .align.solve import solve_places
 from .align.support import start_contacts
 from .backends import steps as backend_steps
 from .backends.builtin import MeshFolderLifter
@@ -366,7 +367,7 @@ def _lift(scene: Scene, lifter, user_sizes: dict, out: pathlib.Path) -> None:
 
 def _place(scene: Scene) -> None:
     """All objects in one world: on the ground the lifter measured, or on the ground fitted to posed meshes;
-    then centred on the origin."""
+    then solved together against their outlines (``align.solve``), and centred on the origin."""
     lifted = [o.lifted for o in scene.objects]
     settings = scene.settings
     if lifted[0].ground is not None:
@@ -391,12 +392,18 @@ def _place(scene: Scene) -> None:
                 "loss": round(found.loss, 6), "initial_loss": round(found.initial_loss, 6),
                 "evaluations": found.evaluations, "seconds": round(found.seconds, 3),
                 "loss_curve": found.curve[:: max(1, len(found.curve) // 100)]}
+    supports = {i: m.ground.support for i, m in enumerate(lifted) if m.ground is not None and m.ground.support}
+    solved = solve_places(camera, verts, faces, [o.amodal for o in scene.objects], supports,
+                          [o.mask.label for o in scene.objects],
+                          [(k, i) for i, o in enumerate(scene.objects) for k in o.occluders], scene.masks)
+    verts = solved.vertices
+    align_info["solve"] = solved.info | {"objects": [{"name": o.name, **s} for o, s in
+                                                     zip(scene.objects, solved.info["objects"])]}
     centre = centring_offset(verts)
     scene.camera = camera.moved(centre)
     scene.align_info = align_info
     for o, v, seen, f, shape, note in zip(scene.objects, verts, projected, faces, shapes, notes):
         o.vertices, o.projected, o.faces, o.shape, o.notes = v + centre, seen + centre, f, shape, note
-    supports = {i: m.ground.support for i, m in enumerate(lifted) if m.ground is not None and m.ground.support}
     rest = start_contacts([o.vertices for o in scene.objects], [o.faces for o in scene.objects], supports,
                           [o.name for o in scene.objects])
     for o, r in zip(scene.objects, rest):
