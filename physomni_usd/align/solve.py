@@ -15,10 +15,11 @@ the ground or on what holds it) and, where it holds nothing up, by a scale about
 
 An object resting on another moves with it. The result is taken only where it lowers the objective, brings
 some object at least ``MIN_PX_GAIN`` nearer its outline, and breaks nothing that held: no two meshes deeper in
-each other than before (signed distances), every object resting on another still over its top, and no fewer
-of the pixels where the photo shows one object hiding another with its mesh in front (ray by ray). Otherwise
-the first poses stay. What the solve did (per object: reprojection before and after in pixels, move in mm,
-scale) goes into ``report.json``.
+each other than before (signed distances), every object resting on another still over its top, every visible
+mask as covered by its mesh as it was (frame 0 shows the plate where it is not), and no fewer of the pixels
+where the photo shows one object hiding another with its mesh in front (ray by ray). Otherwise the first
+poses stay. What the solve did (per object: reprojection before and after in pixels, move in mm, scale)
+goes into ``report.json``.
 """
 
 from __future__ import annotations
@@ -46,6 +47,9 @@ MIN_GAIN = 0.02
 #: ... and brings some object at least this many pixels nearer its outline: both outlines are pixel-rounded, so
 #: a lesser gain is rounding, and every move shifts the object's texture off the photo's pixels in frame 0.
 MIN_PX_GAIN = 1.0
+#: ... and leaves no more of an object's visible mask uncovered than this share more than before: frame 0 is the
+#: photo only where the meshes cover the masks (the plate, behind them, has the objects painted out).
+COVER_SLACK = 0.005
 #: Meshes may end at most this much deeper in each other than they started (metres).
 OVERLAP_SLACK_M = 0.0005
 #: The share of the pixels where one object hides another that the solve may lose (rays, ``occlusion_kept``).
@@ -201,6 +205,13 @@ def solve_places(camera, vertices, faces, masks, supports=None, labels=None, occ
     elif max(gains, default=0.0) < MIN_PX_GAIN:
         reason = f"no object comes {MIN_PX_GAIN:g} px nearer its outline"
     if reason is None:
+        for i in range(n):
+            covered = [_covered(camera, v[i], visible[i]) for v in (before_v, after_v)]
+            if covered[1] < covered[0] - COVER_SLACK:
+                reason = (f"object {i} would leave {100 * (1 - covered[1]):.1f} % of its mask uncovered "
+                          f"(from {100 * (1 - covered[0]):.1f} %), where frame 0 would show the plate")
+                break
+    if reason is None:
         meshes0 = [trimesh.Trimesh(v, f, process=False) for v, f in zip(before_v, faces)]
         meshes1 = [trimesh.Trimesh(v, f, process=False) for v, f in zip(after_v, faces)]
         for i, j in [(i, j) for i in range(n) for j in range(i + 1, n)]:
@@ -234,6 +245,19 @@ def solve_places(camera, vertices, faces, masks, supports=None, labels=None, occ
                         "scale": round(float(np.exp(p[i, 2])) if taken and scalable[i] else 1.0, 4)}
                        for i, (a, b) in enumerate(zip(px0, px1))]
     return Solved([v.copy() for v in (after_v if taken else before_v)], info)
+
+
+def _covered(camera, vertices: np.ndarray, mask: np.ndarray) -> float:
+    """Share of ``mask``'s pixels (H, W bool) inside the convex hull of ``vertices`` projected by ``camera``."""
+    mask = np.asarray(mask, bool)
+    if not mask.any():
+        return 1.0
+    uv, depth = camera.project(vertices)
+    if (depth <= 0).any():
+        return 0.0
+    hull = np.round(_hull_px(uv) * 16).astype(np.int32)
+    drawn = cv2.fillConvexPoly(np.zeros(mask.shape, np.uint8), hull, 1, shift=4) > 0
+    return float((drawn & mask).sum() / mask.sum())
 
 
 @dataclass
