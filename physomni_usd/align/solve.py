@@ -15,9 +15,10 @@ the ground or on what holds it) and, where it holds nothing up, by a scale about
 
 An object resting on another moves with it. The result is taken only where it lowers the objective, brings
 some object at least ``MIN_PX_GAIN`` nearer its outline, and breaks nothing that held: no two meshes deeper in
-each other than before (signed distances), every object resting on another still over its top, every visible
-mask as covered by its mesh as it was (frame 0 shows the plate where it is not), and no fewer of the pixels
-where the photo shows one object hiding another with its mesh in front (ray by ray). Otherwise the first
+each other than before (signed distances), every object resting on another still over its top (its centre,
+and no less of its foot), every visible mask as covered by its mesh as it was (frame 0 shows the plate where
+it is not), and no fewer of the pixels where the photo shows one object hiding another with its mesh in
+front (ray by ray). Otherwise the first
 poses stay. What the solve did (per object: reprojection before and after in pixels, move in mm, scale)
 goes into ``report.json``.
 """
@@ -222,7 +223,9 @@ def solve_places(camera, vertices, faces, masks, supports=None, labels=None, occ
                 break
     if reason is None:
         for i, (j, _) in supports.items():
-            if not balances_on(_Lifted(after_v[i]), _Lifted(after_v[j]), float(after_v[i][:, 2].min())):
+            inside = [_base_inside(v[i], v[j]) for v in (before_v, after_v)]
+            if not balances_on(_Lifted(after_v[i]), _Lifted(after_v[j]), float(after_v[i][:, 2].min())) \
+                    or inside[1] < inside[0] - 0.01:
                 reason = f"object {i} would leave the top of object {j}"
                 break
     if reason is None:
@@ -245,6 +248,21 @@ def solve_places(camera, vertices, faces, masks, supports=None, labels=None, occ
                         "scale": round(float(np.exp(p[i, 2])) if taken and scalable[i] else 1.0, 4)}
                        for i, (a, b) in enumerate(zip(px0, px1))]
     return Solved([v.copy() for v in (after_v if taken else before_v)], info)
+
+
+def _base_inside(upper: np.ndarray, lower: np.ndarray) -> float:
+    """Share of ``upper``'s base vertices (within 2 % of its height of its lowest) that stand, seen from above,
+    inside the hull of the part of ``lower`` that reaches up to them (``photo_scene.TOP_BAND``): a cup whose
+    centre stays on its saucer but whose foot hangs over the rim rocks off it."""
+    from .photo_scene import TOP_BAND
+
+    zu, zl = upper[:, 2], lower[:, 2]
+    base = upper[zu <= zu.min() + 0.02 * max(float(np.ptp(zu)), 1e-9), :2]
+    top = lower[zl >= zu.min() - TOP_BAND * max(float(np.ptp(zl)), 1e-9)]
+    if len(top) < 3 or not len(base):
+        return 0.0
+    hull = footprint(top).astype(np.float32).reshape(-1, 1, 2)
+    return float(np.mean([cv2.pointPolygonTest(hull, (float(x), float(y)), False) >= 0 for x, y in base]))
 
 
 def _covered(camera, vertices: np.ndarray, mask: np.ndarray) -> float:
