@@ -138,7 +138,12 @@ def solve_places(camera, vertices, faces, masks, supports=None, labels=None, occ
     forward[2] = 0.0
     forward /= max(np.linalg.norm(forward), 1e-12)
 
-    def posed(x: np.ndarray) -> list[np.ndarray]:
+    # a horizontal move and a scale about the base map an object's convex hull and footprint onto the moved
+    # object's: both are found once, and the objective transforms only them
+    hull_pts = [_hull_points(v) for v in verts0]
+    prints = [np.c_[footprint(v), np.zeros(len(footprint(v)))] for v in verts0]
+
+    def moved(x: np.ndarray, points: list[np.ndarray], flat: bool = False) -> list[np.ndarray]:
         p = x.reshape(n, 3)
         out = []
         for i in range(n):
@@ -146,8 +151,12 @@ def solve_places(camera, vertices, faces, masks, supports=None, labels=None, occ
             move = np.zeros(3)
             for k in chains[i]:
                 move[:2] += p[k, :2]
-            out.append(base[i] + s * (verts0[i] - base[i]) + move)
+            centre = base[i] * np.array([1.0, 1.0, 0.0 if flat else 1.0])
+            out.append(centre + s * (points[i] - centre) + move)
         return out
+
+    def posed(x: np.ndarray) -> list[np.ndarray]:
+        return moved(x, verts0)
 
     def reprojection(v: np.ndarray, o: _Outline) -> np.ndarray:
         uv, depth = camera.project(v)
@@ -160,7 +169,8 @@ def solve_places(camera, vertices, faces, masks, supports=None, labels=None, occ
         return np.r_[o.distance(mesh_side), mask_side] / np.sqrt(2.0)
 
     def residuals(x: np.ndarray) -> np.ndarray:
-        v = posed(x)
+        v = moved(x, hull_pts)
+        fps = [f[:, :2] for f in moved(x, prints, flat=True)]
         p = x.reshape(n, 3)
         r = []
         for i in range(n):
@@ -168,7 +178,7 @@ def solve_places(camera, vertices, faces, masks, supports=None, labels=None, occ
                 r.append(reprojection(v[i], outlines[i]))
             r.append(STAY_WEIGHT * np.r_[p[i, :2] / size[i], p[i, 2]] * np.sqrt(OUTLINE_SAMPLES))
         for i, j in pairs:
-            mtv = separation(footprint(v[i]), footprint(v[j]))
+            mtv = separation(fps[i], fps[j])
             depth = 0.0 if mtv is None else float(np.linalg.norm(mtv))
             r.append([OVERLAP_WEIGHT * depth * 0.5 * (px_per_m[i] + px_per_m[j])])
         for front, behind in apart:
@@ -263,6 +273,16 @@ def _base_inside(upper: np.ndarray, lower: np.ndarray) -> float:
         return 0.0
     hull = footprint(top).astype(np.float32).reshape(-1, 1, 2)
     return float(np.mean([cv2.pointPolygonTest(hull, (float(x), float(y)), False) >= 0 for x, y in base]))
+
+
+def _hull_points(vertices: np.ndarray) -> np.ndarray:
+    """The vertices of the convex hull of ``vertices`` (n, 3): all that a projected outline is drawn from."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        return vertices[ConvexHull(vertices).vertices]
+    except (QhullError, ValueError):
+        return vertices
 
 
 def _covered(camera, vertices: np.ndarray, mask: np.ndarray) -> float:
