@@ -88,11 +88,24 @@ class _Outline:
         pts = np.stack([xs, ys], 1).astype(float) + 0.5
         self.hull = _hull_px(pts)
         self.samples = _resample(self.hull, OUTLINE_SAMPLES)
-        self.poly = self.hull.astype(np.float32).reshape(-1, 1, 2)
 
     def distance(self, points: np.ndarray) -> np.ndarray:
         """Signed distance (pixels, > 0 outside the outline) of ``points`` (n, 2)."""
-        return np.array([-cv2.pointPolygonTest(self.poly, (float(x), float(y)), True) for x, y in points])
+        return _signed_distance(self.hull, points)
+
+
+def _signed_distance(hull: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Distance (pixels) of ``points`` (n, 2) to the convex polygon ``hull`` (m, 2)'s edges, > 0 outside."""
+    a = hull
+    b = np.roll(hull, -1, axis=0)
+    ab = b - a
+    t = np.clip(((points[:, None, :] - a[None]) * ab[None]).sum(-1) / np.maximum((ab * ab).sum(-1), 1e-12), 0, 1)
+    nearest = a[None] + t[..., None] * ab[None]
+    d = np.linalg.norm(points[:, None, :] - nearest, axis=-1).min(1)
+    # inside a convex polygon a point lies on the same side of every edge
+    cross = ab[None, :, 0] * (points[:, None, 1] - a[None, :, 1]) - ab[None, :, 1] * (points[:, None, 0] - a[None, :, 0])
+    inside = np.all(cross >= 0, axis=1) | np.all(cross <= 0, axis=1)
+    return np.where(inside, -d, d)
 
 
 def _chain(i: int, supports: dict) -> list[int]:
@@ -164,8 +177,7 @@ def solve_places(camera, vertices, faces, masks, supports=None, labels=None, occ
             return np.full(2 * OUTLINE_SAMPLES, 1e3)
         hull = _hull_px(uv)
         mesh_side = _resample(hull, OUTLINE_SAMPLES)
-        poly = hull.astype(np.float32).reshape(-1, 1, 2)
-        mask_side = np.array([cv2.pointPolygonTest(poly, (float(x), float(y)), True) for x, y in o.samples])
+        mask_side = _signed_distance(hull, o.samples)
         return np.r_[o.distance(mesh_side), mask_side] / np.sqrt(2.0)
 
     def residuals(x: np.ndarray) -> np.ndarray:
@@ -178,7 +190,8 @@ def solve_places(camera, vertices, faces, masks, supports=None, labels=None, occ
                 r.append(reprojection(v[i], outlines[i]))
             r.append(STAY_WEIGHT * np.r_[p[i, :2] / size[i], p[i, 2]] * np.sqrt(OUTLINE_SAMPLES))
         for i, j in pairs:
-            mtv = separation(fps[i], fps[j])
+            far = np.any(fps[i].min(0) > fps[j].max(0)) or np.any(fps[j].min(0) > fps[i].max(0))
+            mtv = None if far else separation(fps[i], fps[j])
             depth = 0.0 if mtv is None else float(np.linalg.norm(mtv))
             r.append([OVERLAP_WEIGHT * depth * 0.5 * (px_per_m[i] + px_per_m[j])])
         for front, behind in apart:
@@ -203,7 +216,7 @@ def solve_places(camera, vertices, faces, masks, supports=None, labels=None, occ
     diff = np.tile([1e-3, 1e-3, 1e-3], n) * np.repeat(np.array(size) / max(size), 3) + 1e-6
     fit = least_squares(residuals, x0, bounds=(lo, hi), x_scale=np.repeat(size, 3) * np.tile([1, 1, 0.0], n)
                         + np.tile([0, 0, 0.1], n), diff_step=diff, max_nfev=EVALS_PER_PARAMETER * 3 * n,
-                        method="trf")
+                        method="trf", ftol=1e-3, xtol=1e-4)
     x = fit.x
     cost = float(fit.fun @ fit.fun)
     before_v, after_v = verts0, posed(x)
