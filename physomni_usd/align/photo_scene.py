@@ -294,6 +294,15 @@ def place_on_ground(lifted, names, gap_m: float) -> PhotoScene:
     moves = [np.zeros(3)] * len(lifted)
     for k, i in enumerate(free):
         projected[i], depth_scales[i], moves[i] = room[k], scales_free[k], moves_free[k]
+    for j in sorted({j for j, _ in supports.values()}):
+        # objects on the same supporter (a cup and a spoon on a saucer) are kept apart as those on the ground
+        # are, by making the nearer one shallower; they are not moved apart, which would take them off it
+        on = [i for i in supports if supports[i][0] == j]
+        if len(on) > 1:
+            room_on, scales_on = make_room([lifted[i].vertices for i in on], [lifted[i].ground.contact for i in on],
+                                           camera.origin, gap_m, fixed_depth=[lifted[i].ground.fixed_depth for i in on])
+            for k, i in enumerate(on):
+                projected[i], depth_scales[i] = room_on[k], scales_on[k]
     for i in supports:
         moves[i] = moves[root_of(i, supports)]
     verts, rise = settle_on_supports([v + d for v, d in zip(projected, moves)], [o.faces for o in lifted], supports)

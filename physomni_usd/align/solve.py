@@ -14,7 +14,8 @@ the ground or on what holds it) and, where it holds nothing up, by a scale about
 - a small pull towards the first pose, so directions the photo does not constrain stay put.
 
 An object resting on another moves with it. The result is taken only where it lowers the objective, brings
-some object at least ``MIN_PX_GAIN`` nearer its outline, and breaks nothing that held: no two meshes deeper in
+some object at least ``MIN_PX_GAIN`` nearer its outline or makes the deepest overlap of two meshes shallower,
+and breaks nothing that held: no two meshes deeper in
 each other than before (signed distances), every object resting on another still over its top (its centre,
 and no less of its foot), every visible mask as covered by its mesh as it was (frame 0 shows the plate where
 it is not), and no fewer of the pixels where the photo shows one object hiding another with its mesh in
@@ -224,10 +225,15 @@ def solve_places(camera, vertices, faces, masks, supports=None, labels=None, occ
     reason = None
     px0, px1 = per_object_px(before_v), per_object_px(after_v)
     gains = [a - b for a, b in zip(px0, px1) if a is not None and b is not None]
+    meshes0 = [trimesh.Trimesh(v, f, process=False) for v, f in zip(before_v, faces)]
+    meshes1 = [trimesh.Trimesh(v, f, process=False) for v, f in zip(after_v, faces)]
+    all_pairs = [(i, j) for i in range(n) for j in range(i + 1, n)]
+    deep0 = [max_penetration({"a": meshes0[i], "b": meshes0[j]}) for i, j in all_pairs]
+    deep1 = [max_penetration({"a": meshes1[i], "b": meshes1[j]}) for i, j in all_pairs]
     if cost > (1.0 - MIN_GAIN) * cost0:
         reason = "no lower objective"
-    elif max(gains, default=0.0) < MIN_PX_GAIN:
-        reason = f"no object comes {MIN_PX_GAIN:g} px nearer its outline"
+    elif max(gains, default=0.0) < MIN_PX_GAIN and max(deep1, default=0.0) >= max(deep0, default=0.0) - OVERLAP_SLACK_M:
+        reason = f"no object comes {MIN_PX_GAIN:g} px nearer its outline, and no overlap gets shallower"
     if reason is None:
         for i in range(n):
             covered = [_covered(camera, v[i], visible[i]) for v in (before_v, after_v)]
@@ -236,11 +242,7 @@ def solve_places(camera, vertices, faces, masks, supports=None, labels=None, occ
                           f"(from {100 * (1 - covered[0]):.1f} %), where frame 0 would show the plate")
                 break
     if reason is None:
-        meshes0 = [trimesh.Trimesh(v, f, process=False) for v, f in zip(before_v, faces)]
-        meshes1 = [trimesh.Trimesh(v, f, process=False) for v, f in zip(after_v, faces)]
-        for i, j in [(i, j) for i in range(n) for j in range(i + 1, n)]:
-            was = max_penetration({"a": meshes0[i], "b": meshes0[j]})
-            now = max_penetration({"a": meshes1[i], "b": meshes1[j]})
+        for (i, j), was, now in zip(all_pairs, deep0, deep1):
             if now > max(was, 0.0) + OVERLAP_SLACK_M:
                 reason = f"objects {i} and {j} would overlap {1000 * now:.1f} mm"
                 break
