@@ -37,9 +37,6 @@ STACKS = ("cup_saucer_spoon", "three_boxes", "bowl_of_spheres", "tray_of_parts")
 KNOWN_MISSES = {
     ("cup_saucer_spoon", "iou"): "measured: the spoon IoU 0.88 (photo), 0.49 / 0.73 (orbited)",
     ("cup_saucer_spoon", "position"): "measured: the spoon 5.2 % of the camera distance off",
-    ("bowl_of_spheres", "iou"): "measured: orbited IoU 0.49 / 0.49 the bowl, 0.46-0.57 the balls",
-    ("bowl_of_spheres", "position"): "measured: the bowl 12.2 %, the balls 4.9-5.1 % of the camera distance off",
-    ("bowl_of_spheres", "rest"): "measured: ball_3 rolls 389 mm with nothing pushed",
 }
 
 
