@@ -262,9 +262,9 @@ def round_outlines(masks, labels) -> list[RoundOutline]:
         prior = size_prior(label)
         if prior is None or prior.shape != "round" or not prior.longest_m or not prior.height_m:
             continue
-        if body_kind(label) == "vessel":
-            # an open bowl's outline is its rim with its base's front below: neither the thin cylinder nor the
-            # spheroid this cue models (read as a spheroid, a 24 cm bowl seen at 45° said 39°)
+        if body_kind(label) == "vessel" and prior.height_m > SPHEROID_ABOVE * prior.longest_m:
+            # a deep open bowl's outline is its rim with its base's front below, not the spheroid its
+            # proportions would make it here (read as one, a 24 cm bowl seen at 45° said 39°)
             continue
         thickness = prior.height_m / prior.longest_m
         found = mask_ellipse(mask) if thickness <= FLAT_RATIO else None

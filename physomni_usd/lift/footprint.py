@@ -20,7 +20,8 @@ fruit, toys, bags) that are not balls an inflated dome of their footprint
 prism of their convex hull, called a plate when it is thinner than
 ``PLATE_RATIO`` of its footprint (coins, cards, parts). Open containers
 (``sizes.body_kind`` 'vessel': bowls, pots, …) whose outline shows a rim
-above a base are hollow (``vessel.py``).
+above a base never get here: ``silhouette.py`` lifts them hollow first
+(``vessel.py``).
 """
 
 from __future__ import annotations
@@ -32,7 +33,6 @@ import numpy as np
 import trimesh
 
 from .sections import bulge, inflated_rings, loft, span_samples
-from .vessel import lift_vessel
 
 #: Cells across the footprint's ground-grid raster.
 GRID_CELLS = 256
@@ -344,9 +344,6 @@ def lift_footprint(mask: np.ndarray, camera, height_hint: float | None, prior_sh
         mesh = trimesh.creation.icosphere(subdivisions=3, radius=radius)
         mesh.apply_translation([centre[0], centre[1], base_z + radius])
         height = 2 * radius
-    elif kind == "vessel" and (vessel := lift_vessel(mask, poly_uv, camera, base_z)) is not None:
-        mesh, vessel_info = vessel
-        shape, height, source = "vessel", vessel_info.pop("height_m"), vessel_info.pop("height_source")
     elif iou >= ROUND_IOU or prior_shape == "round":
         shape = "disc" if height < 0.5 * radius else "cylinder"
         mesh = trimesh.creation.cylinder(radius=radius, height=height, sections=sections)
@@ -366,6 +363,4 @@ def lift_footprint(mask: np.ndarray, camera, height_hint: float | None, prior_sh
     contact = np.array([near[0], near[1], base_z])
     info = {"mode": "footprint", "shape": shape, "height_source": source, "circle_iou": round(iou, 3),
             "view_depression_deg": round(steep, 2)}
-    if shape == "vessel":
-        info |= vessel_info | {"height_m": round(height, 5)}
     return verts, faces, shape, contact, info

@@ -28,16 +28,12 @@ import math
 import numpy as np
 import trimesh
 
+from .footprint import on_plane
+
 #: Wall and floor thickness, as a fraction of the rim's diameter.
 WALL_RATIO = 0.04
 #: Sections around the axis.
 SECTIONS = 48
-
-
-def _plane(camera, uv: np.ndarray, z: float) -> np.ndarray:
-    d = camera.rays(uv[:, 0], uv[:, 1])
-    t = (z - camera.origin[2]) / np.where(d[:, 2] < -1e-9, d[:, 2], np.nan)
-    return camera.origin + np.where(t > 0, t, np.nan)[:, None] * d
 
 
 def _circle(points: np.ndarray) -> tuple[np.ndarray, float]:
@@ -65,7 +61,7 @@ HEIGHT_RANGE = (0.1, 1.2)
 def rim_at(poly_uv, camera, z: float):
     """(centre (2,), radius) of the circle that the outline's far half (``poly_uv`` (n, 2) pixel edges of its
     convex hull) makes on the horizontal plane at height ``z``; None where the outline misses that plane."""
-    p = _plane(camera, poly_uv, z)[:, :2]
+    p = on_plane(camera, poly_uv, z)[:, :2]
     if not np.all(np.isfinite(p)):
         return None
     away, side = _frame(camera)
@@ -88,7 +84,7 @@ def rim_from_outline(mask: np.ndarray, poly_uv: np.ndarray, camera, base_z: floa
     ys, xs = np.nonzero(mask)
     bottom = ys.max()
     u = float(np.median(xs[ys == bottom])) + 0.5
-    front = _plane(camera, np.array([[u, bottom + 1.0]]), base_z)[0, :2]
+    front = on_plane(camera, np.array([[u, bottom + 1.0]]), base_z)[0, :2]
     if not np.all(np.isfinite(front)):
         return None
 
