@@ -22,7 +22,9 @@ toy-sized. The first keyword of the table found among the words wins.
 Besides sizes, a label says what kind of body the built-in lifter should
 give an outline (:func:`body_kind`): ``organic`` things (fruit, toys, bags,
 animals) are rounded, inflated solids; ``boxy`` ones (boxes, books) have
-flat faces and square edges; the rest take what their outline says.
+flat faces and square edges; ``vessel`` ones (bowls, basins, pots, buckets,
+pans, dishes) are open containers, hollow, so what lies in them rests on
+their inner floor; the rest take what their outline says.
 """
 
 from __future__ import annotations
@@ -160,11 +162,17 @@ BOXY = frozenset({
     "box", "book", "notebook", "carton", "package", "parcel", "crate", "brick", "block", "cube", "dice", "die",
     "laptop", "keyboard", "phone", "remote", "stapler", "eraser", "lighter", "suitcase", "speaker", "monitor",
     "tv", "shelf", "bin", "cabinet", "drawer"})
+#: Keywords of open round containers: seen from above their rim, the lifter makes them hollow
+#: (``lift/vessel.py``). A tray is no such thing: it is lifted as the plate its outline shows.
+VESSEL = frozenset({"bowl", "basin", "pot", "bucket", "pan", "dish"})
 
 
 def body_kind(label: str) -> str | None:
-    """'organic', 'boxy' or None (the outline decides) for a label, from its words (a toy word makes it organic)."""
+    """'organic', 'boxy', 'vessel' or None (the outline decides) for a label, from its words (a toy word makes
+    it organic)."""
     words = set(label_words(label))
+    if words & VESSEL and not words & TOY_WORDS:
+        return "vessel"
     if words & BOXY and not words & TOY_WORDS:
         return "boxy"
     if words & ORGANIC or words & TOY_WORDS:

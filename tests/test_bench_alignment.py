@@ -39,9 +39,6 @@ KNOWN_MISSES = {
                                  "of view comes out 65° (55° true), pitch 40° (35°)",
     ("cup_saucer_spoon", "position"): "measured: the spoon 5.2 % of the camera distance off, what the 65° field of "
                                       "view (55° true) does to a direction near the photo's corner",
-    ("bowl_of_spheres", "iou"): "measured: orbited IoU 0.49 / 0.49 the bowl, 0.46-0.57 the balls",
-    ("bowl_of_spheres", "position"): "measured: the bowl 12.2 %, the balls 4.9-5.1 % of the camera distance off",
-    ("bowl_of_spheres", "rest"): "measured: ball_3 rolls 389 mm with nothing pushed",
 }
 
 

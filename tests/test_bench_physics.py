@@ -101,6 +101,10 @@ def test_scene_kinds_pick_the_substeps_the_bench_recommends():
     assert scene_kinds(apart) == ["free"]
     stacked = [_Obj((0, 0, 0), (1, 1, 1)), _Obj((0.2, 0.2, 1.0), (0.8, 0.8, 2.0))]
     assert "stacked" in scene_kinds(stacked)
+    in_a_bowl = [_Obj((0, 0, 0), (1, 1, 0.3)), _Obj((0.4, 0.4, 0.05), (0.6, 0.6, 0.25))]  # on its inner floor
+    assert "stacked" in scene_kinds(in_a_bowl)
+    side_by_side = [_Obj((0, 0, 0), (1, 1, 0.3)), _Obj((0.4, 0.4, 0.0), (0.6, 0.6, 0.25))]  # both on the ground
+    assert scene_kinds(side_by_side) == ["free"]
     assert "bouncy" in scene_kinds([_Obj((0, 0, 0), (1, 1, 1), restitution=0.8)])
     assert "drag" in scene_kinds(apart, ["drag"])
 

@@ -124,3 +124,40 @@ def test_a_box_whose_top_does_not_show_stays_a_slab():
     lifted = lift_silhouette(mask, camera, photo=photo, label="box")
     assert lifted.shape == "extrude"
     _closed(lifted)
+
+
+def test_a_bowl_seen_from_above_its_rim_is_a_hollow_vessel_of_its_true_size():
+    """The synthetic bowl (24 cm rim, 18 cm base, 6 cm deep) under its true camera: lifted open at the top, its
+    rim, base and depth within 5 % of the truth, and what lies in it meets its inner floor, not its rim."""
+    from physomni_usd.bench.synthetic import make_stack
+    from physomni_usd.lift.silhouette import fill_holes
+
+    scene = make_stack("bowl_of_spheres", 320, 240)
+    bowl = scene.labels.index("bowl")
+    mask = fill_holes(np.logical_or.reduce(scene.masks))  # the bowl with what lies in it, as amodal completion gives
+    lifted = lift_silhouette(mask, scene.camera, **_prior("bowl"), label="bowl")
+    assert lifted.shape == "vessel" and lifted.info["mode"] == "footprint"
+    mesh = _closed(lifted)
+    assert lifted.info["rim_radius_m"] == pytest.approx(0.12, rel=0.05)
+    assert lifted.info["base_radius_m"] == pytest.approx(0.09, rel=0.05)
+    assert lifted.height == pytest.approx(0.06, rel=0.05)
+    centre = 0.5 * (mesh.bounds[0] + mesh.bounds[1])
+    down, _, _ = mesh.ray.intersects_location([[centre[0], centre[1], 1.0]], [[0.0, 0.0, -1.0]])
+    floor = float(down[:, 2].max())
+    assert floor < 0.25 * lifted.height  # the first thing under the rim's middle is the inner floor
+    assert mesh.volume < 0.4 * mesh.convex_hull.volume  # open: most of its hull is the inside
+    plain = _closed(lift_silhouette(mask, scene.camera, **_prior("bowl")))  # no label: the solid it used to be
+    top, _, _ = plain.ray.intersects_location([[centre[0], centre[1], 1.0]], [[0.0, 0.0, -1.0]])
+    assert float(top[:, 2].max()) > 0.9 * float(plain.vertices[:, 2].max()) and bowl == 0
+
+
+def test_only_open_containers_are_vessels():
+    for label in ("bowl", "fruit bowl", "basin", "pot", "bucket", "pan", "dish"):
+        assert body_kind(label) == "vessel", label
+    for label in ("teapot", "tray", "cup", "toy bowl"):
+        assert body_kind(label) != "vessel", label
+
+
+def _prior(label: str) -> dict:
+    p = size_prior(label)
+    return {"height_hint": p.height_m, "prior_shape": p.shape}

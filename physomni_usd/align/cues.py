@@ -45,7 +45,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from ..sizes import size_prior
+from ..sizes import body_kind, size_prior
 from ..lift.silhouette import FLAT_PRIOR_RATIO, fill_holes
 from ..geometry.camera import HORIZON_MARGIN_DEG, MIN_AUTO_PITCH_DEG, PinholeCamera
 
@@ -261,6 +261,10 @@ def round_outlines(masks, labels) -> list[RoundOutline]:
     for i, (mask, label) in enumerate(zip(filled, labels)):
         prior = size_prior(label)
         if prior is None or prior.shape != "round" or not prior.longest_m or not prior.height_m:
+            continue
+        if body_kind(label) == "vessel" and prior.height_m > SPHEROID_ABOVE * prior.longest_m:
+            # a deep open bowl's outline is its rim with its base's front below, not the spheroid its
+            # proportions would make it here (read as one, a 24 cm bowl seen at 45° said 39°)
             continue
         thickness = prior.height_m / prior.longest_m
         found = mask_ellipse(mask) if thickness <= FLAT_RATIO else None

@@ -20,7 +20,10 @@ fruit, toys, bags) that are not balls an inflated dome of their footprint
 prism of their convex hull, called a plate when it is thinner than
 ``PLATE_RATIO`` of its footprint (coins, cards, parts). A flat thing whose
 label's typical height would stand it on its edge lies on its broadest face
-instead (:func:`lying_height`).
+instead (:func:`lying_height`). Open containers
+(``sizes.body_kind`` 'vessel': bowls, pots, …) whose outline shows a rim
+above a base never get here: ``silhouette.py`` lifts them hollow first
+(``vessel.py``).
 """
 
 from __future__ import annotations

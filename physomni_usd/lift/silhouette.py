@@ -257,11 +257,23 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
     from any view steeper than ``FLAT_FOOTPRINT_MIN_DEG``. ``photo`` (H, W, 3)
     lets a footprint take its height from the edges of its visible sides.
     ``label`` chooses the body (``sizes.body_kind``): inflated for organic
-    things, a cuboid for boxy ones.
+    things, a cuboid for boxy ones, from above a hollow vessel for open containers (``vessel.py``).
     """
     kind = body_kind(label) if label else None
     solid = fill_holes(mask)
     mode = lift_mode(solid, camera, settings, flat)
+    if mode == "footprint" and kind == "vessel":
+        from .footprint import fine_faces, outline
+        from .vessel import lift_vessel
+
+        found = lift_vessel(solid, outline(solid), camera, base_z)
+        if found is not None:
+            mesh, info = found
+            verts, faces = fine_faces(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64), camera)
+            base = verts[verts[:, 2] <= base_z + 1e-9, :2]  # the contact: the base's point nearest the camera
+            contact = np.r_[base[np.argmin(np.linalg.norm(base - camera.origin[:2], axis=1))], base_z]
+            return LiftedMesh(verts, faces, "vessel", contact, foot_pixel(solid)[1],
+                              {"mode": "footprint", "shape": "vessel"} | info)
     if mode == "footprint":
         from .footprint import lift_footprint
 

@@ -25,6 +25,7 @@ from .forces import FieldSet, body_samples
 from .mpm import bind_surface, build_mpm_scene
 from .objects import SimObject
 from .params import particle_friction
+from .pieces import add_decomposed, is_decomposed
 from .stepping import FrameGraphs, Stepper, contact_pipeline, xpbd_solver
 from .support import add_hidden_support
 
@@ -49,10 +50,15 @@ class ShotModels:
         # the stage's rigid bodies come through Newton's USD import; objects whose material now says
         # otherwise (switched by a layer over the build) are left to their own solver
         not_rigid = [o.path for o in objects if o.family != "rigid" and o.is_body]
+        # hollow bodies (a bowl) are cut into convex pieces here, not by Newton's importer (see pieces.py)
+        hollow = [o for o in objects if o.family == "rigid" and o.is_body and is_decomposed(o.prim)]
         result = builder.add_usd(stage, load_visual_shapes=False, load_sites=False, verbose=False,
                                  mesh_maxhullvert=MAX_HULL_VERTICES,
-                                 ignore_paths=[re.escape(p) + "$" for p in not_rigid] or None)
+                                 ignore_paths=[re.escape(p) + "$" for p in not_rigid]
+                                 # a pattern with '.*' is matched as such, never read as a prim path
+                                 + [re.escape(o.path) + "(/.*)?$" for o in hollow] or None)
         self.path_body = {p: b for p, b in result["path_body_map"].items() if p.startswith(OBJECTS + "/")}
+        self.path_body.update(add_decomposed(builder, hollow, newton, wp))
         self.path_body.update(_add_stand_ins(builder, [o for o in objects if o.family == "rigid"
                                                        and not o.is_body], newton, wp))
         # feet for objects whose visible geometry cannot stand where the photo shows them standing

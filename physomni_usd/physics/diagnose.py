@@ -20,6 +20,7 @@ from ..sizes import SizePrior, size_prior
 from ..metrics.geometry import world_meshes
 from ..geometry.mesh import longest_dimension
 from ..usd.author import OBJECTS
+from .pieces import convex_pieces, is_decomposed
 
 #: Sizes beyond this factor of the label's typical size are worth a warning, beyond the second an error.
 SIZE_WARN_FACTOR = 2.0
@@ -84,16 +85,19 @@ def _mass(prim: Usd.Prim, mesh) -> float | None:
     return rho * abs(float(volume))
 
 
-def _overlap_depth(a, b) -> float:
-    """Deepest vertex of ``a`` inside ``b`` or of ``b`` inside ``a`` (metres; 0 when apart)."""
+def _overlap_depth(a, b, hollow=(False, False)) -> float:
+    """Deepest vertex of ``a`` inside ``b`` or of ``b`` inside ``a`` (metres; 0 when apart); ``hollow``: whether
+    each collides as convex pieces (``pieces.py``) rather than its hull."""
     import trimesh
 
     if not (np.all(a.bounds[0] <= b.bounds[1]) and np.all(b.bounds[0] <= a.bounds[1])):
         return 0.0
     worst = 0.0
-    for x, y in ((a, b), (b, a)):
+    for x, y, cut in ((a, b, hollow[1]), (b, a, hollow[0])):
         # signed distance is only meaningful against closed meshes; convex hulls are what the solver collides
-        inside = trimesh.proximity.signed_distance(y.convex_hull, x.vertices)
+        hulls = ([trimesh.convex.convex_hull(p) for p in convex_pieces(y.vertices, y.faces)] if cut
+                 else [y.convex_hull])
+        inside = np.max([trimesh.proximity.signed_distance(h, x.vertices) for h in hulls], axis=0)
         worst = max(worst, float(inside.max()))
     return worst
 
@@ -154,7 +158,8 @@ def scene_findings(stage: Usd.Stage, time: float = 0.0) -> list[SceneFinding]:
             out.append(SceneFinding("warning", name, "ground", f"{name} floats {length(low)} above the ground", 0.5))
     for i, a in enumerate(names):
         for b in names[i + 1:]:
-            depth = _overlap_depth(meshes[a], meshes[b])
+            depth = _overlap_depth(meshes[a], meshes[b], tuple(
+                is_decomposed(stage.GetPrimAtPath(f"{OBJECTS}/{n}")) for n in (a, b)))
             if depth <= PENETRATION_WARN_M:
                 continue
             small = min(float(np.ptp(meshes[a].vertices, axis=0).min()), float(np.ptp(meshes[b].vertices, axis=0).min()))

@@ -77,7 +77,8 @@ def reachable_speed(objects, ground_z: float = 0.0) -> float:
 
 def scene_kinds(objects, field_kinds=()) -> list[str]:
     """Which kinds of :data:`RIGID_SUBSTEPS` a scene is: always 'free', plus 'drag' (a drag field),
-    'bouncy' (a rigid restitution ≥ BOUNCY) and 'stacked' (a rigid object resting on another)."""
+    'bouncy' (a rigid restitution ≥ BOUNCY) and 'stacked' (a rigid object resting on another, or inside it
+    above its bottom: in an open vessel)."""
     kinds = ["free"]
     rigid = [o for o in objects if o.family == "rigid"]
     if "drag" in field_kinds:
@@ -88,7 +89,11 @@ def scene_kinds(objects, field_kinds=()) -> list[str]:
     for i, (lo_a, hi_a) in enumerate(boxes):
         for j, (lo_b, hi_b) in enumerate(boxes):
             overlap = min(hi_a[0], hi_b[0]) > max(lo_a[0], lo_b[0]) and min(hi_a[1], hi_b[1]) > max(lo_a[1], lo_b[1])
-            if i != j and overlap and abs(lo_a[2] - hi_b[2]) < 0.01 * max(hi_b[2] - lo_b[2], 1e-3) + 1e-3:
+            tol = 0.01 * max(hi_b[2] - lo_b[2], 1e-3) + 1e-3
+            # on top of it, or inside it above its bottom (a ball on an open bowl's inner floor)
+            within = bool(np.all(lo_a[:2] >= lo_b[:2]) and np.all(hi_a[:2] <= hi_b[:2])
+                          and lo_b[2] + tol < lo_a[2] < hi_b[2])
+            if i != j and overlap and (abs(lo_a[2] - hi_b[2]) < tol or within):
                 kinds.append("stacked")
                 break
         if "stacked" in kinds:

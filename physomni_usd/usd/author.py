@@ -204,7 +204,8 @@ def write_physics_layer(path: pathlib.Path, scene_path: pathlib.Path, *, fps: fl
     """``physics.usda``: physics materials, body APIs, controls, solver settings and force fields.
 
     Objects of material ``rigid`` become UsdPhysics rigid bodies with convex-hull
-    colliders; other materials only bind their material (their solvers read it).
+    colliders (convex decomposition for open vessels, whose hull would close them);
+    other materials only bind their material (their solvers read it).
     ``extra_forces`` are ``(field, source)`` pairs kept from an earlier layer.
     """
     physics = Sdf.Layer.CreateAnonymous(".usda")
@@ -232,7 +233,10 @@ def write_physics_layer(path: pathlib.Path, scene_path: pathlib.Path, *, fps: fl
             if obj.angular_velocity is not None:
                 body.CreateAngularVelocityAttr(Gf.Vec3f(*map(float, obj.angular_velocity)))
             UsdPhysics.CollisionAPI.Apply(prim)
-            UsdPhysics.MeshCollisionAPI.Apply(prim).CreateApproximationAttr(UsdPhysics.Tokens.convexHull)
+            # an open vessel's hull would close its top: it collides as convex pieces (physics/pieces.py)
+            hollow = prim.GetCustomDataByKey("physomni:liftedShape") == "vessel"
+            UsdPhysics.MeshCollisionAPI.Apply(prim).CreateApproximationAttr(
+                UsdPhysics.Tokens.convexDecomposition if hollow else UsdPhysics.Tokens.convexHull)
             UsdPhysics.MassAPI.Apply(prim)
         elif obj.velocity is not None or obj.angular_velocity is not None:
             # UsdPhysics velocities belong to rigid bodies; other materials take the PhysOmni controls
