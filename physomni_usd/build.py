@@ -463,7 +463,7 @@ def _texture(scene: Scene, out: pathlib.Path) -> None:
         # texture coordinates: the photo projected from the camera onto the object where it was seen, and
         # a planar map for the sides it saw edge-on (lift/sides.py)
         st = corner_st(so.projected, np.asarray(f), camera, (rgba.shape[1], rgba.shape[0]), (x0, y0),
-                       mask=rgba[..., 3] > 0)
+                       mask=rgba[..., 3] > 0, open_back=so.shape == "extrude")
         rgba = two_sided_texture(rgba)
         tm = trimesh.Trimesh(v, f, process=False)
         origin = tm.center_mass if tm.is_volume else v.mean(0)
