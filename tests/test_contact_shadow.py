@@ -30,6 +30,11 @@ def test_a_ball_seen_from_above_darkens_a_ring_around_its_silhouette():
     assert dark[ring].min() > 0.15  # beside the outline: dark enough to see
     assert dark[xs > r * (1 + CONTACT_REACH) + r].max() == 0.0  # far off: none
     assert np.all(np.diff(dark) <= 1e-6)  # fading outward
+    # past a backdrop (the plane x = 0.2, facing the origin) the rays see no ground, and no shadow
+    walled = caster.darkening(origin, rays[None].astype(np.float32), weight, reach,
+                              (np.array([-1.0, 0.0, 0.0]), -0.2))[0]
+    assert np.array_equal(walled[xs < 0.19], dark[xs < 0.19]) and walled[xs > 0.21].max() == 0.0
+    assert dark[(xs > 0.21) & (xs < 0.25)].min() > 0.0  # (where, without it, there was some)
     # an object that casts nothing (in place, hidden) leaves the ground as it is
     assert caster.darkening(origin, rays[None].astype(np.float32), np.zeros(1), reach).max() == 0.0
 

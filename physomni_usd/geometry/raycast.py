@@ -74,13 +74,23 @@ def kernels():
     @wp.kernel
     def contact(meshes: wp.array(dtype=wp.uint64), weight: wp.array(dtype=wp.float32),
                 reach: wp.array(dtype=wp.float32), cutoff: float, power: float, tail: float, origin: wp.vec3,
-                rays: wp.array(dtype=wp.vec3), out: wp.array(dtype=wp.float32)):
-        # the ground point each ray meets, darkened by every weighted object by its distance to it
+                back_normal: wp.vec3, back_offset: float, rays: wp.array(dtype=wp.vec3),
+                out: wp.array(dtype=wp.float32)):
+        # the ground point each ray meets, darkened by every weighted object by its distance to it; a ray that
+        # meets the backdrop first sees no ground
         i = wp.tid()
         d = rays[i]
         lit = float(1.0)
+        t = float(-1.0)
         if d[2] < -1.0e-6 and origin[2] > 0.0:
-            g = origin + d * (-origin[2] / d[2])
+            t = -origin[2] / d[2]
+            dn = wp.dot(d, back_normal)
+            if dn < -1.0e-9:
+                t_back = (back_offset - wp.dot(origin, back_normal)) / dn
+                if t_back > 0.0 and t_back < t:
+                    t = -1.0
+        if t > 0.0:
+            g = origin + d * t
             for k in range(meshes.shape[0]):
                 if weight[k] > 0.0:
                     q = wp.mesh_query_point_no_sign(meshes[k], g, cutoff * reach[k])
@@ -219,11 +229,13 @@ class ContactCaster:
                 pts.assign(self.wp.array(points[used].astype(np.float32), dtype=self.wp.vec3, device=self.device))
                 mesh.refit()
 
-    def darkening(self, origin, rays: np.ndarray, weight: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    def darkening(self, origin, rays: np.ndarray, weight: np.ndarray, reach: np.ndarray,
+                  backdrop: tuple[np.ndarray, float] | None = None) -> np.ndarray:
         """(h, w) float32 in [0, 1): how much each ray's ground point is darkened, for rays (h, w, 3) unit world
         from ``origin`` (3,); ``weight`` (K,) each object's darkening at contact (0 casts nothing), ``reach``
-        (K,) metres (at d = reach it is down to a quarter). Rays that miss the ground get 0. Call :meth:`update`
-        first."""
+        (K,) metres (at d = reach it is down to a quarter). Rays that miss the ground, or meet the ``backdrop``
+        plane (unit normal (3,) towards the camera, offset: dot(p, normal) = offset) before it, get 0. Call
+        :meth:`update` first."""
         wp = self.wp
         _, contact = kernels()
         key = (rays.ctypes.data, rays.shape)
@@ -234,13 +246,15 @@ class ContactCaster:
             self._key = key
         if not len(self.meshes) or not np.any(weight > 0):
             return np.zeros(rays.shape[:2], np.float32)
+        normal, offset = backdrop if backdrop is not None else ((0.0, 0.0, 0.0), 0.0)
         w = wp.array(np.asarray(weight, np.float32), dtype=wp.float32, device=self.device)
         r = wp.array(np.maximum(np.asarray(reach, np.float32), 1e-6), dtype=wp.float32, device=self.device)
         wp.launch(contact, dim=self._rays.shape[0],
                   inputs=[self._ids, w, r, float(CONTACT_REACH), float(CONTACT_POWER),
-                          float((1.0 + CONTACT_REACH) ** -CONTACT_POWER), wp.vec3(*map(float, origin)), self._rays],
+                          float((1.0 + CONTACT_REACH) ** -CONTACT_POWER), wp.vec3(*map(float, origin)),
+                          wp.vec3(*map(float, normal)), float(offset), self._rays],
                   outputs=[self._out], device=self.device)
-        return self._out.numpy().reshape(rays.shape[:2])
+        return self._out.numpy().reshape(rays.shape[:2]).copy()  # the buffer is the next call's
 
 
 def covered_pixels(cam, points: np.ndarray, faces: np.ndarray) -> np.ndarray | None:

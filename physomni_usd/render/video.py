@@ -374,7 +374,9 @@ class ShotRenderer:
                 weight[k] = 0.0
         reach = self.settings.shadow_falloff * np.array([max(o.height, 1e-3) for o in self.objects])
         self.contact.update(points, weight)
-        return self.contact.darkening(cam.origin, self._shadow_rays, weight, reach)
+        env = self.environment
+        return self.contact.darkening(cam.origin, self._shadow_rays, weight, reach,
+                                      (env.backdrop_normal, env.backdrop_offset))
 
     def _moved(self, obj: np.ndarray, px: np.ndarray) -> np.ndarray:
         """(K,) per object, 0 where it is seen where the photo shows it, rising to 1 once it has moved
