@@ -74,11 +74,11 @@ def kernels():
     @wp.kernel
     def contact(meshes: wp.array(dtype=wp.uint64), weight: wp.array(dtype=wp.float32),
                 reach: wp.array(dtype=wp.float32), cutoff: float, power: float, tail: float, origin: wp.vec3,
-                back_normal: wp.vec3, back_offset: float, rays: wp.array(dtype=wp.vec3),
+                back_normal: wp.vec3, back_offset: float, rays: wp.array(dtype=wp.vec3), first: int, step: int,
                 out: wp.array(dtype=wp.float32)):
         # the ground point each ray meets, darkened by every weighted object by its distance to it; a ray that
-        # meets the backdrop first sees no ground
-        i = wp.tid()
+        # meets the backdrop first sees no ground. Thread k of a launch takes ray first + k·step.
+        i = first + wp.tid() * step
         d = rays[i]
         lit = float(1.0)
         t = float(-1.0)
@@ -221,6 +221,9 @@ class ContactCaster:
             self.meshes.append(wp.Mesh(points=pts, indices=idx))
         self._ids = wp.array(np.array([m.id for m in self.meshes], np.uint64), dtype=wp.uint64, device=device)
         self._key, self._out, self._rays = None, None, None
+        self._threads = 1 if str(device).startswith("cuda") else max(1, min(os.cpu_count() or 1, MAX_THREADS))
+        self._pool = ThreadPoolExecutor(self._threads) if self._threads > 1 else None
+        self._loaded = False
 
     def update(self, points: np.ndarray, weight: np.ndarray) -> None:
         """Move the objects with a positive ``weight`` (K,) to ``points`` (N, 3), the whole stage's, metres."""
@@ -249,11 +252,22 @@ class ContactCaster:
         normal, offset = backdrop if backdrop is not None else ((0.0, 0.0, 0.0), 0.0)
         w = wp.array(np.asarray(weight, np.float32), dtype=wp.float32, device=self.device)
         r = wp.array(np.maximum(np.asarray(reach, np.float32), 1e-6), dtype=wp.float32, device=self.device)
-        wp.launch(contact, dim=self._rays.shape[0],
-                  inputs=[self._ids, w, r, float(CONTACT_REACH), float(CONTACT_POWER),
-                          float((1.0 + CONTACT_REACH) ** -CONTACT_POWER), wp.vec3(*map(float, origin)),
-                          wp.vec3(*map(float, normal)), float(offset), self._rays],
-                  outputs=[self._out], device=self.device)
+        n = self._rays.shape[0]
+        step = self._threads if n >= 4096 else 1
+        inputs = [self._ids, w, r, float(CONTACT_REACH), float(CONTACT_POWER),
+                  float((1.0 + CONTACT_REACH) ** -CONTACT_POWER), wp.vec3(*map(float, origin)),
+                  wp.vec3(*map(float, normal)), float(offset), self._rays]
+
+        def launch(first: int) -> None:
+            wp.launch(contact, dim=(n - first + step - 1) // step, inputs=inputs + [first, step],
+                      outputs=[self._out], device=self.device)
+
+        if step > 1 and self._loaded:  # interleaved over the CPU's cores, like the primary rays
+            list(self._pool.map(launch, range(step)))
+        else:  # the first launch loads the kernel, from this thread
+            for first in range(step):
+                launch(first)
+            self._loaded = True
         return self._out.numpy().reshape(rays.shape[:2]).copy()  # the buffer is the next call's
 
 
