@@ -59,6 +59,11 @@ MASKS_SHEET = "masks.png"
 #: Texture alpha of what the complete stage painted behind an object's occluders: opaque to every
 #: renderer's cut-out, yet not 255, the alpha of the pixels the photo shows of the object.
 COMPLETED_ALPHA = 254
+#: An occluder the placed meshes put in front of the object at fewer than this fraction of the pixels where the
+#: photo shows it hiding it (:func:`~physomni_usd.align.place.occlusion_kept`) hides nothing of it: nothing is
+#: painted behind it (a big concave object's closure takes in the bench behind it; painted, that is a grey slab
+#: once it moves).
+OCCLUSION_BELIEVED = 0.5
 #: Solver defaults written to the physics layer (the physics benchmark revisits them).
 DEFAULT_SOLVER = "xpbd"
 
@@ -224,6 +229,7 @@ class Scene:
     scene_objects: list = field(default_factory=list)  # usd.author.SceneObject, by the texture stage
     config: object = None  # materials.config.SceneConfig, by the estimate stage
     physics_objects: list = field(default_factory=list)  # usd.author.PhysicsObject, by the estimate stage
+    kept: dict = field(default_factory=dict)  # (object, occluder) indices → occlusion_kept, once placed
 
     @property
     def masks(self) -> list[np.ndarray]:
@@ -413,17 +419,37 @@ def _place(scene: Scene) -> None:
 def _occlusion_report(scene: Scene) -> list[dict]:
     """Who hides whom in the photo, and how much of it the placed meshes keep (``kept``: the fraction of the
     pixels where the photo shows the one in front whose ray meets its mesh before the other's)."""
-    import trimesh
-
     out = []
     for o in scene.objects:
         for k in o.occluders:
-            front = scene.objects[k]
-            ys, xs = np.nonzero(front.mask.mask & o.amodal)
-            kept = occlusion_kept(scene.camera, trimesh.Trimesh(front.vertices, front.faces, process=False),
-                                  trimesh.Trimesh(o.vertices, o.faces, process=False), np.stack([xs, ys], 1))
-            out.append({"front": front.name, "behind": o.name, "kept": None if kept is None else round(kept, 3)})
+            kept = _kept(scene, o, k)
+            out.append({"front": scene.objects[k].name, "behind": o.name,
+                        "kept": None if kept is None else round(kept, 3)})
     return out
+
+
+def _kept(scene: Scene, o, k: int) -> float | None:
+    """:func:`occlusion_kept` of occluder ``k`` over object ``o`` (a ShotObject), measured once per build."""
+    import trimesh
+
+    key = (scene.objects.index(o), k)
+    if key not in scene.kept:
+        front = scene.objects[k]
+        ys, xs = np.nonzero(front.mask.mask & o.amodal)
+        scene.kept[key] = occlusion_kept(scene.camera, trimesh.Trimesh(front.vertices, front.faces, process=False),
+                                         trimesh.Trimesh(o.vertices, o.faces, process=False), np.stack([xs, ys], 1))
+    return scene.kept[key]
+
+
+def _painted(scene: Scene, o) -> np.ndarray:
+    """(H, W) bool: the part of ``o``'s completed outline that is painted in its texture, behind the occluders
+    the placed meshes agree are in front of it (:data:`OCCLUSION_BELIEVED`)."""
+    hidden = o.amodal & ~o.mask.mask
+    for k in o.occluders:
+        kept = _kept(scene, o, k)
+        if kept is not None and kept < OCCLUSION_BELIEVED:
+            hidden &= ~scene.objects[k].mask.mask
+    return hidden
 
 
 def _texture(scene: Scene, out: pathlib.Path) -> None:
@@ -437,12 +463,14 @@ def _texture(scene: Scene, out: pathlib.Path) -> None:
         # where others hide it, the object is painted from its own visible surface (perceive/amodal.py)
         rgba, (x0, y0) = object_texture(complete_texture(photo, o.mask, so.amodal), so.amodal)
         # drawn like the rest, but not the photo's pixels of it: renderers show the photo only at 255
-        hidden = (so.amodal & ~o.mask)[y0:y0 + rgba.shape[0], x0:x0 + rgba.shape[1]]
-        rgba[..., 3][hidden] = COMPLETED_ALPHA
+        painted = _painted(scene, so)
+        crop = (slice(y0, y0 + rgba.shape[0]), slice(x0, x0 + rgba.shape[1]))
+        rgba[..., 3][(so.amodal & ~o.mask & ~painted)[crop]] = 0  # behind what the meshes put behind it
+        rgba[..., 3][painted[crop]] = COMPLETED_ALPHA
         # texture coordinates: the photo projected from the camera onto the object where it was seen, and
         # a planar map for the sides it saw edge-on (lift/sides.py)
         st = corner_st(so.projected, np.asarray(f), camera, (rgba.shape[1], rgba.shape[0]), (x0, y0),
-                       mask=rgba[..., 3] > 0)
+                       mask=rgba[..., 3] > 0, open_back=so.shape == "extrude")
         rgba = two_sided_texture(rgba)
         tm = trimesh.Trimesh(v, f, process=False)
         origin = tm.center_mass if tm.is_volume else v.mean(0)
@@ -460,7 +488,7 @@ def _texture(scene: Scene, out: pathlib.Path) -> None:
         so.report["start"] = so.rest
         if so.occluders:
             so.report["occluded_by"] = [scene.objects[k].name for k in so.occluders]
-            so.report["completed"] = {"how": so.completion, "pixels": int((so.amodal & ~o.mask).sum())}
+            so.report["completed"] = {"how": so.completion, "pixels": int(painted.sum())}
     _write_png(out / TEXTURES / "plate.png", scene.plate)
     _write_png(out / TEXTURES / WIDE_PLATE, scene.wide_plate)
     _write_png(out / MASKS_SHEET, contact_sheet(photo, [o.mask for o in scene.objects],

@@ -91,10 +91,12 @@ class SimulateSettings(_Settings):
 
 
 class RenderSettings(_Settings):
-    shadow_strength: float = Field(0.45, ge=0.0, le=1.0, description="Darkening right under an object's contact.")
-    shadow_falloff: float = Field(0.15, gt=0.0, le=10.0,
-                                  description="Height above the ground, as a fraction of the object's size, "
-                                              "at which its shadow has faded to 1/e.")
+    shadow_strength: float = Field(0.6, ge=0.0, le=1.0,
+                                   description="Darkening of the ground where a moved object touches it.")
+    shadow_falloff: float = Field(0.5, gt=0.0, le=10.0,
+                                  description="Reach of a contact shadow, as a fraction of the object's height: "
+                                              "a ground point this far from the object's surface (beside or "
+                                              "under it) is darkened a quarter as much as at contact.")
     shadow_blur: float = Field(0.012, ge=0.0, le=0.2, description="Shadow softness, fraction of the image diagonal.")
     quality: int = Field(9, ge=1, le=10, description="H.264 quality, 10 is best.")
     max_size: int = Field(1920, ge=64, le=8192,

@@ -96,9 +96,11 @@ def plate_holes(renderer, masks: list[np.ndarray | None]) -> list[np.ndarray | N
     return out
 
 
-def revealed_figures(renderer, image: np.ndarray, state) -> list[dict]:
+def revealed_figures(renderer, image: np.ndarray, state, unshaded: np.ndarray | None = None) -> list[dict]:
     """The figures of the module's docstring for each object whose part of the plate (:func:`plate_holes`)
-    ``image`` (a frame of ``renderer``, rendered from ``state``) shows with no object in front of it."""
+    ``image`` (a frame of ``renderer``, rendered from ``state``) shows with no object in front of it.
+    ``unshaded``, the same frame rendered without contact shadows, tells where the frame shows the photo: a
+    moved object's shadow over one still in place darkens the photo there, and reveals nothing of its plate."""
     h, w = image.shape[:2]
     masks = plate_holes(renderer, photo_masks(renderer))
     placed = [m for m in masks if m is not None]
@@ -108,7 +110,8 @@ def revealed_figures(renderer, image: np.ndarray, state) -> list[dict]:
     near_now = cv2.dilate(now.astype(np.uint8), _disk(3)) > 0  # and its edge's own gradient
     photo = getattr(renderer, "photo", None)
     # where the frame still shows the photo (an object in place), nothing was revealed
-    as_photo = (np.abs(image.astype(np.float32) - photo).max(-1) <= 1.5 if photo is not None
+    shown = image if unshaded is None else unshaded
+    as_photo = (np.abs(shown.astype(np.float32) - photo).max(-1) <= 1.5 if photo is not None
                 else np.zeros((h, w), bool))
     photo_any = cv2.dilate(np.any(placed, axis=0).astype(np.uint8), _disk(2)) > 0
     grey = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY).astype(np.float32)
@@ -361,12 +364,13 @@ def look_example(example: pathlib.Path, work: pathlib.Path, size: int, seconds: 
     frame0 = renderer.frame(float(start))
     middle = renderer.frame(float((start + end) // 2))
     last, state = renderer.render(float(end))
+    unshaded = ShotRenderer(stage, RenderSettings(max_size=size, shadow_strength=0.0)).frame(float(end))
     photo = cv2.cvtColor(cv2.imread(str(example / spec["photo"])), cv2.COLOR_BGR2RGB)
     small = cv2.resize(photo, frame0.shape[1::-1], interpolation=cv2.INTER_AREA)
     figures = {"example": example.name, "frames": end - start + 1, "width": renderer.width,
                "height": renderer.height, "push": spec.get("push", []),
                "frame0_psnr_db": round(float(cv2.PSNR(frame0, small)), 2),
-               "revealed": revealed_figures(renderer, last, state)}
+               "revealed": revealed_figures(renderer, last, state, unshaded)}
     opening = preview_opening(result.shot) if browser else None
     if opening is not None:
         o = cv2.resize(opening, photo.shape[1::-1], interpolation=cv2.INTER_AREA)

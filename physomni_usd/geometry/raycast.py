@@ -1,4 +1,4 @@
-"""warp kernels of the renderer: primary rays with alpha cut-out, and vertical shadow rays.
+"""warp kernels of the renderer: primary rays with alpha cut-out, and contact shadows on the ground.
 
 The primary kernel runs over a list of the image's pixels (those the objects' projected triangles may cover;
 no other ray can hit them) and also returns each hit's barycentric coordinates, from which the control passes take the
@@ -20,6 +20,12 @@ from .._warp import load_warp
 MAX_LAYERS = 8
 #: CPU threads casting primary rays at once (at most the machine's cores).
 MAX_THREADS = 8
+#: A contact shadow is looked for this many of its reaches from the object (beyond, (1 + 5)⁻² < 3 % of it).
+CONTACT_REACH = 5.0
+#: A contact shadow fades as (1 + distance / reach)^−CONTACT_POWER: a sphere's ambient occlusion falls with the
+#: cube of the distance to its centre; a square leaves the ring around a ball seen from above (where a cube's
+#: shadow is hidden under it) dark enough to read, and is what the renderer and its docs use.
+CONTACT_POWER = 2.0
 
 
 @lru_cache(maxsize=1)
@@ -66,21 +72,35 @@ def kernels():
             travelled = travelled + q.t + 1.0e-5
 
     @wp.kernel
-    def shadow(mesh: wp.uint64, origin: wp.vec3, rays: wp.array(dtype=wp.vec3), max_h: float,
-               out_h: wp.array(dtype=wp.float32), out_face: wp.array(dtype=wp.int32)):
-        i = wp.tid()
+    def contact(meshes: wp.array(dtype=wp.uint64), weight: wp.array(dtype=wp.float32),
+                reach: wp.array(dtype=wp.float32), cutoff: float, power: float, tail: float, origin: wp.vec3,
+                back_normal: wp.vec3, back_offset: float, rays: wp.array(dtype=wp.vec3), first: int, step: int,
+                out: wp.array(dtype=wp.float32)):
+        # the ground point each ray meets, darkened by every weighted object by its distance to it; a ray that
+        # meets the backdrop first sees no ground. Thread k of a launch takes ray first + k·step.
+        i = first + wp.tid() * step
         d = rays[i]
-        out_h[i] = -1.0
-        out_face[i] = -1
-        if d[2] < -1.0e-6:
+        lit = float(1.0)
+        t = float(-1.0)
+        if d[2] < -1.0e-6 and origin[2] > 0.0:
             t = -origin[2] / d[2]
-            g = origin + d * t + wp.vec3(0.0, 0.0, 1.0e-4)
-            q = wp.mesh_query_ray(mesh, g, wp.vec3(0.0, 0.0, 1.0), max_h)
-            if q.result:
-                out_h[i] = q.t
-                out_face[i] = q.face
+            dn = wp.dot(d, back_normal)
+            if dn < -1.0e-9:
+                t_back = (back_offset - wp.dot(origin, back_normal)) / dn
+                if t_back > 0.0 and t_back < t:
+                    t = -1.0
+        if t > 0.0:
+            g = origin + d * t
+            for k in range(meshes.shape[0]):
+                if weight[k] > 0.0:
+                    q = wp.mesh_query_point_no_sign(meshes[k], g, cutoff * reach[k])
+                    if q.result:
+                        p = wp.mesh_eval_position(meshes[k], q.face, q.u, q.v)
+                        gap = 1.0 + wp.length(p - g) / reach[k]
+                        lit = lit * (1.0 - weight[k] * (wp.pow(gap, -power) - tail))
+        out[i] = 1.0 - lit
 
-    return primary, shadow
+    return primary, contact
 
 
 class RayCaster:
@@ -114,33 +134,27 @@ class RayCaster:
         self.points.assign(self.wp.array(points.astype(np.float32), dtype=self.wp.vec3, device=self.device))
         self.mesh.refit()
 
-    def cast(self, origin, rays: np.ndarray, shadow_rays: np.ndarray, max_t: float, max_shadow: float,
-             pixels: np.ndarray | None = None):
-        """Per pixel of ``rays``: face index (−1 for none) and atlas pixel coordinates; per pixel of
-        ``shadow_rays`` (a coarser grid, shadows are soft): height of the object above the ground seen there.
+    def cast(self, origin, rays: np.ndarray, max_t: float, pixels: np.ndarray | None = None):
+        """Per pixel of ``rays``: face index (−1 for none) and atlas pixel coordinates.
 
         ``pixels`` (P,) int32 flat indices into ``rays``: the only pixels whose rays can hit anything (see
         :func:`covered_pixels`); the others are "no hit" without being cast. None casts every ray. :attr:`depth` then holds each pixel's
         distance along its ray to the surface seen (``max_t`` for none), :attr:`mesh_face` and
         :attr:`mesh_depth` the first face on each ray and its distance whatever the texture's alpha there,
         :attr:`bary` (H, W, 2) the barycentric (u, v) on that face (the point is u·p0 + v·p1 + (1 − u − v)·p2;
-        undefined where nothing is hit), :attr:`shadow_face` the face above each shadow pixel
-        (−1 for none). These are views of the caster's buffers, valid until the next cast."""
+        undefined where nothing is hit). These are views of the caster's buffers, valid until the next cast."""
         wp = self.wp
-        primary, shadow = kernels()
-        key = (rays.ctypes.data, rays.shape, shadow_rays.ctypes.data, shadow_rays.shape)
+        primary, _ = kernels()
+        key = (rays.ctypes.data, rays.shape)
         if self._key != key:
-            n, m = rays.shape[0] * rays.shape[1], shadow_rays.shape[0] * shadow_rays.shape[1]
+            n = rays.shape[0] * rays.shape[1]
             self._rays = wp.array(rays.reshape(-1, 3), dtype=wp.vec3, device=self.device)
-            self._shadow_rays = wp.array(shadow_rays.reshape(-1, 3), dtype=wp.vec3, device=self.device)
             self._px = wp.zeros(n, dtype=wp.vec2, device=self.device)
             self._face = wp.zeros(n, dtype=wp.int32, device=self.device)
             self._depth = wp.zeros(n, dtype=wp.float32, device=self.device)
             self._bary = wp.zeros(n, dtype=wp.vec2, device=self.device)
             self._mesh_face = wp.zeros(n, dtype=wp.int32, device=self.device)
             self._mesh_depth = wp.zeros(n, dtype=wp.float32, device=self.device)
-            self._h = wp.zeros(m, dtype=wp.float32, device=self.device)
-            self._shadow_face = wp.zeros(m, dtype=wp.int32, device=self.device)
             self._key = key
         shape = rays.shape[:2]
         if pixels is None:
@@ -167,15 +181,94 @@ class RayCaster:
                 if c.shape[0]:
                     launch(c)
             self._loaded = True
-        wp.launch(shadow, dim=self._shadow_rays.shape[0], inputs=[self.mesh.id, o, self._shadow_rays,
-                                                                   float(max_shadow)],
-                  outputs=[self._h, self._shadow_face], device=self.device)
         self.depth = self._depth.numpy().reshape(shape)
         self.mesh_face = self._mesh_face.numpy().reshape(shape)
         self.mesh_depth = self._mesh_depth.numpy().reshape(shape)
         self.bary = self._bary.numpy().reshape(shape + (2,))
-        self.shadow_face = self._shadow_face.numpy().reshape(shadow_rays.shape[:2])
-        return self._face.numpy().reshape(shape), self._px.numpy().reshape(shape + (2,)), self._h.numpy().reshape(shadow_rays.shape[:2])
+        return self._face.numpy().reshape(shape), self._px.numpy().reshape(shape + (2,))
+
+
+def contact_falloff(gap: np.ndarray) -> np.ndarray:
+    """Fraction of a contact shadow left at ``gap`` = distance to the object's surface / its reach (any shape):
+    (1 + gap)^−:data:`CONTACT_POWER`, less its value at :data:`CONTACT_REACH`, so that it ends at 0 there
+    without a step. The contact kernel computes the same."""
+    g = np.asarray(gap, np.float64)
+    tail = (1.0 + CONTACT_REACH) ** -CONTACT_POWER
+    return np.where(g < CONTACT_REACH, (1.0 + g) ** -CONTACT_POWER - tail, 0.0)
+
+
+class ContactCaster:
+    """Soft contact shadows on the ground (z = 0): one BVH per object, so that each object darkens the ground
+    by its own distance to it, whichever object is nearer; points are updated each frame like the ray caster's.
+
+    The darkening of a ground point by object k is ``weight[k] · contact_falloff(d / reach[k])``, d the distance in
+    metres from the point to the object's nearest surface: ambient-occlusion-like, strongest where the object
+    touches the ground, fading both with the gap beneath it (height) and with distance beside it, whatever the
+    light. Several objects combine as independent occluders: 1 − Π(1 − darkening)."""
+
+    def __init__(self, points: np.ndarray, faces: np.ndarray, face_object: np.ndarray, device: str):
+        wp = load_warp()
+        self.wp = wp
+        self.device = device
+        self._vertices, self._points, self.meshes = [], [], []
+        for k in range(int(face_object.max()) + 1 if len(face_object) else 0):
+            f = faces[face_object == k]
+            used = np.unique(f)  # this object's vertices, in the order of the whole stage's points
+            self._vertices.append(used)
+            pts = wp.array(points[used].astype(np.float32), dtype=wp.vec3, device=device)
+            idx = wp.array(np.searchsorted(used, f).astype(np.int32).ravel(), dtype=wp.int32, device=device)
+            self._points.append(pts)
+            self.meshes.append(wp.Mesh(points=pts, indices=idx))
+        self._ids = wp.array(np.array([m.id for m in self.meshes], np.uint64), dtype=wp.uint64, device=device)
+        self._key, self._out, self._rays = None, None, None
+        self._threads = 1 if str(device).startswith("cuda") else max(1, min(os.cpu_count() or 1, MAX_THREADS))
+        self._pool = ThreadPoolExecutor(self._threads) if self._threads > 1 else None
+        self._loaded = False
+
+    def update(self, points: np.ndarray, weight: np.ndarray) -> None:
+        """Move the objects with a positive ``weight`` (K,) to ``points`` (N, 3), the whole stage's, metres."""
+        for k, (used, pts, mesh) in enumerate(zip(self._vertices, self._points, self.meshes)):
+            if weight[k] > 0.0:
+                pts.assign(self.wp.array(points[used].astype(np.float32), dtype=self.wp.vec3, device=self.device))
+                mesh.refit()
+
+    def darkening(self, origin, rays: np.ndarray, weight: np.ndarray, reach: np.ndarray,
+                  backdrop: tuple[np.ndarray, float] | None = None) -> np.ndarray:
+        """(h, w) float32 in [0, 1): how much each ray's ground point is darkened, for rays (h, w, 3) unit world
+        from ``origin`` (3,); ``weight`` (K,) each object's darkening at contact (0 casts nothing), ``reach``
+        (K,) metres (at d = reach it is down to a quarter). Rays that miss the ground, or meet the ``backdrop``
+        plane (unit normal (3,) towards the camera, offset: dot(p, normal) = offset) before it, get 0. Call
+        :meth:`update` first."""
+        wp = self.wp
+        _, contact = kernels()
+        key = (rays.ctypes.data, rays.shape)
+        if key != self._key:
+            self._rays = wp.array(np.ascontiguousarray(rays.reshape(-1, 3), np.float32), dtype=wp.vec3,
+                                  device=self.device)
+            self._out = wp.zeros(self._rays.shape[0], dtype=wp.float32, device=self.device)
+            self._key = key
+        if not len(self.meshes) or not np.any(weight > 0):
+            return np.zeros(rays.shape[:2], np.float32)
+        normal, offset = backdrop if backdrop is not None else ((0.0, 0.0, 0.0), 0.0)
+        w = wp.array(np.asarray(weight, np.float32), dtype=wp.float32, device=self.device)
+        r = wp.array(np.maximum(np.asarray(reach, np.float32), 1e-6), dtype=wp.float32, device=self.device)
+        n = self._rays.shape[0]
+        step = self._threads if n >= 4096 else 1
+        inputs = [self._ids, w, r, float(CONTACT_REACH), float(CONTACT_POWER),
+                  float((1.0 + CONTACT_REACH) ** -CONTACT_POWER), wp.vec3(*map(float, origin)),
+                  wp.vec3(*map(float, normal)), float(offset), self._rays]
+
+        def launch(first: int) -> None:
+            wp.launch(contact, dim=(n - first + step - 1) // step, inputs=inputs + [first, step],
+                      outputs=[self._out], device=self.device)
+
+        if step > 1 and self._loaded:  # interleaved over the CPU's cores, like the primary rays
+            list(self._pool.map(launch, range(step)))
+        else:  # the first launch loads the kernel, from this thread
+            for first in range(step):
+                launch(first)
+            self._loaded = True
+        return self._out.numpy().reshape(rays.shape[:2]).copy()  # the buffer is the next call's
 
 
 def covered_pixels(cam, points: np.ndarray, faces: np.ndarray) -> np.ndarray | None:

@@ -120,12 +120,23 @@ def _over_background(corners: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return inside & (far[y, x] > limit)
 
 
+def _clear_texel(mask: np.ndarray) -> tuple[int, int] | None:
+    """(x, y) of a crop pixel that is transparent together with its eight neighbours (so that a renderer's
+    bilinear sample there is transparent), the one farthest from ``mask`` (h, w) bool; None where there is none."""
+    if mask.all() or min(mask.shape) < 3:
+        return None
+    far = cv2.distanceTransform(np.pad(~mask, 1, constant_values=False).astype(np.uint8), cv2.DIST_L2, 3)[1:-1, 1:-1]
+    y, x = np.unravel_index(int(np.argmax(far)), far.shape)
+    return (int(x), int(y)) if far[y, x] >= 2.0 else None
+
+
 def corner_st(points: np.ndarray, faces: np.ndarray, camera, texture_size: tuple[int, int],
-              origin: tuple[int, int], mask: np.ndarray | None = None) -> np.ndarray:
+              origin: tuple[int, int], mask: np.ndarray | None = None, open_back: bool = False) -> np.ndarray:
     """(F·3, 2) faceVarying ``st`` into a :func:`two_sided_texture`, for world ``points`` (N, 3) as the photo
     saw them and triangles ``faces`` (F, 3); ``texture_size`` (w, h) of the photo crop at photo pixel
     ``origin`` (x0, y0). With the crop's ``mask`` (h, w) bool, edge-on faces that the photo shows as
-    background (:data:`GAP_FRACTION`) keep the projection, transparent there."""
+    background (:data:`GAP_FRACTION`) keep the projection, transparent there; with ``open_back`` too, the
+    faces turned away from the photo's camera all take a transparent texel of the crop (:func:`_clear_texel`)."""
     w, h = texture_size
     x0, y0 = origin
     uv, depth = camera.project(points)
@@ -143,6 +154,14 @@ def corner_st(points: np.ndarray, faces: np.ndarray, camera, texture_size: tuple
     st = np.empty((len(faces), 3, 2))
     st[..., 0] = corners[..., 0] / (2.0 * w)
     st[..., 1] = 1.0 - corners[..., 1] / h
+    clear = _clear_texel(mask) if open_back and mask is not None else None
+    if clear is not None:
+        # a slab's back is its outline again one depth behind: projected, it repeats the front's picture there
+        # (a second front wheel beside the first once a camera orbits); open, the orbit sees through the front's
+        # cut-outs to what lies behind, and the walls along the rim close the solid
+        back = np.einsum("ij,ij->i", n, to_cam) <= -EDGE_ON
+        st[back, :, 0] = (clear[0] + 0.5) / (2.0 * w)
+        st[back, :, 1] = 1.0 - (clear[1] + 0.5) / h
     if edge_on.any():
         # the planar map: the face's own horizontal and vertical directions, at the object's pixel density,
         # centred on the middle of the opaque copy
