@@ -18,6 +18,22 @@ from functools import lru_cache
 _NO_DRIVER = "Could not find or load the NVIDIA CUDA driver"
 
 
+@contextmanager
+def _kernels_defined():
+    """Python's cycle collector paused while modules define warp's built-ins and kernels, and what they made
+    moved out of its reach afterwards. Each kernel's definition parses its function's source into many
+    small objects that live as long as the process; the collector otherwise walks them all on every pass
+    during the import, the run and the interpreter's exit (seconds of CPU for Newton's kernels)."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        gc.freeze()
+        if enabled:
+            gc.enable()
+
+
 @lru_cache(maxsize=1)
 def load_warp():
     """The initialised ``warp`` module, printing errors only.
@@ -26,7 +42,8 @@ def load_warp():
     our progress output, so initialisation runs with the process's stdout and
     stderr captured; anything else it prints is passed on to stderr.
     """
-    import warp as wp
+    with _kernels_defined():
+        import warp as wp
 
     wp.config.log_level = getattr(wp, "LOG_ERROR", wp.config.log_level)
     wp.config.quiet = True
@@ -82,22 +99,6 @@ class _Deferred(importlib.abc.MetaPathFinder):
         if spec is not None and spec.loader is not None:
             spec.loader = importlib.util.LazyLoader(spec.loader)
         return spec
-
-
-@contextmanager
-def _kernels_defined():
-    """Python's cycle collector paused while modules define warp kernels, and what they made moved out of
-    its reach afterwards. Each kernel's definition parses its function's source into many small objects
-    that live as long as the process; the collector otherwise walks them all on every pass during the
-    import, the run and the interpreter's exit (seconds of CPU for Newton's kernels)."""
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        gc.freeze()
-        if enabled:
-            gc.enable()
 
 
 @lru_cache(maxsize=1)
