@@ -1164,10 +1164,12 @@ def bench_preview_command(quick, json_path):
     \b
     Prints, in one run: the preview loop's rate (step, read back, publish; unpaced) for 1, 5, 10 and
     20 rigid boxes with a headless chromium attached where one is installed (/usr/bin/chromium and
-    playwright), the same for 20 boxes without the graph capture, simulate's seconds per simulated
-    second on ten boxes (as it runs, and its step captured as one graph a frame), and Genesis's on the
-    same ten boxes at 30 fps × 8 substeps when genesis-world is installed (pip install
-    'physomni-usd[peer]'), with the ratio. Each measurement runs in a fresh interpreter.
+    playwright), the same for 20 boxes without the graph capture; for ten boxes dropped and ten at rest,
+    simulate's stepping, the whole simulate call (the first in a process and repeated ones) and the
+    `physomni-usd simulate` command, each as a multiple of its stepping (target: the call within 3×),
+    with the load average; and `bench peer`'s ten boxes at rest against Genesis when genesis-world is
+    installed (pip install 'physomni-usd[peer]'; target: ours ≥ 1.5× Genesis). Each measurement runs
+    in a fresh interpreter.
 
     \b
     Example:
