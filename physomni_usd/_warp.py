@@ -23,8 +23,10 @@ def _kernels_defined():
     """Python's cycle collector paused while modules define warp's built-ins and kernels, and what they made
     moved out of its reach afterwards. Each kernel's definition parses its function's source into many
     small objects that live as long as the process; the collector otherwise walks them all on every pass
-    during the import, the run and the interpreter's exit (seconds of CPU for Newton's kernels)."""
+    during the import, the run and the interpreter's exit (seconds of CPU for Newton's kernels). Garbage
+    left before (a long process's earlier shots) is collected first, so that it is not frozen with them."""
     enabled = gc.isenabled()
+    gc.collect()
     gc.disable()
     try:
         yield
