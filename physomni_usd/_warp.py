@@ -1,14 +1,39 @@
-"""One place that imports warp: quietly, and with the device picked the same way for every stage."""
+"""One place that imports warp and Newton: warp quietly, with the device picked the same way for every
+stage; Newton without the parts no stage uses, and both without Python's cycle collector walking, again
+and again, the objects their kernels are defined as."""
 
 from __future__ import annotations
 
+import gc
+import importlib.abc
+import importlib.machinery
+import importlib.util
 import os
 import sys
 import tempfile
+from contextlib import contextmanager
 from functools import lru_cache
 
 #: What warp's native library prints on every start of a machine without a GPU; not news to a CPU user.
 _NO_DRIVER = "Could not find or load the NVIDIA CUDA driver"
+
+
+@contextmanager
+def _kernels_defined():
+    """Python's cycle collector paused while modules define warp's built-ins and kernels, and what they made
+    moved out of its reach afterwards. Each kernel's definition parses its function's source into many
+    small objects that live as long as the process; the collector otherwise walks them all on every pass
+    during the import, the run and the interpreter's exit (seconds of CPU for Newton's kernels). Garbage
+    left before (a long process's earlier shots) is collected first, so that it is not frozen with them."""
+    enabled = gc.isenabled()
+    gc.collect()
+    gc.disable()
+    try:
+        yield
+    finally:
+        gc.freeze()
+        if enabled:
+            gc.enable()
 
 
 @lru_cache(maxsize=1)
@@ -19,7 +44,8 @@ def load_warp():
     our progress output, so initialisation runs with the process's stdout and
     stderr captured; anything else it prints is passed on to stderr.
     """
-    import warp as wp
+    with _kernels_defined():
+        import warp as wp
 
     wp.config.log_level = getattr(wp, "LOG_ERROR", wp.config.log_level)
     wp.config.quiet = True
@@ -52,3 +78,50 @@ def pick_device(requested: str | None = None) -> str:
     if requested:
         return requested
     return "cuda:0" if wp.is_cuda_available() else "cpu"
+
+
+#: Newton's public submodules that no stage uses (actuators, controllers, inverse kinematics, selection,
+#: sensors, its USD helpers and utilities, its viewer). ``import newton`` imports them all, defining a few
+#: hundred warp kernels; they are imported on first use instead, as Newton already does for its solvers.
+NEWTON_DEFERRED = ("newton.actuators", "newton.controllers", "newton.ik", "newton.selection", "newton.sensors",
+                   "newton.usd", "newton.utils", "newton.viewer")
+
+
+class _Deferred(importlib.abc.MetaPathFinder):
+    """Finds the modules ``names`` as the path finder does, but loads each on its first attribute access
+    (:class:`importlib.util.LazyLoader`)."""
+
+    def __init__(self, names):
+        self.names = frozenset(names)
+
+    def find_spec(self, name, path, target=None):
+        if name not in self.names:
+            return None
+        spec = importlib.machinery.PathFinder.find_spec(name, path)
+        if spec is not None and spec.loader is not None:
+            spec.loader = importlib.util.LazyLoader(spec.loader)
+        return spec
+
+
+@lru_cache(maxsize=1)
+def load_newton():
+    """The ``newton`` module, imported after warp (see :func:`load_warp`), its
+    :data:`NEWTON_DEFERRED` submodules loaded on first use."""
+    load_warp()
+    finder = _Deferred(NEWTON_DEFERRED)
+    sys.meta_path.insert(0, finder)
+    try:
+        with _kernels_defined():
+            import newton
+    finally:
+        sys.meta_path.remove(finder)
+    return newton
+
+
+@lru_cache(maxsize=None)
+def newton_solver(name: str):
+    """Newton's solver class ``name`` (``"SolverXPBD"``, ``"SolverImplicitMPM"``): Newton imports each
+    solver's module, and so defines its kernels, on first use; here under the same pause of the collector."""
+    newton = load_newton()
+    with _kernels_defined():
+        return getattr(newton.solvers, name)

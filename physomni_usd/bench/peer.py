@@ -15,11 +15,11 @@ import statistics
 import tempfile
 import time
 
+from .scenes import BOX, BOX_DENSITY, box, boxes_at_rest  # noqa: F401 (the cases' scenes)
+
 #: The cases, in the order they run; ``--only`` takes these names.
 CASES = ("boxes_at_rest", "box_pile", "sand_column")
-#: Box edge (m) and density (kg/m³) of every box case; the sand column's size (m) and material.
-BOX = 0.2
-BOX_DENSITY = 500.0
+#: The sand column's size (m) and material.
 SAND_SIZE = (0.1, 0.1, 0.2)
 SAND_MATERIAL = "mpm_sand"
 #: Genesis's explicit MPM warns above a substep of this many grid cells' worth of seconds (2e-2·dx, its
@@ -34,9 +34,16 @@ def genesis_available() -> bool:
     return importlib.util.find_spec("genesis") is not None
 
 
-def boxes_at_rest(n: int = 10) -> list:
-    """``n`` boxes (0.2 m, 500 kg/m³) standing on the ground five to a row, 0.4 m apart."""
-    return [_box(f"box_{i}", ((i % 5) * 0.4 - 0.8, (i // 5) * 0.4, BOX / 2)) for i in range(n)]
+def start_genesis():
+    """The ``genesis`` module, started on its CPU backend once in this process (warp started first, quietly)."""
+    import genesis as gs
+
+    from .._warp import load_warp
+
+    load_warp()
+    if not getattr(gs, "_initialized", False):
+        gs.init(backend=gs.cpu, logging_level="warning")
+    return gs
 
 
 def box_pile(n: int = 20) -> list:
@@ -47,7 +54,7 @@ def box_pile(n: int = 20) -> list:
     for i in range(n):
         k = i // len(layer)
         x, y = layer[i % len(layer)]
-        out.append(_box(f"box_{i}", (x + 0.07 * k, y + 0.05 * k, BOX / 2 + 0.05 + 0.3 * k)))
+        out.append(box(f"box_{i}", (x + 0.07 * k, y + 0.05 * k, BOX / 2 + 0.05 + 0.3 * k)))
     return out
 
 
@@ -60,16 +67,6 @@ def sand_column() -> list:
     column = trimesh.creation.box(SAND_SIZE)
     column.apply_translation((0.0, 0.0, SAND_SIZE[2] / 2))
     return [BenchObject("sand", column, SAND_MATERIAL, {})]
-
-
-def _box(name: str, centre) -> object:
-    import trimesh
-
-    from .scenes import BenchObject
-
-    box = trimesh.creation.box((BOX, BOX, BOX))
-    box.apply_translation(centre)
-    return BenchObject(name, box, "rigid", {"density": BOX_DENSITY})
 
 
 class Ours:
@@ -154,6 +151,7 @@ def _host(x):
 def run_case(name: str, repeats: int = 3, seconds: float = 2.0, echo=lambda m: None) -> dict:
     """One case on both engines in this process: each run once untimed, then ``repeats`` timed runs
     alternating ours and Genesis's. Returns both sides' seconds per simulated second and the ratios."""
+    start_genesis()
     objects = {"boxes_at_rest": boxes_at_rest, "box_pile": box_pile, "sand_column": sand_column}[name]()
     with tempfile.TemporaryDirectory() as tmp:
         ours = Ours(pathlib.Path(tmp), objects, seconds)
@@ -192,28 +190,23 @@ def bench_peer(only=(), repeats: int = 3, seconds: float = 2.0, echo=print) -> d
     if not genesis_available():
         echo(INSTALL)
         return {"genesis": None}
-    import genesis as gs
-
-    from .._warp import load_warp
-
-    load_warp()
+    gs = start_genesis()
     load = os.getloadavg()
     echo(f"machine: {machine()}; load average {', '.join(f'{x:.2f}' for x in load)}; Genesis {gs.__version__} "
          "(CPU backend)")
     echo(f"timed: {seconds:g} simulated seconds a run; ours = simulate_shot's stepping (the guarded loop with "
          "its checks and recording), Genesis = scene.step() at the same fps and substeps; both sides' build, "
          f"compiling and first run untimed; {repeats} runs each, alternating")
-    gs.init(backend=gs.cpu, logging_level="warning")
     rows = []
     for name in only or CASES:
         r = run_case(name, repeats, seconds, echo)
         rows.append(r)
-        echo(_line(r))
+        echo(case_line(r))
     return {"genesis": gs.__version__, "load_average": load, "simulated_seconds": seconds, "repeats": repeats,
             "cases": rows}
 
 
-def _line(r: dict) -> str:
+def case_line(r: dict) -> str:
     o, g, q = r["ours"], r["genesis"], r["ratio"]
     what = (f"{r['objects']} rigid, {o['substeps']} substeps a frame both" if o["particles"] is None else
             f"{o['particles']} particles ours, {g['particles']} Genesis; MPM steps a frame {o['mpm_steps']} ours, "

@@ -1,6 +1,7 @@
 """``bench preview``: the live preview's loop (step, read back, publish) on shots of 1 to 20 rigid boxes,
-with a headless browser attached where one is installed; ``simulate``'s cost on ten boxes; and Genesis's
-on the same ten boxes at the same settings, when ``genesis-world`` is installed (the ``peer`` extra)."""
+with a headless browser attached where one is installed; ``simulate``'s cost on ten boxes, the whole call
+and the command against its stepping (:mod:`.ten_objects`); and ``bench peer``'s ten boxes at rest against
+Genesis, when ``genesis-world`` is installed (the ``peer`` extra)."""
 
 from __future__ import annotations
 
@@ -12,21 +13,8 @@ import threading
 #: Where the bench looks for a browser to attach (Debian's chromium; Playwright's own download is not needed).
 CHROMIUM = "/usr/bin/chromium"
 BROWSER_ARGS = ["--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox"]
-
-
-def boxes(n: int) -> list:
-    """``n`` 0.2 m boxes (500 kg/m³) dropped from 0.3 m up, five to a row 0.4 m apart — for ten, the same
-    boxes as ``bench physics``' ten objects and the Genesis comparison."""
-    import trimesh
-
-    from .scenes import BenchObject
-
-    out = []
-    for i in range(n):
-        box = trimesh.creation.box((0.2, 0.2, 0.2))
-        box.apply_translation(((i % 5) * 0.4 - 0.8, (i // 5) * 0.4, 0.3 + 0.05 * i))
-        out.append(BenchObject(f"box_{i}", box, "rigid", {"density": 500.0}))
-    return out
+#: TARGETS.md: ``simulate``'s stepping as it runs at least this many times as fast as Genesis's on ten boxes.
+GENESIS_TARGET = 1.5
 
 
 def browser_available() -> bool:
@@ -89,13 +77,13 @@ def preview_rate(n: int, seconds: float = 9.0, browser: bool = True, capture: bo
     import socket
 
     from ..preview.app import Options, Preview
-    from .scenes import write_bench_shot
+    from .scenes import falling_boxes, write_bench_shot
 
     with tempfile.TemporaryDirectory() as tmp, socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
         s.close()
-        shot = write_bench_shot(pathlib.Path(tmp), boxes(n), forces=stirred(n))
+        shot = write_bench_shot(pathlib.Path(tmp), falling_boxes(n), forces=stirred(n))
         said = []
         preview = Preview(shot, Options(port=port, duration=None, paced=False, open_browser=False,
                                         capture=capture, echo=said.append, report_every=2.0))
@@ -123,10 +111,10 @@ def stepping_ten_boxes(capture: bool = True, seconds: float = 2.0) -> dict:
     """``simulate``'s own model and schedule for the ten boxes (the preview's engine, which reuses them),
     stepping only, with and without the frame captured as a graph: seconds per simulated second, three runs."""
     from ..preview.engine import Engine
-    from .scenes import write_bench_shot
+    from .scenes import falling_boxes, write_bench_shot
 
     with tempfile.TemporaryDirectory() as tmp:
-        e = Engine(write_bench_shot(pathlib.Path(tmp), boxes(10)), capture=capture)
+        e = Engine(write_bench_shot(pathlib.Path(tmp), falling_boxes(10)), capture=capture)
         frames = int(round(seconds * e.fps))
         for _ in range(frames):  # warm: kernels loaded, each schedule the run meets captured once
             e.step()
@@ -141,41 +129,15 @@ def stepping_ten_boxes(capture: bool = True, seconds: float = 2.0) -> dict:
             "graphs": e.captures, "runs_seconds_per_sim_second": costs, "seconds_per_sim_second": round(statistics.median(costs), 4)}
 
 
-def genesis_ten_boxes(seconds: float = 2.0) -> dict:
-    """Genesis (CPU backend) on the ten boxes at 30 fps × 8 substeps, stepping only, warm: seconds per
-    simulated second over three runs. Needs ``genesis-world`` (``pip install 'physomni-usd[peer]'``)."""
-    import time
-
-    import genesis as gs
-
-    gs.init(backend=gs.cpu, logging_level="warning")
-    scene = gs.Scene(sim_options=gs.options.SimOptions(dt=1 / 30, substeps=8), show_viewer=False)
-    scene.add_entity(gs.morphs.Plane())
-    for b in boxes(10):
-        lo, hi = b.mesh.bounds
-        scene.add_entity(gs.morphs.Box(size=tuple(map(float, hi - lo)), pos=tuple(map(float, (lo + hi) / 2))),
-                         material=gs.materials.Rigid(rho=500.0))
-    scene.build()
-    for _ in range(6):  # compile and warm
-        scene.step()
-    costs = []
-    steps = int(round(seconds * 30))
-    for _ in range(3):
-        scene.reset()
-        t = time.perf_counter()
-        for _ in range(steps):
-            scene.step()
-        costs.append((time.perf_counter() - t) / seconds)
-    return {"version": gs.__version__, "fps": 30, "substeps": 8, "runs_seconds_per_sim_second": costs}
-
-
 def bench_preview(quick: bool = False, echo=print) -> dict:
     """Run the preview bench; prints a table and returns the numbers."""
-    import importlib.util
     import os
 
-    from .physics import machine, ten_objects
+    from . import peer
+    from .peer import genesis_available
+    from .physics import machine
     from .scenes import in_fresh_interpreter
+    from .ten_objects import CASES, ten_objects
 
     load = os.getloadavg() if hasattr(os, "getloadavg") else None
     echo(f"machine: {machine()}; load average {', '.join(f'{x:.2f}' for x in load) if load else 'unknown'}")
@@ -191,36 +153,27 @@ def bench_preview(quick: bool = False, echo=print) -> dict:
         echo(f"preview, {n:2d} rigid objects: {_row(r)}")
     eager = in_fresh_interpreter(__name__, "preview_rate", n=20, seconds=seconds, browser=attach, capture=False)
     echo(f"preview, 20 rigid objects, step launched kernel by kernel (no graph): {_row(eager)}")
-    ten = ten_objects(echo=lambda m: None)
-    sim_cost = ten.get("seconds_per_sim_second")
-    echo(f"simulate, ten boxes: {sim_cost} s per simulated second ({ten.get('substeps')} substeps, "
-         f"{ten.get('iterations')} iterations)" if sim_cost is not None else f"simulate, ten boxes: {ten}")
+    ten = {case: ten_objects(echo=echo, case=case) for case in (("at_rest",) if quick else CASES)}
     stepping = {k: in_fresh_interpreter(__name__, "stepping_ten_boxes", capture=k == "graph")
                 for k in ("graph", "launches")}
     for k, r in stepping.items():
-        echo(f"simulate's step on ten boxes, {'captured as one graph a frame' if k == 'graph' else 'kernel by kernel'}"
-             f" (stepping only): {r.get('seconds_per_sim_second', r)} s per simulated second")
+        echo(f"the preview engine's step on ten boxes dropped, "
+             f"{'captured as one graph a frame' if k == 'graph' else 'kernel by kernel'} (stepping only): "
+             f"{r.get('seconds_per_sim_second', r)} s per simulated second")
     out = {"load_average": load, "browser_attached": attach, "preview": rows, "preview_20_without_graph": eager,
            "simulate_ten_boxes": ten, "stepping_ten_boxes": stepping}
-    if importlib.util.find_spec("genesis") is None:
+    if not genesis_available():
         echo("genesis: not installed (pip install 'physomni-usd[peer]'); no ratio")
         out["genesis"] = None
-    else:
-        g = in_fresh_interpreter(__name__, "genesis_ten_boxes")
-        out["genesis"] = g
-        if "error" in g:
-            echo(f"genesis: {g['error']}")
-        else:
-            g_cost = statistics.median(g["runs_seconds_per_sim_second"])
-            g["seconds_per_sim_second"] = round(g_cost, 4)
-            ratio = g_cost / sim_cost if sim_cost else None
-            graph = stepping["graph"].get("seconds_per_sim_second")
-            ratio_graph = g_cost / graph if graph else None
-            out["ratio_genesis_over_simulate"] = round(ratio, 3) if ratio else None
-            out["ratio_genesis_over_captured_step"] = round(ratio_graph, 3) if ratio_graph else None
-            echo(f"genesis {g['version']}, ten boxes: {g_cost:.4f} s per simulated second; ratio Genesis/ours "
-                 f"{ratio:.2f} against simulate as it runs, {ratio_graph:.2f} against its step captured "
-                 "(≥ 1: ours is no slower)")
+        return out
+    g = in_fresh_interpreter(peer.__name__, "run_case", name="boxes_at_rest")
+    out["genesis"] = g
+    if "error" in g:
+        echo(f"genesis: {g['error']}")
+        return out
+    median = g["ratio"]["median"]
+    echo(f"bench peer's {peer.case_line(g)}; {'meets' if median >= GENESIS_TARGET else 'misses'} the target of "
+         f"≥ {GENESIS_TARGET:g}× Genesis")
     return out
 
 

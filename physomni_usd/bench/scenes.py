@@ -18,6 +18,11 @@ from ..usd import layers
 from ..usd.author import PhysicsObject, SceneObject, write_physics_layer, write_scene_layer
 
 
+#: Edge (m) and density (kg/m³) of the boxes of the box scenes.
+BOX = 0.2
+BOX_DENSITY = 500.0
+
+
 @dataclass
 class BenchObject:
     name: str
@@ -26,6 +31,26 @@ class BenchObject:
     params: dict = field(default_factory=dict)
     velocity: tuple | None = None
     fixed: bool = False
+
+
+def box(name: str, centre) -> BenchObject:
+    """A rigid :data:`BOX` cube of :data:`BOX_DENSITY` centred at ``centre`` (m)."""
+    import trimesh
+
+    mesh = trimesh.creation.box((BOX, BOX, BOX))
+    mesh.apply_translation(centre)
+    return BenchObject(name, mesh, "rigid", {"density": BOX_DENSITY})
+
+
+def falling_boxes(n: int) -> list[BenchObject]:
+    """``n`` boxes dropped from 0.3 m up (each 5 cm higher than the one before), five to a row 0.4 m
+    apart: the preview bench's rows and ``bench physics``' ten objects."""
+    return [box(f"box_{i}", ((i % 5) * 0.4 - 0.8, (i // 5) * 0.4, 0.3 + 0.05 * i)) for i in range(n)]
+
+
+def boxes_at_rest(n: int = 10) -> list[BenchObject]:
+    """``n`` boxes standing on the ground five to a row, 0.4 m apart: ``bench peer``'s case against Genesis."""
+    return [box(f"box_{i}", ((i % 5) * 0.4 - 0.8, (i // 5) * 0.4, BOX / 2)) for i in range(n)]
 
 
 def write_bench_shot(folder: pathlib.Path, objects: list[BenchObject], fps: float = 30.0, forces=(),

@@ -14,7 +14,7 @@ import warnings
 import numpy as np
 from pxr import Usd, UsdGeom
 
-from .._warp import load_warp, pick_device
+from .._warp import load_newton, load_warp, pick_device
 from ..rotations import to_wxyz
 from ..settings import SimulateSettings
 from ..usd.author import OBJECTS
@@ -40,9 +40,7 @@ class ShotModels:
     def __init__(self, stage: Usd.Stage, objects: list[SimObject], cfg: dict, settings: SimulateSettings):
         self.stage = stage
         t0 = time.perf_counter()
-        wp = load_warp()
-        import newton
-
+        wp, newton = load_warp(), load_newton()
         self.wp, self.newton = wp, newton
         self.cfg, self.objects = cfg, objects
         self.device = str(pick_device(settings.device))

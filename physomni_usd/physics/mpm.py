@@ -249,10 +249,11 @@ def particle_solver(points: np.ndarray, masses: np.ndarray, values: list, spacin
     (P,) kg (0 = held in place), ``values`` a list of (count, :func:`newton_parameters` dict) covering the
     points in order; the grid's voxel is ``PARTICLES_PER_VOXEL`` spacings; every particle-colliding shape
     of ``rigid_model`` is a collider."""
-    import newton
     import warp as wp
-    from newton.solvers import SolverImplicitMPM
 
+    from .._warp import load_newton, newton_solver
+
+    newton, SolverImplicitMPM = load_newton(), newton_solver("SolverImplicitMPM")
     builder = newton.ModelBuilder(up_axis=newton.Axis.Z)
     SolverImplicitMPM.register_custom_attributes(builder)
     for p, m in zip(points, masses):
@@ -317,8 +318,9 @@ def setup_colliders(solver, rigid_model) -> None:
     Newton's MPM collider turns primitives and triangle meshes into colliders but refuses convex hulls
     — which is what our objects are. A hull's source is a triangle mesh, so for the duration of the
     call the hulls are presented as meshes; the rigid solver's own shape types are restored after."""
-    import newton
+    from .._warp import load_newton
 
+    newton = load_newton()
     types = rigid_model.shape_type.numpy()
     hulls = types == int(newton.GeoType.CONVEX_MESH)
     if hulls.any():

@@ -54,11 +54,9 @@ def _kernels_first_use():
     when it already does (the marker names the versions of warp and Newton whose kernels it holds)."""
     import pathlib
 
-    import newton
+    from .._warp import load_newton, load_warp
 
-    from .._warp import load_warp
-
-    wp = load_warp()
+    wp, newton = load_warp(), load_newton()
     cache = pathlib.Path(wp.config.kernel_cache_dir or "")
     if not cache.is_dir():
         return None

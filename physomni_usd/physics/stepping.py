@@ -18,15 +18,17 @@ from .stability import StepPlan, body_energy, particle_energy
 
 def xpbd_solver(model, iterations: int):
     """The simulator's XPBD solver for ``model``."""
-    import newton
+    from .._warp import newton_solver
 
     # Newton leaves restitution off by default; the materials author it, so it must act
-    return newton.solvers.SolverXPBD(model, iterations=iterations, enable_restitution=True)
+    return newton_solver("SolverXPBD")(model, iterations=iterations, enable_restitution=True)
 
 
 def contact_pipeline(model):
     """The simulator's contact search for ``model`` and the contacts it fills."""
-    import newton
+    from .._warp import load_newton
+
+    newton = load_newton()
 
     # sticky contact matching keeps a resting hull's contact points from frame to frame;
     # without it XPBD lets flat-based hulls creep by millimetres per second
