@@ -51,6 +51,9 @@ GRAIN_SIGMA = 0.015
 GRAIN_DETAIL = 1.5
 GRAIN_GAIN = (0.3, 2.0)
 GRAIN_BAND = (0.7, 1.4)
+#: Most gradient (Sobel magnitude, levels) the added noise may bring: enough for the grain of paper or sky, where a
+#: fill came out flat; more reads as speckle, not texture (beside a sweet's dark edge the target is 30 and more).
+GRAIN_NOISE = 6.0
 #: A pixel near an object's foot is in its contact shadow when it is darker than this fraction of the
 #: surface's brightness around it.
 SHADOW_RATIO = 0.85
@@ -326,7 +329,7 @@ def match_grain(img: np.ndarray, filled: np.ndarray, hole: np.ndarray) -> np.nda
     gain = np.clip(target / np.maximum(own, 1e-3), *GRAIN_GAIN)
     out = low + (f - low) * gain[..., None]
     # grain for what scaling cannot reach (a flat fill): noise whose gradient makes up the rest, in quadrature
-    missing = np.sqrt(np.maximum(target ** 2 - (own * gain) ** 2, 0.0))
+    missing = np.minimum(np.sqrt(np.maximum(target ** 2 - (own * gain) ** 2, 0.0)), GRAIN_NOISE)
     noise = np.random.default_rng(0).normal(0.0, 1.0, hole.shape).astype(np.float32)
     noise -= cv2.GaussianBlur(noise, (0, 0), GRAIN_DETAIL)
     noise /= max(float(_gradient(noise).mean()), 1e-6)
