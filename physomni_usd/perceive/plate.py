@@ -7,7 +7,9 @@ diffusion fill (Telea, kept as ``method="telea"`` for comparison). Shift-map
 is slow at full resolution, so each hole is filled in a reduced window around
 it; the shifts it chose are read back from the result (every filled pixel is
 a copy of a known one) and applied at full resolution, and the fill's low
-frequencies are matched to a smooth interpolation of the hole's border.
+frequencies are matched to a smooth interpolation of the hole's border (leaving
+out border pixels that are not the surface) and its fine detail to the
+gradient of the surface around the hole.
 """
 
 from __future__ import annotations
