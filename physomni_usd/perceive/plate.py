@@ -281,9 +281,9 @@ def _gradient(grey: np.ndarray) -> np.ndarray:
     return np.hypot(cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3), cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3))
 
 
-def _spread_into(values: np.ndarray, known: np.ndarray, hole: np.ndarray) -> np.ndarray:
+def _spread_into(values: np.ndarray, known: np.ndarray) -> np.ndarray:
     """(h, w) float32: ``values`` averaged over ``known`` pixels (a Gaussian :data:`GRAIN_SIGMA` × the diagonal
-    wide) and carried into ``hole`` by a smooth (Telea) fill, on a copy at most 160 pixels long."""
+    wide) and carried beyond them by a smooth (Telea) fill, on a copy at most 160 pixels long."""
     h, w = values.shape
     sigma = max(2.0, GRAIN_SIGMA * float(np.hypot(h, w)))
     k = known.astype(np.float32)
@@ -322,9 +322,9 @@ def match_grain(img: np.ndarray, filled: np.ndarray, hole: np.ndarray) -> np.nda
     known = ~_dilate(hole, 2) & _dilate(hole, reach) & ~odd_border(cv2.cvtColor(img, cv2.COLOR_RGB2BGR), hole, reach)
     if not known.any():
         return filled
-    target = _spread_into(_gradient(grey_img), known, hole)
+    target = _spread_into(_gradient(grey_img), known)
     inside = hole & ~_dilate(~hole, 1)
-    own = _spread_into(_gradient(grey_f), inside, ~inside)
+    own = _spread_into(_gradient(grey_f), inside)
     # a fill whose grain is within GRAIN_BAND of the surface's keeps it: only the flat and the busy change
     target = np.clip(own, GRAIN_BAND[0] * target, GRAIN_BAND[1] * target)
     low = cv2.GaussianBlur(f, (0, 0), GRAIN_DETAIL)
@@ -339,7 +339,7 @@ def match_grain(img: np.ndarray, filled: np.ndarray, hole: np.ndarray) -> np.nda
     # the two add only roughly in quadrature (the detail and the low-pass share some gradient): measure the
     # result and correct its detail once more
     grey_out = np.clip(out, 0, 255) @ np.float32([0.299, 0.587, 0.114])
-    now = _spread_into(_gradient(grey_out.astype(np.float32)), inside, ~inside)
+    now = _spread_into(_gradient(grey_out.astype(np.float32)), inside)
     out = low + (out - low) * np.clip(target / np.maximum(now, 1e-3), *GRAIN_GAIN)[..., None]
     # detail beyond white (or black) folds back into range instead of clipping: white paper is mostly at 255,
     # and its grain would otherwise be cut in half
