@@ -72,6 +72,28 @@ def test_where_the_desk_ball_stood_the_plate_continues_the_wood(tmp_path):
         assert within_targets(figures["ball"]), (size, renderer.width, figures["ball"])
 
 
+def test_where_the_motorcycle_stood_the_plate_continues_the_floor(tmp_path):
+    """The bundled motorcycle, pushed for 0.6 s: in the last frame, at the photo's own 741 px, the floor it
+    left has the floor's grain (copied shelf edges had made it twice as busy), no outline and the floor's
+    colour."""
+    import physomni_usd as api
+    from physomni_usd.render.video import ShotRenderer
+    from physomni_usd.settings import RenderSettings, SimulateSettings
+    from physomni_usd.usd import layers
+
+    folder = EXAMPLES / "motorcycle"
+    spec = json.loads((folder / "example.json").read_text())
+    result = api.build(folder / spec["photo"], tmp_path / "shot", [str(folder / m) for m in spec["masks"]], (),
+                       pushes=spec["push"])
+    api.simulate(result.shot, SimulateSettings(seconds=0.6))
+    stage = layers.open_shot(result.shot)
+    renderer = ShotRenderer(stage, RenderSettings(max_size=880))
+    image, state = renderer.render(float(stage.GetEndTimeCode()))
+    figures = {f["object"].rsplit("/", 1)[-1].split("_")[0]: f for f in revealed_figures(renderer, image, state)}
+    assert "motorcycle" in figures, figures
+    assert within_targets(figures["motorcycle"]), (renderer.width, figures["motorcycle"])
+
+
 def _two_surfaces() -> np.ndarray:
     """A 120×160 plate: a striped wall above, a speckled floor below (different colours and grains)."""
     rng = np.random.default_rng(5)

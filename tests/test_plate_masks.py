@@ -14,7 +14,7 @@ from pxr import Usd
 from physomni_usd.bench.plate import MAX_COLOUR_DIFF, RATIO_RANGE, gradient_ratio, measure
 from physomni_usd.metrics import ssim
 from physomni_usd.perceive.masks import _grabcut, mask_from_box, mask_quality
-from physomni_usd.perceive.plate import background_plate, feather_px, fill_hole, plate_hole
+from physomni_usd.perceive.plate import background_plate, feather_px, fill_hole, match_grain, plate_hole
 from physomni_usd.render.video import ShotRenderer
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
@@ -48,6 +48,32 @@ def _border_ratio(img: np.ndarray, hole: np.ndarray) -> float:
     ring = (cv2.dilate(h8, disk(12)) > 0) & ~(cv2.dilate(h8, disk(6)) > 0)
     edge = (cv2.dilate(h8, disk(1)) > 0) & ~(cv2.erode(h8, disk(1)) > 0)
     return float(g[edge].mean() / g[ring].mean())
+
+
+def test_a_flat_or_a_busy_fill_takes_the_grain_of_the_surface_around_it():
+    """A disc filled flat (white paper's fate) or with grain three times the surface's (copied shelf edges):
+    after grain matching both lie within 0.6-1.6x of the surface's gradient, keep its mean and leave every
+    pixel outside the hole as it was."""
+    rng = np.random.default_rng(7)
+    y, x = np.mgrid[:120, :160]
+    surface = np.clip(140 + rng.normal(0, 1.5, (120, 160)), 0, 255)
+    r2 = (x - 80) ** 2 + (y - 60) ** 2
+    hole, ring = r2 < 30 ** 2, (r2 < 42 ** 2) & (r2 >= 30 ** 2)
+    inner = cv2.erode(hole.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    img = np.repeat(surface[..., None], 3, -1).astype(np.uint8)
+
+    def grad(a):
+        a = a[..., 0].astype(np.float32)
+        return np.hypot(cv2.Sobel(a, cv2.CV_32F, 1, 0, ksize=3), cv2.Sobel(a, cv2.CV_32F, 0, 1, ksize=3))
+
+    for fill in (np.full_like(surface, 140.0), surface + rng.normal(0, 4.5, surface.shape)):
+        f = np.repeat(np.clip(np.where(hole, fill, surface), 0, 255)[..., None], 3, -1).astype(np.uint8)
+        before = grad(f)[inner].mean() / grad(img)[ring].mean()
+        out = match_grain(img, f, hole)
+        ratio = grad(out)[inner].mean() / grad(img)[ring].mean()
+        assert not 0.6 <= before <= 1.6 and 0.6 <= ratio <= 1.6, (before, ratio)
+        assert abs(out[inner].mean() - f[inner].mean()) < 1.5
+        assert np.array_equal(out[~hole], f[~hole])
 
 
 def test_the_fill_meets_the_surface_without_an_outline():
