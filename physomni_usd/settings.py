@@ -91,9 +91,9 @@ class SimulateSettings(_Settings):
 
 
 class RenderSettings(_Settings):
-    shadow_strength: float = Field(0.6, ge=0.0, le=1.0,
+    shadow_strength: float = Field(0.45, ge=0.0, le=1.0,
                                    description="Darkening of the ground where a moved object touches it.")
-    shadow_falloff: float = Field(0.5, gt=0.0, le=10.0,
+    shadow_falloff: float = Field(0.15, gt=0.0, le=10.0,
                                   description="Reach of a contact shadow, as a fraction of the object's height: "
                                               "a ground point this far from the object's surface (beside or "
                                               "under it) is darkened a quarter as much as at contact.")

@@ -66,5 +66,5 @@ def test_a_box_pushed_across_the_floor_has_a_soft_shadow_and_frame_0_is_untouche
     near = ground & (away > 1) & (away <= 6)
     far = ground & (away > 40) & (away <= 60)
     assert near.sum() > 50 and far.sum() > 50
-    assert dark[near].mean() > 0.08  # a darker band around the moved box ...
+    assert dark[near].mean() > 0.04  # a darker band around the moved box (none without it) ...
     assert dark[near].mean() > 4 * max(dark[far].mean(), 0.005)  # ... that fades with distance
