@@ -8,7 +8,9 @@ The camera is a level pinhole (no roll) looking down by ``pitch``. Cues:
   ray that meets the ground at angle ε shows minor/major ≈ sin ε. The pitch
   is the one under which a cylinder of the label's typical proportions,
   projected where the mask is, shows the mask's ratio (OpenCV ``fitEllipse``
-  on both, so thickness and perspective count the same on each side).
+  on both, so thickness and perspective count the same on each side). Tableware is read as sloping in
+  below its rim unless an upright cup's (can's, mug's) open rim, its outline's upper arc, says its
+  sides are straight.
 - **vanishing points** of straight edges (OpenCV's line-segment detector,
   then sequential RANSAC): world verticals meet below the image centre at
   ``cy + f·cot(pitch)``, ground-parallel lines on the horizon at
