@@ -34,12 +34,7 @@ def test_quick_bench_writes_both_tables(tmp_path):
 STACKS = ("cup_saucer_spoon", "three_boxes", "bowl_of_spheres", "tray_of_parts")
 #: Scenes whose objects miss a target on the code these tests were written on, with what was measured; once a
 #: change meets it the test XPASSes and fails the run: remove the scene's entry then.
-KNOWN_MISSES = {
-    ("cup_saucer_spoon", "iou"): "measured: the spoon IoU 0.91 (photo), 0.66 / 0.73 (orbited); the camera's field "
-                                 "of view comes out 65° (55° true), pitch 40° (35°)",
-    ("cup_saucer_spoon", "position"): "measured: the spoon 5.2 % of the camera distance off, what the 65° field of "
-                                      "view (55° true) does to a direction near the photo's corner",
-}
+KNOWN_MISSES: dict = {}
 
 
 @pytest.fixture(scope="module")

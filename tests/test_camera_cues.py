@@ -54,3 +54,35 @@ def test_outlines_match_up_to_rotation_and_reflection_but_not_across_shapes():
     ellipse = np.zeros((300, 300), np.uint8)
     cv2.ellipse(ellipse, (150, 150), (100, 20), 0, 0, 360, 1, -1)
     assert outline_iou(rect, ellipse > 0) < 0.9
+
+
+def test_a_cups_rim_tells_a_straight_sided_saucer_from_a_sloping_one():
+    from physomni_usd.align.cues import top_rim
+    from physomni_usd.bench.photos import make_cup_on_saucer
+
+    for pitch in (30.0, 60.0):
+        scene = make_cup_on_saucer(pitch)  # a plain 2 cm disc for the saucer, which the label reads as sloping
+        cup = fill_holes(scene.masks[scene.labels.index("cup")])
+        ratio, _, _ = top_rim(cup)
+        assert 0.0 < ratio < 1.0
+        est = _estimate(scene)
+        saucer = next(c for c in est.cues if c.kind == "ellipse" and c.detail["label"] == "saucer")
+        assert saucer.detail["sides"] == "straight"
+        assert saucer.pitch_deg == pytest.approx(pitch, abs=2.0)
+    # a plate that does slope in below its rim, beside a can, keeps the sloping reading (or no rim is read)
+    est = _estimate(make_known_scene(30.0))
+    plate = next(c for c in est.cues if c.kind == "ellipse" and c.detail["label"] == "plate")
+    assert plate.detail.get("sides", "sloping") == "sloping"
+    assert est.pitch_deg == pytest.approx(30.0, abs=2.0)
+
+
+def test_a_mask_with_no_elliptic_top_gives_no_rim():
+    import numpy as np
+
+    from physomni_usd.align.cues import top_rim
+
+    tri = np.zeros((120, 160), bool)
+    for r in range(20, 100):  # a triangle: its top is a point, then straight edges
+        half = (r - 20) // 2
+        tri[r, 80 - half:80 + half + 1] = True
+    assert top_rim(tri) is None

@@ -8,7 +8,9 @@ The camera is a level pinhole (no roll) looking down by ``pitch``. Cues:
   ray that meets the ground at angle ε shows minor/major ≈ sin ε. The pitch
   is the one under which a cylinder of the label's typical proportions,
   projected where the mask is, shows the mask's ratio (OpenCV ``fitEllipse``
-  on both, so thickness and perspective count the same on each side).
+  on both, so thickness and perspective count the same on each side). Tableware is read as sloping in
+  below its rim unless an upright cup's (can's, mug's) open rim, its outline's upper arc, says its
+  sides are straight.
 - **vanishing points** of straight edges (OpenCV's line-segment detector,
   then sequential RANSAC): world verticals meet below the image centre at
   ``cy + f·cot(pitch)``, ground-parallel lines on the horizon at
@@ -60,6 +62,13 @@ FLAT_RATIO = 0.6
 RIMMED = frozenset({"plate", "saucer", "dish", "tray"})
 #: Their foot's width over the rim's.
 RIM_FOOT = 0.7
+#: Upright round things whose open top's rim is their outline's upper arc (:func:`top_rim`); the rim tells a
+#: RIMMED outline's sloping sides from straight ones.
+UPRIGHT_RIMS = frozenset({"cup", "mug", "glass", "can", "jar"})
+#: A top rim is fitted over at least this many columns, and kept when its fit's RMS residual is at most
+#: TOP_RIM_RMS_PX.
+TOP_RIM_MIN_PX = 20
+TOP_RIM_RMS_PX = 1.0
 #: Round labels taller than this for their width are spheroids to the ellipse cue, not cylinders.
 SPHEROID_ABOVE = 0.3
 #: Line segments shorter than this fraction of the image diagonal are ignored.
@@ -155,9 +164,8 @@ def mask_ellipse(mask: np.ndarray, hidden: np.ndarray | None = None) -> tuple[fl
     c = max(contours, key=cv2.contourArea)[:, 0, :]
     h, w = mask.shape
     keep = (c[:, 0] > 0) & (c[:, 1] > 0) & (c[:, 0] < w - 1) & (c[:, 1] < h - 1)
-    cut = None
-    if hidden is not None and hidden.any():
-        cut = cv2.dilate(hidden.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    cut = _cut(hidden)
+    if cut is not None:
         keep &= ~cut[c[:, 1], c[:, 0]]
     if keep.sum() < max(12, 0.4 * len(c)):
         return None
@@ -173,12 +181,29 @@ def mask_ellipse(mask: np.ndarray, hidden: np.ndarray | None = None) -> tuple[fl
     return ratio, inter / max(union, 1), ell
 
 
+def _cut(hidden: np.ndarray | None) -> np.ndarray | None:
+    """Where another object cuts an outline off: what hides it, grown by the outline's own pixel."""
+    if hidden is None or not hidden.any():
+        return None
+    return cv2.dilate(hidden.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+
+
 def cylinder_ratio(camera: PinholeCamera, u: float, v: float, thickness: float, angle: bool = False,
                    rim: bool = False):
     """minor/major of the outline of a small cylinder (diameter 1, height ``thickness``) standing on the ground
     where pixel (u, v) looks, as ``camera`` sees it (and fitEllipse's angle in degrees, with ``angle``).
     ``rim``: its sides slope in below the rim to a foot ``RIM_FOOT`` as wide (a plate, a saucer), so from
     above only the rim shows."""
+    hull = cylinder_outline(camera, u, v, thickness, rim)
+    fit = None if hull is None else _fit_ratio(hull)
+    if fit is None:
+        return None
+    return (fit[0], _major_angle(fit[1])) if angle else fit[0]
+
+
+def cylinder_outline(camera: PinholeCamera, u: float, v: float, thickness: float, rim: bool = False):
+    """(N, 2) float32 pixels: the convex outline of :func:`cylinder_ratio`'s small cylinder, or None when it
+    does not stand in front of the camera."""
     g = camera.ground_points(u, v)
     if not np.all(np.isfinite(g)):
         return None
@@ -191,11 +216,7 @@ def cylinder_ratio(camera: PinholeCamera, u: float, v: float, thickness: float, 
     uv, depth = camera.project(pts)
     if (depth <= 0).any():
         return None
-    hull = cv2.convexHull(uv.astype(np.float32))
-    fit = _fit_ratio(hull[:, 0, :])
-    if fit is None:
-        return None
-    return (fit[0], _major_angle(fit[1])) if angle else fit[0]
+    return cv2.convexHull(uv.astype(np.float32))[:, 0, :]
 
 
 def _major_angle(ellipse) -> float:
@@ -214,6 +235,7 @@ class RoundOutline:
     thickness: float  # typical height over width of the label
     angle: float = 0.0  # the fitted ellipse's major axis, degrees
     rim: bool = False  # tableware: sides sloping in below the rim (RIM_FOOT)
+    sides: dict | None = None  # how a rimmed label's sides were read (_choose_sides)
 
     def pitch(self, width: int, height: int, fov_deg: float) -> float | None:
         """The pitch under which a cylinder of this outline's proportions shows its ratio (2° then 0.25° steps).
@@ -280,7 +302,81 @@ def round_outlines(masks, labels) -> list[RoundOutline]:
         # tableware narrows below its rim, so its outline is the rim's ellipse alone; a coin's edge shows
         out.append(RoundOutline(label, u, v, ratio, float(iou), thickness, _major_angle(ell),
                                 rim=prior.keyword in RIMMED))
+    if any(o.rim for o in out):
+        rims = []
+        for i, (mask, label) in enumerate(zip(filled, labels)):
+            prior = size_prior(label)
+            if prior is not None and prior.keyword in UPRIGHT_RIMS:
+                others = np.logical_or.reduce([m for j, m in enumerate(filled) if j != i] or [np.zeros_like(mask)])
+                found = top_rim(mask, _cut(others))
+                if found is not None:
+                    rims.append(found)
+        if rims:
+            for o in out:
+                if o.rim:
+                    _choose_sides(o, rims, filled[0].shape[1], filled[0].shape[0])
     return out
+
+
+def top_rim(mask: np.ndarray, cut: np.ndarray | None = None, rounds: int = 4) -> tuple[float, float, float] | None:
+    """(minor/major, u, v) of the open top's rim of an upright round thing (a cup, a can), from ``mask``'s
+    upper arc, or None when that arc is not an ellipse's back half.
+
+    Seen from above the horizon, such a thing's outline is its rim's back half over two sides: each column's
+    topmost pixel is ``v − b·√(1 − ((x − u)/a)²)``, linear in (v, b) once the centre column u and half-width a
+    are known, and a is the outline's half-width at the row v (where the sides leave the rim). The inner 85 %
+    of the width is fitted, so the rim's ends (where the sides meet it) do not bend it. ``cut`` marks what
+    hides the object; columns whose top it hides are left out.
+    """
+    cols = np.nonzero(mask.any(0))[0]
+    if len(cols) < TOP_RIM_MIN_PX:
+        return None
+    top = np.argmax(mask[:, cols], axis=0).astype(float)
+    ok = np.ones(len(cols), bool) if cut is None else ~cut[top.astype(int), cols]
+    u, a = 0.5 * (cols[0] + cols[-1] + 1), 0.5 * (cols[-1] - cols[0] + 1)
+    for _ in range(rounds):
+        t = (cols + 0.5 - u) / a
+        sel = ok & (np.abs(t) < 0.85)
+        if sel.sum() < TOP_RIM_MIN_PX:
+            return None
+        fit = np.c_[np.ones(sel.sum()), -np.sqrt(1 - t[sel] ** 2)]
+        (v, b), *_ = np.linalg.lstsq(fit, top[sel], rcond=None)
+        if not 0 <= v < mask.shape[0] or b <= 0:
+            return None
+        xs = np.nonzero(mask[int(round(v))])[0]
+        if len(xs) < TOP_RIM_MIN_PX:
+            return None
+        u, a = 0.5 * (xs[0] + xs[-1] + 1), 0.5 * (xs[-1] - xs[0] + 1)
+    rms = float(np.sqrt(np.mean((fit @ np.array([v, b]) - top[sel]) ** 2)))
+    if rms > TOP_RIM_RMS_PX or not 0.0 < b / a < 1.0:
+        return None
+    return float(b / a), float(u), float(v)
+
+
+def _choose_sides(o: RoundOutline, rims: list[tuple[float, float, float]], width: int, height: int) -> None:
+    """Tell a rimmed outline's two readings apart by the upright things' rims in the photo (``rims``, from
+    :func:`top_rim`).
+
+    A plate's or saucer's ellipse says the pitch only with its sides known: sloping in below the rim (the
+    outline is the rim alone) or straight (the thickness shows along its front and ends, and its ratio is the
+    pitch's and the thickness's together). Read as sloping, a straight-sided saucer 2 cm thick and 15 cm across
+    seen at 35° gives 42.5°, and with the horizon a 65° field of view for a 55° one. A cup's rim is a circle
+    with no thickness to read: the reading whose pitch (under the default field of view) lies nearer the rims'
+    is taken.
+    """
+    pitches = [RoundOutline("rim", u, v, r, 1.0, 0.0, 0.0).pitch(width, height, DEFAULT_FOV_DEG) for r, u, v in rims]
+    pitches = [p for p in pitches if p is not None]
+    if not pitches:
+        return
+    said = float(np.median(pitches))
+    readings = {}
+    for rim in (True, False):
+        p = RoundOutline(o.label, o.u, o.v, o.ratio, o.iou, o.thickness, o.angle, rim=rim).pitch(
+            width, height, DEFAULT_FOV_DEG)
+        readings[rim] = math.inf if p is None else abs(p - said)
+    o.rim = readings[True] <= readings[False]
+    o.sides = {"sides": "sloping" if o.rim else "straight", "rims_pitch_deg": round(said, 2),
+               "rims": len(pitches)}
 
 
 def ellipse_cues(outlines: list[RoundOutline], width: int, height: int, fov_deg: float) -> list[Cue]:
@@ -298,8 +394,10 @@ def ellipse_cues(outlines: list[RoundOutline], width: int, height: int, fov_deg:
         if pitch is not None:
             # near a circle the ratio barely changes with the pitch: trust it less
             weight = max(0.1, min(1.0, (1.0 - o.ratio) / 0.05))
-            cues.append(Cue("ellipse", pitch, weight, detail={"label": o.label, "minor_over_major": round(o.ratio, 4),
-                                                            "ellipse_iou": round(o.iou, 3)}))
+            detail = {"label": o.label, "minor_over_major": round(o.ratio, 4), "ellipse_iou": round(o.iou, 3)}
+            if o.sides is not None:
+                detail |= o.sides
+            cues.append(Cue("ellipse", pitch, weight, detail=detail))
     return cues
 
 
