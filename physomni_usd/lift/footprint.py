@@ -137,21 +137,30 @@ def height_from_sides(poly_uv, camera, base_z: float) -> float | None:
         side = np.array([-away[1], away[0]])
         return float(np.ptp(fp @ away) / max(np.ptp(fp @ side), 1e-12))
 
-    if aspect(0.0) is None or aspect(0.0) <= 1.0:
+    def deeper_than_wide(h):
+        a = aspect(h)
+        return a is not None and a > 1.0
+
+    return height_where_it_ends(deeper_than_wide, 1e-3 * top, top, scans=40, halvings=20)
+
+
+def height_where_it_ends(holds, first: float, last: float, scans: int, halvings: int) -> float | None:
+    """The height (m above the base) at which ``holds(h)`` stops being true: ``scans`` heights spaced
+    geometrically from ``first`` to ``last`` find the first that fails, then ``halvings`` bisections between it
+    and the last that held. None when it fails already at 0 or holds at every scanned height."""
+    if not holds(0.0):
         return None
     lo, hi = 0.0, None
-    for h in np.geomspace(1e-3 * top, top, 40):
-        a = aspect(float(h))
-        if a is None or a <= 1.0:
+    for h in np.geomspace(first, last, scans):
+        if not holds(float(h)):
             hi = float(h)
             break
         lo = float(h)
     if hi is None:
         return None
-    for _ in range(20):
+    for _ in range(halvings):
         mid = 0.5 * (lo + hi)
-        a = aspect(mid)
-        lo, hi = (mid, hi) if a is not None and a > 1.0 else (lo, mid)
+        lo, hi = (mid, hi) if holds(mid) else (lo, mid)
     return 0.5 * (lo + hi)
 
 

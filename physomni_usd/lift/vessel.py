@@ -28,7 +28,7 @@ import math
 import numpy as np
 import trimesh
 
-from .footprint import on_plane
+from .footprint import height_where_it_ends, on_plane
 
 #: Wall and floor thickness, as a fraction of the rim's diameter.
 WALL_RATIO = 0.04
@@ -92,24 +92,14 @@ def rim_from_outline(mask: np.ndarray, poly_uv: np.ndarray, camera, base_z: floa
         rim = rim_at(poly_uv, camera, base_z + h)
         return None if rim is None else float((rim[0] - BASE_RATIO * rim[1] * away - front) @ away)
 
+    def too_low(h):
+        g = gap(h)
+        return g is not None and g > 0.0
+
     cam_h = camera.origin[2] - base_z
-    lo, hi = 0.0, None
-    g0 = gap(0.0)
-    if g0 is None or g0 <= 0.0:
+    height = height_where_it_ends(too_low, 1e-3 * cam_h, 0.95 * cam_h, scans=60, halvings=40)
+    if height is None:
         return None
-    for h in np.geomspace(1e-3 * cam_h, 0.95 * cam_h, 60):
-        g = gap(float(h))
-        if g is None or g <= 0.0:
-            hi = float(h)
-            break
-        lo = float(h)
-    if hi is None:
-        return None
-    for _ in range(40):
-        mid = 0.5 * (lo + hi)
-        g = gap(mid)
-        lo, hi = (mid, hi) if g is not None and g > 0.0 else (lo, mid)
-    height = 0.5 * (lo + hi)
     centre, radius = rim_at(poly_uv, camera, base_z + height)
     if not HEIGHT_RANGE[0] <= height / (2 * radius) <= HEIGHT_RANGE[1]:
         return None
