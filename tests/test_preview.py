@@ -120,13 +120,7 @@ def session(moto, tmp_path_factory):
             out["frame_text"] = page.get_by_text(re.compile(r"· frame \d+")).first.inner_text()
 
             def button(name):
-                try:
-                    page.get_by_role("button", name=name).click(timeout=5000)
-                except Exception:
-                    page.screenshot(path="/tmp/pv/fail.png")
-                    bb = page.get_by_role("button", name=name).bounding_box()
-                    print("DBG", bb, page.evaluate(f"() => {{ const e = document.elementFromPoint({bb['x']+bb['width']/2}, {bb['y']+bb['height']/2}); return [e.tagName, e.outerHTML.slice(0,400), e.parentElement.outerHTML.slice(0,200)]; }}"))
-                    raise
+                page.get_by_role("button", name=name).click(timeout=5000)
 
             def saved_take(n: int) -> dict:
                 page.get_by_text(f"take {n} saved").wait_for(timeout=30000)
@@ -337,6 +331,65 @@ def test_mpm_object_runs_live_as_particles(tmp_path, shot):
     layer = Sdf.Layer.FindOrOpen(str(folder / "sim.usdc"))
     layer.Reload(force=True)
     assert layer.GetNumTimeSamplesForPath("/World/Particles/cup_0.points") == result["take"]["frames"]
+
+
+def test_contact_decal_darkens_the_ground_as_render_does():
+    """A 10 cm box on the ground: the darkening under it is the render's at contact, fades with the distance
+    from its sides as ``contact_falloff`` does, and ends where that reaches 0."""
+    import trimesh
+
+    from physomni_usd.geometry.raycast import CONTACT_REACH, contact_falloff
+    from physomni_usd.preview.scene import Drawn, contact_decal
+
+    box = trimesh.creation.box((0.1, 0.1, 0.1))
+    box.apply_translation((0.3, -0.2, 0.05))
+    d = Drawn("/World/Objects/box", "box", np.asarray(box.vertices), np.asarray(box.faces), np.zeros((8, 2)),
+              np.zeros((4, 4, 4), np.uint8), np.eye(4))
+    decal = contact_decal(d, 0.45, 0.15)
+    reach = 0.15 * 0.1
+    assert decal.reach == pytest.approx(reach)
+    ny, nx = decal.alpha.shape
+    xs = decal.centre[0] + (np.arange(nx) - 0.5 * (nx - 1)) * decal.step  # texel centres, world metres
+    row = decal.alpha[ny // 2]
+    assert row.max() == pytest.approx(0.45 * float(contact_falloff(0.0)), rel=0.02)
+    beside = np.abs(xs - 0.3) - 0.05  # distance from the box's side along the middle row
+    out = (beside > decal.step) & (beside < CONTACT_REACH * reach - decal.step)
+    assert out.sum() > 5
+    assert np.abs(row[out] - 0.45 * contact_falloff(beside[out] / reach)).max() < 0.03
+    assert row[beside > CONTACT_REACH * reach + decal.step].max(initial=0.0) < 1e-3
+    assert np.all(np.diff(row[xs > 0.36]) <= 1e-6)  # lighter and lighter away from it
+
+
+def test_contact_shadows_follow_the_pushed_box(shot):
+    """The preview's ground shadow: one image under every rigid body, darkest where each stands, and as the
+    pushed box slides its shadow goes with it."""
+    from physomni_usd.preview.app import Options, Preview
+
+    p = Preview(shot["shot"], Options(port=free_port(), duration=4.0, open_browser=False, paced=False,
+                                      echo=lambda m: None))
+    p.start()
+    g = p.ground
+    assert g is not None and len(g.tracks) == len(p.handles) >= 2
+    box = next(b for b, h in p.handles.items() if h.name.endswith("box_1"))
+
+    def dark_centre(alpha: np.ndarray, near: np.ndarray) -> np.ndarray:
+        """The darkness's centroid (world xy) within 0.25 m of ``near``."""
+        ys, xs = np.nonzero(alpha > 0.05 * alpha.max())
+        world = g.origin + (np.stack([xs, ys], 1) + 0.5) * g.step
+        w = alpha[ys, xs].astype(float) * (np.linalg.norm(world - near, axis=1) < 0.25)
+        return (world * w[:, None]).sum(0) / w.sum()
+
+    q0 = p.engine.body_state()[0][box].copy()
+    before = dark_centre(g.darkening(p.engine.body_state()[0]), q0[:2])
+    assert np.linalg.norm(before - q0[:2]) < 0.005
+    p.run()
+    q1 = p.engine.body_state()[0][box]
+    moved = float(np.linalg.norm(q1[:2] - q0[:2]))
+    assert moved > 0.02  # it was pushed
+    shown = np.asarray(p.ground_image.image)[..., 3].astype(np.float32) / 255.0  # what the page was sent last
+    after = dark_centre(shown, q1[:2])
+    assert np.linalg.norm(after - q1[:2]) < 0.2 * moved
+    assert np.linalg.norm(after - before) == pytest.approx(moved, rel=0.2)
 
 
 def _listing(folder: pathlib.Path) -> dict:

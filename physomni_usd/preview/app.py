@@ -21,8 +21,8 @@ import numpy as np
 from ..errors import InputError
 from . import security
 from .engine import Engine, field_label
-from .scene import (background_card, drawn_objects, fitted_fov, mean_colour, opening_card, opening_frame,
-                    photo_view, textured_glb)
+from .scene import (GroundShadow, ShadowTrack, background_card, contact_decal, drawn_objects, fitted_fov,
+                    mean_colour, opening_card, opening_frame, photo_view, shadow_blur_m, textured_glb)
 
 #: Seconds between two ``preview: N fps`` lines on stderr (and updates of the page's rate).
 REPORT_EVERY = 3.0
@@ -158,10 +158,12 @@ class Preview:
                           cast_shadow=False, receive_shadow=False)
         e = self.engine
         self.handles = {}
+        self.ground = None  # the bodies' contact shadows (GroundShadow) and the image that shows them
         self.live_meshes = {}
         self.clouds = {}
         q, _ = e.body_state()
         families = {o.path: o for o in e.objects}
+        tracks = {}
         for path, d in self.drawn.items():
             live = families.get(path)
             if live is None:
@@ -173,17 +175,36 @@ class Preview:
                 if float(e.sim.model.body_inv_mass.numpy()[b]) > 0:
                     self._draggable(h, b)
                 self.handles[b] = h
+                tracks[b] = self._shadow_track(d, q[b])
             elif path in e.surfaces():
                 world = e.world_surface(path, e.surfaces()[path])
                 self.live_meshes[path] = s.scene.add_mesh_simple(
                     f"/objects/{d.name}", world.astype(np.float32), d.faces, color=mean_colour(d.texture),
                     side="double", cast_shadow=False, receive_shadow=False)
+        tracks = {b: t for b, t in tracks.items() if t is not None}
+        if tracks:
+            self.ground = GroundShadow(tracks)
+            self.ground_image = s.scene.add_image("/shadows", self.ground.rgba(q), self.ground.width,
+                                                  self.ground.height, format="png", position=self.ground.centre,
+                                                  wxyz=(1.0, 0.0, 0.0, 0.0), cast_shadow=False, receive_shadow=False)
         for name, pts in e.particles().items():
             mo = next(m for m in e.sim.mpm.objects if m.obj.name == name)
             colour = tuple(int(255 * c) for c in mo.colour)
             self.clouds[name] = s.scene.add_point_cloud(f"/particles/{name}", pts.astype(np.float32),
                                                         colors=colour, point_size=float(e.sim.mpm.spacing),
                                                         point_shape="circle")
+
+    def _shadow_track(self, d, pose) -> ShadowTrack | None:
+        """The object's contact shadow, as ``render`` casts it, to follow the body: the plate has the photo's
+        own shadows taken out, so without it every object would float once the opening view gives way. None for
+        an object too far above the ground to darken it."""
+        from ..settings import RenderSettings
+
+        look = RenderSettings()
+        foot = (d.points @ d.matrix[:3, :3] + d.matrix[3, :3]).mean(axis=0) * np.array([1.0, 1.0, 0.0])
+        decal = contact_decal(d, look.shadow_strength, look.shadow_falloff,
+                              shadow_blur_m(self.view, self.fx, foot, look.shadow_blur))
+        return ShadowTrack.of(d, decal, np.asarray(pose, float)) if decal.alpha.any() else None
 
     # --- the opening view ---------------------------------------------------------------------------
     def _connected(self, client) -> None:
@@ -328,6 +349,7 @@ class Preview:
         """Send this frame's poses (only those that changed) and deformable shapes in one batch."""
         e = self.engine
         q, _ = e.body_state()
+        moved = False
         with self.server.atomic():
             for b, h in self.handles.items():
                 pose = q[b]
@@ -337,11 +359,14 @@ class Preview:
                 h.position = pose[:3]
                 h.wxyz = pose[[6, 3, 4, 5]]
                 self._sent[b] = pose.copy()
+                moved = True
             surfaces = e.surfaces() if self.live_meshes else {}
             for path, h in self.live_meshes.items():
                 h.vertices = e.world_surface(path, surfaces[path]).astype(np.float32)
             for name, pts in (e.particles().items() if self.clouds else ()):
                 self.clouds[name].points = pts.astype(np.float32)
+            if moved and self.ground is not None:
+                self.ground_image.image = self.ground.rgba(q)
         self._show_opening()
 
     def _handle(self, action: str) -> None:

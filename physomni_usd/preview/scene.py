@@ -1,7 +1,8 @@
 """What the preview page draws, read from the composed stage: the photo's camera, the opening view
 (frame 0 as ``render`` draws it, on a card that fills the photo camera's view), the background plate on
-its card, each object's mesh with its projected photo texture (unlit: emissive only), and flat-coloured
-live meshes or point clouds for deformables."""
+its card, each object's mesh with its projected photo texture (unlit: emissive only), each rigid object's
+contact shadow as a decal on the ground that follows it, and flat-coloured live meshes or point clouds for
+deformables."""
 
 from __future__ import annotations
 
@@ -154,3 +155,168 @@ def mean_colour(texture: np.ndarray) -> tuple[int, int, int]:
     a = texture[..., 3] > 127
     rgb = texture[..., :3][a].mean(axis=0) if a.any() else np.full(3, 160.0)
     return tuple(int(c) for c in rgb)
+
+
+
+#: Texels along the longer side of one object's contact shadow (:func:`contact_decal`).
+DECAL_TEXELS = 64
+#: Most texels along the longer side of the ground's shadow image (:class:`GroundShadow`), sent again each frame
+#: something moves (about 4 ms to encode at 512 × 400).
+GROUND_TEXELS = 512
+#: The ground's shadow lies this far above the ground (m), so that an object standing on the ground hides it under
+#: its foot.
+SHADOW_LIFT = 5e-4
+
+
+@dataclass
+class Decal:
+    """An object's contact shadow at frame 0 as ``render`` casts it on the ground (z = 0): the darkening
+    ``alpha`` (h, w) float32, 0–1, of texels ``step`` metres square, row 0 towards −y (as the preview lays an
+    image flat); the texels' centre at frame 0 (``centre`` (3,), world, metres); and the object's reach (m),
+    the gap beneath it at which its shadow is a quarter as dark."""
+    alpha: np.ndarray
+    centre: np.ndarray
+    step: float
+    reach: float
+
+
+def contact_decal(d: Drawn, strength: float, falloff: float, blur: float = 0.0,
+                  texels: int = DECAL_TEXELS) -> Decal:
+    """The contact shadow of ``d`` as it stands at frame 0, as ``render`` darkens the ground (z = 0) around it:
+    ``strength`` · ``contact_falloff(distance / reach)``, distance in metres from a ground point to the
+    object's nearest surface and reach ``falloff`` × the object's height (``RenderSettings.shadow_strength``
+    and ``shadow_falloff``), softened by a Gaussian ``blur`` metres wide (``render`` blurs its shadows on the
+    screen: :func:`shadow_blur_m`), over the object's footprint widened by where all that reaches 0."""
+    import cv2
+    import trimesh
+
+    from ..geometry.raycast import CONTACT_REACH, contact_falloff
+
+    world = d.points @ d.matrix[:3, :3] + d.matrix[3, :3]
+    lo, hi = world.min(axis=0), world.max(axis=0)
+    reach = falloff * max(float(hi[2] - lo[2]), 1e-3)
+    pad = CONTACT_REACH * reach + 3.0 * blur
+    (x0, y0), (x1, y1) = lo[:2] - pad, hi[:2] + pad
+    step = max(x1 - x0, y1 - y0) / texels
+    nx, ny = max(2, int(np.ceil((x1 - x0) / step))), max(2, int(np.ceil((y1 - y0) / step)))
+    xs = 0.5 * (x0 + x1) + (np.arange(nx) - 0.5 * (nx - 1)) * step
+    ys = 0.5 * (y0 + y1) + (np.arange(ny) - 0.5 * (ny - 1)) * step
+    gx, gy = np.meshgrid(xs, ys)
+    ground = np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], axis=1)
+    _, distance, _ = trimesh.proximity.closest_point(trimesh.Trimesh(world, d.faces, process=False), ground)
+    alpha = (strength * contact_falloff(distance / reach)).reshape(ny, nx).astype(np.float32)
+    if blur > 0.5 * step:
+        alpha = cv2.GaussianBlur(alpha, (0, 0), blur / step)
+    return Decal(alpha, np.array([0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.0]), float(step), reach)
+
+
+def shadow_blur_m(view: View, fx: float, at: np.ndarray, blur: float) -> float:
+    """Metres on the ground at ``at`` (3,) that ``render``'s shadow blur spans: ``blur`` (``RenderSettings.
+    shadow_blur``, a fraction of the photo's diagonal in pixels) at the distance of ``at`` from the photo's camera."""
+    depth = float((np.asarray(at, float) - view.position) @ view.axes[2])
+    return blur * float(np.hypot(view.width, view.height)) * max(depth, 0.0) / fx
+
+
+def _yaw(rotation: np.ndarray) -> float:
+    """The angle (radians) of the rotation about +z nearest to ``rotation`` (3, 3): what turns a shadow."""
+    return float(np.arctan2(rotation[1, 0] - rotation[0, 1], rotation[0, 0] + rotation[1, 1]))
+
+
+@dataclass
+class ShadowTrack:
+    """How a rigid body carries its contact shadow: the body's pose at frame 0 (``pose0`` (7,): position,
+    quaternion x, y, z, w), its hull's points in the body's frame (``hull`` (N, 3)) and their lowest height then."""
+    decal: Decal
+    pose0: np.ndarray
+    hull: np.ndarray
+    lowest0: float
+
+    @classmethod
+    def of(cls, d: Drawn, decal: Decal, pose0: np.ndarray) -> "ShadowTrack":
+        from scipy.spatial import ConvexHull, QhullError
+        from scipy.spatial.transform import Rotation
+
+        world = d.points @ d.matrix[:3, :3] + d.matrix[3, :3]
+        try:
+            world = world[ConvexHull(world).vertices]  # the lowest point is a hull vertex
+        except (QhullError, ValueError):
+            pass
+        local = (world - pose0[:3]) @ Rotation.from_quat(pose0[3:7]).as_matrix()
+        return cls(decal, np.asarray(pose0, float).copy(), local, float(world[:, 2].min()))
+
+    def place(self, pose: np.ndarray) -> tuple[np.ndarray, float, float]:
+        """For the body at ``pose`` (7,): where the shadow's centre is on the ground (2,), how far it has
+        turned about +z since frame 0 (radians), and how much of its darkness is left (0–1) for the gap the body
+        has lifted off by since then (the fall-off with height that ``render`` has)."""
+        from scipy.spatial.transform import Rotation
+
+        from ..geometry.raycast import contact_falloff
+
+        r0 = Rotation.from_quat(self.pose0[3:7]).as_matrix()
+        r = Rotation.from_quat(pose[3:7]).as_matrix()
+        turn = _yaw(r) - _yaw(r0)
+        c, s = np.cos(turn), np.sin(turn)
+        offset = self.decal.centre[:2] - self.pose0[:2]
+        xy = pose[:2] + np.array([c * offset[0] - s * offset[1], s * offset[0] + c * offset[1]])
+        lift = max(0.0, float((self.hull @ r.T)[:, 2].min() + pose[2]) - self.lowest0)
+        return xy, turn, float(contact_falloff(lift / self.decal.reach) / contact_falloff(0.0))
+
+
+class GroundShadow:
+    """Every rigid body's contact shadow on one image lying on the ground, as ``render`` combines them
+    (1 − Π(1 − darkening)): one image, because overlapping flat images at one height hide each other in the
+    browser's depth test. ``tracks`` by body index; the image covers their shadows at frame 0 and half as much
+    again on each side, where the objects may go."""
+
+    def __init__(self, tracks: dict[int, ShadowTrack], texels: int = GROUND_TEXELS):
+        self.tracks = tracks
+        lo = np.min([t.decal.centre[:2] - 0.5 * t.decal.step * np.array(t.decal.alpha.shape[::-1]) for t in
+                     tracks.values()], axis=0)
+        hi = np.max([t.decal.centre[:2] + 0.5 * t.decal.step * np.array(t.decal.alpha.shape[::-1]) for t in
+                     tracks.values()], axis=0)
+        span = hi - lo
+        lo, hi = lo - 0.5 * span.max(), hi + 0.5 * span.max()
+        # texels as fine as the finest object's shadow, as far as the image's size allows
+        self.step = max(min(t.decal.step for t in tracks.values()), float((hi - lo).max()) / texels)
+        self.shape = (max(2, int(np.ceil((hi[1] - lo[1]) / self.step))), max(2, int(np.ceil((hi[0] - lo[0]) / self.step))))
+        self.origin = lo  # the corner of texel (0, 0), world metres
+        self.width, self.height = self.shape[1] * self.step, self.shape[0] * self.step
+
+    @property
+    def centre(self) -> np.ndarray:
+        """(3,): the image's centre in the world, just above the ground."""
+        return np.array([self.origin[0] + 0.5 * self.width, self.origin[1] + 0.5 * self.height, SHADOW_LIFT])
+
+    def darkening(self, poses: np.ndarray) -> np.ndarray:
+        """(h, w) float32: the ground's darkening with the bodies at ``poses`` (B, 7), row 0 towards −y."""
+        import cv2
+
+        light = np.ones(self.shape, np.float32)
+        for body, t in self.tracks.items():
+            xy, turn, fade = t.place(np.asarray(poses[body], float))
+            if fade <= 0.0:
+                continue
+            a = t.decal.alpha
+            c, s = np.cos(turn), np.sin(turn)
+            k = t.decal.step / self.step
+            # decal texel (u, v) → world: centre + R(turn) · ((u, v) − its middle) · step → ground texel
+            mid = 0.5 * (np.array(a.shape[::-1], float) - 1.0)
+            lin = k * np.array([[c, -s], [s, c]])
+            at = (xy - self.origin) / self.step - 0.5 - lin @ mid
+            # only the texels the turned decal covers (a whole-image warp per body costs ten times as much)
+            corners = (lin @ np.array([[0, a.shape[1], 0, a.shape[1]], [0, 0, a.shape[0], a.shape[0]]])).T + at
+            x0, y0 = np.maximum(np.floor(corners.min(axis=0)).astype(int) - 1, 0)
+            x1, y1 = np.minimum(np.ceil(corners.max(axis=0)).astype(int) + 2, self.shape[::-1])
+            if x1 <= x0 or y1 <= y0:
+                continue
+            m = np.hstack([lin, (at - (x0, y0))[:, None]]).astype(np.float64)
+            warped = cv2.warpAffine(a, m, (int(x1 - x0), int(y1 - y0)), flags=cv2.INTER_LINEAR,
+                                    borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)
+            light[y0:y1, x0:x1] *= 1.0 - fade * warped
+        return 1.0 - light
+
+    def rgba(self, poses: np.ndarray) -> np.ndarray:
+        """(h, w, 4) uint8: black, as transparent as the ground is lit (:meth:`darkening`)."""
+        out = np.zeros(self.shape + (4,), np.uint8)
+        out[..., 3] = np.clip(self.darkening(poses) * 255.0 + 0.5, 0, 255).astype(np.uint8)
+        return out
