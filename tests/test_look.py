@@ -144,7 +144,8 @@ def test_particles_read_as_one_shaded_surface_without_their_lattice():
     fake = SimpleNamespace(width=w, height=h)
     fake._on_screen = lambda uv, z: ShotRenderer._on_screen(fake, uv, z)
     part = SimpleNamespace(colour=np.array([200.0, 170.0, 120.0]), width=0.02)
-    out = ShotRenderer._splat(fake, np.full((h, w, 3), 90.0, np.float32), cam, [(part, pts)], None)
+    drawn = np.zeros((h, w), np.float32)
+    out = ShotRenderer._splat(fake, np.full((h, w, 3), 90.0, np.float32), cam, [(part, pts)], None, drawn)
     grey = cv2.cvtColor(np.clip(out, 0, 255).astype(np.uint8), cv2.COLOR_RGB2GRAY).astype(float)
     y, x = np.mgrid[:h, :w]
     r = np.hypot(x + 0.5 - w / 2, y + 0.5 - h / 2)
@@ -154,6 +155,9 @@ def test_particles_read_as_one_shaded_surface_without_their_lattice():
     upper_left = inside & (x < w / 2) & (y < h / 2)
     lower_right = inside & (x >= w / 2) & (y >= h / 2)
     assert grey[upper_left].mean() - grey[lower_right].mean() > 10
+    # what the splat covers is told beside the image: all of the ball, nothing far from it
+    assert (drawn[inside] > 0.99).all() and not drawn[r > 0.15 * 400 * 1.3].any()
+    assert np.array_equal(drawn > 0, np.any(np.abs(out - 90.0) > 0.01, axis=-1))
 
 
 def test_the_default_build_widens_the_world_without_a_mirrored_copy_of_the_photo(shot):
