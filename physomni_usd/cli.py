@@ -990,7 +990,8 @@ def bench_look_command(examples, out_dir, size, seconds, no_browser):
     Sheet: the photo, frames 0, middle and last, the last frame under --camera orbit-left, and the
     preview's opening view in headless Chromium. Figures, on the last frame, for each revealed area
     against a ring around it: gradient ratio (target 0.6-1.6), border gradient ratio (<= 1.3), colour
-    difference (<= 8 levels); frame 0's PSNR against the photo; the opening view's SSIM.
+    difference against the ring's colour near each pixel of the area (<= 8 levels; in brackets, against
+    the ring's plain mean); frame 0's PSNR against the photo; the opening view's SSIM.
 
     \b
     Example:

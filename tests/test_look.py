@@ -41,6 +41,95 @@ def test_a_fill_that_continues_the_surface_is_on_target_and_a_flat_patch_is_not(
     assert flat[0]["gradient_ratio"] < 0.6 and not within_targets(flat[0]), flat
 
 
+def _across_the_horizon(fill: str) -> tuple:
+    """A 480×320 frame like the cloth example's: a grey-blue backdrop above row 150 that lightens downward, a
+    brown grained floor below that darkens downward; where an object stood, 140×200 px across the horizon
+    (53 % of it backdrop), the plate shows, filled as ``fill`` says ("right": the surfaces themselves,
+    "offset": 12 levels too bright, "flat": one colour); the object now lies on the floor to the left of it,
+    across the area's lower left and the ring beside it, and a crate stands in place to the right. Its ring
+    is 68 % backdrop."""
+    h, w, horizon = 320, 480, 150
+    rng = np.random.default_rng(4)
+    y, x = np.mgrid[:h, :w].astype(float)
+    back = np.stack([172 + 0.12 * y, 177 + 0.12 * y, 187 + 0.12 * y], -1) + rng.normal(0, 3, (h, w, 1))
+    grain = 8 * np.sin(x / 4.0 + 3 * np.sin(y / 23.0)) + rng.normal(0, 4, (h, w))
+    floor = np.stack([138 - 0.25 * (y - horizon)] * 3, -1) * [1.0, 0.87, 0.73] + grain[..., None]
+    img = np.where((y < horizon)[..., None], back, floor)
+    stood = np.zeros((h, w), bool)
+    stood[75:275, 130:270] = True
+    if fill == "offset":
+        img[stood] += 12.0
+    elif fill == "flat":
+        img[stood] = img[stood].mean(0)
+    img = np.clip(img, 0, 255).astype(np.uint8)
+    face = np.full((h, w), -1, np.int32)
+    face[170:290, 60:200], img[170:290, 60:200] = 0, (200, 40, 40)  # the object, lying
+    face[195:265, 270:390], img[195:265, 270:390] = 1, (90, 70, 50)  # the crate, in place
+    tex, crate = np.zeros((h, w, 4), np.uint8), np.zeros((h, w, 4), np.uint8)
+    tex[..., 3], crate[195:265, 270:390, 3] = stood * 255, 255
+    objs = [SimpleNamespace(origin=(0, 0), texture=t, two_sided=False, path=f"/World/Objects/{n}")
+            for t, n in ((tex, "towel"), (crate, "crate"))]
+    renderer = SimpleNamespace(objects=objs, width=w, height=h, to_frame=(1.0, 1.0))
+    return renderer, img, SimpleNamespace(mesh_face=face)
+
+
+def test_an_area_across_two_surfaces_is_compared_with_each_surface_where_it_lies():
+    """The ring of an area across the horizon holds the backdrop and the floor in other proportions than the
+    area: by plain means the right fill is 13 levels off and one 12 levels too bright passes; compared with
+    the ring near each of its pixels, the right fill is on target, the bright one is not, and a flat patch
+    still fails its gradient."""
+    right, offset, flat = (revealed_figures(*_across_the_horizon(f)) for f in ("right", "offset", "flat"))
+    assert [f["object"] for f in right + offset + flat] == ["/World/Objects/towel"] * 3
+    right, offset, flat = right[0], offset[0], flat[0]
+    assert right["colour_difference_plain"] > 8 and offset["colour_difference_plain"] <= 8, (right, offset)
+    assert within_targets(right) and right["colour_difference"] < 2, right
+    assert offset["colour_difference"] > 10 and not within_targets(offset), offset
+    assert flat["gradient_ratio"] < 0.6 and not within_targets(flat), flat
+
+
+def test_the_shadow_of_an_object_beside_the_area_is_not_the_fill_s_colour():
+    """An object moved a few pixels leaves a crescent of plain surface hugging it; its contact shadow, darkest
+    next to it, darkens the crescent more than the ring farther out: the colour figure reads the frame
+    rendered without the shadow, where the fill is the surface."""
+    renderer, _, _ = _frame("texture")
+    rng = np.random.default_rng(1)
+    plain = np.clip(np.array([150.0, 140, 130]) + rng.normal(0, 4, (120, 160, 1)), 0, 255).astype(np.uint8)
+    y, x = np.mgrid[:120, :160]
+    obj = (x - 74) ** 2 + (y - 60) ** 2 < 20 ** 2  # the disc at (80, 60), radius 25, moved 6 px left
+    plain[obj] = (200, 40, 40)
+    state = SimpleNamespace(mesh_face=np.where(obj, 0, -1).astype(np.int32))
+    away = cv2.distanceTransform((~obj).astype(np.uint8), cv2.DIST_L2, 5)
+    shaded = np.clip(plain * (1.0 - 0.4 * np.exp(-away / 8.0))[..., None], 0, 255).astype(np.uint8)
+    as_shown = revealed_figures(renderer, shaded, state)[0]
+    unshaded = revealed_figures(renderer, shaded, state, plain)[0]
+    assert as_shown["colour_difference"] > 8, as_shown
+    assert unshaded["colour_difference"] < 1 < 8 < unshaded["colour_difference_plain"], unshaded
+
+
+def test_against_a_ring_of_one_colour_the_local_colour_is_the_plain_one():
+    renderer, img, state = _frame("texture")
+    disc = renderer.objects[0].texture[..., 3] > 0
+    img = np.where(disc[..., None], img, np.array([120, 90, 60], np.uint8))
+    f = revealed_figures(renderer, img, state)[0]
+    assert f["colour_difference"] == f["colour_difference_plain"] > 8, f
+
+
+def test_pixels_drawn_over_by_particles_are_an_object_in_the_frame():
+    """Water's particles are no mesh faces: where they lie over the area left behind, the area is not
+    revealed, and their blue does not count against the fill."""
+    renderer, img, state = _frame("texture")
+    y, x = np.mgrid[:120, :160]
+    splash = (y > 65) & (x > 50) & (x < 110)
+    img[splash] = (40, 90, 220)
+    alpha = np.where(splash, 1.0, 0.0).astype(np.float32)
+    blind = revealed_figures(renderer, img, state)[0]  # the particles unseen, as mesh faces alone saw them
+    seen = revealed_figures(renderer, img, SimpleNamespace(mesh_face=state.mesh_face, particle_alpha=alpha))[0]
+    assert blind["colour_difference"] > 8, blind
+    disc = renderer.objects[0].texture[..., 3] > 0
+    assert seen["revealed_px"] <= int((disc & ~splash).sum()) < blind["revealed_px"], (seen, blind)
+    assert within_targets(seen), seen
+
+
 def test_contact_sheet_is_one_row_of_equal_heights():
     sheet = contact_sheet([("a", np.zeros((100, 150, 3), np.uint8)), ("missing", None)])
     assert sheet.shape[0] == 240 and sheet.shape[2] == 3 and sheet.shape[1] > 240 + 360
@@ -144,7 +233,8 @@ def test_particles_read_as_one_shaded_surface_without_their_lattice():
     fake = SimpleNamespace(width=w, height=h)
     fake._on_screen = lambda uv, z: ShotRenderer._on_screen(fake, uv, z)
     part = SimpleNamespace(colour=np.array([200.0, 170.0, 120.0]), width=0.02)
-    out = ShotRenderer._splat(fake, np.full((h, w, 3), 90.0, np.float32), cam, [(part, pts)], None)
+    drawn = np.zeros((h, w), np.float32)
+    out = ShotRenderer._splat(fake, np.full((h, w, 3), 90.0, np.float32), cam, [(part, pts)], None, drawn)
     grey = cv2.cvtColor(np.clip(out, 0, 255).astype(np.uint8), cv2.COLOR_RGB2GRAY).astype(float)
     y, x = np.mgrid[:h, :w]
     r = np.hypot(x + 0.5 - w / 2, y + 0.5 - h / 2)
@@ -154,6 +244,9 @@ def test_particles_read_as_one_shaded_surface_without_their_lattice():
     upper_left = inside & (x < w / 2) & (y < h / 2)
     lower_right = inside & (x >= w / 2) & (y >= h / 2)
     assert grey[upper_left].mean() - grey[lower_right].mean() > 10
+    # what the splat covers is told beside the image: all of the ball, nothing far from it
+    assert (drawn[inside] > 0.99).all() and not drawn[r > 0.15 * 400 * 1.3].any()
+    assert np.array_equal(drawn > 0, np.any(np.abs(out - 90.0) > 0.01, axis=-1))
 
 
 def test_the_default_build_widens_the_world_without_a_mirrored_copy_of_the_photo(shot):

@@ -69,6 +69,9 @@ class FrameState:
     mesh_face: np.ndarray | None = None  # (H, W) int32 first face on each ray whatever the texture's alpha, −1 none
     mesh_depth: np.ndarray | None = None  # (H, W) float32 metres along the ray to that face
     bary: np.ndarray | None = None  # (H, W, 2) float32 barycentric (u, v) on that face
+    # (H, W) float32 0–1: how much of each pixel the particles drawn this frame cover (they are no faces, so
+    # ``mesh_face`` does not see them); None for a stage without particles
+    particle_alpha: np.ndarray | None = None
 
 
 class ShotRenderer:
@@ -262,9 +265,11 @@ class ShotRenderer:
             shadow = cv2.GaussianBlur(shadow, (0, 0), blur)
         return shadow
 
-    def _splat(self, out: np.ndarray, cam, particles: list, depth: np.ndarray | None) -> np.ndarray:
+    def _splat(self, out: np.ndarray, cam, particles: list, depth: np.ndarray | None,
+               drawn: np.ndarray | None = None) -> np.ndarray:
         """Draw ``particles`` (from :meth:`_visible_particles`) as one shaded surface per set, hidden where a
-        mesh is nearer (``depth``: distance along each pixel's ray, or None).
+        mesh is nearer (``depth``: distance along each pixel's ray, or None); ``drawn`` (H, W) float32, where
+        given, takes in each pixel's largest coverage by any set (0–1).
 
         Each particle is a sphere of its prim's width seen through the pixel of its centre; the nearest
         sphere's front per pixel, spread over the spheres' projected radius (a min filter), is smoothed
@@ -317,6 +322,8 @@ class ShotRenderer:
             colour = part.colour.astype(np.float32)[None, None, :] * shade[..., None] * 1.15
             alpha = cv2.GaussianBlur(cover, (0, 0), 0.6)[..., None] * cover[..., None]
             out = out * (1.0 - alpha) + np.clip(colour, 0, 255) * alpha
+            if drawn is not None:
+                np.maximum(drawn, alpha[..., 0], out=drawn)
         return out
 
     def _turned_shading(self, face: np.ndarray, state: FrameState) -> np.ndarray:
@@ -424,20 +431,21 @@ class ShotRenderer:
             self._rays_key = key
         # read once a frame: both the particles' shadows and their splats need them
         particles = self._visible_particles(time_code)
+        drawn = np.zeros((self.height, self.width), np.float32) if self.particles else None
         if self._is_photo_camera(cam):
             plate, photo, owner = self.plate, self.photo, self.owner
         else:
             plate, photo, owner = self._world_background(cam)
         if self.caster is None:
             out = plate * (1.0 - self._particle_shadow(cam, particles)[..., None])
-            image = np.clip(self._splat(out, cam, particles, None) + 0.5, 0, 255).astype(np.uint8)
-            return image, FrameState(float(t), cam, self._rays)
+            image = np.clip(self._splat(out, cam, particles, None, drawn) + 0.5, 0, 255).astype(np.uint8)
+            return image, FrameState(float(t), cam, self._rays, particle_alpha=drawn)
         points = self.points_at(time_code)
         self.caster.update(points)
         face, px = self.caster.cast(cam.origin, self._rays, 1e6, pixels=covered_pixels(cam, points, self.faces))
         # the caster's buffers are overwritten by the next cast: the state keeps its own
         state = FrameState(float(t), cam, self._rays, points, self.caster.mesh_face.copy(),
-                           self.caster.mesh_depth.copy(), self.caster.bary.copy())
+                           self.caster.mesh_depth.copy(), self.caster.bary.copy(), drawn)
         hit = face >= 0
         obj = np.where(hit, self.face_object[np.maximum(face, 0)], -1)
         moved = self._moved(obj, px)
@@ -465,7 +473,7 @@ class ShotRenderer:
         a = np.where(hit, np.clip(alpha, 0.0, 1.0), 0.0)[..., None]
         out = out * (1.0 - a) + colour * a
         if self.particles:
-            out = self._splat(np.ascontiguousarray(out, np.float32), cam, particles, self.caster.depth)
+            out = self._splat(np.ascontiguousarray(out, np.float32), cam, particles, self.caster.depth, drawn)
         return np.clip(out + 0.5, 0, 255).astype(np.uint8), state
 
 
