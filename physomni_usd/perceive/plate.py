@@ -167,7 +167,9 @@ def contact_shadow(lum: np.ndarray, mask: np.ndarray, hole: np.ndarray) -> np.nd
     middle of the object and within :data:`SHADOW_REACH` of its height from it; a candidate is shadow
     where it is darker than :data:`SHADOW_RATIO` × the surface around it (the lightness outside the
     candidates and the hole, averaged with a Gaussian as wide as the reach), and only the dark
-    patches that touch the object (through the hole) count.
+    patches that touch the object (through the hole) count. The shadow then grows through its penumbra
+    (:data:`PENUMBRA_RATIO`, :data:`PENUMBRA_GRADIENT`), so that the hole's edge lies where the shade has
+    faded into the surface.
     """
     ys, xs = np.nonzero(mask)
     if ys.size == 0:
