@@ -113,6 +113,53 @@ def test_contact_shadow_is_removed_from_the_plate():
     assert gradient_ratio(plate, hole) > 0.3
 
 
+def test_the_shading_match_does_not_spread_a_horizon_across_the_hole():
+    """A grey-blue backdrop over a brown floor, the horizon straight across a tall hole: the exemplar copies
+    the horizon from beside the hole, and away from it (4 rows or more) each row of the fill stays within
+    4 levels of the same row beside the hole. A shading match that took the fill's low frequencies from a
+    smooth fill of the border's colours smeared the backdrop down into the floor (6.9 levels 10 rows below
+    the horizon; now 2.5)."""
+    rng = np.random.default_rng(3)
+    h, w = 200, 300
+    img = np.empty((h, w, 3), np.float32)
+    img[:70] = (185, 191, 201)
+    img[70:] = (136, 120, 101)
+    photo = np.clip(img + rng.normal(0, 2.0, (h, w, 1)), 0, 255).astype(np.uint8)
+    hole = np.zeros((h, w), bool)
+    hole[25:175, 100:190] = True
+    out = fill_hole(photo, hole, "exemplar", 4)
+    inside = out[:, 105:185].astype(np.float32).mean(1)
+    beside = np.concatenate([photo[:, 60:95], photo[:, 195:230]], 1).astype(np.float32).mean(1)
+    rows = np.arange(25, 175)
+    rows = rows[np.abs(rows - 70) >= 4]
+    glow = np.abs(inside[rows] - beside[rows]).max(1)
+    assert glow.max() < 4.0, (glow.max(), rows[glow.argmax()])
+    assert np.array_equal(out[~hole], photo[~hole])
+
+
+def test_the_hole_takes_a_soft_shade_until_it_fades_into_the_paper():
+    """White paper (noise 0.3 levels, in whole levels as a photo stores it) with a red disc whose shade below
+    it fades from dark to the paper's 254 in one-level steps: the hole's lower edge lies where those steps
+    have ended, its photo gradient within 3x the paper's (measured 2.5x; with the penumbra cut at 0.96 of the
+    paper's lightness alone, 3.4x, on the steps)."""
+    rng = np.random.default_rng(5)
+    h, w = 140, 140
+    yy, xx = np.mgrid[:h, :w]
+    r = np.hypot(yy - 55, xx - 70)
+    disc = r < 22
+    lum = 254.0 - 150.0 * np.exp(-np.maximum(r - 22, 0) / 2.5) * (yy > 55)
+    grey = np.clip(np.round(lum + rng.normal(0, 0.3, (h, w))), 0, 255)
+    photo = np.repeat(grey[..., None], 3, -1).astype(np.uint8)
+    photo[disc] = (200, 20, 30)
+    hole = plate_hole(photo, [disc], 0.015)
+    edge = hole & ~(cv2.erode(hole.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0) & (yy > 60)
+    g = cv2.cvtColor(photo, cv2.COLOR_RGB2GRAY).astype(np.float32)
+    g = np.hypot(cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3), cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3))
+    paper = (r > 55) & (yy > 60)
+    assert edge.sum() > 50
+    assert g[edge].mean() / g[paper].mean() < 3.0
+
+
 def _thin_diagonal(width: int = 4, colour=(70, 60, 50)):
     """A table lit from above the middle of the box, and a thin pencil lying along the box's diagonal."""
     rng = np.random.default_rng(0)

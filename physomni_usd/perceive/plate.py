@@ -6,10 +6,12 @@ it, so the fill keeps the surface's grain instead of the radial smear of a
 diffusion fill (Telea, kept as ``method="telea"`` for comparison). Shift-map
 is slow at full resolution, so each hole is filled in a reduced window around
 it; the shifts it chose are read back from the result (every filled pixel is
-a copy of a known one) and applied at full resolution, and the fill's low
-frequencies are matched to a smooth interpolation of the hole's border (leaving
-out border pixels that are not the surface) and its fine detail to the
-gradient of the surface around the hole.
+a copy of a known one) and applied at full resolution. The fill's low
+frequencies are then shifted by the step it makes against the photo along the
+hole's border, carried inward (so a horizon the exemplar continued stays where
+it is), and pulled towards a smooth interpolation of the border only where that
+interpolation is flat (leaving out border pixels that are not the surface); its
+fine detail is matched to the gradient of the surface around the hole.
 """
 
 from __future__ import annotations
@@ -33,7 +35,8 @@ EXEMPLAR_CONTEXT = 0.6
 MAX_SHIFTS = 128
 #: Width of the low-pass by which the exemplar fill's shading is matched to its border, as a fraction
 #: of the hole's narrower side (at least 3 pixels), and the depth into the hole over which that match fades
-#: (1/e), as a fraction of the image diagonal. Patches copied from elsewhere bring their own brightness
+#: (1/e), as a fraction of the image diagonal (both corrections of :func:`_match_shading` are smoothed by it
+#: over the hole). Patches copied from elsewhere bring their own brightness
 #: (a darker sky from above the rocket, a wall's colour onto the garage floor): at 0.012 the fill where the
 #: rocket stood was 35 levels off the sky around it and the motorcycle's 27 off the floor; at 0.1 the
 #: border's smooth colour reaches across the hole (16 and 9 levels) and the patches keep only their grain.
@@ -42,6 +45,23 @@ MAX_SHIFTS = 128
 #: narrower side, 8.4).
 SHADING_SIGMA = 0.08
 SHADING_DEPTH = 0.1
+#: Low-pass (Gaussian sigma, pixels of the window's copy at most 160 pixels long) with which the step the fill
+#: makes against the photo is measured along the hole's border (:func:`_match_shading`). The match used to
+#: take the fill's low frequencies from a smooth fill of the border's colours, which across a horizon is
+#: a smear of the two surfaces: where the water example's block stood the fill was 12-29 levels lighter and
+#: bluer than the floor beside it in the 40 rows below the horizon, though the exemplar had copied the
+#: horizon right. Matching the step instead leaves those rows within 3 levels. Measured with the fill's
+#: own low-pass as wide as the shading's (:data:`SHADING_SIGMA`), a surface that brightens across the border
+#: (the motorcycle's floor towards the camera) read as a step and darkened the fill (its colour 8.6 levels
+#: off its ring); at 3 pixels, 3.0.
+SHADING_STEP = 3.0
+#: Patches inside the hole that never touch its border are still pulled towards the smooth fill of the
+#: border's colours, where that fill changes by less than this many levels per pixel (fully where it is flat,
+#: not at all from this slope up): the smear of an edge is steeper than a surface's shading. With the step
+#: alone the rocket's column kept the darker sky copied into its middle (8.3 levels off its ring, 16-20 in
+#: its centre rows); at 0.5 it is 7.6, the motorcycle's 1.5, and the water's rows stay within 3 levels
+#: (at 1.0: 7.1, 0.3, and 5-7 levels just above the water's horizon).
+SHADING_TRUST = 0.5
 #: Border pixels left out of the smooth fill the shading is matched to (:func:`odd_border`): the band's width at
 #: the reduced size (pixels) and the colour difference (CIELAB, 8-bit) from the border around them.
 BORDER_BAND = 3
@@ -62,6 +82,12 @@ SHADOW_RATIO = 0.85
 #: The shadow's soft edge: pixels joined to a contact shadow and darker than this fraction of the surface
 #: around them go with it, so that the fill's border lies on lit surface, not on a dark rim of penumbra.
 PENUMBRA_RATIO = 0.96
+#: Beyond that, the penumbra also takes pixels joined to it that are darker than the surface at all and whose
+#: lightness gradient (smoothed over a pixel) is more than this many times the surface's around them. On
+#: white paper a sweet's shade fades from 250 to 254 in steps of one level (a Sobel gradient of 4 against the
+#: paper's 1.2); the seam that lay across those steps carried them into the plate as an outline (candy_5's
+#: border 1.48× its ring, the photo's gradient on those border pixels 3.4× the ring's); taking them, 1.23×.
+PENUMBRA_GRADIENT = 2.0
 
 #: How far below an object its contact shadow may reach, as a fraction of the object's height in the photo.
 SHADOW_REACH = 0.25
@@ -141,7 +167,9 @@ def contact_shadow(lum: np.ndarray, mask: np.ndarray, hole: np.ndarray) -> np.nd
     middle of the object and within :data:`SHADOW_REACH` of its height from it; a candidate is shadow
     where it is darker than :data:`SHADOW_RATIO` × the surface around it (the lightness outside the
     candidates and the hole, averaged with a Gaussian as wide as the reach), and only the dark
-    patches that touch the object (through the hole) count.
+    patches that touch the object (through the hole) count. The shadow then grows through its penumbra
+    (:data:`PENUMBRA_RATIO`, :data:`PENUMBRA_GRADIENT`), so that the hole's edge lies where the shade has
+    faded into the surface.
     """
     ys, xs = np.nonzero(mask)
     if ys.size == 0:
@@ -172,6 +200,11 @@ def contact_shadow(lum: np.ndarray, mask: np.ndarray, hole: np.ndarray) -> np.nd
     shadow = np.isin(labels, touching) & dark
     if shadow.any():  # grow it through its penumbra
         soft = band & (smooth < PENUMBRA_RATIO * surround) & (weight > 0.05)
+        # and, darker than the surface at all, where its lightness still falls faster than the surface's own
+        # grain: on white paper a sweet's shade fades in steps of one level, each a line the seam would show
+        g = _gradient(_blur(lum, 1.0))
+        surface_g = _blur(g * known, sigma) / np.maximum(weight, 1e-3)
+        soft |= band & (smooth < surround) & (g > PENUMBRA_GRADIENT * surface_g) & (weight > 0.05)
         n, labels = cv2.connectedComponents((soft | shadow).astype(np.uint8), connectivity=8)
         shadow |= np.isin(labels, np.unique(labels[shadow & (labels > 0)])) & soft
     return _dilate(shadow, 2) & near
@@ -251,7 +284,7 @@ def _exemplar_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float,
     ok = (d[:, 0] != NO_SHIFT) & (qy >= 0) & (qy < h) & (qx >= 0) & (qx < w)
     ok[ok] &= ~hole[qy[ok], qx[ok]]
     out[ys[ok], xs[ok]] = img[qy[ok], qx[ok]]
-    out = _match_shading(img, out, hole, max(3.0, SHADING_SIGMA * size), depth)
+    out = _match_shading(img, out, hole, max(3.0, SHADING_SIGMA * size), depth, SHADING_TRUST)
     return match_grain(img, out, hole)
 
 
@@ -353,27 +386,62 @@ def _reduced_hole(hole: np.ndarray, sw: int, sh: int) -> np.ndarray:
     return _dilate(cv2.resize(hole.astype(np.float32), (sw, sh), interpolation=cv2.INTER_AREA) > 0, 1)
 
 
-def _match_shading(img: np.ndarray, filled: np.ndarray, hole: np.ndarray, sigma: float, depth: float) -> np.ndarray:
-    """Replace the low frequencies of ``filled`` near the border of ``hole`` by those of a smooth fill from
-    that border (fading over ``depth`` pixels inward), so that patches copied from brighter or darker parts of
-    the surface meet the hole's edge without a seam."""
-    bgr = cv2.cvtColor(img, cv2.COLOR_RGB2BGR)
+def _match_shading(img: np.ndarray, filled: np.ndarray, hole: np.ndarray, sigma: float, depth: float,
+                   trust: float) -> np.ndarray:
+    """``filled`` (h, w, 3) uint8 with the low frequencies of its ``hole`` pixels shifted so that patches
+    copied from brighter or darker parts of the surface meet the hole's edge, and each other, without a seam.
+
+    First the step the fill makes at the hole's border: per border pixel, the photo's low-pass over the
+    known surface just outside it (:data:`SHADING_STEP`; border pixels that are not the surface,
+    :func:`odd_border`, left out) less the fill's low-pass over the hole just inside it, carried inward by a
+    smooth (Telea) fill of those steps alone. Where the fill continues the surface (a horizon, copied from
+    beside the hole at its own height) the two take the same mix and the step is ~0, so nothing of the
+    surface's colours is spread across the hole. Then the patches inside that never touch the border (a
+    darker piece of sky in the rocket's column) are pulled towards a smooth fill of the border's colours,
+    but only where that smooth fill is smooth: where it changes faster than ``trust`` levels per pixel it is
+    the smear of an edge of the surface, not its shading, and the fill keeps its own colours there.
+    ``sigma`` (pixels) smooths both corrections over the hole, ``depth`` (pixels) is how far into the hole
+    they fade (1/e)."""
     h, w = hole.shape
     scale = min(1.0, 160.0 / max(h, w))
-    small = cv2.resize(bgr, (max(2, round(w * scale)), max(2, round(h * scale))), interpolation=cv2.INTER_AREA)
-    small_hole = cv2.resize(hole.astype(np.float32), small.shape[1::-1], interpolation=cv2.INTER_AREA) > 0
-    unknown = small_hole | odd_border(small, small_hole)
-    smooth = cv2.inpaint(small, unknown.astype(np.uint8), INPAINT_RADIUS, cv2.INPAINT_TELEA)
-    smooth = cv2.cvtColor(cv2.resize(smooth, (w, h), interpolation=cv2.INTER_CUBIC), cv2.COLOR_BGR2RGB)
-    smooth = np.where(hole[..., None], smooth, img).astype(np.float32)
-    f = filled.astype(np.float32)
-    # averaged over the hole's own pixels only (outside it the two agree): a blur wider than a thin hole
-    # (the rocket's column) would otherwise thin the correction by the surface it also takes in
-    inside = hole.astype(np.float32)
-    corr = _blur((smooth - f) * inside[..., None], sigma) / np.maximum(_blur(inside, sigma), 1e-3)[..., None]
+    size = (max(2, round(w * scale)), max(2, round(h * scale)))
+    cover = cv2.resize(hole.astype(np.float32), size, interpolation=cv2.INTER_AREA)
+    small_img = cv2.resize(img, size, interpolation=cv2.INTER_AREA)
+    small_fill = cv2.resize(filled, size, interpolation=cv2.INTER_AREA).astype(np.float32)
+    region = cover > 0
+    inside = cover >= 0.999  # reduced pixels of fill alone
+    odd = odd_border(cv2.cvtColor(small_img, cv2.COLOR_RGB2BGR), region)
+    known = ~region & ~odd
+    kk, ki = known.astype(np.float32), inside.astype(np.float32)
+    wk, wi = _blur(kk, SHADING_STEP), _blur(ki, SHADING_STEP)
+    photo_low = _blur(small_img.astype(np.float32) * kk[..., None], SHADING_STEP) / np.maximum(wk, 1e-3)[..., None]
+    fill_low = _blur(small_fill * ki[..., None], SHADING_STEP) / np.maximum(wi, 1e-3)[..., None]
+    # the border: fill pixels next to the surface, with enough of both sides under the low-pass to measure
+    border = inside & _within(~inside, 1.5) & (wk > 0.05) & (wi > 0.05)
+    if not border.any():
+        return filled
+    step = photo_low - fill_low
+    # spread from the border alone: the surface outside the hole has no step to give
+    unknown = (~border).astype(np.uint8)
+    spread = np.stack([cv2.inpaint(np.where(border, step[..., c], 0.0).astype(np.float32), unknown,
+                                   INPAINT_RADIUS, cv2.INPAINT_TELEA) for c in range(3)], -1)
+    # smoothed over the hole's own pixels only (outside it there is nothing to correct): a blur wider than a
+    # thin hole (the rocket's column) would otherwise thin the correction by the surface it also takes in
+    s = max(1.0, sigma * scale)
+    r = region.astype(np.float32)
+    r_blur = np.maximum(_blur(r, s), 1e-3)[..., None]
+    spread = _blur(spread * r[..., None], s) / r_blur
+    smooth = cv2.inpaint(small_img, (region | odd).astype(np.uint8), INPAINT_RADIUS,
+                         cv2.INPAINT_TELEA).astype(np.float32)
+    rest = _blur((smooth - small_fill - spread) * r[..., None], s) / r_blur
+    sm = _blur(smooth, s)
+    slope = np.hypot(cv2.Sobel(sm, cv2.CV_32F, 1, 0, ksize=3), cv2.Sobel(sm, cv2.CV_32F, 0, 1, ksize=3)).max(-1)
+    slope *= scale / 8.0  # levels per pixel of the window (a Sobel of a unit ramp is 8)
+    corr = spread + np.clip(1.0 - slope / trust, 0.0, 1.0)[..., None] * rest
+    corr = cv2.resize(corr, (w, h), interpolation=cv2.INTER_LINEAR)
     dist = cv2.distanceTransform(hole.astype(np.uint8), cv2.DIST_L2, 5)
     corr *= np.exp(-dist / max(depth, 1.0))[..., None]
-    out = f + corr
+    out = filled.astype(np.float32) + corr
     return np.where(hole[..., None], np.clip(out + 0.5, 0, 255), filled).astype(np.uint8)
 
 
