@@ -988,10 +988,11 @@ def bench_look_command(examples, out_dir, size, seconds, no_browser):
 
     \b
     Sheet: the photo, frames 0, middle and last, the last frame under --camera orbit-left, and the
-    preview's opening view in headless Chromium. Figures, on the last frame, for each revealed area
-    against a ring around it: gradient ratio (target 0.6-1.6), border gradient ratio (<= 1.3), colour
-    difference against the ring's colour near each pixel of the area (<= 8 levels; in brackets, against
-    the ring's plain mean); frame 0's PSNR against the photo; the opening view's SSIM.
+    preview's opening view in headless Chromium. Figures, on the last frame without the moved objects'
+    new contact shadows, for each revealed area against a ring around it: gradient ratio (target
+    0.6-1.6), border gradient ratio (<= 1.3), colour difference against the ring's colour near each
+    pixel of the area (<= 8 levels); in brackets, the frame as shown (gradient, border, and colour
+    against the ring's plain mean); frame 0's PSNR against the photo; the opening view's SSIM.
 
     \b
     Example:

@@ -87,10 +87,10 @@ def test_an_area_across_two_surfaces_is_compared_with_each_surface_where_it_lies
     assert flat["gradient_ratio"] < 0.6 and not within_targets(flat), flat
 
 
-def test_the_shadow_of_an_object_beside_the_area_is_not_the_fill_s_colour():
+def test_the_shadow_of_an_object_beside_the_area_is_not_the_fill_s_colour_or_grain():
     """An object moved a few pixels leaves a crescent of plain surface hugging it; its contact shadow, darkest
-    next to it, darkens the crescent more than the ring farther out: the colour figure reads the frame
-    rendered without the shadow, where the fill is the surface."""
+    next to it, darkens the crescent more than the ring farther out and falls off across it: the figures read
+    the frame rendered without the shadow, where the fill is the surface, and give the frame as shown beside."""
     renderer, _, _ = _frame("texture")
     rng = np.random.default_rng(1)
     plain = np.clip(np.array([150.0, 140, 130]) + rng.normal(0, 4, (120, 160, 1)), 0, 255).astype(np.uint8)
@@ -99,11 +99,15 @@ def test_the_shadow_of_an_object_beside_the_area_is_not_the_fill_s_colour():
     plain[obj] = (200, 40, 40)
     state = SimpleNamespace(mesh_face=np.where(obj, 0, -1).astype(np.int32))
     away = cv2.distanceTransform((~obj).astype(np.uint8), cv2.DIST_L2, 5)
-    shaded = np.clip(plain * (1.0 - 0.4 * np.exp(-away / 8.0))[..., None], 0, 255).astype(np.uint8)
+    shaded = np.clip(plain * (1.0 - 0.4 * np.exp(-away / 4.0))[..., None], 0, 255).astype(np.uint8)
     as_shown = revealed_figures(renderer, shaded, state)[0]
     unshaded = revealed_figures(renderer, shaded, state, plain)[0]
     assert as_shown["colour_difference"] > 8, as_shown
     assert unshaded["colour_difference"] < 1 < 8 < unshaded["colour_difference_plain"], unshaded
+    assert within_targets(unshaded), unshaded
+    # its fall-off across the crescent reads as grain as shown
+    assert unshaded["gradient_ratio_as_shown"] == as_shown["gradient_ratio"] > 1.25 * unshaded["gradient_ratio"]
+    assert unshaded["border_ratio_as_shown"] == as_shown["border_ratio"]
 
 
 def test_against_a_ring_of_one_colour_the_local_colour_is_the_plain_one():
