@@ -101,7 +101,7 @@ def session(moto, tmp_path_factory):
     stage = layers.open_shot(folder)
     view, fx = photo_view(stage)
     bin_ = drawn_objects(stage)[DRAGGED]
-    bin_px = view.project((bin_.points @ bin_.matrix[:3, :3] + bin_.matrix[3, :3]).mean(axis=0), fx)[0]
+    bin_px = view.project(bin_.world_points().mean(axis=0), fx)[0]
     sim = folder / "sim.usdc"
     out = {"folder": folder, "view": view}
     proc, lines = start_preview(folder / "shot.usda", free_port(), "--record", "--duration", "300")

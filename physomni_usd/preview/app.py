@@ -201,7 +201,7 @@ class Preview:
         from ..settings import RenderSettings
 
         look = RenderSettings()
-        foot = (d.points @ d.matrix[:3, :3] + d.matrix[3, :3]).mean(axis=0) * np.array([1.0, 1.0, 0.0])
+        foot = d.world_points().mean(axis=0) * np.array([1.0, 1.0, 0.0])
         decal = contact_decal(d, look.shadow_strength, look.shadow_falloff,
                               shadow_blur_m(self.view, self.fx, foot, look.shadow_blur))
         return ShadowTrack.of(d, decal, np.asarray(pose, float)) if decal.alpha.any() else None

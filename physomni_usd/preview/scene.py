@@ -46,6 +46,10 @@ class Drawn:
     matrix: np.ndarray  # (4, 4) local → world at frame 0, row vectors
     corner_st: np.ndarray | None = None  # (M, 3, 2) st at each triangle corner, where the prim's st is faceVarying
 
+    def world_points(self) -> np.ndarray:
+        """(N, 3) the vertices in the world at frame 0, metres."""
+        return self.points @ self.matrix[:3, :3] + self.matrix[3, :3]
+
 
 def photo_view(stage: Usd.Stage) -> tuple[View, float]:
     """The opening view and the photo's focal length in pixels."""
@@ -157,7 +161,6 @@ def mean_colour(texture: np.ndarray) -> tuple[int, int, int]:
     return tuple(int(c) for c in rgb)
 
 
-
 #: Texels along the longer side of one object's contact shadow (:func:`contact_decal`).
 DECAL_TEXELS = 64
 #: Most texels along the longer side of the ground's shadow image (:class:`GroundShadow`), sent again each frame
@@ -192,7 +195,7 @@ def contact_decal(d: Drawn, strength: float, falloff: float, blur: float = 0.0,
 
     from ..geometry.raycast import CONTACT_REACH, contact_falloff
 
-    world = d.points @ d.matrix[:3, :3] + d.matrix[3, :3]
+    world = d.world_points()
     lo, hi = world.min(axis=0), world.max(axis=0)
     reach = falloff * max(float(hi[2] - lo[2]), 1e-3)
     pad = CONTACT_REACH * reach + 3.0 * blur
@@ -225,9 +228,11 @@ def _yaw(rotation: np.ndarray) -> float:
 @dataclass
 class ShadowTrack:
     """How a rigid body carries its contact shadow: the body's pose at frame 0 (``pose0`` (7,): position,
-    quaternion x, y, z, w), its hull's points in the body's frame (``hull`` (N, 3)) and their lowest height then."""
+    quaternion x, y, z, w) and its turn about +z then (``yaw0``, radians), its hull's points in the body's frame
+    (``hull`` (N, 3)) and their lowest height then."""
     decal: Decal
     pose0: np.ndarray
+    yaw0: float
     hull: np.ndarray
     lowest0: float
 
@@ -236,13 +241,14 @@ class ShadowTrack:
         from scipy.spatial import ConvexHull, QhullError
         from scipy.spatial.transform import Rotation
 
-        world = d.points @ d.matrix[:3, :3] + d.matrix[3, :3]
+        world = d.world_points()
         try:
             world = world[ConvexHull(world).vertices]  # the lowest point is a hull vertex
         except (QhullError, ValueError):
             pass
-        local = (world - pose0[:3]) @ Rotation.from_quat(pose0[3:7]).as_matrix()
-        return cls(decal, np.asarray(pose0, float).copy(), local, float(world[:, 2].min()))
+        r0 = Rotation.from_quat(pose0[3:7]).as_matrix()
+        return cls(decal, np.asarray(pose0, float).copy(), _yaw(r0), (world - pose0[:3]) @ r0,
+                   float(world[:, 2].min()))
 
     def place(self, pose: np.ndarray) -> tuple[np.ndarray, float, float]:
         """For the body at ``pose`` (7,): where the shadow's centre is on the ground (2,), how far it has
@@ -252,9 +258,8 @@ class ShadowTrack:
 
         from ..geometry.raycast import contact_falloff
 
-        r0 = Rotation.from_quat(self.pose0[3:7]).as_matrix()
         r = Rotation.from_quat(pose[3:7]).as_matrix()
-        turn = _yaw(r) - _yaw(r0)
+        turn = _yaw(r) - self.yaw0
         c, s = np.cos(turn), np.sin(turn)
         offset = self.decal.centre[:2] - self.pose0[:2]
         xy = pose[:2] + np.array([c * offset[0] - s * offset[1], s * offset[0] + c * offset[1]])
@@ -270,15 +275,15 @@ class GroundShadow:
 
     def __init__(self, tracks: dict[int, ShadowTrack], texels: int = GROUND_TEXELS):
         self.tracks = tracks
-        lo = np.min([t.decal.centre[:2] - 0.5 * t.decal.step * np.array(t.decal.alpha.shape[::-1]) for t in
-                     tracks.values()], axis=0)
-        hi = np.max([t.decal.centre[:2] + 0.5 * t.decal.step * np.array(t.decal.alpha.shape[::-1]) for t in
-                     tracks.values()], axis=0)
+        centres = np.array([t.decal.centre[:2] for t in tracks.values()])
+        halves = np.array([0.5 * t.decal.step * np.array(t.decal.alpha.shape[::-1]) for t in tracks.values()])
+        lo, hi = (centres - halves).min(axis=0), (centres + halves).max(axis=0)
         span = hi - lo
         lo, hi = lo - 0.5 * span.max(), hi + 0.5 * span.max()
         # texels as fine as the finest object's shadow, as far as the image's size allows
         self.step = max(min(t.decal.step for t in tracks.values()), float((hi - lo).max()) / texels)
-        self.shape = (max(2, int(np.ceil((hi[1] - lo[1]) / self.step))), max(2, int(np.ceil((hi[0] - lo[0]) / self.step))))
+        nx, ny = (max(2, int(np.ceil(extent / self.step))) for extent in hi - lo)
+        self.shape = (ny, nx)
         self.origin = lo  # the corner of texel (0, 0), world metres
         self.width, self.height = self.shape[1] * self.step, self.shape[0] * self.step
 
