@@ -14,7 +14,8 @@ from pxr import Usd
 from physomni_usd.bench.plate import MAX_COLOUR_DIFF, RATIO_RANGE, gradient_ratio, measure
 from physomni_usd.metrics import ssim
 from physomni_usd.perceive.masks import _grabcut, mask_from_box, mask_quality
-from physomni_usd.perceive.plate import background_plate, feather_px, fill_hole, match_grain, plate_hole
+from physomni_usd.perceive.plate import (SHADING_DEPTH, SHADING_SIGMA, SHADING_TRUST, _match_shading,
+                                        background_plate, feather_px, fill_hole, match_grain, plate_hole)
 from physomni_usd.render.video import ShotRenderer
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
@@ -134,6 +135,28 @@ def test_the_shading_match_does_not_spread_a_horizon_across_the_hole():
     rows = rows[np.abs(rows - 70) >= 4]
     glow = np.abs(inside[rows] - beside[rows]).max(1)
     assert glow.max() < 4.0, (glow.max(), rows[glow.argmax()])
+    assert np.array_equal(out[~hole], photo[~hole])
+
+
+def test_a_darker_patch_copied_into_a_tall_hole_takes_the_sky_beside_it():
+    """A sky that brightens downwards (noise 2 levels), a tall hole 60 pixels wide whose fill is the sky 30
+    levels darker, as shift-map copies darker sky from above a rocket into its column: after the shading
+    match each row's middle is within 4 levels of the same row beside the hole. The border step faded
+    with its depth into the hole alone (1/e at a tenth of the diagonal) left the middle 10 levels dark."""
+    rng = np.random.default_rng(11)
+    h, w = 400, 300
+    rows = np.linspace(120.0, 200.0, h)[:, None, None] * np.array([0.8, 0.9, 1.0])
+    photo = np.clip(rows + rng.normal(0, 2.0, (h, w, 1)), 0, 255).astype(np.uint8)
+    hole = np.zeros((h, w), bool)
+    hole[40:360, 120:180] = True
+    filled = photo.copy()
+    filled[hole] = np.clip(photo[hole].astype(np.int16) - 30, 0, 255).astype(np.uint8)
+    out = _match_shading(photo, filled, hole, max(3.0, SHADING_SIGMA * 60), SHADING_DEPTH * np.hypot(h, w),
+                         SHADING_TRUST)
+    middle = out[60:340, 140:160].astype(np.float32).mean(1)
+    beside = np.concatenate([photo[60:340, 80:110], photo[60:340, 190:220]], 1).astype(np.float32).mean(1)
+    off = np.abs(middle - beside).max(1)
+    assert off.max() < 4.0, (off.max(), off.mean())
     assert np.array_equal(out[~hole], photo[~hole])
 
 

@@ -55,6 +55,17 @@ SHADING_DEPTH = 0.1
 #: (the motorcycle's floor towards the camera) read as a step and darkened the fill (its colour 8.6 levels
 #: off its ring); at 3 pixels, 3.0.
 SHADING_STEP = 3.0
+#: How much of the border step :func:`_match_shading` carries across the hole without the fade
+#: (:data:`SHADING_DEPTH`): the part beyond STEP_NOISE times the surface's own grain at the step's scale
+#: (the photo's low-pass by :data:`SHADING_STEP` less one GRAIN_STEP times wider, its median spread as a
+#: standard deviation over a ring around the hole; both low-passes over the known surface alone). Faded
+#: whole, the step left the middle of the rocket's column, where darker sky from above had been copied, 9.7
+#: levels off the sky beside it (mean over its rows above the lights, every 4th row, its largest channel;
+#: 18.8 at most); carried whole, the gravel's grain under the chair was carried in as if it were a step (its
+#: colour 17.0 levels off its ring, where the bench allows 15). At 3 times the grain: the column 4.0 (13.3
+#: at most), the gravel 14.7 and every other bench plate case as faded; at 2 times the gravel 15.05.
+GRAIN_STEP = 3.0
+STEP_NOISE = 3.0
 #: Patches inside the hole that never touch its border are still pulled towards the smooth fill of the
 #: border's colours, where that fill changes by less than this many levels per pixel (fully where it is flat,
 #: not at all from this slope up): the smear of an edge is steeper than a surface's shading. With the step
@@ -437,10 +448,23 @@ def _match_shading(img: np.ndarray, filled: np.ndarray, hole: np.ndarray, sigma:
     sm = _blur(smooth, s)
     slope = np.hypot(cv2.Sobel(sm, cv2.CV_32F, 1, 0, ksize=3), cv2.Sobel(sm, cv2.CV_32F, 0, 1, ksize=3)).max(-1)
     slope *= scale / 8.0  # levels per pixel of the window (a Sobel of a unit ramp is 8)
-    corr = spread + np.clip(1.0 - slope / trust, 0.0, 1.0)[..., None] * rest
-    corr = cv2.resize(corr, (w, h), interpolation=cv2.INTER_LINEAR)
+    # the part of the step beyond what the surface's own grain makes at the step's scale is a patch of
+    # another brightness (the darker sky copied down the rocket's column, 25-35 levels under the sky beside
+    # it): that part is carried unfaded; the rest, which on gravel or grass is the grain itself, fades
+    # both low-passes over the known surface alone: the hole's own pixels (dark where the normalised blur
+    # has no weight) would read as grain all around it
+    wide = GRAIN_STEP * SHADING_STEP
+    grain = photo_low - _blur(small_img.astype(np.float32) * kk[..., None], wide) / np.maximum(
+        _blur(kk, wide), 1e-3)[..., None]
+    ring = known & _within(region, 2.0 * SHADING_STEP)
+    # robust (median) so that a few bright lamps or edges in the ring do not count as the surface's grain
+    noise = 1.4826 * np.median(np.abs(grain[ring]), axis=0) if ring.any() else np.zeros(3, np.float32)
+    sure = np.sign(spread) * np.maximum(np.abs(spread) - STEP_NOISE * noise, 0.0)
+    fade_part = spread - sure + np.clip(1.0 - slope / trust, 0.0, 1.0)[..., None] * rest
+    fade_part = cv2.resize(fade_part, (w, h), interpolation=cv2.INTER_LINEAR)
     dist = cv2.distanceTransform(hole.astype(np.uint8), cv2.DIST_L2, 5)
-    corr *= np.exp(-dist / max(depth, 1.0))[..., None]
+    corr = fade_part * np.exp(-dist / max(depth, 1.0))[..., None] + cv2.resize(sure, (w, h),
+                                                                               interpolation=cv2.INTER_LINEAR)
     out = filled.astype(np.float32) + corr
     return np.where(hole[..., None], np.clip(out + 0.5, 0, 255), filled).astype(np.uint8)
 
