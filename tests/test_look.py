@@ -10,6 +10,7 @@ import cv2
 import numpy as np
 import pytest
 
+from physomni_usd.bench import look
 from physomni_usd.bench.look import contact_sheet, revealed_figures, within_targets
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
@@ -85,6 +86,44 @@ def test_an_area_across_two_surfaces_is_compared_with_each_surface_where_it_lies
     assert within_targets(right) and right["colour_difference"] < 2, right
     assert offset["colour_difference"] > 10 and not within_targets(offset), offset
     assert flat["gradient_ratio"] < 0.6 and not within_targets(flat), flat
+
+
+def _wide_on_the_floor(fill: str) -> tuple:
+    """A 480×320 frame like the water example's: the backdrop and floor of :func:`_across_the_horizon`, an
+    area 200 px wide whose top 20 rows are backdrop and the rest floor, filled as ``fill`` says; what stood
+    there now lies in front of it, over its lower rows and the ring below. The floor just under the horizon
+    is 100 px from the floor beside the area and 20-40 px from the backdrop above it."""
+    h, w, horizon = 320, 480, 150
+    rng = np.random.default_rng(6)
+    y, x = np.mgrid[:h, :w].astype(float)
+    back = np.stack([172 + 0.12 * y, 177 + 0.12 * y, 187 + 0.12 * y], -1) + rng.normal(0, 3, (h, w, 1))
+    floor = np.stack([138 - 0.25 * (y - horizon)] * 3, -1) * [1.0, 0.87, 0.73] + rng.normal(0, 4, (h, w, 1))
+    img = np.where((y < horizon)[..., None], back, floor)
+    stood = np.zeros((h, w), bool)
+    stood[130:265, 100:300] = True
+    if fill == "offset":
+        img[stood] += 12.0
+    img = np.clip(img, 0, 255).astype(np.uint8)
+    face = np.full((h, w), -1, np.int32)
+    face[230:300, 60:340], img[230:300, 60:340] = 0, (60, 110, 200)  # the water, spread in front
+    tex = np.zeros((h, w, 4), np.uint8)
+    tex[..., 3] = stood * 255
+    obj = SimpleNamespace(origin=(0, 0), texture=tex, two_sided=False, path="/World/Objects/water")
+    renderer = SimpleNamespace(objects=[obj], width=w, height=h, to_frame=(1.0, 1.0))
+    return renderer, img, SimpleNamespace(mesh_face=face)
+
+
+def test_a_wide_area_on_the_floor_is_compared_with_the_floor_beside_it_not_the_backdrop_above(monkeypatch):
+    """Nearest by plain distance, the floor under the horizon meets the backdrop above the area, and the right
+    fill reads more than 8 levels off; with distances across the ring's bands (its colour changes with height)
+    counted up to ``look.MAX_ANISOTROPY`` times, it meets the floor beside it: the right fill is on target and one 12
+    levels too bright is not."""
+    right, offset = (revealed_figures(*_wide_on_the_floor(f))[0] for f in ("right", "offset"))
+    assert within_targets(right) and right["colour_difference"] < 2, right
+    assert offset["colour_difference"] > 10 and not within_targets(offset), offset
+    monkeypatch.setattr(look, "MAX_ANISOTROPY", 1.0)
+    plain = revealed_figures(*_wide_on_the_floor("right"))[0]
+    assert plain["colour_difference"] > 8, plain
 
 
 def test_the_shadow_of_an_object_beside_the_area_is_not_the_fill_s_colour_or_grain():
