@@ -74,9 +74,9 @@ MIN_REVEALED = 60
 RING = 0.025
 #: Height in pixels of each picture on a contact sheet.
 TILE_HEIGHT = 240
-#: The targets the figures are held to (issue "what a person sees").
 #: The most that :func:`ring_grain` lets a ring pixel across the surface's bands count farther than one along them.
 MAX_ANISOTROPY = 4.0
+#: The targets the figures are held to (issue "what a person sees").
 TARGETS = {"gradient_ratio": (0.6, 1.6), "border_ratio": (0.0, 1.3), "colour_difference": (0.0, 8.0)}
 
 

@@ -450,9 +450,9 @@ def _match_shading(img: np.ndarray, filled: np.ndarray, hole: np.ndarray, sigma:
     slope *= scale / 8.0  # levels per pixel of the window (a Sobel of a unit ramp is 8)
     # the part of the step beyond what the surface's own grain makes at the step's scale is a patch of
     # another brightness (the darker sky copied down the rocket's column, 25-35 levels under the sky beside
-    # it): that part is carried unfaded; the rest, which on gravel or grass is the grain itself, fades
-    # both low-passes over the known surface alone: the hole's own pixels (dark where the normalised blur
-    # has no weight) would read as grain all around it
+    # it): that part is carried unfaded; the rest, which on gravel or grass is the grain itself, fades.
+    # Both low-passes are over the known surface alone: the hole's own pixels (dark where the normalised blur
+    # has no weight) would read as grain all around it.
     wide = GRAIN_STEP * SHADING_STEP
     grain = photo_low - _blur(small_img.astype(np.float32) * kk[..., None], wide) / np.maximum(
         _blur(kk, wide), 1e-3)[..., None]
