@@ -33,6 +33,19 @@ class WorldMeshes:
             still = None if points.ValueMightBeTimeVarying() else np.asarray(points.Get(), float)
             self.meshes.append((prim.GetName(), points, faces, still, prim))
 
+    def still(self) -> bool:
+        """Whether no time sample moves any of the meshes: neither its points nor its or an ancestor's
+        transform varies, so every time's vertices are the default time's."""
+        for _name, _points, _faces, still, prim in self.meshes:
+            if still is None:
+                return False
+            p = prim
+            while p and not p.IsPseudoRoot():
+                if p.IsA(UsdGeom.Xformable) and UsdGeom.Xformable(p).TransformMightBeTimeVarying():
+                    return False
+                p = p.GetParent()
+        return True
+
     def vertices(self, time: float) -> dict[str, np.ndarray]:
         """Prim name → (N, 3) world vertices (m) at ``time``."""
         cache = UsdGeom.XformCache(Usd.TimeCode(time))

@@ -6,7 +6,6 @@ scene, fixed bodies, pushes and force fields, and the :class:`~.stepping.Stepper
 
 from __future__ import annotations
 
-import hashlib
 import re
 import time
 import warnings
@@ -17,6 +16,7 @@ from pxr import Usd, UsdGeom
 from .._warp import load_newton, load_warp, pick_device
 from ..rotations import to_wxyz
 from ..settings import SimulateSettings
+from ..usd import layers
 from ..usd.author import OBJECTS
 from .cloth import AirDrag, add_cloth, add_soft_body
 from .controls import particle_pushes, read_controls
@@ -206,14 +206,13 @@ def _add_stand_ins(builder, objects: list[SimObject], newton, wp) -> dict:
 _LAST: dict = {}
 
 
-def shot_models(stage: Usd.Stage, objects: list[SimObject], cfg: dict, settings: SimulateSettings) -> ShotModels:
+def shot_models(stage: Usd.Stage, objects: list[SimObject], cfg: dict, settings: SimulateSettings,
+                digest: str | None = None) -> ShotModels:
     """The :class:`ShotModels` of ``stage``: the last one built, rewound, when the composed stage (every
-    layer's content) and the settings are the same and the model can be rewound exactly; else a new one."""
-    flat = stage.Flatten()
-    flat.startTimeCode = flat.endTimeCode = 0.0  # the run's length (which the last run wrote) builds nothing
-    text = flat.ExportToString()
-    key = (hashlib.sha256(text.encode()).hexdigest(), tuple(sorted(cfg.items())), settings.device,
-           settings.particle_spacing)
+    layer's content, ``digest`` where the caller has it: :func:`~..usd.layers.content_digest`) and the
+    settings are the same and the model can be rewound exactly; else a new one."""
+    digest = digest or layers.content_digest(stage)
+    key = (digest, tuple(sorted(cfg.items())), settings.device, settings.particle_spacing)
     models = _LAST.get(key)
     if models is not None and models.reusable:
         models.rewind()

@@ -117,9 +117,10 @@ def shot_checks(stage, frames: int) -> dict:
     """What a user asks of a finished run: where objects end up, and whether meshes ever overlap."""
     meshes = WorldMeshes(stage)
     final = meshes.vertices(frames - 1)
+    times = [0] if meshes.still() else range(frames)  # nothing moved: every frame is the first
     return {
         "final_lowest_z_m": {name: round(float(v[:, 2].min()), 5) for name, v in final.items()},
-        "max_penetration_m": round(max(_penetration(meshes, t) for t in range(frames)), 5),
+        "max_penetration_m": round(max(_penetration(meshes, t) for t in times), 5),
     }
 
 
