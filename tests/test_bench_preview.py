@@ -39,9 +39,12 @@ def test_each_simulate_figure_is_over_its_own_runs_stepping():
                         "parts": {"read": 2.0, "build_model": 1.4, "step": 0.5, "write": 0.1}},
          "repeated_calls": {"seconds": [0.3, 0.25, 0.2], "step_seconds": [0.1, 0.1, 0.1],
                             "times_its_stepping": [3.0, 2.5, 2.0]},
+         "new_shots": {"seconds": [0.5, 0.4, 0.6], "step_seconds": [0.1, 0.1, 0.1],
+                       "times_its_stepping": [5.0, 4.0, 6.0]},
          "command": {"wall_seconds": [8.0, 9.0, 10.0], "cpu_seconds": [5.0, 5.0, 6.0], "step_seconds": [0.2, 0.3, 0.4],
                      "times_its_stepping": [40.0, 30.0, 25.0], "cpu_times_its_stepping": [25.0, 16.7, 15.0]}}
-    first, repeated, command = ten_objects.lines(t)[2:]
+    first, repeated, new, command = ten_objects.lines(t)[2:]
     assert "8.0×" in first and "not within 3×" in first
     assert "2.5× its stepping (within 3×" in repeated
+    assert "5.0× its stepping (not within 3×; runs 5.0×, 4.0×, 6.0×)" in new
     assert "30× in wall time, 17× in CPU (not within 3×)" in command

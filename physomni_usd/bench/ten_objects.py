@@ -1,6 +1,7 @@
 """The cost of ten boxes through ``simulate`` at its own step choice, each figure against the stepping of the
 same run: the whole ``simulate_shot`` call, first in a process (importing Newton, loading its kernels from
-the cache, capturing the frames' graphs) and repeated (the model and graphs reused), and the whole
+the cache, capturing the frames' graphs), repeated (the model and graphs reused) and on a new shot after
+another (a new model, the kernels loaded: each shot of a batch after the first), and the whole
 ``physomni-usd simulate`` command a user runs (a new process: Python, USD, warp and Newton starting up and
 exiting), in wall and in CPU seconds, with the load average, since on a shared machine wall time is
 mostly waiting for a core."""
@@ -34,7 +35,9 @@ def ten_objects(echo=print, seconds: float = 2.0, case: str = "dropped") -> dict
     load = [_load()]
     with tempfile.TemporaryDirectory() as tmp:
         shot = write_bench_shot(pathlib.Path(tmp), _boxes(case))
-        r = in_fresh_interpreter(__name__, "_calls", shot=str(shot), seconds=seconds)
+        others = [str(write_bench_shot(pathlib.Path(tmp) / f"other_{k}", _boxes(case, shift=0.01 * (k + 1))))
+                  for k in range(RUNS)]
+        r = in_fresh_interpreter(__name__, "_calls", shot=str(shot), seconds=seconds, others=others)
         if "error" in r:
             echo(f"ten objects ({case}): {r}")
             return r
@@ -53,11 +56,12 @@ def ten_objects(echo=print, seconds: float = 2.0, case: str = "dropped") -> dict
             report = json.loads((pathlib.Path(tmp) / "report.json").read_text())
             command["step_seconds"].append(report["stages"]["simulate"]["seconds"]["step"])
     load.append(_load())
-    first, calls = r["first"], r["repeated"]
+    first, calls, new = r["first"], r["repeated"], r["new_shots"]
     step = statistics.median(calls["step_seconds"])
     command["times_its_stepping"] = _over(command["wall_seconds"], command["step_seconds"])
     command["cpu_times_its_stepping"] = _over(command["cpu_seconds"], command["step_seconds"])
     calls["times_its_stepping"] = _over(calls["seconds"], calls["step_seconds"])
+    new["times_its_stepping"] = _over(new["seconds"], new["step_seconds"])
     first["times_its_stepping"] = _over([first["seconds"]], [first["step_seconds"]])[0]
     cost = step / seconds
     out = {"case": case, "objects": 10, "simulated_seconds": seconds, "solver": r["solver"], "substeps": r["substeps"],
@@ -69,7 +73,7 @@ def ten_objects(echo=print, seconds: float = 2.0, case: str = "dropped") -> dict
            "simulate_call_parts": r["parts"],
            "command_seconds": round(statistics.median(command["wall_seconds"]), 4),
            "importing_the_simulator_seconds": r["import_seconds"],
-           "first_call": first, "repeated_calls": calls, "command": command,
+           "first_call": first, "repeated_calls": calls, "new_shots": new, "command": command,
            "call_target": CALL_TARGET}
     for line in lines(out):
         echo(line)
@@ -84,7 +88,7 @@ def lines(t: dict) -> list[str]:
     def verdict(ratio):
         return f"{'within' if ratio <= t['call_target'] else 'not within'} {t['call_target']:g}×"
 
-    f, c, k = t["first_call"], t["repeated_calls"], t["command"]
+    f, c, n, k = t["first_call"], t["repeated_calls"], t.get("new_shots"), t["command"]
     load = t["load_average"]
     return [
         f"ten boxes {t['case'].replace('_', ' ')}, {t['simulated_seconds']:g} simulated s ({t['solver']}, "
@@ -100,6 +104,11 @@ def lines(t: dict) -> list[str]:
         f"  repeated simulate_shot calls (model and graphs reused): median {med(c['seconds']):.3f} s, "
         f"{med(c['times_its_stepping']):.1f}× its stepping ({verdict(med(c['times_its_stepping']))}; runs "
         f"{', '.join(f'{x:.1f}×' for x in c['times_its_stepping'])})",
+    ] + ([
+        f"  a new shot in the same process (the boxes moved 1–3 cm: a new model, as each shot of a batch after "
+        f"the first): median {med(n['seconds']):.3f} s, {med(n['times_its_stepping']):.1f}× its stepping "
+        f"({verdict(med(n['times_its_stepping']))}; runs {', '.join(f'{x:.1f}×' for x in n['times_its_stepping'])})",
+    ] if n else []) + [
         f"  the physomni-usd simulate command (a new process): median {med(k['wall_seconds']):.2f} s of wall time, "
         f"{med(k['cpu_seconds']):.2f} s of CPU, against its stepping of {med(k['step_seconds']):.3f} s: "
         f"{med(k['times_its_stepping']):.0f}× in wall time, {med(k['cpu_times_its_stepping']):.0f}× in CPU "
@@ -107,12 +116,16 @@ def lines(t: dict) -> list[str]:
     ]
 
 
-def _boxes(case: str) -> list:
+def _boxes(case: str, shift: float = 0.0) -> list:
+    """The ten boxes of ``case``, moved ``shift`` metres along x."""
     from .scenes import boxes_at_rest, falling_boxes
 
     if case not in CASES:
         raise ValueError(f"case {case!r}: one of {CASES}")
-    return falling_boxes(10) if case == "dropped" else boxes_at_rest(10)
+    boxes = falling_boxes(10) if case == "dropped" else boxes_at_rest(10)
+    for b in boxes:
+        b.mesh.apply_translation((shift, 0.0, 0.0))
+    return boxes
 
 
 def _over(totals, steps) -> list[float]:
@@ -130,9 +143,9 @@ def _children_cpu() -> float:
     return r.ru_utime + r.ru_stime
 
 
-def _calls(shot: str, seconds: float) -> dict:
+def _calls(shot: str, seconds: float, others: tuple = ()) -> dict:
     """In a fresh interpreter: import the simulator, then the first ``simulate_shot`` call and
-    :data:`RUNS` more."""
+    :data:`RUNS` more, then one on each of the ``others`` shots."""
     t0 = time.perf_counter()
     from ..physics.simulate import simulate_shot
     from ..settings import SimulateSettings
@@ -143,6 +156,11 @@ def _calls(shot: str, seconds: float) -> dict:
         t0 = time.perf_counter()
         runs.append(simulate_shot(shot, SimulateSettings(seconds=seconds)))
         walls.append(round(time.perf_counter() - t0, 4))
+    new, new_walls = [], []
+    for other in others:
+        t0 = time.perf_counter()
+        new.append(simulate_shot(other, SimulateSettings(seconds=seconds)))
+        new_walls.append(round(time.perf_counter() - t0, 4))
     r = runs[0]
 
     def figures(sections, seconds):
@@ -151,5 +169,5 @@ def _calls(shot: str, seconds: float) -> dict:
     return {"solver": r["solver"], "substeps": r["substeps"], "iterations": r["iterations"],
             "collide_every": r["steps"]["collide_every"], "import_seconds": round(imported, 4),
             "first": {"seconds": walls[0], "step_seconds": r["seconds"]["step"], "parts": r["seconds"]},
-            "repeated": figures(runs[1:], walls[1:]),
+            "repeated": figures(runs[1:], walls[1:]), "new_shots": figures(new, new_walls),
             "parts": {k: statistics.median(x["seconds"][k] for x in runs[1:]) for k in r["seconds"]}}
