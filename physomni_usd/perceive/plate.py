@@ -313,7 +313,7 @@ def odd_border(bgr: np.ndarray, hole: np.ndarray, band: int = BORDER_BAND) -> np
     keep = band.copy()
     for _ in range(3):  # the outliers pull the reference towards them: leave them out and look again
         k = keep.astype(np.float32)
-        ref = _blur(lab * k[..., None], sigma) / np.maximum(_blur(k, sigma), 1e-3)[..., None]
+        ref = _blur_over(lab, k, sigma)
         dev = np.linalg.norm(lab - ref, axis=-1)
         typical = float(np.median(dev[band]))
         keep = band & (dev <= max(BORDER_OUTLIER, 2.0 * typical))
@@ -331,7 +331,7 @@ def _spread_into(values: np.ndarray, known: np.ndarray) -> np.ndarray:
     h, w = values.shape
     sigma = max(2.0, GRAIN_SIGMA * float(np.hypot(h, w)))
     k = known.astype(np.float32)
-    local = _blur(values * k, sigma) / np.maximum(_blur(k, sigma), 1e-3)
+    local = _blur_over(values, k, sigma)
     scale = min(1.0, 160.0 / max(h, w))
     size = (max(2, round(w * scale)), max(2, round(h * scale)))
     unknown = cv2.resize((_blur(k, sigma) < 0.05).astype(np.float32), size, interpolation=cv2.INTER_AREA) > 0
@@ -454,8 +454,7 @@ def _match_shading(img: np.ndarray, filled: np.ndarray, hole: np.ndarray, sigma:
     # Both low-passes are over the known surface alone: the hole's own pixels (dark where the normalised blur
     # has no weight) would read as grain all around it.
     wide = GRAIN_STEP * SHADING_STEP
-    grain = photo_low - _blur(small_img.astype(np.float32) * kk[..., None], wide) / np.maximum(
-        _blur(kk, wide), 1e-3)[..., None]
+    grain = photo_low - _blur_over(small_img.astype(np.float32), kk, wide)
     ring = known & _within(region, 2.0 * SHADING_STEP)
     # robust (median) so that a few bright lamps or edges in the ring do not count as the surface's grain
     noise = 1.4826 * np.median(np.abs(grain[ring]), axis=0) if ring.any() else np.zeros(3, np.float32)
@@ -549,6 +548,15 @@ def _blur(img: np.ndarray, sigma: float) -> np.ndarray:
     small = cv2.resize(img, (max(1, w // k), max(1, h // k)), interpolation=cv2.INTER_AREA)
     small = cv2.GaussianBlur(small, (0, 0), sigma / k)
     return cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
+
+
+def _blur_over(img: np.ndarray, weight: np.ndarray, sigma: float) -> np.ndarray:
+    """``img`` (h, w) or (h, w, C) blurred by ``sigma`` pixels over the pixels that ``weight`` (h, w) float32
+    holds alone: what lies outside them (a hole, an object) takes no part in the mean."""
+    total = np.maximum(_blur(weight, sigma), 1e-3)
+    if img.ndim == 3:
+        return _blur(img * weight[..., None], sigma) / total[..., None]
+    return _blur(img * weight, sigma) / total
 
 
 def _within(mask: np.ndarray, r: float) -> np.ndarray:
