@@ -13,7 +13,7 @@ import os
 import sys
 import tempfile
 from contextlib import contextmanager
-from functools import lru_cache
+from functools import lru_cache, wraps
 
 #: What warp's native library prints on every start of a machine without a GPU; not news to a CPU user.
 _NO_DRIVER = "Could not find or load the NVIDIA CUDA driver"
@@ -147,6 +147,7 @@ def _keep_narrow_phase_kernels() -> None:
 def _kept(factory):
     made = {}
 
+    @wraps(factory)
     def kept(*args, **kwargs):
         key = (args, tuple(sorted(kwargs.items())))
         try:
@@ -158,9 +159,6 @@ def _kept(factory):
         return made[key]
 
     kept._physomni_kept = True
-    kept.__wrapped__ = factory
-    kept.__name__ = factory.__name__
-    kept.__doc__ = factory.__doc__
     return kept
 
 

@@ -151,23 +151,20 @@ def _calls(shot: str, seconds: float, others: tuple = ()) -> dict:
     from ..settings import SimulateSettings
 
     imported = time.perf_counter() - t0
-    runs, walls = [], []
-    for _ in range(RUNS + 1):  # timed from outside: the call's own total leaves out writing the report
+    def timed(path):  # from outside: the call's own total leaves out writing the report
         t0 = time.perf_counter()
-        runs.append(simulate_shot(shot, SimulateSettings(seconds=seconds)))
-        walls.append(round(time.perf_counter() - t0, 4))
-    new, new_walls = [], []
-    for other in others:
-        t0 = time.perf_counter()
-        new.append(simulate_shot(other, SimulateSettings(seconds=seconds)))
-        new_walls.append(round(time.perf_counter() - t0, 4))
-    r = runs[0]
+        section = simulate_shot(path, SimulateSettings(seconds=seconds))
+        return section, round(time.perf_counter() - t0, 4)
 
-    def figures(sections, seconds):
-        return {"seconds": seconds, "step_seconds": [x["seconds"]["step"] for x in sections]}
+    runs = [timed(shot) for _ in range(RUNS + 1)]
+    new = [timed(other) for other in others]
+    r, first_wall = runs[0]
+
+    def figures(calls):
+        return {"seconds": [wall for _, wall in calls], "step_seconds": [x["seconds"]["step"] for x, _ in calls]}
 
     return {"solver": r["solver"], "substeps": r["substeps"], "iterations": r["iterations"],
             "collide_every": r["steps"]["collide_every"], "import_seconds": round(imported, 4),
-            "first": {"seconds": walls[0], "step_seconds": r["seconds"]["step"], "parts": r["seconds"]},
-            "repeated": figures(runs[1:], walls[1:]), "new_shots": figures(new, new_walls),
-            "parts": {k: statistics.median(x["seconds"][k] for x in runs[1:]) for k in r["seconds"]}}
+            "first": {"seconds": first_wall, "step_seconds": r["seconds"]["step"], "parts": r["seconds"]},
+            "repeated": figures(runs[1:]), "new_shots": figures(new),
+            "parts": {k: statistics.median(x["seconds"][k] for x, _ in runs[1:]) for k in r["seconds"]}}
