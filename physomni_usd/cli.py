@@ -1167,11 +1167,11 @@ def bench_preview_command(quick, json_path):
     Prints, in one run: the preview loop's rate (step, read back, publish; unpaced) for 1, 5, 10 and
     20 rigid boxes with a headless chromium attached where one is installed (/usr/bin/chromium and
     playwright), the same for 20 boxes without the graph capture; for ten boxes dropped and ten at rest,
-    simulate's stepping, the whole simulate call (the first in a process and repeated ones) and the
-    `physomni-usd simulate` command, each as a multiple of its stepping (target: the call within 3×),
-    with the load average; and `bench peer`'s ten boxes at rest against Genesis when genesis-world is
-    installed (pip install 'physomni-usd[peer]'; target: ours ≥ 1.5× Genesis). Each measurement runs
-    in a fresh interpreter.
+    simulate's stepping, the whole simulate call (the first in a process, repeated ones, and a new shot
+    in the same process, as each shot of a batch after its first) and the `physomni-usd simulate`
+    command, each as a multiple of its stepping (target: the call within 3×), with the load average;
+    and `bench peer`'s ten boxes at rest against Genesis when genesis-world is installed (pip install
+    'physomni-usd[peer]'; target: ours ≥ 1.5× Genesis). Each measurement runs in a fresh interpreter.
 
     \b
     Example:
