@@ -423,10 +423,14 @@ def simulate(shot, seconds, fps, substeps, particle_spacing, mpm_steps, quiet):
     \b
     Example: make the box heavier and throw it, then simulate again:
       # in shot/edits.usda
-      over "World" { over "Objects" { over "box_0" {
-          float physics:density = 2000
-          vector3f physics:velocity = (0, 2, 1)
-      } } }
+      over "World" {
+          over "Objects" {
+              over "box_0" {
+                  float physics:density = 2000
+                  vector3f physics:velocity = (0, 2, 1)
+              }
+          }
+      }
       physomni-usd simulate shot/shot.usda --seconds 4
 
     \b

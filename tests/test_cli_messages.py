@@ -122,3 +122,16 @@ def test_an_odd_width_photo_gives_a_video_cropped_to_even_sides(tmp_path, photo)
     assert frame.shape[:2] == (90, 120)
     report = json.loads((out / "report.json").read_text())["stages"]["render"]
     assert (report["width"], report["height"]) == (120, 90)
+
+
+def test_the_edits_example_in_simulate_help_is_a_layer_usd_reads():
+    """The lines `simulate --help` tells a user to put in edits.usda parse as USD and author what they say."""
+    from pxr import Sdf
+
+    text = CliRunner().invoke(main, ["simulate", "--help"]).output
+    block = text.split("# in shot/edits.usda", 1)[1].split("physomni-usd simulate", 1)[0]
+    layer = Sdf.Layer.CreateAnonymous(".usda")
+    assert layer.ImportFromString("#usda 1.0\n" + block), block
+    prim = layer.GetPrimAtPath("/World/Objects/box_0")
+    assert prim is not None and prim.specifier == Sdf.SpecifierOver
+    assert prim.attributes["physics:density"].default == 2000
