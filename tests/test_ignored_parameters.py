@@ -30,7 +30,10 @@ def _listed(kind, **params):
 
 def test_each_unused_parameter_is_listed_with_why():
     assert set(_listed("pbd_liquid")) == {"density_relaxation", "viscosity_relaxation"}
-    assert "relaxation" in _listed("pbd_elastic") and "bending_compliance" in _listed("pbd_elastic")
+    assert "bending_compliance" in _listed("pbd_elastic")
+    # a soft body's relaxation acts (the catalog's 0.1); one the solver cannot run as given is listed
+    assert "relaxation" not in _listed("pbd_elastic")
+    assert "ran as 0.1" in _listed("pbd_elastic", relaxation=0.9)["relaxation"]["why"]
     assert "no position-based fluid" in _listed("pbd_liquid")["density_relaxation"]["why"]
     assert _listed("mpm_muscle")["model"]["value"] == "neo_hookean"
     assert "model" not in _listed("mpm_elastic") and "model" in _listed("mpm_elastic", model="linear")

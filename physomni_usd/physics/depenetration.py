@@ -159,18 +159,26 @@ def _resting_particles(model, state, pending) -> np.ndarray:
 
 def _particle_depth(stepper) -> float:
     """Deepest a particle's sphere starts inside a shape (m), from the contacts the search found."""
+    _, _, depth = _particle_contacts(stepper)
+    return float(max(depth.max(), 0.0)) if len(depth) else 0.0
+
+
+def _particle_contacts(stepper) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The particle–shape contacts the last search found: (N,) particle indices, (N, 3) normals pointing
+    out of the shape, (N,) depths (m, positive inside)."""
     model, state, c = stepper.model, stepper.state, stepper.contacts
+    empty = (np.zeros(0, int), np.zeros((0, 3)), np.zeros(0))
     if c is None:
-        return 0.0
+        return empty
     n = int(c.soft_contact_count.numpy()[0])
     if not n:
-        return 0.0
+        return empty
     from scipy.spatial.transform import Rotation
 
     idx = c.soft_contact_indices.numpy()[:n, 0]
     shapes = c.soft_contact_shape.numpy()[:n]
     pos = c.soft_contact_body_pos.numpy()[:n].astype(np.float64)
-    normal = c.soft_contact_normal.numpy()[:n]
+    normal = c.soft_contact_normal.numpy()[:n].astype(np.float64)
     shape_body = model.shape_body.numpy()
     q = state.body_q.numpy().astype(np.float64) if model.body_count else np.zeros((0, 7))
     b = shape_body[shapes]
@@ -178,11 +186,39 @@ def _particle_depth(stepper) -> float:
     if on_body.any():
         qb = q[b[on_body]]
         pos[on_body] = Rotation.from_quat(qb[:, 3:7]).apply(pos[on_body]) + qb[:, :3]
+        normal[on_body] = Rotation.from_quat(qb[:, 3:7]).apply(normal[on_body])
     ok = idx >= 0
-    x = state.particle_q.numpy()[idx[ok]]
-    r = model.particle_radius.numpy()[idx[ok]]
-    depth = r - np.einsum("ij,ij->i", normal[ok], x - pos[ok])
-    return float(max(depth.max(), 0.0)) if len(depth) else 0.0
+    idx, pos, normal = idx[ok], pos[ok], normal[ok]
+    x = state.particle_q.numpy()[idx].astype(np.float64)
+    r = model.particle_radius.numpy()[idx]
+    return idx, normal, r - np.einsum("ij,ij->i", normal, x - pos)
+
+
+def lift_out(stepper, ranges: dict, passes: int = 3) -> dict:
+    """Move each soft body (``ranges``: path → (first particle, count)) that starts inside a shape out of
+    it as a whole, before the first step, along the normal of its deepest contact; returns path → the
+    distance moved (m). A soft body's particles cannot be held to the separation bound (that clips the
+    body's own elastic motion), and left to the contacts a 2 mm overlap launched an 8 cm sponge at
+    6 m/s; moved as one, nothing in it is strained and nothing gains speed."""
+    moved = {}
+    for _ in range(passes):
+        stepper.pipeline.collide(stepper.state, stepper.contacts)
+        idx, normal, depth = _particle_contacts(stepper)
+        q = stepper.state.particle_q.numpy()
+        changed = False
+        for path, (start, count) in ranges.items():
+            mine = (idx >= start) & (idx < start + count) & (depth > OVERLAP_MIN_M)
+            if not mine.any():
+                continue
+            k = np.flatnonzero(mine)[np.argmax(depth[mine])]
+            shift = normal[k] * (depth[k] + OVERLAP_MIN_M)
+            q[start:start + count] += shift.astype(q.dtype)
+            moved[path] = moved.get(path, 0.0) + float(np.linalg.norm(shift))
+            changed = True
+        if not changed:
+            break
+        stepper.state.particle_q.assign(q)
+    return moved
 
 
 @lru_cache(maxsize=1)

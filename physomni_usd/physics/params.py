@@ -9,7 +9,7 @@ that nothing accepted goes unsaid.
 | stretch / volume compliance | pbd_elastic | 1/compliance are the Lamé stiffnesses, clamped to ``cloth.SOFT_KE``: clamped values are listed |
 | bending_compliance | pbd_elastic | listed: a tetrahedral body has no bending constraint |
 | air_resistance | pbd_cloth | acts: a drag −c·m·v on each particle of the cloth (``cloth.AirDrag``) |
-| relaxation | pbd_elastic | listed: Newton's XPBD relaxes all soft bodies with one factor of its own |
+| relaxation | pbd_elastic | acts: Newton's XPBD relaxes all tetrahedra with one factor, the smallest soft body's within ``cloth.SOFT_RELAXATION``; values it differs from are listed |
 | density / viscosity relaxation | pbd_liquid | listed: Newton has no position-based fluid; pbd_liquid runs as MPM particles |
 | model | MPM types | corotated acts (Newton's implicit MPM law); any other value is listed |
 | friction, restitution | MPM types | listed: the MPM grid meets colliders with their friction, not the particles' |
@@ -20,7 +20,7 @@ that nothing accepted goes unsaid.
 
 from __future__ import annotations
 
-from .cloth import CLOTH_BEND_KE, CLOTH_SPRING_KE, SOFT_KE
+from .cloth import CLOTH_BEND_KE, CLOTH_SPRING_KE, SOFT_KE, soft_relaxation
 from .mpm import MPM_LAW
 
 PARTICLE_FAMILIES = ("cloth", "soft")
@@ -38,9 +38,9 @@ def particle_friction(objects) -> float | None:
 def ignored_parameters(objects) -> dict[str, list[dict]]:
     """Per object name, the parameters that do not act as given: ``[{param, value, why}]``."""
     out = {}
-    mu = particle_friction(objects)
+    mu, relax = particle_friction(objects), soft_relaxation(objects)
     for o in objects:
-        items = [{"param": k, "value": _value(v), "why": why} for k, v, why in _ignored(o, mu)]
+        items = [{"param": k, "value": _value(v), "why": why} for k, v, why in _ignored(o, mu, relax)]
         if items:
             out[o.name] = items
     return out
@@ -51,7 +51,7 @@ def describe(name: str, items: list[dict]) -> str:
     return f"{name}: " + "; ".join(f"{i['param']} = {_show(i['value'])} {i['why']}" for i in items)
 
 
-def _ignored(o, mu):
+def _ignored(o, mu, relax=None):
     p, fam, kind = o.params, o.family, o.kind
     if fam == "cloth":
         yield from _clamped(p, "stretch_compliance", CLOTH_SPRING_KE, "N/m", "spring")
@@ -62,9 +62,10 @@ def _ignored(o, mu):
         if "bending_compliance" in p:
             yield "bending_compliance", p["bending_compliance"], "is ignored: a tetrahedral soft body has no " \
                                                                  "bending constraint"
-        if "relaxation" in p:
-            yield "relaxation", p["relaxation"], "is ignored: Newton's XPBD relaxes every soft body with one " \
-                                                 "factor of its own"
+        if "relaxation" in p and relax is not None and abs(float(p["relaxation"] or 0.1) - relax) > 1e-6 * relax:
+            yield "relaxation", p["relaxation"], f"ran as {relax:g}: Newton's XPBD relaxes every soft body with " \
+                                                 "one factor, the smallest authored, at most 0.1 (a larger one " \
+                                                 "overshoots and the body flies apart)"
     if kind == "pbd_liquid":
         for key in ("density_relaxation", "viscosity_relaxation"):
             if key in p:
