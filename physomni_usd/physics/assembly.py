@@ -18,9 +18,9 @@ from ..rotations import to_wxyz
 from ..settings import SimulateSettings
 from ..usd import layers
 from ..usd.author import OBJECTS
-from .depenetration import lift_out
 from .cloth import AirDrag, add_cloth, add_soft_body, soft_relaxation
 from .controls import particle_pushes, read_controls
+from .depenetration import lift_out
 from ..fields import read_force_fields
 from .forces import FieldSet, body_samples
 from .mpm import bind_surface, build_mpm_scene
@@ -102,8 +102,9 @@ class ShotModels:
             solver = None
             if model.body_count or model.particle_count:
                 solver = xpbd_solver(model, cfg["iterations"])
-                if soft_relaxation(objects) is not None:
-                    solver.soft_body_relaxation = soft_relaxation(objects)
+                relaxation = soft_relaxation(objects)
+                if relaxation is not None:
+                    solver.soft_body_relaxation = relaxation
                 self.solvers.append("xpbd")
             mpm_objects = [o for o in objects if o.family == "mpm"]
             self.mpm = build_mpm_scene(mpm_objects, model, self.device, settings.particle_spacing) \
@@ -116,7 +117,8 @@ class ShotModels:
             pipeline, contacts = contact_pipeline(model) if solver else (None, None)
             self.stepper = Stepper(model, solver, pipeline=pipeline, contacts=contacts, fields=self.fields,
                                    mpm=self.mpm, pushes=pushes, air=air)
-            # start overlaps of cloth are held to the separation bound; a soft body's own elasticity separates it
+            # start overlaps of cloth are held to the separation bound; a soft body is moved out whole
+            # (bounding its particles would clip its own elastic motion)
             cloth = [np.arange(s, s + n) for o in objects if o.family == "cloth" for s, n in [self.ranges[o.path]]]
             self.stepper.separating_particles = np.concatenate(cloth) if cloth else np.zeros(0, int)
             soft = {o.path: self.ranges[o.path] for o in objects if o.family == "soft" and not o.fixed}
@@ -126,8 +128,8 @@ class ShotModels:
                 # on the first search (~0.5 s here): pay it while setting up, not in the first frame
                 pipeline.collide(self.stepper.state, contacts)
         self.notes = [str(w.message) for w in caught]
-        self.notes += [f"{path.rsplit('/', 1)[-1]} started {d * 1000:.1f} mm inside what it touches: moved out "
-                       "by that much, as a whole, before the first step" for path, d in self.lifted.items()]
+        self.notes += [f"{path.rsplit('/', 1)[-1]} started inside what it touches: moved out by {d * 1000:.1f} mm, "
+                       "as a whole, before the first step" for path, d in self.lifted.items()]
         masses = model.particle_mass.numpy() if model.particle_count else np.zeros(0)
         cloth_idx = [np.arange(s, s + n) for p, (s, n) in self.ranges.items()]
         self.cloth_masses = masses[np.concatenate(cloth_idx)] if cloth_idx else None

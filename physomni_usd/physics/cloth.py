@@ -8,6 +8,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from ..materials.catalog import CATALOG
 from .mpm import points_inside
 
 #: XPBD cloth: stiffness is the inverse of the material's compliance, clamped to what the
@@ -63,10 +64,16 @@ def add_cloth(builder, obj, wp) -> tuple[int, int]:
     return start, len(world)
 
 
+def relaxation_of(obj) -> float:
+    """A soft body's ``relaxation`` as authored, else the catalog's default for ``pbd_elastic``."""
+    value = obj.params.get("relaxation")
+    return float(CATALOG["pbd_elastic"].defaults["relaxation"] if value is None else value)
+
+
 def soft_relaxation(objects) -> float | None:
-    """The one relaxation Newton's XPBD gives all tetrahedra: the smallest soft body's ``relaxation``
-    (0.1 where none is authored) within :data:`SOFT_RELAXATION`; None without a soft body."""
-    values = [float(o.params.get("relaxation") or 0.1) for o in objects if o.family == "soft"]
+    """The one relaxation Newton's XPBD gives all tetrahedra: the smallest soft body's
+    (:func:`relaxation_of`) within :data:`SOFT_RELAXATION`; None without a soft body."""
+    values = [relaxation_of(o) for o in objects if o.family == "soft"]
     return float(np.clip(min(values), *SOFT_RELAXATION)) if values else None
 
 

@@ -20,7 +20,7 @@ that nothing accepted goes unsaid.
 
 from __future__ import annotations
 
-from .cloth import CLOTH_BEND_KE, CLOTH_SPRING_KE, SOFT_KE, soft_relaxation
+from .cloth import CLOTH_BEND_KE, CLOTH_SPRING_KE, SOFT_KE, relaxation_of, soft_relaxation
 from .mpm import MPM_LAW
 
 PARTICLE_FAMILIES = ("cloth", "soft")
@@ -51,7 +51,7 @@ def describe(name: str, items: list[dict]) -> str:
     return f"{name}: " + "; ".join(f"{i['param']} = {_show(i['value'])} {i['why']}" for i in items)
 
 
-def _ignored(o, mu, relax=None):
+def _ignored(o, mu, relax):
     p, fam, kind = o.params, o.family, o.kind
     if fam == "cloth":
         yield from _clamped(p, "stretch_compliance", CLOTH_SPRING_KE, "N/m", "spring")
@@ -62,7 +62,7 @@ def _ignored(o, mu, relax=None):
         if "bending_compliance" in p:
             yield "bending_compliance", p["bending_compliance"], "is ignored: a tetrahedral soft body has no " \
                                                                  "bending constraint"
-        if "relaxation" in p and relax is not None and abs(float(p["relaxation"] or 0.1) - relax) > 1e-6 * relax:
+        if "relaxation" in p and relax is not None and abs(relaxation_of(o) - relax) > 1e-6 * relax:
             yield "relaxation", p["relaxation"], f"ran as {relax:g}: Newton's XPBD relaxes every soft body with " \
                                                  "one factor, the smallest authored, at most 0.1 (a larger one " \
                                                  "overshoots and the body flies apart)"
