@@ -619,6 +619,9 @@ def _run_display(quiet: bool):
 def estimate(shot, estimator, vlm_url, vlm_model, vlm_api_key, vlm_timeout, sets, forces, quiet):
     """Estimate physical materials (and force fields) and write physics.usda; --set goes to edits.usda.
 
+    The estimate is made from the photo that `build` keeps in the shot (inputs/photo.png). On a shot
+    without one (assembled by a script) nothing is estimated: --set alone is applied and physics.usda kept.
+
     \b
     Examples:
       physomni-usd estimate shot/shot.usda --set cup.material=mpm_elastic --set cup.youngs_modulus=2e4

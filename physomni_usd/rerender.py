@@ -96,7 +96,8 @@ def rerender_shot(shot, model: str | None, strength: float = 0.6, steps: int = 2
     photo_path = folder / "inputs" / "photo.png"
     photo = cv2.imread(str(photo_path), cv2.IMREAD_COLOR)
     if photo is None:
-        raise InputError(f"{photo_path} is missing; the shot was built by an older version: run build again")
+        raise InputError(f"{photo_path} is missing or unreadable: the re-renderer is given the photo, which `build` "
+                         "keeps there")
     t0 = time.perf_counter()
     stage = layers.open_shot(folder)
     frames, passes, fps = rendered_frames(stage, max_size, progress)

@@ -241,3 +241,28 @@ def test_slow_vlm_within_the_timeout_is_waited_for(tmp_path, shot, vlm_server):
     assert proc.returncode == 0, proc.stderr
     assert [f for f in validate_stage(folder / "shot.usda") if f.severity == "error"] == []
     assert _report(folder)["stages"]["estimate"]["objects"]["cup_0"]["params"]["density"]["source"] == "vlm"
+
+
+def test_set_on_a_shot_with_no_photo_writes_edits_and_keeps_physics(tmp_path):
+    """A shot assembled by a script (no inputs/photo.png) has nothing to estimate from; --set alone needs no
+    estimate, so it is applied and physics.usda is kept byte for byte. Without --set, or with --force (which
+    an estimate writes), the command says which file is missing and what still works."""
+    from physomni_usd.bench.scenes import boxes_at_rest, write_bench_shot
+
+    shot = write_bench_shot(tmp_path, boxes_at_rest(2))
+    physics = (tmp_path / "physics.usda").read_bytes()
+    edits = (tmp_path / "edits.usda").read_bytes()
+    for extra in ([], ["--set", "box_0.density=800", "--force", "wind:strength=2"]):
+        proc = cli("estimate", shot, "-q", *extra)
+        line = proc.stderr.strip().splitlines()[0]
+        assert proc.returncode == 2, proc.stderr
+        assert "inputs/photo.png is missing" in line and "--set" in line, line
+        assert (tmp_path / "edits.usda").read_bytes() == edits
+    proc = cli("estimate", shot, "--set", "box_0.density=800")
+    assert proc.returncode == 0, proc.stderr
+    assert "only --set applied" in proc.stderr
+    assert (tmp_path / "physics.usda").read_bytes() == physics
+    report = _report(tmp_path)["stages"]["estimate"]
+    assert report["estimated"] is False and report["set"] == ["box_0.density = 800.0"]
+    assert report["objects"]["box_0"]["params"]["density"]["value"] == 800
+    assert report["objects"]["box_1"]["params"]["density"]["value"] != 800

@@ -147,11 +147,33 @@ def _carried_controls(folder: pathlib.Path) -> tuple[dict, dict, list]:
     return controls, solver, user_fields
 
 
+def _set_without_photo(folder, set_values, new_fields, estimator, echo, timer) -> dict:
+    """A shot with no ``inputs/photo.png`` (assembled by a script or by hand, not by ``build``): there is
+    nothing to estimate from, but ``--set`` needs no estimate, so its values go to edits.usda and
+    physics.usda is kept as it is."""
+    photo_path = folder / INPUTS / "photo.png"
+    if not set_values or new_fields:
+        why = "--force is written with an estimate, which needs it" if new_fields else "nothing to estimate from"
+        raise InputError(f"{photo_path} is missing: {why} (`build` keeps the photo there); "
+                         "--set NAME.KEY=VALUE alone still sets values in edits.usda")
+    prepare_writes(folder, [layers.EDITS], echo)
+    echo(f"estimate: {photo_path} is missing, so nothing is estimated: physics.usda is kept and only --set applied")
+    with timer.step("write"):
+        done = apply_sets(folder, set_values)
+    for line in done:
+        echo(f"estimate: set {line} in edits.usda")
+    section = material_report(layers.open_shot(folder, mute_sim=True), estimator)
+    section.update({"estimator": None, "estimated": False, "warnings": [f"{photo_path.name} is missing: only --set was applied"],
+                    "set": done, "seconds": timer.seconds, "total_seconds": timer.total, "force_fields": []})
+    update_report(folder, estimate=section)
+    return section
+
+
 def _inputs(folder: pathlib.Path, names: list[str]):
     photo_path = folder / INPUTS / "photo.png"
     photo = cv2.imread(str(photo_path), cv2.IMREAD_COLOR)
     if photo is None:
-        raise InputError(f"{photo_path} is missing; the shot was built by an older version: run build again")
+        raise InputError(f"{photo_path} cannot be read as an image; `build` writes it from the photo: run it again")
     masks = []
     for name in names:
         mask = cv2.imread(str(folder / INPUTS / "masks" / f"{name}.png"), cv2.IMREAD_GRAYSCALE)
@@ -199,6 +221,8 @@ def _estimate_shot(shot, estimator, vlm, sets, force_specs, echo) -> dict:
             raise InputError(f"{folder}: no objects under /World/Objects to estimate")
         set_values = parse_sets(sets, prims)
         new_fields = parse_force_options(force_specs)
+        if not (folder / INPUTS / "photo.png").exists():
+            return _set_without_photo(folder, set_values, new_fields, estimator, echo, timer)
         prepare_writes(folder, [layers.PHYSICS] + ([layers.EDITS] if set_values else []), echo)
         layers.warn_orphan_overs(stage, folder, echo)
         names = [p.GetName() for p in prims]
