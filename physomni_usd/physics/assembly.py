@@ -118,11 +118,12 @@ class ShotModels:
             self.stepper = Stepper(model, solver, pipeline=pipeline, contacts=contacts, fields=self.fields,
                                    mpm=self.mpm, pushes=pushes, air=air)
             # start overlaps of cloth are held to the separation bound; a soft body is moved out whole
-            # (bounding its particles would clip its own elastic motion)
+            # (bounding its particles would clip its own elastic motion), or what lies on it is lifted
             cloth = [np.arange(s, s + n) for o in objects if o.family == "cloth" for s, n in [self.ranges[o.path]]]
             self.stepper.separating_particles = np.concatenate(cloth) if cloth else np.zeros(0, int)
             soft = {o.path: self.ranges[o.path] for o in objects if o.family == "soft" and not o.fixed}
-            self.lifted = lift_out(self.stepper, soft) if pipeline and soft else {}
+            bodies = {int(b): p for p, b in self.path_body.items()}
+            self.lifted = lift_out(self.stepper, soft, bodies) if pipeline and soft else {}
             if pipeline:
                 # Newton builds the narrow phase's kernels per pipeline, so warp hashes its module again
                 # on the first search (~0.5 s here): pay it while setting up, not in the first frame

@@ -159,15 +159,15 @@ def _resting_particles(model, state, pending) -> np.ndarray:
 
 def _particle_depth(stepper) -> float:
     """Deepest a particle's sphere starts inside a shape (m), from the contacts the search found."""
-    _, _, depth = _particle_contacts(stepper)
+    depth = _particle_contacts(stepper)[2]
     return float(max(depth.max(), 0.0)) if len(depth) else 0.0
 
 
-def _particle_contacts(stepper) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _particle_contacts(stepper) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The particle–shape contacts the last search found: (N,) particle indices, (N, 3) normals pointing
-    out of the shape, (N,) depths (m, positive inside)."""
+    out of the shape, (N,) depths (m, positive inside), (N,) the shape's body (-1: static)."""
     model, state, c = stepper.model, stepper.state, stepper.contacts
-    empty = (np.zeros(0, int), np.zeros((0, 3)), np.zeros(0))
+    empty = (np.zeros(0, int), np.zeros((0, 3)), np.zeros(0), np.zeros(0, int))
     if c is None:
         return empty
     n = int(c.soft_contact_count.numpy()[0])
@@ -188,26 +188,54 @@ def _particle_contacts(stepper) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         pos[on_body] = Rotation.from_quat(qb[:, 3:7]).apply(pos[on_body]) + qb[:, :3]
         normal[on_body] = Rotation.from_quat(qb[:, 3:7]).apply(normal[on_body])
     ok = idx >= 0
-    idx, pos, normal = idx[ok], pos[ok], normal[ok]
+    idx, pos, normal, b = idx[ok], pos[ok], normal[ok], b[ok]
     x = state.particle_q.numpy()[idx].astype(np.float64)
     r = model.particle_radius.numpy()[idx]
-    return idx, normal, r - np.einsum("ij,ij->i", normal, x - pos)
+    return idx, normal, r - np.einsum("ij,ij->i", normal, x - pos), b
 
 
-def lift_out(stepper, ranges: dict, passes: int = 3) -> dict:
+def _movable_bodies(model) -> np.ndarray:
+    """(B,) whether each body moves: some mass, and not kinematic."""
+    if not model.body_count:
+        return np.zeros(0, bool)
+    import newton
+
+    flags = model.body_flags.numpy() if getattr(model, "body_flags", None) is not None else np.zeros(model.body_count, int)
+    return (model.body_inv_mass.numpy() > 0) & ((flags & int(newton.BodyFlags.KINEMATIC)) == 0)
+
+
+def lift_out(stepper, ranges: dict, bodies: dict | None = None, passes: int = 3) -> dict:
     """Move each soft body (``ranges``: path → (first particle, count)) that starts inside a shape out of
     it as a whole, before the first step, along the normal of its deepest contact; returns path → the
     distance moved (m). A soft body's particles cannot be held to the separation bound (that clips the
     body's own elastic motion), and left to the contacts a 2 mm overlap launched an 8 cm sponge at
-    6 m/s; moved as one, nothing in it is strained and nothing gains speed."""
+    6 m/s; moved as one, nothing in it is strained and nothing gains speed.
+
+    A rigid body that moves and lies on the soft body (the contact's normal, out of the body, points
+    down) is lifted out of it instead (``bodies``: body index → path, for what is returned): moving the
+    soft body down would only press it into what holds it up, and a box 3 mm into the sponge it rests
+    on, left to the contacts, was thrown off at tens of joules."""
     moved = {}
+    bodies = bodies or {}
+    movable = _movable_bodies(stepper.model)
     for _ in range(passes):
         stepper.pipeline.collide(stepper.state, stepper.contacts)
-        idx, normal, depth = _particle_contacts(stepper)
+        idx, normal, depth, body = _particle_contacts(stepper)
         q = stepper.state.particle_q.numpy()
+        bq = stepper.state.body_q.numpy() if movable.size else None
+        lifts = {}  # body index → the shift that takes it out of every soft body it lies on
         changed = False
         for path, (start, count) in ranges.items():
             mine = (idx >= start) & (idx < start + count) & (depth > OVERLAP_MIN_M)
+            on_top = mine & (body >= 0) & (normal[:, 2] < 0)
+            on_top[on_top] = movable[body[on_top]]
+            for b in np.unique(body[on_top]):
+                k = np.flatnonzero(on_top & (body == b))
+                k = k[np.argmax(depth[k])]
+                shift = -normal[k] * (depth[k] + OVERLAP_MIN_M)
+                if np.linalg.norm(shift) > np.linalg.norm(lifts.get(int(b), np.zeros(3))):
+                    lifts[int(b)] = shift
+            mine &= ~on_top
             if not mine.any():
                 continue
             k = np.flatnonzero(mine)[np.argmax(depth[mine])]
@@ -215,9 +243,16 @@ def lift_out(stepper, ranges: dict, passes: int = 3) -> dict:
             q[start:start + count] += shift.astype(q.dtype)
             moved[path] = moved.get(path, 0.0) + float(np.linalg.norm(shift))
             changed = True
+        for b, shift in lifts.items():
+            bq[b, :3] += shift.astype(bq.dtype)
+            name = bodies.get(b, f"body {b}")
+            moved[name] = moved.get(name, 0.0) + float(np.linalg.norm(shift))
+            changed = True
         if not changed:
             break
         stepper.state.particle_q.assign(q)
+        if lifts:
+            stepper.state.body_q.assign(bq)
     return moved
 
 
