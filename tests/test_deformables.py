@@ -189,3 +189,79 @@ def test_a_run_the_guard_cannot_save_ends_in_one_line_and_keeps_the_old_simulati
     assert proc.returncode == 1 and len(errors) == 1 and "diverged at frame 1" in errors[0], proc.stderr
     assert "Traceback" not in proc.stderr
     assert (out / "sim.usdc").read_bytes() == before
+
+
+def test_shape_damping_keeps_the_rigid_motion_and_takes_the_wobble():
+    """Müller's damping moves each soft body's velocities toward its rigid motion: the linear and angular
+    momentum of each body stay what they were, the velocities relative to that motion shrink, and
+    particles of no soft body are left alone."""
+    import types
+
+    import warp as wp
+
+    from physomni_usd.physics.cloth import ShapeDamping
+
+    rng = np.random.default_rng(3)
+    n = 40
+    x = rng.normal(size=(n, 3)).astype(np.float32)
+    v = rng.normal(size=(n, 3)).astype(np.float32)
+    m = rng.uniform(0.5, 2.0, n).astype(np.float32)
+    ranges = {"/a": (0, 15), "/b": (15, 15)}  # particles 30.. belong to no soft body (a cloth, say)
+    objects = [types.SimpleNamespace(family="soft", path=p, fixed=False) for p in ranges]
+    damping = ShapeDamping.of(objects, ranges, n, "cpu")
+    state = types.SimpleNamespace(particle_q=wp.array(x, dtype=wp.vec3, device="cpu"),
+                                  particle_qd=wp.array(v, dtype=wp.vec3, device="cpu"))
+    model = types.SimpleNamespace(particle_mass=wp.array(m, dtype=float, device="cpu"))
+
+    def rigid_part(vel, sl):
+        mm, xx, vv = m[sl, None].astype(np.float64), x[sl].astype(np.float64), vel[sl].astype(np.float64)
+        c = (mm * xx).sum(0) / mm.sum()
+        r = xx - c
+        p = (mm * vv).sum(0)
+        L = (mm * np.cross(r, vv)).sum(0)
+        inertia = sum(mi * (ri @ ri * np.eye(3) - np.outer(ri, ri)) for mi, ri in zip(mm[:, 0], r))
+        omega = np.linalg.solve(inertia, L)
+        return p, L, vv - (p / mm.sum() + np.cross(omega, r))
+
+    damping.apply(model, state, 0.005)  # one time constant
+    after = state.particle_qd.numpy()
+    for sl in (slice(0, 15), slice(15, 30)):
+        p0, L0, rel0 = rigid_part(v, sl)
+        p1, L1, rel1 = rigid_part(after, sl)
+        np.testing.assert_allclose(p1, p0, atol=1e-4)
+        np.testing.assert_allclose(L1, L0, atol=1e-4)
+        np.testing.assert_allclose(rel1, rel0 * np.exp(-1.0), rtol=1e-3, atol=1e-5)
+    np.testing.assert_array_equal(after[30:], v[30:])
+
+
+def test_a_dropped_sponge_lands_and_lies_still(tmp_path):
+    """An 8 cm sponge dropped 30 cm: undamped it bounced back 20 cm and still wobbled a second later; now
+    its bottom rises at most 2 cm after it lands, and at 1 s it is still (under 1 cm/s) and whole."""
+    import trimesh
+
+    from physomni_usd.bench.scenes import BenchObject, write_bench_shot
+    from physomni_usd.physics.simulate import simulate_shot
+    from physomni_usd.settings import SimulateSettings
+    from physomni_usd.usd import layers
+
+    sponge = trimesh.creation.box((0.08, 0.08, 0.08))
+    sponge.apply_translation((0.0, 0.0, 0.34))
+    shot = write_bench_shot(tmp_path, [BenchObject("sponge", sponge, "pbd_elastic", {})])
+    report = simulate_shot(shot, SimulateSettings(seconds=1.0))
+    assert report["guard"]["rollbacks"] == []
+    stage = layers.open_shot(shot)
+    prim = stage.GetPrimAtPath("/World/Objects/sponge")
+    cache = UsdGeom.XformCache()
+    frames = []
+    for f in range(report["frames"]):
+        cache.SetTime(f)
+        m = np.asarray(cache.GetLocalToWorldTransform(prim))
+        p = np.asarray(UsdGeom.Mesh(prim).GetPointsAttr().Get(f), float)
+        frames.append(p @ m[:3, :3] + m[3, :3])
+    bottom = np.array([p[:, 2].min() for p in frames])
+    landed = int(np.argmax(bottom < 0.005))
+    assert landed > 0 and bottom[landed:].max() < 0.02, bottom
+    end_speed = np.abs(frames[-1] - frames[-2]).max() * report["steps"]["fps"]
+    assert end_speed < 0.01, end_speed
+    height = frames[-1][:, 2].max() - frames[-1][:, 2].min()
+    assert 0.07 < height <= 0.081, height

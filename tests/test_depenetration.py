@@ -92,14 +92,20 @@ def watched(monkeypatch):
     return seen
 
 
-def _check_settled(seen, scene, depth):
+def _check_settled(seen, scene, depth, bodies: int | None = None):
     """Kinetic energy within falling 1 cm, and an end within 1 cm of the start — for the cloth, whose
-    particles' spheres start ``depth`` inside the saucer, within 1 cm of where separating puts them."""
-    start = seen[0][1]
+    particles' spheres start ``depth`` inside the saucer, within 1 cm of where separating puts them. With
+    ``bodies`` (the rigid bodies' count), the particles after them are one soft body, held to 1 cm as a
+    whole (its centroid): under its own weight an 8 cm sponge's top corners settle 7.7 mm lower and 2 mm
+    out, its softness, not the overlap's doing."""
+    def where(p):
+        return p if bodies is None else np.vstack([p[:bodies], p[bodies:].mean(axis=0)])
+
+    start = where(seen[0][1])
     kinetic = np.array([k for k, _, _ in seen])
     bound = seen[0][2]
     assert kinetic.max() <= bound, (kinetic.max(), bound)
-    moved = np.linalg.norm(seen[-1][1] - start, axis=1).max()
+    moved = np.linalg.norm(where(seen[-1][1]) - start, axis=1).max()
     assert moved <= 0.01 + (depth if scene == "cloth_spoon" else 0.0), moved
 
 
@@ -169,7 +175,7 @@ def test_a_soft_body_started_inside_another_is_moved_out_whole_in_simulate(tmp_p
                              "sponge started inside what it touches: moved out by 5.1 mm"))
                for n in report["newton_notes"]), report["newton_notes"]
     assert len(watched) >= report["frames"]
-    _check_settled(watched, "sponge", 0.0)
+    _check_settled(watched, "sponge", 0.0, bodies=1)
 
 
 def test_a_soft_body_started_inside_another_settles_in_the_preview(tmp_path, watched):
@@ -179,7 +185,7 @@ def test_a_soft_body_started_inside_another_settles_in_the_preview(tmp_path, wat
     for _ in range(int(SECONDS * e.fps)):
         e.step()
     assert len(watched) == int(SECONDS * e.fps) + 1
-    _check_settled(watched, "sponge", 0.0)
+    _check_settled(watched, "sponge", 0.0, bodies=1)
 
 
 #: s: the box on the sponge has stopped sinking by then (8.3 mm at 0.8 s, the same at 2 s)

@@ -18,7 +18,7 @@ from ..rotations import to_wxyz
 from ..settings import SimulateSettings
 from ..usd import layers
 from ..usd.author import OBJECTS
-from .cloth import AirDrag, add_cloth, add_soft_body, soft_relaxation
+from .cloth import AirDrag, ShapeDamping, add_cloth, add_soft_body, soft_relaxation
 from .controls import particle_pushes, read_controls
 from .depenetration import lift_out
 from ..fields import read_force_fields
@@ -116,7 +116,8 @@ class ShotModels:
                                           mpm=True)
             pipeline, contacts = contact_pipeline(model) if solver else (None, None)
             self.stepper = Stepper(model, solver, pipeline=pipeline, contacts=contacts, fields=self.fields,
-                                   mpm=self.mpm, pushes=pushes, air=air)
+                                   mpm=self.mpm, pushes=pushes, air=air,
+                                   damping=ShapeDamping.of(objects, self.ranges, model.particle_count, self.device))
             # start overlaps of cloth are held to the separation bound; a soft body is moved out whole
             # (bounding its particles would clip its own elastic motion), or what lies on it is lifted
             cloth = [np.arange(s, s + n) for o in objects if o.family == "cloth" for s, n in [self.ranges[o.path]]]

@@ -57,13 +57,15 @@ class Stepper:
     """Advances a Newton model (rigid bodies, cloth, soft bodies: ``solver``) and an optional MPM scene
     coupled to it, a frame at a time; ``state`` is always the current state."""
 
-    def __init__(self, model, solver=None, *, pipeline=None, contacts=None, fields=None, mpm=None, pushes=(), air=None):
+    def __init__(self, model, solver=None, *, pipeline=None, contacts=None, fields=None, mpm=None, pushes=(), air=None,
+                 damping=None):
         self.model, self.solver = model, solver
         self.state, self.state_next = model.state(), model.state()
         self.control = model.control()
         self.pipeline, self.contacts = pipeline, contacts
         self.fields, self.mpm = fields, mpm
         self.air = air  # cloths' air resistance (cloth.AirDrag), or None
+        self.damping = damping  # soft bodies' deformation damping (cloth.ShapeDamping), or None
         self.pending = sorted(pushes, key=lambda p: p.at)
         self._work = None  # (1,) float64 on the device: the fields' work (J) since it was last read
         #: forces added every rigid substep after the fields', outside their work: callables
@@ -150,6 +152,8 @@ class Stepper:
                         self.pipeline.collide(self.state, self.contacts)
                     self.solver.step(self.state, self.state_next, self.control, self.contacts, dt)
                     self.state, self.state_next = self.state_next, self.state
+                    if self.damping is not None:
+                        self.damping.apply(self.model, self.state, dt)
                     if bound is not None:
                         bound.apply(self.model, self.state, (step - step0 + 1) * dt)
                     if held is not None:
