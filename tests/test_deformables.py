@@ -265,3 +265,31 @@ def test_a_dropped_sponge_lands_and_lies_still(tmp_path):
     assert end_speed < 0.01, end_speed
     height = frames[-1][:, 2].max() - frames[-1][:, 2].min()
     assert 0.07 < height <= 0.081, height
+
+
+@pytest.mark.parametrize("closed", [True, False])
+def test_a_soft_body_has_the_mesh_mass_and_surface(closed):
+    """The soft body's particles, inset by their radius, touch the mesh's bounds and go no further, and its
+    mass is the mesh's (density × volume), also for a mesh with a hole (then the voxels' volume)."""
+    import types
+
+    import newton
+    import trimesh
+    import warp as wp
+
+    from physomni_usd.physics.cloth import add_soft_body
+
+    mesh = trimesh.creation.box((0.08, 0.12, 0.06))
+    mesh.apply_translation((0.0, 0.0, 0.03))
+    if not closed:
+        mesh = trimesh.Trimesh(mesh.vertices, mesh.faces[:-1], process=False)
+        assert not mesh.is_volume
+    obj = types.SimpleNamespace(trimesh=lambda: mesh, params={"density": 500.0}, fixed=False, path="/World/Objects/s")
+    builder = newton.ModelBuilder()
+    start, count, rest, dt = add_soft_body(builder, obj, wp)
+    r = float(builder.particle_radius[start])
+    np.testing.assert_allclose(rest.min(axis=0) - r, mesh.bounds[0], atol=1e-6)
+    np.testing.assert_allclose(rest.max(axis=0) + r, mesh.bounds[1], atol=1e-6)
+    mass = float(np.sum(builder.particle_mass[start:start + count]))
+    assert mass == pytest.approx(500.0 * 0.08 * 0.12 * 0.06, rel=1e-4)
+    assert dt > 0

@@ -192,7 +192,7 @@ def test_a_soft_body_started_inside_another_settles_in_the_preview(tmp_path, wat
 SETTLED_S = 1.0
 
 
-def _box_on_sponge(depth: float = 0.0):
+def _box_on_sponge(depth: float = 0.0, fixed: bool = False):
     """A 6 cm box (108 g) resting on an 8 cm sponge on the ground, started ``depth`` down inside it. The
     sponge's particles stood a radius proud of its faces, so even at 0 the box started 6.7 mm inside and
     was thrown off (280 J in frame 1); at 3 mm, moving the sponge out pressed it into the ground."""
@@ -200,14 +200,39 @@ def _box_on_sponge(depth: float = 0.0):
     s.apply_translation((0.0, 0.0, 0.04))
     b = trimesh.creation.box((0.06, 0.06, 0.06))
     b.apply_translation((0.0, 0.0, 0.11 - depth))
-    return [BenchObject("sponge", s, "pbd_elastic", {}), BenchObject("box", b)]
+    return [BenchObject("sponge", s, "pbd_elastic", {}, fixed=fixed), BenchObject("box", b)]
 
 
-@pytest.mark.parametrize("depth", [0.0, 0.003])
-def test_a_box_resting_on_a_soft_body_settles_in_simulate(tmp_path, watched, depth):
+def _turned(shot, name: str, quat_wxyz) -> None:
+    """Turn ``name``'s frame in the shot's scene layer by ``quat_wxyz`` while keeping its shape where it
+    is (its points turned back): the same geometry, on a body whose axes are not the world's."""
+    from pxr import Gf, Usd, UsdGeom
+    from scipy.spatial.transform import Rotation
+
+    stage = Usd.Stage.Open(str(shot.parent / "scene.usda"))
+    mesh = UsdGeom.Mesh(stage.GetPrimAtPath(f"/World/Objects/{name}"))
+    w, x, y, z = quat_wxyz
+    back = Rotation.from_quat([x, y, z, w]).inv()
+    for attr in (mesh.GetPointsAttr(), mesh.GetNormalsAttr()):
+        if attr.HasAuthoredValue():
+            attr.Set(back.apply(np.asarray(attr.Get(), float)).astype(np.float32).tolist())
+    op = next(o for o in mesh.GetOrderedXformOps() if o.GetOpType() == UsdGeom.XformOp.TypeOrient)
+    op.Set(Gf.Quatf(w, x, y, z))
+    mesh.GetExtentAttr().Set(UsdGeom.PointBased.ComputeExtent(mesh.GetPointsAttr().Get()))
+    stage.GetRootLayer().Save()
+
+
+@pytest.mark.parametrize("depth,turned,fixed", [(0.0, False, False), (0.003, False, False), (0.003, True, False),
+                                                (0.003, False, True)])
+def test_a_box_resting_on_a_soft_body_settles_in_simulate(tmp_path, watched, depth, turned, fixed):
     """What lies on a soft body starts on it, not in it; one started inside is lifted out, not the soft
-    body pushed down: no roll-back, the kinetic energy within falling 1 cm, the end within 1 cm."""
-    report = simulate_shot(write_bench_shot(tmp_path, _box_on_sponge(depth)), SimulateSettings(seconds=SETTLED_S))
+    body pushed down: no roll-back, the kinetic energy within falling 1 cm, the end within 1 cm. Turned,
+    the box's body is rolled 90° about x (the contacts' normals are in world axes, whatever the body's);
+    fixed, the sponge is held in place and the box is lifted all the same."""
+    shot = write_bench_shot(tmp_path, _box_on_sponge(depth, fixed))
+    if turned:
+        _turned(shot, "box", (np.cos(np.pi / 4), np.sin(np.pi / 4), 0.0, 0.0))
+    report = simulate_shot(shot, SimulateSettings(seconds=SETTLED_S))
     assert report["guard"]["rollbacks"] == []
     lifted = [n for n in report["newton_notes"] if "started inside what it touches" in n]
     if depth:

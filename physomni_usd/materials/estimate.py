@@ -221,10 +221,12 @@ def _estimate_shot(shot, estimator, vlm, sets, force_specs, echo) -> dict:
             raise InputError(f"{folder}: no objects under /World/Objects to estimate")
         set_values = parse_sets(sets, prims)
         new_fields = parse_force_options(force_specs)
-        if not (folder / INPUTS / "photo.png").exists():
-            return _set_without_photo(folder, set_values, new_fields, estimator, echo, timer)
-        prepare_writes(folder, [layers.PHYSICS] + ([layers.EDITS] if set_values else []), echo)
         layers.warn_orphan_overs(stage, folder, echo)
+        photo_less = not (folder / INPUTS / "photo.png").exists()
+    if photo_less:
+        return _set_without_photo(folder, set_values, new_fields, estimator, echo, timer)
+    with timer.step("read"):
+        prepare_writes(folder, [layers.PHYSICS] + ([layers.EDITS] if set_values else []), echo)
         names = [p.GetName() for p in prims]
         labels = [p.GetAttribute("physomni:label").Get() or p.GetName() for p in prims]
         photo, masks = _inputs(folder, names)

@@ -122,9 +122,10 @@ class ShotModels:
             # (bounding its particles would clip its own elastic motion), or what lies on it is lifted
             cloth = [np.arange(s, s + n) for o in objects if o.family == "cloth" for s, n in [self.ranges[o.path]]]
             self.stepper.separating_particles = np.concatenate(cloth) if cloth else np.zeros(0, int)
-            soft = {o.path: self.ranges[o.path] for o in objects if o.family == "soft" and not o.fixed}
+            soft = {o.path: self.ranges[o.path] for o in objects if o.family == "soft"}
             bodies = {int(b): p for p, b in self.path_body.items()}
-            self.lifted = lift_out(self.stepper, soft, bodies) if pipeline and soft else {}
+            fixed_soft = {o.path for o in objects if o.family == "soft" and o.fixed}
+            self.lifted = lift_out(self.stepper, soft, bodies, fixed_soft) if pipeline and soft else {}
             if pipeline:
                 # Newton builds the narrow phase's kernels per pipeline, so warp hashes its module again
                 # on the first search (~0.5 s here): pay it while setting up, not in the first frame

@@ -119,12 +119,13 @@ def add_soft_body(builder, obj, wp, cell: float | None = None) -> tuple[int, int
     cell = cell or max(float(np.min(mesh.extents)) / CELLS_ACROSS, 1e-3)
     radius = 0.25 * cell
     verts, tets = voxel_tets(mesh, cell)
-    verts, volume = _inset(verts, tets, mesh.bounds, radius)
+    filled = _volume(verts, tets)
+    verts, scale = _inset(verts, mesh.bounds, radius)
+    volume = _volume(verts, tets)
     p = obj.params
-    # the lattice's volume is not the mesh's (inset, and voxelised): the mesh's mass is kept
-    density = max(float(p.get("density", 1000.0)), 1e-3)
-    if mesh.is_volume and volume > 0:
-        density *= float(mesh.volume) / volume
+    # the mass is the mesh's (a closed mesh), else the voxels' before the inset: neither the inset nor
+    # the voxels' own approximation of the volume changes it
+    density = max(float(p.get("density", 1000.0)), 1e-3) * (float(mesh.volume) if mesh.is_volume else filled) / volume
     k_mu = _compliance_stiffness(p.get("stretch_compliance", 0.0), SOFT_KE)
     k_lambda = _compliance_stiffness(p.get("volume_compliance", 0.0), SOFT_KE)
     start = builder.particle_count
@@ -136,24 +137,30 @@ def add_soft_body(builder, obj, wp, cell: float | None = None) -> tuple[int, int
     if obj.fixed:
         for i in range(len(verts)):
             builder.particle_mass[start + i] = 0.0
-    return start, len(verts), verts, SOFT_STEP_CELLS * cell / np.sqrt(max(k_mu, k_lambda) / density)
+    # the step is the smallest cell's, as the inset left it
+    smallest = cell * float(np.min(scale))
+    return start, len(verts), verts, SOFT_STEP_CELLS * smallest / np.sqrt(max(k_mu, k_lambda) / density)
 
 
-def _inset(verts: np.ndarray, tets: np.ndarray, bounds: np.ndarray, radius: float) -> tuple[np.ndarray, float]:
-    """The lattice's vertices (V, 3) fitted, axis by axis, inside the mesh's bounds (2, 3) less the
-    particles' ``radius`` (m), so that the particles' surface is the mesh's: whatever the mesh stands on
-    or holds up touches it at the start, no deeper; and the lattice's volume after (m³). Left with its
-    nodes on the bounds, the particles stood a radius proud of every face, and an object resting on the
-    sponge in the photo started that far inside it (6.7 mm on an 8 cm sponge) and was thrown off."""
+def _inset(verts: np.ndarray, bounds: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """The lattice's vertices (V, 3) fitted, axis by axis, to the mesh's bounds (2, 3) less the particles'
+    ``radius`` (m), and the (3,) scale that took them there: at the extremes of the mesh's bounding box
+    (its bottom, its top, its sides) the particles' surface is the mesh's, so whatever the mesh stands on
+    or holds up touches it at the start, no deeper. Left with its nodes on the bounds, the particles
+    stood a radius proud of every face, and a box resting on a sponge in the photo started that far
+    inside it (6.7 mm on an 8 cm sponge) and was thrown off."""
     lo, hi = verts.min(axis=0), verts.max(axis=0)
     want_lo, want_hi = bounds[0] + radius, bounds[1] - radius
-    span = np.where(hi - lo > 0, hi - lo, 1.0)
-    scale = np.where((want_hi - want_lo > 0) & (hi - lo > 0), (want_hi - want_lo) / span, 1.0)
-    centre = np.where(want_hi - want_lo > 0, (want_lo + want_hi) / 2, (bounds[0] + bounds[1]) / 2)
-    out = centre + (verts - (lo + hi) / 2) * scale
-    a, b, c, d = (out[tets[:, k]] for k in range(4))
-    volume = float(np.abs(np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a)).sum() / 6.0)
-    return out, volume
+    fits = (want_hi - want_lo > 0) & (hi - lo > 0)
+    scale = np.where(fits, (want_hi - want_lo) / np.where(hi - lo > 0, hi - lo, 1.0), 1.0)
+    centre = np.where(fits, (want_lo + want_hi) / 2, (lo + hi) / 2)
+    return centre + (verts - (lo + hi) / 2) * scale, scale
+
+
+def _volume(verts: np.ndarray, tets: np.ndarray) -> float:
+    """Total volume (m³) of tetrahedra (T, 4) over vertices (V, 3)."""
+    a, b, c, d = (verts[tets[:, k]] for k in range(4))
+    return float(np.abs(np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a)).sum() / 6.0)
 
 
 class ShapeDamping:
@@ -248,10 +255,11 @@ def _damping_kernels():
             return
         mass = s[b][3]
         r = x[i] - wp.vec3(s[b][0], s[b][1], s[b][2]) / mass
-        big = inertia[b]
+        # per unit mass (m²): a millimetre body's inertia would underflow float32's determinant
+        big = inertia[b] / mass
         omega = wp.vec3(0.0)
         if wp.determinant(big) > 0.0:
-            omega = wp.inverse(big) * L[b]
+            omega = wp.inverse(big) * (L[b] / mass)
         rigid = p[b] / mass + wp.cross(omega, r)
         v[i] = v[i] + rate * (rigid - v[i])
 

@@ -165,7 +165,8 @@ def _particle_depth(stepper) -> float:
 
 def _particle_contacts(stepper) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The particle–shape contacts the last search found: (N,) particle indices, (N, 3) normals pointing
-    out of the shape, (N,) depths (m, positive inside), (N,) the shape's body (-1: static)."""
+    out of the shape (in world axes, as Newton stores them), (N,) depths (m, positive inside), (N,) the
+    shape's body (-1: static)."""
     model, state, c = stepper.model, stepper.state, stepper.contacts
     empty = (np.zeros(0, int), np.zeros((0, 3)), np.zeros(0), np.zeros(0, int))
     if c is None:
@@ -185,8 +186,7 @@ def _particle_contacts(stepper) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.
     on_body = b >= 0
     if on_body.any():
         qb = q[b[on_body]]
-        pos[on_body] = Rotation.from_quat(qb[:, 3:7]).apply(pos[on_body]) + qb[:, :3]
-        normal[on_body] = Rotation.from_quat(qb[:, 3:7]).apply(normal[on_body])
+        pos[on_body] = Rotation.from_quat(qb[:, 3:7]).apply(pos[on_body]) + qb[:, :3]  # stored in the body's frame
     ok = idx >= 0
     idx, pos, normal, b = idx[ok], pos[ok], normal[ok], b[ok]
     x = state.particle_q.numpy()[idx].astype(np.float64)
@@ -204,7 +204,7 @@ def _movable_bodies(model) -> np.ndarray:
     return (model.body_inv_mass.numpy() > 0) & ((flags & int(newton.BodyFlags.KINEMATIC)) == 0)
 
 
-def lift_out(stepper, ranges: dict, bodies: dict | None = None, passes: int = 3) -> dict:
+def lift_out(stepper, ranges: dict, bodies: dict | None = None, fixed=(), passes: int = 3) -> dict:
     """Move each soft body (``ranges``: path → (first particle, count)) that starts inside a shape out of
     it as a whole, before the first step, along the normal of its deepest contact; returns path → the
     distance moved (m). A soft body's particles cannot be held to the separation bound (that clips the
@@ -214,7 +214,9 @@ def lift_out(stepper, ranges: dict, bodies: dict | None = None, passes: int = 3)
     A rigid body that moves and lies on the soft body (the contact's normal, out of the body, points
     down) is lifted out of it instead (``bodies``: body index → path, for what is returned): moving the
     soft body down would only press it into what holds it up, and a box 3 mm into the sponge it rests
-    on, left to the contacts, was thrown off at tens of joules."""
+    on, left to the contacts, was thrown off at tens of joules. A soft body in ``fixed`` (paths) is never
+    moved, but what lies on it is lifted all the same. A lifted body that then starts inside another rigid
+    body is separated like any rigid start overlap, at the bounded speed (:class:`Depenetration`)."""
     moved = {}
     bodies = bodies or {}
     movable = _movable_bodies(stepper.model)
@@ -236,7 +238,7 @@ def lift_out(stepper, ranges: dict, bodies: dict | None = None, passes: int = 3)
                 if np.linalg.norm(shift) > np.linalg.norm(lifts.get(int(b), np.zeros(3))):
                     lifts[int(b)] = shift
             mine &= ~on_top
-            if not mine.any():
+            if not mine.any() or path in fixed:
                 continue
             k = np.flatnonzero(mine)[np.argmax(depth[mine])]
             shift = normal[k] * (depth[k] + OVERLAP_MIN_M)
