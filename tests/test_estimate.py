@@ -266,3 +266,17 @@ def test_set_on_a_shot_with_no_photo_writes_edits_and_keeps_physics(tmp_path):
     assert report["estimated"] is False and report["set"] == ["box_0.density = 800.0"]
     assert report["objects"]["box_0"]["params"]["density"]["value"] == 800
     assert report["objects"]["box_1"]["params"]["density"]["value"] != 800
+
+
+def test_an_unreadable_photo_in_the_shot_is_one_line_and_writes_nothing(tmp_path):
+    from physomni_usd.bench.scenes import boxes_at_rest, write_bench_shot
+
+    shot = write_bench_shot(tmp_path, boxes_at_rest(2))
+    (tmp_path / "inputs").mkdir()
+    (tmp_path / "inputs" / "photo.png").write_bytes(b"not a png")
+    physics, edits = (tmp_path / "physics.usda").read_bytes(), (tmp_path / "edits.usda").read_bytes()
+    proc = cli("estimate", shot, "-q", "--set", "box_0.density=800")
+    assert proc.returncode == 2, proc.stderr
+    lines = [l for l in proc.stderr.splitlines() if l.startswith("error:")]
+    assert len(lines) == 1 and "inputs/photo.png cannot be read as an image" in lines[0], proc.stderr
+    assert (tmp_path / "physics.usda").read_bytes() == physics and (tmp_path / "edits.usda").read_bytes() == edits

@@ -33,6 +33,8 @@ from .defaults import GROUND_MATERIAL
 from .report import material_report
 
 INPUTS = "inputs"
+#: Where in a shot `build` keeps the photo the estimate is made from.
+PHOTO = pathlib.PurePath(INPUTS, "photo.png")
 
 
 def parse_sets(specs, objects: list[Usd.Prim]) -> list[tuple[Usd.Prim, str, object]]:
@@ -151,7 +153,7 @@ def _set_without_photo(folder, set_values, new_fields, estimator, echo, timer) -
     """A shot with no ``inputs/photo.png`` (assembled by a script or by hand, not by ``build``): there is
     nothing to estimate from, but ``--set`` needs no estimate, so its values go to edits.usda and
     physics.usda is kept as it is."""
-    photo_path = folder / INPUTS / "photo.png"
+    photo_path = folder / PHOTO
     if not set_values or new_fields:
         why = "--force is written with an estimate, which needs it" if new_fields else "nothing to estimate from"
         raise InputError(f"{photo_path} is missing: {why} (`build` keeps the photo there); "
@@ -170,7 +172,7 @@ def _set_without_photo(folder, set_values, new_fields, estimator, echo, timer) -
 
 
 def _inputs(folder: pathlib.Path, names: list[str]):
-    photo_path = folder / INPUTS / "photo.png"
+    photo_path = folder / PHOTO
     photo = cv2.imread(str(photo_path), cv2.IMREAD_COLOR)
     if photo is None:
         raise InputError(f"{photo_path} cannot be read as an image; `build` writes it from the photo: run it again")
@@ -222,7 +224,7 @@ def _estimate_shot(shot, estimator, vlm, sets, force_specs, echo) -> dict:
         set_values = parse_sets(sets, prims)
         new_fields = parse_force_options(force_specs)
         layers.warn_orphan_overs(stage, folder, echo)
-        photo_less = not (folder / INPUTS / "photo.png").exists()
+        photo_less = not (folder / PHOTO).exists()
     if photo_less:
         return _set_without_photo(folder, set_values, new_fields, estimator, echo, timer)
     with timer.step("read"):

@@ -32,6 +32,11 @@ SOFT_STEP_CELLS = 0.2
 #: cube at the stiffness bound flew apart within a frame at 0.9 and 0.3, at 20 to 396 substeps a frame,
 #: and stayed whole at 0.1.
 SOFT_RELAXATION = (1e-3, 0.1)
+#: s: the time constant of soft bodies' deformation damping (:class:`ShapeDamping`). An 8 cm sponge
+#: dropped 30 cm: undamped, it bounced back 20 cm, stretched to 11 cm tall and still wobbled a second
+#: later; at 0.02 s it bounced 6 cm; at 0.005 s it bounces about 7 mm and is still (under 2 mm/s) in
+#: half a second; at 0.002 s it lands dead.
+SOFT_DAMPING_S = 0.005
 
 
 def _compliance_stiffness(compliance: float, bounds: tuple[float, float]) -> float:
@@ -207,13 +212,6 @@ class ShapeDamping:
                   outputs=[self.angular, self.inertia], device=self.device)
         wp.launch(k.relax, dim=self.count, inputs=[self.body_of, x, self.sums, self.momentum, self.angular,
                                                    self.inertia, rate], outputs=[v], device=self.device)
-
-
-#: s: the time constant of soft bodies' deformation damping (:class:`ShapeDamping`). An 8 cm sponge
-#: dropped 30 cm: undamped, it bounced back 20 cm, stretched to 11 cm tall and still wobbled a second
-#: later; at 0.02 s it bounced 6 cm; at 0.005 s it bounces about 7 mm and is still (under 2 mm/s) in
-#: half a second; at 0.002 s it lands dead.
-SOFT_DAMPING_S = 0.005
 
 
 @lru_cache(maxsize=1)

@@ -200,8 +200,8 @@ def _movable_bodies(model) -> np.ndarray:
         return np.zeros(0, bool)
     import newton
 
-    flags = model.body_flags.numpy() if getattr(model, "body_flags", None) is not None else np.zeros(model.body_count, int)
-    return (model.body_inv_mass.numpy() > 0) & ((flags & int(newton.BodyFlags.KINEMATIC)) == 0)
+    kinematic = (model.body_flags.numpy() & int(newton.BodyFlags.KINEMATIC)) != 0
+    return (model.body_inv_mass.numpy() > 0) & ~kinematic
 
 
 def lift_out(stepper, ranges: dict, bodies: dict | None = None, fixed=(), passes: int = 3) -> dict:
