@@ -293,3 +293,25 @@ def test_a_soft_body_has_the_mesh_mass_and_surface(closed):
     mass = float(np.sum(builder.particle_mass[start:start + count]))
     assert mass == pytest.approx(500.0 * 0.08 * 0.12 * 0.06, rel=1e-4)
     assert dt > 0
+
+
+def test_a_pushed_object_switched_to_a_soft_body_keeps_its_push(tmp_path):
+    """``run --push`` at 0 s is the rigid body's ``physics:velocity``; an object a layer then makes a soft
+    body (``estimate --set``, here on a shot with no photo) is pushed all the same: it had stood still."""
+    import trimesh
+
+    import physomni_usd
+    from physomni_usd.bench.scenes import BenchObject, write_bench_shot
+    from physomni_usd.physics.simulate import simulate_shot
+    from physomni_usd.settings import SimulateSettings
+    from physomni_usd.usd import layers
+
+    box = trimesh.creation.box((0.08, 0.08, 0.08))
+    box.apply_translation((0.0, 0.0, 0.04))
+    shot = write_bench_shot(tmp_path, [BenchObject("box", box, "rigid", {"density": 500.0}, velocity=(1.0, 0.0, 0.0))])
+    physomni_usd.estimate(shot, sets=["box.material=pbd_elastic"])
+    simulate_shot(shot, SimulateSettings(seconds=0.3))
+    stage = layers.open_shot(shot)
+    points = UsdGeom.Mesh(stage.GetPrimAtPath("/World/Objects/box")).GetPointsAttr()
+    moved = np.asarray(points.Get(9), float).mean(axis=0) - np.asarray(points.Get(0), float).mean(axis=0)
+    assert moved[0] > 0.05, moved  # 1 m/s against friction: 9 cm; unpushed, 0.2 mm

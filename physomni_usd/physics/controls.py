@@ -37,10 +37,13 @@ def read_controls(stage: Usd.Stage, path_body: dict) -> tuple[set, list[Push]]:
 
 
 def particle_pushes(stage: Usd.Stage, ranges: dict, mpm: bool = False) -> list[Push]:
-    """The same for objects made of particles: path → (first particle, count)."""
+    """The same for objects made of particles: path → (first particle, count). An object a layer switched
+    from rigid keeps the UsdPhysics ``physics:velocity`` its rigid body was given (``run --push`` at 0 s
+    writes that) as a push at 0 s: that layer changes what it is made of, not how it was pushed."""
     pushes = []
     for path, rng in ranges.items():
-        push = _initial_velocity(stage.GetPrimAtPath(path))
+        prim = stage.GetPrimAtPath(path)
+        push = _initial_velocity(prim) or _rigid_body_velocity(prim)
         if push is not None and push.linear is not None:
             push.particles, push.mpm = rng, mpm
             pushes.append(push)
@@ -56,6 +59,11 @@ def _initial_velocity(prim: Usd.Prim) -> Push | None:
         return None
     at = prim.GetAttribute("physomni:velocityStartTime")
     return Push(max(float(at.Get() or 0.0) if at else 0.0, 0.0), lin, ang)
+
+
+def _rigid_body_velocity(prim: Usd.Prim) -> Push | None:
+    attr = prim.GetAttribute("physics:velocity")
+    return Push(0.0, np.asarray(attr.Get(), float)) if attr and attr.HasAuthoredValue() else None
 
 
 def give_velocities(pushes: list[Push], state, mpm_state=None) -> None:
