@@ -315,3 +315,22 @@ def test_a_pushed_object_switched_to_a_soft_body_keeps_its_push(tmp_path):
     points = UsdGeom.Mesh(stage.GetPrimAtPath("/World/Objects/box")).GetPointsAttr()
     moved = np.asarray(points.Get(9), float).mean(axis=0) - np.asarray(points.Get(0), float).mean(axis=0)
     assert moved[0] > 0.05, moved  # 1 m/s against friction: 9 cm; unpushed, 0.2 mm
+
+
+def test_a_turned_soft_body_carries_its_surface_round_with_it():
+    """A soft body turned and moved as a whole (a ball rolling) gives the surface turned and moved the
+    same; before, the offsets kept their rest directions and a rolling ball's surface crumpled."""
+    from scipy.spatial.transform import Rotation
+
+    from physomni_usd.physics.cloth import soft_turn
+
+    rng = np.random.default_rng(5)
+    rest = rng.uniform(-0.03, 0.03, (60, 3))
+    surface = rng.uniform(-0.035, 0.035, (40, 3))
+    binding = bind_surface(surface, rest)
+    turn = Rotation.from_rotvec([0.4, -1.1, 0.7]).as_matrix()
+    now = rest @ turn.T + [0.2, 0.1, 0.0]
+    np.testing.assert_allclose(soft_turn(rest, now)[0], turn, atol=1e-9)
+    np.testing.assert_allclose(deform_surface(binding, now, soft_turn(rest, now)), surface @ turn.T + [0.2, 0.1, 0.0],
+                               atol=1e-9)
+    np.testing.assert_allclose(deform_surface(binding, rest, soft_turn(rest, rest)), surface, atol=1e-9)

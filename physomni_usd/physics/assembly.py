@@ -64,6 +64,7 @@ class ShotModels:
         self.supported = add_hidden_support(builder, objects, self.path_body, _ground_height(stage), newton, wp)
         self.ranges = {}  # cloth / soft body path → (first particle, count)
         self.soft_bindings = {}  # soft body path → its surface's binding to the tetrahedra
+        self.soft_rest = {}  # soft body path → its particles' rest positions (P, 3)
         self.soft_dt = None
         for o in objects:
             if o.family == "cloth":
@@ -73,6 +74,7 @@ class ShotModels:
                 self.soft_dt = min(self.soft_dt or dt_soft, dt_soft)
                 self.ranges[o.path] = (start, count)
                 self.soft_bindings[o.path] = bind_surface(o.points, rest)
+                self.soft_rest[o.path] = rest
         fixed, pushes = read_controls(stage, self.path_body)
         pushes += particle_pushes(stage, self.ranges)
         for b in fixed:

@@ -147,6 +147,17 @@ def add_soft_body(builder, obj, wp, cell: float | None = None) -> tuple[int, int
     return start, len(verts), verts, SOFT_STEP_CELLS * smallest / np.sqrt(max(k_mu, k_lambda) / density)
 
 
+def soft_turn(rest: np.ndarray, now: np.ndarray) -> np.ndarray:
+    """(P, 3, 3): a soft body's best-fit rotation from its rest particles (P, 3) to where they are now
+    (P, 3), for each particle, to carry the surface's offsets from its particles (``mpm.deform_surface``).
+    Left unturned, the offsets of a ball rolling across a desk kept their rest directions, and its
+    surface crumpled."""
+    from scipy.spatial.transform import Rotation
+
+    turn, _ = Rotation.align_vectors(now - now.mean(axis=0), rest - rest.mean(axis=0))
+    return np.broadcast_to(turn.as_matrix(), (len(rest), 3, 3))
+
+
 def _inset(verts: np.ndarray, bounds: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
     """The lattice's vertices (V, 3) fitted, axis by axis, to the mesh's bounds (2, 3) less the particles'
     ``radius`` (m), and the (3,) scale that took them there: at the extremes of the mesh's bounding box

@@ -9,6 +9,7 @@ import numpy as np
 from ..metrics.geometry import WorldMeshes, max_penetration
 from ..usd import layers
 from ..usd.author import PARTICLES, write_sim_layer
+from .cloth import soft_turn
 from .mpm import SURFACE_TYPES, deform_surface, particle_gradients
 
 #: Motion below these (1 mm, 0.11°; solver creep of a resting body stays under them) is "did not
@@ -53,7 +54,8 @@ class Recorder:
                 world = world - self.cloth_lift.get(o.path, 0.0)
             elif o.family == "soft":
                 start, count = m.ranges[o.path]
-                world = deform_surface(m.soft_bindings[o.path], x[start:start + count].astype(np.float64), None)
+                now = x[start:start + count].astype(np.float64)
+                world = deform_surface(m.soft_bindings[o.path], now, soft_turn(m.soft_rest[o.path], now))
             else:
                 mo = m.mpm_objects[o.path]
                 pts = self.mpm_points[f, mo.start:mo.start + mo.count].astype(np.float64)
