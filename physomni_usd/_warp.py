@@ -70,7 +70,47 @@ def load_warp():
     rest = [ln for ln in text.splitlines() if ln.strip() and _NO_DRIVER not in ln]
     if rest:
         print("\n".join(rest), file=sys.stderr)
+    _time_compiles()
     return wp
+
+
+#: Wall seconds this process has spent in warp building kernel modules (codegen and the C++ or CUDA
+#: compiler), and how many it built; a module found in the kernel cache adds nothing. None: this warp has
+#: no ``Module._compile`` to time.
+COMPILED: dict = {"seconds": None, "modules": 0}
+
+
+def _time_compiles() -> None:
+    """Time warp's own build of each kernel module, so that a first run can say what the compile cost
+    rather than what the whole command did around it. warp compiles lazily, at a module's first launch,
+    anywhere inside a model's construction or its first steps; only its ``Module._compile`` knows when."""
+    import time
+
+    try:
+        from warp._src.context import Module
+    except ImportError:
+        return
+    compile_ = getattr(Module, "_compile", None)
+    if compile_ is None or getattr(compile_, "_physomni_timed", False):
+        return
+    COMPILED["seconds"] = 0.0
+
+    @wraps(compile_)
+    def timed(self, *args, **kwargs):
+        start = time.perf_counter()
+        built = compile_(self, *args, **kwargs)
+        if built:  # False: found in the cache
+            COMPILED["seconds"] += time.perf_counter() - start
+            COMPILED["modules"] += 1
+        return built
+
+    timed._physomni_timed = True
+    Module._compile = timed
+
+
+def compiled_seconds() -> float | None:
+    """Seconds spent compiling kernels so far in this process (None where it cannot be timed)."""
+    return COMPILED["seconds"]
 
 
 def pick_device(requested: str | None = None) -> str:

@@ -128,7 +128,20 @@ def _say(quiet: bool):
     return (lambda msg: None) if quiet else (lambda msg: click.echo(msg, err=True))
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+class _OneLineUsage(click.Group):
+    """A subcommand's usage error (a missing -o, an unknown option, a bad choice) as one ``error:`` line and
+    exit 2, as every other bad input is; click would print the command's usage and a hint around it."""
+
+    def invoke(self, ctx):
+        try:
+            return super().invoke(ctx)
+        except click.UsageError as exc:
+            where = exc.ctx.command_path if exc.ctx is not None else ctx.command_path
+            message = exc.format_message()
+            _fail(f"{where}: {message[:-1] if message.endswith('.') else message}; see `{where} --help`", 2)
+
+
+@click.group(cls=_OneLineUsage, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
 @click.version_option(package_name="physomni-usd")
 def main():
     """Turn one photograph into a physically simulated, layered USD shot and a video.
@@ -138,8 +151,9 @@ def main():
       shot.usda = [edits.usda, render.usda, sim.usdc, physics.usda, scene.usda]
     (strongest first; render.usda holds a camera move, written by `render --camera`).
     edits.usda is yours: it is created empty, no command rewrites it (only
-    `estimate --set` adds your values to it), and what you author there (a
-    heavier object, a push, a moved prop) counts in the next `simulate`.
+    `estimate --set` and the preview's "Keep settings" add your values to it),
+    and what you author there (a heavier object, a push, a moved prop) counts
+    in the next `simulate`.
 
     \b
     Quick start:
@@ -207,7 +221,7 @@ def build_options(f):
                      help="Pixel box around an object; the segmenter (OpenCV GrabCut by default) cuts its mask. "
                           "Clicks after it correct the mask: +X,Y a pixel on the object, -X,Y one off it "
                           "(e.g. 120,40,380,300:cup:-130,60). `physomni-usd studio` writes these for you. "
-                          "Repeatable."),
+                          f"Repeatable; at most {BuildSettings().max_objects} objects, --mask and --box together."),
         click.option("--find", default=None, metavar="PHRASES",
                      help="Find every instance of each phrase with a text-promptable finder, e.g. "
                           "'cup, saucer, spoon'; each is labelled by its phrase and numbered after the masks "
@@ -243,8 +257,7 @@ def build_options(f):
                           "'wind:direction=1,0,0,strength=30'. Accelerations in m/s²; times in seconds. Repeatable."),
         click.option("--max-pixels", type=int, default=BuildSettings().max_pixels, show_default=True,
                      help="Refuse a larger photo (width × height), judged from its header before decoding. "
-                          f"Range: {limits(BuildSettings, 'max_pixels')}. At most "
-                          f"{BuildSettings().max_objects} objects (--mask and --box together)."),
+                          f"Range: {limits(BuildSettings, 'max_pixels')}."),
     ]
     for opt in reversed(opts):
         f = opt(f)
@@ -418,7 +431,8 @@ def simulate(shot, seconds, fps, substeps, particle_spacing, mpm_steps, quiet):
     Each object goes to its material's solver: rigid bodies, cloth (pbd_cloth) and soft bodies
     (pbd_elastic) on XPBD, sand, snow, liquids and elastic solids (mpm_*) on Newton's implicit MPM,
     coupled both ways. Steps come from the materials; a frame whose energy or speed runs away is
-    redone at half the step.
+    redone at half the step. Newton's contacts use one friction coefficient, dynamic_friction: a
+    static_friction unlike it does not act (said for values you set; report.json lists all).
 
     \b
     Example: make the box heavier and throw it, then simulate again:

@@ -135,3 +135,134 @@ def test_the_edits_example_in_simulate_help_is_a_layer_usd_reads():
     prim = layer.GetPrimAtPath("/World/Objects/box_0")
     assert prim is not None and prim.specifier == Sdf.SpecifierOver
     assert prim.attributes["physics:density"].default == 2000
+
+
+def test_a_run_says_no_ignored_value_that_nobody_authored_and_one_a_user_set(tmp_path, shot):
+    """The rules gave the box a static friction unlike its dynamic one: the report lists it, the run is
+    silent about it; the same value set by a user is said, once, for that object."""
+    lines = shot["proc"].stderr.splitlines()
+    assert not [ln for ln in lines if "is ignored" in ln or "is clamped" in ln], lines
+    listed = json.loads((shot["dir"] / "report.json").read_text())["stages"]["simulate"]["ignored_parameters"]
+    assert {i["source"] for items in listed.values() for i in items} <= {"rules", "default"}
+    assert any(i["param"] == "static_friction" for i in listed.get("box_1", [])), listed
+    folder = tmp_path / "shot"
+    shutil.copytree(shot["dir"], folder)
+    cli("estimate", folder / "shot.usda", "--set", "box.static_friction=0.9", check=True)
+    proc = cli("simulate", folder / "shot.usda", "--seconds", "0.1", check=True)
+    said = [ln for ln in proc.stderr.splitlines() if "is ignored" in ln]
+    assert len(said) == 1 and said[0].startswith("simulate: box_1: static_friction = 0.9 is ignored"), proc.stderr
+
+
+def test_one_friction_coefficient_is_said_in_simulate_help_and_the_reference():
+    import pathlib
+
+    help_text = " ".join(CliRunner().invoke(main, ["simulate", "--help"]).output.split())
+    reference = " ".join((pathlib.Path(__file__).parents[1] / "docs" / "reference.md").read_text().replace("`", "").split())
+    for text in (help_text, reference):
+        assert "Newton's contacts use one friction coefficient, dynamic_friction" in text
+
+
+def test_help_texts_say_true_things():
+    top = " ".join(CliRunner().invoke(main, ["--help"]).output.split())
+    assert "`estimate --set` and the preview's \"Keep settings\" add your values" in top
+    build = CliRunner().invoke(main, ["build", "--help"]).output
+    max_pixels = " ".join(build.split("--max-pixels", 1)[1].split("\n  -", 1)[0].split())
+    assert "objects" not in max_pixels and "Refuse a larger photo" in max_pixels
+    box = " ".join(build.split("--box", 1)[1].split("\n  --", 1)[0].split())
+    assert "at most 64 objects" in box
+
+
+def test_a_missing_required_option_is_one_line_and_exit_2(tmp_path, photo):
+    proc = cli("studio", photo["photo"])
+    _assert_one_line_error(proc, "studio", "'-o' / '--output'", "--help")
+    assert proc.returncode == 2 and "Usage:" not in proc.stderr + proc.stdout
+    proc = cli("build", photo["photo"], "-o", tmp_path / "x", "--no-such-option")
+    _assert_one_line_error(proc, "--no-such-option")
+    assert proc.returncode == 2 and not (tmp_path / "x").exists()
+
+
+def test_a_busy_port_in_studio_says_whose_port_without_guessing(tmp_path, photo):
+    import socket
+
+    with socket.socket() as held:
+        held.bind(("127.0.0.1", 0))
+        held.listen()
+        port = held.getsockname()[1]
+        proc = cli("studio", photo["photo"], "-o", tmp_path / "shot", "--port", port, "--no-open",
+                   "--duration", "1")
+        # the studio's live preview takes the port after --port: a busy one there is named as its
+        proc2 = cli("studio", photo["photo"], "-o", tmp_path / "shot", "--port", port - 1, "--no-open",
+                    "--duration", "1")
+    _assert_one_line_error(proc, f"--port {port}", "choose another --port")
+    _assert_one_line_error(proc2, f"--port {port - 1}", f"preview's port, {port})")
+    for p in (proc, proc2):
+        assert p.returncode == 2 and "another preview" not in p.stderr
+    assert not (tmp_path / "shot").exists()
+
+
+def test_a_layer_switching_a_body_from_rigid_prints_nothing_raw(tmp_path, shot):
+    """Newton's importer handed a '$'-anchored pattern to USD as a prim path (USD printed "Ill-formed
+    SdfPath"); a cloth from a surface with zero-area triangles made Newton print a warning."""
+    folder = tmp_path / "shot"
+    shutil.copytree(shot["dir"], folder)
+    cli("estimate", folder / "shot.usda", "--set", "cup.material=pbd_cloth", check=True)
+    proc = cli("simulate", folder / "shot.usda", "--seconds", "0.1", check=True)
+    assert "Warning" not in proc.stderr and "SdfPath" not in proc.stderr, proc.stderr
+    assert all(ln.startswith(("simulate:", "TORCH_IMPORTED")) for ln in proc.stderr.splitlines()), proc.stderr
+
+
+def test_a_cloth_leaves_out_zero_area_triangles_and_newton_warns_of_none(caplog):
+    import logging
+    from types import SimpleNamespace
+
+    from physomni_usd._warp import load_newton, load_warp
+    from physomni_usd.physics.cloth import add_cloth
+
+    wp, newton = load_warp(), load_newton()
+    points = np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0.1, 0.1, 0], [0.2, 0.2, 0]], float)
+    faces = np.array([[0, 1, 2], [1, 3, 2], [0, 3, 4]])  # the last lies on one line: no area
+    obj = SimpleNamespace(points=points, faces=faces, params={}, fixed=False, path="/World/Objects/c",
+                          prim=SimpleNamespace(GetAttribute=lambda name: SimpleNamespace(Get=lambda: None)))
+    builder = newton.ModelBuilder(up_axis=newton.Axis.Z)
+    with caplog.at_level(logging.WARNING):
+        start, count = add_cloth(builder, obj, wp)
+    assert (start, count) == (0, 5) and builder.tri_count == 2
+    assert not [r for r in caplog.records if "degenerate" in r.getMessage()]
+    builder = newton.ModelBuilder(up_axis=newton.Axis.Z)  # the same faces given whole: Newton warns
+    with caplog.at_level(logging.WARNING):
+        builder.add_cloth_mesh(pos=wp.vec3(0.0, 0.0, 0.0), rot=wp.quat_identity(), scale=1.0,
+                               vel=wp.vec3(0.0, 0.0, 0.0), vertices=[wp.vec3(*q) for q in points],
+                               indices=faces.ravel().tolist(), density=1.0)
+    assert [r for r in caplog.records if "degenerate" in r.getMessage()]
+
+
+COMPILE_CHECK = """
+import sys
+from physomni_usd._warp import load_warp
+wp = load_warp()
+wp.config.log_level = wp.LOG_INFO  # warp's own timer: one line per module it loads, '(compiled)' or '(cached)'
+from physomni_usd.cli import main
+main(sys.argv[1:], prog_name="physomni-usd")
+"""
+
+
+@pytest.mark.slow
+def test_the_compile_line_is_the_compile_s_own_time(tmp_path, shot):
+    """In an empty kernel cache, simulate's 'compiled in N s' is within 20 % of what warp's own timer says its
+    builds took, and not the whole simulate's time."""
+    import os
+    import subprocess
+    import sys
+
+    folder = tmp_path / "shot"
+    shutil.copytree(shot["dir"], folder)
+    env = dict(os.environ, WARP_CACHE_PATH=str(tmp_path / "kernels"))
+    proc = subprocess.run([sys.executable, "-c", COMPILE_CHECK, "simulate", str(folder / "shot.usda"),
+                           "--seconds", "0.5"], capture_output=True, text=True, env=env)
+    assert proc.returncode == 0, proc.stderr
+    said = re.search(r"physics kernels compiled in (\d+) s", proc.stderr)
+    assert said, proc.stderr
+    own = sum(float(ms) for ms in re.findall(r"took ([\d.]+) ms\s+\(compiled\)", proc.stdout)) / 1000
+    total = json.loads((folder / "report.json").read_text())["stages"]["simulate"]["total_seconds"]
+    assert own > 5, proc.stdout
+    assert abs(int(said.group(1)) - own) <= 0.2 * own + 0.5, (said.group(0), own, total)

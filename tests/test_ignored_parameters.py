@@ -50,6 +50,18 @@ def test_each_unused_parameter_is_listed_with_why():
     assert _listed("rigid") == {}
 
 
+def test_only_values_a_person_or_an_estimator_authored_are_said():
+    from physomni_usd.physics.params import authored
+
+    thing = _obj("rigid", static_friction=0.9, dynamic_friction=0.5)
+    thing.sources = {"static_friction": "rules", "dynamic_friction": "rules"}
+    items = ignored_parameters([thing])["thing"]
+    assert [i["source"] for i in items] == ["rules"] and authored(items) == []
+    for who in ("user", "vlm"):
+        thing.sources["static_friction"] = who
+        assert [i["param"] for i in authored(ignored_parameters([thing])["thing"])] == ["static_friction"]
+
+
 def test_particle_objects_that_disagree_on_friction_are_named():
     a, b = _obj("pbd_cloth", "a", dynamic_friction=0.3), _obj("pbd_elastic", "b", dynamic_friction=0.6)
     out = ignored_parameters([a, b])
@@ -87,8 +99,9 @@ def test_air_resistance_is_a_drag_on_the_cloth_particles():
 def _cloth_run(tmp_path, shot, air):
     out = tmp_path / f"air{air}"
     shutil.copytree(shot["dir"], out)
+    # the stretch compliance the user sets is the catalog's: said because the user set it
     cli("estimate", out / "shot.usda", "--set", "cup.material=pbd_cloth", "--set", f"cup.air_resistance={air}",
-        check=True)
+        "--set", "cup.stretch_compliance=1e-7", check=True)
     proc = cli("simulate", out / "shot.usda", "--seconds", "0.3", check=True)
     report = json.loads((out / "report.json").read_text())["stages"]["simulate"]
     stage = Usd.Stage.Open(str(out / "shot.usda"))
@@ -102,6 +115,9 @@ def test_simulate_says_what_it_ignored_and_air_resistance_acts(tmp_path, shot):
     assert "stretch_compliance" in listed and "air_resistance" not in listed
     line = next(ln for ln in proc.stderr.splitlines() if ln.startswith("simulate: cup_0:"))
     assert "stretch_compliance = 1e-07 is clamped" in line
+    # the bending compliance is the catalog's and nobody set it: listed in the report, not said
+    assert listed["bending_compliance"]["source"] == "default" and "bending_compliance" not in line
+    assert listed["stretch_compliance"]["source"] == "user"
     _, _, first0, last0 = _cloth_run(tmp_path, shot, 0)
     drop, drop_still_air = (first - last)[:, 2].mean(), (first0 - last0)[:, 2].mean()
     assert drop_still_air > 0.02 and drop < 0.9 * drop_still_air, (drop, drop_still_air)

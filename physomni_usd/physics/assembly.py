@@ -51,11 +51,13 @@ class ShotModels:
         not_rigid = [o.path for o in objects if o.family != "rigid" and o.is_body]
         # hollow bodies (a bowl) are cut into convex pieces here, not by Newton's importer (see pieces.py)
         hollow = [o for o in objects if o.family == "rigid" and o.is_body and is_decomposed(o.prim)]
+        # Every pattern holds '.*': Newton matches such a pattern as a regular expression only, and hands any
+        # other to USD's physics parser as a prim path, where '...$' is an ill-formed path that USD prints a
+        # raw warning about. '(/.*)?$' ends the match at the prim (cup_1 does not take cup_10) or its children.
         result = builder.add_usd(stage, load_visual_shapes=False, load_sites=False, verbose=False,
                                  mesh_maxhullvert=MAX_HULL_VERTICES,
-                                 ignore_paths=[re.escape(p) + "$" for p in not_rigid]
-                                 # a pattern with '.*' is matched as such, never read as a prim path
-                                 + [re.escape(o.path) + "(/.*)?$" for o in hollow] or None)
+                                 ignore_paths=[re.escape(p) + "(/.*)?$" for p in not_rigid + [o.path for o in hollow]]
+                                 or None)
         self.path_body = {p: b for p, b in result["path_body_map"].items() if p.startswith(OBJECTS + "/")}
         self.path_body.update(add_decomposed(builder, hollow, newton, wp))
         self.path_body.update(_add_stand_ins(builder, [o for o in objects if o.family == "rigid"

@@ -52,6 +52,17 @@ def pinned_particles(points: np.ndarray, ratio: float) -> np.ndarray:
     return np.nonzero(z >= cut)[0]
 
 
+def _without_degenerate(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """The faces of a surface less those of no area (a lofted mesh's pole, a slab's collapsed rim): a
+    spring or bend across them has no rest shape, and Newton prints a raw warning for each such mesh.
+    Judged in single precision, as Newton stores the points."""
+    p = points.astype(np.float32).astype(np.float64)
+    a, b, c = (p[faces[:, k]] for k in range(3))
+    area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    scale = float(np.median(np.linalg.norm(b - a, axis=1))) ** 2
+    return faces[area > 1e-6 * scale]
+
+
 def add_cloth(builder, obj, wp) -> tuple[int, int]:
     """Cloth from the object's own surface (springs + bending); returns (first particle, count)."""
     p = obj.params
@@ -62,6 +73,7 @@ def add_cloth(builder, obj, wp) -> tuple[int, int]:
     radius = float(0.25 * np.median(edges))
     # start a particle radius clear of the ground: contact would otherwise throw the cloth up
     world = world + [0.0, 0.0, max(radius - float(world[:, 2].min()), 0.0)]
+    faces = _without_degenerate(world, faces)
     start = builder.particle_count
     builder.add_cloth_mesh(pos=wp.vec3(0.0, 0.0, 0.0), rot=wp.quat_identity(), scale=1.0,
                            vel=wp.vec3(0.0, 0.0, 0.0), vertices=[wp.vec3(*q) for q in world],

@@ -3,7 +3,7 @@ parameters and world-space surface — the one place that routes a material to a
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from pxr import Usd, UsdGeom, UsdPhysics
@@ -31,6 +31,8 @@ class SimObject:
     points: np.ndarray  # (N, 3) world
     faces: np.ndarray  # (M, 3)
     matrix: np.ndarray  # (4, 4) local → world, row vectors (USD convention)
+    #: canonical key → who set the value: "default" (the catalog's, nothing authored), "rules", "vlm", "user"
+    sources: dict = field(default_factory=dict)
 
     @property
     def path(self) -> str:
@@ -76,14 +78,17 @@ def scene_objects(stage: Usd.Stage) -> list[SimObject]:
         except ValueError as exc:
             raise InputError(f"{mat.GetPath()}.physomni:materialType: {exc}") from None
         params = dict(CATALOG[kind].defaults)
+        sources = dict.fromkeys(params, "default")
+        material_source = (mat.GetAttribute("physomni:source").Get() if mat else None) or "rules"
         for key in keys_of(kind):
             attr = mat.GetAttribute(PARAMS[key].attr) if mat else None
             if attr and attr.HasAuthoredValue():
                 params[key] = attr.Get()
+                sources[key] = attr.GetCustomDataByKey("physomni:source") or material_source
         fixed = bool(prim.GetAttribute("physomni:fixed").Get())
         m = np.array(cache.GetLocalToWorldTransform(prim))
         pts = np.asarray(mesh.GetPointsAttr().Get(), float)
         faces = triangulate(np.asarray(mesh.GetFaceVertexCountsAttr().Get(), np.int64),
                             np.asarray(mesh.GetFaceVertexIndicesAttr().Get(), np.int64))
-        out.append(SimObject(prim, kind, params, fixed, pts @ m[:3, :3] + m[3, :3], faces, m))
+        out.append(SimObject(prim, kind, params, fixed, pts @ m[:3, :3] + m[3, :3], faces, m, sources))
     return out

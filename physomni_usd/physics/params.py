@@ -1,7 +1,8 @@
 """Which material parameters reach a solver as given, and which do not: every parameter an object's
 type takes either acts in the simulation or is listed here per object, ignored or clamped, with the
-reason. ``simulate`` says each in a line and writes them to the report (``ignored_parameters``), so
-that nothing accepted goes unsaid.
+reason and who set the value. The report lists every one (``ignored_parameters``); ``simulate`` says in
+a line only those that a person or an estimator authored (``user``, ``vlm``): a value the tool chose
+itself (the catalog's default, the rules estimator's) is no news to the user, who cannot have meant it.
 
 | parameter | types | what happens |
 |---|---|---|
@@ -24,6 +25,8 @@ from .cloth import CLOTH_BEND_KE, CLOTH_SPRING_KE, SOFT_KE, relaxation_of, soft_
 from .mpm import MPM_LAW
 
 PARTICLE_FAMILIES = ("cloth", "soft")
+#: Who set a value when the tool chose it itself: nobody asked for it, so simulate does not say it is ignored.
+TOOL_SOURCES = ("default", "rules")
 
 
 def particle_friction(objects) -> float | None:
@@ -36,14 +39,22 @@ def particle_friction(objects) -> float | None:
 
 
 def ignored_parameters(objects) -> dict[str, list[dict]]:
-    """Per object name, the parameters that do not act as given: ``[{param, value, why}]``."""
+    """Per object name, the parameters that do not act as given: ``[{param, value, why, source}]``; the
+    source is who set the value (an object without ``sources`` counts as the user's)."""
     out = {}
     mu, relax = particle_friction(objects), soft_relaxation(objects)
     for o in objects:
-        items = [{"param": k, "value": _value(v), "why": why} for k, v, why in _ignored(o, mu, relax)]
+        sources = getattr(o, "sources", None) or {}
+        items = [{"param": k, "value": _value(v), "why": why, "source": sources.get(k, "user")}
+                 for k, v, why in _ignored(o, mu, relax)]
         if items:
             out[o.name] = items
     return out
+
+
+def authored(items: list[dict]) -> list[dict]:
+    """The items whose value a person or an estimator authored: those simulate says."""
+    return [i for i in items if i.get("source") not in TOOL_SOURCES]
 
 
 def describe(name: str, items: list[dict]) -> str:

@@ -60,14 +60,16 @@ def _within(value, lo: float, hi: float, old: float) -> float:
     return old if v is None else v
 
 
-def check_port(host: str, port: int) -> None:
-    """Refuse a port another program holds, before anything starts (viser would quietly take the next)."""
+def check_port(host: str, port: int, option: str | None = None) -> None:
+    """Refuse a port another program holds, before anything starts (viser would quietly take the next).
+    ``option`` is what the user typed, or would type, to choose another (the studio's preview takes the
+    port after its ``--port``). Who holds it is not known here: the line does not guess."""
     with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET, socket.SOCK_STREAM) as s:
         try:
             s.bind((host, port))
         except OSError as exc:
-            raise InputError(f"--port {port}: cannot listen on {host}:{port} ({exc.strerror or exc}); "
-                             "is another preview running? choose another --port") from None
+            raise InputError(f"{option or f'--port {port}'}: cannot listen on {host}:{port} ({exc.strerror or exc}); another "
+                             f"program holds it: choose another --port") from None
 
 
 def browser_available() -> bool:

@@ -57,8 +57,10 @@ class Studio:
         self.photo = read_photo(photo)
         self.segmenter = registry.load("segmenter", segmenter)
         self.preview_port = options.preview_port or options.port + 1
-        check_port(options.host, options.port)
-        check_port(options.host, self.preview_port)
+        check_port(options.host, options.port, f"--port {options.port}")
+        # the live preview serves on the next port: a busy one is named as such, the fix still --port
+        check_port(options.host, self.preview_port,
+                   f"--port {options.port} (its live preview's port, {self.preview_port})")
         saved = out / session.STATE_FILE
         self.state = session.empty_state(photo, out, segmenter)
         if saved.is_file():  # the page opens where the artist left it
