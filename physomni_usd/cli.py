@@ -735,10 +735,13 @@ def studio(photo, out_dir, host, port, segmenter, duration, open_browser):
     \b
     In the page: drag a box around an object and type its label; its mask shows at once (GrabCut, or
     the segmenter chosen). "Click on object (+)" and "Click off object (−)" correct the selected mask;
-    ↑ ↓ reorder and ✕ deletes. "Push arrow": drag from an object; a quarter of the photo's width is
-    1 m/s, right is +X, up is +Y (away from the camera). Choose a force field and a camera move from
-    the lists. "Build" builds the shot and shows its live preview; "Render" writes video.mp4 (from the
-    preview's take, or 2 simulated seconds) and shows it.
+    ↑ ↓ reorder and ✕ deletes. "Push arrow": drag from an object's mask (where masks overlap, the
+    smallest object's); a quarter of the photo's width is 1 m/s, right is +X, up is +Y (away from the
+    camera); each push shows on its object and in the list, where it is edited or removed alone.
+    Choose a force field and a camera move from the lists. "Build" builds the shot and shows its live
+    preview, paused on frame 0; "Render" simulates the video length the page shows (default: the
+    shot's own, 3 s for a shot never simulated), writes video.mp4 and shows it. Each stage and frame
+    shows in the page as it happens.
 
     \b
     Everything is written beside the shot: studio.json (what the page holds, and its command lines)

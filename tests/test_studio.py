@@ -144,9 +144,9 @@ def studio_run(photo, tmp_path_factory):
             page.get_by_role("button", name="Build").click()
             page.get_by_text("built 2 objects").wait_for(timeout=240000)
             result["shot_after_build"] = (out / "shot.usda").is_file()
-            # a drag on the box in the live preview (inside the page)
+            # a drag on the box in the live preview (inside the page), which opens paused: the drag plays it
             frame = page.frame_locator("#preview")
-            frame.get_by_role("button", name="Pause").wait_for(timeout=120000)
+            frame.get_by_role("button", name="Play").wait_for(timeout=120000)
             page.wait_for_timeout(1500)
             canvas = frame.locator("canvas").first.bounding_box()
             from physomni_usd.preview.scene import photo_view
@@ -229,7 +229,9 @@ def test_render_from_the_page_writes_the_video_with_the_chosen_move(studio_run):
     report = json.loads((out / "report.json").read_text())["stages"]["render"]
     assert report["frames"] >= 2 and "orbit-left" in json.dumps(report.get("camera"))
     assert (out / "render.usda").is_file()
-    assert any(ln == "studio: rendering the preview's take" for ln in studio_run["lines"]), studio_run["lines"]
+    # the video is the stated length (the shot's default), not what the drag in the preview stepped
+    assert any(ln == "studio: rendering 3 s (91 frames at 30 fps)" for ln in studio_run["lines"]), studio_run["lines"]
+    assert report["frames"] == 91
     assert studio_run["returncode"] == 0, "\n".join(studio_run["lines"])
 
 

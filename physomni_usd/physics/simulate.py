@@ -50,7 +50,7 @@ def scene_settings(stage: Usd.Stage, settings: SimulateSettings) -> dict:
     return out
 
 
-def _kernels_first_use():
+def kernels_first_use():
     """The marker to write once this machine's warp kernel cache holds the simulator's kernels, or None
     when it already does (the marker names the versions of warp and Newton whose kernels it holds)."""
     import pathlib
@@ -103,7 +103,7 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
         _CHECKED["digest"] = digest
     frames = int(round(settings.seconds * cfg["fps"])) + 1
 
-    first_use = _kernels_first_use()
+    first_use = kernels_first_use()
     if first_use is not None:
         echo("simulate: compiling physics kernels, once per machine (a minute or two) ...")
     compiled_before = compiled_seconds()

@@ -28,6 +28,8 @@ from . import session
 PAGE = pathlib.Path(__file__).with_name("page.html")
 #: Largest request body the page sends (a state with its objects and clicks), bytes.
 MAX_BODY = 1 << 20
+#: Frames per second of what the page builds (build's --fps default), until a shot says its own.
+BUILD_FPS = 30.0
 
 
 @dataclass
@@ -50,7 +52,9 @@ class Studio:
         from ..preview.app import check_port
 
         self.options = options
-        self.echo = options.echo
+        #: what the page's long work said, line by line, for the page to show while it runs (/api/progress)
+        self.said: list[str] = []
+        self.echo = self._echo
         out = pathlib.Path(output)
         if out.exists() and not out.is_dir():
             raise InputError(f"-o {out}: exists and is not a folder")
@@ -66,7 +70,8 @@ class Studio:
         if saved.is_file():  # the page opens where the artist left it
             with contextlib.suppress(ValueError, KeyError, OSError):
                 old = session.read_state(saved)
-                self.state.update({k: old[k] for k in ("objects", "pushes", "force", "camera") if k in old})
+                self.state.update({k: old[k] for k in ("objects", "pushes", "force", "camera", "seconds")
+                                   if k in old})
         self.lock = threading.Lock()
         self.preview = None
         self.preview_thread = None
@@ -74,13 +79,34 @@ class Studio:
         self.httpd = None
 
     # --- the page's work --------------------------------------------------------------------------
+    def _echo(self, message: str) -> None:
+        self.said.append(message)
+        self.options.echo(message)
+
+    def progress(self, since: int) -> dict:
+        """The lines said from the ``since``-th on (the page asks again with ``next``)."""
+        return {"lines": self.said[since:], "next": len(self.said)}
+
+    def _length(self, state: dict) -> dict:
+        """The video's length as the page shows it and Render makes it: seconds, frame rate and frames."""
+        from pxr import Sdf
+
+        shot = pathlib.Path(state["output"]) / "shot.usda"
+        root = Sdf.Layer.FindOrOpen(str(shot)) if shot.is_file() else None
+        if root is not None:
+            root.Reload()  # a render or a rebuild changed it on disk
+        fps = root.timeCodesPerSecond if root is not None and root.HasTimeCodesPerSecond() else BUILD_FPS
+        seconds = session.render_seconds(state)
+        return {"seconds": seconds, "fps": fps, "frames": int(round(seconds * fps)) + 1}
+
     def info(self) -> dict:
         from ..render.moves import MOVES
 
         h, w = self.photo.shape[:2]
         return {"state": self.state, "width": w, "height": h, "moves": list(MOVES),
                 "forces": session.FORCE_PRESETS, "segmenter": type(self.segmenter).name,
-                "preview": self._preview_url() if self.preview is not None else None}
+                "preview": self._preview_url() if self.preview is not None else None,
+                "length": self._length(self.state), "progress": len(self.said)}
 
     def mask(self, body: dict) -> dict:
         obj, index = body["object"], int(body.get("index", 0))
@@ -94,9 +120,10 @@ class Studio:
 
     def _take_state(self, body: dict) -> dict:
         state = dict(self.state)
-        for key in ("objects", "pushes", "force", "camera"):
+        for key in ("objects", "pushes", "force", "camera", "seconds"):
             if key in body:
                 state[key] = body[key]
+        state["seconds"] = session.check_seconds(state.get("seconds"))
         if state.get("force"):
             from ..fields import parse_force_options
 
@@ -115,29 +142,53 @@ class Studio:
             self.state = state
             self._start_preview(result.shot)
         return {"preview": self._preview_url(), "objects": result.objects,
-                "command": session.command_text(state)}
+                "command": session.command_text(state), "length": self._length(state)}
 
     def render(self, body: dict) -> dict:
         with self.lock:
             state = self._take_state(body)
-            take = self._stop_preview(record=True)
-            simulated = bool(take) and take.get("frames", 0) >= 2
-            self.echo("studio: rendering " + ("the preview's take" if simulated else
-                                             f"{session.RENDER_SECONDS:g} simulated seconds"))
-            section = session.render(state, simulated, self.options.render_size, echo=self.echo)
+            self._stop_preview(record=False)  # what the preview stepped is not the video: studio.sh could not make it
+            length = self._length(state)
+            self.echo(f"studio: rendering {length['seconds']:g} s ({length['frames']} frames at {length['fps']:g} fps)")
+            logged = {}
+
+            def progress(stage, done, total):  # a line a frame would flood the page's log: each tenth
+                if done == total or done - logged.get(stage, 0) >= max(1, total // 10):
+                    logged[stage] = done
+                    self.echo(f"{stage}: frame {done}/{total}")
+
+            section = session.render(state, self.options.render_size, echo=self.echo, progress=progress)
             self.state = state
         return {"video": f"/video.mp4?t={time.time():.0f}", "frames": section["frames"],
-                "command": session.command_text(state)}
+                "command": session.command_text(state), "length": self._length(state)}
 
     # --- the preview ------------------------------------------------------------------------------
     def _preview_url(self) -> str:
         return f"http://{self.options.host}:{self.preview_port}"
 
     def _start_preview(self, shot) -> None:
+        from .._warp import compiled_seconds
+        from ..physics.simulate import kernels_first_use
         from ..preview.app import Options as PreviewOptions, Preview
 
+        first_use = kernels_first_use()
+        if first_use is not None:
+            self.echo("studio: compiling physics kernels, once per machine (a minute or two) ...")
+        before = compiled_seconds()
+        # paused on frame 0, the photo, as `physomni-usd preview` opens: Play (or a drag) starts it
         self.preview = Preview(shot, PreviewOptions(host=self.options.host, port=self.preview_port,
-                                                    open_browser=False, echo=self.echo))
+                                                    open_browser=False, play=False, echo=self.echo))
+        if first_use is not None:
+            # one frame stepped and undone: the kernels compile now, while the page says so, and Play
+            # later starts at once
+            engine = self.preview.engine
+            engine.step()
+            engine.reset()
+            engine.sync()  # the loop has not started: the reset is applied here
+            first_use.touch()
+            after = compiled_seconds()
+            self.echo("studio: physics kernels compiled" + (f" in {after - before:.0f} s" if None not in
+                                                            (before, after) else "") + "; later builds start at once")
         self.preview.start()
         self.preview_result = {}
 
@@ -185,6 +236,10 @@ class Studio:
                     self._send(200, png.tobytes(), "image/png")
                 elif path == "/api/info":
                     self._json(200, studio.info())
+                elif path == "/api/progress":
+                    query = self.path.split("?", 1)[1] if "?" in self.path else ""
+                    since = next((v for k, _, v in (q.partition("=") for q in query.split("&")) if k == "since"), "0")
+                    self._json(200, studio.progress(int(since) if since.isdigit() else 0))
                 elif path == "/video.mp4":
                     video = pathlib.Path(studio.state["output"]) / "video.mp4"
                     if video.is_file():

@@ -5,9 +5,11 @@ The state is a dict (what ``studio.json`` holds)::
 
     {"photo": "/abs/photo.png", "output": "/abs/shot", "segmenter": "grabcut",
      "objects": [{"label": "cup", "box": [x0, y0, x1, y1], "clicks": [[x, y, true], ...]}, ...],
-     "pushes": [{"object": 0, "velocity": [vx, vy, vz]}],      # m/s, world axes (Z up, +Y away)
+     "pushes": [{"object": 0, "velocity": [vx, vy, vz], "at": [x, y]}],  # m/s, world axes (Z up, +Y away);
+                                                                       # at: where the arrow starts, pixels
      "force": "wind:direction=1,0,0,strength=5" | null,
-     "camera": "static" | "orbit-left" | ...}
+     "camera": "static" | "orbit-left" | ...,
+     "seconds": 3.0 | null}                                    # the video's length; null: the shot's own
 
 Pixels are the photo's (x right, y down); a box's x1, y1 are exclusive, as ``--box`` has them.
 """
@@ -36,13 +38,40 @@ FORCE_PRESETS = {
     "turbulence": "turbulence:strength=3",
     "noise": "noise:strength=2",
 }
-#: Simulated seconds of the page's "Render" when no preview take is there to render.
-RENDER_SECONDS = 2.0
+#: The video's length when neither the page nor the shot states one: what ``simulate`` takes then.
+RENDER_SECONDS = 3.0
 
 
 def empty_state(photo, output, segmenter: str = "grabcut") -> dict:
     return {"photo": str(pathlib.Path(photo).resolve()), "output": str(pathlib.Path(output).resolve()),
-            "segmenter": segmenter, "objects": [], "pushes": [], "force": None, "camera": "static"}
+            "segmenter": segmenter, "objects": [], "pushes": [], "force": None, "camera": "static", "seconds": None}
+
+
+def render_seconds(state: dict) -> float:
+    """The length Render simulates and the page shows: the page's field where set, else the shot's own
+    length (its last simulation), else ``RENDER_SECONDS`` (what ``simulate`` takes for a shot never
+    simulated)."""
+    from ..usd import layers
+
+    if state.get("seconds"):
+        return float(state["seconds"])
+    shot = pathlib.Path(state["output"]) / "shot.usda"
+    return (layers.shot_seconds(shot) if shot.is_file() else None) or RENDER_SECONDS
+
+
+def check_seconds(value) -> float | None:
+    """The page's length field as simulate --seconds takes it; None for an empty field."""
+    import math
+
+    if value is None or value == "":
+        return None
+    try:
+        seconds = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"video length {value!r}: a number of seconds") from None
+    if not (math.isfinite(seconds) and 0 < seconds <= 600):
+        raise InputError(f"video length {value!r}: more than 0 and at most 600 seconds")
+    return seconds
 
 
 def box_specs(state: dict) -> list[str]:
@@ -88,7 +117,8 @@ def commands(state: dict) -> dict[str, list[str]]:
     if state.get("segmenter") and state["segmenter"] != "grabcut":
         build += ["--segmenter", state["segmenter"]]
     render = ["render", shot] + (["--camera", state["camera"]] if state.get("camera") else [])
-    return {"build": build, "simulate": ["simulate", shot, "--seconds", f"{RENDER_SECONDS:g}"], "render": render}
+    return {"build": build, "simulate": ["simulate", shot, "--seconds", f"{render_seconds(state):g}"],
+            "render": render}
 
 
 def command_text(state: dict) -> str:
@@ -96,7 +126,7 @@ def command_text(state: dict) -> str:
     c = commands(state)
     lines = ["# physomni-usd studio: the set-up page's work as commands (run from the folder it was run in)",
              "physomni-usd " + shlex.join(c["build"]),
-             "# the video: the page renders its preview's take (drags by hand are not replayed by simulate)",
+             "# the video, as the page's Render made it: simulate the length it showed, then render",
              "physomni-usd " + shlex.join(c["simulate"]),
              "physomni-usd " + shlex.join(c["render"])]
     return "\n".join(lines) + "\n"
@@ -148,18 +178,23 @@ def build(state: dict, echo=lambda m: None):
     return result
 
 
-def render(state: dict, simulated: bool, max_size: int = 960, echo=lambda m: None) -> dict:
-    """The video of the shot with the page's camera move; simulates first (``RENDER_SECONDS``) unless
-    ``simulated`` (a preview take is in sim.usdc). Returns the report's render section."""
+def render(state: dict, max_size: int = 960, echo=lambda m: None, progress=None) -> dict:
+    """The video of the shot with the page's camera move, as ``studio.sh`` makes it: simulate the stated
+    length (:func:`render_seconds`), then render; never whatever a preview happened to step. ``progress``
+    is called ``(stage, done, total)`` per simulated and rendered frame. Returns the report's render section."""
     import physomni_usd
     from ..settings import RenderSettings, SimulateSettings
 
     shot = pathlib.Path(state["output"]) / "shot.usda"
     if not shot.is_file():
         raise InputError("nothing to render yet: press Build first")
-    if not simulated:
-        physomni_usd.simulate(shot, SimulateSettings(seconds=RENDER_SECONDS), echo=echo)
+    report = progress or (lambda stage, done, total: None)
+    seconds = render_seconds(state)
+    write_state(state)  # studio.sh says what is being made before the minutes it takes
+    physomni_usd.simulate(shot, SimulateSettings(seconds=seconds), echo=echo,
+                          progress=lambda done, total: report("simulate", done, total))
     camera = state.get("camera") or None
-    section = physomni_usd.render(shot, None, RenderSettings(max_size=max_size), camera=camera)
+    section = physomni_usd.render(shot, None, RenderSettings(max_size=max_size), camera=camera,
+                                  progress=lambda done, total: report("render", done, total))
     write_state(state)
     return section
