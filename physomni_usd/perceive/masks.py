@@ -25,6 +25,22 @@ BACKGROUND_SHARE = 0.1
 MIN_EDGE_AGREEMENT = 0.15
 #: Colour distance (CIELab units) within which a pixel counts as having a background colour.
 BACKGROUND_COLOUR_DISTANCE = 10.0
+#: Words of labels of things with limbs or legs (people, animals, furniture on legs): their box holds ground
+#: between the limbs, often in the thing's own shadow, which GrabCut's colour models keep as object.
+LIMBED = frozenset({
+    "person", "people", "man", "men", "woman", "women", "child", "children", "kid", "boy", "girl", "player",
+    "footballer", "runner", "athlete", "human", "dancer", "skier", "skater", "cat", "dog", "horse", "cow",
+    "sheep", "goat", "pig", "deer", "giraffe", "zebra", "elephant", "bear", "lion", "tiger", "animal", "bird",
+    "chair", "stool", "table", "bicycle", "bike", "tripod", "robot"})
+#: Chromaticity distance (r, g shares of r + g + b) within which a pixel has a colour of the ground around the
+#: box whatever its light: a shadow darkens the ground but keeps its chromaticity.
+GROUND_CHROMA_DISTANCE = 0.02
+#: A pixel darker than this (r + g + b, of 765) has no chromaticity to trust.
+DARKEST_CHROMA = 45.0
+#: A round outline (circularity of its convex hull at least this) whose mask misses more than this share of
+#: its hull has holes or bites: a ball's dark panels left out.
+ROUND_CIRCULARITY = 0.85
+ROUND_MISSING = 0.06
 
 
 @dataclass
@@ -207,7 +223,7 @@ def mask_from_box(photo: np.ndarray, spec: str, index: int) -> ObjectMask:
         result[y0:y1, x0:x1] = True
         quality = {"method": "box"}
     else:
-        result, quality = segment_box(photo, box)
+        result, quality = segment_box(photo, box, label)
     if clicks:
         result = refine_with_clicks(photo, box, result, clicks)
         quality = dict(mask_quality(photo, result, box), method=quality["method"] + "+clicks") \
@@ -241,8 +257,12 @@ def refine_with_clicks(photo: np.ndarray, box, mask: np.ndarray, clicks) -> np.n
     return out
 
 
-def segment_box(photo: np.ndarray, box: tuple[int, int, int, int]) -> tuple[np.ndarray, dict]:
+def segment_box(photo: np.ndarray, box: tuple[int, int, int, int], label: str | None = None) -> tuple[np.ndarray, dict]:
     """The object inside ``box`` (x0, y0, x1, y1): (H, W) bool and its :func:`mask_quality` with 'method'.
+
+    For a thing with limbs (:func:`is_limbed`, by its ``label``) GrabCut's mask leaves out the ground
+    between its limbs, lit or in shadow (:func:`_without_ground`); what still has the ground's colour
+    is measured (``ground_like``) and warned of.
 
     GrabCut from the box first. When its mask looks like background (the usual failure on a thin object
     lying diagonally: most of the box is background, and GrabCut's colour models cannot tell), two
@@ -252,8 +272,11 @@ def segment_box(photo: np.ndarray, box: tuple[int, int, int, int]) -> tuple[np.n
     """
     x0, y0, x1, y1 = box
     bgr = cv2.cvtColor(photo, cv2.COLOR_RGB2BGR)
+    limbed = is_limbed(label)
     candidates = {"grabcut": _grabcut(bgr, box, None)}
     best = "grabcut"
+    if limbed:
+        candidates[best] = _without_ground(photo, box, candidates[best])
     scores = {best: mask_quality(photo, candidates[best], box)}
     if _looks_like_background(scores[best]):
         bw, bh = x1 - x0, y1 - y0
@@ -275,7 +298,63 @@ def segment_box(photo: np.ndarray, box: tuple[int, int, int, int]) -> tuple[np.n
         best = min(scores, key=lambda k: scores[k]["background_like"] - scores[k]["edge_agreement"]
                    - 0.5 * _box_span(candidates[k], box))
     quality = dict(scores[best], method=best)
+    if limbed:
+        quality["ground_like"] = round(float(_ground_like(photo, box, candidates[best]).sum())
+                                       / max(1, int(candidates[best].sum())), 4)
+        if quality["warning"] is None and quality["ground_like"] > BACKGROUND_LIKE:
+            quality["warning"] = (f"{quality['ground_like']:.0%} of the mask has the colour of the ground around "
+                                  "its box, in light or shade (between legs or arms?): click off it there "
+                                  "(-X,Y after the --box) or pass a --mask PNG")
     return candidates[best], quality
+
+
+def is_limbed(label: str | None) -> bool:
+    """Whether a label names a thing with limbs or legs (:data:`LIMBED`; plurals too)."""
+    words = re.split(r"[^a-z]+", (label or "").lower())
+    return any(w in LIMBED or (w.endswith("s") and w[:-1] in LIMBED) for w in words if w)
+
+
+def _chroma(pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 2) r and g shares of r + g + b, and (N,) r + g + b, of RGB ``pixels`` (N, 3)."""
+    rgb = pixels.astype(np.float64)
+    total = rgb.sum(axis=1)
+    return rgb[:, :2] / np.maximum(total, 1.0)[:, None], total
+
+
+def _ground_like(photo: np.ndarray, box, mask: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the pixels of ``mask`` with a chromaticity common in the band around ``box`` and no
+    brighter than that band: its ground, lit or in shadow."""
+    x0, y0, x1, y1 = box
+    ring = _ring(mask.shape, box, max(4, int(0.15 * max(x1 - x0, y1 - y0))))
+    out = np.zeros(mask.shape, bool)
+    if ring.sum() < 8 or not mask.any():
+        return out
+    around = photo[ring]
+    around = around[np.random.default_rng(0).permutation(len(around))[:512]]
+    chroma, light = _chroma(around)
+    keep = light >= DARKEST_CHROMA
+    if keep.sum() < 8:
+        return out
+    tree = cKDTree(chroma[keep])
+    ys, xs = np.nonzero(mask)
+    c, v = _chroma(photo[ys, xs])
+    near = tree.query_ball_point(c, GROUND_CHROMA_DISTANCE, return_length=True)
+    like = (near >= max(1, BACKGROUND_SHARE * keep.sum())) & (v >= DARKEST_CHROMA) \
+        & (v <= 1.1 * float(np.percentile(light[keep], 95)))
+    out[ys[like], xs[like]] = True
+    return out
+
+
+def _without_ground(photo: np.ndarray, box, mask: np.ndarray) -> np.ndarray:
+    """``mask`` less the ground it holds (:func:`_ground_like`), specks left out, its largest part kept; the
+    mask as it was where that would leave less than half of it (the object itself has the ground's colour)."""
+    ground = _ground_like(photo, box, mask)
+    ground = cv2.morphologyEx(ground.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)) > 0
+    rest = mask & ~ground
+    rest = cv2.morphologyEx(rest.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)) > 0
+    if rest.sum() < 0.5 * mask.sum():
+        return mask
+    return largest_component(rest)
 
 
 def _box_span(mask: np.ndarray, box) -> float:
@@ -399,9 +478,24 @@ def mask_quality(photo: np.ndarray, mask: np.ndarray, box=None) -> dict:
     like = float(_background_like(lab, sample, colours).mean()) if len(sample) else 1.0
     area = max(1, (x1 - x0) * (y1 - y0))
     out = {"box_fraction": round(float(mask[y0:y1, x0:x1].sum()) / area, 4), "edge_agreement": round(edge, 4),
-           "background_like": round(like, 4)}
+           "background_like": round(like, 4), "round_missing": _round_missing(mask)}
     out["warning"] = _warning(out)
     return out
+
+
+def _round_missing(mask: np.ndarray) -> float | None:
+    """For a round outline (its convex hull's circularity at least :data:`ROUND_CIRCULARITY`), the share of
+    the hull the mask leaves out (holes, bites); None for any other outline."""
+    points = cv2.findNonZero(mask.astype(np.uint8))
+    if points is None or len(points) < MIN_MASK_PIXELS:
+        return None
+    hull = cv2.convexHull(points)
+    filled = np.zeros(mask.shape, np.uint8)
+    cv2.fillPoly(filled, [hull], 1)
+    area, perimeter = float(filled.sum()), cv2.arcLength(hull, True)
+    if perimeter <= 0 or 4 * np.pi * area / perimeter ** 2 < ROUND_CIRCULARITY:
+        return None
+    return round(float((filled.astype(bool) & ~mask).sum()) / area, 4)
 
 
 def _looks_like_background(q: dict) -> bool:
@@ -415,6 +509,10 @@ def _warning(q: dict) -> str | None:
     if q["edge_agreement"] < MIN_EDGE_AGREEMENT:
         return (f"only {q['edge_agreement']:.0%} of the mask's outline follows an edge of the photo; "
                 "check masks.png")
+    if (q.get("round_missing") or 0.0) > ROUND_MISSING:
+        return (f"the outline is round but the mask leaves out {q['round_missing']:.0%} of it (holes or bites, "
+                "e.g. a ball's dark panels): click on the missing parts (+X,Y after the --box) or pass a "
+                "--mask PNG")
     return None
 
 
