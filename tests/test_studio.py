@@ -271,3 +271,49 @@ def test_preview_of_a_photo_serves_the_set_up_page(tmp_path, photo):
         proc.send_signal(signal.SIGINT)
         proc.wait(60)
     assert not (tmp_path / "shot").exists()  # nothing built, nothing written
+
+
+@pytest.mark.slow
+def test_a_first_build_says_it_compiles_the_kernels_while_it_does(tmp_path, photo):
+    """In an empty kernel cache, the page's progress says the kernels are compiling before the build's answer
+    comes, then how long they took; the page's preview then starts at once."""
+    import os
+    import time
+    import urllib.request
+
+    port = free_port()
+    env = dict(os.environ, WARP_CACHE_PATH=str(tmp_path / "kernels"))
+    proc = subprocess.Popen([sys.executable, "-m", "physomni_usd.cli", "studio", str(photo["photo"]), "-o",
+                             str(tmp_path / "shot"), "--port", str(port), "--no-open", "--duration", "600"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    base = f"http://127.0.0.1:{port}"
+    try:
+        line = proc.stderr.readline()
+        while line and not line.startswith("studio: http://"):
+            line = proc.stderr.readline()
+        answer = {}
+
+        def build():
+            body = {"objects": [{"label": "cup", "box": list(CUP_BOX), "clicks": []}], "pushes": []}
+            req = urllib.request.Request(base + "/api/build", data=json.dumps(body).encode(), method="POST",
+                                         headers={"Content-Type": "application/json"})
+            answer["build"] = json.loads(urllib.request.urlopen(req, timeout=600).read())
+
+        worker = threading.Thread(target=build)
+        worker.start()
+        heard_while_building = []
+        while worker.is_alive():
+            time.sleep(1)
+            lines = json.loads(urllib.request.urlopen(base + "/api/progress?since=0", timeout=30).read())["lines"]
+            if worker.is_alive():
+                heard_while_building = lines
+        worker.join()
+        said = json.loads(urllib.request.urlopen(base + "/api/progress?since=0", timeout=30).read())["lines"]
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(60)
+    assert "build" in answer, said
+    assert "studio: compiling physics kernels, once per machine (a minute or two) ..." in heard_while_building
+    assert any(ln.startswith("perceive:") for ln in heard_while_building)
+    compiled = [ln for ln in said if ln.startswith("studio: physics kernels compiled in ")]
+    assert len(compiled) == 1 and int(compiled[0].split(" in ")[1].split(" s")[0]) >= 1, said

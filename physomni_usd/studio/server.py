@@ -177,7 +177,10 @@ class Studio:
         before = compiled_seconds()
         # paused on frame 0, the photo, as `physomni-usd preview` opens: Play (or a drag) starts it
         self.preview = Preview(shot, PreviewOptions(host=self.options.host, port=self.preview_port,
-                                                    open_browser=False, play=False, echo=self.echo))
+                                                    open_browser=False, play=False,
+                                                    # its rate every few seconds is for the terminal, not
+                                                    # the page's log of the Build and Render it runs between
+                                                    echo=self.options.echo))
         if first_use is not None:
             # one frame stepped and undone: the kernels compile now, while the page says so, and Play
             # later starts at once
