@@ -104,6 +104,10 @@ def drawn(tmp_path_factory):
             result["pushes"] = page.evaluate(pushes)
             result["default_seconds"] = page.get_by_label("Video length in seconds").input_value()
             page.screenshot(path=str(out.parent / "page_drawn.png"))
+            # every status the page shows while it works, as it shows it
+            page.evaluate("""() => { window.seen = []; new MutationObserver(() =>
+                window.seen.push(document.getElementById('status').textContent)).observe(
+                document.getElementById('status'), {childList: true, characterData: true, subtree: true}); }""")
             page.get_by_role("button", name="Build").click()
             page.get_by_text("built 2 objects").wait_for(timeout=300000)
             result["log_after_build"] = page.locator("#log").inner_text()
@@ -118,6 +122,7 @@ def drawn(tmp_path_factory):
             page.get_by_role("button", name="Render").click()
             page.get_by_text("rendered").wait_for(timeout=300000)
             result["log_after_render"] = page.locator("#log").inner_text()
+            result["seen"] = page.evaluate("() => window.seen")
             result["status"] = page.locator("#status").inner_text()
             page.screenshot(path=str(out.parent / "page_rendered.png"))
             browser.close()
@@ -180,6 +185,10 @@ def test_the_page_shows_each_stage_and_frame_as_it_happens(drawn):
     assert "simulate: frame" in render and "render: frame" in render
     frames = [int(x) for x in __import__("re").findall(r"render: frame (\d+)/", render)]
     assert len(frames) >= 3 and frames == sorted(frames)
+    # and while it works, the status line says the stage or frame of the moment
+    seen = drawn["seen"]
+    assert any(s.startswith("Build: perceive:") for s in seen), seen
+    assert any(__import__("re").match(r"Render: (simulate|render): frame \d+/\d+$", s) for s in seen), seen
 
 
 def test_the_video_is_the_one_studio_sh_makes(drawn, replayed):

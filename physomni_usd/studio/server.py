@@ -54,6 +54,7 @@ class Studio:
         self.options = options
         #: what the page's long work said, line by line, for the page to show while it runs (/api/progress)
         self.said: list[str] = []
+        self.current = ""  # the frame being simulated or rendered now, every frame (the log gets each tenth)
         self.echo = self._echo
         out = pathlib.Path(output)
         if out.exists() and not out.is_dir():
@@ -85,7 +86,7 @@ class Studio:
 
     def progress(self, since: int) -> dict:
         """The lines said from the ``since``-th on (the page asks again with ``next``)."""
-        return {"lines": self.said[since:], "next": len(self.said)}
+        return {"lines": self.said[since:], "next": len(self.said), "current": self.current}
 
     def _length(self, state: dict) -> dict:
         """The video's length as the page shows it and Render makes it: seconds, frame rate and frames."""
@@ -153,11 +154,15 @@ class Studio:
             logged = {}
 
             def progress(stage, done, total):  # a line a frame would flood the page's log: each tenth
+                self.current = f"{stage}: frame {done}/{total}"
                 if done == total or done - logged.get(stage, 0) >= max(1, total // 10):
                     logged[stage] = done
                     self.echo(f"{stage}: frame {done}/{total}")
 
-            section = session.render(state, self.options.render_size, echo=self.echo, progress=progress)
+            try:
+                section = session.render(state, self.options.render_size, echo=self.echo, progress=progress)
+            finally:
+                self.current = ""
             self.state = state
         return {"video": f"/video.mp4?t={time.time():.0f}", "frames": section["frames"],
                 "command": session.command_text(state), "length": self._length(state)}
