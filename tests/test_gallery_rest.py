@@ -30,6 +30,10 @@ import physomni_usd as api
 from physomni_usd.bench.real_photos import (REST_DRIFT_M, REST_SECONDS, START_OVERLAP_M, load_photo, load_truth,
                                             rest_check, write_inputs)
 
+#: The whole net builds and simulates every example and bench photo: 15-20 minutes on a loaded 2-core machine.
+#: Quicker tests run each command it runs (build, simulate).
+pytestmark = pytest.mark.slow
+
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
 SPECS = {p.parent.name: p for p in sorted(EXAMPLES.glob("*/example.json"))}
 PHOTOS = load_truth()

@@ -47,6 +47,19 @@ def test_commands_replay_boxes_clicks_and_pushes_and_name_a_shared_label_by_prim
     assert "--camera orbit-left" in session.command_text(state)
 
 
+def test_the_video_length_is_the_page_s_field_else_the_shot_s_and_is_written_to_studio_sh(tmp_path):
+    from physomni_usd.errors import InputError
+
+    state = session.empty_state("p.png", tmp_path / "shot")
+    assert session.render_seconds(state) == session.RENDER_SECONDS == 3.0  # no shot: what simulate takes
+    state["seconds"] = session.check_seconds("1.5")
+    assert "simulate" in session.command_text(state) and "--seconds 1.5" in session.command_text(state)
+    assert session.check_seconds("") is None and session.check_seconds(None) is None
+    for bad in ("nan", "0", "601", "-1", "soon"):
+        with pytest.raises(InputError, match="video length"):
+            session.check_seconds(bad)
+
+
 def _start(photo, out, port):
     proc = subprocess.Popen([sys.executable, "-m", "physomni_usd.cli", "studio", str(photo), "-o", str(out),
                              "--port", str(port), "--no-open", "--duration", "900"],
