@@ -45,6 +45,7 @@ def test_default_is_the_cheapest_setting_meeting_every_target():
     assert (best["solver"], best["substeps"]) == ("y", 1)
 
 
+@pytest.mark.slow  # 73 s on a loaded 2-core machine
 def test_cloth_sag_meets_the_fine_step_only_at_the_simulators_cloth_step():
     """The simulator's rule dt ≤ CLOTH_FACTOR·√(m/k) lands within the bench's 1 % on the bench cloth;
     four times that step does not."""
@@ -64,11 +65,13 @@ def test_frequency_of_a_swing_decaying_onto_its_rest_position():
     assert math.isnan(deformable._frequency(np.c_[t, np.full_like(t, 0.5)]))
 
 
+@pytest.mark.slow  # 66 s on a loaded 2-core machine
 def test_elastic_bar_oscillates_near_the_beam_theory_frequency():
     error, seconds = deformable.elastic_bar(4, spacing=0.025, seconds=0.6)
     assert error < 0.2 and seconds > 0
 
 
+@pytest.mark.slow  # 38 s on a loaded 2-core machine
 def test_dam_break_front_follows_martin_and_moyce():
     error, _ = deformable.dam_break(2, spacing=0.02)
     assert error < 0.25
@@ -79,6 +82,7 @@ def test_granular_column_spreads():
     assert error < 0.6  # runs out, though short of Lube's 1.2·a (see the bench's table)
 
 
+@pytest.mark.slow  # 83 s on a loaded 2-core machine
 def test_small_matrix_passes_and_the_guard_rolls_back_when_overruled():
     rows = {r["case"]: r for r in run_matrix(quick=True, echo=lambda m: None,
                                               only=["elastic_E_1e+09", "mass_ratio_1000_stack",

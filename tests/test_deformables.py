@@ -48,6 +48,7 @@ def test_no_mpm_kernels_compiled_for_a_rigid_scene(tmp_path, shot):
     assert "implicit_mpm" not in line and "style3d" not in line and "vbd" not in line
 
 
+@pytest.mark.slow  # sand 203 s, liquid 66 s on a loaded 2-core machine; a quicker test runs the same solver
 @pytest.mark.parametrize("material", ["mpm_sand", "mpm_liquid"])
 def test_flowing_materials_become_time_sampled_particles(tmp_path, shot, material):
     out, stage, report, _ = _switched(tmp_path, shot, material)
@@ -77,6 +78,7 @@ def test_flowing_materials_become_time_sampled_particles(tmp_path, shot, materia
         assert np.abs(renderer.frame(end).astype(float) - renderer.frame(0)).max() > 30
 
 
+@pytest.mark.slow  # 57 s on a loaded 2-core machine; a quicker test runs the same solver
 def test_elastic_object_keeps_its_textured_surface_and_deforms(tmp_path, shot):
     # a preview's MPM steps, as a user would ask for them (the default for elastic solids is 16)
     out, stage, report, _ = _switched(tmp_path, shot, "mpm_elastic", extra=("--mpm-steps", "3"))
@@ -234,6 +236,7 @@ def test_shape_damping_keeps_the_rigid_motion_and_takes_the_wobble():
     np.testing.assert_array_equal(after[30:], v[30:])
 
 
+@pytest.mark.slow  # 33 s on a loaded 2-core machine; a quicker test runs the same solver
 def test_a_dropped_sponge_lands_and_lies_still(tmp_path):
     """An 8 cm sponge dropped 30 cm: undamped it bounced back 20 cm and still wobbled a second later; now
     its bottom rises at most 2 cm after it lands, and at 1 s it is still (under 1 cm/s) and whole."""
@@ -295,6 +298,7 @@ def test_a_soft_body_has_the_mesh_mass_and_surface(closed):
     assert dt > 0
 
 
+@pytest.mark.slow  # 34 s on a loaded 2-core machine; a quicker test runs the same solver
 def test_a_pushed_object_switched_to_a_soft_body_keeps_its_push(tmp_path):
     """``run --push`` at 0 s is the rigid body's ``physics:velocity``; an object a layer then makes a soft
     body (``estimate --set``, here on a shot with no photo) is pushed all the same: it had stood still."""

@@ -48,6 +48,7 @@ def test_desk_example_is_the_bench_photo():
     assert spec["boxes"] == [",".join(map(str, o["box"])) + f":{o['label']}" for o in truth["objects"]]
 
 
+@pytest.mark.slow  # 59 s (a run of the desk example) on a loaded 2-core machine
 def test_top_down_desk_sizes_and_run_time(desk_run):
     out, done, seconds = desk_run
     assert done.returncode == 0, done.stderr
