@@ -178,6 +178,7 @@ def test_contact_sheet_is_one_row_of_equal_heights():
     assert sheet.shape[0] == 240 and sheet.shape[2] == 3 and sheet.shape[1] > 240 + 360
 
 
+@pytest.mark.slow  # 74 s (builds the desk example) on a loaded 2-core machine
 def test_where_the_desk_ball_stood_the_plate_continues_the_wood(tmp_path):
     """The bundled desk example, its ball pushed for half a second: in the last frame the area it left
     has the wood's grain, no outline and the wood's colour, at 480 px and at the photo's own 640 px (the
@@ -204,6 +205,7 @@ def test_where_the_desk_ball_stood_the_plate_continues_the_wood(tmp_path):
         assert within_targets(figures["ball"]), (size, renderer.width, figures["ball"])
 
 
+@pytest.mark.slow  # 27 s (builds the motorcycle example) on a loaded 2-core machine
 def test_where_the_motorcycle_stood_the_plate_continues_the_floor(tmp_path):
     """The bundled motorcycle, pushed for 0.6 s: in the last frame, at the photo's own 741 px, the floor it
     left has the floor's grain (copied shelf edges had made it twice as busy), no outline and the floor's
