@@ -85,7 +85,8 @@ class Guard:
         return _same(given, self.token)
 
     def _cookie_token(self, headers) -> bool:
-        for header in headers.get_all("Cookie") if hasattr(headers, "get_all") else [headers.get("Cookie", "")]:
+        # websockets' get_all gives [] where there is none, http.server's (email's) None
+        for header in (headers.get_all("Cookie") if hasattr(headers, "get_all") else [headers.get("Cookie")]) or []:
             for part in (header or "").split(";"):
                 name, _, value = part.strip().partition("=")
                 if name == self.cookie and _same(value, self.token):
