@@ -706,7 +706,9 @@ def preview(shot, host, port, duration, record, open_browser, out_dir, play):
 @click.argument("photo", type=click.Path(dir_okay=False, path_type=pathlib.Path))
 @click.option("-o", "--output", "out_dir", required=True, type=click.Path(path_type=pathlib.Path),
               help="Shot folder the page builds into (created at the first Build).")
-@click.option("--host", default="127.0.0.1", show_default=True, help="Address to serve the page on.")
+@click.option("--host", default="127.0.0.1", show_default=True,
+              help="Address to serve the page on. On any but a loopback address the printed URL carries a "
+                   "per-run token, without which every request is refused.")
 @click.option("--port", type=click.IntRange(1, 65534), default=8070, show_default=True,
               help="Port of the page; the live preview takes the next one.")
 @click.option("--segmenter", default="grabcut", show_default=True, metavar="NAME",
@@ -730,6 +732,8 @@ def studio(photo, out_dir, host, port, segmenter, duration, open_browser):
     Everything is written beside the shot: studio.json (what the page holds, and its command lines)
     and studio.sh (the same as `physomni-usd build ... --box X0,Y0,X1,Y1:LABEL:+X,Y:-X,Y ...`), so a
     TD can batch what was set up here. Opening the page again on the same folder resumes it.
+    Only the page itself can drive the studio: a request from another site's page, or by another
+    name than a loopback one (or, served beyond loopback with --host, without its token), is refused.
 
     \b
     Example:
