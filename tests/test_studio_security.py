@@ -285,7 +285,11 @@ def test_beyond_loopback_every_request_needs_the_studios_token(studio, capfd):
     assert status == 200 and headers.get("set-cookie", "").startswith(f"physomni_studio={token};")
     assert "SameSite=Strict" in headers["set-cookie"] and "HttpOnly" in headers["set-cookie"]
     cookie = {"Cookie": f"physomni_preview=other; physomni_studio={token}"}
-    assert request(port, "GET", "/api/info", host=host, **cookie)[0] == 200
+    # a preview running (as after Build): the page is sent to it by the name it used, with the preview's token
+    s.preview, s.preview_query = object(), "token=theirs"
+    status, _, answer = request(port, "GET", "/api/info", host=host, **cookie)
+    assert status == 200 and json.loads(answer)["preview"] == f"http://10.0.0.5:{s.preview_port}/?token=theirs"
+    s.preview = None
     status, _, answer = request(port, "POST", "/api/build", json.dumps(STATE).encode(), host=host,
                                 Content_Type="application/json", Origin=f"http://{host}", **cookie)
     assert status == 200 and s.calls == ["build"], answer
