@@ -314,6 +314,16 @@ def test_other_methods_and_preflights_are_one_line_and_the_page_is_not_framed(st
     assert s.calls == [] and snapshot(s.out) == s.before
 
 
+def test_the_guard_refuses_what_a_client_makes_up_instead_of_raising():
+    local, wide = Guard("127.0.0.1", "studio"), Guard("10.0.0.5", "studio")
+    assert "loopback" in local.refusal({"Host": "[::1"}, "/")  # urlsplit raises on an unclosed [
+    assert "another origin than the studio's" in local.refusal({"Host": "127.0.0.1:1", "Origin": "http://[x"}, "/")
+    assert wide.refusal({"Host": "10.0.0.5:1"}, "/?token=%C3%A9")  # compare_digest raises on non-ASCII str
+    assert wide.refusal({"Host": "10.0.0.5:1", "Cookie": "physomni_studio=\u00e9"}, "/")
+    assert wide.refusal({"Host": "10.0.0.5:1", "Cookie": f"physomni_preview={wide.token}"}, "/")
+    assert wide.refusal({"Host": "10.0.0.5:1", "Cookie": f"physomni_studio={wide.token}"}, "/") is None
+
+
 # --- a real browser -----------------------------------------------------------------------------------------------
 HOSTILE_PAGE = """<!doctype html><title>a page on another port</title>
 <iframe name="sink"></iframe>
