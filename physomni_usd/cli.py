@@ -366,13 +366,13 @@ DEFAULT_SECONDS = SimulateSettings.model_fields["seconds"].default
 
 
 def _camera_moves():
-    from .render.moves import MOVES
+    from .rendering.moves import MOVES
 
     return MOVES
 
 
 def _render(shot, output, quiet, max_size=1920, passes=None, passes_dir=None, camera=None, camera_amount=1.0):
-    from .render.passes import parse_passes
+    from .rendering.passes import parse_passes
     import physomni_usd
     from .settings import RenderSettings
 
