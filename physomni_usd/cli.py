@@ -197,6 +197,7 @@ def _stop_on_signals() -> dict:
 
 
 def build_options(f):
+    from .fields import KINDS
     from .settings import BuildSettings, CameraSettings
 
     opts = [
@@ -239,7 +240,7 @@ def build_options(f):
                      help="Keep this object where it is (it still collides); a label shared by several objects "
                           "fixes them all. Repeatable."),
         click.option("--force", "forces", multiple=True, metavar="KIND:key=value,...",
-                     help="A force field (constant, wind, point, drag, vortex, turbulence, noise), e.g. "
+                     help=f"A force field ({', '.join(KINDS)}), e.g. "
                           "'wind:direction=1,0,0,strength=30'. Accelerations in m/s²; times in seconds. Repeatable."),
         click.option("--max-pixels", type=int, default=BuildSettings().max_pixels, show_default=True,
                      help="Refuse a larger photo (width × height), judged from its header before decoding. "
@@ -366,13 +367,13 @@ DEFAULT_SECONDS = SimulateSettings.model_fields["seconds"].default
 
 
 def _camera_moves():
-    from .render.moves import MOVES
+    from .rendering.moves import MOVES
 
     return MOVES
 
 
 def _render(shot, output, quiet, max_size=1920, passes=None, passes_dir=None, camera=None, camera_amount=1.0):
-    from .render.passes import parse_passes
+    from .rendering.passes import parse_passes
     import physomni_usd
     from .settings import RenderSettings
 

@@ -94,7 +94,7 @@ class Studio:
 
     # --- the page's work --------------------------------------------------------------------------
     def info(self) -> dict:
-        from ..render.moves import MOVES
+        from ..rendering.moves import MOVES
 
         h, w = self.photo.shape[:2]
         return {"state": self.state, "width": w, "height": h, "moves": list(MOVES),
@@ -120,7 +120,7 @@ class Studio:
             from ..fields import parse_force_options
 
             parse_force_options([state["force"]])
-        from ..render.moves import MOVES
+        from ..rendering.moves import MOVES
 
         if state.get("camera") and state["camera"] not in MOVES:
             raise InputError(f"camera move {state['camera']!r}: one of {', '.join(MOVES)}")
