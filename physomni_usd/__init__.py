@@ -14,27 +14,13 @@ naming the option or file; nothing the user made is overwritten then.
 exit code the CLI prints.
 """
 
-import sys
-import types
-
 from ._version import __version__
 from .usd.schema import register_schema
 
 register_schema()
 
-
-class _Package(types.ModuleType):
-    """The package, keeping :func:`build` and :func:`render` under their names: importing the submodules
-    ``physomni_usd.build`` and ``physomni_usd.render`` would otherwise set those attributes to the modules
-    (the import system binds each submodule on its parent). The modules stay in ``sys.modules``."""
-
-    def __setattr__(self, name, value):
-        if name in ("build", "render") and isinstance(value, types.ModuleType) and name in self.__dict__:
-            return
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Package
+# The stages' own modules are named apart from these functions (building.py, rendering/): importing a
+# submodule binds it on the package under its name, which would otherwise replace the function.
 
 
 def build(photo, out_dir, masks=(), boxes=(), settings=None, **options):
@@ -42,9 +28,9 @@ def build(photo, out_dir, masks=(), boxes=(), settings=None, **options):
     and an empty ``edits.usda``. ``masks`` are ``PATH[:LABEL]`` specs, ``boxes`` ``X0,Y0,X1,Y1[:LABEL]`` in
     pixels (as ``--mask`` and ``--box`` take them); ``settings`` a
     :class:`physomni_usd.settings.BuildSettings` (defaults when None); ``options`` as
-    :func:`physomni_usd.build.build_shot` takes them (pushes, forces, fixed, meshes_dir, sizes, backends, echo).
+    :func:`physomni_usd.building.build_shot` takes them (pushes, forces, fixed, meshes_dir, sizes, backends, echo).
     Returns the build result; its ``shot`` is the path of ``shot.usda``."""
-    from .build import build_shot
+    from .building import build_shot
     from .settings import BuildSettings
 
     return build_shot(photo, out_dir, masks, boxes, settings or BuildSettings(), **options)
@@ -72,9 +58,9 @@ def simulate(shot, settings=None, progress=None, echo=lambda m: None) -> dict:
 def render(shot, output=None, settings=None, progress=None, **options) -> dict:
     """Render every frame of ``shot`` to ``output`` (default ``video.mp4`` beside it); ``settings`` a
     :class:`physomni_usd.settings.RenderSettings` (defaults when None); ``options``: ``passes``,
-    ``passes_dir``, ``camera`` (a move of :data:`physomni_usd.render.moves.MOVES`) and ``camera_amount``.
+    ``passes_dir``, ``camera`` (a move of :data:`physomni_usd.rendering.moves.MOVES`) and ``camera_amount``.
     Returns the report's ``render`` section."""
-    from .render.video import render_shot
+    from .rendering.video import render_shot
     from .settings import RenderSettings
 
     return render_shot(shot, output, settings or RenderSettings(), progress=progress, **options)
@@ -96,7 +82,7 @@ def run(photo, out_dir, masks=(), boxes=(), settings=None, simulate_settings=Non
     them. Every option is checked, and the video's path found writable, before any work.
     ``progress(stage, done, total)`` follows simulate and render frame by frame; ``on_stage(stage, result)``
     is called as each of :data:`RUN_STAGES` starts (``result`` None) and ends (its section; the
-    :class:`physomni_usd.build.BuildResult` for ``build``). On failure the stage's exception is raised as it
+    :class:`physomni_usd.building.BuildResult` for ``build``). On failure the stage's exception is raised as it
     is, and nothing this call wrote is left (``physomni_usd._files.all_or_nothing``).
 
     Returns ``{"build": BuildResult, "simulate": section, "render": section, "total_seconds": float}``.
@@ -105,7 +91,7 @@ def run(photo, out_dir, masks=(), boxes=(), settings=None, simulate_settings=Non
     import time
 
     from ._files import all_or_nothing, check_writable
-    from .render.video import check_camera_move
+    from .rendering.video import check_camera_move
     from .report import update_report
     from .settings import BuildSettings, RenderSettings, SimulateSettings
 

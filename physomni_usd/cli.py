@@ -211,6 +211,7 @@ def _stop_on_signals() -> dict:
 
 
 def build_options(f):
+    from .fields import KINDS
     from .settings import BuildSettings, CameraSettings
 
     opts = [
@@ -253,7 +254,7 @@ def build_options(f):
                      help="Keep this object where it is (it still collides); a label shared by several objects "
                           "fixes them all. Repeatable."),
         click.option("--force", "forces", multiple=True, metavar="KIND:key=value,...",
-                     help="A force field (constant, wind, point, drag, vortex, turbulence, noise), e.g. "
+                     help=f"A force field ({', '.join(KINDS)}), e.g. "
                           "'wind:direction=1,0,0,strength=30'. Accelerations in m/s²; times in seconds. Repeatable."),
         click.option("--max-pixels", type=int, default=BuildSettings().max_pixels, show_default=True,
                      help="Refuse a larger photo (width × height), judged from its header before decoding. "
@@ -379,13 +380,13 @@ DEFAULT_SECONDS = SimulateSettings.model_fields["seconds"].default
 
 
 def _camera_moves():
-    from .render.moves import MOVES
+    from .rendering.moves import MOVES
 
     return MOVES
 
 
 def _render(shot, output, quiet, max_size=1920, passes=None, passes_dir=None, camera=None, camera_amount=1.0):
-    from .render.passes import parse_passes
+    from .rendering.passes import parse_passes
     import physomni_usd
     from .settings import RenderSettings
 
@@ -720,7 +721,9 @@ def preview(shot, host, port, duration, record, open_browser, out_dir, play):
 @click.argument("photo", type=click.Path(dir_okay=False, path_type=pathlib.Path))
 @click.option("-o", "--output", "out_dir", required=True, type=click.Path(path_type=pathlib.Path),
               help="Shot folder the page builds into (created at the first Build).")
-@click.option("--host", default="127.0.0.1", show_default=True, help="Address to serve the page on.")
+@click.option("--host", default="127.0.0.1", show_default=True,
+              help="Address to serve the page on. On any but a loopback address the printed URL carries a "
+                   "per-run token, without which every request is refused.")
 @click.option("--port", type=click.IntRange(1, 65534), default=8070, show_default=True,
               help="Port of the page; the live preview takes the next one.")
 @click.option("--segmenter", default="grabcut", show_default=True, metavar="NAME",
@@ -747,6 +750,8 @@ def studio(photo, out_dir, host, port, segmenter, duration, open_browser):
     Everything is written beside the shot: studio.json (what the page holds, and its command lines)
     and studio.sh (the same as `physomni-usd build ... --box X0,Y0,X1,Y1:LABEL:+X,Y:-X,Y ...`), so a
     TD can batch what was set up here. Opening the page again on the same folder resumes it.
+    Only the page itself can drive the studio: a request from another site's page, or by another
+    name than a loopback one (or, served beyond loopback with --host, without its token), is refused.
 
     \b
     Example:

@@ -1,5 +1,6 @@
-"""Force fields as data: :class:`ForceField` (named as in ``PhysOmniForceFieldAPI``), the ranges every value
-must lie in, ``--force KIND:key=value,...`` and VLM values parsed into fields, and the fields a stage holds.
+"""Force fields as data: the kinds (:data:`FIELD_KINDS`), :class:`ForceField` (named as in
+``PhysOmniForceFieldAPI``), the ranges every value must lie in, ``--force KIND:key=value,...`` and VLM values
+parsed into fields, and the fields a stage holds.
 
 What a field does to a body (the formulas and the warp kernels) is :mod:`physomni_usd.physics.forces`.
 """
@@ -11,7 +12,40 @@ from pxr import Gf, Usd, UsdGeom
 
 from .usd.schema import FORCE_FIELD_ATTRS
 
-KINDS = ("constant", "wind", "point", "drag", "vortex", "turbulence", "noise")
+
+@dataclass(frozen=True)
+class FieldKind:
+    """One kind of force field. Its law, a(x, v), is the warp function registered under its name in
+    :mod:`physomni_usd.physics.forces`; everything else that names the kinds reads :data:`FIELD_KINDS`."""
+
+    name: str
+    #: Values that differ from :class:`ForceField`'s defaults for this kind (the paper's), applied before the
+    #: given values.
+    defaults: dict
+    #: The set-up page's starting values for it, after ``KIND:`` (each can be edited in the page).
+    preset: str
+    #: Whether the VLM is asked to suggest it: the paper's six kinds are motions a photo can suggest; noise
+    #: is white-noise forcing, a test of robustness more than a motion.
+    suggested: bool = True
+    #: Whether its law draws new random values at every step: a rewound model or a replayed frame graph
+    #: would repeat its draws instead of moving on.
+    draws_each_step: bool = False
+
+
+#: Every kind of force field, in the order of its id in the kernels, of the CLI's help and of the schema's
+#: ``allowedTokens`` (``schemas/generate.py`` writes them from here).
+FIELD_KINDS = (
+    FieldKind("constant", {"strength": 1.0, "direction": (1.0, 0.0, 0.0)}, "direction=0,1,0,strength=2"),
+    FieldKind("wind", {"strength": 1.0, "direction": (1.0, 0.0, 0.0)}, "direction=1,0,0,strength=5"),
+    FieldKind("point", {"strength": 1.0}, "position=0,0,0.2,strength=-3"),
+    FieldKind("drag", {}, "linear_drag=0.5"),
+    FieldKind("vortex", {"strength": 20.0, "direction": (0.0, 0.0, 1.0), "falloff": 2.0}, "strength=3"),
+    FieldKind("turbulence", {"strength": 1.0, "frequency": 3.0}, "strength=3"),
+    FieldKind("noise", {"strength": 1.0}, "strength=2", suggested=False, draws_each_step=True),
+)
+KINDS = tuple(k.name for k in FIELD_KINDS)
+#: Each kind by its name.
+FIELD_KIND = {k.name: k for k in FIELD_KINDS}
 
 
 @dataclass
@@ -107,16 +141,8 @@ SPEC_KEYS = {
     "freq": "frequency", "seed": "seed",
 }
 VECTOR_FIELDS = ("direction", "position")
-#: Defaults that differ per kind (the paper's), applied before the given values.
-KIND_DEFAULTS = {
-    "constant": {"strength": 1.0, "direction": (1.0, 0.0, 0.0)},
-    "wind": {"strength": 1.0, "direction": (1.0, 0.0, 0.0)},
-    "point": {"strength": 1.0},
-    "drag": {},
-    "vortex": {"strength": 20.0, "direction": (0.0, 0.0, 1.0), "falloff": 2.0},
-    "turbulence": {"strength": 1.0, "frequency": 3.0},
-    "noise": {"strength": 1.0},
-}
+#: Defaults that differ per kind, by name.
+KIND_DEFAULTS = {k.name: k.defaults for k in FIELD_KINDS}
 
 
 def parse_bool(value) -> bool:

@@ -26,8 +26,8 @@ from .usd import layers
 
 def rendered_frames(stage, max_size: int, progress=None) -> tuple[np.ndarray, ControlPasses, float]:
     """Every frame of the composed stage (T, H, W, 3) uint8, their control passes, and the fps."""
-    from .render.passes import frame_passes
-    from .render.video import ShotRenderer
+    from .rendering.passes import frame_passes
+    from .rendering.video import ShotRenderer
     from .settings import RenderSettings
 
     renderer = ShotRenderer(stage, RenderSettings(max_size=max_size))
@@ -81,7 +81,7 @@ def rerender_shot(shot, model: str | None, strength: float = 0.6, steps: int = 2
                   seed: int = 0, max_size: int = 832, progress=None) -> dict:
     """Re-render ``shot`` with re-renderer ``model`` (None: the one installed); writes the video (default
     ``rerender.mp4``) and the report."""
-    from .render.encode import even_sides, video_writer
+    from .rendering.encode import even_sides, video_writer
 
     if not 0.0 < strength <= 1.0:
         raise InputError(f"--strength {strength:g}: must be in (0, 1]")

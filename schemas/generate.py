@@ -1,12 +1,16 @@
 """Regenerate the codeless PhysOmni schema files from ``physomni/schema.usda``.
 
-Run from anywhere: ``python schemas/generate.py``. It calls OpenUSD's own
-``usdGenSchema`` (shipped with usd-core, needs jinja2) and writes
-``generatedSchema.usda`` and ``plugInfo.json`` beside ``schema.usda``.
-Both outputs are committed and shipped in the wheel.
+Run from anywhere: ``python schemas/generate.py``. It first writes the force
+field kinds of ``physomni_usd.fields.FIELD_KINDS`` into ``schema.usda``'s
+``allowedTokens`` for ``physomni:kind`` (the kinds are listed once, in that
+table), then calls OpenUSD's own ``usdGenSchema`` (shipped with usd-core, needs
+jinja2), which writes ``generatedSchema.usda`` and ``plugInfo.json`` beside
+``schema.usda``. Both outputs are committed and shipped in the wheel.
 """
 
+import json
 import pathlib
+import re
 import subprocess
 import sys
 
@@ -22,7 +26,23 @@ PLACEHOLDERS = {
 }
 
 
+#: The allowed tokens of a field's kind in schema.usda.
+KIND_TOKENS = re.compile(r'(token physomni:kind = "\w+" \(\s*allowedTokens = )\[[^\]]*\]')
+
+
+def write_kinds(schema: pathlib.Path) -> None:
+    from physomni_usd.fields import KINDS
+
+    text = schema.read_text()
+    new, found = KIND_TOKENS.subn(lambda m: m.group(1) + json.dumps(list(KINDS)), text)
+    if found != 1:
+        raise SystemExit(f"{schema}: no allowedTokens of physomni:kind to write the kinds into")
+    if new != text:
+        schema.write_text(new)
+
+
 def main() -> int:
+    write_kinds(HERE / "schema.usda")
     cmd = [sys.executable, "-m", "pxr.Usd.usdGenSchema", str(HERE / "schema.usda"), str(HERE)]
     code = subprocess.call(cmd)
     if code:

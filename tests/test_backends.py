@@ -125,11 +125,12 @@ def test_estimate_with_an_unknown_estimator_is_refused(shot):
     assert (shot["dir"] / "physics.usda").read_bytes() == before
 
 
-def test_a_plugin_importing_the_old_paths_gets_the_same_modules():
+def test_a_plugin_importing_the_old_paths_gets_the_same_objects():
     """Installed plugins written before the plugin interface moved to swappable/ import it from backends/."""
     code = ("from physomni_usd.backends import registry as r\n"
-            "from physomni_usd.backends.protocols import DepthMap\n"
-            "import physomni_usd.backends.registry, physomni_usd.swappable.registry as new\n"
+            "from physomni_usd.backends.protocols import DepthMap, Lifter\n"
+            "import physomni_usd.swappable.registry as new\n"
             "from physomni_usd.swappable import protocols\n"
-            "assert r is new and physomni_usd.backends.registry is new and DepthMap is protocols.DepthMap\n")
+            "assert r.load is new.load and r.entries is new.entries and r.KINDS is new.KINDS\n"
+            "assert DepthMap is protocols.DepthMap and Lifter is protocols.Lifter\n")
     subprocess.run([sys.executable, "-c", code], check=True)

@@ -104,7 +104,7 @@ def test_a_cup_pushed_off_its_saucer_leaves_saucer_where_it_stood(tmp_path):
     from physomni_usd.bench.alignment import _built_camera
     from physomni_usd.bench.synthetic import make_stack
     from physomni_usd.metrics.geometry import world_meshes
-    from physomni_usd.render.video import ShotRenderer
+    from physomni_usd.rendering.video import ShotRenderer
     from physomni_usd.settings import SimulateSettings
 
     scene = make_stack("cup_saucer_spoon")

@@ -3,17 +3,14 @@ meshes go through the same place, texture and write stages."""
 
 from __future__ import annotations
 
-import importlib
-
 import numpy as np
 import pytest
 import trimesh
 
 from physomni_usd.swappable import protocols, registry
 from physomni_usd.backends import steps as backend_steps
+from physomni_usd import building as build
 from physomni_usd.backends.builtin import SilhouetteLifter
-
-build = importlib.import_module("physomni_usd.build")  # the package's ``build`` is the function
 
 
 class StubLifter:

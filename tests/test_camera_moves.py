@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom
 
-from physomni_usd.render.moves import MOVES, move_matrices
-from physomni_usd.render.passes import read_exr
-from physomni_usd.render.video import ShotRenderer, render_shot
+from physomni_usd.rendering.moves import MOVES, move_matrices
+from physomni_usd.rendering.passes import read_exr
+from physomni_usd.rendering.video import ShotRenderer, render_shot
 from physomni_usd.settings import RenderSettings
 
 from .conftest import cli, first_frames

@@ -41,7 +41,7 @@ def test_a_ball_seen_from_above_darkens_a_ring_around_its_silhouette():
 
 @pytest.fixture(scope="module")
 def renderers(shot):
-    from physomni_usd.render.video import ShotRenderer
+    from physomni_usd.rendering.video import ShotRenderer
     from physomni_usd.settings import RenderSettings
 
     stage = Usd.Stage.Open(str(shot["shot"]))

@@ -12,7 +12,7 @@ import pytest
 import trimesh
 
 from physomni_usd.bench.synthetic import render_truth
-from physomni_usd.build import build_shot
+from physomni_usd.building import build_shot
 from physomni_usd.geometry.camera import PinholeCamera
 
 TRUTH_CAMERA = PinholeCamera(320, 240, 50.0, 40.0, (0.0, -0.35, 0.35))
@@ -95,7 +95,7 @@ def test_the_saucers_mesh_covers_its_whole_outline(cup_on_saucer):
     from pxr import Usd
 
     from physomni_usd.metrics.geometry import world_meshes
-    from physomni_usd.render.stage import read_photo_camera_matrix
+    from physomni_usd.rendering.stage import read_photo_camera_matrix
 
     stage = Usd.Stage.Open(str(cup_on_saucer["out"] / "shot.usda"))
     m = read_photo_camera_matrix(stage)  # USD camera: rows are its x, y (up) and z (backward) axes
@@ -111,7 +111,7 @@ def test_the_saucers_mesh_covers_its_whole_outline(cup_on_saucer):
 def test_with_the_cup_gone_the_saucer_shows_where_it_stood(cup_on_saucer):
     from pxr import Gf, Usd, UsdGeom
 
-    from physomni_usd.render.video import ShotRenderer
+    from physomni_usd.rendering.video import ShotRenderer
 
     stage = Usd.Stage.Open(str(cup_on_saucer["out"] / "shot.usda"))
     with Usd.EditContext(stage, stage.GetSessionLayer()):  # the cup pushed 1 m aside, off the saucer

@@ -66,8 +66,8 @@ def test_flowing_materials_become_time_sampled_particles(tmp_path, shot, materia
     assert cli("validate", out / "shot.usda").returncode == 0
     assert report["steps"]["mpm_steps"] >= 1 and "mpm_cfl" in report["steps"]["reasons"]
     if material == "mpm_sand":  # the particles are drawn, and shade the ground under them
-        from physomni_usd.render.stage import read_camera
-        from physomni_usd.render.video import ShotRenderer
+        from physomni_usd.rendering.stage import read_camera
+        from physomni_usd.rendering.video import ShotRenderer
 
         renderer = ShotRenderer(stage)
         end = stage.GetEndTimeCode()

@@ -11,7 +11,7 @@ from pxr import Usd
 
 import physomni_usd as api
 from physomni_usd.metrics import ssim
-from physomni_usd.render.video import ShotRenderer
+from physomni_usd.rendering.video import ShotRenderer
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
 SPECS = sorted(EXAMPLES.glob("*/example.json"))

@@ -12,7 +12,7 @@ from physomni_usd.align.external import visible_silhouettes
 from physomni_usd.bench.synthetic import make_scene, write_inputs
 from physomni_usd.metrics import mask_iou, max_penetration, world_meshes
 from physomni_usd.metrics.alignment import support_violation_rate
-from physomni_usd.render.stage import read_camera
+from physomni_usd.rendering.stage import read_camera
 from physomni_usd.geometry.camera import PinholeCamera
 
 from .conftest import cli

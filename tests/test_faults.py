@@ -80,7 +80,7 @@ def test_a_build_of_several_boxes_says_each_mask_as_it_is_cut():
     """GrabCut takes seconds a box on a large photo: a build of many boxes is never silent until the last."""
     import numpy as np
 
-    from physomni_usd.build import _box_progress
+    from physomni_usd.building import _box_progress
     from physomni_usd.perceive.masks import collect_masks
 
     photo = np.full((64, 96, 3), 200, np.uint8)

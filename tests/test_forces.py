@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from physomni_usd.fields import ForceField
+from physomni_usd.fields import KINDS, ForceField, field_from_values
 from physomni_usd.physics.forces import POINT_EPSILON, FieldSet, body_samples
 
 SECONDS = 1.0
@@ -293,3 +293,11 @@ def test_noise_moves_bodies_as_a_zero_mean_random_walk(kind):
     spread = moved.std(axis=0)
     assert (spread > 1e-4).all()  # every axis jitters
     assert (np.abs(moved.mean(axis=0)) < 4 * spread / np.sqrt(n)).all()  # and does not drift
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_every_kind_of_the_table_has_a_law(kind):
+    """A kind added to ``fields.FIELD_KINDS`` without its warp function fails here, not in a user's shot."""
+    f = field_from_values(kind, {"drag": {"linear": 0.5}}.get(kind, {}))
+    a = FieldSet([f]).acceleration(START[None], V0[None], 0.0)
+    assert np.isfinite(a).all() and np.abs(a).sum() > 0

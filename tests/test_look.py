@@ -184,7 +184,7 @@ def test_where_the_desk_ball_stood_the_plate_continues_the_wood(tmp_path):
     has the wood's grain, no outline and the wood's colour, at 480 px and at the photo's own 640 px (the
     size a render of 880 px gives it: frames are never larger than the photo)."""
     import physomni_usd as api
-    from physomni_usd.render.video import ShotRenderer
+    from physomni_usd.rendering.video import ShotRenderer
     from physomni_usd.settings import RenderSettings, SimulateSettings
     from physomni_usd.usd import layers
 
@@ -211,7 +211,7 @@ def test_where_the_motorcycle_stood_the_plate_continues_the_floor(tmp_path):
     left has the floor's grain (copied shelf edges had made it twice as busy), no outline and the floor's
     colour."""
     import physomni_usd as api
-    from physomni_usd.render.video import ShotRenderer
+    from physomni_usd.rendering.video import ShotRenderer
     from physomni_usd.settings import RenderSettings, SimulateSettings
     from physomni_usd.usd import layers
 
@@ -268,7 +268,7 @@ def test_particles_read_as_one_shaded_surface_without_their_lattice():
     """A ball of particles on a regular lattice (as MPM seeds them), drawn over grey: its interior is
     smooth (no disc or highlight per particle), and it is lit from above on the left, shaded below right."""
     from physomni_usd.geometry.camera import RenderCamera
-    from physomni_usd.render.video import ShotRenderer
+    from physomni_usd.rendering.video import ShotRenderer
 
     w, h = 200, 160
     cam = RenderCamera(w, h, 400.0, 400.0, np.zeros(3), np.eye(3))  # looking along +z, y down
@@ -299,7 +299,7 @@ def test_the_default_build_widens_the_world_without_a_mirrored_copy_of_the_photo
     same check finds the mirror outpainter's reflection in it)."""
     from physomni_usd.metrics import mirror_similarity
     from physomni_usd.perceive.plate import mirror_outpaint
-    from physomni_usd.render.stage import read_wide_plate
+    from physomni_usd.rendering.stage import read_wide_plate
     from physomni_usd.usd import layers
 
     wide, margins = read_wide_plate(layers.open_shot(shot["shot"]))
@@ -353,7 +353,7 @@ def test_under_an_orbit_the_motorcycle_example_shows_no_wall_of_stretched_pixels
     wider than 2 % of the frame."""
     import physomni_usd as api
     from physomni_usd.bench.look import MAX_WALL, orbit_walls
-    from physomni_usd.render.video import ShotRenderer, write_camera_move
+    from physomni_usd.rendering.video import ShotRenderer, write_camera_move
     from physomni_usd.settings import RenderSettings, SimulateSettings
     from physomni_usd.usd import layers
 
@@ -379,7 +379,7 @@ def test_a_turned_surface_keeps_the_light_where_it_was():
     import trimesh
 
     from physomni_usd.geometry.camera import RenderCamera
-    from physomni_usd.render.video import PARTICLE_AMBIENT, TURN_BRIGHTEN, ShotRenderer
+    from physomni_usd.rendering.video import PARTICLE_AMBIENT, TURN_BRIGHTEN, ShotRenderer
 
     ball = trimesh.creation.icosphere(subdivisions=3)
     rest = np.asarray(ball.vertices, np.float64) + [0.0, 0.0, 5.0]

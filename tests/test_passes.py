@@ -11,9 +11,9 @@ import pytest
 import trimesh
 from pxr import Usd, UsdGeom
 
-from physomni_usd.render.passes import read_exr
+from physomni_usd.rendering.passes import read_exr
 from physomni_usd.geometry.mesh import triangulate
-from physomni_usd.render.stage import read_camera
+from physomni_usd.rendering.stage import read_camera
 
 from .conftest import cli, first_frames
 

@@ -16,7 +16,7 @@ from physomni_usd.metrics import ssim
 from physomni_usd.perceive.masks import _grabcut, mask_from_box, mask_quality
 from physomni_usd.perceive.plate import (SHADING_DEPTH, SHADING_SIGMA, SHADING_TRUST, _match_shading,
                                         background_plate, feather_px, fill_hole, match_grain, plate_hole)
-from physomni_usd.render.video import ShotRenderer
+from physomni_usd.rendering.video import ShotRenderer
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
 

@@ -13,8 +13,8 @@ def test_importing_the_package_imports_no_stage_and_nothing_heavy():
     code = ("import sys, physomni_usd\n"
             "assert callable(physomni_usd.build) and callable(physomni_usd.simulate)\n"
             "assert callable(physomni_usd.run)\n"
-            "heavy = [m for m in ('torch', 'warp', 'newton', 'cv2', 'physomni_usd.build', 'physomni_usd.physics',"
-            " 'physomni_usd.render') if m in sys.modules]\n"
+            "heavy = [m for m in ('torch', 'warp', 'newton', 'cv2', 'physomni_usd.building',"
+            " 'physomni_usd.physics', 'physomni_usd.rendering') if m in sys.modules]\n"
             "print(heavy)\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
@@ -48,8 +48,19 @@ def test_build_reads_labels_after_a_colon_as_its_docstring_says(tmp_path, photo)
 
 
 def test_the_stage_functions_survive_their_modules_being_imported():
-    code = ("import physomni_usd, physomni_usd.build, physomni_usd.render.video\n"
-            "from physomni_usd.build import build_shot\n"
+    code = ("import physomni_usd, physomni_usd.building, physomni_usd.rendering.video\n"
+            "from physomni_usd.building import build_shot\n"
             "assert callable(physomni_usd.build) and callable(physomni_usd.render), (physomni_usd.build,)\n"
-            "import sys; assert sys.modules['physomni_usd.build'].build_shot is build_shot\n")
+            "import sys; assert sys.modules['physomni_usd.building'].build_shot is build_shot\n")
     subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+
+
+def test_no_submodule_is_named_as_a_public_function():
+    """Importing ``physomni_usd.X`` binds the module X on the package: a module named as one of the API's
+    functions would replace the function wherever it was imported."""
+    import pathlib
+
+    root = pathlib.Path(physomni_usd.__file__).parent
+    clash = [name for name in physomni_usd.__all__
+             if (root / f"{name}.py").exists() or (root / name / "__init__.py").exists()]
+    assert clash == []

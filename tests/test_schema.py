@@ -12,6 +12,7 @@ import pytest
 from pxr import Usd
 
 import physomni_usd  # noqa: F401  (registers the schema)
+from physomni_usd.fields import KINDS
 from physomni_usd.usd.schema import API_SCHEMAS, schema_dir
 
 
@@ -21,6 +22,13 @@ def test_api_schema_applies_with_its_attributes(name):
     prim = stage.DefinePrim("/X", "Xform")
     assert prim.ApplyAPI(name)
     assert any(a.GetName().startswith("physomni:") for a in prim.GetAttributes())
+
+
+def test_a_field_kind_allows_the_kinds_of_the_table():
+    """The schema's tokens for ``physomni:kind`` are written from ``fields.FIELD_KINDS`` by generate.py."""
+    definition = Usd.SchemaRegistry().FindAppliedAPIPrimDefinition("PhysOmniForceFieldAPI")
+    kind = definition.GetAttributeDefinition("physomni:kind")
+    assert tuple(kind.GetMetadata("allowedTokens")) == KINDS
 
 
 @pytest.mark.skipif(importlib.util.find_spec("jinja2") is None, reason="usdGenSchema needs jinja2")

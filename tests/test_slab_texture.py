@@ -11,7 +11,7 @@ import pytest
 from pxr import Usd
 
 import physomni_usd as api
-from physomni_usd.render.video import ShotRenderer
+from physomni_usd.rendering.video import ShotRenderer
 
 EXAMPLE = pathlib.Path(__file__).resolve().parents[1] / "examples" / "motorcycle"
 

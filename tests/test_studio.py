@@ -274,7 +274,8 @@ def test_preview_of_a_photo_serves_the_set_up_page(tmp_path, photo):
         assert (info["width"], info["height"]) == (W, 180) and info["segmenter"] == "grabcut"
         req = urllib.request.Request(f"http://127.0.0.1:{port}/api/mask", method="POST",
                                      data=json.dumps({"object": {"label": "cup", "box": [500, 0, 600, 50],
-                                                                 "clicks": []}}).encode())
+                                                                 "clicks": []}}).encode(),
+                                     headers={"Content-Type": "application/json"})  # the page's POSTs are JSON
         try:
             urllib.request.urlopen(req, timeout=30)
             raise AssertionError("a box outside the photo was accepted")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom
 
-from physomni_usd.render.video import ShotRenderer
+from physomni_usd.rendering.video import ShotRenderer
 from physomni_usd.settings import RenderSettings
 
 from .conftest import cli

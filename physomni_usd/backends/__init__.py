@@ -7,14 +7,8 @@ The protocols and the registry that finds plugins are in
 :mod:`physomni_usd.swappable`.
 
 A plugin written when the protocols and the registry lived here imports
-``physomni_usd.backends.registry`` or ``.protocols``: both names stay bound to
-the modules of :mod:`physomni_usd.swappable` themselves (the same module
-objects, not copies), so such a plugin keeps working unchanged.
+``physomni_usd.backends.registry`` or ``.protocols``: those are two small
+modules that re-export the names of :mod:`physomni_usd.swappable`'s (the same
+classes and functions, so one registry and ``isinstance`` checks agree), and
+such a plugin keeps working unchanged.
 """
-
-import sys
-
-from ..swappable import protocols, registry
-
-sys.modules[f"{__name__}.protocols"] = protocols
-sys.modules[f"{__name__}.registry"] = registry

@@ -322,6 +322,80 @@ def case_preview_origin(base, work):
     return trials
 
 
+def case_studio_origin(base, work):
+    """A page on another origin, a rebound DNS name or a broken client cannot make the studio build, render or
+    hand out the photo, and loses none of the artist's files (studio.json, studio.sh, the shot)."""
+    import http.client
+    import json
+
+    import cv2
+
+    from ..studio import session
+
+    folder = copy_shot(base, work / "studio")
+    state = session.empty_state(base["photo"], folder)
+    ys, xs = (cv2.imread(str(base["masks"][0].rsplit(":", 1)[0]), cv2.IMREAD_GRAYSCALE) > 0).nonzero()
+    box = [int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1]
+    state["objects"] = [{"label": base["labels"][0], "box": box, "clicks": []}]
+    session.write_state(state)  # the artist's set-up, which a rebuild would overwrite
+    before = snapshot(folder)
+    port = _free_port()
+    proc = subprocess.Popen(command("studio", base["photo"], "-o", folder, "--port", port, "--duration", 300,
+                                    "--no-open"), stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
+    own, body = f"127.0.0.1:{port}", json.dumps(dict(state, camera="orbit-left")).encode()
+
+    def ask(method, path, data=None, **headers):
+        conn = http.client.HTTPConnection("127.0.0.1", port, timeout=20)
+        try:
+            conn.putrequest(method, path, skip_host=True, skip_accept_encoding=True)
+            for k, v in {"Host": own, **headers}.items():
+                conn.putheader(k.replace("_", "-"), v)
+            conn.endheaders(data)  # Content-Length only as given: the trials lie about it
+            r = conn.getresponse()
+            error = json.loads(r.read() or b"{}").get("error", "") if r.status >= 400 else ""
+            return f"{r.status}" + (" one line" if error and "\n" not in error else "")
+        except (OSError, http.client.HTTPException, ValueError) as exc:
+            return f"no answer ({type(exc).__name__})"
+        finally:
+            conn.close()
+
+    err = []
+    try:
+        for line in proc.stderr:
+            err.append(line)
+            if line.startswith("studio: http"):
+                break
+        n, js = str(len(body)), "application/json"
+        evil, rebound = "http://evil.example", f"evil.example:{port}"
+        tried = [("403 one line", "text/plain POST /api/build from evil.example",
+                  ask("POST", "/api/build", body, Content_Type="text/plain", Content_Length=n, Origin=evil)),
+                 ("403 one line", "form POST /api/render from another local port",
+                  ask("POST", "/api/render", body, Content_Type="application/x-www-form-urlencoded",
+                      Content_Length=n, Origin=f"http://127.0.0.1:{port + 7}")),
+                 ("403 one line", "GET /api/info by a rebound DNS name", ask("GET", "/api/info", Host=rebound)),
+                 ("403 one line", "GET /photo.png by a rebound DNS name", ask("GET", "/photo.png", Host=rebound)),
+                 ("400 one line", "POST with Content-Length -1",
+                  ask("POST", "/api/build", body, Content_Type=js, Content_Length="-1")),
+                 ("400 one line", "POST with Content-Length abc",
+                  ask("POST", "/api/build", body, Content_Type=js, Content_Length="abc")),
+                 ("400 one line", 'POST {"force": 123}',
+                  ask("POST", "/api/build", b'{"force": 123}', Content_Type=js, Content_Length="14")),
+                 ("200", "its own page's GET /api/info", ask("GET", "/api/info"))]
+    finally:
+        proc.send_signal(signal.SIGINT)
+        try:
+            err.append(proc.communicate(timeout=120)[1])
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            err.append(proc.communicate()[1])
+    trials = [(got == want, f"{what}: {got}") for want, what, got in tried]
+    same, said = snapshot(folder) == before, "".join(err)
+    trials.append((same and proc.returncode == 0 and "Traceback" not in said,
+                   f"studio files {'unchanged' if same else 'CHANGED'}, exit {proc.returncode}"
+                   + (", a traceback on stderr" if "Traceback" in said else "")))
+    return trials
+
+
 def case_secrets(base, work):
     """The API key is not sent after a redirect to another host; user:secret@ is never printed."""
     seen = []
@@ -424,6 +498,7 @@ CASES = {"terminated re-run": case_terminated_rerun, "terminated new folder": ca
          "killed leftovers": case_killed_leftovers, "photo bomb": case_photo_bomb,
          "concurrent --set": case_concurrent_set, "non-finite values": case_non_finite,
          "preview origin": case_preview_origin, "secrets": case_secrets, "full disk": case_full_disk,
+         "studio origin": case_studio_origin,
          "full disk render": case_full_disk_render,
          "immutable file": case_immutable_file}
 

@@ -279,7 +279,7 @@ def _longest_runs(flag: np.ndarray) -> int:
 
 
 def orbit_walls(renderer, state) -> list[dict]:
-    """Per object seen in the frame ``state`` (a :class:`~physomni_usd.render.video.FrameState` of
+    """Per object seen in the frame ``state`` (a :class:`~physomni_usd.rendering.video.FrameState` of
     ``renderer``) renders: the widest wall of its stretched or repeated pixels, as a fraction of the frame's
     width (``wall_fraction``; target ≤ :data:`MAX_WALL`), and how many of its pixels are stretched and
     repeated (:data:`STRETCH`).
@@ -438,8 +438,8 @@ def look_example(example: pathlib.Path, work: pathlib.Path, size: int, seconds: 
     import physomni_usd as api
 
     from ..metrics import mirror_similarity, ssim
-    from ..render.stage import read_wide_plate
-    from ..render.video import ShotRenderer, render_shot
+    from ..rendering.stage import read_wide_plate
+    from ..rendering.video import ShotRenderer, render_shot
     from ..settings import RenderSettings, SimulateSettings
     from ..usd import layers
 

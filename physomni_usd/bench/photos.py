@@ -169,7 +169,7 @@ def compare(scene: KnownScene, shot_folder) -> dict:
 def frame0_ssim(shot_folder, photo: np.ndarray) -> float:
     """SSIM of the rendered frame 0 against the photo (grey)."""
     from ..metrics.image import ssim
-    from ..render.video import ShotRenderer
+    from ..rendering.video import ShotRenderer
     from ..usd import layers
 
     frame = np.clip(ShotRenderer(layers.open_shot(shot_folder)).frame(0.0), 0, 255).astype(np.uint8)

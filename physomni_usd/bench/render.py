@@ -20,10 +20,10 @@ from .pipeline import _resized_example
 
 
 def bench_render(example, size: int = 880, seconds: float = 1.0, fps: float = 30.0, echo=print) -> dict:
-    from ..build import build_shot
+    from ..building import build_shot
     from ..physics.simulate import simulate_shot
-    from ..render.passes import PASSES
-    from ..render.video import render_shot
+    from ..rendering.passes import PASSES
+    from ..rendering.video import render_shot
     from ..settings import BuildSettings, RenderSettings, SimulateSettings
 
     example = pathlib.Path(example)

@@ -12,7 +12,7 @@ assumes the object stands on the ground facing the camera:
    through the object (facing the camera), which gives the row's height and
    metric width: the scale at which the silhouette matches the photo.
 3. Each row becomes a cross-section and the sections are lofted into a tube
-   with flat caps:
+   with flat caps, one function per shape (the table ``SHAPES``):
    - ``round`` (outline mirror-symmetric and not ending in a straight
      bottom edge): circles, a surface of revolution whose axis follows the
      silhouette's mid-line — cups, bottles, balls; all but balls get a flat
@@ -70,7 +70,7 @@ CUBOID_STEP_NOISE = 1.5
 class LiftedMesh:
     vertices: np.ndarray  # (N, 3) float64, world metres
     faces: np.ndarray  # (M, 3) int32, outward-facing
-    shape: str  # 'round' | 'extrude'
+    shape: str  # a key of SHAPES standing, or what footprint.py or vessel.py made from above
     contact: np.ndarray  # (3,) where the silhouette's foot meets the ground
     foot_row: float  # image row of the foot
     info: dict = field(default_factory=dict)  # how it was lifted: mode, height source, …
@@ -258,10 +258,21 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
     lets a footprint take its height from the edges of its visible sides.
     ``label`` chooses the body (``sizes.body_kind``): inflated for organic
     things, a cuboid for boxy ones, from above a hollow vessel for open containers (``vessel.py``).
+    Where the body the label asks for cannot be made (an inflated body with no patch of itself to stand on),
+    the outline alone decides, as for an unknown label.
     """
-    kind = body_kind(label) if label else None
     solid = fill_holes(mask)
     mode = lift_mode(solid, camera, settings, flat)
+    kind = body_kind(label) if label else None
+    lifted = _lift_as(kind, solid, mode, camera, settings, height_hint, prior_shape, base_z, flat, photo)
+    if lifted is None and kind is not None:
+        lifted = _lift_as(None, solid, mode, camera, settings, height_hint, prior_shape, base_z, flat, photo)
+    return lifted
+
+
+def _lift_as(kind, solid, mode, camera, settings, height_hint, prior_shape, base_z, flat, photo):
+    """:func:`lift_silhouette` for a body of ``kind`` (``sizes.body_kind``); None where that body cannot be
+    made."""
     if mode == "footprint" and kind == "vessel":
         from .footprint import fine_faces, outline
         from .vessel import lift_vessel
@@ -282,108 +293,186 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
         if found is not None:
             verts, faces, shape, contact, info = found
             return LiftedMesh(verts, faces, shape, contact, foot_pixel(solid)[1], info)
-    u_foot, v_foot = foot_pixel(solid)
-    contact = plane_points(camera, u_foot, v_foot, base_z)
-    if not np.all(np.isfinite(contact)):
-        raise ValueError("the object's foot is above the horizon")
-    ys = np.nonzero(solid.any(axis=1))[0]
-    top, bottom = float(ys[0]), float(ys[-1] + 1)  # pixel edges
-    k = int(min(settings.rows, max(4, ys[-1] - ys[0] + 2)))
-    edges = np.linspace(top, bottom, k)
-    spans = row_spans(solid, edges)
-    shape = settings.shape
-    if shape == "auto":
-        shape = "round" if mirror_iou(solid) >= settings.symmetry_iou and not flat_bottom(solid) else "extrude"
-        if kind == "organic" and shape == "extrude":
-            shape = "inflated"
-        elif kind == "boxy" and photo is not None:
-            # a box seen corner-on from above is a mirror-symmetric hexagon with no flat bottom, which would
-            # make it round: a boxy label keeps square edges whatever its outline's symmetry
-            shape = "cuboid"
+    rows = StandingRows.cast(solid, camera, settings, base_z, photo)
+    return SHAPES[standing_shape(solid, settings, kind, photo)](rows)
 
+
+def standing_shape(solid: np.ndarray, settings: LiftSettings, kind: str | None, photo: np.ndarray | None) -> str:
+    """The key in :data:`SHAPES` a standing silhouette is lifted as: ``--shape`` where given; else round where the
+    outline is mirror-symmetric without a flat bottom, extruded otherwise, unless the label's body (``kind``)
+    says inflated or cuboid."""
+    if settings.shape != "auto":
+        return settings.shape
+    shape = "round" if mirror_iou(solid) >= settings.symmetry_iou and not flat_bottom(solid) else "extrude"
+    if kind == "organic" and shape == "extrude":
+        return "inflated"
+    if kind == "boxy" and photo is not None:
+        # a box seen corner-on from above is a mirror-symmetric hexagon with no flat bottom, which would
+        # make it round: a boxy label keeps square edges whatever its outline's symmetry
+        return "cuboid"
+    return shape
+
+
+@dataclass
+class StandingRows:
+    """A standing silhouette's sampled rows cast onto the vertical plane through its foot, what every shape
+    of :data:`SHAPES` is made from.
+
+    The foot is the object's front edge, so rows are first cast onto the vertical plane through the contact:
+    that gives each row's height ``z`` (the foot row lands exactly on z = base_z) and its metric width
+    (``left``, ``right``: (K, 3) its ends). ``edges`` (K,) are the rows' image heights, ``spans`` (K, 2) their
+    leftmost and rightmost pixels.
+    """
+
+    solid: np.ndarray
+    camera: PinholeCamera
+    settings: LiftSettings
+    photo: np.ndarray | None
+    base_z: float
+    contact: np.ndarray
+    v_foot: float
+    ys: np.ndarray
+    edges: np.ndarray
+    spans: np.ndarray
+    normal: np.ndarray
+    tangent: np.ndarray
+    left: np.ndarray
+    right: np.ndarray
+    z: np.ndarray
+
+    @property
+    def k(self) -> int:
+        return len(self.edges)
+
+    @classmethod
+    def cast(cls, solid, camera: PinholeCamera, settings: LiftSettings, base_z: float, photo) -> "StandingRows":
+        u_foot, v_foot = foot_pixel(solid)
+        contact = plane_points(camera, u_foot, v_foot, base_z)
+        if not np.all(np.isfinite(contact)):
+            raise ValueError("the object's foot is above the horizon")
+        ys = np.nonzero(solid.any(axis=1))[0]
+        top, bottom = float(ys[0]), float(ys[-1] + 1)  # pixel edges
+        k = int(min(settings.rows, max(4, ys[-1] - ys[0] + 2)))
+        edges = np.linspace(top, bottom, k)
+        spans = row_spans(solid, edges)
+        # The object's plane faces the camera's horizontal forward direction; with a camera
+        # that only pitches, every pixel of an image row then lands at the same height on it.
+        normal = camera.world_from_camera[:, 2].copy()
+        normal[2] = 0.0
+        normal /= np.linalg.norm(normal)  # horizontal, away from the camera
+        tangent = np.cross(normal, [0.0, 0.0, 1.0])  # horizontal, to the image's right
+        left = _on_plane(camera, normal, spans[:, 0], edges, contact)
+        right = _on_plane(camera, normal, spans[:, 1], edges, contact)
+        z = _on_plane(camera, normal, 0.5 * spans.sum(axis=1), edges, contact)[:, 2]
+        return cls(solid, camera, settings, photo, base_z, contact, v_foot, ys, edges, spans, normal, tangent,
+                   left, right, z)
+
+    def on_plane(self, u, v, point):
+        """Where the rays through pixels (u, v) meet the vertical plane through ``point`` facing the camera."""
+        return _on_plane(self.camera, self.normal, u, v, point)
+
+
+def _on_plane(camera: PinholeCamera, normal, u, v, point):
     origin = camera.origin
-    # The object's plane faces the camera's horizontal forward direction; with a camera
-    # that only pitches, every pixel of an image row then lands at the same height on it.
-    normal = camera.world_from_camera[:, 2].copy()
-    normal[2] = 0.0
-    normal /= np.linalg.norm(normal)  # horizontal, away from the camera
-    tangent = np.cross(normal, [0.0, 0.0, 1.0])  # horizontal, to the image's right
+    d = camera.rays(u, v)
+    s = ((point - origin) @ normal) / (d @ normal)
+    return origin + s[..., None] * d
 
-    def on_plane(u, v, point):
-        d = camera.rays(u, v)
-        s = ((point - origin) @ normal) / (d @ normal)
-        return origin + s[..., None] * d
 
-    # The foot is the object's front edge, so rows are first cast onto the vertical
-    # plane through the contact: that gives each row's height (the foot row lands
-    # exactly on z = 0) and its metric width.
-    left = on_plane(spans[:, 0], edges, contact)
-    right = on_plane(spans[:, 1], edges, contact)
-    z = on_plane(0.5 * spans.sum(axis=1), edges, contact)[:, 2]
-    if shape == "round":
-        # a circle's widest points lie one radius behind the front plane: measure the width there
-        radius = 0.5 * np.linalg.norm(right - left, axis=1)
-        for _ in range(2):
-            behind = contact + radius[:, None] * normal
-            left = np.stack([on_plane(spans[i, 0], edges[i], behind[i]) for i in range(k)])
-            right = np.stack([on_plane(spans[i, 1], edges[i], behind[i]) for i in range(k)])
-            radius = np.maximum(0.5 * np.linalg.norm(right - left, axis=1), 1e-4)
-        if not is_ball(solid):
-            # Seen from above, a round base shows as an ellipse whose lowest rows are
-            # narrow; they are the base's front, not a tapering bottom. The bottom band
-            # takes its widest section, so cups and bottles stand on a flat base.
-            band = z <= z.min() + BASE_BAND * (z.max() - z.min())
-            radius[band] = radius[band].max()
-        centres = 0.5 * (left + right)
-        # each circle touches the front plane with its nearest point
-        centres += ((contact - centres) @ normal + radius)[:, None] * normal
-        centres[:, 2] = z
-        rings = round_rings(centres, radius, tangent, normal, settings.sections)
-    elif shape == "inflated":
-        dist = cv2.distanceTransform(solid.astype(np.uint8), cv2.DIST_L2, 5)
-        big = float(dist.max())
-        rows_px = np.clip(edges.astype(int), ys[0], ys[-1])
-        per_px = np.linalg.norm(right - left, axis=1) / np.maximum(spans[:, 1] - spans[:, 0], 1e-9)
-        # the outline is widest half-way through the body: cast it onto the plane that far behind the front
-        middle_at = contact + big * float(np.median(per_px)) * normal
-        cols = span_samples(spans[:, 0], spans[:, 1], settings.sections // 2 + 1)
-        middle = on_plane(cols, np.broadcast_to(edges[:, None], cols.shape), middle_at)
-        per_px = np.linalg.norm(middle[:, -1] - middle[:, 0], axis=1) / np.maximum(spans[:, 1] - spans[:, 0], 1e-9)
-        inside = dist[rows_px[:, None], np.clip(cols.astype(int), 0, solid.shape[1] - 1)]
-        along = camera.rays(cols, np.broadcast_to(edges[:, None], cols.shape))
-        along = along / (along @ normal)[..., None]  # one metre of depth along each pixel's own ray
-        rings = inflated_rings(middle, big * bulge(inside, big) * per_px[:, None], along)
-    else:
-        width = float(np.linalg.norm(right - left, axis=1).max())
-        depth = settings.depth_ratio * min(width, float(z.max() - z.min()) or width)
-        rings = ray_slab_rings(left, right, camera.rays(spans[:, 0], edges), camera.rays(spans[:, 1], edges),
-                               normal, depth, settings.sections)
-    info = {"mode": "standing", "shape": shape, "height_source": "silhouette"}
-    if shape == "cuboid":
-        box = cuboid_from_faces(solid, camera, photo, left, right, z, contact, normal, tangent, base_z)
-        if box is not None:
-            return LiftedMesh(box[0], box[1], shape, contact, v_foot, info | box[2])
-        shape = info["shape"] = "extrude"  # the top does not show: the slab of the outline made above
+def _standing_info(shape: str) -> dict:
+    return {"mode": "standing", "shape": shape, "height_source": "silhouette"}
+
+
+def _lofted(rows: StandingRows, rings, shape: str) -> LiftedMesh:
     verts, faces = loft(rings)
-    if shape == "inflated":
-        # its back bulges below the ground along the foot's rays: shrink it towards the camera until it rests
-        # there, which leaves every vertex where the photo shows it
-        k = (origin[2] - base_z) / (origin[2] - verts[:, 2].min())
-        verts = origin + k * (verts - origin)
-        contact = origin + k * (contact - origin)
-    verts[:, 2] += base_z - verts[:, 2].min()  # rounding only: the foot row is already at z = base_z
-    if shape == "inflated":
-        # A soft body at rest sits on a patch of itself, not on a point: without one it rolls away from where
-        # the photo shows it still. Its lowest band comes down onto the ground; where no such patch holds its
-        # weight, the photo's rest says it is the slab, which stands.
-        for band in SOFT_BASE_BANDS:
-            based = flat_base(verts, band)
-            if stands(based, faces):
-                verts = based
-                break
-        else:
-            return lift_silhouette(mask, camera, settings, height_hint, prior_shape, base_z, flat, photo)
-    return LiftedMesh(verts, faces, shape, contact, v_foot, info)
+    verts[:, 2] += rows.base_z - verts[:, 2].min()  # rounding only: the foot row is already at z = base_z
+    return LiftedMesh(verts, faces, shape, rows.contact, rows.v_foot, _standing_info(shape))
+
+
+def round_body(rows: StandingRows) -> LiftedMesh:
+    """A surface of revolution: each row a circle touching the front plane, its width measured where a
+    circle is widest."""
+    r = rows
+    # a circle's widest points lie one radius behind the front plane: measure the width there
+    radius = 0.5 * np.linalg.norm(r.right - r.left, axis=1)
+    for _ in range(2):
+        behind = r.contact + radius[:, None] * r.normal
+        left = np.stack([r.on_plane(r.spans[i, 0], r.edges[i], behind[i]) for i in range(r.k)])
+        right = np.stack([r.on_plane(r.spans[i, 1], r.edges[i], behind[i]) for i in range(r.k)])
+        radius = np.maximum(0.5 * np.linalg.norm(right - left, axis=1), 1e-4)
+    if not is_ball(r.solid):
+        # Seen from above, a round base shows as an ellipse whose lowest rows are
+        # narrow; they are the base's front, not a tapering bottom. The bottom band
+        # takes its widest section, so cups and bottles stand on a flat base.
+        band = r.z <= r.z.min() + BASE_BAND * (r.z.max() - r.z.min())
+        radius[band] = radius[band].max()
+    centres = 0.5 * (left + right)
+    # each circle touches the front plane with its nearest point
+    centres += ((r.contact - centres) @ r.normal + radius)[:, None] * r.normal
+    centres[:, 2] = r.z
+    return _lofted(r, round_rings(centres, radius, r.tangent, r.normal, r.settings.sections), "round")
+
+
+def extruded_body(rows: StandingRows) -> LiftedMesh:
+    """A slab of the outline, ``depth_ratio`` times the smaller of its width and height deep, its sides along
+    the camera's rays."""
+    r = rows
+    width = float(np.linalg.norm(r.right - r.left, axis=1).max())
+    depth = r.settings.depth_ratio * min(width, float(r.z.max() - r.z.min()) or width)
+    rings = ray_slab_rings(r.left, r.right, r.camera.rays(r.spans[:, 0], r.edges),
+                           r.camera.rays(r.spans[:, 1], r.edges), r.normal, depth, r.settings.sections)
+    return _lofted(r, rings, "extrude")
+
+
+def inflated_body(rows: StandingRows) -> LiftedMesh | None:
+    """The outline's inside bulging towards and away from the camera, resting on a flat patch of itself; None
+    where no such patch holds its weight (the photo's rest then says it is not this body)."""
+    r = rows
+    solid, camera = r.solid, r.camera
+    dist = cv2.distanceTransform(solid.astype(np.uint8), cv2.DIST_L2, 5)
+    big = float(dist.max())
+    rows_px = np.clip(r.edges.astype(int), r.ys[0], r.ys[-1])
+    per_px = np.linalg.norm(r.right - r.left, axis=1) / np.maximum(r.spans[:, 1] - r.spans[:, 0], 1e-9)
+    # the outline is widest half-way through the body: cast it onto the plane that far behind the front
+    middle_at = r.contact + big * float(np.median(per_px)) * r.normal
+    cols = span_samples(r.spans[:, 0], r.spans[:, 1], r.settings.sections // 2 + 1)
+    middle = r.on_plane(cols, np.broadcast_to(r.edges[:, None], cols.shape), middle_at)
+    per_px = np.linalg.norm(middle[:, -1] - middle[:, 0], axis=1) / np.maximum(r.spans[:, 1] - r.spans[:, 0], 1e-9)
+    inside = dist[rows_px[:, None], np.clip(cols.astype(int), 0, solid.shape[1] - 1)]
+    along = camera.rays(cols, np.broadcast_to(r.edges[:, None], cols.shape))
+    along = along / (along @ r.normal)[..., None]  # one metre of depth along each pixel's own ray
+    verts, faces = loft(inflated_rings(middle, big * bulge(inside, big) * per_px[:, None], along))
+    # its back bulges below the ground along the foot's rays: shrink it towards the camera until it rests
+    # there, which leaves every vertex where the photo shows it
+    origin = camera.origin
+    k = (origin[2] - r.base_z) / (origin[2] - verts[:, 2].min())
+    verts = origin + k * (verts - origin)
+    contact = origin + k * (r.contact - origin)
+    verts[:, 2] += r.base_z - verts[:, 2].min()  # rounding only
+    # A soft body at rest sits on a patch of itself, not on a point: without one it rolls away from where
+    # the photo shows it still. Its lowest band comes down onto the ground; where no such patch holds its
+    # weight, the photo's rest says it is not this body.
+    for band in SOFT_BASE_BANDS:
+        based = flat_base(verts, band)
+        if stands(based, faces):
+            return LiftedMesh(based, faces, "inflated", contact, r.v_foot, _standing_info("inflated"))
+    return None
+
+
+def cuboid_body(rows: StandingRows) -> LiftedMesh:
+    """A box with square edges, its height from the front side's top edge in the photo; the slab of the
+    outline where the top does not show."""
+    r = rows
+    box = cuboid_from_faces(r.solid, r.camera, r.photo, r.left, r.right, r.z, r.contact, r.normal, r.tangent,
+                            r.base_z)
+    if box is None:
+        return extruded_body(r)
+    return LiftedMesh(box[0], box[1], "cuboid", r.contact, r.v_foot, _standing_info("cuboid") | box[2])
+
+
+#: How a standing silhouette becomes each shape: one function per shape, :class:`StandingRows` → mesh, or None
+#: where the photo says the object is not that body. :func:`standing_shape` picks the key.
+SHAPES = {"round": round_body, "extrude": extruded_body, "inflated": inflated_body, "cuboid": cuboid_body}
 
 
 #: The shares of an inflated body's height that may rest flat on the ground (:func:`flat_base`), tried in

@@ -22,6 +22,7 @@ import cv2
 import numpy as np
 
 from ..errors import PhysOmniError, redact
+from ..fields import FIELD_KINDS
 from .parse import parse_reply
 
 ENV_URL, ENV_MODEL, ENV_KEY = "PHYSOMNI_VLM_URL", "PHYSOMNI_VLM_MODEL", "PHYSOMNI_VLM_API_KEY"
@@ -49,13 +50,14 @@ density in kg/m^3 (foam ~50, cream ~500, rubber ~1100, clay ~1800, glass ~2500),
 6. size_m: the object's real longest dimension in metres, judged from what it is and from the scene (a coin \
 ~0.024, a pencil ~0.19, a mug ~0.12, a chair ~0.9, a car ~4.5).
 
-Task B - force fields. Suggest 1 to 3 force fields for interesting motion, of types constant, wind, point, drag, \
-turbulence, vortex; each with direction [x, y, z] (Z is up), strength in m/s^2 and start_frame (-1 = immediately). \
+Task B - force fields. Suggest 1 to 3 force fields for interesting motion, of types {kinds}; \
+each with direction [x, y, z] (Z is up), strength in m/s^2 and start_frame (-1 = immediately). \
 Gravity is already applied; do not add it.
 
 Answer with ONLY one JSON object: {"objects": [{"index": 0, "name": "...", "material": "...", \
 "material_params": {...}, "fixed": false, "surface_color": [r, g, b], "size_m": 0.1}, ...], "forces": [{"type": "...", \
-"direction": [x, y, z], "strength": s, "start_frame": -1}, ...]}"""
+"direction": [x, y, z], "strength": s, "start_frame": -1}, ...]}""".replace(
+    "{kinds}", ", ".join(k.name for k in FIELD_KINDS if k.suggested))
 
 
 @dataclass

@@ -21,7 +21,7 @@ from ..usd.author import OBJECTS
 from .cloth import AirDrag, ShapeDamping, add_cloth, add_soft_body, soft_relaxation
 from .controls import particle_pushes, read_controls
 from .depenetration import lift_out
-from ..fields import read_force_fields
+from ..fields import FIELD_KIND, read_force_fields
 from .forces import FieldSet, body_samples
 from .mpm import bind_surface, build_mpm_scene
 from .objects import SimObject
@@ -160,7 +160,7 @@ class ShotModels:
         """Whether a rewound model steps exactly as a new one: rigid bodies only, no noise field (whose
         random state moves on), nothing changed by hand (the preview builds its own)."""
         return (self.mpm is None and not self.model.particle_count
-                and not any(f.kind == "noise" for f in self.fields.fields))
+                and not any(FIELD_KIND[f.kind].draws_each_step for f in self.fields.fields))
 
     def rewind(self) -> None:
         """Back to the state as built: poses, velocities, pending pushes, and the contacts found at the start

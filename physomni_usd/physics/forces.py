@@ -62,44 +62,81 @@ def _kernels():
         frequency: float
         seed: int
 
-    @wp.func
-    def accel(f: Field, x: wp.vec3, v: wp.vec3, salt: int, noise_scale: float):
+    # One law per kind, a(x, v), registered under the kind's name; ``accel`` dispatches on the kind's id,
+    # its place in fields.FIELD_KINDS. ``salt`` and ``noise_scale`` serve the noise field's draws.
+    laws = {}
+
+    def law(kind: str):
+        def register(fn):
+            laws[kind] = wp.func(fn)
+            return laws[kind]
+        return register
+
+    @law("constant")
+    def constant(f: Field, x: wp.vec3, v: wp.vec3, salt: int, noise_scale: float):
+        return f.strength * f.direction
+
+    @law("wind")
+    def wind(f: Field, x: wp.vec3, v: wp.vec3, salt: int, noise_scale: float):
         d = f.direction
         a = wp.vec3(0.0, 0.0, 0.0)
-        if f.kind == 0:  # constant
+        off = x - f.position
+        perp = off - wp.dot(off, d) * d
+        if f.radius < 0.0 or wp.length(perp) <= f.radius:
             a = f.strength * d
-        elif f.kind == 1:  # wind
-            off = x - f.position
-            perp = off - wp.dot(off, d) * d
-            if f.radius < 0.0 or wp.length(perp) <= f.radius:
-                a = f.strength * d
-        elif f.kind == 2:  # point
-            delta = x - f.position
-            r = wp.sqrt(wp.dot(delta, delta) + POINT_EPSILON)
-            if f.radius < 0.0 or r <= f.radius:
-                a0 = f.strength * delta / r
-                a = (a0 + f.flow * (a0 - v)) / wp.pow(r + 1.0, f.falloff)
-        elif f.kind == 3:  # drag
-            a = -f.k1 * v - f.k2 * wp.length(v) * v
-        elif f.kind == 4:  # vortex
-            off = x - f.position
-            delta = off - wp.dot(off, d) * d
-            rho = wp.length(delta)
-            g = 1.0
-            if rho > f.inner:
-                g = 1.0 / wp.pow(rho - f.inner + 1.0, f.falloff)
-            if f.radius >= 0.0 and rho > f.radius:
-                g = 0.0
-            a = g * (f.strength * wp.cross(d, delta) - f.radial * delta) - f.damping * v
-        elif f.kind == 5:  # turbulence
-            p = f.frequency * x
-            a0 = f.strength * wp.vec3(wp.noise(wp.rand_init(f.seed), p), wp.noise(wp.rand_init(f.seed + 1), p),
-                                      wp.noise(wp.rand_init(f.seed + 2), p))
-            a = a0 + f.flow * (a0 - v)
-        elif f.kind == 6:  # noise
-            state = wp.rand_init(f.seed, salt)
-            a = f.strength * noise_scale * wp.vec3(wp.randf(state, -1.0, 1.0), wp.randf(state, -1.0, 1.0),
-                                                   wp.randf(state, -1.0, 1.0))
+        return a
+
+    @law("point")
+    def point(f: Field, x: wp.vec3, v: wp.vec3, salt: int, noise_scale: float):
+        a = wp.vec3(0.0, 0.0, 0.0)
+        delta = x - f.position
+        r = wp.sqrt(wp.dot(delta, delta) + POINT_EPSILON)
+        if f.radius < 0.0 or r <= f.radius:
+            a0 = f.strength * delta / r
+            a = (a0 + f.flow * (a0 - v)) / wp.pow(r + 1.0, f.falloff)
+        return a
+
+    @law("drag")
+    def drag(f: Field, x: wp.vec3, v: wp.vec3, salt: int, noise_scale: float):
+        return -f.k1 * v - f.k2 * wp.length(v) * v
+
+    @law("vortex")
+    def vortex(f: Field, x: wp.vec3, v: wp.vec3, salt: int, noise_scale: float):
+        d = f.direction
+        off = x - f.position
+        delta = off - wp.dot(off, d) * d
+        rho = wp.length(delta)
+        g = 1.0
+        if rho > f.inner:
+            g = 1.0 / wp.pow(rho - f.inner + 1.0, f.falloff)
+        if f.radius >= 0.0 and rho > f.radius:
+            g = 0.0
+        return g * (f.strength * wp.cross(d, delta) - f.radial * delta) - f.damping * v
+
+    @law("turbulence")
+    def turbulence(f: Field, x: wp.vec3, v: wp.vec3, salt: int, noise_scale: float):
+        p = f.frequency * x
+        a0 = f.strength * wp.vec3(wp.noise(wp.rand_init(f.seed), p), wp.noise(wp.rand_init(f.seed + 1), p),
+                                  wp.noise(wp.rand_init(f.seed + 2), p))
+        return a0 + f.flow * (a0 - v)
+
+    @law("noise")
+    def white_noise(f: Field, x: wp.vec3, v: wp.vec3, salt: int, noise_scale: float):
+        state = wp.rand_init(f.seed, salt)
+        return f.strength * noise_scale * wp.vec3(wp.randf(state, -1.0, 1.0), wp.randf(state, -1.0, 1.0),
+                                                  wp.randf(state, -1.0, 1.0))
+
+    missing = [k for k in KINDS if k not in laws]
+    if missing:
+        raise RuntimeError(f"force field kinds without a law in physics/forces.py: {', '.join(missing)}")
+    by_id = [laws[k] for k in KINDS]
+
+    @wp.func
+    def accel(f: Field, x: wp.vec3, v: wp.vec3, salt: int, noise_scale: float):
+        a = wp.vec3(0.0, 0.0, 0.0)
+        for i in range(wp.static(len(by_id))):  # unrolled when the kernels are built: one branch per kind
+            if f.kind == i:
+                a = wp.static(by_id[i])(f, x, v, salt, noise_scale)
         return a
 
     @wp.func

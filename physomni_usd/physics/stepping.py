@@ -10,6 +10,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from ..fields import FIELD_KIND
 from .controls import give_velocities
 from .mpm import add_particle_forces, step_particles
 from .snapshots import restore, snapshot
@@ -280,7 +281,7 @@ class FrameGraphs:
             active = tuple(f.active(t0) for f in fields.fields)
             if active != tuple(f.active(t0 + frame) for f in fields.fields):
                 return None
-            if any(f.kind == "noise" and on for f, on in zip(fields.fields, active)):
+            if any(FIELD_KIND[f.kind].draws_each_step and on for f, on in zip(fields.fields, active)):
                 return None
             fields._set_time(t0)  # the mask the graph reads, written outside the capture
         bound = stepper.depenetration is not None and stepper.depenetration.active(t0)

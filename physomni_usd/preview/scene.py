@@ -13,7 +13,7 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from ..errors import InputError
-from ..render.stage import read_camera, read_objects, read_plate
+from ..rendering.stage import read_camera, read_objects, read_plate
 
 
 @dataclass
@@ -72,7 +72,7 @@ def photo_view(stage: Usd.Stage) -> tuple[View, float]:
 def opening_frame(stage: Usd.Stage) -> np.ndarray:
     """(H, W, 3) uint8: the shot's first frame as ``render`` draws it through the photo's camera, at the
     photo's size up to ``render``'s longest side (the photo itself wherever nothing has moved)."""
-    from ..render.video import ShotRenderer
+    from ..rendering.video import ShotRenderer
 
     return ShotRenderer(stage).frame(float(stage.GetStartTimeCode()))
 

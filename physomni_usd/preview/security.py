@@ -6,7 +6,9 @@ A page on any site can open a websocket to ``127.0.0.1``; only its ``Origin`` he
 the check compares the Origin with the Host the request was sent to (and, on loopback, the Host with
 loopback names: a rebound DNS name is refused too). Where the preview listens on another address, the
 printed URL carries ``?token=…``; the page load that brings it sets a same-site cookie, which the page's
-own websocket then sends.
+own websocket then sends. The studio's ``http.server`` puts every request through the same
+:meth:`Guard.refusal` under a name (and cookie) of its own, so that the studio's token and the token of the
+preview it starts, on the next port of the same host, do not overwrite each other's cookie.
 """
 
 from __future__ import annotations
@@ -19,8 +21,6 @@ import secrets
 import urllib.parse
 from contextlib import contextmanager
 
-#: The cookie that carries the token from the page load to its websocket.
-COOKIE = "physomni_preview"
 LOOPBACK_NAMES = {"localhost", "127.0.0.1", "::1"}
 
 
@@ -33,11 +33,20 @@ def is_loopback(host: str) -> bool:
         return False
 
 
-class Guard:
-    """The checks for one preview server bound to ``host``; ``token`` is None on loopback."""
+def _same(given: str, token: str) -> bool:
+    """Whether ``given`` is ``token``, in constant time; as bytes, since ``hmac.compare_digest`` raises on a
+    non-ASCII str (a header's or a %-escaped query's, which a client chooses)."""
+    return bool(given) and hmac.compare_digest(given.encode("utf-8", "surrogateescape"), token.encode())
 
-    def __init__(self, host: str):
+
+class Guard:
+    """The checks for one server bound to ``host``; ``token`` is None on loopback. ``name`` is the server's
+    in its refusals, and its cookie's name (``physomni_<name>``)."""
+
+    def __init__(self, host: str, name: str = "preview"):
         self.host = host
+        self.name = name
+        self.cookie = f"physomni_{name}"
         self.token = None if is_loopback(host) else secrets.token_urlsafe(18)
 
     def url(self, port: int) -> str:
@@ -47,27 +56,40 @@ class Guard:
     def refusal(self, headers, path: str) -> str | None:
         """Why a request (its headers and path with query) may not reach the server, or None."""
         host = headers.get("Host") or ""
-        hostname = urllib.parse.urlsplit(f"//{host}").hostname or ""
+        try:
+            hostname = urllib.parse.urlsplit(f"//{host}").hostname or ""
+        except ValueError:  # an unclosed [ : no address at all, and not worth a traceback
+            hostname = ""
         if self.token is None and not is_loopback(hostname):
             return f"Host {host!r} is not this machine's loopback address"
         origin = headers.get("Origin")
         if origin is not None:
-            o = urllib.parse.urlsplit(origin)
+            try:
+                o = urllib.parse.urlsplit(origin)
+            except ValueError:
+                o = urllib.parse.urlsplit("")
             if o.scheme not in ("http", "https") or o.netloc.lower() != host.lower():
-                return f"Origin {origin!r} is another origin than the preview's"
+                return f"Origin {origin!r} is another origin than the {self.name}'s"
         if self.token is not None and not (self._query_token(path) or self._cookie_token(headers)):
-            return "the preview's token is missing or wrong: open the URL it printed"
+            return f"the {self.name}'s token is missing or wrong: open the URL it printed"
         return None
+
+    def set_cookie(self, path: str) -> str | None:
+        """The ``Set-Cookie`` value for the response to a request whose URL brought the token, else None."""
+        if self.token is None or not self._query_token(path):
+            return None
+        return f"{self.cookie}={self.token}; Path=/; HttpOnly; SameSite=Strict"
 
     def _query_token(self, path: str) -> bool:
         given = urllib.parse.parse_qs(urllib.parse.urlsplit(path).query).get("token", [""])[0]
-        return bool(given) and hmac.compare_digest(given, self.token)
+        return _same(given, self.token)
 
     def _cookie_token(self, headers) -> bool:
-        for header in headers.get_all("Cookie") if hasattr(headers, "get_all") else [headers.get("Cookie", "")]:
+        # websockets' get_all gives [] where there is none, http.server's (email's) None
+        for header in (headers.get_all("Cookie") if hasattr(headers, "get_all") else [headers.get("Cookie")]) or []:
             for part in (header or "").split(";"):
                 name, _, value = part.strip().partition("=")
-                if name == COOKIE and value and hmac.compare_digest(value, self.token):
+                if name == self.cookie and _same(value, self.token):
                     return True
         return False
 
@@ -79,8 +101,9 @@ class Guard:
             if why is not None:
                 return connection.respond(http.HTTPStatus.FORBIDDEN, f"refused: {why}\n")
             response = process_request(connection, request) if process_request is not None else None
-            if response is not None and self.token is not None and self._query_token(request.path):
-                response.headers["Set-Cookie"] = f"{COOKIE}={self.token}; Path=/; HttpOnly; SameSite=Strict"
+            cookie = self.set_cookie(request.path)
+            if response is not None and cookie is not None:
+                response.headers["Set-Cookie"] = cookie
             return response
 
         return guarded

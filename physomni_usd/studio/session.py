@@ -24,20 +24,13 @@ import numpy as np
 
 from .._files import write_bytes
 from ..errors import InputError
+from ..fields import FIELD_KINDS
 
 #: Written beside the shot: the page's state, and the command lines that replay it.
 STATE_FILE = "studio.json"
 COMMANDS_FILE = "studio.sh"
 #: The force fields the page offers, one preset each (every value can be edited in the page's text box).
-FORCE_PRESETS = {
-    "wind": "wind:direction=1,0,0,strength=5",
-    "constant": "constant:direction=0,1,0,strength=2",
-    "point": "point:position=0,0,0.2,strength=-3",
-    "drag": "drag:linear_drag=0.5",
-    "vortex": "vortex:strength=3",
-    "turbulence": "turbulence:strength=3",
-    "noise": "noise:strength=2",
-}
+FORCE_PRESETS = {k.name: f"{k.name}:{k.preset}" for k in FIELD_KINDS}
 #: The video's length when neither the page nor the shot states one: what ``simulate`` takes then.
 RENDER_SECONDS = 3.0
 

@@ -59,7 +59,7 @@ TURN_BRIGHTEN = 1.2
 @dataclass(frozen=True)
 class FrameState:
     """What one frame was rendered from, returned beside its image by :meth:`ShotRenderer.render`: the control
-    passes (:func:`~physomni_usd.render.passes.frame_passes`) are computed from it alone, so that a frame's
+    passes (:func:`~physomni_usd.rendering.passes.frame_passes`) are computed from it alone, so that a frame's
     passes can never be read off another frame's camera or hits. Its arrays are not changed by later frames
     (the rays are shared, read-only, by the frames of one camera)."""
     time: float  # time code

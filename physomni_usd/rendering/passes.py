@@ -2,9 +2,9 @@
 
 Each frame's passes come from the same primary rays as its image (the ray
 caster's face, barycentric coordinates and distance per pixel, handed over in
-the :class:`~physomni_usd.render.video.FrameState` that rendered it) and, for the
+the :class:`~physomni_usd.rendering.video.FrameState` that rendered it) and, for the
 pixels that see no object, from the environment the renderer stands the
-objects in (:class:`~physomni_usd.render.world.Environment`). They are written
+objects in (:class:`~physomni_usd.rendering.world.Environment`). They are written
 as one multi-channel float32 OpenEXR per frame, ``passes.####.exr`` (the frame
 number is the time code), with the channel names of :data:`CHANNELS`, plus
 ``passes.json`` (ids → prim paths, the conventions) and a preview MP4 per pass.
