@@ -107,6 +107,7 @@ def _entries(summary_path) -> dict[str, dict]:
     return {pathlib.Path(e["output"]).name: e for e in data["shots"]}
 
 
+@pytest.mark.slow  # the first pass's batch with a killed worker: 180 s on a loaded 2-core machine; a quicker test runs batch through Ray
 def test_failed_shot_fails_alone(first_pass):
     assert first_pass["code"] == 1, first_pass["stderr"]
     entries = _entries(first_pass["summary"])
@@ -138,6 +139,7 @@ def test_a_failed_shot_tells_its_stage_type_and_exit_code(tmp_path):
     assert f"error: {entry['reason']}" in (tmp_path / "out/absurd/batch.log").read_text()
 
 
+@pytest.mark.slow  # the first pass's batch: 180 s on a loaded 2-core machine; a quicker test runs batch through Ray
 def test_killed_worker_is_retried_and_others_undisturbed(first_pass):
     killed = first_pass["killed"]
     assert killed, f"the shot's process was never found:\n{first_pass['stderr']}"
@@ -149,6 +151,7 @@ def test_killed_worker_is_retried_and_others_undisturbed(first_pass):
     assert log.count("== attempt ") == 2 and "== attempt 2 " in log
 
 
+@pytest.mark.slow  # the first pass's batch: 180 s on a loaded 2-core machine; a quicker test runs batch through Ray
 def test_second_pass_skips_finished_shots(first_pass):
     folder = first_pass["folder"]
     watched = [folder / "out" / n / f for n in ("cup", "box") for f in ("sim.usdc", "video.mp4", "batch.log")]
@@ -163,6 +166,7 @@ def test_second_pass_skips_finished_shots(first_pass):
     assert {p: p.stat().st_mtime_ns for p in watched} == before  # no simulation, render or attempt ran
 
 
+@pytest.mark.slow  # the first pass's batch: 180 s on a loaded 2-core machine; a quicker test runs batch through Ray
 def test_interrupted_or_changed_shot_is_not_finished(first_pass, tmp_path):
     from physomni_usd.batch.shots import inputs_hash, is_finished, mark_started, read_shot_list
     from physomni_usd.cli import _run_parser
@@ -198,6 +202,7 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
+@pytest.mark.slow  # 65 s on a loaded 2-core machine; a quicker test runs batch through Ray
 def test_same_list_on_a_ray_head(tmp_path):
     shots = _write_list(tmp_path)
     port = _free_port()
@@ -245,6 +250,7 @@ def _in_group(pid: int, group: int) -> bool:
         return False
 
 
+@pytest.mark.slow  # 91 s on a loaded 2-core machine; a quicker test runs batch through Ray
 def test_upload_ships_inputs_and_outputs_through_ray(tmp_path):
     synthetic_photo(tmp_path / "photos")
     shots = tmp_path / "shots.txt"
