@@ -191,6 +191,7 @@ def studio_run(photo, tmp_path_factory):
     return result
 
 
+@pytest.mark.slow  # the page's whole flow: 60-100 s under load; test_studio_pushes drives the same page
 def test_build_from_the_page_has_the_objects_as_labelled(studio_run):
     out = studio_run["out"]
     assert studio_run["shot_after_build"]
@@ -200,20 +201,24 @@ def test_build_from_the_page_has_the_objects_as_labelled(studio_run):
     assert labels == {"cup_0": "cup", "box_1": "box"}
 
 
+@pytest.mark.slow  # the page's whole flow: 60-100 s under load; test_studio_pushes drives the same page
 def test_typing_a_label_goes_on_while_the_list_is_rebuilt(studio_run):
     assert studio_run["typed_through_rebuild"] == "cup mug"
 
 
+@pytest.mark.slow  # the page's whole flow: 60-100 s under load; test_studio_pushes drives the same page
 def test_objects_reorder_and_delete_in_the_list(studio_run):
     assert studio_run["reordered"] == "cup,spare,box" and studio_run["deleted"] == "cup,box"
 
 
+@pytest.mark.slow  # the page's whole flow: 60-100 s under load; test_studio_pushes drives the same page
 def test_the_click_off_the_object_changed_its_mask(studio_run):
     before, after = studio_run["before_click"], studio_run["page_masks"][1]
     x, y = OFF_CLICK
     assert before[y, x] and not after[y, x]
 
 
+@pytest.mark.slow  # the page's whole flow: 60-100 s under load; test_studio_pushes drives the same page
 def test_masks_of_the_written_command_match_the_page_and_it_builds_the_same_scene(studio_run, tmp_path):
     out = studio_run["out"]
     state = json.loads((out / "studio.json").read_text())
@@ -235,6 +240,7 @@ def test_masks_of_the_written_command_match_the_page_and_it_builds_the_same_scen
     assert first["objects"][0]["push"]["velocity_m_s"][0] == pytest.approx(0.5, abs=0.05)
 
 
+@pytest.mark.slow  # the page's whole flow: 60-100 s under load; test_studio_pushes drives the same page
 def test_render_from_the_page_writes_the_video_with_the_chosen_move(studio_run):
     out = studio_run["out"]
     assert (out / "video.mp4").is_file() and studio_run["video_src"].endswith(".mp4?t=" +
