@@ -12,6 +12,7 @@ KEYS = {"table", "variant", "mask_iou", "penetration_rate", "support_violation_r
         "reprojection_px", "ssim", "seconds"}
 
 
+@pytest.mark.slow  # 146 s under a load of 26; bench runs in the quick set through bench peer and faults
 def test_quick_bench_writes_both_tables(tmp_path):
     out = tmp_path / "align.json"
     proc = cli("bench", "alignment", "--quick", "--only", "ablation", "--json", out, check=True)
@@ -50,6 +51,7 @@ def _known(kind: str, target: str):
     return [pytest.mark.xfail(strict=True, reason=reason)] if reason else []
 
 
+@pytest.mark.slow  # the stacked scenes' set-up: 281 s under a load of 26
 def test_every_stacked_scene_has_a_row_per_true_object(stacks):
     from physomni_usd.bench.synthetic import make_stack
 
@@ -62,6 +64,7 @@ def test_every_stacked_scene_has_a_row_per_true_object(stacks):
 
 @pytest.mark.parametrize("kind,target", [pytest.param(k, t, marks=_known(k, t), id=f"{k}-{t}")
                                          for k in STACKS for t in ("iou", "position", "rest")])
+@pytest.mark.slow  # the stacked scenes' set-up: 281 s under a load of 26
 def test_stacked_scene_meets_the_holistic_targets(stacks, kind, target):
     from physomni_usd.bench.alignment import STACK_LIMITS as LIM
 
@@ -80,6 +83,7 @@ def test_stacked_scene_meets_the_holistic_targets(stacks, kind, target):
             assert r["max_overlap_m"] <= LIM["max_overlap_m"], f"{where}: starts {1000 * r['max_overlap_m']:.1f} mm in"
 
 
+@pytest.mark.slow  # the stacked scenes' set-up: 281 s under a load of 26
 def test_saucer_is_whole_behind_its_cup(stacks):
     saucer = next(r for r in stacks["cup_saucer_spoon"] if r["label"] == "saucer")
     assert saucer["full_outline_covered"] >= 0.9, saucer["full_outline_covered"]
