@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from .conftest import cli
 
 
+@pytest.mark.slow  # 295 s under a load of 26; bench runs in the quick set (bench render, bench peer)
 def test_bench_photos_meets_the_acceptance_at_60_degrees(tmp_path):
     proc = cli("bench", "photos", "--pitch", "60", "--seconds", "0.3", "--json", tmp_path / "p.json", check=True)
     row = json.loads((tmp_path / "p.json").read_text())["rows"][0]
