@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Usage: bash examples/run.sh EXAMPLE_DIR [OUT_DIR]
 # Runs `physomni-usd run` on an example folder as its example.json describes it
-# (photo, masks or boxes with labels, sizes, pushes, seconds), writing to OUT_DIR (default out/<example>).
+# (photo, masks or boxes with labels, sizes, pushes, seconds if it gives them), writing to OUT_DIR
+# (default out/<example>).
 set -euo pipefail
 dir="$(cd "$1" && pwd)"
 out="${2:-out/$(basename "$dir")}"
@@ -23,8 +24,9 @@ for size in spec.get("size", []):
 for push in spec.get("push", []):
     print("--push")
     print(push)
-print("--seconds")
-print(spec.get("seconds", 3))
+if "seconds" in spec:  # else run's own length: 3 s, ended once nothing has moved for a second
+    print("--seconds")
+    print(spec["seconds"])
 PY
 )
 physomni-usd run "${args[@]}" -o "$out"

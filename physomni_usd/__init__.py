@@ -76,8 +76,9 @@ def run(photo, out_dir, masks=(), boxes=(), settings=None, simulate_settings=Non
     ``shot.usda``, ``video.mp4`` and ``report.json`` (with a ``run`` section, its total seconds).
 
     ``photo``, ``masks``, ``boxes``, ``settings`` and ``options`` as :func:`build` takes them;
-    ``simulate_settings`` a :class:`physomni_usd.settings.SimulateSettings` (its defaults, 3 simulated
-    seconds at the shot's frame rate, when None), ``render_settings`` a
+    ``simulate_settings`` a :class:`physomni_usd.settings.SimulateSettings` (when None, its defaults, 3
+    simulated seconds at the shot's frame rate, ended once nothing has moved for
+    :data:`~physomni_usd.settings.REST_SECONDS`), ``render_settings`` a
     :class:`physomni_usd.settings.RenderSettings`; ``camera`` and ``camera_amount`` as :func:`render` takes
     them. Every option is checked, and the video's path found writable, before any work.
     ``progress(stage, done, total)`` follows simulate and render frame by frame; ``on_stage(stage, result)``
@@ -93,7 +94,7 @@ def run(photo, out_dir, masks=(), boxes=(), settings=None, simulate_settings=Non
     from ._files import all_or_nothing, check_writable
     from .rendering.video import check_camera_move
     from .report import update_report
-    from .settings import BuildSettings, RenderSettings, SimulateSettings
+    from .settings import REST_SECONDS, BuildSettings, RenderSettings, SimulateSettings
 
     def stage(name, result=None):
         if on_stage is not None:
@@ -105,7 +106,7 @@ def run(photo, out_dir, masks=(), boxes=(), settings=None, simulate_settings=Non
     with all_or_nothing():
         stage("check")
         settings = settings or BuildSettings()
-        simulate_settings = simulate_settings or SimulateSettings()
+        simulate_settings = simulate_settings or SimulateSettings(rest_seconds=REST_SECONDS)
         render_settings = render_settings or RenderSettings()
         check_camera_move(camera, camera_amount)
         check_writable([pathlib.Path(out_dir) / "video.mp4"])

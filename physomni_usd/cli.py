@@ -523,8 +523,9 @@ def _check_simulated(shot) -> None:
               help="Shot folder to write (created if missing).")
 @build_options
 @backend_options
-@click.option("--seconds", type=float, default=DEFAULT_SECONDS, show_default=True,
-              help=_range_help("Simulated seconds.", SimulateSettings, "seconds"))
+@click.option("--seconds", type=float, default=None,
+              help=_range_help(f"Simulated seconds [default: {DEFAULT_SECONDS:g}, ended once nothing has moved "
+                               "for a second].", SimulateSettings, "seconds"))
 @click.option("--push", "pushes", multiple=True, metavar="LABEL=VX,VY,VZ[@T]",
               help=PUSH_HELP)
 @click.option("--particle-spacing", type=float, default=None, metavar="METRES",
@@ -568,12 +569,13 @@ def _run_call(params: dict) -> dict:
     """``run``'s option values (as its parser makes them, or with ``backends`` already gathered) → the
     keyword arguments of :func:`physomni_usd.run`; refuses absurd values before any work."""
     from .backends.steps import BUILD_KINDS
-    from .settings import SimulateSettings
+    from .settings import REST_SECONDS, SimulateSettings
 
     p = dict(params)
     backends = p.pop("backends", None) or {kind: p.pop(kind, None) for kind in BUILD_KINDS}
-    simulate = SimulateSettings(seconds=p["seconds"], particle_spacing=p["particle_spacing"],
-                                mpm_steps=p["mpm_steps"])
+    given = p["seconds"] is not None  # seconds asked for are simulated to the end
+    simulate = SimulateSettings(seconds=p["seconds"] if given else DEFAULT_SECONDS, rest_seconds=None if given
+                                else REST_SECONDS, particle_spacing=p["particle_spacing"], mpm_steps=p["mpm_steps"])
     return dict(photo=p["photo"], out_dir=p["out_dir"], masks=p["masks"], boxes=p["boxes"],
                 settings=_build_settings(p["fov"], p["pitch"], p["camera_height"], p["shape"], p["fps"],
                                          p.get("max_pixels"), p["photo"], len(p["masks"]) + len(p["boxes"])),

@@ -77,6 +77,10 @@ MAX_SOLVER_STEPS = 1_000_000
 MAX_PARTICLES = 2_000_000
 
 
+#: Seconds of stillness after which ``run`` ends a take when its length was not asked for.
+REST_SECONDS = 1.0
+
+
 class SimulateSettings(_Settings):
     seconds: float = Field(3.0, gt=0.0, le=600.0, description="Simulated seconds.")
     fps: float | None = Field(None, ge=1.0, le=1000.0, description="Frames per second; None keeps the shot's.")
@@ -88,6 +92,10 @@ class SimulateSettings(_Settings):
                                                        "objects' sizes.")
     mpm_steps: int | None = Field(None, ge=1, le=1000,
                                   description="MPM steps per frame; None chooses them from the materials.")
+    rest_seconds: float | None = Field(None, gt=0.0, le=60.0,
+                                       description="End the take once nothing has moved for this long (that "
+                                                   "still stretch kept) and no push or force field is still to "
+                                                   "act; None simulates all the seconds.")
 
 
 class RenderSettings(_Settings):

@@ -50,3 +50,53 @@ def test_a_thin_object_bounces_off_another_as_its_restitution_says(tmp_path):
         assert report["steps"]["restitution"] is True
     assert rises[0.9] >= 3 * max(rises[0.0], 0.01), rises
     assert rises[0.9] > 0.1, rises
+
+
+SPOON = (0.16, 0.025, 0.005)  # a spoon-like bar, 5 mm thick (m)
+
+
+def _throw_spoon(folder, support, shape: str, restitution: float, seconds: float):
+    """A steel spoon (:data:`SPOON`) lying flat, thrown down at 3 m/s from 5 cm above the top of ``support`` (a
+    2000 kg/m³ mesh lying on the ground, lifted as ``shape``); both with ``restitution``. Returns the spoon's
+    and the support's heights at every frame."""
+    spoon = trimesh.creation.box(SPOON)
+    spoon.apply_translation((0.0, 0.0, support.bounds[1][2] + SPOON[2] / 2 + 0.05))
+    params = {"restitution": restitution}
+    shot = write_bench_shot(folder, [
+        BenchObject("saucer", support, "rigid", dict(params, density=2000.0), shape=shape),
+        BenchObject("spoon", spoon, "rigid", dict(params, density=7800.0), velocity=(0.0, 0.0, -3.0))])
+    report = simulate_shot(shot, SimulateSettings(seconds=seconds))
+    stage = layers.open_shot(shot)
+
+    def z(name):
+        xf = UsdGeom.Xformable(stage.GetPrimAtPath(f"/World/Objects/{name}"))
+        return np.array([xf.ComputeLocalToWorldTransform(f).ExtractTranslation()[2] for f in range(report["frames"])])
+
+    return z("spoon"), z("saucer")
+
+
+def _first_rise(height: np.ndarray, rest: np.ndarray) -> float:
+    """How far (m) above where it rests the spoon's centre rises after it first comes within 1 cm of it."""
+    first_touch = int(np.argmax(height - rest < 0.01))
+    return float((height - rest)[first_touch:].max())
+
+
+def test_a_thin_object_on_a_curved_support_does_not_bounce_at_restitution_0(tmp_path):
+    """Onto a saucer (an open vessel, collided as convex pieces: its floor and the slope of its wall) the spoon
+    stops where it lands: the saucer pressed between it and the ground gives back no bounce."""
+    from physomni_usd.lift.vessel import vessel_mesh
+
+    saucer = vessel_mesh(np.zeros(2), 0.05, 0.075, 0.018)  # the spoon's ends land on the wall's slope
+    spoon, _ = _throw_spoon(tmp_path, saucer, "vessel", 0.0, seconds=0.6)
+    assert abs(spoon[-1] - spoon[-4]) < 1e-4  # at rest by the end: where it rests
+    assert _first_rise(spoon, np.full_like(spoon, spoon[-1])) < 0.005
+
+
+def test_a_thin_object_lying_flat_bounces_off_a_flat_support_as_its_restitution_says(tmp_path):
+    """Onto a 5 mm plate at restitution 0.9 the spoon rises at least half of e²v²/2g (v = 3.16 m/s on
+    arrival: 0.41 m ideal)."""
+    plate = trimesh.creation.cylinder(radius=0.08, height=0.005, sections=24)
+    plate.apply_translation((0.0, 0.0, 0.0025))
+    spoon, saucer = _throw_spoon(tmp_path, plate, "extrude", 0.9, seconds=0.5)
+    v = np.hypot(3.0, np.sqrt(2 * 9.81 * 0.05))
+    assert _first_rise(spoon, saucer + 0.0025 + SPOON[2] / 2) >= 0.5 * 0.9 ** 2 * v ** 2 / (2 * 9.81)

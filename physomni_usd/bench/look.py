@@ -440,7 +440,7 @@ def look_example(example: pathlib.Path, work: pathlib.Path, size: int, seconds: 
     from ..metrics import mirror_similarity, ssim
     from ..rendering.stage import read_wide_plate
     from ..rendering.video import ShotRenderer, render_shot
-    from ..settings import RenderSettings, SimulateSettings
+    from ..settings import REST_SECONDS, RenderSettings, SimulateSettings
     from ..usd import layers
 
     spec_path = example / "example.json"
@@ -450,7 +450,10 @@ def look_example(example: pathlib.Path, work: pathlib.Path, size: int, seconds: 
     masks = [str(example / m) for m in spec.get("masks", [])]
     result = api.build(example / spec["photo"], work / "shot", masks, spec.get("boxes", []),
                        pushes=spec.get("push", []), sizes=spec.get("size", []))
-    api.simulate(result.shot, SimulateSettings(seconds=float(seconds or spec.get("seconds", 3))))
+    # as run.sh runs it: an example that gives no length ends once nothing has moved for a second
+    given = seconds or spec.get("seconds")
+    api.simulate(result.shot, SimulateSettings(rest_seconds=None if given else REST_SECONDS,
+                                               **({"seconds": float(given)} if given else {})))
     settings = RenderSettings(max_size=size)
     stage = layers.open_shot(result.shot)
     renderer = ShotRenderer(stage, settings)

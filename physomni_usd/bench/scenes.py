@@ -31,6 +31,8 @@ class BenchObject:
     params: dict = field(default_factory=dict)
     velocity: tuple | None = None
     fixed: bool = False
+    #: the lifted shape the scene records ("vessel": an open vessel, collided as convex pieces)
+    shape: str = "extrude"
 
 
 def box(name: str, centre) -> BenchObject:
@@ -69,7 +71,7 @@ def write_bench_shot(folder: pathlib.Path, objects: list[BenchObject], fps: floa
         centre = o.mesh.bounds.mean(axis=0)
         local = np.asarray(o.mesh.vertices, float) - centre
         scene.append(SceneObject(o.name, o.name, i, local, np.asarray(o.mesh.faces), np.asarray(o.mesh.vertex_normals),
-                                 np.full((len(local), 2), 0.5), centre, "./textures/object.png", "extrude"))
+                                 np.full((len(local), 2), 0.5), centre, "./textures/object.png", o.shape))
         physics.append(PhysicsObject(o.name, o.material, check_params(o.material, o.params), "user",
                                      velocity=o.velocity, fixed=o.fixed))
     write_scene_layer(folder / layers.SCENE, fps=fps, image_size=(320, 240), camera=camera,

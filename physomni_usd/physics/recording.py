@@ -64,6 +64,43 @@ class Recorder:
             self.surfaces[o.path][f] = o.to_local(world)
 
 
+    def still(self, f0: int, f1: int, bound: float = STILL_METRES) -> bool:
+        """Whether nothing moved from frame ``f0`` through ``f1``: no point of a body, surface or particle
+        farther than ``bound`` (m) from where it was at ``f0``, a body's turn counted at its farthest point."""
+        q = self.body_q[f0:f1 + 1].astype(np.float64)
+        if q.shape[1]:
+            dots = np.abs(np.einsum("fbi,bi->fb", q[:, :, 3:], q[0, :, 3:]))
+            dots /= np.linalg.norm(q[:, :, 3:], axis=2) * np.linalg.norm(q[0, :, 3:], axis=1)
+            turn = 2 * np.arccos(np.clip(dots, -1, 1))  # (F, B) rad
+            shift = np.linalg.norm(q[:, :, :3] - q[0, :, :3], axis=2)
+            if float((shift + turn * self._reach()).max()) > bound:
+                return False
+        for pts in self.surfaces.values():
+            if np.abs(pts[f0:f1 + 1] - pts[f0]).max() > bound:
+                return False
+        if self.mpm_points is not None and np.abs(self.mpm_points[f0:f1 + 1] - self.mpm_points[f0]).max() > bound:
+            return False
+        return True
+
+    def _reach(self) -> np.ndarray:
+        """(B,) each body's farthest point from its origin at the start (m); 0.1 m for a body no object gives."""
+        if getattr(self, "_reach_m", None) is None:
+            reach = np.full(self.body_q.shape[1], 0.1)
+            objects = {o.path: o for o in self.models.objects}
+            for path, b in self.models.path_body.items():
+                if path in objects:
+                    reach[b] = float(np.linalg.norm(objects[path].points - self.body_q[0, b, :3], axis=1).max())
+            self._reach_m = reach
+        return self._reach_m
+
+    def truncate(self, frames: int) -> None:
+        """Keep the first ``frames`` frames (a run that ended early)."""
+        self.body_q = self.body_q[:frames]
+        self.surfaces = {p: pts[:frames] for p, pts in self.surfaces.items()}
+        if self.mpm_points is not None:
+            self.mpm_points = self.mpm_points[:frames]
+
+
 def moving_tracks(path_body: dict, body_q: np.ndarray, surfaces: dict) -> tuple[dict, dict, list]:
     """Body tracks path → (positions (F, 3), quaternions w, x, y, z (F, 4)) and surface tracks path →
     points (F, N, 3) of what moved, and the moved prims' paths."""

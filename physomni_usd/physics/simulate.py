@@ -119,21 +119,29 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     if sim.supported:
         echo(f"simulate: {', '.join(sim.supported)} cannot stand on what the photo shows of "
              f"{'it' if len(sim.supported) == 1 else 'them'}: standing on {'its' if len(sim.supported) == 1 else 'their'} footprint")
-    run = run_guarded(sim, plan, frames, progress, echo)
+    run = run_guarded(sim, plan, frames, progress, echo, rest_seconds=settings.rest_seconds)
+    seconds = settings.seconds
+    if run["rest"] is not None:
+        # the take ends a still stretch after the last motion: the rest would be a photo held still
+        frames = len(run["body_q"])
+        seconds = run["rest"]["ended_s"]
+        echo(f"simulate: everything at rest from {run['rest']['still_from_s']:.2f} s; the take ends at "
+             f"{seconds:.2f} s of the {settings.seconds:g} s (--seconds simulates them all)")
     if first_use is not None:
         first_use.touch()
         echo(_compiled_line(compiled_before, compiled_seconds()))
 
     t_write = time.perf_counter()
     plan = run["plan"]
-    moved = write_take(folder, sim, cfg, plan, run["body_q"], run["surfaces"], run["mpm_points"], settings.seconds)
+    moved = write_take(folder, sim, cfg, plan, run["body_q"], run["surfaces"], run["mpm_points"], seconds)
     checks = shot_checks(layers.open_shot(folder), frames)
     t_end = time.perf_counter()
 
     section = {
         "solver": cfg["solver"], "solvers": list(sim.solvers), "device": sim.device, "fps": cfg["fps"],
         "frames": frames, "substeps": plan.substeps, "dt": plan.dt, "iterations": plan.iterations,
-        "steps": plan.as_dict(), "simulated_seconds": settings.seconds,
+        "steps": plan.as_dict(), "simulated_seconds": seconds, "asked_seconds": settings.seconds,
+        "ended_at_rest": run["rest"],
         "bodies": len(sim.path_body), "moving_prims": moved,
         "objects": {o.name: {"material": o.kind, "solver": o.family} for o in objects},
         "cloths": {o.name: {"particles": sim.ranges[o.path][1]} for o in objects if o.family == "cloth"},
@@ -150,7 +158,7 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
         "seconds": {"read": round(sim.t_built - t_start - sim.t_model, 4), "build_model": round(sim.t_model, 4),
                     "step": round(run["t_step"], 4), "write": round(t_end - t_write, 4)},
         "total_seconds": round(t_end - t_start, 4),
-        "seconds_per_simulated_second": round(run["t_step"] / max(settings.seconds, 1e-9), 4),
+        "seconds_per_simulated_second": round(run["t_step"] / max(seconds, 1e-9), 4),
     }
     update_report(folder, simulate=section)
     return section

@@ -56,6 +56,18 @@ BOUNCY = 0.3
 #: stopped falling at 4. The CFL bound (below) asks for more; the implicit solver is stable without.
 MPM_STEPS = {"elastic": 16, "granular": 4, "liquid": 2}
 ENERGY_TOLERANCE = 0.05
+#: Outer passes of XPBD's restitution solve in a frame that may hold an impact (something moving faster than
+#: ``IMPACT_SPEED`` at its start), and in any other frame (Newton's default). The pass couples the contacts
+#: of different body pairs by averaging, so a body pressed between two others (a saucer under a thrown spoon,
+#: on the ground) converges one pair per pass; at 2 it stops halfway, and what is left is the velocity the
+#: position correction gave while pushing the overlap out, which the next substep keeps as a separation: a
+#: 5 mm steel spoon thrown at 3 m/s onto a saucer rose 12 mm above where it came to rest at restitution 0,
+#: and onto a 5 mm plate 4.3 cm of the 41 cm e²v²/2g at 0.9. At 16 passes: 2 mm (the frame it lands in)
+#: and 40 cm, as on a fixed saucer; 8 passes reached 32 cm.
+RESTITUTION_PASSES = (16, 2)
+#: m/s: a frame whose fastest body starts slower than this holds no impact worth the passes (objects at
+#: rest, a start overlap separating at up to ``depenetration.SEPARATION_SPEED``).
+IMPACT_SPEED = 0.15
 #: Energies below this (J) are noise, not growth.
 ENERGY_FLOOR = 1e-3
 
@@ -120,6 +132,11 @@ class StepPlan:
             return 1
         v = speed + self.acceleration / self.fps
         return max(1, min(self.collide_every, int(0.25 * self.thinnest / max(v * self.dt, 1e-12))))
+
+    def restitution_passes(self, speed: float) -> int:
+        """Outer passes of the restitution solve for a frame starting at ``speed`` (m/s; see
+        :data:`RESTITUTION_PASSES`)."""
+        return RESTITUTION_PASSES[0] if speed > IMPACT_SPEED else RESTITUTION_PASSES[1]
 
     @property
     def dt(self) -> float:

@@ -124,6 +124,7 @@ class Stepper:
             self.solver.iterations = plan.iterations
         if hasattr(self.solver, "enable_restitution"):
             self.solver.enable_restitution = plan.restitution
+            self.solver.rigid_contact_restitution_iterations = plan.restitution_passes(speed)
         groups = plan.mpm_steps or 1
         per = plan.substeps // groups
         dt = plan.dt
@@ -245,8 +246,8 @@ class FrameGraphs:
     """A :class:`Stepper`'s frames captured as warp graphs and replayed (one Python call a frame instead of
     a dozen kernel launches a substep), for rigid scenes stepped by XPBD; a frame the graph cannot
     reproduce runs launch by launch. A graph is keyed by everything the frame bakes in: substeps,
-    iterations, restitution, contact-search cadence, which fields are on, and which of the two state
-    buffers it starts from. A device or scene that cannot capture falls back for good (``error`` says why)."""
+    iterations, restitution and its passes, contact-search cadence, which fields are on, and which of the two
+    state buffers it starts from. A device or scene that cannot capture falls back for good (``error`` says why)."""
 
     def __init__(self, stepper: Stepper, enabled: bool = True):
         self.stepper = stepper
@@ -287,8 +288,8 @@ class FrameGraphs:
         bound = stepper.depenetration is not None and stepper.depenetration.active(t0)
         if bound:
             stepper.depenetration.set_time(t0)  # likewise the time the overlap bound reads
-        return (plan.substeps, plan.iterations, plan.restitution, plan.collide_interval(speed),
-                id(stepper.state), active, stepper.count_work, bound, id(fields))
+        return (plan.substeps, plan.iterations, plan.restitution, plan.restitution_passes(speed),
+                plan.collide_interval(speed), id(stepper.state), active, stepper.count_work, bound, id(fields))
 
     def frame(self, plan: StepPlan, t0: float, step0: int, add_work=None, speed: float = 0.0) -> bool:
         """One frame as :meth:`Stepper.frame` steps it; returns whether it was replayed from a graph."""
