@@ -418,3 +418,18 @@ def test_bad_shot_busy_port_and_missing_browser_end_in_one_line(tmp_path, shot):
     r = cli("preview", folder / "shot.usda", "--port", free_port(), "--open", env=env)
     assert r.returncode == 2 and "browser" in r.stderr and r.stderr.count("error:") == 1, r.stderr
     assert _listing(folder) == before
+
+
+def test_playing_with_nothing_touched_still_shows_the_photo(moto, tmp_path):
+    """Play pressed and nothing pushed: after 10 s the view is still the photo, not the lifted meshes over the
+    plate (what has not moved is the photo itself, playing or paused)."""
+    from physomni_usd.bench.look import preview_opening
+    from physomni_usd.metrics.image import ssim
+
+    shutil.copytree(moto, tmp_path, dirs_exist_ok=True)
+    view = preview_opening(tmp_path / "shot.usda", timeout=180.0, play=10.0)
+    assert view is not None, "the preview did not start, or Playwright or Chromium is missing"
+    photo = cv2.imread(str(EXAMPLE / "photo.png"), cv2.IMREAD_GRAYSCALE)
+    grey = cv2.resize(cv2.cvtColor(view, cv2.COLOR_RGB2GRAY), photo.shape[::-1], interpolation=cv2.INTER_AREA)
+    score = ssim(grey, photo)
+    assert score >= 0.9, score
