@@ -33,6 +33,9 @@ SEND_TOLERANCE = 1e-5
 AT_PHOTO_M = 1e-3
 #: The opening view's card stands this far (m) in front of the photo's camera, nearer than any object.
 OPENING_DISTANCE = 0.05
+#: Seconds between two changes of the card's holes sent to the pages (a page decodes each tile it is sent);
+#: a hole opens at once, and leads a body by its motion over this time so that the body is never under the card.
+CARD_EVERY = 0.2
 
 
 @dataclass
@@ -108,7 +111,11 @@ class Preview:
         self._body_points: dict = {}  # body index → its mesh's points in the body's frame
         self.actions: queue.Queue = queue.Queue()
         self.playing = options.play
-        self._cards: dict = {}  # client id → (its opening-view card, whether its camera is the photo's)
+        self._cards: dict = {}  # client id → (its opening-view card's tiles, whether its camera is the photo's)
+        self._card_sent = 0.0  # when the card's holes were last sent
+        self._card_due = False  # holes changed since, not sent yet
+        self._card_next = None  # the card with those holes
+        self._last_q = None  # the bodies' poses at the last publish, for the holes' lead
         self.time_scale = 1.0
         self.status = ""
         self.saved = 0
@@ -219,25 +226,34 @@ class Preview:
 
     # --- the opening view ---------------------------------------------------------------------------
     def _connected(self, client) -> None:
-        """A new page: its camera is the photo's, fitted to its canvas, and until something moves it shows
-        the first frame as ``render`` draws it (the photo where nothing has moved) on a card filling that view."""
+        """A new page: its camera is the photo's, fitted to its canvas, and it shows the first frame as
+        ``render`` draws it (the photo) on a card filling that view, clear only where something has moved."""
         self._photo_camera(client.camera)
         centre, wxyz, w, h = opening_card(self.view, self.fx, OPENING_DISTANCE)
-        card = client.scene.add_image("/opening", self.card_image, w, h, format="png", position=centre, wxyz=wxyz,
-                                      cast_shadow=False, receive_shadow=False, visible=True)
-        self._cards[client.client_id] = [card, True]
+        tiles = []
+        for i, tile in enumerate(self.card.tiles()):
+            at, tw, th = self.card.tile_place(tile, centre, w, h)
+            tiles.append(client.scene.add_image(f"/opening/{i}", self.card_image[tile], tw, th, format="png",
+                                                position=at, wxyz=wxyz, cast_shadow=False, receive_shadow=False,
+                                                visible=True))
+        self._cards[client.client_id] = [tiles, True]
         client.camera.on_update(lambda cam, cid=client.client_id: self._camera_moved(cid, cam))
 
     def _update_card(self, q: np.ndarray, surfaces: dict, particles: dict) -> None:
-        """Clear the opening card where something has moved since frame 0 (what it left, where it is, its
-        shadow), opaque everywhere else: playing or paused, what has not moved is the photo itself."""
+        """Clear the opening card where something has moved since frame 0 (what it left, where it is and, for a
+        body, where it will be in :data:`CARD_EVERY` s at its present speed; its shadow), opaque everywhere else:
+        playing or paused, what has not moved is the photo itself."""
         e = self.engine
         hole = np.zeros((self.card.height, self.card.width), np.uint8)
         bodies = []
+        last, self._last_q = self._last_q, np.array(q, copy=True)
         for key, m in self.movers.items():
             kind, name = key
             if kind == "body":
                 now = _posed(self._body_points[name], q[name])
+                if last is not None and self.card.moved(now, m.start):
+                    ahead = (q[name, :3] - last[name, :3]) * CARD_EVERY * e.fps
+                    self.card.silhouette(hole, now + ahead, m)
             elif kind == "surface":
                 now = e.world_surface(name, surfaces[name]) if name in surfaces else m.start
             else:
@@ -253,10 +269,32 @@ class Preview:
             self.card.shadow(hole, self.ground, self.ground.darkening(q, bodies), SHADOW_LIFT)
         image = self.card.rgba(hole)
         if image is self.card_image or np.array_equal(image[..., 3], self.card_image[..., 3]):
+            self._card_due, self._card_next = False, None
             return
+        self._card_due = True
+        opened = (self.card_image is self.card.opaque) != (image is self.card.opaque)
+        if not opened and time.perf_counter() - self._card_sent < CARD_EVERY:
+            self._card_next = image
+            return
+        self._send_card(image)
+
+    @property
+    def latest_card(self) -> np.ndarray:
+        """(h, w, 4) uint8: the card as it is now, sent to the pages or held back for :data:`CARD_EVERY`."""
+        return self._card_next if self._card_due else self.card_image
+
+    def _send_card(self, image: np.ndarray) -> None:
+        """Send the tiles of ``image`` that differ from what the pages show."""
+        changed = [i for i, tile in enumerate(self.card.tiles())
+                   if not np.array_equal(image[tile][..., 3], self.card_image[tile][..., 3])]
+        tiles = self.card.tiles()
+        for entry in list(self._cards.values()):
+            for i in changed:
+                entry[0][i].image = image[tiles[i]]
         self.card_image = image
-        for card, _ in list(self._cards.values()):
-            card.image = image
+        self._card_next = None
+        self._card_due = False
+        self._card_sent = time.perf_counter()
 
     def _camera_moved(self, client_id, cam) -> None:
         entry = self._cards.get(client_id)
@@ -272,9 +310,10 @@ class Preview:
 
     def _show_opening(self) -> None:
         """The opening card on each page whose camera is the photo's (a camera moved away sees the meshes)."""
-        for card, at_photo in list(self._cards.values()):
-            if card.visible != at_photo:
-                card.visible = at_photo
+        for tiles, at_photo in list(self._cards.values()):
+            for tile in tiles:
+                if tile.visible != at_photo:
+                    tile.visible = at_photo
 
     def _set_playing(self, playing: bool) -> None:
         self.playing = playing
@@ -405,6 +444,8 @@ class Preview:
                 self.ground_image.image = self.ground.rgba(q)
             if moved or surfaces or particles:
                 self._update_card(q, surfaces, particles)
+            elif self._card_due and time.perf_counter() - self._card_sent >= CARD_EVERY:
+                self._send_card(self._card_next)  # holes held back while things moved, now at rest
         self._show_opening()
 
     def _handle(self, action: str) -> None:

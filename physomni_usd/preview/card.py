@@ -25,6 +25,9 @@ FILLED_LEVELS = 3
 HOLE_MARGIN = 2
 #: Ground shadow darker than this (0–1) is part of the hole it lies in.
 SHADOW_SEEN = 2.0 / 255.0
+#: The card is sent as square tiles of this many pixels, and only the tiles whose holes changed are sent again:
+#: a whole card a frame is more than a software-rendered page decodes while it plays.
+TILE = 128
 
 
 @dataclass
@@ -73,6 +76,22 @@ class OpeningCard:
         self.height, self.width = image.shape[:2]
         self.scale = np.array([self.width / view.width, self.height / view.height])
         self.opaque = np.dstack([image, np.full(image.shape[:2], 255, np.uint8)])
+
+    def tiles(self) -> list[tuple[slice, slice]]:
+        """The card's tiles, (rows, columns) of its image, row by row."""
+        return [(slice(y, min(y + TILE, self.height)), slice(x, min(x + TILE, self.width)))
+                for y in range(0, self.height, TILE) for x in range(0, self.width, TILE)]
+
+    def tile_place(self, tile: tuple[slice, slice], centre: np.ndarray, width: float, height: float
+                   ) -> tuple[np.ndarray, float, float]:
+        """Where ``tile`` lies on the card whose centre is ``centre`` (3,) and which is ``width`` × ``height``
+        metres: its centre (3,) and its width and height in metres (the card's orientation is the tile's)."""
+        rows, cols = tile
+        mx, my = width / self.width, height / self.height  # metres per card pixel
+        dx = 0.5 * (cols.start + cols.stop) - 0.5 * self.width
+        dy = 0.5 * (rows.start + rows.stop) - 0.5 * self.height
+        return (centre + self.view.axes[0] * dx * mx + self.view.axes[1] * dy * my,
+                (cols.stop - cols.start) * mx, (rows.stop - rows.start) * my)
 
     def pixels(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Card pixels (N, 2) of world points and whether each lies in front of the camera."""
