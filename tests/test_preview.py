@@ -444,7 +444,7 @@ def test_opening_card_clears_only_where_the_pushed_box_went(shot):
     p = Preview(shot["shot"], Options(port=free_port(), duration=3.0, open_browser=False, paced=False,
                                       echo=lambda m: None))
     p.start()
-    assert (p.latest_card[..., 3] == 255).all()  # at frame 0 nothing has moved: the photo, whole
+    assert (p.card_now()[..., 3] == 255).all()  # at frame 0 nothing has moved: the photo, whole
     box = next(b for b, h in p.handles.items() if h.name.endswith("box_1"))
     cup = next(b for b, h in p.handles.items() if h.name.endswith("cup_0"))
     q0 = p.engine.body_state()[0].copy()
@@ -453,7 +453,7 @@ def test_opening_card_clears_only_where_the_pushed_box_went(shot):
     assert np.linalg.norm(q1[box, :2] - q0[box, :2]) > 0.02  # it was pushed
     (a, b), _ = p.card.pixels(np.stack([q0[cup, :3], q1[cup, :3]]))
     assert np.linalg.norm(b - a) < 0.25  # the cup stood still, to a fraction of a pixel
-    alpha = p.latest_card[..., 3]
+    alpha = p.card_now()[..., 3]
     clear = alpha < 128
     regions = {path.rsplit("/", 1)[-1]: r for path, r in p.regions.items()}
     assert clear[regions["box_1"]].mean() > 0.95  # where it stood: the plate

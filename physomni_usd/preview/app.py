@@ -113,8 +113,7 @@ class Preview:
         self.playing = options.play
         self._cards: dict = {}  # client id → (its opening-view card's tiles, whether its camera is the photo's)
         self._card_sent = 0.0  # when the card's holes were last sent
-        self._card_due = False  # holes changed since, not sent yet
-        self._card_next = None  # the card with those holes
+        self._card_due = False  # things moved since the holes were last worked out, held back by CARD_EVERY
         self._last_q = None  # the bodies' poses at the last publish, for the holes' lead
         self.time_scale = 1.0
         self.status = ""
@@ -239,11 +238,17 @@ class Preview:
         self._cards[client.client_id] = [tiles, True]
         client.camera.on_update(lambda cam, cid=client.client_id: self._camera_moved(cid, cam))
 
-    def _update_card(self, q: np.ndarray, surfaces: dict, particles: dict) -> None:
+    def _update_card(self, q: np.ndarray, surfaces: dict, particles: dict, now: bool = False) -> None:
         """Clear the opening card where something has moved since frame 0 (what it left, where it is and, for a
         body, where it will be in :data:`CARD_EVERY` s at its present speed; its shadow), opaque everywhere else:
-        playing or paused, what has not moved is the photo itself."""
+        playing or paused, what has not moved is the photo itself. While the card has holes they are worked out
+        and sent again at most every :data:`CARD_EVERY` s (the first opens at once), unless ``now``."""
         e = self.engine
+        if not now and self.card_image is not self.card.opaque and \
+                time.perf_counter() - self._card_sent < CARD_EVERY:
+            self._card_due = True
+            return
+        self._card_due = False
         hole = np.zeros((self.card.height, self.card.width), np.uint8)
         bodies = []
         last, self._last_q = self._last_q, np.array(q, copy=True)
@@ -269,19 +274,15 @@ class Preview:
             self.card.shadow(hole, self.ground, self.ground.darkening(q, bodies), SHADOW_LIFT)
         image = self.card.rgba(hole)
         if image is self.card_image or np.array_equal(image[..., 3], self.card_image[..., 3]):
-            self._card_due, self._card_next = False, None
-            return
-        self._card_due = True
-        opened = (self.card_image is self.card.opaque) != (image is self.card.opaque)
-        if not opened and time.perf_counter() - self._card_sent < CARD_EVERY:
-            self._card_next = image
             return
         self._send_card(image)
 
-    @property
-    def latest_card(self) -> np.ndarray:
-        """(h, w, 4) uint8: the card as it is now, sent to the pages or held back for :data:`CARD_EVERY`."""
-        return self._card_next if self._card_due else self.card_image
+    def card_now(self) -> np.ndarray:
+        """(h, w, 4) uint8: the card for the scene as it is now (sent to the pages too)."""
+        e = self.engine
+        self._update_card(e.body_state()[0], e.surfaces() if self.live_meshes else {},
+                          e.particles() if self.clouds else {}, now=True)
+        return self.card_image
 
     def _send_card(self, image: np.ndarray) -> None:
         """Send the tiles of ``image`` that differ from what the pages show."""
@@ -292,8 +293,6 @@ class Preview:
             for i in changed:
                 entry[0][i].image = image[tiles[i]]
         self.card_image = image
-        self._card_next = None
-        self._card_due = False
         self._card_sent = time.perf_counter()
 
     def _camera_moved(self, client_id, cam) -> None:
@@ -442,10 +441,8 @@ class Preview:
                 self.clouds[name].points = pts.astype(np.float32)
             if moved and self.ground is not None:
                 self.ground_image.image = self.ground.rgba(q)
-            if moved or surfaces or particles:
+            if moved or surfaces or particles or self._card_due:  # due: holes held back, things now at rest
                 self._update_card(q, surfaces, particles)
-            elif self._card_due and time.perf_counter() - self._card_sent >= CARD_EVERY:
-                self._send_card(self._card_next)  # holes held back while things moved, now at rest
         self._show_opening()
 
     def _handle(self, action: str) -> None:
