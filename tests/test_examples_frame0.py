@@ -38,5 +38,5 @@ def test_frame_zero_is_the_photo(spec_path, tmp_path):
     frame0 = ShotRenderer(stage).frame(float(stage.GetStartTimeCode()))
     photo = cv2.cvtColor(cv2.imread(str(folder / spec["photo"])), cv2.COLOR_BGR2RGB)
     assert frame0.shape == photo.shape
-    assert cv2.PSNR(frame0, photo) >= 35.0
+    assert cv2.PSNR(frame0, photo) >= 40.0
     assert ssim(frame0, photo) >= 0.98

@@ -419,3 +419,48 @@ def test_bad_shot_busy_port_and_missing_browser_end_in_one_line(tmp_path, shot):
     r = cli("preview", folder / "shot.usda", "--port", free_port(), "--open", env=env)
     assert r.returncode == 2 and "browser" in r.stderr and r.stderr.count("error:") == 1, r.stderr
     assert _listing(folder) == before
+
+
+def test_playing_with_nothing_touched_still_shows_the_photo(moto, tmp_path):
+    """Play pressed and nothing pushed: after 10 s the view is still the photo, not the lifted meshes over the
+    plate (what has not moved is the photo itself, playing or paused)."""
+    from physomni_usd.bench.look import preview_opening
+    from physomni_usd.metrics.image import ssim
+
+    shutil.copytree(moto, tmp_path, dirs_exist_ok=True)
+    view = preview_opening(tmp_path / "shot.usda", timeout=180.0, play=10.0)
+    assert view is not None, "the preview did not start, or Playwright or Chromium is missing"
+    photo = cv2.imread(str(EXAMPLE / "photo.png"), cv2.IMREAD_GRAYSCALE)
+    grey = cv2.resize(cv2.cvtColor(view, cv2.COLOR_RGB2GRAY), photo.shape[::-1], interpolation=cv2.INTER_AREA)
+    score = ssim(grey, photo)
+    assert score >= 0.9, score
+
+
+def test_opening_card_clears_only_where_the_pushed_box_went(shot):
+    """Playing, the opening card (the first frame: the photo) stays over everything that has not moved and is
+    cleared where the pushed box stood, where it is now and where its shadow lies, so that only there the live
+    mesh and the plate show."""
+    from physomni_usd.preview.app import Options, Preview
+
+    p = Preview(shot["shot"], Options(port=free_port(), duration=3.0, open_browser=False, paced=False,
+                                      echo=lambda m: None))
+    p.start()
+    assert (p.card_now()[..., 3] == 255).all()  # at frame 0 nothing has moved: the photo, whole
+    box = next(b for b, h in p.handles.items() if h.name.endswith("box_1"))
+    cup = next(b for b, h in p.handles.items() if h.name.endswith("cup_0"))
+    q0 = p.engine.body_state()[0].copy()
+    p.run()
+    q1 = p.engine.body_state()[0]
+    assert np.linalg.norm(q1[box, :2] - q0[box, :2]) > 0.02  # it was pushed
+    (a, b), _ = p.card.pixels(np.stack([q0[cup, :3], q1[cup, :3]]))
+    assert np.linalg.norm(b - a) < 0.25  # the cup stood still, to a fraction of a pixel
+    alpha = p.card_now()[..., 3]
+    clear = alpha < 128
+    regions = {path.rsplit("/", 1)[-1]: r for path, r in p.regions.items()}
+    assert clear[regions["box_1"]].mean() > 0.95  # where it stood: the plate
+    u, v = (p.card.pixels(q1[box, :3])[0][0]).astype(int)
+    assert clear[v, u]  # where it is now: its mesh
+    # the cup that stayed is the photo (its edge may be cleared by the margin round the box's shadow)
+    inside = cv2.erode(regions["cup_0"].astype(np.uint8), np.ones((7, 7), np.uint8)) > 0
+    assert inside.sum() > 500 and not clear[inside].any()
+    assert clear.mean() < 0.5

@@ -377,9 +377,10 @@ def contact_sheet(tiles: list[tuple[str, np.ndarray | None]]) -> np.ndarray:
     return np.concatenate(row[:-1], axis=1)
 
 
-def preview_opening(shot: pathlib.Path, timeout: float = 240.0) -> np.ndarray | None:
+def preview_opening(shot: pathlib.Path, timeout: float = 240.0, play: float = 0.0) -> np.ndarray | None:
     """The preview's opening view of ``shot`` as headless Chromium shows it, cut to the photo's letterboxed
-    rectangle (RGB uint8, the canvas's pixels); None where Playwright or Chromium is not installed."""
+    rectangle (RGB uint8, the canvas's pixels); after ``play`` seconds of playing with nothing touched where
+    ``play`` > 0; None where Playwright or Chromium is not installed."""
     try:
         from playwright.sync_api import sync_playwright
     except ImportError:
@@ -418,6 +419,10 @@ def preview_opening(shot: pathlib.Path, timeout: float = 240.0) -> np.ndarray | 
             page.get_by_role("button", name="Play").wait_for(timeout=120000)
             for close in page.locator("[role=alert] button").all():  # notifications are not the view
                 close.click()
+            if play > 0:
+                page.get_by_role("button", name="Play").click(timeout=30000)
+                page.get_by_role("button", name="Pause").wait_for(timeout=30000)
+                page.wait_for_timeout(1000 * play)
             page.wait_for_timeout(2500)
             png = page.screenshot()
             c = page.locator("canvas").first.bounding_box()

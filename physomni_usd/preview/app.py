@@ -20,9 +20,10 @@ import numpy as np
 
 from ..errors import InputError
 from . import security
+from .card import Mover, OpeningCard
 from .engine import Engine, field_label
-from .scene import (GroundShadow, ShadowTrack, background_card, contact_decal, drawn_objects, fitted_fov,
-                    mean_colour, opening_card, opening_frame, photo_view, shadow_blur_m, textured_glb)
+from .scene import (SHADOW_LIFT, GroundShadow, ShadowTrack, background_card, contact_decal, drawn_objects,
+                    fitted_fov, mean_colour, opening_card, opening_frame, photo_view, shadow_blur_m, textured_glb)
 
 #: Seconds between two ``preview: N fps`` lines on stderr (and updates of the page's rate).
 REPORT_EVERY = 3.0
@@ -32,6 +33,9 @@ SEND_TOLERANCE = 1e-5
 AT_PHOTO_M = 1e-3
 #: The opening view's card stands this far (m) in front of the photo's camera, nearer than any object.
 OPENING_DISTANCE = 0.05
+#: Seconds between two changes of the card's holes sent to the pages (a page decodes each tile it is sent);
+#: a hole opens at once, and leads a body by its motion over this time so that the body is never under the card.
+CARD_EVERY = 0.2
 
 
 @dataclass
@@ -102,10 +106,17 @@ class Preview:
         self.view, self.fx = photo_view(stage)
         self.plate = background_card(stage, self.view)
         self.drawn = drawn_objects(stage)
-        self.opening = opening_frame(stage)
+        self.opening, self.regions = opening_frame(stage, regions=True)
+        self.card = OpeningCard(self.opening, self.view, self.fx)
+        self.card_image = self.card.opaque  # what the opening card shows now (see _update_card)
+        self.movers: dict = {}  # ("body", index) | ("surface", path) | ("particles", name) → Mover
+        self._body_points: dict = {}  # body index → its mesh's points in the body's frame
         self.actions: queue.Queue = queue.Queue()
         self.playing = options.play
-        self._cards: dict = {}  # client id → (its opening-view card, whether its camera is the photo's)
+        self._cards: dict = {}  # client id → (its opening-view card's tiles, whether its camera is the photo's)
+        self._card_sent = 0.0  # when the card's holes were last sent
+        self._card_due = False  # things moved since the holes were last worked out, held back by CARD_EVERY
+        self._last_q = None  # the bodies' poses at the last publish, for the holes' lead
         self.time_scale = 1.0
         self.status = ""
         self.saved = 0
@@ -177,12 +188,15 @@ class Preview:
                 if float(e.sim.model.body_inv_mass.numpy()[b]) > 0:
                     self._draggable(h, b)
                 self.handles[b] = h
+                self.movers[("body", b)] = Mover(_posed(d.points, q[b]), d.faces, self.regions.get(path))
+                self._body_points[b] = d.points
                 tracks[b] = self._shadow_track(d, q[b])
             elif path in e.surfaces():
                 world = e.world_surface(path, e.surfaces()[path])
                 self.live_meshes[path] = s.scene.add_mesh_simple(
                     f"/objects/{d.name}", world.astype(np.float32), d.faces, color=mean_colour(d.texture),
                     side="double", cast_shadow=False, receive_shadow=False)
+                self.movers[("surface", path)] = Mover(world.copy(), d.faces, self.regions.get(path))
         tracks = {b: t for b, t in tracks.items() if t is not None}
         if tracks:
             self.ground = GroundShadow(tracks)
@@ -195,6 +209,9 @@ class Preview:
             self.clouds[name] = s.scene.add_point_cloud(f"/particles/{name}", pts.astype(np.float32),
                                                         colors=colour, point_size=float(e.sim.mpm.spacing),
                                                         point_shape="circle")
+            path = next((p for p, d in self.drawn.items() if d.name == name), None)
+            self.movers[("particles", name)] = Mover(pts.copy(), None, self.regions.get(path),
+                                                     float(e.sim.mpm.spacing))
 
     def _shadow_track(self, d, pose) -> ShadowTrack | None:
         """The object's contact shadow, as ``render`` casts it, to follow the body: the plate has the photo's
@@ -210,18 +227,75 @@ class Preview:
 
     # --- the opening view ---------------------------------------------------------------------------
     def _connected(self, client) -> None:
-        """A new page: its camera is the photo's, fitted to its canvas, and until something moves it shows
-        the first frame as ``render`` draws it (the photo where nothing has moved) on a card filling that view."""
+        """A new page: its camera is the photo's, fitted to its canvas, and it shows the first frame as
+        ``render`` draws it (the photo) on a card filling that view, clear only where something has moved."""
         self._photo_camera(client.camera)
         centre, wxyz, w, h = opening_card(self.view, self.fx, OPENING_DISTANCE)
-        card = client.scene.add_image("/opening", self.opening, w, h, format="png", position=centre, wxyz=wxyz,
-                                      cast_shadow=False, receive_shadow=False, visible=self._at_opening())
-        self._cards[client.client_id] = [card, True]
+        tiles = []
+        for i, tile in enumerate(self.card.tiles()):
+            at, tw, th = self.card.tile_place(tile, centre, w, h)
+            tiles.append(client.scene.add_image(f"/opening/{i}", self.card_image[tile], tw, th, format="png",
+                                                position=at, wxyz=wxyz, cast_shadow=False, receive_shadow=False,
+                                                visible=True))
+        self._cards[client.client_id] = [tiles, True]
         client.camera.on_update(lambda cam, cid=client.client_id: self._camera_moved(cid, cam))
 
-    def _at_opening(self) -> bool:
-        """Whether the scene is as the first frame shows it: paused, at frame 0."""
-        return not self.playing and self.engine.frame == 0
+    def _update_card(self, q: np.ndarray, surfaces: dict, particles: dict, now: bool = False) -> None:
+        """Clear the opening card where something has moved since frame 0 (what it left, where it is and, for a
+        body, where it will be in :data:`CARD_EVERY` s at its present speed; its shadow), opaque everywhere else:
+        playing or paused, what has not moved is the photo itself. While the card has holes they are worked out
+        and sent again at most every :data:`CARD_EVERY` s (the first opens at once), unless ``now``."""
+        e = self.engine
+        if not now and self.card_image is not self.card.opaque and \
+                time.perf_counter() - self._card_sent < CARD_EVERY:
+            self._card_due = True
+            return
+        self._card_due = False
+        hole = np.zeros((self.card.height, self.card.width), np.uint8)
+        bodies = []
+        last, self._last_q = self._last_q, np.array(q, copy=True)
+        for key, m in self.movers.items():
+            kind, name = key
+            if kind == "body":
+                now = _posed(self._body_points[name], q[name])
+                if last is not None and self.card.moved(now, m.start):
+                    ahead = (q[name, :3] - last[name, :3]) * CARD_EVERY * e.fps
+                    self.card.silhouette(hole, now + ahead, m)
+            elif kind == "surface":
+                now = e.world_surface(name, surfaces[name]) if name in surfaces else m.start
+            else:
+                now = particles.get(name, m.start)
+            if not self.card.moved(now, m.start):
+                continue
+            if m.region is not None:
+                hole |= m.region
+            self.card.silhouette(hole, now, m)
+            if kind == "body":
+                bodies.append(name)
+        if bodies and self.ground is not None:
+            self.card.shadow(hole, self.ground, self.ground.darkening(q, bodies), SHADOW_LIFT)
+        image = self.card.rgba(hole)
+        if image is self.card_image or np.array_equal(image[..., 3], self.card_image[..., 3]):
+            return
+        self._send_card(image)
+
+    def card_now(self) -> np.ndarray:
+        """(h, w, 4) uint8: the card for the scene as it is now (sent to the pages too)."""
+        e = self.engine
+        self._update_card(e.body_state()[0], e.surfaces() if self.live_meshes else {},
+                          e.particles() if self.clouds else {}, now=True)
+        return self.card_image
+
+    def _send_card(self, image: np.ndarray) -> None:
+        """Send the tiles of ``image`` that differ from what the pages show."""
+        changed = [i for i, tile in enumerate(self.card.tiles())
+                   if not np.array_equal(image[tile][..., 3], self.card_image[tile][..., 3])]
+        tiles = self.card.tiles()
+        for entry in list(self._cards.values()):
+            for i in changed:
+                entry[0][i].image = image[tiles[i]]
+        self.card_image = image
+        self._card_sent = time.perf_counter()
 
     def _camera_moved(self, client_id, cam) -> None:
         entry = self._cards.get(client_id)
@@ -236,12 +310,11 @@ class Preview:
         self._show_opening()
 
     def _show_opening(self) -> None:
-        """The opening card on each page whose camera is the photo's, while the scene is at the opening."""
-        at = self._at_opening()
-        for card, at_photo in list(self._cards.values()):
-            show = at and at_photo
-            if card.visible != show:
-                card.visible = show
+        """The opening card on each page whose camera is the photo's (a camera moved away sees the meshes)."""
+        for tiles, at_photo in list(self._cards.values()):
+            for tile in tiles:
+                if tile.visible != at_photo:
+                    tile.visible = at_photo
 
     def _set_playing(self, playing: bool) -> None:
         self.playing = playing
@@ -365,10 +438,13 @@ class Preview:
             surfaces = e.surfaces() if self.live_meshes else {}
             for path, h in self.live_meshes.items():
                 h.vertices = e.world_surface(path, surfaces[path]).astype(np.float32)
-            for name, pts in (e.particles().items() if self.clouds else ()):
+            particles = e.particles() if self.clouds else {}
+            for name, pts in particles.items():
                 self.clouds[name].points = pts.astype(np.float32)
             if moved and self.ground is not None:
                 self.ground_image.image = self.ground.rgba(q)
+            if moved or surfaces or particles or self._card_due:  # due: holes held back, things now at rest
+                self._update_card(q, surfaces, particles)
         self._show_opening()
 
     def _handle(self, action: str) -> None:
@@ -464,3 +540,11 @@ def run_preview(shot, options: Options = Options()) -> dict:
     preview = Preview(shot, options)
     preview.start()
     return preview.run()
+
+
+def _posed(points: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """(N, 3) world points of a body's local ``points`` at ``pose`` (x, y, z, qx, qy, qz, qw)."""
+    from scipy.spatial.transform import Rotation
+
+    pose = np.asarray(pose, float)
+    return np.asarray(points, float) @ Rotation.from_quat(pose[3:7]).as_matrix().T + pose[:3]

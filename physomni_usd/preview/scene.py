@@ -69,12 +69,20 @@ def photo_view(stage: Usd.Stage) -> tuple[View, float]:
                 axes), float(cam.fx)
 
 
-def opening_frame(stage: Usd.Stage) -> np.ndarray:
+def opening_frame(stage: Usd.Stage, regions: bool = False):
     """(H, W, 3) uint8: the shot's first frame as ``render`` draws it through the photo's camera, at the
-    photo's size up to ``render``'s longest side (the photo itself wherever nothing has moved)."""
+    photo's size up to ``render``'s longest side (the photo itself wherever nothing has moved); with
+    ``regions``, also each object's pixels of it that change once the object moves (:func:`~.card.
+    object_regions`)."""
     from ..rendering.video import ShotRenderer
 
-    return ShotRenderer(stage).frame(float(stage.GetStartTimeCode()))
+    renderer = ShotRenderer(stage)
+    image = renderer.frame(float(stage.GetStartTimeCode()))
+    if not regions:
+        return image
+    from .card import object_regions
+
+    return image, object_regions(renderer)
 
 
 def opening_card(view: View, fx: float, distance: float) -> tuple[np.ndarray, np.ndarray, float, float]:
@@ -292,12 +300,15 @@ class GroundShadow:
         """(3,): the image's centre in the world, just above the ground."""
         return np.array([self.origin[0] + 0.5 * self.width, self.origin[1] + 0.5 * self.height, SHADOW_LIFT])
 
-    def darkening(self, poses: np.ndarray) -> np.ndarray:
-        """(h, w) float32: the ground's darkening with the bodies at ``poses`` (B, 7), row 0 towards −y."""
+    def darkening(self, poses: np.ndarray, bodies=None) -> np.ndarray:
+        """(h, w) float32: the ground's darkening with the bodies at ``poses`` (B, 7), row 0 towards −y; only
+        that of ``bodies`` (indices) where given."""
         import cv2
 
         light = np.ones(self.shape, np.float32)
         for body, t in self.tracks.items():
+            if bodies is not None and body not in bodies:
+                continue
             xy, turn, fade = t.place(np.asarray(poses[body], float))
             if fade <= 0.0:
                 continue

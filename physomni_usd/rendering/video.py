@@ -36,8 +36,10 @@ from .world import photo_environment
 #: many times coarser in each direction: each costs a closest-point query per moved object (at 4, the desk's ball
 #: alone took 45 ms of CPU a frame).
 SHADOW_STEP = 8
-#: An object whose surface is seen within this many pixels of where the photo shows it is in place: the
-#: frame shows the photo there (its edges, its real shadow), not the texture over the plate.
+#: An object that has moved no more than this many pixels is in place: the frame shows the photo there (its
+#: edges, its real shadow), not the texture over the plate. Through the photo's camera the motion is that of the
+#: object's own points since the first frame, so that the first frame is the photo whatever mesh the build lifted;
+#: through any other camera it is how far the surface seen is from where the photo shows it.
 IN_PLACE_PX = 0.75
 #: Further motion, in pixels, over which an object changes from the photo to its texture over the plate
 #: (the plate without it and its contact shadow, and its synthetic shadow wherever it now is).
@@ -212,17 +214,24 @@ class ShotRenderer:
             self.caster = RayCaster(pts, self.faces, self.corner_px, self.atlas_alpha, self.device)
             self.contact = ContactCaster(pts, self.faces, self.face_object, self.device)
             self._start_points = self.points_at(Usd.TimeCode(self.stage.GetStartTimeCode()))
+            self._start_hidden = list(self._hidden)
+        start = Usd.TimeCode(self.stage.GetStartTimeCode())
+        self._start_particles = {str(p.prim.GetPath()): np.asarray(UsdGeom.Points(p.prim).GetPointsAttr().Get(start)
+                                                                   or [], np.float64) for p in self.particles}
 
     def points_at(self, time: Usd.TimeCode) -> np.ndarray:
         """(N, 3) world points of every object mesh at ``time``, in the ray caster's order (a hidden object's
         collapsed onto one point, so that nothing hits it)."""
         cache = UsdGeom.XformCache(time)
         out = []
+        self._hidden = []
         for o in self.objects:
             pts = world_points(o, cache, self.stage, time)
-            if o.prim is not None and not visible(o.prim, time):
+            hidden = o.prim is not None and not visible(o.prim, time)
+            if hidden:
                 pts = np.broadcast_to(pts[:1], pts.shape)  # every triangle degenerate: nothing to hit
             out.append(pts)
+            self._hidden.append(hidden)
         ends = np.cumsum([len(p) for p in out])
         self._point_range = list(zip(ends - np.array([len(p) for p in out]), ends))
         return np.concatenate(out)
@@ -387,6 +396,22 @@ class ShotRenderer:
         return self.contact.darkening(cam.origin, self._shadow_rays, weight, reach,
                                       (env.backdrop_normal, env.backdrop_offset))
 
+    def _texel_offset(self, obj: np.ndarray, px: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For each pixel that sees the photo crop of an object's texture: how far (frame pixels) the texel it
+        sees lies from that pixel in the photo, as (H, W) bool which pixels those are, their objects and their
+        distances (in the order of ``np.nonzero``); 0 where the surface shows the photo's own pixel.
+
+        ``obj`` (H, W) is the object seen through each pixel (−1 for none), ``px`` its atlas coordinates."""
+        # only the photo crop of each texture says where the photo shows the object; its unseen sides'
+        # opaque copy (lift/sides.py) lies to the right of it and says nothing
+        hit = (obj >= 0) & (px[..., 0] < self.photo_width[np.maximum(obj, 0)])
+        ys, xs = np.nonzero(hit)
+        k = obj[hit]
+        shift = self.atlas_to_photo[k]
+        sx = (px[hit][:, 0] + shift[:, 0]) * self.to_frame[0]
+        sy = (px[hit][:, 1] + shift[:, 1]) * self.to_frame[1]
+        return hit, k, np.hypot(sx - (xs + 0.5), sy - (ys + 0.5))
+
     def _moved(self, obj: np.ndarray, px: np.ndarray) -> np.ndarray:
         """(K,) per object, 0 where it is seen where the photo shows it, rising to 1 once it has moved
         :data:`IN_PLACE_PX` + :data:`REVEAL_PX` pixels (1 for objects not seen, or not placed in the photo).
@@ -396,15 +421,7 @@ class ShotRenderer:
         moved = np.ones(k_all + 1, np.float32)  # the last entry stands for "no object"
         if self.photo is None:
             return moved
-        # only the photo crop of each texture says where the photo shows the object; its unseen sides'
-        # opaque copy (lift/sides.py) lies to the right of it and says nothing
-        hit = (obj >= 0) & (px[..., 0] < self.photo_width[np.maximum(obj, 0)])
-        ys, xs = np.nonzero(hit)
-        k = obj[hit]
-        shift = self.atlas_to_photo[k]
-        sx = (px[hit][:, 0] + shift[:, 0]) * self.to_frame[0]
-        sy = (px[hit][:, 1] + shift[:, 1]) * self.to_frame[1]
-        d = np.hypot(sx - (xs + 0.5), sy - (ys + 0.5))
+        _, k, d = self._texel_offset(obj, px)
         order = np.argsort(k, kind="stable")
         k, d = k[order], d[order]
         bounds = np.searchsorted(k, np.arange(k_all + 1))
@@ -414,6 +431,62 @@ class ShotRenderer:
                 m = float(np.percentile(di, 90))
                 moved[i] = np.clip((m - IN_PLACE_PX) / REVEAL_PX, 0.0, 1.0)
         return moved
+
+    def _shows_photo(self, obj: np.ndarray, px: np.ndarray) -> np.ndarray:
+        """(H, W) float32, 1 where the surface seen shows the photo's own pixel there (to within :data:`IN_PLACE_PX`
+        + :data:`REVEAL_PX`), 0 elsewhere: a side wall stretched from the outline, an unseen side, no surface."""
+        hit, _, d = self._texel_offset(obj, px)
+        out = np.zeros(obj.shape, np.float32)
+        out[hit] = d <= IN_PLACE_PX + REVEAL_PX
+        return out
+
+    def _pixel_motion(self, cam, now: np.ndarray, start: np.ndarray) -> float:
+        """The farthest any of the points ``now`` (N, 3) has moved on the screen of ``cam`` (pixels) from where it
+        was at the first frame (``start``, the same points); 0 for points that have not moved at all."""
+        if now.shape != start.shape:
+            return np.inf
+        if np.array_equal(now, start):
+            return 0.0
+        uv0, z0 = cam.project(start)
+        uv1, z1 = cam.project(now)
+        front = (z0 > 1e-6) & (z1 > 1e-6)
+        if not front.all():  # a point crossed behind the camera: it has moved, however far that shows
+            return np.inf
+        return float(np.max(np.hypot(*(uv1 - uv0).T))) if len(now) else 0.0
+
+    def _moved_since_start(self, cam, points: np.ndarray, particles: list) -> tuple[np.ndarray, list]:
+        """Through the photo's camera: (K + 1,) per object, 0 where it has not moved since the first frame, rising
+        to 1 once a point of it has moved :data:`IN_PLACE_PX` + :data:`REVEAL_PX` pixels (as :meth:`_moved`);
+        and the particle sets (of ``particles``) that have moved at all, the only ones drawn.
+
+        Motion, not how well the lifted mesh reproduces the photo, decides: an object in place is the photo,
+        whatever its mesh, texture or stretched side walls would show. An object hidden now that was seen at
+        the first frame has moved (it left), unless its particles, which stand in for it, have not."""
+        k_all = len(self.objects)
+        moved = np.ones(k_all + 1, np.float32)
+        index = {o.path: k for k, o in enumerate(self.objects)}
+        drawn, by_object = [], {}
+        for part, pts in particles:
+            d = self._pixel_motion(cam, pts, self._start_particles.get(str(part.prim.GetPath()), np.zeros((0, 3))))
+            m = float(np.clip((d - IN_PLACE_PX) / REVEAL_PX, 0.0, 1.0))
+            if m > 0.0:
+                drawn.append((part, pts))
+            owner = index.get(part.prim.GetCustomDataByKey("physomni:object"))
+            if owner is not None:
+                by_object[owner] = max(by_object.get(owner, 0.0), m)
+        for k in range(k_all):
+            lo, hi = self._point_range[k]
+            if self._hidden[k]:
+                d = np.inf
+                if k in by_object:
+                    moved[k] = by_object[k]
+                    continue
+            elif self._start_hidden[k]:
+                d = np.inf  # it appeared
+            else:
+                d = self._pixel_motion(cam, points[lo:hi], self._start_points[lo:hi])
+            moved[k] = np.clip((d - IN_PLACE_PX) / REVEAL_PX, 0.0, 1.0)
+        return moved, drawn
 
     def frame(self, t: float) -> np.ndarray:
         """The composited frame at time code ``t``, (H, W, 3) uint8."""
@@ -448,7 +521,12 @@ class ShotRenderer:
                            self.caster.mesh_depth.copy(), self.caster.bary.copy(), drawn)
         hit = face >= 0
         obj = np.where(hit, self.face_object[np.maximum(face, 0)], -1)
-        moved = self._moved(obj, px)
+        faithful = None
+        if self._is_photo_camera(cam) and self.photo is not None:
+            moved, particles = self._moved_since_start(cam, points, particles)
+            faithful = self._shows_photo(obj, px)
+        else:
+            moved = self._moved(obj, px)
         s = self.settings
         shadow = self._contact_shadow(cam, time_code, points, moved)
         blur = s.shadow_blur * float(np.hypot(self.width, self.height)) / SHADOW_STEP
@@ -470,7 +548,13 @@ class ShotRenderer:
         if self.photo is not None:  # an object in place is the photo itself, without resampling, unless the
             # object the photo shows there has left (the saucer where the cup stood shows its texture)
             colour = self.photo + np.maximum(moved[obj], moved[owner])[..., None] * (colour - self.photo)
-        a = np.where(hit, np.clip(alpha, 0.0, 1.0), 0.0)[..., None]
+        a = np.where(hit, np.clip(alpha, 0.0, 1.0), 0.0)
+        if faithful is not None:
+            # an object in place is seen only where its surface shows the photo's own pixel: where another
+            # object has left, the lift's stretched walls and unseen sides of what stayed are not drawn over
+            # the plate, while what stayed and was hidden (the saucer under the cup) is
+            a *= np.maximum(moved[obj], faithful)
+        a = a[..., None]
         out = out * (1.0 - a) + colour * a
         if self.particles:
             out = self._splat(np.ascontiguousarray(out, np.float32), cam, particles, self.caster.depth, drawn)
