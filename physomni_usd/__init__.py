@@ -83,8 +83,12 @@ def run(photo, out_dir, masks=(), boxes=(), settings=None, simulate_settings=Non
     them. Every option is checked, and the video's path found writable, before any work.
     ``progress(stage, done, total)`` follows simulate and render frame by frame; ``on_stage(stage, result)``
     is called as each of :data:`RUN_STAGES` starts (``result`` None) and ends (its section; the
-    :class:`physomni_usd.building.BuildResult` for ``build``). On failure the stage's exception is raised as it
-    is, and nothing this call wrote is left (``physomni_usd._files.all_or_nothing``).
+    :class:`physomni_usd.building.BuildResult` for ``build``). A failure before the build is written (bad input,
+    a refused scene) is raised as it is, and nothing this call wrote is left
+    (``physomni_usd._files.all_or_nothing``). A failure after it (simulate or render) keeps the built shot,
+    so that it can be looked at, edited and simulated again: ``report.json``'s ``run`` section says which
+    stage failed and why, and a :class:`physomni_usd.errors.PhysOmniError` saying the same is raised (with
+    the stage's exit code). An interruption (Ctrl-C, a terminating signal) still puts every file back.
 
     Returns ``{"build": BuildResult, "simulate": section, "render": section, "total_seconds": float}``.
     """
@@ -92,6 +96,8 @@ def run(photo, out_dir, masks=(), boxes=(), settings=None, simulate_settings=Non
     import time
 
     from ._files import all_or_nothing, check_writable
+    from .errors import PhysOmniError
+    from .failure import failure_of
     from .rendering.video import check_camera_move
     from .report import update_report
     from .settings import REST_SECONDS, BuildSettings, RenderSettings, SimulateSettings
@@ -115,15 +121,31 @@ def run(photo, out_dir, masks=(), boxes=(), settings=None, simulate_settings=Non
         stage("build")
         built = build(photo, out_dir, masks, boxes, settings, echo=echo, **options)
         stage("build", built)
-        stage("simulate")
-        simulated = simulate(built.shot, simulate_settings, progress=follow("simulate"), echo=echo)
-        stage("simulate", simulated)
-        stage("render")
-        rendered = render(built.shot, None, render_settings, progress=follow("render"), camera=camera,
-                          camera_amount=camera_amount)
-        stage("render", rendered)
-        total = round(time.perf_counter() - t0, 3)
-        update_report(built.folder, run={"total_seconds": total})
+        current = "simulate"
+        try:
+            stage("simulate")
+            simulated = simulate(built.shot, simulate_settings, progress=follow("simulate"), echo=echo)
+            stage("simulate", simulated)
+            current = "render"
+            stage("render")
+            rendered = render(built.shot, None, render_settings, progress=follow("render"), camera=camera,
+                              camera_amount=camera_amount)
+            stage("render", rendered)
+        except Exception as exc:  # noqa: BLE001 — an interruption is no failure of the shot: it unwinds all
+            # the shot built is the user's best handle on why the later stage failed (validate, preview, edits)
+            found = failure_of(exc, current)
+            update_report(built.folder, run={"failed": {"stage": current, "message": found.message,
+                                                        "exit_code": found.exit_code,
+                                                        "seconds": round(time.perf_counter() - t0, 3)}})
+            failed = PhysOmniError(f"{current} failed: {found.message} (the built shot and report.json are kept "
+                                   f"in {built.folder})", exit_code=found.exit_code)
+            failed.__cause__ = exc
+        else:
+            failed = None
+            total = round(time.perf_counter() - t0, 3)
+            update_report(built.folder, run={"total_seconds": total})
+    if failed is not None:  # raised after the block, which keeps what build wrote
+        raise failed
     return {"build": built, "simulate": simulated, "render": rendered, "total_seconds": total}
 
 

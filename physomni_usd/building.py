@@ -312,6 +312,11 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         checks = [f.as_dict() for f in scene_findings(stage)]
     for c in checks:
         echo(f"check: {c['severity']}: {c['message']}")
+    overlap = next((c for c in checks if c["severity"] == "error" and c["check"] == "penetration"), None)
+    if overlap is not None:  # the separation pass measures as the check does: this is a bug, not the photo
+        from .errors import PhysOmniError
+
+        raise PhysOmniError(f"{overlap['message']} after the separation pass: simulate would refuse the scene")
     old = read_report(out) or {}
     for key in ("simulate", "render", "run"):  # they described the old shot
         old.get("stages", {}).pop(key, None)
@@ -402,9 +407,9 @@ def _place(scene: Scene) -> None:
     solved = solve_places(camera, verts, faces, [o.amodal for o in scene.objects], supports,
                           [o.mask.label for o in scene.objects],
                           [(k, i) for i, o in enumerate(scene.objects) for k in o.occluders], scene.masks)
-    verts = solved.vertices
     align_info["solve"] = solved.info | {"objects": [{"name": o.name, **s} for o, s in
                                                      zip(scene.objects, solved.info["objects"])]}
+    verts = _separated(scene, camera, solved.vertices, faces, shapes, supports, align_info)
     centre = centring_offset(verts)
     scene.camera = camera.moved(centre)
     scene.align_info = align_info
@@ -414,6 +419,28 @@ def _place(scene: Scene) -> None:
                           [o.name for o in scene.objects])
     for o, r in zip(scene.objects, rest):
         o.rest = r
+
+
+def _separated(scene: Scene, camera, verts, faces, shapes, supports, align_info: dict) -> list:
+    """The placed vertices with no pair deeper in each other than the contact margin (``align.separate``), so
+    that ``simulate`` never refuses what ``build`` wrote; a pair no pass separates ends the build, named."""
+    from .align.separate import Unseparable, separate_pairs
+    from .errors import PhysOmniError
+    from .physics.diagnose import PENETRATION_ERROR_FRACTION, PENETRATION_ERROR_M
+
+    def refused(depth, a, b):  # as physics.diagnose.scene_findings judges a start overlap
+        small = min(float(np.ptp(a.vertices, axis=0).min()), float(np.ptp(b.vertices, axis=0).min()))
+        return depth > PENETRATION_ERROR_M and depth > PENETRATION_ERROR_FRACTION * small
+
+    try:
+        verts, done = separate_pairs(verts, faces, [s == "vessel" for s in shapes], supports, camera,
+                                     scene.photo.shape[:2], [o.name for o in scene.objects], error=refused)
+    except Unseparable as exc:
+        raise PhysOmniError(f"{exc}, which no separation of the placed objects could undo, and simulate would "
+                            f"refuse the scene; give their masks again (or --size, --pitch) and build again") from None
+    if done:
+        align_info["separated"] = done
+    return verts
 
 
 def _occlusion_report(scene: Scene) -> list[dict]:

@@ -49,3 +49,28 @@ def test_a_shot_that_fails_tells_its_stage_type_message_and_code(tmp_path, photo
     assert failure["stage"] == stage and failure["type"] == kind and failure["exit_code"] == exit_code == code
     assert says in failure["message"] and f"error: {failure['message']}" in lines
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("failing", ["simulate", "render"])
+def test_a_run_that_fails_after_build_keeps_the_shot_and_says_which_stage_and_why(tmp_path, photo, monkeypatch,
+                                                                                    failing):
+    from physomni_usd.errors import PhysOmniError
+
+    def fail(*args, **kwargs):
+        raise PhysOmniError("simulation diverged at frame 3: the energy grew", exit_code=1)
+
+    monkeypatch.setattr(physomni_usd, failing, fail)
+    folder = tmp_path / "shot"
+    with pytest.raises(PhysOmniError) as caught:
+        physomni_usd.run(photo["photo"], folder, masks=[f"{photo['box']}:box"], settings=BuildSettings(fps=10),
+                         simulate_settings=SimulateSettings(seconds=0.2))
+    said = str(caught.value)
+    assert said.startswith(f"{failing} failed: simulation diverged at frame 3") and str(folder) in said
+    assert "\n" not in said and caught.value.exit_code == 1
+    for name in ("shot.usda", "scene.usda", "physics.usda", "edits.usda", "report.json"):
+        assert (folder / name).is_file(), name
+    report = json.loads((folder / "report.json").read_text())
+    failed = report["stages"]["run"]["failed"]
+    assert failed["stage"] == failing and failed["message"].startswith("simulation diverged at frame 3")
+    assert failed["exit_code"] == 1 and "build" in report["stages"]
+    assert not (folder / "video.mp4").exists()

@@ -65,12 +65,14 @@ class ShotModels:
         # feet for objects whose visible geometry cannot stand where the photo shows them standing
         self.supported = add_hidden_support(builder, objects, self.path_body, _ground_height(stage), newton, wp)
         self.ranges = {}  # cloth / soft body path → (first particle, count)
+        self.cloth_sheets = {}  # cloth path → its cloth.ClothSheet (how its surface follows its particles)
         self.soft_bindings = {}  # soft body path → its surface's binding to the tetrahedra
         self.soft_rest = {}  # soft body path → its particles' rest positions (P, 3)
         self.soft_dt = None
         for o in objects:
             if o.family == "cloth":
-                self.ranges[o.path] = add_cloth(builder, o, wp)
+                start, count, self.cloth_sheets[o.path] = add_cloth(builder, o, wp)
+                self.ranges[o.path] = (start, count)
             elif o.family == "soft":
                 start, count, rest, dt_soft = add_soft_body(builder, o, wp)
                 self.soft_dt = min(self.soft_dt or dt_soft, dt_soft)

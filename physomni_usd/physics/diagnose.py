@@ -85,7 +85,7 @@ def _mass(prim: Usd.Prim, mesh) -> float | None:
     return rho * abs(float(volume))
 
 
-def _overlap_depth(a, b, hollow=(False, False)) -> float:
+def overlap_depth(a, b, hollow=(False, False)) -> float:
     """Deepest vertex of ``a`` inside ``b`` or of ``b`` inside ``a`` (metres; 0 when apart); ``hollow``: whether
     each collides as convex pieces (``pieces.py``) rather than its hull."""
     import trimesh
@@ -158,7 +158,7 @@ def scene_findings(stage: Usd.Stage, time: float = 0.0) -> list[SceneFinding]:
             out.append(SceneFinding("warning", name, "ground", f"{name} floats {length(low)} above the ground", 0.5))
     for i, a in enumerate(names):
         for b in names[i + 1:]:
-            depth = _overlap_depth(meshes[a], meshes[b], tuple(
+            depth = overlap_depth(meshes[a], meshes[b], tuple(
                 is_decomposed(stage.GetPrimAtPath(f"{OBJECTS}/{n}")) for n in (a, b)))
             if depth <= PENETRATION_WARN_M:
                 continue

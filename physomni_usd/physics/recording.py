@@ -28,7 +28,6 @@ class Recorder:
         self.surfaces = {o.path: np.zeros((frames, len(o.points), 3)) for o in models.objects
                          if o.family in ("cloth", "soft") or (mpm and o.family == "mpm" and o.kind in SURFACE_TYPES)}
         self.mpm_points = np.zeros((frames, mpm.model.particle_count, 3), np.float32) if mpm else None
-        self.cloth_lift = {}  # cloth path → the lift add_cloth gave its particles at the start (3,)
 
     def record(self, f: int) -> None:
         m = self.models
@@ -46,12 +45,11 @@ class Recorder:
                 continue
             if o.family == "cloth":
                 start, count = m.ranges[o.path]
-                world = x[start:start + count].astype(np.float64)
-                # add_cloth starts the particles lifted clear of the ground for contact; drawn without that lift,
-                # frame 0 is the surface as built (the photo) and the cloth rests on what it touches
-                if f == 0:
-                    self.cloth_lift[o.path] = np.median(world - o.points, axis=0)
-                world = world - self.cloth_lift.get(o.path, 0.0)
+                sheet = m.cloth_sheets[o.path]
+                # each surface vertex at its rest offset from its particle: add_cloth starts the particles lifted
+                # clear of the ground for contact, and the offsets take that lift off, so that frame 0 is the
+                # surface as built (the photo) and the cloth rests on what it touches
+                world = x[start:start + count].astype(np.float64)[sheet.index] + sheet.offset
             elif o.family == "soft":
                 start, count = m.ranges[o.path]
                 now = x[start:start + count].astype(np.float64)
