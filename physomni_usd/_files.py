@@ -22,7 +22,7 @@ import tempfile
 import time
 from contextlib import contextmanager
 
-from .errors import InputError, PhysOmniError
+from .errors import InputError, PhysOmniError, raise_if_signalled, signals_held
 
 #: The lock (and journal) file in each folder a command writes to; removed when the command ends.
 LOCK = ".physomni.lock"
@@ -240,17 +240,32 @@ def all_or_nothing():
         return
     writes = _Writes()
     token = _ACTIVE.set(writes)
+    done = False
     try:
         yield
+        done = True
     except BaseException:
-        writes.roll_back()
+        with signals_held():  # a signal now would leave the roll-back half done
+            writes.roll_back()
         raise
-    else:
-        writes.commit()
-        writes.dirs.clear()  # kept: the command succeeded
     finally:
-        _ACTIVE.reset(token)
-        writes.release()
+        if not done:
+            _ACTIVE.reset(token)
+            writes.release()
+    # From the last look for a signal to the end of the commit a signal is only noted: it must not cut the
+    # commit in half (the journals are emptied folder after folder); one noted meanwhile is raised after it.
+    with signals_held():
+        try:
+            try:
+                raise_if_signalled()  # one whose exception was swallowed on the way still undoes the command
+            except BaseException:
+                writes.roll_back()
+                raise
+            writes.commit()
+            writes.dirs.clear()  # kept: the command succeeded
+        finally:
+            _ACTIVE.reset(token)
+            writes.release()
 
 
 @contextmanager
