@@ -269,7 +269,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         files = {f"{TEXTURES}/{o.name}.png" for o in objects} | {f"{INPUTS}/masks/{o.name}.png" for o in objects}
         files |= {f"{TEXTURES}/plate.png", f"{TEXTURES}/{WIDE_PLATE}", f"{INPUTS}/photo.png"}
         targets = sorted(files) + [MASKS_SHEET, layers.SCENE, layers.PHYSICS, layers.SIM, layers.SHOT, layers.EDITS, REPORT]
-        check_writable([out / f for f in targets])
+        check_writable([out / f for f in targets], inside=out)  # textures/, inputs/masks/ too
         out = prepare_output(out)
         set_aside_damaged(out, echo)
     h, w = photo.shape[:2]

@@ -43,7 +43,10 @@ def save_layer(layer: Sdf.Layer, path: os.PathLike | str) -> pathlib.Path:
     file format (usda or usdc). A layer already open under ``path`` in this
     process is reloaded so later stages see the new content.
     """
-    path = pathlib.Path(path).resolve()
+    # the folder resolved (it may be a link the user made), the file not: a layer that is a link is refused,
+    # never written through (atomic_path)
+    path = pathlib.Path(path)
+    path = path.parent.resolve() / path.name
     with atomic_path(path) as tmp:
         if not layer.Export(str(tmp)):
             raise OSError(f"USD could not write {path.name}")
