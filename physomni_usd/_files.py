@@ -24,7 +24,7 @@ import tempfile
 import time
 from contextlib import contextmanager
 
-from .errors import InputError, PhysOmniError, raise_if_signalled, signals_held
+from .errors import InputError, PhysOmniError, raise_if_signalled, received_signal, signals_held
 
 #: The lock (and journal) file in each folder a command writes to; removed when the command ends.
 LOCK = ".physomni.lock"
@@ -318,6 +318,9 @@ def all_or_nothing():
         return
     writes = _Writes()
     token = _ACTIVE.set(writes)
+    # a signal that came before this block was dealt with by whoever caught it (the preview stops on Ctrl-C,
+    # then writes its take): only one that comes while the block runs undoes the block
+    earlier = received_signal()
     done = False
     try:
         yield
@@ -335,7 +338,8 @@ def all_or_nothing():
     with signals_held():
         try:
             try:
-                raise_if_signalled()  # one whose exception was swallowed on the way still undoes the command
+                if earlier is None:
+                    raise_if_signalled()  # one whose exception was swallowed on the way still undoes the command
             except BaseException:
                 writes.roll_back()
                 raise

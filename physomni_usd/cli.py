@@ -66,11 +66,10 @@ def _fail(message: str, code: int) -> None:
 @contextmanager
 def _errors():
     """Turn our exceptions and pydantic's into one line and an exit code (:func:`failure.failure_of`)."""
-    from .errors import Interrupted, raise_if_signalled, received_signal
+    from .errors import Interrupted, received_signal
 
     try:
         yield
-        raise_if_signalled()  # one whose exception a library swallowed: the command must not end as a success
     except (Exception, KeyboardInterrupt) as exc:
         if received_signal() is not None and not isinstance(exc, Interrupted):
             # whatever broke after a signal whose exception was swallowed (a module left half-imported) is

@@ -51,7 +51,8 @@ class Interrupted(KeyboardInterrupt):
 #: be noted (:func:`signals_held`). Kept apart from the exception because the exception can be lost: a
 #: handler's exception is raised wherever the main thread happens to be, and libraries that import their
 #: optional parts under ``except BaseException`` (trimesh does) swallow it, after which the command would
-#: finish and keep its files as if no signal had come.
+#: finish and keep its files as if no signal had come. ``_files.all_or_nothing`` looks here before it
+#: commits.
 _SIGNAL = {"received": None, "held": False}
 
 

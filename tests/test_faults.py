@@ -206,3 +206,32 @@ def test_no_write_goes_through_a_link(tmp_path):
         check_writable([shot / "textures" / "cup_0.png"], inside=shot)
     check_writable([decoy / "video.mp4"], inside=shot)  # an output the user names outside the shot is theirs
     assert (decoy / "victim.txt").read_text() == "victim" and sorted(p.name for p in decoy.iterdir()) == ["victim.txt"]
+
+
+CAUGHT = """
+import os, pathlib, signal, sys, time
+from physomni_usd.cli import _stop_on_signals
+from physomni_usd._files import all_or_nothing, write_bytes
+
+target = pathlib.Path(sys.argv[1])
+_stop_on_signals()
+try:
+    os.kill(os.getpid(), signal.SIGTERM)
+    time.sleep(5)
+except KeyboardInterrupt:  # caught on purpose, as the preview stops on it and then writes its take
+    pass
+with all_or_nothing():
+    write_bytes(target, b"take")
+print(target.read_bytes().decode())
+"""
+
+
+def test_a_signal_caught_on_purpose_before_a_write_does_not_undo_it(tmp_path):
+    """The preview stops on Ctrl-C or SIGTERM and then writes its take: that later write is kept."""
+    import subprocess
+    import sys
+
+    target = tmp_path / "sim.usdc"
+    target.write_bytes(b"old")
+    proc = subprocess.run([sys.executable, "-c", CAUGHT, str(target)], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0 and proc.stdout.strip() == "take", proc.stdout + proc.stderr
