@@ -15,7 +15,6 @@ import http.server
 import json
 import os
 import pathlib
-import re
 import shutil
 import signal
 import struct
@@ -495,7 +494,9 @@ def hostile_trials(base, work, name: str, plant, expect: dict[str, tuple[int, st
     is byte for byte what it was (`estimate --set` adds its value to it when it succeeds)."""
     trials = []
     for cmd in commands or expect:
-        where = work / re.sub(r"\W+", "_", f"{name} {cmd}")
+        # numbered, not named: a folder named after the trial ("sublayer_cycle") would put the very words that
+        # the old code's message filter looked for into every path, and hide what the trial is to find
+        where = work / f"trial{sum(1 for _ in work.iterdir()):02d}"
         where.mkdir()
         decoy = decoy_beside(base, where)
         folder = copy_shot(base, where / "shot")
@@ -580,15 +581,26 @@ def case_uncomposable(base, work):
                                    dict.fromkeys(shot_commands(base, work), (2, "gone.usda")))
 
 
+def _mask_box(base) -> str:
+    """``X0,Y0,X1,Y1`` around the base shot's first mask: a box with an object in it, which GrabCut cuts."""
+    import cv2
+    import numpy as np
+
+    mask = cv2.imread(base["masks"][0].rpartition(":")[0], cv2.IMREAD_GRAYSCALE)
+    ys, xs = np.nonzero(mask)
+    return f"{xs.min()},{ys.min()},{xs.max() + 1},{ys.max() + 1}"
+
+
 def case_huge_label(base, work):
     """A 10,000-character label (build) or name (estimate --set): exit 2 naming the option, nothing written."""
     huge = "a" * 10000
     trials = []
     for option, args in (("--mask", lambda folder: ["build", base["photo"], "-o", folder, "--mask",
                                                     f"{base['masks'][0].rpartition(':')[0]}:{huge}"]),
-                         ("--box", lambda folder: ["build", base["photo"], "-o", folder, "--box", f"10,10,60,60:{huge}"]),
+                         ("--box", lambda folder: ["build", base["photo"], "-o", folder, "--box",
+                                                   f"{_mask_box(base)}:{huge}"]),
                          ("--set", lambda folder: ["estimate", folder / "shot.usda", "--set", f"{huge}.density=300"])):
-        where = work / f"label{option}"
+        where = work / f"label{option.strip('-')}"
         where.mkdir()
         decoy_beside(base, where)
         folder = copy_shot(base, where / "shot")
