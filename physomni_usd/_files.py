@@ -18,11 +18,13 @@ import json
 import os
 import pathlib
 import shutil
+import stat
+import sys
 import tempfile
 import time
 from contextlib import contextmanager
 
-from .errors import InputError, PhysOmniError
+from .errors import InputError, PhysOmniError, raise_if_signalled, received_signal, signals_held
 
 #: The lock (and journal) file in each folder a command writes to; removed when the command ends.
 LOCK = ".physomni.lock"
@@ -49,12 +51,20 @@ class _Lock:
         deadline = time.monotonic() + wait_s
         while True:
             try:
-                fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666 & ~_umask())
+                # O_NOFOLLOW: a lock planted as a link (to a file anywhere) must not get our journal written
+                # into what it points at
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o666 & ~_umask())
             except OSError as exc:
+                if exc.errno in (errno.ELOOP, errno.EISDIR, errno.ENXIO):
+                    refuse_link(self.path)
+                    raise InputError(f"cannot write in {folder}: {self.path} is not a file; remove it") from None
                 if exc.errno not in (errno.EACCES, errno.EPERM, errno.EROFS):
                     raise
                 raise InputError(f"cannot write in {folder}: the folder {folder} is not writable "
                                  f"({exc.strerror})") from None
+            if not stat.S_ISREG(os.fstat(fd).st_mode):  # a FIFO or a device of that name
+                os.close(fd)
+                raise InputError(f"cannot write in {folder}: {self.path} is not a file; remove it")
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
@@ -74,18 +84,26 @@ class _Lock:
             os.close(fd)
         self.fd = fd
         try:
-            _recover(folder, self.read())
+            _recover(folder, self.read(), self.raw())
             self.journal = {"pid": os.getpid(), "saved": {}, "temporary": []}
             self.write()
         except BaseException:
             self.release()
             raise
 
-    def read(self) -> dict | None:
+    def raw(self) -> bytes:
         try:
-            data = os.pread(self.fd, 1 << 20, 0)
+            return os.pread(self.fd, 1 << 20, 0)
+        except OSError:
+            return b""
+
+    def read(self):
+        """The journal left in the lock file: None where there is none (or it is no JSON at all, as a
+        journal cut short by a full disk), else whatever JSON it holds (:func:`journal_refusal` judges it)."""
+        data = self.raw()
+        try:
             return json.loads(data) if data.strip() else None
-        except (OSError, ValueError):
+        except ValueError:
             return None
 
     def write(self) -> None:
@@ -115,17 +133,76 @@ def _holder(path: pathlib.Path) -> str:
     return f"pid {pid}" if pid else "another process"
 
 
-def _recover(folder: pathlib.Path, journal: dict | None) -> None:
+def _plain(name) -> bool:
+    """Whether ``name`` is a plain file name in a folder: no separator, not absolute, not ``.`` or ``..``."""
+    return (isinstance(name, str) and name not in ("", ".", "..") and "/" not in name and "\\" not in name
+            and "\0" not in name and os.path.basename(name) == name)
+
+
+def _kept_name(name: str, backup) -> bool:
+    """Whether ``backup`` is what :meth:`_Writes.keep` calls the kept copy of ``name``."""
+    return _plain(backup) and backup.startswith(f".{name}.{TAG}") and backup.endswith(".keep")
+
+
+def journal_refusal(journal) -> str | None:
+    """Why ``journal`` (read from a folder's lock file) cannot be what one of our commands wrote, or None.
+
+    A shot folder travels (a colleague's tarball, a share), so its lock file is input like any other: only
+    plain names in the folder are followed, each kept copy named as :meth:`_Writes.keep` names it. Anything
+    else (an absolute name, ``..``, a separator, another file given as a kept copy) would let the folder
+    delete or replace files anywhere, or move one of its own files (``edits.usda``) over another."""
+    if not isinstance(journal, dict):
+        return "it is not a journal"
+    saved, temporary = journal.get("saved") or {}, journal.get("temporary") or []
+    if not isinstance(saved, dict) or not isinstance(temporary, list):
+        return "it is not a journal"
+    for name, backup in saved.items():
+        if not _plain(name):
+            return f"it names {name!r}, which is not a file in the folder"
+        if backup is not None and not _kept_name(name, backup):
+            return f"it names {backup!r} as the old content of {name}, which is not a copy we keep"
+    for name in temporary:
+        if not (_plain(name) and name.startswith(".") and TAG in name):
+            return f"it names {name!r} as a temporary file, which is not one of ours"
+    return None
+
+
+def _set_aside(folder: pathlib.Path, data: bytes) -> str:
+    """Keep a refused journal's text beside the lock as ``.physomni.lock.bad`` (``.bad.1``, … if taken), never
+    through a link and never over a file; returns its name."""
+    n = 0
+    while True:
+        name = f"{LOCK}.bad" + (f".{n}" if n else "")
+        try:
+            fd = os.open(folder / name, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o666 & ~_umask())
+        except FileExistsError:
+            n += 1
+            continue
+        try:
+            os.write(fd, data)
+        finally:
+            os.close(fd)
+        return name
+
+
+def _recover(folder: pathlib.Path, journal: dict | None, raw: bytes = b"") -> None:
     """Put ``folder`` back as it was before a command that died while it held the lock (its journal says
-    what it had changed), and remove our temporary and kept files any earlier run left behind."""
-    if journal:
+    what it had changed), and remove our temporary and kept files any earlier run left behind. A journal
+    that names anything but our own files in the folder is not followed at all: it is set aside, with one
+    line."""
+    refusal = journal_refusal(journal) if journal is not None else None
+    if refusal is not None:
+        kept = _set_aside(folder, raw)
+        sys.stderr.write(f"warning: {folder / LOCK} is no journal of ours ({refusal}); nothing was restored "
+                         f"from it, and it is kept as {kept}\n")
+    elif journal:
         for name, backup in (journal.get("saved") or {}).items():
             path = folder / name
             try:
                 if backup is None:
-                    if path.is_file():
+                    if path.is_file() or path.is_symlink():  # a link is removed, never what it points at
                         path.unlink()
-                elif (folder / backup).is_file():
+                elif stat.S_ISREG(os.lstat(folder / backup).st_mode):
                     os.replace(folder / backup, path)
             except OSError:
                 pass
@@ -168,6 +245,7 @@ class _Writes:
         path = pathlib.Path(os.path.abspath(path))
         if path in self.saved:
             return
+        refuse_link(path)  # its old content would be read through the link, and put back into the link
         lock = self.hold(path.parent)
         if not path.is_file():
             self.saved[path] = None
@@ -240,17 +318,36 @@ def all_or_nothing():
         return
     writes = _Writes()
     token = _ACTIVE.set(writes)
+    # a signal that came before this block was dealt with by whoever caught it (the preview stops on Ctrl-C,
+    # then writes its take): only one that comes while the block runs undoes the block
+    earlier = received_signal()
+    done = False
     try:
         yield
+        done = True
     except BaseException:
-        writes.roll_back()
+        with signals_held():  # a signal now would leave the roll-back half done
+            writes.roll_back()
         raise
-    else:
-        writes.commit()
-        writes.dirs.clear()  # kept: the command succeeded
     finally:
-        _ACTIVE.reset(token)
-        writes.release()
+        if not done:
+            _ACTIVE.reset(token)
+            writes.release()
+    # From the last look for a signal to the end of the commit a signal is only noted: it must not cut the
+    # commit in half (the journals are emptied folder after folder); one noted meanwhile is raised after it.
+    with signals_held():
+        try:
+            try:
+                if earlier is None:
+                    raise_if_signalled()  # one whose exception was swallowed on the way still undoes the command
+            except BaseException:
+                writes.roll_back()
+                raise
+            writes.commit()
+            writes.dirs.clear()  # kept: the command succeeded
+        finally:
+            _ACTIVE.reset(token)
+            writes.release()
 
 
 @contextmanager
@@ -295,6 +392,7 @@ def make_dirs(path: os.PathLike | str) -> pathlib.Path:
 def remove_file(path: os.PathLike | str) -> None:
     """Delete a file (its content comes back if the command fails)."""
     path = pathlib.Path(path)
+    refuse_link(path)
     if not path.is_file():
         return
     writes = _ACTIVE.get()
@@ -312,6 +410,7 @@ def atomic_path(path: os.PathLike | str):
     and ``path`` is left as it was.
     """
     path = pathlib.Path(path)
+    refuse_link(path)  # the rename would replace the link, not write through it; but the link was someone's
     with all_or_nothing():  # a lone write still takes the folder's lock and journals its temporary file
         writes = _ACTIVE.get()
         writes.hold(path.parent)
@@ -352,9 +451,36 @@ def write_json(path: os.PathLike | str, data) -> pathlib.Path:
     return write_bytes(path, (json.dumps(data, indent=2) + "\n").encode())
 
 
-def check_writable(paths) -> None:
+def refuse_link(path: os.PathLike | str) -> None:
+    """Raise :class:`InputError` (exit 2) if ``path`` is a symbolic link: a shot folder may come from anyone,
+    and a link in it must not carry a write (or a removal) to a file outside."""
+    if os.path.islink(path):
+        try:
+            to = f" (to {os.readlink(path)})"
+        except OSError:
+            to = ""
+        raise InputError(f"cannot write {path}: it is a symbolic link{to}, and files are written only inside "
+                         "the folder, never through a link; remove the link (or put the file itself there)")
+
+
+def _link_below(path: pathlib.Path, inside: pathlib.Path) -> pathlib.Path | None:
+    """The first folder between ``inside`` (excluded: the user may have made it a link) and ``path`` that is
+    a symbolic link, or None; also None when ``path`` is not under ``inside`` (an output the user named)."""
+    path, inside = pathlib.Path(os.path.abspath(path)), pathlib.Path(os.path.abspath(inside))
+    try:
+        parts = path.parent.relative_to(inside).parts
+    except ValueError:
+        return None
+    for k in range(1, len(parts) + 1):
+        if os.path.islink(inside.joinpath(*parts[:k])):
+            return inside.joinpath(*parts[:k])
+    return None
+
+
+def check_writable(paths, inside: os.PathLike | str | None = None) -> None:
     """Raise :class:`InputError` naming the first of ``paths`` that could not be written: a folder in its
-    place, a file where a folder must be, or a folder that refuses new files. Called before any work.
+    place, a file where a folder must be, a folder that refuses new files, or a symbolic link (the file
+    itself, or a folder between ``inside``, the shot's folder, and it). Called before any work.
 
     Folders are probed by creating (and removing) a temporary file in them, which is what the writes do;
     missing folders count as writable where their nearest existing ancestor is.
@@ -362,6 +488,10 @@ def check_writable(paths) -> None:
     probed: dict[pathlib.Path, str | None] = {}
     for p in paths:
         p = pathlib.Path(p)
+        refuse_link(p)
+        link = _link_below(p, inside) if inside is not None else None
+        if link is not None:
+            refuse_link(link)
         if p.is_dir():
             raise InputError(f"cannot write {p}: a folder of that name is in the way")
         parent = p.parent

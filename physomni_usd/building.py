@@ -35,7 +35,7 @@ from .geometry.depth import ground_pitch
 from .materials.defaults import GROUND_MATERIAL
 from .materials.report import material_report
 from .perceive.amodal import complete, complete_texture
-from .perceive.masks import contact_sheet, read_photo
+from .perceive.masks import check_labels, contact_sheet, read_photo
 from .perceive.plate import object_texture
 from .lift.sides import corner_st, two_sided_texture
 from .physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
@@ -248,6 +248,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         out = pathlib.Path(out_dir)
         if out.exists() and not out.is_dir():
             raise InputError(f"output {out} exists and is not a directory")
+        check_labels(masks, boxes)
         photo = read_photo(photo_path, settings.max_pixels)
         objects = (backend_steps.collect_objects(photo, masks, boxes, chosen["segmenter"], _box_progress(echo))
                    if masks or boxes or finding is None else [])
@@ -269,7 +270,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         files = {f"{TEXTURES}/{o.name}.png" for o in objects} | {f"{INPUTS}/masks/{o.name}.png" for o in objects}
         files |= {f"{TEXTURES}/plate.png", f"{TEXTURES}/{WIDE_PLATE}", f"{INPUTS}/photo.png"}
         targets = sorted(files) + [MASKS_SHEET, layers.SCENE, layers.PHYSICS, layers.SIM, layers.SHOT, layers.EDITS, REPORT]
-        check_writable([out / f for f in targets])
+        check_writable([out / f for f in targets], inside=out)  # textures/, inputs/masks/ too
         out = prepare_output(out)
         set_aside_damaged(out, echo)
     h, w = photo.shape[:2]

@@ -66,9 +66,15 @@ def _fail(message: str, code: int) -> None:
 @contextmanager
 def _errors():
     """Turn our exceptions and pydantic's into one line and an exit code (:func:`failure.failure_of`)."""
+    from .errors import Interrupted, received_signal
+
     try:
         yield
     except (Exception, KeyboardInterrupt) as exc:
+        if received_signal() is not None and not isinstance(exc, Interrupted):
+            # whatever broke after a signal whose exception was swallowed (a module left half-imported) is
+            # the signal's doing: say that, not an internal error
+            exc = Interrupted(received_signal())
         found = failure_of(exc)
         if found.internal and os.environ.get("PHYSOMNI_DEBUG"):
             raise
@@ -188,17 +194,21 @@ def _stop_on_signals() -> dict:
     import signal
     import threading
 
-    from .errors import Interrupted
+    from .errors import Interrupted, forget_signals, note_signal
 
     if threading.current_thread() is not threading.main_thread():
         return {}
     state = {"stopping": False}
+    forget_signals()
 
     def stop(signum, frame):
         if state["stopping"]:
             return
         state["stopping"] = True
-        raise Interrupted(signum)
+        # noted as well as raised: if a library swallows the exception, the commit (all_or_nothing) and the
+        # command's end (_errors) still see the signal, so the files are put back and the exit is 128 + N
+        if note_signal(signum):
+            raise Interrupted(signum)
 
     previous = {}
     for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):

@@ -20,6 +20,8 @@ OPTIONS = {"fov_deg": "--fov", "pitch_deg": "--pitch", "height_m": "--camera-hei
            "particle_spacing": "--particle-spacing", "mpm_steps": "--mpm-steps", "max_size": "--max-size"}
 
 INTERRUPTED = "interrupted by {name}: the shot's files are put back as they were before this command"
+#: The signal came in the commit's last moment (well under a millisecond), which is not cut in half.
+INTERRUPTED_LATE = "interrupted by {name} as this command finished: its files are all in place"
 
 
 @dataclass(frozen=True)
@@ -59,6 +61,7 @@ def failure_of(exc: BaseException, stage: str | None = None) -> Failure:
             return Failure(disk[0], disk[1], kind, stage)
     if isinstance(exc, KeyboardInterrupt):  # Ctrl-C, or a terminating signal raised as one (errors.Interrupted)
         name, signum = getattr(exc, "name", "SIGINT"), getattr(exc, "signum", 2)
-        return Failure(INTERRUPTED.format(name=name), 128 + signum, kind, stage)
+        said = INTERRUPTED_LATE if getattr(exc, "after_commit", False) else INTERRUPTED
+        return Failure(said.format(name=name), 128 + signum, kind, stage)
     return Failure(f"internal error: {kind}: {exc} (set PHYSOMNI_DEBUG=1 for the traceback)", 3, kind, stage,
                    internal=True)

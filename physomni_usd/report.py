@@ -23,7 +23,7 @@ def prepare_writes(folder: pathlib.Path, names, echo=lambda m: None) -> None:
     """Before a stage computes anything: refuse (one line, exit 2) if any of ``names`` in ``folder`` or
     ``report.json`` cannot be written, and move a damaged report aside."""
     folder = pathlib.Path(folder)
-    check_writable([folder / n for n in names] + [folder / REPORT])
+    check_writable([folder / n for n in names] + [folder / REPORT], inside=folder)
     set_aside_damaged(folder, echo)
 
 

@@ -4,6 +4,8 @@ same cases and prints them as a table."""
 
 from __future__ import annotations
 
+import os
+
 import pytest
 
 from physomni_usd.bench import faults
@@ -99,3 +101,146 @@ def test_a_build_of_several_boxes_says_each_mask_as_it_is_cut():
     objects = collect_masks(photo, (), ["8,18,32,42:red", "58,18,82,42:blue"], _box_progress(said.append))
     assert [o.label for o in objects] == ["red", "blue"]
     assert said == ["perceive: mask 1/2 cut from its box", "perceive: mask 2/2 cut from its box"]
+
+
+SWALLOWED = """
+import os, pathlib, signal, sys, time
+from physomni_usd.cli import _stop_on_signals
+from physomni_usd._files import all_or_nothing, write_bytes
+from physomni_usd.errors import Interrupted
+
+target = pathlib.Path(sys.argv[1])
+_stop_on_signals()
+try:
+    with all_or_nothing():
+        write_bytes(target, b"new")
+        try:  # as a library's optional import under `except BaseException` (trimesh's) swallows it
+            os.kill(os.getpid(), signal.SIGHUP)
+            time.sleep(5)
+        except BaseException:
+            pass
+    print("finished")
+except Interrupted as exc:
+    print("interrupted", exc.name)
+print(target.read_bytes().decode())
+"""
+
+
+def test_a_signal_whose_exception_a_library_swallows_still_undoes_the_command(tmp_path):
+    """The window behind the once-flaky SIGHUP re-run: a signal landing while trimesh imported an optional
+    module under ``except BaseException`` was lost, and the command finished and kept its files (exit 0)."""
+    import subprocess
+    import sys
+
+    target = tmp_path / "sim.usdc"
+    target.write_bytes(b"old")
+    proc = subprocess.run([sys.executable, "-c", SWALLOWED, str(target)], capture_output=True, text=True, timeout=60)
+    assert proc.stdout.split("\n")[:2] == ["interrupted SIGHUP", "old"], proc.stdout + proc.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sim.usdc"]
+
+
+@pytest.mark.skipif(not os.environ.get("PHYSOMNI_FAULTS_UNDER_LOAD"),
+                    reason="opt-in (minutes, loads the machine): PHYSOMNI_FAULTS_UNDER_LOAD=20 runs the SIGHUP re-run "
+                           "trial 20 times in a row beside 8 busy processes (PHYSOMNI_FAULTS_LOAD sets how many)")
+def test_the_sighup_rerun_trial_holds_in_a_row_under_load(base, tmp_path):
+    runs = int(os.environ["PHYSOMNI_FAULTS_UNDER_LOAD"])
+    trials = faults.sighup_under_load(base, tmp_path, runs, int(os.environ.get("PHYSOMNI_FAULTS_LOAD", "8")))
+    print("\n".join(f"{'ok' if ok else 'NOT'} {d}" for ok, d in trials))
+    assert len(trials) == runs and all(ok for ok, _ in trials), \
+        "\n".join(f"{'ok' if ok else 'NOT'} {d}" for ok, d in trials)
+
+
+@pytest.mark.parametrize("journal", [
+    {"pid": 1, "saved": {"/etc/victim.txt": None}, "temporary": []},
+    {"pid": 1, "saved": {"../other.txt": "payload.txt"}},
+    {"pid": 1, "saved": {"sub/edits.usda": None}},
+    {"pid": 1, "saved": {"..": None}},
+    {"pid": 1, "saved": {"shot.usda": "edits.usda"}},  # our kept copies are named .NAME.physomni-XXXX.keep
+    {"pid": 1, "saved": {"sim.usdc": ".sim.usdc.physomni-ab.keep/../../x"}},
+    {"pid": 1, "saved": {}, "temporary": ["../x"]},
+    ["not", "a", "journal"],
+])
+def test_a_journal_naming_anything_but_our_files_in_the_folder_is_refused(journal):
+    from physomni_usd._files import journal_refusal
+
+    assert journal_refusal(journal)
+
+
+def test_a_journal_of_ours_is_followed():
+    from physomni_usd._files import journal_refusal
+
+    assert journal_refusal({"pid": 1, "saved": {"sim.usdc": ".sim.usdc.physomni-k2j3.keep", "report.json": None},
+                            "temporary": [".sim.physomni-x1y2.usdc"]}) is None
+    assert journal_refusal({}) is None
+
+
+def test_a_refused_journal_is_set_aside_and_restores_nothing(tmp_path, capfd):
+    """In process: the lock taken over a planted journal deletes nothing outside or inside, keeps the journal's
+    text as .physomni.lock.bad and says so in one line."""
+    import json
+
+    from physomni_usd._files import all_or_nothing, write_bytes
+
+    shot, decoy = tmp_path / "shot", tmp_path / "decoy"
+    shot.mkdir(), decoy.mkdir()
+    (decoy / "victim.txt").write_text("victim")
+    (shot / "edits.usda").write_text("#usda 1.0\n")
+    planted = json.dumps({"pid": 1, "saved": {str(decoy / "victim.txt"): None, "edits.usda": None}})
+    (shot / ".physomni.lock").write_text(planted)
+    with all_or_nothing():
+        write_bytes(shot / "report.json", b"{}")
+    assert (decoy / "victim.txt").read_text() == "victim" and (shot / "edits.usda").is_file()
+    assert (shot / ".physomni.lock.bad").read_text() == planted
+    said = [ln for ln in capfd.readouterr().err.splitlines() if ln]
+    assert len(said) == 1 and said[0].startswith("warning:") and "victim.txt" in said[0]
+
+
+def test_no_write_goes_through_a_link(tmp_path):
+    """A lock, a layer or a file below a linked subfolder: refused in one line naming it, the target as it was."""
+    from physomni_usd._files import check_writable, write_bytes
+    from physomni_usd.errors import InputError
+
+    shot, decoy = tmp_path / "shot", tmp_path / "decoy"
+    shot.mkdir(), decoy.mkdir()
+    (decoy / "victim.txt").write_text("victim")
+    (shot / ".physomni.lock").symlink_to(decoy / "victim.txt")
+    with pytest.raises(InputError, match=r"\.physomni\.lock: it is a symbolic link"):
+        write_bytes(shot / "report.json", b"{}")
+    (shot / ".physomni.lock").unlink()
+    (shot / "sim.usdc").symlink_to(decoy / "victim.txt")
+    with pytest.raises(InputError, match=r"sim\.usdc: it is a symbolic link"):
+        write_bytes(shot / "sim.usdc", b"layer")
+    (shot / "textures").symlink_to(decoy)
+    with pytest.raises(InputError, match=r"textures: it is a symbolic link"):
+        check_writable([shot / "textures" / "cup_0.png"], inside=shot)
+    check_writable([decoy / "video.mp4"], inside=shot)  # an output the user names outside the shot is theirs
+    assert (decoy / "victim.txt").read_text() == "victim" and sorted(p.name for p in decoy.iterdir()) == ["victim.txt"]
+
+
+CAUGHT = """
+import os, pathlib, signal, sys, time
+from physomni_usd.cli import _stop_on_signals
+from physomni_usd._files import all_or_nothing, write_bytes
+
+target = pathlib.Path(sys.argv[1])
+_stop_on_signals()
+try:
+    os.kill(os.getpid(), signal.SIGTERM)
+    time.sleep(5)
+except KeyboardInterrupt:  # caught on purpose, as the preview stops on it and then writes its take
+    pass
+with all_or_nothing():
+    write_bytes(target, b"take")
+print(target.read_bytes().decode())
+"""
+
+
+def test_a_signal_caught_on_purpose_before_a_write_does_not_undo_it(tmp_path):
+    """The preview stops on Ctrl-C or SIGTERM and then writes its take: that later write is kept."""
+    import subprocess
+    import sys
+
+    target = tmp_path / "sim.usdc"
+    target.write_bytes(b"old")
+    proc = subprocess.run([sys.executable, "-c", CAUGHT, str(target)], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0 and proc.stdout.strip() == "take", proc.stdout + proc.stderr

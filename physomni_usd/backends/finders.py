@@ -37,6 +37,10 @@ def parse_phrases(text: str | None) -> list[str]:
 def load_finder(text: str | None, name: str | None):
     """The finder to run for ``--find text``, loaded and checked ready (one line, exit 2, otherwise); None
     when there is nothing to find. Called before anything is computed."""
+    from ..perceive.masks import checked_label
+
+    for phrase in parse_phrases(text):  # each phrase labels the objects it finds, and so names files
+        checked_label(phrase, "--find", text)
     if not parse_phrases(text):
         if text is not None and text.strip(" ,") == "" and text != "":
             raise InputError(f"--find {text!r}: no phrase in it; e.g. --find 'cup, saucer, spoon'")

@@ -15,6 +15,7 @@ folder and the output folders at the same paths as the driver (shared storage).
 
 from __future__ import annotations
 
+import errno
 import json
 import logging
 import os
@@ -30,7 +31,7 @@ import time
 from dataclasses import dataclass, field
 
 from .._files import write_bytes
-from ..errors import InputError
+from ..errors import InputError, PhysOmniError
 from ..failure import Failure
 from .shots import LOG, OUTPUTS, Shot, inputs_hash, is_finished, mark_finished, mark_started, missing_input
 
@@ -68,9 +69,13 @@ def run_shot(call, args: list[str], cwd: str, output: str, digest: str, attempt:
     try:
         folder.mkdir(parents=True, exist_ok=True)
         mark_started(folder)
-        log = open(folder / LOG, "ab")
+        # O_NOFOLLOW: a log planted as a link in a shot folder must not carry our appends to a file elsewhere
+        log = os.fdopen(os.open(folder / LOG, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW, 0o666), "ab")
+    except PhysOmniError as exc:  # a report.json that is a link (refused, never written through)
+        return {"ok": False, "retry": False, "reason": str(exc), "seconds": 0.0, **where}
     except OSError as exc:
-        return {"ok": False, "retry": False, "reason": f"cannot write output {folder}: {exc.strerror or exc}",
+        why = "it is a symbolic link" if exc.errno == errno.ELOOP else (exc.strerror or exc)
+        return {"ok": False, "retry": False, "reason": f"cannot write output {folder / LOG}: {why}",
                 "seconds": 0.0, **where}
     with log:
         log.write(f"== attempt {attempt} on {where['node']} ({where['node_ip']}), "

@@ -20,6 +20,7 @@ from pxr import Sdf, Usd, UsdPhysics
 
 from ..errors import InputError
 from ..fields import parse_force_options, read_force_fields
+from ..perceive.masks import MAX_LABEL
 from .._files import all_or_nothing
 from ..settings import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
 from ..report import Timer, prepare_writes, update_report
@@ -52,6 +53,9 @@ def parse_sets(specs, objects: list[Usd.Prim]) -> list[tuple[Usd.Prim, str, obje
         if not eq or not dot or not name or not key or not value.strip():
             raise InputError(f"--set {spec!r}: expected NAME.KEY=VALUE, e.g. cup.density=800 or cup.material=mpm_sand")
         prims = by_name.get(name.strip())
+        if not prims and len(name) > MAX_LABEL:  # said in a line, not echoed whole (twice) onto the terminal
+            raise InputError(f"--set {spec[:40] + '…'!r}: the name is {len(name):,} characters long, and no object's "
+                             f"name or label is longer than {MAX_LABEL}")
         if not prims:
             from ..suggest import did_you_mean
 

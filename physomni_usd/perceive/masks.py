@@ -59,6 +59,31 @@ class ObjectMask:
         return f"{identifier(self.label)}_{self.index}"
 
 
+#: The longest label, in characters: a label names its object's prim and the object's texture and mask files,
+#: whose names (with our temporary files' ``.NAME.physomni-XXXXXXXX.png``) a file system holds to 255 bytes.
+MAX_LABEL = 100
+
+
+def checked_label(label: str, option: str, spec: str) -> str:
+    """``label`` if it is short enough to name files, else :class:`InputError` naming the option."""
+    if len(label) > MAX_LABEL:
+        shown = spec if len(spec) <= 60 else spec[:40] + "…"
+        raise InputError(f"{option} {shown!r}: the label is {len(label):,} characters long; at most {MAX_LABEL}")
+    return label
+
+
+def check_labels(masks=(), boxes=()) -> None:
+    """Refuse an over-long label of any ``--mask`` or ``--box`` before any work (GrabCut of the boxes before
+    it would take seconds each)."""
+    for spec in masks:
+        path_s, label = split_spec(spec)
+        checked_label(label or pathlib.Path(path_s).stem, "--mask", spec)
+    for spec in boxes:
+        label = parse_box(spec)[1]
+        if label is not None:
+            checked_label(label, "--box", spec)
+
+
 def identifier(label: str) -> str:
     """A valid USD identifier made from ``label`` (letters, digits, underscores)."""
     s = re.sub(r"[^A-Za-z0-9_]", "_", label.strip()) or "object"
@@ -160,7 +185,7 @@ def read_mask(spec: str, shape: tuple[int, int], index: int) -> ObjectMask:
         mask = (img[..., :3] > 0).any(axis=2)
     else:
         mask = img > 0
-    return ObjectMask(label or p.stem, index, checked_mask(mask, f"mask {p.name}"), f"file:{p}",
+    return ObjectMask(checked_label(label or p.stem, "--mask", spec), index, checked_mask(mask, f"mask {p.name}"), f"file:{p}",
                       {"method": "file"})
 
 
@@ -204,6 +229,8 @@ def box_spec(box, label: str | None = None, clicks=()) -> str:
 def mask_from_box(photo: np.ndarray, spec: str, index: int) -> ObjectMask:
     """Segment the object inside a box with OpenCV GrabCut, then correct it by the spec's clicks."""
     (x0, y0, x1, y1), label = parse_box(spec)
+    if label is not None:
+        checked_label(label, "--box", spec)
     h, w = photo.shape[:2]
     if x1 <= x0 or y1 <= y0:
         raise InputError(f"--box {spec!r}: X1 must be greater than X0 and Y1 greater than Y0 (the corners are "

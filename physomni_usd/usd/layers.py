@@ -43,7 +43,10 @@ def save_layer(layer: Sdf.Layer, path: os.PathLike | str) -> pathlib.Path:
     file format (usda or usdc). A layer already open under ``path`` in this
     process is reloaded so later stages see the new content.
     """
-    path = pathlib.Path(path).resolve()
+    # the folder resolved (it may be a link the user made), the file not: a layer that is a link is refused,
+    # never written through (atomic_path)
+    path = pathlib.Path(path)
+    path = path.parent.resolve() / path.name
     with atomic_path(path) as tmp:
         if not layer.Export(str(tmp)):
             raise OSError(f"USD could not write {path.name}")
@@ -230,15 +233,23 @@ def open_shot(shot_path: os.PathLike | str, *, mute_sim: bool = False) -> Usd.St
             stage = Usd.Stage.Open(str(p), Usd.Stage.LoadAll)
         if trap is not None:
             def about_layers(d):
-                return "sublayer" in str(d.commentary) or "Could not open" in str(d.commentary)
+                said = str(d.commentary).lower()
+                return "sublayer" in said or "could not open" in said or "cycle" in said
 
             problems = [str(d.commentary) for d in trap.GetWarnings() if about_layers(d)]
             if mute_sim:
                 problems = [m for m in problems if sim not in m and SIM not in m]
+            refusal = (composition_refusal(p, stage, skip=(sim, SIM) if mute_sim else ()) if stage is not None
+                       else None)
+            if refusal is not None:
+                trap.Clear()
+                raise InputError(refusal)
             if problems:
                 trap.Clear()
                 raise InputError(f"{p.name}: {problems[0].split(' -- ')[0].split('; skipping')[0]}")
             trap.EraseMatching(about_layers)
+        elif stage is not None and (refusal := composition_refusal(p, stage, skip=(sim, SIM) if mute_sim else ())):
+            raise InputError(refusal)
     if stage is None:
         raise InputError(f"{p} is not a readable USD stage")
     if mute_sim:
@@ -248,6 +259,30 @@ def open_shot(shot_path: os.PathLike | str, *, mute_sim: bool = False) -> Usd.St
     if not stage.GetPrimAtPath("/World"):
         raise InputError(f"{p} has no /World prim: it is not a physomni-usd shot")
     return stage
+
+
+def composition_refusal(root: pathlib.Path, stage: Usd.Stage, skip=()) -> str | None:
+    """One line naming the file when ``stage`` could not be composed as its layers say (a sublayer cycle, a
+    missing or unreadable sublayer, reference or payload), else None. Errors naming any of ``skip`` (the
+    muted simulation layer) do not count. Such a shot is bad input (exit 2) in every command: composed
+    without the layer, it would be simulated or rendered as something it does not say."""
+    import re
+
+    from pxr import Pcp
+
+    for err in stage.GetCompositionErrors():
+        text = " ".join(str(err).split())
+        if any(s and s in text for s in skip):
+            continue
+        named = re.findall(r"@([^@]+)@", text)
+        if err.errorType == Pcp.ErrorType_SublayerCycle and named:
+            return (f"{named[-1]}: its subLayers lead back to itself (a cycle), so {root} cannot be composed; "
+                    "remove the sublayer that closes the cycle")
+        if err.errorType == Pcp.ErrorType_InvalidSublayerPath and len(named) >= 2:
+            return (f"{named[1]}: its sublayer {named[0]} is missing or not a readable USD layer, so {root} "
+                    "cannot be composed")
+        return f"{root} cannot be composed: {text.split(' -- ')[0].split('; skipping')[0]}"
+    return None
 
 
 def content_digest(stage: Usd.Stage) -> str:
