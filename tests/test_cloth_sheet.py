@@ -13,7 +13,7 @@ from pxr import Usd
 
 import physomni_usd as api
 from physomni_usd.bench.synthetic import render_truth
-from physomni_usd.build import build_shot
+from physomni_usd.building import build_shot
 from physomni_usd.metrics.geometry import world_meshes
 from physomni_usd.physics.cloth import CLOTH_MIN_QUALITY, cloth_sheet, triangle_quality
 from physomni_usd.settings import SimulateSettings

@@ -5,7 +5,6 @@ build must come out with no start overlap deeper than the contact margin, or end
 
 from __future__ import annotations
 
-import importlib
 import json
 
 import cv2
@@ -16,13 +15,13 @@ from pxr import Usd
 
 from physomni_usd.align import separate
 from physomni_usd.bench.synthetic import render_truth
-from physomni_usd.build import build_shot
+from physomni_usd import building as build_module
+from physomni_usd.building import build_shot
 from physomni_usd.errors import PhysOmniError
 from physomni_usd.geometry.camera import PinholeCamera
 from physomni_usd.metrics.geometry import max_penetration, world_meshes
 from physomni_usd.physics.diagnose import first_error, scene_findings
 
-build_module = importlib.import_module("physomni_usd.build")  # the package's `build` is the function
 CAMERA = PinholeCamera(240, 180, 50.0, 30.0, (0.0, -0.55, 0.35))
 SUNK_M = 0.01
 
