@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import inspect
 import math
 import pathlib
 
@@ -101,9 +102,13 @@ def make_wide_plate(plate: np.ndarray, outpainter) -> tuple[np.ndarray, tuple[in
     return wide, margins
 
 
-def make_plate(photo: np.ndarray, masks, dilation: float, inpainter) -> np.ndarray:
-    """The background plate: the built-in's own, or the photo with the inpainter's fill in the hole only."""
+def make_plate(photo: np.ndarray, masks, dilation: float, inpainter, sources=None) -> np.ndarray:
+    """The background plate: the built-in's own, or the photo with the inpainter's fill in the hole only.
+    ``sources``: where the built-in's exemplar fill copied each pixel from (``perceive.plate.background_plate``),
+    if it is the built-in; a plugin's fill says nothing of the kind."""
     if hasattr(inpainter, "plate"):
+        if sources is not None and "sources" in inspect.signature(inpainter.plate).parameters:
+            return inpainter.plate(photo, masks, dilation, sources=sources)
         return inpainter.plate(photo, masks, dilation)
     where = hole(masks, photo.shape[:2], dilation)
     filled = np.asarray(inpainter.inpaint(photo, where))
