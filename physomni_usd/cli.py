@@ -453,7 +453,10 @@ def simulate(shot, seconds, fps, substeps, particle_spacing, mpm_steps, quiet):
               help="Video file (.mp4) [default: video.mp4 beside the shot].")
 @click.option("--max-size", type=int, default=1920, show_default=True,
               help=_range_help("Longest side of the video in pixels; larger photos are rendered smaller. H.264 "
-                               "needs even sides: an odd width or height loses its last column or row.",
+                               "needs even sides: an odd width or height loses its last column or row. A "
+                               "frame's cost grows with its pixels: about 0.19 CPU seconds a frame at 741×500 "
+                               "and 1.2 at 1920×1295 on a 2-core CPU (bench scale). The default is a full-HD "
+                               "video's width: a 12 MP photo's own 4000 px would cost 4× as much a frame.",
                                RenderSettings, "max_size"))
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 @click.option("--passes", default=None, metavar="NAME,NAME,...",
@@ -526,7 +529,8 @@ def _check_simulated(shot) -> None:
               help="Size of the move as a multiple of its default. Range: 0 < value ≤ 4.")
 @click.option("--max-size", type=int, default=1920, show_default=True,
               help=_range_help("Longest side of the video in pixels, as render --max-size takes it (a frame's "
-                               "cost grows with its pixels; larger photos are rendered smaller).",
+                               "cost grows with its pixels: about 0.19 CPU seconds a frame at 741×500 and 1.2 at "
+                               "1920×1295; larger photos are rendered smaller).",
                                RenderSettings, "max_size"))
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, fps, meshes_dir, fixed, forces, seconds,
