@@ -114,3 +114,12 @@ def test_a_full_size_mask_keeps_its_own_edge(builds):
     th, tw = texture.shape[0], texture.shape[1] // 2
     alpha = texture[:, :tw, 3] == 255
     assert np.array_equal(alpha, given["crate"][y0:y0 + th, x0:x0 + tw])
+
+
+def test_run_takes_the_render_size(tmp_path):
+    from physomni_usd.cli import _run_arguments
+
+    photo = EXAMPLE.parent / "motorcycle" / "photo.png"
+    args = [str(photo), "-o", str(tmp_path / "shot"), "--mask", str(photo.parent / "bin.png")]
+    assert _run_arguments(args)["render_settings"].max_size == 1920
+    assert _run_arguments(args + ["--max-size", "640"])["render_settings"].max_size == 640
