@@ -37,7 +37,7 @@ from .materials.report import material_report
 from .perceive.amodal import complete, complete_texture
 from .perceive.masks import contact_sheet, read_photo
 from .perceive.plate import carry_plate, object_texture
-from .perceive.working import collect_working, working
+from .perceive.working import working
 from .lift.sides import corner_st, two_sided_texture
 from .physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
 from .report import REPORT, Timer, read_report, set_aside_damaged, update_report
@@ -260,7 +260,8 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         full_masks = []
         if work is not None:
             photo = work.down(full_photo)
-            objects, full_masks = (collect_working(work, photo, masks, boxes, chosen["segmenter"], _box_progress(echo))
+            objects, full_masks = (backend_steps.collect_working(work, photo, masks, boxes, chosen["segmenter"],
+                                                                 _box_progress(echo))
                                    if masks or boxes or finding is None else ([], []))
         else:
             objects = (backend_steps.collect_objects(photo, masks, boxes, chosen["segmenter"], _box_progress(echo))

@@ -71,6 +71,37 @@ def collect_objects(photo: np.ndarray, mask_specs, box_specs, segmenter, progres
     return objects
 
 
+def collect_working(work, small: np.ndarray, mask_specs, box_specs, segmenter, progress=None):
+    """The objects of the masks and boxes given in photo pixels, cut and measured on the working copy
+    ``small`` of a photo that ``work`` (``perceive.working.Working``) reduced, numbered as
+    :func:`collect_objects` numbers them; and each file mask at the photo's
+    size (None for a box's), whose edge the texture keeps."""
+    from ..perceive.masks import box_clicks, check_box, checked_mask, mask_quality, parse_box, read_mask
+
+    specs, boxes = list(mask_specs or ()), list(box_specs or ())
+    if not specs and not boxes:
+        return collect_objects(small, specs, boxes, segmenter, progress), []
+    objects, full = [], []
+    for i, spec in enumerate(specs):
+        o = read_mask(spec, work.full, i)
+        full.append(o.mask)
+        o.mask = checked_mask(work.down_mask(o.mask), f"mask {o.source[len('file:'):]} at the working size "
+                                                      f"{work.work[1]}×{work.work[0]}")
+        o.quality = dict(mask_quality(small, o.mask), method=o.quality["method"])
+        objects.append(o)
+    for spec in boxes:
+        check_box(spec, work.full)
+    cut = collect_objects(small, [], [work.box_spec(s) for s in boxes], segmenter, progress) if boxes else []
+    for j, (spec, o) in enumerate(zip(boxes, cut)):
+        o.index = len(specs) + j
+        o.label = parse_box(spec)[1] or f"object{o.index}"
+        (x0, y0, x1, y1), _ = parse_box(spec)  # the report names the box as it was given
+        o.source = f"box:{x0},{y0},{x1},{y1}" + "".join(f":{'+' if on else '-'}{x},{y}"
+                                                       for x, y, on in box_clicks(spec))
+        full.append(None)
+    return objects + cut, full
+
+
 def hole(masks, shape: tuple[int, int], dilation: float) -> np.ndarray:
     """Union of the masks widened by ``dilation`` × the image diagonal, (H, W) bool."""
     h, w = shape
