@@ -36,7 +36,8 @@ from .materials.defaults import GROUND_MATERIAL
 from .materials.report import material_report
 from .perceive.amodal import complete, complete_texture
 from .perceive.masks import check_labels, contact_sheet, read_photo
-from .perceive.plate import object_texture
+from .perceive.plate import carry_plate, object_texture
+from .perceive.working import working
 from .lift.sides import corner_st, two_sided_texture
 from .physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
 from .report import REPORT, Timer, read_report, set_aside_damaged, update_report
@@ -207,6 +208,7 @@ class ShotObject:
     notes: list = field(default_factory=list)
     report: dict = field(default_factory=dict)
     rest: dict = field(default_factory=dict)  # what it stands on and how far from it (align.support)
+    full_mask: np.ndarray | None = None  # (H, W) bool: a mask file at the photo's size, beside its working copy
 
     @property
     def name(self) -> str:
@@ -230,6 +232,11 @@ class Scene:
     config: object = None  # materials.config.SceneConfig, by the estimate stage
     physics_objects: list = field(default_factory=list)  # usd.author.PhysicsObject, by the estimate stage
     kept: dict = field(default_factory=dict)  # (object, occluder) indices → occlusion_kept, once placed
+    # a photo above the working resolution (perceive.working): ``photo`` is its working copy, ``full_photo``
+    # the photo itself (what the plate, the textures and frame 0 show), ``small_plate`` the plate of ``photo``
+    work: object = None
+    full_photo: np.ndarray | None = None
+    small_plate: np.ndarray | None = None
 
     @property
     def masks(self) -> list[np.ndarray]:
@@ -249,9 +256,17 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         if out.exists() and not out.is_dir():
             raise InputError(f"output {out} exists and is not a directory")
         check_labels(masks, boxes)
-        photo = read_photo(photo_path, settings.max_pixels)
-        objects = (backend_steps.collect_objects(photo, masks, boxes, chosen["segmenter"], _box_progress(echo))
-                   if masks or boxes or finding is None else [])
+        full_photo = photo = read_photo(photo_path, settings.max_pixels)
+        work = working(photo.shape, settings.working_pixels)
+        full_masks = []
+        if work is not None:
+            photo = work.down(full_photo)
+            objects, full_masks = (backend_steps.collect_working(work, photo, masks, boxes, chosen["segmenter"],
+                                                                 _box_progress(echo))
+                                   if masks or boxes or finding is None else ([], []))
+        else:
+            objects = (backend_steps.collect_objects(photo, masks, boxes, chosen["segmenter"], _box_progress(echo))
+                       if masks or boxes or finding is None else [])
         if finding is not None:
             objects += find_objects(photo, find, finding, len(objects), echo)
         depth_info = {}
@@ -273,12 +288,15 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         check_writable([out / f for f in targets], inside=out)  # textures/, inputs/masks/ too
         out = prepare_output(out)
         set_aside_damaged(out, echo)
-    h, w = photo.shape[:2]
-    echo(f"perceive: {len(objects)} object(s) in a {w}×{h} photo")
+    h, w = full_photo.shape[:2]
+    echo(f"perceive: {len(objects)} object(s) in a {w}×{h} photo"
+         + (f", worked on at {work.work[1]}×{work.work[0]}" if work is not None else ""))
     for o in objects:
         if o.quality and o.quality.get("warning"):
             echo(f"warning: mask of {o.name}: {o.quality['warning']}")
-    scene = Scene(photo, settings, [ShotObject(o) for o in objects], chosen)
+    scene = Scene(photo, settings, [ShotObject(o) for o in objects], chosen, work=work, full_photo=full_photo)
+    for o, m in zip(scene.objects, full_masks):
+        o.full_mask = m
 
     echo("perceive: filling the background plate behind the objects")
     with timer.step("perceive.plate"):
@@ -328,6 +346,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
     report_objects = [o.report for o in scene.objects]
     update_report(out, objects=report_objects, estimate=material_report(stage, scene.config.source),
                   shot={"photo": str(photo_path), "width": w, "height": h,
+                        **({"working_size": [work.work[1], work.work[0]]} if work is not None else {}),
                         "fov_deg": round(camera.fov_deg, 4),
                         "pitch_deg": round(camera.pitch_deg, 4), "alignment": align_info,
                         "camera_height_m": round(float(camera.origin[2]), 4),
@@ -341,14 +360,24 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
 
 
 def _plate(scene: Scene) -> None:
-    """The background plate behind the objects."""
-    scene.plate = backend_steps.make_plate(scene.photo, scene.masks, scene.settings.plate_dilation,
-                                           scene.backends["inpainter"])
+    """The background plate behind the objects; for a photo above the working resolution, filled on its working
+    copy and carried to the photo's size (``perceive.plate.carry_plate``)."""
+    if scene.work is None:
+        scene.plate = backend_steps.make_plate(scene.photo, scene.masks, scene.settings.plate_dilation,
+                                               scene.backends["inpainter"])
+        return
+    sources = np.full(scene.photo.shape[:2] + (2,), -1, np.int32)
+    scene.small_plate = backend_steps.make_plate(scene.photo, scene.masks, scene.settings.plate_dilation,
+                                                 scene.backends["inpainter"], sources)
+    scene.plate = carry_plate(scene.full_photo, scene.work, scene.photo, scene.small_plate,
+                              sources if (sources[..., 0] >= 0).any() else None)
 
 
 def _outpaint(scene: Scene) -> None:
-    """The plate widened for camera moves."""
-    scene.wide_plate, scene.margins = backend_steps.make_wide_plate(scene.plate, scene.backends["outpainter"])
+    """The plate widened for camera moves: at the working resolution for a larger photo (seen only as the
+    camera moves, at the render's size; its margins alone are 3× the photo's pixels)."""
+    plate = scene.plate if scene.small_plate is None else scene.small_plate
+    scene.wide_plate, scene.margins = backend_steps.make_wide_plate(plate, scene.backends["outpainter"])
 
 
 def _complete(scene: Scene) -> None:
@@ -470,14 +499,29 @@ def _kept(scene: Scene, o, k: int) -> float | None:
 
 
 def _painted(scene: Scene, o) -> np.ndarray:
-    """(H, W) bool: the part of ``o``'s completed outline that is painted in its texture, behind the occluders
-    the placed meshes agree are in front of it (:data:`OCCLUSION_BELIEVED`)."""
-    hidden = o.amodal & ~o.mask.mask
+    """(H, W) bool at the photo's size: the part of ``o``'s completed outline that is painted in its texture,
+    behind the occluders the placed meshes agree are in front of it (:data:`OCCLUSION_BELIEVED`)."""
+    visible, amodal = _photo_size(scene, o)
+    hidden = amodal & ~visible
     for k in o.occluders:
         kept = _kept(scene, o, k)
         if kept is not None and kept < OCCLUSION_BELIEVED:
-            hidden &= ~scene.objects[k].mask.mask
+            hidden &= ~_photo_size(scene, scene.objects[k])[0]
     return hidden
+
+
+def _photo_size(scene: Scene, o) -> tuple[np.ndarray, np.ndarray]:
+    """(H, W) bool at the photo's size: ``o``'s mask (a mask file's own, else the working one smoothed up) and
+    its outline completed behind its occluders (that mask, and the working completion where it is hidden)."""
+    if scene.work is None:
+        return o.mask.mask, o.amodal
+    visible = o.full_mask if o.full_mask is not None else scene.work.up_mask(o.mask.mask)
+    hidden = o.amodal & ~o.mask.mask
+    if not hidden.any():
+        return visible, visible
+    # a working pixel wider than the hidden part, so that it meets the visible edge with no gap between them
+    hidden = cv2.dilate(hidden.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool) & o.amodal
+    return visible, visible | scene.work.up_mask(hidden)
 
 
 def _texture(scene: Scene, out: pathlib.Path) -> None:
@@ -485,21 +529,24 @@ def _texture(scene: Scene, out: pathlib.Path) -> None:
     import trimesh
 
     photo, camera = scene.photo, scene.camera
+    if scene.work is not None:  # textures from the photo's own pixels, seen by the photo's camera
+        photo, camera = scene.full_photo, scene.work.camera(scene.camera)
     make_dirs(out / TEXTURES)
     for so in scene.objects:
         o, v, f = so.mask, so.vertices, so.faces
+        visible, amodal = _photo_size(scene, so)
         # where others hide it, the object is painted from its own visible surface (perceive/amodal.py)
-        rgba, (x0, y0) = object_texture(complete_texture(photo, o.mask, so.amodal), so.amodal)
+        rgba, (x0, y0) = _object_texture(scene, photo, visible, amodal)
         # drawn like the rest, but not the photo's pixels of it: renderers show the photo only at 255
         painted = _painted(scene, so)
         crop = (slice(y0, y0 + rgba.shape[0]), slice(x0, x0 + rgba.shape[1]))
-        rgba[..., 3][(so.amodal & ~o.mask & ~painted)[crop]] = 0  # behind what the meshes put behind it
+        rgba[..., 3][(amodal & ~visible & ~painted)[crop]] = 0  # behind what the meshes put behind it
         rgba[..., 3][painted[crop]] = COMPLETED_ALPHA
         # texture coordinates: the photo projected from the camera onto the object where it was seen, and
         # a planar map for the sides it saw edge-on (lift/sides.py)
         st = corner_st(so.projected, np.asarray(f), camera, (rgba.shape[1], rgba.shape[0]), (x0, y0),
                        mask=rgba[..., 3] > 0, open_back=so.shape == "extrude")
-        rgba = two_sided_texture(rgba)
+        rgba = two_sided_texture(rgba, 1.0 if scene.work is None else scene.work.fx)
         tm = trimesh.Trimesh(v, f, process=False)
         origin = tm.center_mass if tm.is_volume else v.mean(0)
         rel = f"{TEXTURES}/{o.name}.png"
@@ -509,7 +556,7 @@ def _texture(scene: Scene, out: pathlib.Path) -> None:
                                                texture_origin=(x0, y0), st_per_corner=True))
         so.report = {
             "name": o.name, "label": o.label, "mask_index": o.index, "source": o.source,
-            "shape": so.shape, "pixels": int(o.mask.sum()), "size_m": np.ptp(v, axis=0).round(4).tolist(),
+            "shape": so.shape, "pixels": int(visible.sum()), "size_m": np.ptp(v, axis=0).round(4).tolist(),
             "position_m": origin.round(4).tolist(), "watertight": bool(tm.is_watertight), "notes": so.notes,
             "mask_quality": o.quality,
         }
@@ -519,14 +566,31 @@ def _texture(scene: Scene, out: pathlib.Path) -> None:
             so.report["completed"] = {"how": so.completion, "pixels": int(painted.sum())}
     _write_png(out / TEXTURES / "plate.png", scene.plate)
     _write_png(out / TEXTURES / WIDE_PLATE, scene.wide_plate)
-    _write_png(out / MASKS_SHEET, contact_sheet(photo, [o.mask for o in scene.objects],
+    # a check of the masks, not a picture: the working copy is enough for it
+    _write_png(out / MASKS_SHEET, contact_sheet(scene.photo, [o.mask for o in scene.objects],
                                                  completed=[o.amodal for o in scene.objects]))
     # the inputs, so that later stages (estimate's crops) work from the shot folder alone
     make_dirs(out / INPUTS / "masks")
     _write_png(out / INPUTS / "photo.png", photo)
     for o in scene.objects:
-        _write_png(out / INPUTS / "masks" / f"{o.name}.png",
-                   np.repeat(o.mask.mask[..., None] * 255, 3, 2).astype(np.uint8))
+        mask = _photo_size(scene, o)[0][..., None] * np.uint8(255)
+        # a large photo's mask in one channel (a third of the encoding); readers take either
+        _write_png(out / INPUTS / "masks" / f"{o.name}.png", np.repeat(mask, 3, 2) if scene.work is None else mask)
+
+
+def _object_texture(scene: Scene, photo: np.ndarray, visible: np.ndarray, amodal: np.ndarray):
+    """``perceive.plate.object_texture`` of the object completed behind its occluders (``complete_texture``),
+    and its (x0, y0) in the photo; above the working resolution, worked on the object's part of the photo only
+    (the padding object_texture keeps, 8 pixels, and the completion's softening reach, kept the photo's)."""
+    if scene.work is None:
+        return object_texture(complete_texture(photo, visible, amodal), amodal)
+    ys, xs = np.nonzero(amodal)
+    h, w = amodal.shape
+    x0, x1, y0, y1 = max(0, xs.min() - 8), min(w, xs.max() + 9), max(0, ys.min() - 8), min(h, ys.max() + 9)
+    part = (slice(y0, y1), slice(x0, x1))
+    radius = max(1, int(round(0.02 * max(h, w))))
+    rgba, (cx, cy) = object_texture(complete_texture(photo[part], visible[part], amodal[part], radius), amodal[part])
+    return rgba, (int(x0 + cx), int(y0 + cy))
 
 
 def _estimate(scene: Scene, push: dict, fixed_names: set[str]) -> None:
@@ -550,7 +614,8 @@ def _estimate(scene: Scene, push: dict, fixed_names: set[str]) -> None:
 def _write(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, fields, files: set[str]):
     """The shot's layers; returns the shot layer's path and the stale files of the previous build it removed."""
     settings, camera = scene.settings, scene.camera
-    h, w = scene.photo.shape[:2]
+    h, w = (scene.photo if scene.full_photo is None else scene.full_photo).shape[:2]
+    camera = camera if scene.work is None else scene.work.camera(camera)
     verts = [o.vertices for o in scene.objects]
     extent = max(np.abs(np.vstack(verts)[:, :2]).max() * 4.0, 20.0 * abs(float(camera.origin[2])))
     write_scene_layer(out / layers.SCENE, fps=settings.fps, image_size=(w, h), camera=camera,
@@ -573,8 +638,9 @@ def _write(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, fields
 
 def _write_png(path: pathlib.Path, image: np.ndarray) -> None:
     """Write an RGB(A) image as PNG through a temporary file and a rename."""
-    code = cv2.COLOR_RGBA2BGRA if image.shape[2] == 4 else cv2.COLOR_RGB2BGR
-    ok, data = cv2.imencode(".png", cv2.cvtColor(image, code))
+    if image.shape[2] != 1:
+        image = cv2.cvtColor(image, cv2.COLOR_RGBA2BGRA if image.shape[2] == 4 else cv2.COLOR_RGB2BGR)
+    ok, data = cv2.imencode(".png", image)
     if not ok:
         raise OSError(f"cannot encode {path.name}")
     write_bytes(path, data.tobytes())

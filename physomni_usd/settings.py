@@ -62,6 +62,10 @@ class BuildSettings(_Settings):
     max_pixels: int = Field(40_000_000, ge=65_536, le=1_000_000_000,
                             description="Largest photo, in pixels (width × height), read from its header before "
                                         "anything decodes it.")
+    working_pixels: int = Field(1_000_000, ge=65_536, le=1_000_000_000,
+                                description="A larger photo is worked on (masks, cues, lifting, placement) at "
+                                            "this many pixels; the plate, the textures and frame 0 keep the "
+                                            "photo's own (perceive.working).")
     max_objects: int = Field(64, ge=1, le=1000,
                              description="Most objects one shot may have (--mask and --box together); each costs "
                                          "a lift, a texture and a body, and the alignment grows with their pairs.")

@@ -46,11 +46,13 @@ class BuiltinInpainter(_Builtin):
 
         return background_plate(photo, [hole], 0.0)
 
-    def plate(self, photo: np.ndarray, masks: list[np.ndarray], dilation: float) -> np.ndarray:
-        """The whole plate as ``build`` has always made it (dilation included)."""
+    def plate(self, photo: np.ndarray, masks: list[np.ndarray], dilation: float,
+              sources: np.ndarray | None = None) -> np.ndarray:
+        """The whole plate as ``build`` has always made it (dilation included); ``sources`` as
+        ``perceive.plate.background_plate`` takes it."""
         from ..perceive.plate import background_plate
 
-        return background_plate(photo, masks, dilation)
+        return background_plate(photo, masks, dilation, sources=sources)
 
 
 class MirrorOutpainter(_Builtin):

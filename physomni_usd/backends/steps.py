@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import inspect
 import math
 import pathlib
 
@@ -70,6 +71,37 @@ def collect_objects(photo: np.ndarray, mask_specs, box_specs, segmenter, progres
     return objects
 
 
+def collect_working(work, small: np.ndarray, mask_specs, box_specs, segmenter, progress=None):
+    """The objects of the masks and boxes given in photo pixels, cut and measured on the working copy
+    ``small`` of a photo that ``work`` (``perceive.working.Working``) reduced, numbered as
+    :func:`collect_objects` numbers them; and each file mask at the photo's
+    size (None for a box's), whose edge the texture keeps."""
+    from ..perceive.masks import box_clicks, check_box, checked_mask, mask_quality, parse_box, read_mask
+
+    specs, boxes = list(mask_specs or ()), list(box_specs or ())
+    if not specs and not boxes:
+        return collect_objects(small, specs, boxes, segmenter, progress), []
+    objects, full = [], []
+    for i, spec in enumerate(specs):
+        o = read_mask(spec, work.full, i)
+        full.append(o.mask)
+        o.mask = checked_mask(work.down_mask(o.mask), f"mask {o.source[len('file:'):]} at the working size "
+                                                      f"{work.work[1]}×{work.work[0]}")
+        o.quality = dict(mask_quality(small, o.mask), method=o.quality["method"])
+        objects.append(o)
+    for spec in boxes:
+        check_box(spec, work.full)
+    cut = collect_objects(small, [], [work.box_spec(s) for s in boxes], segmenter, progress) if boxes else []
+    for j, (spec, o) in enumerate(zip(boxes, cut)):
+        o.index = len(specs) + j
+        o.label = parse_box(spec)[1] or f"object{o.index}"
+        (x0, y0, x1, y1), _ = parse_box(spec)  # the report names the box as it was given
+        o.source = f"box:{x0},{y0},{x1},{y1}" + "".join(f":{'+' if on else '-'}{x},{y}"
+                                                       for x, y, on in box_clicks(spec))
+        full.append(None)
+    return objects + cut, full
+
+
 def hole(masks, shape: tuple[int, int], dilation: float) -> np.ndarray:
     """Union of the masks widened by ``dilation`` × the image diagonal, (H, W) bool."""
     h, w = shape
@@ -101,9 +133,13 @@ def make_wide_plate(plate: np.ndarray, outpainter) -> tuple[np.ndarray, tuple[in
     return wide, margins
 
 
-def make_plate(photo: np.ndarray, masks, dilation: float, inpainter) -> np.ndarray:
-    """The background plate: the built-in's own, or the photo with the inpainter's fill in the hole only."""
+def make_plate(photo: np.ndarray, masks, dilation: float, inpainter, sources=None) -> np.ndarray:
+    """The background plate: the built-in's own, or the photo with the inpainter's fill in the hole only.
+    ``sources``: where the built-in's exemplar fill copied each pixel from (``perceive.plate.background_plate``),
+    if it is the built-in; a plugin's fill says nothing of the kind."""
     if hasattr(inpainter, "plate"):
+        if sources is not None and "sources" in inspect.signature(inpainter.plate).parameters:
+            return inpainter.plate(photo, masks, dilation, sources=sources)
         return inpainter.plate(photo, masks, dilation)
     where = hole(masks, photo.shape[:2], dilation)
     filled = np.asarray(inpainter.inpaint(photo, where))

@@ -114,10 +114,11 @@ def _ellipse(visible: np.ndarray, behind: np.ndarray) -> np.ndarray | None:
     return filled if holds >= ELLIPSE_HOLDS and fills >= ELLIPSE_FILLS else None
 
 
-def complete_texture(photo: np.ndarray, visible: np.ndarray, amodal: np.ndarray) -> np.ndarray:
+def complete_texture(photo: np.ndarray, visible: np.ndarray, amodal: np.ndarray, radius: int | None = None) -> np.ndarray:
     """The photo (H, W, 3) uint8 with the hidden part of one object (``amodal`` but not ``visible``) painted
     from that object's own visible pixels: each hidden pixel takes the colour of the nearest visible one,
-    softened across the fill so that no seam of single pixels is repeated."""
+    softened across the fill so that no seam of single pixels is repeated (over ``radius`` pixels, default
+    2 % of the image's longer side: give the whole photo's when ``photo`` is a part of it)."""
     hidden = amodal & ~visible
     if not hidden.any() or not visible.any():
         return photo.copy()
@@ -128,7 +129,7 @@ def complete_texture(photo: np.ndarray, visible: np.ndarray, amodal: np.ndarray)
     colour_of = np.zeros((int(labels.max()) + 1, 3), np.float32)
     colour_of[labels[ys, xs]] = photo[ys, xs]
     filled = colour_of[labels]
-    r = max(1, int(round(0.02 * max(visible.shape))))
+    r = max(1, int(round(0.02 * max(visible.shape)))) if radius is None else radius
     weight = cv2.blur(amodal.astype(np.float32), (2 * r + 1, 2 * r + 1))
     soft = cv2.blur(filled * amodal[..., None], (2 * r + 1, 2 * r + 1)) / np.maximum(weight, 1e-6)[..., None]
     out = photo.copy()

@@ -232,17 +232,8 @@ def mask_from_box(photo: np.ndarray, spec: str, index: int) -> ObjectMask:
     if label is not None:
         checked_label(label, "--box", spec)
     h, w = photo.shape[:2]
-    if x1 <= x0 or y1 <= y0:
-        raise InputError(f"--box {spec!r}: X1 must be greater than X0 and Y1 greater than Y0 (the corners are "
-                         "top-left, then bottom-right)")
-    if not (0 <= x0 < x1 <= w and 0 <= y0 < y1 <= h):
-        raise InputError(f"--box {spec!r} is not inside the {w}×{h} photo (need 0 ≤ X0 < X1 ≤ {w}, 0 ≤ Y0 < Y1 ≤ {h})")
-    if x1 - x0 < 4 or y1 - y0 < 4:
-        raise InputError(f"--box {spec!r} is smaller than 4×4 pixels")
+    check_box(spec, (h, w))
     clicks = box_clicks(spec)
-    for x, y, _ in clicks:
-        if not (0 <= x < w and 0 <= y < h):
-            raise InputError(f"--box {spec!r}: the click at {x},{y} is not inside the {w}×{h} photo")
     box = (x0, y0, x1, y1)
     if (x1 - x0) * (y1 - y0) >= 0.98 * w * h:
         # GrabCut needs some background to model; a box over the whole photo keeps the box.
@@ -259,6 +250,22 @@ def mask_from_box(photo: np.ndarray, spec: str, index: int) -> ObjectMask:
     obj = ObjectMask(label or f"object{index}", index, checked_mask(result, f"--box {spec!r}"), source)
     obj.quality = quality
     return obj
+
+
+def check_box(spec: str, shape: tuple[int, int]) -> None:
+    """One line (InputError) when the box or a click of ``spec`` is not inside a photo of ``shape`` (H, W)."""
+    (x0, y0, x1, y1), _ = parse_box(spec)
+    h, w = shape
+    if x1 <= x0 or y1 <= y0:
+        raise InputError(f"--box {spec!r}: X1 must be greater than X0 and Y1 greater than Y0 (the corners are "
+                         "top-left, then bottom-right)")
+    if not (0 <= x0 < x1 <= w and 0 <= y0 < y1 <= h):
+        raise InputError(f"--box {spec!r} is not inside the {w}×{h} photo (need 0 ≤ X0 < X1 ≤ {w}, 0 ≤ Y0 < Y1 ≤ {h})")
+    if x1 - x0 < 4 or y1 - y0 < 4:
+        raise InputError(f"--box {spec!r} is smaller than 4×4 pixels")
+    for x, y, _ in box_clicks(spec):
+        if not (0 <= x < w and 0 <= y < h):
+            raise InputError(f"--box {spec!r}: the click at {x},{y} is not inside the {w}×{h} photo")
 
 
 def refine_with_clicks(photo: np.ndarray, box, mask: np.ndarray, clicks) -> np.ndarray:

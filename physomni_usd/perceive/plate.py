@@ -115,14 +115,16 @@ METHODS = ("exemplar", "telea")
 
 
 def background_plate(photo: np.ndarray, masks, dilation: float, method: str = "exemplar",
-                     shadows: bool = True) -> np.ndarray:
+                     shadows: bool = True, sources: np.ndarray | None = None) -> np.ndarray:
     """The photo with every object (and, with ``shadows``, its contact shadow) filled in, (H, W, 3) uint8.
 
     ``dilation`` widens each mask by that fraction of the image diagonal, so that soft edges go too.
-    Outside the hole (:func:`plate_hole`) the plate is the photo, pixel for pixel.
+    Outside the hole (:func:`plate_hole`) the plate is the photo, pixel for pixel. ``sources``: (H, W, 2)
+    int32, filled with -1 by the caller; the exemplar fill writes there, for each pixel of the hole it copied,
+    the (y, x) of the photo's pixel it copied from (:func:`carry_plate` takes the fill's detail from there).
     """
     hole = plate_hole(photo, masks, dilation, shadows)
-    return fill_hole(photo, hole, method, feather_px(photo.shape))
+    return fill_hole(photo, hole, method, feather_px(photo.shape), sources)
 
 
 def feather_px(shape) -> int:
@@ -130,10 +132,12 @@ def feather_px(shape) -> int:
     return max(4, int(round(FEATHER * np.hypot(shape[0], shape[1]))))
 
 
-def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = "exemplar", feather: int = 0) -> np.ndarray:
+def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = "exemplar", feather: int = 0,
+              sources: np.ndarray | None = None) -> np.ndarray:
     """``photo`` (H, W, 3) uint8 RGB with the pixels of ``hole`` (H, W) bool filled by ``method``; with
-    ``feather`` > 0 the hole's outer ``feather`` pixels blend from the photo (at its edge) to the fill."""
-    filled = _fill_hole(photo, hole, method)
+    ``feather`` > 0 the hole's outer ``feather`` pixels blend from the photo (at its edge) to the fill.
+    ``sources``: as :func:`background_plate` takes it."""
+    filled = _fill_hole(photo, hole, method, sources)
     if feather <= 0 or not np.any(hole) or np.all(hole):
         return filled
     inside = cv2.distanceTransform(np.asarray(hole, np.uint8), cv2.DIST_L2, 5)
@@ -142,7 +146,7 @@ def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = "exemplar", fea
     return np.where(np.asarray(hole, bool)[..., None], np.clip(blend + 0.5, 0, 255), photo).astype(np.uint8)
 
 
-def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str) -> np.ndarray:
+def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str, sources: np.ndarray | None = None) -> np.ndarray:
     if method not in METHODS:
         raise ValueError(f"unknown fill method {method!r} (known: {', '.join(METHODS)})")
     hole = np.asarray(hole, bool)
@@ -152,7 +156,7 @@ def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str) -> np.ndarray:
         return np.broadcast_to(photo.reshape(-1, 3).mean(0).astype(np.uint8), photo.shape).copy()
     if method == "telea":
         return fill_telea(photo, hole)
-    return fill_exemplar(photo, hole)
+    return fill_exemplar(photo, hole, sources)
 
 
 def plate_hole(photo: np.ndarray, masks, dilation: float, shadows: bool = True) -> np.ndarray:
@@ -239,8 +243,9 @@ def fill_telea(photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
     return cv2.cvtColor(out, cv2.COLOR_BGR2RGB)
 
 
-def fill_exemplar(photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
-    """Shift-map (exemplar) fill of ``hole``, one window per connected part of it."""
+def fill_exemplar(photo: np.ndarray, hole: np.ndarray, sources: np.ndarray | None = None) -> np.ndarray:
+    """Shift-map (exemplar) fill of ``hole``, one window per connected part of it; ``sources``: as
+    :func:`background_plate` takes it."""
     h, w = hole.shape
     out = photo.copy()
     n, labels, stats, _ = cv2.connectedComponentsWithStats(hole.astype(np.uint8), connectivity=8)
@@ -253,14 +258,19 @@ def fill_exemplar(photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
         if win_hole.all():
             win_hole = hole  # no surface around this part: use the whole photo
             x0, y0, x1, y1 = 0, 0, w, h
+        copied = None if sources is None else np.full((y1 - y0, x1 - x0, 2), -1, np.int32)
         filled = _exemplar_window(photo[y0:y1, x0:x1], win_hole, min(bw, bh), SHADING_DEPTH * np.hypot(h, w),
-                                  EXEMPLAR_HOLE_PIXELS * float(stats[k, 4]) / total)
+                                  EXEMPLAR_HOLE_PIXELS * float(stats[k, 4]) / total, copied)
         own = labels[y0:y1, x0:x1] == k
         out[y0:y1, x0:x1][own] = filled[own]
+        if sources is not None:
+            found = own & (copied[..., 0] >= 0)
+            sources[y0:y1, x0:x1][found] = copied[found] + np.int32([y0, x0])
     return out
 
 
-def _exemplar_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float, budget: float) -> np.ndarray:
+def _exemplar_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float, budget: float,
+                     sources: np.ndarray | None = None) -> np.ndarray:
     """Fill ``hole`` of the window ``img`` (h, w, 3) RGB: shift-map on a copy reduced until the hole has
     at most ``budget`` pixels (and the window :data:`EXEMPLAR_PIXELS`), its shifts applied at full resolution;
     ``size`` (pixels, the hole's narrower side) sets the shading match's low-pass (:data:`SHADING_SIGMA`)."""
@@ -295,6 +305,8 @@ def _exemplar_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float,
     ok = (d[:, 0] != NO_SHIFT) & (qy >= 0) & (qy < h) & (qx >= 0) & (qx < w)
     ok[ok] &= ~hole[qy[ok], qx[ok]]
     out[ys[ok], xs[ok]] = img[qy[ok], qx[ok]]
+    if sources is not None:  # where each copied pixel came from, in the window (fill_exemplar moves it)
+        sources[ys[ok], xs[ok]] = np.stack([qy[ok], qx[ok]], 1)
     out = _match_shading(img, out, hole, max(3.0, SHADING_SIGMA * size), depth, SHADING_TRUST)
     return match_grain(img, out, hole)
 
@@ -776,3 +788,85 @@ def exemplar_outpaint(plate: np.ndarray, margins: tuple[int, int, int, int], see
     result = np.clip(reflect * (1.0 - a) + wide * a + 0.5, 0, 255).astype(np.uint8)
     result[t:t + h, l:l + w] = plate
     return result
+
+
+#: Rows of the photo :func:`carry_plate` works on at once: its float copies are of a strip, not of the photo.
+CARRY_ROWS = 256
+
+
+def carry_plate(photo: np.ndarray, work, small_photo: np.ndarray, small_plate: np.ndarray,
+                sources: np.ndarray | None = None) -> np.ndarray:
+    """The plate at the photo's size, (H, W, 3) uint8, from the plate filled at the working resolution.
+
+    ``work`` is the :class:`~.working.Working` that took ``photo`` to ``small_photo``; ``small_plate`` is the
+    plate of ``small_photo`` (the photo wherever it is not filled); ``sources`` what its exemplar fill copied
+    from (:func:`background_plate`). Outside the working hole the plate is the photo, pixel for pixel. Inside,
+    the fill's low frequencies (its shading, matched to the border at the working resolution) come from the
+    small plate, upsampled, and the detail finer than a working pixel from the photo's own pixels: from where
+    the exemplar copied each patch (the offset scaled up), blended across the seam (:data:`FEATHER`) into the
+    photo's own detail where the working fill blends into the photo. So the fill keeps the surface's grain at
+    full size for the cost of a few passes over the hole, not a search at full size.
+    """
+    changed = np.any(small_plate != small_photo, axis=2)
+    out = photo.copy()
+    if not changed.any():
+        return out
+    H, W = photo.shape[:2]
+    fx, fy = work.fx, work.fy
+    # how far each working pixel of the hole is the fill rather than the photo: the seam's own blend
+    feather = feather_px(small_photo.shape)
+    blend = np.clip(cv2.distanceTransform(changed.astype(np.uint8), cv2.DIST_L2, 5) / (feather + 1.0), 0.0, 1.0)
+    ys, xs = np.nonzero(changed)
+    x0, x1 = max(0, int((xs.min() - 1) * fx)), min(W, int(np.ceil((xs.max() + 2) * fx)))
+    y0, y1 = max(0, int((ys.min() - 1) * fy)), min(H, int(np.ceil((ys.max() + 2) * fy)))
+    small_f = small_photo.astype(np.float32)
+    for top in range(y0, y1, CARRY_ROWS):
+        box = (x0, top, x1, min(y1, top + CARRY_ROWS))
+        hole = work.up(changed.astype(np.uint8) * 255, cv2.INTER_LINEAR, box) > 0
+        if not hole.any():
+            continue
+        rows = slice(box[1], box[3])
+        hy, hx = np.nonzero(hole)
+        own = photo[rows, x0:x1][hy, hx].astype(np.float32)
+        detail = own - work.up(small_f, cv2.INTER_LINEAR, box)[hy, hx]
+        a = work.up(blend.astype(np.float32), cv2.INTER_LINEAR, box)[hy, hx][:, None]
+        value = work.up(small_plate.astype(np.float32), cv2.INTER_LINEAR, box)[hy, hx] + (1.0 - a) * detail
+        if sources is not None:
+            value += a * _copied_detail(photo, work, small_f, sources, hy + box[1], hx + x0)
+        out[rows, x0:x1][hy, hx] = np.clip(value + 0.5, 0, 255).astype(np.uint8)
+    return out
+
+
+def _copied_detail(photo: np.ndarray, work, small_f: np.ndarray, sources: np.ndarray, yy: np.ndarray,
+                   xx: np.ndarray) -> np.ndarray:
+    """(N, 3) float32 for the photo's pixels (``yy``, ``xx``): the detail (the photo less its working-resolution
+    low-pass) of the pixel each one's working pixel was copied from, offset scaled to the photo's pixels; 0
+    where none was."""
+    H, W = photo.shape[:2]
+    sh, sw = sources.shape[:2]
+    wy = np.clip(((yy + 0.5) / work.fy).astype(np.int64), 0, sh - 1)
+    wx = np.clip(((xx + 0.5) / work.fx).astype(np.int64), 0, sw - 1)
+    src = sources[wy, wx]
+    found = src[:, 0] >= 0
+    qy = np.clip(yy + np.round((src[:, 0] - wy) * work.fy).astype(np.int64), 0, H - 1)
+    qx = np.clip(xx + np.round((src[:, 1] - wx) * work.fx).astype(np.int64), 0, W - 1)
+    # the low-pass at the source pixel: the working photo sampled there, as Working.up maps pixel centres
+    low = _bilinear(small_f, (qx + 0.5) / work.fx - 0.5, (qy + 0.5) / work.fy - 0.5)
+    detail = photo[qy, qx].astype(np.float32) - low
+    detail[~found] = 0.0
+    return detail
+
+
+def _bilinear(img: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """(N, C) float32: ``img`` (h, w, C) sampled bilinearly at (``x``, ``y``), clamped at its border (as
+    cv2.remap with BORDER_REPLICATE, which takes at most 32767 points a row)."""
+    h, w = img.shape[:2]
+    x = np.clip(x, 0.0, w - 1.0)
+    y = np.clip(y, 0.0, h - 1.0)
+    x0 = np.minimum(x.astype(np.int64), w - 2) if w > 1 else np.zeros(len(x), np.int64)
+    y0 = np.minimum(y.astype(np.int64), h - 2) if h > 1 else np.zeros(len(y), np.int64)
+    ax = (x - x0).astype(np.float32)[:, None]
+    ay = (y - y0).astype(np.float32)[:, None]
+    x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
+    top = img[y0, x0] * (1 - ax) + img[y0, x1] * ax
+    return top * (1 - ay) + (img[y1, x0] * (1 - ax) + img[y1, x1] * ax) * ay

@@ -100,17 +100,26 @@ class ShotRenderer:
         self._build_atlas()
         self.photo_camera = read_photo_camera(stage, self.width, self.height)
         self.environment = _environment(self)
-        self._read_wide_plate(stage, scale)
+        self._read_wide_plate(stage, scale, (w, h))
         self._world_key = None
 
-    def _read_wide_plate(self, stage: Usd.Stage, scale: float) -> None:
+    def _read_wide_plate(self, stage: Usd.Stage, scale: float, size: tuple[int, int]) -> None:
         """The plate beyond the frame at the frame's scale, and where the plate sits in it (x, y); shots built
-        without one extend the plate's border pixels outward."""
+        without one extend the plate's border pixels outward. ``size``: the plate's own (w, h); a photo above
+        the working resolution has its wide plate at that resolution (``build``), scaled here by its own ratio."""
         wide = read_wide_plate(stage)
         if wide is None:
             self.wide_plate, self.wide_offset = self.plate, (0.0, 0.0)
             return
-        image, (top, _, left, _) = wide
+        image, (top, bottom, left, right) = wide
+        inner = (image.shape[1] - left - right, image.shape[0] - top - bottom)
+        if inner != tuple(size) and min(inner) > 0:
+            sx, sy = self.width / inner[0], self.height / inner[1]
+            grown = (max(2, round(image.shape[1] * sx)), max(2, round(image.shape[0] * sy)))
+            image = cv2.resize(image, grown, interpolation=cv2.INTER_AREA if sx < 1 else cv2.INTER_LINEAR)
+            self.wide_plate = image.astype(np.float32)
+            self.wide_offset = (left * sx, top * sy)
+            return
         if scale < 1.0:
             size = (max(2, round(image.shape[1] * scale)), max(2, round(image.shape[0] * scale)))
             image = cv2.resize(image, size, interpolation=cv2.INTER_AREA)

@@ -1,0 +1,136 @@
+"""``bench scale``: what a larger photo costs each stage, as ratios to the smallest.
+
+One example (the motorcycle by default) is scaled to each size asked for (photo by cubic interpolation, masks
+by their pixels' majority), and ``build``, ``simulate`` and ``render`` run on it each in a fresh process, the
+sizes alternating within each repeat so that they share the machine's load. Per stage: wall seconds, CPU
+seconds (user + system, of the process and its children: what the load does not inflate) and peak resident
+memory (the process's own, from ``wait4``), and the load average over the run.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import subprocess
+import sys
+import tempfile
+import time
+
+import cv2
+import numpy as np
+
+from ..perceive.masks import photo_size
+
+#: Megapixels of the photos by default: the examples' sizes up to a full-frame camera's (the --max-pixels cap).
+SIZES_MP = (0.3, 1.0, 4.0, 12.0, 40.0)
+STAGES = ("build", "simulate", "render")
+
+
+def scaled_example(folder: pathlib.Path, megapixels: float | None, out: pathlib.Path) -> list[str]:
+    """The example of ``folder`` (its example.json) at ``megapixels`` (None: as it is) in ``out``; returns the
+    arguments of its ``build`` (photo, masks, boxes, sizes and pushes)."""
+    spec = json.loads((folder / "example.json").read_text())
+    photo = cv2.imread(str(folder / spec["photo"]), cv2.IMREAD_COLOR)
+    h, w = photo.shape[:2]
+    s = 1.0 if megapixels is None else float(np.sqrt(megapixels * 1e6 / (h * w)))
+    size = (max(16, int(w * s)), max(16, int(h * s)))
+    out.mkdir(parents=True, exist_ok=True)
+    if megapixels is None:
+        name = folder / spec["photo"]
+    else:
+        name = out / "photo.png"
+        cv2.imwrite(str(name), cv2.resize(photo, size, interpolation=cv2.INTER_CUBIC if s > 1 else cv2.INTER_AREA))
+    args = [str(name)]
+    for m in spec.get("masks", []):
+        path, _, label = m.partition(":")
+        mask = cv2.imread(str(folder / path), cv2.IMREAD_GRAYSCALE)
+        if megapixels is not None:
+            mask = (cv2.resize((mask > 0).astype(np.uint8) * 255, size, interpolation=cv2.INTER_LINEAR) >= 128)
+            mask = mask.astype(np.uint8) * 255
+            target = out / pathlib.Path(path).name
+            cv2.imwrite(str(target), mask)
+        else:
+            target = folder / path
+        args += ["--mask", f"{target}:{label}" if label else str(target)]
+    for b in spec.get("boxes", []):
+        coords, _, rest = b.partition(":")
+        scaled = ",".join(str(int(round(float(c) * s))) for c in coords.split(","))
+        args += ["--box", scaled + (":" + rest if rest else "")]
+    for key in ("size", "push"):
+        for v in spec.get(key, []):
+            args += [f"--{key}", v]
+    return args
+
+
+def _timed(cmd: list[str], env: dict) -> dict:
+    """Run ``cmd``; its wall seconds, CPU seconds (user + system) and peak resident memory (MB)."""
+    load = os.getloadavg()[0]
+    t = time.perf_counter()
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - t
+    err = proc.stderr.read().decode(errors="replace")
+    proc.stderr.close()
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd[:4])} ... failed ({proc.returncode}): {err.strip()[-400:]}")
+    return {"wall_s": round(wall, 2), "cpu_s": round(usage.ru_utime + usage.ru_stime, 2),
+            "peak_mb": round(usage.ru_maxrss / 1024.0, 1), "load": round((load + os.getloadavg()[0]) / 2, 2)}
+
+
+def bench_scale(example: pathlib.Path, sizes=SIZES_MP, repeats: int = 1, seconds: float = 3.0,
+                stages=STAGES, max_size: int = 1920, echo=print) -> dict:
+    """Each size's stages, ``repeats`` times with the sizes alternating; medians and ratios to the smallest.
+    A size of 0 means the example as it is."""
+    env = dict(os.environ)
+    cli = [sys.executable, "-m", "physomni_usd.cli"]
+    runs: dict[float, list[dict]] = {s: [] for s in sizes}
+    pixels = {}
+    with tempfile.TemporaryDirectory(prefix="physomni-scale-") as tmp:
+        root = pathlib.Path(tmp)
+        inputs = {s: scaled_example(example, s or None, root / f"in-{s}") for s in sizes}
+        for s in sizes:
+            pixels[s] = photo_size(pathlib.Path(inputs[s][0]))
+        for r in range(repeats):
+            for s in sizes:
+                shot = root / f"shot-{s}"
+                row = {}
+                if "build" in stages:
+                    row["build"] = _timed(cli + ["build", *inputs[s], "-o", str(shot), "-q"], env)
+                if "simulate" in stages:
+                    row["simulate"] = _timed(cli + ["simulate", str(shot / "shot.usda"), "--seconds", str(seconds),
+                                                    "-q"], env)
+                if "render" in stages:
+                    row["render"] = _timed(cli + ["render", str(shot / "shot.usda"), "--max-size", str(max_size),
+                                                  "-q"], env)
+                runs[s].append(row)
+                w, h = pixels[s]
+                echo(f"scale: {w}×{h} ({w * h / 1e6:.2f} MP), repeat {r + 1}: " + ", ".join(
+                    f"{k} {v['wall_s']:.1f} s wall / {v['cpu_s']:.1f} s cpu / {v['peak_mb']:.0f} MB "
+                    f"(load {v['load']:.1f})" for k, v in row.items()))
+    rows = []
+    base = None
+    for s in sizes:
+        w, h = pixels[s]
+        med = {k: {m: float(np.median([run[k][m] for run in runs[s]])) for m in ("wall_s", "cpu_s", "peak_mb",
+                                                                                   "load")}
+               for k in runs[s][0]}
+        total = {m: sum(med[k][m] for k in med) for m in ("wall_s", "cpu_s")}
+        total["peak_mb"] = max(med[k]["peak_mb"] for k in med)
+        med["run"] = total
+        base = base or med
+        ratios = {k: {m: round(med[k][m] / max(base[k][m], 1e-9), 2) for m in ("wall_s", "cpu_s", "peak_mb")}
+                  for k in med}
+        rows.append({"megapixels": round(w * h / 1e6, 2), "width": w, "height": h, "median": med,
+                     "ratio_to_smallest": ratios, "runs": runs[s]})
+    table = [f"{'photo':>14} {'stage':>9} {'wall s':>8} {'cpu s':>8} {'peak MB':>8} {'× wall':>7} {'× cpu':>7} "
+             f"{'× peak':>7} {'load':>5}"]
+    for row in rows:
+        for k, v in row["median"].items():
+            q = row["ratio_to_smallest"][k]
+            table.append(f"{row['width']}×{row['height']:<7} {k:>9} {v['wall_s']:8.1f} {v['cpu_s']:8.1f} "
+                         f"{v['peak_mb']:8.0f} {q['wall_s']:7.2f} {q['cpu_s']:7.2f} {q['peak_mb']:7.2f} "
+                         f"{v.get('load', float('nan')):5.1f}")
+    echo("\n".join(table))
+    return {"example": str(example), "repeats": repeats, "seconds": seconds, "max_size": max_size, "rows": rows}

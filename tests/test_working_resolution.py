@@ -1,0 +1,125 @@
+"""A photo above the working resolution is perceived and placed on a reduced copy (perceive/working.py): its
+objects come out as the small photo's do, its plate, textures and inputs keep the photo's own pixels, and a
+mask file keeps its own edge where the texture shows it."""
+
+import json
+import pathlib
+
+import cv2
+import numpy as np
+import pytest
+
+from physomni_usd.building import build_shot
+from physomni_usd.perceive.plate import carry_plate
+from physomni_usd.perceive.working import Working, working
+from physomni_usd.settings import BuildSettings
+
+EXAMPLE = pathlib.Path(__file__).resolve().parent.parent / "examples" / "cloth"
+
+
+def test_a_photo_at_or_under_the_working_size_is_used_as_it_is():
+    assert working((320, 480, 3), 480 * 320) is None
+    w = working((640, 960, 3), 480 * 320)
+    assert w.work == (320, 480) and w.fx == 2.0 and w.fy == 2.0
+
+
+def test_boxes_and_clicks_are_taken_to_working_pixels():
+    w = Working((1000, 2000), (250, 500))
+    assert w.box_spec("100,40,1001,999:cup:+400,200:-1999,999") == "25,10,251,250:cup:+100,50:-499,249"
+
+
+def test_the_carried_plate_keeps_the_photo_outside_and_the_copied_detail_inside():
+    rng = np.random.default_rng(1)
+    photo = rng.integers(0, 256, (400, 400, 3), dtype=np.uint8)  # all detail, finer than a working pixel
+    work = Working((400, 400), (100, 100))
+    small = work.down(photo)
+    plate = small.copy()
+    sources = np.full((100, 100, 2), -1, np.int32)
+    ys, xs = np.mgrid[30:70, 40:70]
+    plate[ys, xs] = small[ys, xs - 30]  # a fill copied from 30 working pixels to the left
+    sources[ys, xs, 0], sources[ys, xs, 1] = ys, xs - 30
+    out = carry_plate(photo, work, small, plate, sources)
+    changed = np.zeros((100, 100), bool)
+    changed[30:70, 40:70] = True
+    outside = ~work.up_mask(cv2.dilate(changed.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool))
+    assert np.array_equal(out[outside], photo[outside])
+    # deep inside, the photo's own pixels from 120 photo pixels to the left, not an upsampled blur of them
+    inner = (slice(140, 260), slice(180, 260))
+    left = (slice(140, 260), slice(60, 140))
+    err = np.abs(out[inner].astype(int) - photo[left].astype(int))
+    assert np.median(err) <= 1
+    blur = work.up(plate)[inner]
+    assert np.median(np.abs(blur.astype(int) - photo[left].astype(int))) > 20  # what detail transfer adds
+
+
+@pytest.fixture(scope="module")
+def builds(tmp_path_factory):
+    """The cloth example as it is, and at twice its size with a notch one photo pixel wide cut into the crate's
+    mask (half a working pixel: the working copy cannot hold it), worked on at the example's own size."""
+    spec = json.loads((EXAMPLE / "example.json").read_text())
+    tmp = tmp_path_factory.mktemp("working")
+    masks = [str(EXAMPLE / m) for m in spec["masks"]]
+    small = build_shot(EXAMPLE / spec["photo"], tmp / "small", masks=masks, pushes=spec["push"])
+    photo = cv2.imread(str(EXAMPLE / spec["photo"]))
+    h, w = photo.shape[:2]
+    cv2.imwrite(str(tmp / "photo.png"), cv2.resize(photo, (2 * w, 2 * h), interpolation=cv2.INTER_CUBIC))
+    big_masks, given = [], {}
+    for m in spec["masks"]:
+        path, _, label = m.partition(":")
+        mask = cv2.resize(cv2.imread(str(EXAMPLE / path), cv2.IMREAD_GRAYSCALE), (2 * w, 2 * h),
+                          interpolation=cv2.INTER_NEAREST) > 0
+        if label == "crate":
+            ys, xs = np.nonzero(mask)
+            cx = int(np.median(xs))
+            mask[ys.min():ys.min() + (ys.max() - ys.min()) // 2, cx] = False  # a slit 1 pixel wide
+        given[label] = mask
+        cv2.imwrite(str(tmp / f"{label}.png"), mask.astype(np.uint8) * 255)
+        big_masks.append(f"{tmp / label}.png:{label}")
+    big = build_shot(tmp / "photo.png", tmp / "big", masks=big_masks, pushes=spec["push"],
+                     settings=BuildSettings(working_pixels=w * h))
+    return small, big, given, (w, h)
+
+
+def test_a_large_photos_objects_are_the_small_ones(builds):
+    small, big, _, _ = builds
+    for a, b in zip(small.objects, big.objects):
+        assert a["name"] == b["name"] and a["shape"] == b["shape"]
+        size = np.array(a["size_m"])
+        assert np.allclose(b["size_m"], size, rtol=0.05, atol=0.01), (a["name"], a["size_m"], b["size_m"])
+        assert np.linalg.norm(np.subtract(b["position_m"], a["position_m"])) <= 0.05 * max(size.max(), 0.1)
+
+
+def test_the_large_photos_shot_keeps_its_pixels(builds):
+    _, big, _, (w, h) = builds
+    report = json.loads((big.folder / "report.json").read_text())
+    assert (report["shot"]["width"], report["shot"]["height"]) == (2 * w, 2 * h)
+    assert report["shot"]["working_size"] == [w, h]
+    for name in ("textures/plate.png", "inputs/photo.png"):
+        assert cv2.imread(str(big.folder / name)).shape[:2] == (2 * h, 2 * w), name
+    assert cv2.imread(str(big.folder / "textures" / "plate_wide.png")).shape[:2] == (2 * h, 2 * w)  # the working plate and its margins
+
+
+def test_a_full_size_mask_keeps_its_own_edge(builds):
+    _, big, given, _ = builds
+    crate = next(o for o in big.objects if o["label"] == "crate")
+    kept = cv2.imread(str(big.folder / "inputs" / "masks" / f"{crate['name']}.png"), cv2.IMREAD_GRAYSCALE) > 0
+    assert np.array_equal(kept, given["crate"])
+    # the texture's cut-out is the given mask, slit included, where the photo shows the crate
+    texture = cv2.imread(str(big.folder / "textures" / f"{crate['name']}.png"), cv2.IMREAD_UNCHANGED)
+    from pxr import Usd
+
+    stage = Usd.Stage.Open(str(big.folder / "scene.usda"))
+    x0, y0 = next(p.GetCustomDataByKey("physomni:textureOrigin") for p in stage.Traverse()
+                  if p.GetName() == crate["name"] and p.GetCustomDataByKey("physomni:textureOrigin") is not None)
+    th, tw = texture.shape[0], texture.shape[1] // 2
+    alpha = texture[:, :tw, 3] == 255
+    assert np.array_equal(alpha, given["crate"][y0:y0 + th, x0:x0 + tw])
+
+
+def test_run_takes_the_render_size(tmp_path):
+    from physomni_usd.cli import _run_arguments
+
+    photo = EXAMPLE.parent / "motorcycle" / "photo.png"
+    args = [str(photo), "-o", str(tmp_path / "shot"), "--mask", str(photo.parent / "bin.png")]
+    assert _run_arguments(args)["render_settings"].max_size == 1920
+    assert _run_arguments(args + ["--max-size", "640"])["render_settings"].max_size == 640
