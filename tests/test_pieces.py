@@ -8,7 +8,7 @@ import numpy as np
 import trimesh
 
 from physomni_usd.lift.vessel import vessel_mesh
-from physomni_usd.physics.pieces import convex_pieces
+from physomni_usd.geometry.overlap import convex_pieces
 
 BOWL = dict(centre=np.array([0.0, 0.0]), base_radius_m=0.09, rim_radius=0.12, height=0.06)
 

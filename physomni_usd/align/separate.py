@@ -61,7 +61,7 @@ def _meshes(vertices, faces):
 
 def pair_depth(a, b, hollow=(False, False)) -> float:
     """How deep meshes ``a`` and ``b`` (trimesh) are in each other, as ``simulate``'s check measures it."""
-    from ..physics.diagnose import overlap_depth
+    from ..geometry.overlap import overlap_depth
 
     return overlap_depth(a, b, hollow)
 

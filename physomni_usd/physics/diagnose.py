@@ -20,7 +20,8 @@ from ..sizes import SizePrior, size_prior
 from ..metrics.geometry import world_meshes
 from ..geometry.mesh import longest_dimension
 from ..usd.author import OBJECTS
-from .pieces import convex_pieces, is_decomposed
+from ..geometry.overlap import overlap_depth
+from .pieces import is_decomposed
 
 #: Sizes beyond this factor of the label's typical size are worth a warning, beyond the second an error.
 SIZE_WARN_FACTOR = 2.0
@@ -83,23 +84,6 @@ def _mass(prim: Usd.Prim, mesh) -> float | None:
         return None
     volume = mesh.volume if mesh.is_volume else mesh.convex_hull.volume
     return rho * abs(float(volume))
-
-
-def overlap_depth(a, b, hollow=(False, False)) -> float:
-    """Deepest vertex of ``a`` inside ``b`` or of ``b`` inside ``a`` (metres; 0 when apart); ``hollow``: whether
-    each collides as convex pieces (``pieces.py``) rather than its hull."""
-    import trimesh
-
-    if not (np.all(a.bounds[0] <= b.bounds[1]) and np.all(b.bounds[0] <= a.bounds[1])):
-        return 0.0
-    worst = 0.0
-    for x, y, cut in ((a, b, hollow[1]), (b, a, hollow[0])):
-        # signed distance is only meaningful against closed meshes; convex hulls are what the solver collides
-        hulls = ([trimesh.convex.convex_hull(p) for p in convex_pieces(y.vertices, y.faces)] if cut
-                 else [y.convex_hull])
-        inside = np.max([trimesh.proximity.signed_distance(h, x.vertices) for h in hulls], axis=0)
-        worst = max(worst, float(inside.max()))
-    return worst
 
 
 def user_sizes(stage: Usd.Stage) -> dict[str, float]:
