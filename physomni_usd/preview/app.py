@@ -120,6 +120,7 @@ class Preview:
         self.time_scale = 1.0
         self.status = ""
         self.saved = 0
+        self.kept = None  # the last take saved (write_take's summary): the studio renders it instead of simulating
         self.seconds = {"step": 0.0, "publish": 0.0}  # wall time of the loop's two halves
         self.rate = 0.0
         self._sent: dict = {}
@@ -459,6 +460,7 @@ class Preview:
                 self._say(str(exc))
                 return
             self.saved += 1
+            self.kept = r
             self._say(f"take {self.saved} saved: {r['frames']} frames ({r['seconds']:.2f} s), "
                       f"{len(r['moving_prims'])} moving prims → sim.usdc")
         elif action == "keep":
