@@ -178,3 +178,25 @@ def test_the_server_renders_a_kept_take_until_changed_pushes_or_a_build_drop_it(
     assert "was dropped" in r["dropped"] and s.take_info()["take"] is None
     assert any("the kept take (7 frames) was dropped" in line for line in said)
 
+
+def test_a_port_whose_server_closed_its_connections_is_free_again_and_a_listened_one_is_not():
+    """A Build after a Render starts the preview again on its port, which the stopped preview's closed
+    connections hold in TIME_WAIT for a minute: that is free; a port a program listens on is not."""
+    import socket
+
+    from physomni_usd.errors import InputError
+    from physomni_usd.preview.app import check_port
+
+    server = socket.socket()
+    server.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as viser's own server does
+    server.bind(("127.0.0.1", 0))
+    server.listen()
+    port = server.getsockname()[1]
+    client = socket.create_connection(("127.0.0.1", port))
+    accepted, _ = server.accept()
+    with pytest.raises(InputError, match="another program holds it"):
+        check_port("127.0.0.1", port)
+    accepted.close()  # the server's side closes first, as a stopped preview's does: TIME_WAIT
+    server.close()
+    client.close()
+    check_port("127.0.0.1", port)
