@@ -100,6 +100,10 @@ def kept(tmp_path_factory):
             page.get_by_label("Push 0 y").fill("0")  # back as it was: the take is Render's again
             page.get_by_label("Push 0 y").dispatch_event("change")
             result["plan_back"] = page.locator("#plan").inner_text()
+            page.get_by_role("button", name="Build").click()  # a Build after the Render drops the take
+            page.get_by_text("built 2 objects").wait_for(timeout=300000)
+            result["status_rebuilt"] = page.locator("#status").inner_text()
+            result["plan_rebuilt"] = page.locator("#plan").inner_text()
             browser.close()
         proc.send_signal(signal.SIGINT)
         proc.wait(120)
@@ -131,9 +135,11 @@ def test_studio_sh_says_the_take_cannot_be_replayed_and_simulates_nothing_over_i
     assert "cannot be replayed by commands" in text and f"({kept['video_frames']} frames" in text
 
 
-def test_a_change_of_pushes_drops_the_take_and_the_page_says_so(kept):
+def test_a_change_of_pushes_or_a_build_drops_the_take_and_the_page_says_so(kept):
     assert "dropped" in kept["plan_pushed"] and kept["plan_pushed"].startswith("Render: simulates")
     assert kept["plan_back"].startswith("Render: the kept take")
+    assert f"the kept take ({kept['video_frames']} frames) was dropped" in kept["status_rebuilt"]
+    assert kept["plan_rebuilt"].startswith("Render: simulates")
 
 
 def test_the_server_renders_a_kept_take_until_changed_pushes_or_a_build_drop_it(photo, tmp_path, monkeypatch):
