@@ -69,6 +69,11 @@ def check_port(host: str, port: int, option: str | None = None) -> None:
     ``option`` is what the user typed, or would type, to choose another (the studio's preview takes the
     port after its ``--port``). Who holds it is not known here: the line does not guess."""
     with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET, socket.SOCK_STREAM) as s:
+        if os.name == "posix":
+            # connections a server closed itself linger in TIME_WAIT for a minute: without this a studio's
+            # Build after a Render (which stopped its preview) was refused its own preview's port; a port
+            # another program listens on is still refused (Windows' SO_REUSEADDR would take it over instead)
+            s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
             s.bind((host, port))
         except OSError as exc:
@@ -120,6 +125,7 @@ class Preview:
         self.time_scale = 1.0
         self.status = ""
         self.saved = 0
+        self.kept = None  # the last take saved (write_take's summary): the studio renders it instead of simulating
         self.seconds = {"step": 0.0, "publish": 0.0}  # wall time of the loop's two halves
         self.rate = 0.0
         self._sent: dict = {}
@@ -459,6 +465,7 @@ class Preview:
                 self._say(str(exc))
                 return
             self.saved += 1
+            self.kept = r
             self._say(f"take {self.saved} saved: {r['frames']} frames ({r['seconds']:.2f} s), "
                       f"{len(r['moving_prims'])} moving prims → sim.usdc")
         elif action == "keep":

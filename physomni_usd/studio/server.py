@@ -4,7 +4,8 @@ runs on the next port, shown inside the page.
 
 Threads: the HTTP server answers each request on a thread of its own; a lock makes the page's work
 (masks, build, render) one thing at a time. The preview runs its loop on a thread the studio starts and
-stops (a rebuild or "Render" ends it; its take is written first).
+stops (a rebuild or "Render" ends it). A take the artist saves there ("Save take", written to ``sim.usdc``)
+is what Render then renders, unsimulated, until a Build or a change of the pushes drops it.
 
 Who may ask: any web page the artist has open can send requests to 127.0.0.1, so every request passes the
 preview's :class:`~physomni_usd.preview.security.Guard` before anything reads its body or answers it (its
@@ -98,6 +99,10 @@ class Studio:
         self.preview = None
         self.preview_thread = None
         self.preview_result: dict = {}
+        #: the take the artist saved in the preview, which Render renders instead of simulating:
+        #: {"frames", "seconds", "pushes": push_key of the shot it was kept on}; a Build drops it
+        self.take: dict | None = None
+        self._kept_from = None  # the preview's summary self.take was made from
         self.httpd = None
 
     # --- the page's work --------------------------------------------------------------------------
@@ -118,8 +123,26 @@ class Studio:
         if root is not None:
             root.Reload()  # a render or a rebuild changed it on disk
         fps = root.timeCodesPerSecond if root is not None and root.HasTimeCodesPerSecond() else BUILD_FPS
+        take = self._kept()
+        if take is not None and take["pushes"] == session.push_key(state.get("pushes")):
+            return {"seconds": take["seconds"], "fps": fps, "frames": take["frames"]}
         seconds = session.render_seconds(state)
         return {"seconds": seconds, "fps": fps, "frames": int(round(seconds * fps)) + 1}
+
+    def _kept(self) -> dict | None:
+        """The kept take, a take saved in the running preview since the last look included."""
+        preview = self.preview
+        kept = getattr(preview, "kept", None)
+        if kept is not None and kept is not self._kept_from:
+            self._kept_from = kept
+            # the preview runs the shot built from self.state: its pushes are the take's
+            self.take = {"frames": kept["frames"], "seconds": kept["seconds"],
+                         "pushes": session.push_key(self.state.get("pushes"))}
+        return self.take
+
+    def take_info(self) -> dict:
+        """For the page (/api/take): the kept take, or null."""
+        return {"take": self._kept()}
 
     def info(self) -> dict:
         from ..rendering.moves import MOVES
@@ -128,7 +151,7 @@ class Studio:
         return {"state": self.state, "width": w, "height": h, "moves": list(MOVES),
                 "forces": session.FORCE_PRESETS, "segmenter": type(self.segmenter).name,
                 "preview": self._preview_url() if self.preview is not None else None,
-                "length": self._length(self.state), "progress": len(self.progress_lines)}
+                "length": self._length(self.state), "progress": len(self.progress_lines), "take": self._kept()}
 
     def mask(self, body: dict) -> dict:
         obj, index = body["object"], int(body.get("index", 0))
@@ -160,18 +183,38 @@ class Studio:
         with self.lock:
             state = self._take_state(body)
             self._stop_preview(record=False)
+            dropped = None
+            if self._kept() is not None:  # build writes an empty sim.usdc: the take is gone with it
+                dropped = f"the kept take ({self.take['frames']} frames) was dropped: a Build makes a new shot"
+                self.echo(f"studio: {dropped}")
+                self.take = None
             result = session.build(state, echo=self.echo)
             self.state = state
             self._start_preview(result.shot)
-        return {"preview": self._preview_url(), "objects": result.objects,
+        return {"preview": self._preview_url(), "objects": result.objects, "dropped": dropped, "take": None,
                 "command": session.command_text(state), "length": self._length(state)}
 
     def render(self, body: dict) -> dict:
         with self.lock:
             state = self._take_state(body)
-            self._stop_preview(record=False)  # what the preview stepped is not the video: studio.sh could not make it
+            # what the preview stepped is not the video (studio.sh could not make it), unless the artist kept it
+            self._stop_preview(record=False)
+            take, dropped = self._kept(), None
+            if take is not None and take["pushes"] != session.push_key(state.get("pushes")):
+                dropped = "the pushes changed since it was kept"
+            elif take is not None:
+                dropped = session.take_on_disk(state, take)
+            if dropped is not None:
+                dropped = f"the kept take ({take['frames']} frames) was dropped: {dropped}"
+                self.echo(f"studio: {dropped}")
+                self.take = take = None
             length = self._length(state)
-            self.echo(f"studio: rendering {length['seconds']:g} s ({length['frames']} frames at {length['fps']:g} fps)")
+            if take is not None:
+                self.echo(f"studio: rendering the take kept in the preview ({length['frames']} frames, "
+                          f"{length['seconds']:.2f} s), not simulating")
+            else:
+                self.echo(f"studio: rendering {length['seconds']:g} s ({length['frames']} frames at "
+                          f"{length['fps']:g} fps)")
             logged = {}
 
             def progress(stage, done, total):  # a line a frame would flood the page's log: each tenth
@@ -181,12 +224,13 @@ class Studio:
                     self.echo(f"{stage}: frame {done}/{total}")
 
             try:
-                section = session.render(state, self.options.render_size, echo=self.echo, progress=progress)
+                section = session.render(state, self.options.render_size, echo=self.echo, progress=progress,
+                                         take=take)
             finally:
                 self.current = ""
             self.state = state
-        return {"video": f"/video.mp4?t={time.time():.0f}", "frames": section["frames"],
-                "command": session.command_text(state), "length": self._length(state)}
+        return {"video": f"/video.mp4?t={time.time():.0f}", "frames": section["frames"], "take": take,
+                "dropped": dropped, "command": session.command_text(state, take), "length": self._length(state)}
 
     # --- the preview ------------------------------------------------------------------------------
     def _preview_url(self, host: str | None = None) -> str:
@@ -244,6 +288,7 @@ class Studio:
         self.preview.options.record = record
         self.preview.options.duration = 0.0  # the loop checks it every frame
         self.preview_thread.join(120)
+        self._kept()  # a take saved in its last moments is kept too
         self.preview = self.preview_thread = None
         return self.preview_result.get("take")
 
@@ -325,6 +370,8 @@ class Studio:
                     self._send(200, png.tobytes(), "image/png")
                 elif path == "/api/info":
                     self._json(200, self._for_page(studio.info()))
+                elif path == "/api/take":
+                    self._json(200, studio.take_info())
                 elif path == "/api/progress":
                     query = self.path.split("?", 1)[1] if "?" in self.path else ""
                     since = next((v for k, _, v in (q.partition("=") for q in query.split("&")) if k == "since"), "0")

@@ -96,8 +96,9 @@ def push_specs(state: dict) -> list[str]:
     return out
 
 
-def commands(state: dict) -> dict[str, list[str]]:
-    """The command lines (argv, without the program) that do what the page did: build, simulate, render."""
+def commands(state: dict, take: dict | None = None) -> dict[str, list[str]]:
+    """The command lines (argv, without the program) that do what the page did: build, simulate, render;
+    with a ``take`` kept in the preview, no simulate (it would write over the take in ``sim.usdc``)."""
     out = state["output"]
     shot = str(pathlib.Path(out) / "shot.usda")
     build = ["build", state["photo"], "-o", out]
@@ -110,28 +111,44 @@ def commands(state: dict) -> dict[str, list[str]]:
     if state.get("segmenter") and state["segmenter"] != "grabcut":
         build += ["--segmenter", state["segmenter"]]
     render = ["render", shot] + (["--camera", state["camera"]] if state.get("camera") else [])
+    if take is not None:
+        return {"build": build, "render": render}
     return {"build": build, "simulate": ["simulate", shot, "--seconds", f"{render_seconds(state):g}"],
             "render": render}
 
 
-def command_text(state: dict) -> str:
-    """``studio.sh``: the command lines, one a line, quoted for a POSIX shell."""
-    c = commands(state)
-    lines = ["# physomni-usd studio: the set-up page's work as commands (run from the folder it was run in)",
-             "physomni-usd " + shlex.join(c["build"]),
-             "# the video, as the page's Render made it: simulate the length it showed, then render",
-             "physomni-usd " + shlex.join(c["simulate"]),
-             "physomni-usd " + shlex.join(c["render"])]
+def command_text(state: dict, take: dict | None = None) -> str:
+    """``studio.sh``: the command lines, one a line, quoted for a POSIX shell. With a ``take`` kept in the
+    preview the build line is a comment, since build writes an empty ``sim.usdc`` and the take with it would
+    go: what the script runs is the render of the take on disk."""
+    c = commands(state, take)
+    lines = ["# physomni-usd studio: the set-up page's work as commands (run from the folder it was run in)"]
+    if take is None:
+        lines += ["physomni-usd " + shlex.join(c["build"]),
+                  "# the video, as the page's Render made it: simulate the length it showed, then render",
+                  "physomni-usd " + shlex.join(c["simulate"])]
+    else:
+        lines += ["# the shot was built by (not run here: it would empty sim.usdc, where the kept take is):",
+                  "# physomni-usd " + shlex.join(c["build"]),
+                  f"# the video, as the page's Render made it: the take kept in the live preview ({take['frames']} "
+                  f"frames, {take['seconds']:.2f} s) in sim.usdc. What was done in the preview (drags, sliders) "
+                  "cannot be replayed by commands: this renders that sim.usdc"]
+    lines.append("physomni-usd " + shlex.join(c["render"]))
     return "\n".join(lines) + "\n"
 
 
-def write_state(state: dict) -> pathlib.Path:
-    """``studio.json`` (the state and its command lines) and ``studio.sh`` beside the shot; returns the JSON's
-    path. Each file is written whole or not at all."""
+def take_summary(take: dict | None) -> dict | None:
+    """What ``studio.json`` says of a kept take: its frames and seconds."""
+    return None if take is None else {"frames": take["frames"], "seconds": take["seconds"]}
+
+
+def write_state(state: dict, take: dict | None = None) -> pathlib.Path:
+    """``studio.json`` (the state, its command lines and the kept take if Render used one) and ``studio.sh``
+    beside the shot; returns the JSON's path. Each file is written whole or not at all."""
     folder = pathlib.Path(state["output"])
-    record = dict(state, commands=commands(state))
+    record = dict(state, commands=commands(state, take), take=take_summary(take))
     write_bytes(folder / STATE_FILE, (json.dumps(record, indent=2) + "\n").encode())
-    write_bytes(folder / COMMANDS_FILE, command_text(state).encode())
+    write_bytes(folder / COMMANDS_FILE, command_text(state, take).encode())
     return folder / STATE_FILE
 
 
@@ -139,6 +156,7 @@ def read_state(path) -> dict:
     """A ``studio.json`` as the state it was written from (its command lines left out)."""
     data = json.loads(pathlib.Path(path).read_text())
     data.pop("commands", None)
+    data.pop("take", None)  # a take is the preview's, not the page's: a new studio starts without one
     return data
 
 
@@ -171,10 +189,36 @@ def build(state: dict, echo=lambda m: None):
     return result
 
 
-def render(state: dict, max_size: int = 960, echo=lambda m: None, progress=None) -> dict:
+def push_key(pushes) -> list:
+    """Pushes as ``[[object, [vx, vy, vz]], ...]`` in object order: what a kept take is compared by (where an
+    arrow was drawn does not change what is simulated)."""
+    return sorted([int(p["object"]), [float(v) for v in p["velocity"]]] for p in pushes or ())
+
+
+def take_on_disk(state: dict, take: dict) -> str | None:
+    """Why ``sim.usdc`` is no longer the kept ``take`` (another simulate wrote it), or None when it is."""
+    from pxr import Sdf
+
+    from ..usd import layers
+
+    path = pathlib.Path(state["output"]) / layers.SIM
+    layer = Sdf.Layer.FindOrOpen(str(path)) if path.is_file() else None
+    if layer is None:
+        return f"{path} is gone"
+    layer.Reload()  # the preview wrote it after any earlier open in this process
+    source = layer.customLayerData.get("physomni:source")
+    frames = int(round(layer.endTimeCode - layer.startTimeCode)) + 1 if layer.HasEndTimeCode() else 0
+    if source != "preview" or frames != take["frames"]:
+        return f"{path} now holds {frames} frames written by {source or 'simulate'}"
+    return None
+
+
+def render(state: dict, max_size: int = 960, echo=lambda m: None, progress=None, take: dict | None = None) -> dict:
     """The video of the shot with the page's camera move, as ``studio.sh`` makes it: simulate the stated
-    length (:func:`render_seconds`), then render; never whatever a preview happened to step. ``progress``
-    is called ``(stage, done, total)`` per simulated and rendered frame. Returns the report's render section."""
+    length (:func:`render_seconds`), then render; never whatever a preview happened to step, unless the user
+    kept it: with a ``take`` (its ``sim.usdc`` checked by :func:`take_on_disk`) it renders that, unsimulated.
+    ``progress`` is called ``(stage, done, total)`` per simulated and rendered frame. Returns the report's
+    render section."""
     import physomni_usd
     from ..settings import RenderSettings, SimulateSettings
 
@@ -182,12 +226,12 @@ def render(state: dict, max_size: int = 960, echo=lambda m: None, progress=None)
     if not shot.is_file():
         raise InputError("nothing to render yet: press Build first")
     report = progress or (lambda stage, done, total: None)
-    seconds = render_seconds(state)
-    write_state(state)  # studio.sh says what is being made before the minutes it takes
-    physomni_usd.simulate(shot, SimulateSettings(seconds=seconds), echo=echo,
-                          progress=lambda done, total: report("simulate", done, total))
+    write_state(state, take)  # studio.sh says what is being made before the minutes it takes
+    if take is None:
+        physomni_usd.simulate(shot, SimulateSettings(seconds=render_seconds(state)), echo=echo,
+                              progress=lambda done, total: report("simulate", done, total))
     camera = state.get("camera") or None
     section = physomni_usd.render(shot, None, RenderSettings(max_size=max_size), camera=camera,
                                   progress=lambda done, total: report("render", done, total))
-    write_state(state)
+    write_state(state, take)
     return section
