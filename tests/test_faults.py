@@ -32,7 +32,11 @@ def _marks(name: str) -> list:
         + ([pytest.mark.slow] if name in SLOW else [])
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=_marks(n)) for n in faults.CASES])
+#: Run trial by trial in test_preview_keep_safety.py.
+ELSEWHERE = {"preview keep"}
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=_marks(n)) for n in faults.CASES if n not in ELSEWHERE])
 def test_fault_is_handled_cleanly(name, base, tmp_path):
     trials = faults.CASES[name](base, tmp_path)
     if not trials:
