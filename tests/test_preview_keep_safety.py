@@ -37,3 +37,22 @@ def test_a_keep_reads_edits_usda_as_it_is_on_disk_now(base, tmp_path):
     assert keep_settings(engine)[0]
     text = (folder / "edits.usda").read_text()
     assert "handEdit" in text and "gravityMagnitude = 6" in text and "gravityMagnitude = 5" not in text
+
+
+def test_a_shot_reached_through_a_linked_folder_is_kept_without_waiting_on_its_own_lock(base, tmp_path, monkeypatch):
+    """The shot folder may be a link the user made: the lock taken before the read and the one the write takes are
+    the same lock (one was taken by the link's name, the other by the folder's, and the press waited on itself)."""
+    from physomni_usd import _files
+    from physomni_usd.preview.app import keep_settings, save_take
+    from physomni_usd.preview.engine import Engine
+
+    monkeypatch.setattr(_files, "LOCK_WAIT_S", 2.0)
+    faults.copy_shot(base, tmp_path / "real")
+    (tmp_path / "link").symlink_to(tmp_path / "real")
+    engine = Engine(tmp_path / "link" / "shot.usda", capture=False)
+    engine.set_gravity(5.0)
+    engine.step()
+    assert keep_settings(engine) == (True, "kept 1 setting(s) in edits.usda")
+    assert save_take(engine, 1)[0]
+    assert b"gravityMagnitude = 5" in (tmp_path / "real" / "edits.usda").read_bytes()
+    assert not (tmp_path / "real" / ".physomni.lock").exists()
