@@ -76,14 +76,14 @@ def read_again(folder: os.PathLike | str, skip=(), only=None) -> None:
             continue
         # another stage on the layer is composed again: its warnings (a cycle now on disk) are not ours to print,
         # the caller's own check says what is wrong in one line
-        trap = Tf.DiagnosticTrap() if hasattr(Tf, "DiagnosticTrap") else contextlib.nullcontext()
-        with trap:
+        with contextlib.ExitStack() as scope:
+            trap = scope.enter_context(Tf.DiagnosticTrap()) if hasattr(Tf, "DiagnosticTrap") else None
             try:
                 layer.Reload()  # only where the file's time changed
             except Tf.ErrorException as exc:  # damaged since: never written over from the copy read before
                 raise InputError(_unreadable(pathlib.Path(layer.realPath), exc)) from None
             finally:
-                if hasattr(trap, "Clear"):
+                if trap is not None:
                     trap.Clear()
 
 
