@@ -10,6 +10,7 @@ trials as ``(clean, what happened)``.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import http.server
 import json
@@ -740,6 +741,25 @@ KEEP_TRIALS = {
 }
 
 
+@contextlib.contextmanager
+def _stderr_lines(into: list):
+    """What is written to file descriptor 2 inside the block (USD's own diagnostics included), as lines."""
+    import tempfile
+
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as f:
+        os.dup2(f.fileno(), 2)
+        try:
+            yield
+        finally:
+            sys.stderr.flush()
+            os.dup2(saved, 2)
+            os.close(saved)
+            f.seek(0)
+            into.extend(ln for ln in f.read().decode(errors="replace").splitlines() if ln.strip())
+
+
 def keep_trial(base, work, name: str) -> tuple[bool, str]:
     """One of :data:`KEEP_TRIALS`: a fresh copy of the shot beside :func:`decoy_beside`, opened as the preview opens
     it, gravity changed and three frames stepped, the button's function called as the page's press runs it. Clean
@@ -765,10 +785,14 @@ def keep_trial(base, work, name: str) -> tuple[bool, str]:
     edits, before = (folder / "edits.usda").read_bytes(), outside(where, folder)
     written = folder / ("edits.usda" if button == "keep" else "sim.usdc")
     old = written.read_bytes()
+    printed: list[str] = []
     try:
-        wrote, line = keep_settings(engine) if button == "keep" else save_take(engine, 1)
+        with _stderr_lines(printed):
+            wrote, line = keep_settings(engine) if button == "keep" else save_take(engine, 1)
     except Exception as exc:  # the press ended the preview
         wrote, line = None, f"RAISED {type(exc).__name__}: {exc}"
+    # besides the line on the page, at most the planted journal's one warning: none of USD's own diagnostics
+    quiet = len(printed) <= 1 and all(ln.startswith("warning: ") for ln in printed)
     kept = outside(where, folder) == before
     now = written.read_bytes()
     if button == "keep" and wrote:  # refused where the trial says so: a write from the copy read before is wrong
@@ -777,8 +801,9 @@ def keep_trial(base, work, name: str) -> tuple[bool, str]:
         right = (folder / "edits.usda").read_bytes() == edits and (wrote or now == old)
         if still is not None:
             right = right and still.encode() in (folder / "shot.usda").read_bytes()
-    ok = wrote is writes and needle in line and "\n" not in line and kept and right
-    return ok, (f"{name}: {'wrote' if wrote else 'refused' if wrote is False else 'ENDED THE PREVIEW'}, outside "
+    ok = wrote is writes and needle in line and "\n" not in line and quiet and kept and right
+    return ok, (f"{name}: {'wrote' if wrote else 'refused' if wrote is False else 'ENDED THE PREVIEW'}, "
+                f"{'' if quiet else f'{len(printed)} MORE LINES ON STDERR, '}outside "
                 f"{'unchanged' if kept else 'CHANGED'}, {'shot.usda' if still and button == 'save' else 'edits.usda'} "
                 f"{'as it should be' if right else 'WRONG'}: "
                 f"{line[:160]}")
