@@ -230,7 +230,10 @@ class _Writes:
 
     def hold(self, folder: pathlib.Path) -> _Lock:
         """The lock of ``folder``, taken on the first write there and kept to the end of the command."""
-        folder = pathlib.Path(os.path.abspath(folder))
+        # the folder as it is on disk: a shot folder the user reached through a link (allowed) is one lock, whether
+        # it is named by the link (the command's lock before it reads) or by itself (save_layer resolves the folder);
+        # two names would be two locks on one file, and the second would wait on the first
+        folder = pathlib.Path(os.path.realpath(folder))
         if folder not in self.locks:
             self.locks[folder] = _Lock(folder)
         return self.locks[folder]

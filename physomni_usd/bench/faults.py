@@ -10,6 +10,7 @@ trials as ``(clean, what happened)``.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import http.server
 import json
@@ -590,17 +591,19 @@ def hostile_trials(base, work, name: str, plant, expect: dict[str, tuple[int, st
     return trials
 
 
+def _plant_journal(folder, decoy):
+    (folder / "payload.txt").write_text("payload\n")
+    (folder / ".physomni.lock").write_text(json.dumps(
+        {"pid": 1, "saved": {str(decoy / "victim.txt"): None, "../decoy/other.txt": "payload.txt"},
+         "temporary": ["../decoy/sub/deep.txt"]}))
+
+
 def case_planted_journal(base, work):
     """A lock journal planted in the shot (a tarball's) naming an absolute path and a ../ path: it is set
     aside with one line, nothing is deleted or restored, the command runs."""
-    def plant(folder, decoy):
-        (folder / "payload.txt").write_text("payload\n")
-        (folder / ".physomni.lock").write_text(json.dumps(
-            {"pid": 1, "saved": {str(decoy / "victim.txt"): None, "../decoy/other.txt": "payload.txt"},
-             "temporary": ["../decoy/sub/deep.txt"]}))
-
     said = (0, "is no journal of ours")
-    trials = hostile_trials(base, work, "planted journal", plant, dict.fromkeys(shot_commands(base, work), said))
+    trials = hostile_trials(base, work, "planted journal", _plant_journal,
+                            dict.fromkeys(shot_commands(base, work), said))
     # an in-folder journal that would move one of the shot's files over another is no journal of ours either
     def swap(folder, decoy):
         (folder / ".physomni.lock").write_text(json.dumps({"pid": 1, "saved": {"shot.usda": "edits.usda"}}))
@@ -608,12 +611,13 @@ def case_planted_journal(base, work):
     return trials + hostile_trials(base, work, "journal moving edits.usda", swap, {"simulate": said})
 
 
+def _link_lock(folder, decoy):
+    (folder / ".physomni.lock").symlink_to(decoy / "victim.txt")
+
+
 def case_symlinked_lock(base, work):
     """The lock file a link to a file outside: refused in one line naming it, exit 2; the target untouched."""
-    def plant(folder, decoy):
-        (folder / ".physomni.lock").symlink_to(decoy / "victim.txt")
-
-    return hostile_trials(base, work, "symlinked lock", plant,
+    return hostile_trials(base, work, "symlinked lock", _link_lock,
                           dict.fromkeys(shot_commands(base, work), (2, ".physomni.lock")))
 
 
@@ -686,6 +690,136 @@ def case_huge_label(base, work):
     return trials
 
 
+# --- the preview's Keep settings and Save take on such a folder, pressed in process -----------------------------
+
+def _edits_link(folder, decoy):
+    shutil.copy(folder / "edits.usda", decoy / "edits.usda")
+    (folder / "edits.usda").unlink()
+    (folder / "edits.usda").symlink_to(decoy / "edits.usda")
+
+
+def _sim_link(folder, decoy):
+    (folder / "sim.usdc").unlink()
+    (folder / "sim.usdc").symlink_to(decoy / "layer.usdc")
+
+
+def _cycle_on_disk(folder, decoy):
+    """edits.usda sublayering itself, written by another program (an editor) while the preview runs."""
+    text = (folder / "edits.usda").read_text()
+    (folder / "edits.usda").write_text(text.replace("(", "(\n    subLayers = [@./edits.usda@]", 1))
+
+
+def _noted(name: str):
+    """An edit of the layer ``name`` by another program while the preview runs: a note in its metadata."""
+    def edit(folder, decoy):
+        text = (folder / name).read_text()
+        note = '(\n    customLayerData = {\n        string handEdit = "kept"\n    }'
+        (folder / name).write_text(text.replace("(", note, 1))
+
+    return edit
+
+
+def _damaged_edits(folder, decoy):
+    with open(folder / "edits.usda", "a") as f:
+        f.write("\nover this is no USD\n")
+
+
+#: name → (what is done to the shot, whether while the preview runs rather than before it opens the shot, the
+#: button: "keep" (Keep settings) or "save" (Save take), whether it writes, a needle of the line it says, and
+#: what the written file must still hold: the edit made meanwhile).
+KEEP_TRIALS = {
+    "planted journal, Keep settings": (_plant_journal, False, "keep", True, "kept 1 setting", None),
+    "planted journal, Save take": (_plant_journal, False, "save", True, "take 1 saved", None),
+    "symlinked lock, Keep settings": (_link_lock, False, "keep", False, ".physomni.lock: it is a symbolic", None),
+    "symlinked lock, Save take": (_link_lock, False, "save", False, ".physomni.lock: it is a symbolic", None),
+    "symlinked edits.usda, Keep settings": (_edits_link, False, "keep", False, "edits.usda: it is a symbolic", None),
+    "symlinked sim.usdc, Save take": (_sim_link, False, "save", False, "sim.usdc: it is a symbolic", None),
+    "sublayer cycle written meanwhile, Keep settings": (_cycle_on_disk, True, "keep", False, "(a cycle)", None),
+    "edits.usda damaged meanwhile, Keep settings": (_damaged_edits, True, "keep", False, "not a valid USD", None),
+    "edits.usda edited meanwhile, Keep settings": (_noted("edits.usda"), True, "keep", True, "kept 1", "handEdit"),
+    "shot.usda edited meanwhile, Save take": (_noted("shot.usda"), True, "save", True, "take 1 saved", "handEdit"),
+}
+
+
+@contextlib.contextmanager
+def _stderr_lines(into: list):
+    """What is written to file descriptor 2 inside the block (USD's own diagnostics included), as lines."""
+    import tempfile
+
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as f:
+        os.dup2(f.fileno(), 2)
+        try:
+            yield
+        finally:
+            sys.stderr.flush()
+            os.dup2(saved, 2)
+            os.close(saved)
+            f.seek(0)
+            into.extend(ln for ln in f.read().decode(errors="replace").splitlines() if ln.strip())
+
+
+def keep_trial(base, work, name: str) -> tuple[bool, str]:
+    """One of :data:`KEEP_TRIALS`: a fresh copy of the shot beside :func:`decoy_beside`, opened as the preview opens
+    it, gravity changed and three frames stepped, the button's function called as the page's press runs it. Clean
+    when it answers (never raises) with one line holding the needle, writes or not as the trial says, nothing
+    outside the folder changed, and ``edits.usda`` is byte for byte what it was unless Keep settings wrote it
+    (then it holds the kept value and whatever the trial put there meanwhile)."""
+    from ..preview.app import keep_settings, save_take
+    from ..preview.engine import Engine
+
+    plant, meanwhile, button, writes, needle, still = KEEP_TRIALS[name]
+    where = work / f"keep{sum(1 for _ in work.iterdir()):02d}"
+    where.mkdir()
+    decoy = decoy_beside(base, where)
+    folder = copy_shot(base, where / "shot")
+    if not meanwhile:
+        plant(folder, decoy)
+    engine = Engine(folder / "shot.usda", capture=False)
+    engine.set_gravity(5.0)
+    for _ in range(3):
+        engine.step()
+    if meanwhile:
+        plant(folder, decoy)
+    edits, before = (folder / "edits.usda").read_bytes(), outside(where, folder)
+    written = folder / ("edits.usda" if button == "keep" else "sim.usdc")
+    old = written.read_bytes()
+    printed: list[str] = []
+    try:
+        with _stderr_lines(printed):
+            if button == "keep":
+                wrote, line = keep_settings(engine)
+            else:
+                summary, line = save_take(engine, 1)
+                wrote = summary is not None
+    except Exception as exc:  # the press ended the preview
+        wrote, line = None, f"RAISED {type(exc).__name__}: {exc}"
+    # besides the line on the page, at most the planted journal's one warning: none of USD's own diagnostics
+    quiet = len(printed) <= 1 and all(ln.startswith("warning: ") for ln in printed)
+    kept = outside(where, folder) == before
+    now = written.read_bytes()
+    if button == "keep" and wrote:  # refused where the trial says so: a write from the copy read before is wrong
+        right = writes and b"gravityMagnitude = 5" in now and (still is None or still.encode() in now)
+    else:
+        right = (folder / "edits.usda").read_bytes() == edits and (wrote or now == old)
+        if still is not None:
+            right = right and still.encode() in (folder / "shot.usda").read_bytes()
+    ok = wrote is writes and needle in line and "\n" not in line and quiet and kept and right
+    return ok, (f"{name}: {'wrote' if wrote else 'refused' if wrote is False else 'ENDED THE PREVIEW'}, "
+                f"{'' if quiet else f'{len(printed)} MORE LINES ON STDERR, '}outside "
+                f"{'unchanged' if kept else 'CHANGED'}, {'shot.usda' if still and button == 'save' else 'edits.usda'} "
+                f"{'as it should be' if right else 'WRONG'}: "
+                f"{line[:160]}")
+
+
+def case_preview_keep(base, work):
+    """The preview's Keep settings and Save take on a shot folder from someone else, or one changed while the
+    preview runs: refused in one line where they would write through a link, the session going on; nothing
+    outside the folder changed; edits.usda as it was, or with the kept value added to what is on disk now."""
+    return [keep_trial(base, work, name) for name in KEEP_TRIALS]
+
+
 CASES = {"terminated re-run": case_terminated_rerun, "terminated new folder": case_terminated_new_folder,
          "killed leftovers": case_killed_leftovers, "photo bomb": case_photo_bomb,
          "concurrent --set": case_concurrent_set, "non-finite values": case_non_finite,
@@ -694,7 +828,8 @@ CASES = {"terminated re-run": case_terminated_rerun, "terminated new folder": ca
          "full disk render": case_full_disk_render,
          "immutable file": case_immutable_file, "planted journal": case_planted_journal,
          "symlinked lock": case_symlinked_lock, "symlinked layer": case_symlinked_layer,
-         "uncomposable layers": case_uncomposable, "huge label": case_huge_label}
+         "uncomposable layers": case_uncomposable, "huge label": case_huge_label,
+         "preview keep": case_preview_keep}
 
 
 def base_shot(work: pathlib.Path, example: pathlib.Path | None = None, echo=print) -> dict:

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, PhysOmniError
 from . import security
 from .card import Mover, OpeningCard
 from .engine import Engine, field_label
@@ -459,24 +459,13 @@ class Preview:
             e.step()
             self.publish()
         elif action == "save":
-            try:
-                r = e.write_take()
-            except InputError as exc:  # the folder became unwritable: say so, keep running
-                self._say(str(exc))
-                return
-            self.saved += 1
-            self.kept = r
-            self._say(f"take {self.saved} saved: {r['frames']} frames ({r['seconds']:.2f} s), "
-                      f"{len(r['moving_prims'])} moving prims → sim.usdc")
+            summary, line = save_take(e, self.saved + 1)
+            if summary is not None:
+                self.saved += 1
+                self.kept = summary
+            self._say(line)
         elif action == "keep":
-            from ..usd.overrides import add_overrides
-
-            changes = e.changed_settings()
-            if not changes:
-                self._say("no settings changed: edits.usda left as it was")
-            else:
-                add_overrides(e.folder, changes)
-                self._say(f"kept {len(changes)} setting(s) in edits.usda")
+            self._say(keep_settings(e)[1])
 
     def _say(self, message: str) -> None:
         self.status = message
@@ -541,6 +530,53 @@ class Preview:
         if self.server is not None:
             self.server.stop()
             self.server = None
+
+
+def _refusal(exc: Exception) -> str | None:
+    """The one line a refused or failed write says (a link, a planted lock, a layer that cannot be composed, a
+    full disk), or None for a bug, which is raised."""
+    from ..failure import failure_of
+
+    found = failure_of(exc)
+    return None if found.internal else found.message
+
+
+def save_take(engine: Engine, number: int) -> tuple[dict | None, str]:
+    """"Save take": the take so far to ``sim.usdc`` (and the shot's frame range), as ``simulate`` writes it;
+    returns the take's summary (``Engine.write_take``'s; None where nothing was written) and the line to say. A refusal is that line, not an exception: the session
+    and its take go on, and the user can put the folder right and press again."""
+    try:
+        r = engine.write_take()
+    except (PhysOmniError, OSError) as exc:
+        line = _refusal(exc)
+        if line is None:
+            raise
+        return None, line
+    return r, (f"take {number} saved: {r['frames']} frames ({r['seconds']:.2f} s), "
+                  f"{len(r['moving_prims'])} moving prims → sim.usdc")
+
+
+def keep_settings(engine: Engine) -> tuple[bool, str]:
+    """"Keep settings": the settings changed in the session added to ``edits.usda`` as ``estimate --set`` adds
+    its values (under the shot's lock, all or nothing, never through a link, every opinion already in the file
+    kept); returns whether it was written and the line to say. A refusal is that line, as for :func:`save_take`."""
+    from .._files import all_or_nothing, folder_lock
+    from ..usd.overrides import add_overrides
+
+    changes = engine.changed_settings()
+    if not changes:
+        return False, "no settings changed: edits.usda left as it was"
+    try:
+        # the lock from before edits.usda is read to after it is replaced: an `estimate --set` in another
+        # terminal lands before or after this, never lost between the read and the write
+        with all_or_nothing(), folder_lock(engine.folder):
+            add_overrides(engine.folder, changes)
+    except (PhysOmniError, OSError) as exc:
+        line = _refusal(exc)
+        if line is None:
+            raise
+        return False, line
+    return True, f"kept {len(changes)} setting(s) in edits.usda"
 
 
 def run_preview(shot, options: Options = Options()) -> dict:

@@ -19,7 +19,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .._files import check_writable
+from .._files import all_or_nothing, check_writable, folder_lock
 from ..errors import InputError
 from ..physics.assembly import ShotModels
 from ..physics.checks import check_inputs
@@ -426,15 +426,17 @@ class Engine:
 
     def write_take(self) -> dict:
         """Write the take (frame 0 to now) to ``sim.usdc`` by ``simulate``'s writer: samples only for prims
-        that moved, the previous layer replaced only once the new one is complete."""
-        self.check_writable()
+        that moved, the previous layer replaced only once the new one is complete. The layer and the shot's
+        frame range are written together or not at all, under the shot's lock, never through a link."""
         sim, plan = self.sim, self.plan
         frames = len(self.take_body_q)
         surfaces = {p: np.stack(v) for p, v in self.take_surfaces.items()}
         mpm = np.stack(self.take_mpm) if self.take_mpm else None
         seconds = max(frames - 1, 0) / plan.fps
-        moved = write_take(self.folder, sim, self.cfg, plan, np.stack(self.take_body_q), surfaces, mpm, seconds,
-                           metadata={"physomni:source": "preview"})
+        with all_or_nothing(), folder_lock(self.folder):
+            self.check_writable()
+            moved = write_take(self.folder, sim, self.cfg, plan, np.stack(self.take_body_q), surfaces, mpm,
+                               seconds, metadata={"physomni:source": "preview"})
         return {"frames": frames, "seconds": seconds, "moving_prims": moved, "path": str(self.folder / layers.SIM)}
 
 

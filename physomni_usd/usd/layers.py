@@ -56,6 +56,37 @@ def save_layer(layer: Sdf.Layer, path: os.PathLike | str) -> pathlib.Path:
     return path
 
 
+def read_again(folder: os.PathLike | str, skip=(), only=None) -> None:
+    """Read again each layer of ``folder`` that this process already has open and whose file changed since.
+
+    USD hands out the layer it opened first for as long as anything holds it, and the preview holds the shot's
+    stage for its whole session: its "Keep settings" would otherwise check and compose the shot as it was when
+    the page opened, and write ``edits.usda`` from that copy, dropping what an editor or `estimate --set` put
+    there meanwhile (a sublayer, a value). Layers changed in memory and not saved are left as they are, and those
+    named in ``skip`` or not in ``only`` (file names); one damaged since is refused in one line, as
+    :func:`check_layer` refuses it."""
+    from pxr import Tf
+
+    here = os.path.realpath(folder)
+    for layer in Sdf.Layer.GetLoadedLayers():
+        name = os.path.basename(layer.realPath)
+        if layer.anonymous or layer.dirty or not name or name in skip or (only is not None and name not in only):
+            continue
+        if os.path.realpath(os.path.dirname(layer.realPath)) != here:
+            continue
+        # another stage on the layer is composed again: its warnings (a cycle now on disk) are not ours to print,
+        # the caller's own check says what is wrong in one line
+        with contextlib.ExitStack() as scope:
+            trap = scope.enter_context(Tf.DiagnosticTrap()) if hasattr(Tf, "DiagnosticTrap") else None
+            try:
+                layer.Reload()  # only where the file's time changed
+            except Tf.ErrorException as exc:  # damaged since: never written over from the copy read before
+                raise InputError(_unreadable(pathlib.Path(layer.realPath), exc)) from None
+            finally:
+                if trap is not None:
+                    trap.Clear()
+
+
 def set_stage_metadata(layer: Sdf.Layer, fps: float, frames: int | None = None) -> None:
     """Author the contract's stage metadata on ``layer`` (Z up, metres, kilograms, time)."""
     layer.defaultPrim = "World"
@@ -221,6 +252,7 @@ def open_shot(shot_path: os.PathLike | str, *, mute_sim: bool = False) -> Usd.St
     """
     from pxr import Tf
 
+    read_again(shot_folder(shot_path), skip=(SIM,) if mute_sim else ())
     p = check_shot_layers(shot_path, skip_sim=mute_sim)
     sim = str((p.parent / SIM).resolve())
     with contextlib.ExitStack() as scope:
@@ -324,21 +356,26 @@ def _root_without(root_path: pathlib.Path, name: str) -> Sdf.Layer:
     return copy
 
 
-def check_layer(path: pathlib.Path) -> Sdf.Layer:
-    """Open one layer file and turn USD's parse errors into one line with the file, line and column."""
+def _unreadable(path: pathlib.Path, exc: Exception) -> str:
+    """One line for USD's parse error ``exc`` about the layer at ``path``: the file, line and column."""
     import re
 
+    text = " ".join(str(exc).split())
+    where = re.search(r"\.usd[ac]?:(\d+):(\d+): (.*?)(?: in <[^>]*>)?'?\s*$", text)
+    detail = f" (line {where.group(1)}, column {where.group(2)}: {where.group(3)})" if where else ""
+    if not detail and ("corrupt" in text or "truncated" in text):
+        detail = " (the file is damaged or truncated)"
+    return f"{path} is not a valid USD layer{detail}"
+
+
+def check_layer(path: pathlib.Path) -> Sdf.Layer:
+    """Open one layer file and turn USD's parse errors into one line with the file, line and column."""
     from pxr import Tf
 
     try:
         layer = Sdf.Layer.FindOrOpen(str(path))
     except Tf.ErrorException as exc:
-        text = " ".join(str(exc).split())
-        where = re.search(r"\.usd[ac]?:(\d+):(\d+): (.*?)(?: in <[^>]*>)?'?\s*$", text)
-        detail = f" (line {where.group(1)}, column {where.group(2)}: {where.group(3)})" if where else ""
-        if not detail and ("corrupt" in text or "truncated" in text):
-            detail = " (the file is damaged or truncated)"
-        raise InputError(f"{path} is not a valid USD layer{detail}") from None
+        raise InputError(_unreadable(path, exc)) from None
     if layer is None:
         raise InputError(f"{path} is not a valid USD layer")
     return layer
@@ -347,6 +384,7 @@ def check_layer(path: pathlib.Path) -> Sdf.Layer:
 def set_shot_time(folder: pathlib.Path, fps: float, frames: int) -> pathlib.Path:
     """Set the root layer's frame rate and frame range, keeping everything else in it."""
     path = pathlib.Path(folder) / SHOT
+    read_again(folder, only=(SHOT,))  # what is in the file now is kept, not what a preview read at its start
     layer = Sdf.Layer.FindOrOpen(str(path))
     copy = Sdf.Layer.CreateAnonymous(".usda")
     copy.TransferContent(layer)
