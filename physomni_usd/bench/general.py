@@ -569,7 +569,8 @@ def build_row(folder, truth: dict, true_meshes: list, camera: PinholeCamera, mod
     known = KnownScene(None, truth["modal"], labels, true_meshes, camera, camera.pitch_deg)
     cmp = compare(known, result.folder)
     row |= {"pitch_deg": round(cmp["pitch_deg"], 2), "pitch_error_deg": round(cmp["pitch_error_deg"], 2),
-            "fov_deg": round(cmp["fov_deg"], 2), "scale_source": cmp["scale_source"]}
+            "fov_deg": round(cmp["fov_deg"], 2), "fov_error_frac": round(cmp["fov_error_frac"], 4),
+            "scale_source": cmp["scale_source"]}
     stage = layers.open_shot(result.folder)
     built = world_meshes(stage, Usd.TimeCode(0).GetValue())
     mine = [built[n] for n in names]
@@ -656,7 +657,8 @@ def summarise(rows: list[dict]) -> dict:
                        "position_error_frac": med([o["position_error_frac"] for o in objs]),
                        "raw_position_error_frac": med([o["raw_position_error_frac"] for o in objs]),
                        "size_ratio": med([o["size_ratio"] for o in objs]),
-                       "pitch_error_deg": med([r["pitch_error_deg"] for r in group if "pitch_error_deg" in r])}
+                       "pitch_error_deg": med([r["pitch_error_deg"] for r in group if "pitch_error_deg" in r]),
+                       "fov_error_frac": med([r["fov_error_frac"] for r in group if "fov_error_frac" in r])}
         out[mode] = s
     return out
 
@@ -695,14 +697,14 @@ def _line(r: dict) -> str:
     pitch = f"{r['pitch_deg']:.0f}/{r['pitch_true']:.0f}" if "pitch_deg" in r else f"—/{r['pitch_true']:.0f}"
     turn = "—" if "max_turn_deg" not in r else f"{r['max_turn_deg']:.1f}"
     failed = [k for k, v in r["invariants"].items() if not v]
-    return (f"{r['seed']:>10} {r['layout']:<6}{r['mode']:<6}{r['objects_n']:>3}{pitch:>8}{mm('max_overlap_m'):>8}"
+    return (f"{r['seed']:>10} {r['layout']:<7}{r['mode']:<6}{r['objects_n']:>3}{pitch:>8}{mm('max_overlap_m'):>8}"
             f"{mm('max_drift_m'):>8}{turn:>7}{iou:>6}{nov:>6}{pos:>7}{size:>7}"
-            f"{r.get('seconds_build', 0):>7.1f}  " + ("ok" if not failed else "FAIL " + ",".join(failed))
+            f"{r.get('seconds_build', 0):>8.1f}  " + ("ok" if not failed else "FAIL " + ",".join(failed))
             + (f"  ({r['error']})" if r["error"] else ""))
 
 
-HEADER = (f"{'scene':>10} {'layout':<6}{'from':<6}{'n':>3}{'pitch':>8}{'ovl mm':>8}{'drift mm':>8}{'turn°':>7}"
-          f"{'IoU':>6}{'±45°':>6}{'pos%':>7}{'size×':>7}{'build s':>7}  invariants")
+HEADER = (f"{'scene':>10} {'layout':<7}{'from':<6}{'n':>3}{'pitch':>8}{'ovl mm':>8}{'drift mm':>8}{'turn°':>7}"
+          f"{'IoU':>6}{'±45°':>6}{'pos%':>7}{'size×':>7}{'build s':>8}  invariants")
 
 
 def bench_general(n: int, seed: int | None = None, out_dir=None, modes=MODES, seconds: float = 2.0,
@@ -757,9 +759,9 @@ def markdown(numbers: dict) -> str:
     meds = {"iou_photo": "median IoU, visible mask", "iou_amodal": "median IoU, whole outline",
             "iou_novel": "median IoU, worse of ±45°", "position_error_frac": "median position error (after scale)",
             "raw_position_error_frac": "median position error (as built)", "size_ratio": "median size ratio",
-            "pitch_error_deg": "median pitch error °"}
+            "pitch_error_deg": "median pitch error °", "fov_error_frac": "median field-of-view error"}
     for key, name in meds.items():
         lines.append(f"| {name} | " + " | ".join("—" if s[m]["median"][key] is None else
-                                                 (f"{100 * s[m]['median'][key]:.1f} %" if "position" in key else
+                                                 (f"{100 * s[m]['median'][key]:.1f} %" if "position" in key or "fov" in key else
                                                   f"{s[m]['median'][key]:.2f}") for m in modes) + " |")
     return "\n".join(lines) + "\n"
