@@ -106,3 +106,25 @@ def test_a_fresh_scene_built_from_its_masks_meets_the_invariant(built, invariant
     seed, rows, _ = built
     failed = [r for r in rows if not r["invariants"][invariant]]
     assert not failed, f"{invariant} fails on {_scenes(failed)} (run seed {seed})"
+
+
+def test_rest_turn_reads_a_tip_that_barely_moves_any_point():
+    """A 2 cm cube turned 30° about its own centre over the take: no point moves 1 cm, the turn is 30°."""
+    import trimesh
+    from pxr import Usd, UsdGeom
+
+    from physomni_usd.metrics.geometry import rest_drift, rest_turn
+
+    stage = Usd.Stage.CreateInMemory()
+    stage.SetStartTimeCode(0)
+    stage.SetEndTimeCode(10)
+    cube = trimesh.creation.box((0.02, 0.02, 0.02))
+    mesh = UsdGeom.Mesh.Define(stage, "/World/Objects/cube")
+    mesh.CreatePointsAttr([tuple(map(float, v)) for v in cube.vertices])
+    mesh.CreateFaceVertexCountsAttr([3] * len(cube.faces))
+    mesh.CreateFaceVertexIndicesAttr([int(i) for i in cube.faces.ravel()])
+    turn = UsdGeom.Xformable(mesh).AddRotateXOp()
+    for t in range(11):
+        turn.Set(3.0 * t, Usd.TimeCode(t))
+    assert rest_turn(stage)["cube"] == pytest.approx(30.0, abs=0.01)
+    assert rest_drift(stage)["cube"] < 0.01
