@@ -54,8 +54,6 @@ THREADS = 2
 MIN_VISIBLE_PX = 80
 #: The id image stores object k as red k * ID_STEP (blender_scene.ID_STEP).
 ID_STEP = 4
-#: Labels of things that are flat by nature (the invariants let them be thin).
-FLAT = ("coin", "card")
 
 
 class NoBlender(RuntimeError):
@@ -218,7 +216,7 @@ def _group(rng) -> list[dict]:
         out.append(o)
     elif pick == "stack":  # boxes or books, each on the one below, smaller upwards, a little turned and shifted
         kind = str(rng.choice(["box", "book"]))
-        z, scale = 0.0, 1.0
+        z = 0.0
         for _ in range(int(rng.integers(2, 4))):
             o = make_object(kind, rng)
             ext = o["mesh"].extents
@@ -231,7 +229,6 @@ def _group(rng) -> list[dict]:
             o["mesh"] = _turned(m, u(-0.3, 0.3), at)
             z = o["mesh"].bounds[1][2]
             out.append(o)
-            scale *= 0.8
     elif pick == "pile":  # three fruit touching on the support and a fourth resting in their hollow
         r = u(0.03, 0.038)
         kind_rng = np.random.default_rng(int(rng.integers(1 << 31)))
@@ -316,7 +313,8 @@ def _light(rng, middle) -> dict:
             "sun_strength": u(1.0, 4.0), "sun_colour": [1.0, 1.0 - 0.3 * max(warm, 0), 1.0 - 0.6 * max(warm, 0)],
             "sun_angle_deg": u(1, 25), "sun_azimuth_deg": u(0, 360), "sun_elevation_deg": u(25, 80),
             "area_power": u(0, 120) if u() < 0.7 else 0.0, "area_size_m": u(0.3, 1.5),
-            "area_colour": [1.0, 0.95, 0.9], "area_position": (np.asarray(middle) + [u(-1, 1), u(-1, 0.3), u(0.8, 1.6)]).tolist(),
+            "area_colour": [1.0, 0.95, 0.9],
+            "area_position": (np.asarray(middle) + [u(-1, 1), u(-1, 0.3), u(0.8, 1.6)]).tolist(),
             "area_target": list(map(float, middle))}
 
 
@@ -455,8 +453,7 @@ def render_scene(scene: dict, folder, samples: int = SAMPLES, threads: int = THR
     if proc.returncode != 0 or line is None:
         tail = (proc.stderr.strip() or proc.stdout.strip()).splitlines()[-5:]
         raise RuntimeError(f"Blender failed on scene {scene['seed']}: " + " | ".join(tail))
-    if not os.environ.get("PHYSOMNI_KEEP_BLENDER_JSON"):
-        spec_path.unlink()
+    spec_path.unlink()
     ids = cv2.imread(str(folder / "ids.png"), cv2.IMREAD_COLOR)[..., 2].astype(int)  # red
     modal = [ids == ID_STEP * (k + 1) for k in range(len(scene["objects"]))]
     amodal = [SilhouetteRenderer([o["mesh"].vertices], [o["mesh"].faces]).render(cam) == 0
@@ -760,8 +757,11 @@ def markdown(numbers: dict) -> str:
             "iou_novel": "median IoU, worse of ±45°", "position_error_frac": "median position error (after scale)",
             "raw_position_error_frac": "median position error (as built)", "size_ratio": "median size ratio",
             "pitch_error_deg": "median pitch error °", "fov_error_frac": "median field-of-view error"}
+    def cell(value, key):
+        if value is None:
+            return "—"
+        return f"{100 * value:.1f} %" if "position" in key or "fov" in key else f"{value:.2f}"
+
     for key, name in meds.items():
-        lines.append(f"| {name} | " + " | ".join("—" if s[m]["median"][key] is None else
-                                                 (f"{100 * s[m]['median'][key]:.1f} %" if "position" in key or "fov" in key else
-                                                  f"{s[m]['median'][key]:.2f}") for m in modes) + " |")
+        lines.append(f"| {name} | " + " | ".join(cell(s[m]["median"][key], key) for m in modes) + " |")
     return "\n".join(lines) + "\n"
