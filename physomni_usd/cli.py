@@ -1129,9 +1129,13 @@ def bench_photos_command(pitches, seconds, real, only, json_path):
               help="Simulated seconds with nothing pushed.")
 @click.option("--only", type=click.Choice(["both", "masks", "boxes"]), default="both", show_default=True,
               help="Build each scene from its visible masks, from their bounding boxes, or both.")
+@click.option("--materials", type=click.IntRange(0, 100), default=0, show_default=True,
+              help="Per scene, this many objects (drawn from the scene's seed) switched in turn to mpm_elastic, "
+                   "mpm_sand and pbd_cloth on the first build, each simulated 1 s: no stop, nothing non-finite "
+                   "(minutes per object on a CPU).")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
               help="Also write the numbers to this JSON file.")
-def bench_general_command(n, seed, out_dir, seconds, only, json_path):
+def bench_general_command(n, seed, out_dir, seconds, only, materials, json_path):
     """Scenes generated fresh, rendered with Blender's Cycles, each built as a user's photo would be.
 
     \b
@@ -1166,7 +1170,7 @@ def bench_general_command(n, seed, out_dir, seconds, only, json_path):
 
         try:
             numbers = bench_general(n, seed, out_dir, MODES if only == "both" else (only,), seconds,
-                                    echo=click.echo)
+                                    echo=click.echo, materials=materials)
         except NoBlender as exc:
             _fail(str(exc), 2)
         from ._files import write_bytes

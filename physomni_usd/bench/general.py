@@ -528,7 +528,7 @@ def _views_about(camera: PinholeCamera, meshes, centre) -> list[list[np.ndarray]
 
 
 def build_row(folder, truth: dict, true_meshes: list, camera: PinholeCamera, mode: str,
-              seconds: float = 2.0) -> dict:
+              seconds: float = 2.0, materials: int = 0) -> dict:
     """One scene built from its masks or boxes (``mode``) into ``folder/mode``, simulated ``seconds`` with
     nothing pushed, against the invariants and the truth (see the module)."""
     import physomni_usd as api
@@ -604,7 +604,64 @@ def build_row(folder, truth: dict, true_meshes: list, camera: PinholeCamera, mod
     except Exception as exc:  # noqa: BLE001 — simulate refusing the built scene is what this counts
         row["error"] = f"simulate: {type(exc).__name__}: {exc}"
     row["seconds_simulate"] = round(time.perf_counter() - t1, 2)
+    if materials:  # a sample of the objects, drawn from the scene's seed: the same objects on a rerun
+        pick = np.random.default_rng(truth["seed"]).permutation(len(names))[:materials]
+        row["materials"] = material_trials(result.folder, [names[i] for i in sorted(pick)])
     return _judge(row)
+
+
+def _non_finite(stage) -> list[str]:
+    """Paths of the time-sampled numeric attributes of ``stage`` with a value that is not finite."""
+    from pxr import Usd
+
+    bad = []
+    for prim in stage.Traverse():
+        for a in prim.GetAttributes():
+            for t in a.GetTimeSamples():
+                try:
+                    value = np.asarray(a.Get(Usd.TimeCode(t)), float)
+                except (TypeError, ValueError):  # a token (visibility) or a string: nothing to overflow
+                    break
+                if not np.isfinite(value).all():
+                    bad.append(a.GetPath().pathString)
+                    break
+    return bad
+
+
+#: The materials every object must simulate as (issue 38: rigid is the build's own, checked at rest above).
+MATERIALS = ("mpm_elastic", "mpm_sand", "pbd_cloth")
+
+
+def material_trials(shot_folder, names, seconds: float = 1.0) -> list[dict]:
+    """Each of ``names`` switched in turn to each of :data:`MATERIALS` (``estimate --set NAME.material=KIND``)
+    on a copy of the built shot, simulated ``seconds``: ``ok`` when simulate finishes (no guard stop) and
+    every value it wrote is finite."""
+    import shutil
+
+    import physomni_usd as api
+
+    from ..settings import SimulateSettings
+    from ..usd import layers
+
+    out = []
+    for name in names:
+        for kind in MATERIALS:
+            with tempfile.TemporaryDirectory(prefix="physomni-material-") as tmp:
+                copy = pathlib.Path(tmp) / "shot"
+                shutil.copytree(shot_folder, copy)
+                t0 = time.perf_counter()
+                trial = {"object": name, "material": kind, "ok": False, "error": None}
+                try:
+                    api.estimate(copy / layers.SHOT, sets=[f"{name}.material={kind}"])
+                    api.simulate(copy / layers.SHOT, SimulateSettings(seconds=seconds))
+                    bad = _non_finite(layers.open_shot(copy))
+                    trial["ok"] = not bad
+                    trial["error"] = f"non-finite values in {bad[0]}" if bad else None
+                except Exception as exc:  # noqa: BLE001 — a stop is what this counts
+                    trial["error"] = f"{type(exc).__name__}: {exc}"
+                trial["seconds"] = round(time.perf_counter() - t0, 1)
+                out.append(trial)
+    return out
 
 
 def _judge(row: dict) -> dict:
@@ -617,6 +674,8 @@ def _judge(row: dict) -> dict:
         "start_overlap": sim and row["max_overlap_m"] <= lim["start_overlap_m"],
         "rest_drift": sim and row["max_drift_m"] <= lim["rest_drift_m"],
         "rest_turn": sim and row["max_turn_deg"] <= lim["rest_turn_deg"]}
+    if "materials" in row:
+        row["invariants"]["every_material"] = all(t["ok"] for t in row["materials"])
     row["all_invariants"] = all(row["invariants"].values())
     for o in row["objects"]:
         o["passes"] = {"iou_photo": o["iou_photo"] >= lim["iou_photo"],
@@ -641,8 +700,14 @@ def summarise(rows: list[dict]) -> dict:
         objects_n = sum(r["objects_n"] for r in group)
         objs = [o for r in group for o in r["objects"]]
         s = {"scenes": n, "objects": objects_n}
-        for key in INVARIANTS:
-            s[key] = round(sum(r["invariants"][key] for r in group) / n, 3)
+        for key in INVARIANTS + ("every_material",):
+            judged = [r["invariants"][key] for r in group if key in r["invariants"]]
+            if judged or key != "every_material":
+                s[key] = round(sum(judged) / n, 3)
+        trials = [t for r in group for t in r.get("materials", [])]
+        if trials:
+            s["material_trials"] = {k: f"{sum(t['ok'] for t in trials if t['material'] == k)}/"
+                                       f"{sum(t['material'] == k for t in trials)}" for k in MATERIALS}
         s["all_invariants"] = round(sum(r["all_invariants"] for r in group) / n, 3)
         s["pitch"] = round(sum(r.get("pitch_error_deg", 1e9) <= LIMITS["pitch_deg"] for r in group) / n, 3)
         for key in TRUTHS:
@@ -660,7 +725,8 @@ def summarise(rows: list[dict]) -> dict:
     return out
 
 
-def scene_rows(index: int, seed: int, folder, modes=MODES, seconds: float = 2.0, echo=print) -> list[dict]:
+def scene_rows(index: int, seed: int, folder, modes=MODES, seconds: float = 2.0, echo=print,
+               materials: int = 0) -> list[dict]:
     """Scene ``index`` of the run of ``seed``: generate, render, build by each of ``modes``; a row per mode."""
     from ..geometry.raycast import SilhouetteRenderer  # noqa: F401 — warp loads once, before the clock starts
 
@@ -674,7 +740,8 @@ def scene_rows(index: int, seed: int, folder, modes=MODES, seconds: float = 2.0,
     truth = render_scene(scene, folder)
     rows = []
     for mode in modes:
-        row = build_row(folder, truth, [o["mesh"] for o in scene["objects"]], scene["camera"], mode, seconds)
+        row = build_row(folder, truth, [o["mesh"] for o in scene["objects"]], scene["camera"], mode, seconds,
+                        materials if mode == modes[0] else 0)
         row["scene"] = index
         row["seconds_render"] = truth["seconds_render"]
         rows.append(row)
@@ -705,7 +772,7 @@ HEADER = (f"{'scene':>10} {'layout':<7}{'from':<6}{'n':>3}{'pitch':>8}{'ovl mm':
 
 
 def bench_general(n: int, seed: int | None = None, out_dir=None, modes=MODES, seconds: float = 2.0,
-                  echo=print) -> dict:
+                  echo=print, materials: int = 0) -> dict:
     """``n`` scenes drawn from ``seed`` (a new one, printed, when None), each built by every one of ``modes``;
     the scenes and shots go to ``out_dir`` (a temporary folder, removed, when None). Returns the numbers."""
     blender_python()  # no Blender: say so before drawing anything
@@ -718,7 +785,7 @@ def bench_general(n: int, seed: int | None = None, out_dir=None, modes=MODES, se
         root = pathlib.Path(out_dir) if out_dir else pathlib.Path(tmp)
         echo(HEADER)
         for i in range(n):
-            rows += scene_rows(i, seed, root / f"scene_{i:03d}", modes, seconds, echo)
+            rows += scene_rows(i, seed, root / f"scene_{i:03d}", modes, seconds, echo, materials)
     summary = summarise(rows) if rows else {}
     numbers = {"seed": seed, "n": n, "date": time.strftime("%Y-%m-%d"),
                "machine": f"{platform.machine()}, {os.cpu_count()} cores", "size": list(SIZE), "samples": SAMPLES,
@@ -743,6 +810,7 @@ def markdown(numbers: dict) -> str:
              "start_overlap": f"scenes: start overlap ≤ {1000 * LIMITS['start_overlap_m']:g} mm",
              "rest_drift": f"scenes: unpushed, nothing moves > {100 * LIMITS['rest_drift_m']:g} cm in 2 s",
              "rest_turn": f"scenes: unpushed, nothing turns > {LIMITS['rest_turn_deg']:g}° in 2 s",
+             "every_material": "scenes: sampled objects simulate 1 s as every material",
              "all_invariants": "**scenes: every invariant**",
              "pitch": f"scenes: pitch within {LIMITS['pitch_deg']:g}°",
              "iou_photo": f"objects: IoU ≥ {LIMITS['iou_photo']} against the visible mask",
@@ -751,7 +819,9 @@ def markdown(numbers: dict) -> str:
              "position": f"objects: position error ≤ {100 * LIMITS['position_frac']:g} % of camera distance",
              "size": f"objects: longest dimension within {LIMITS['size_factor']}×"}
     for key, name in names.items():
-        lines.append(f"| {name} | " + " | ".join(f"{100 * s[m][key]:.0f} %" for m in modes) + " |")
+        if any(key in s[m] for m in modes):
+            lines.append(f"| {name} | " + " | ".join("—" if key not in s[m] else f"{100 * s[m][key]:.0f} %"
+                                                     for m in modes) + " |")
     lines.append("| scenes / objects | " + " | ".join(f"{s[m]['scenes']} / {s[m]['objects']}" for m in modes) + " |")
     meds = {"iou_photo": "median IoU, visible mask", "iou_amodal": "median IoU, whole outline",
             "iou_novel": "median IoU, worse of ±45°", "position_error_frac": "median position error (after scale)",
