@@ -1152,7 +1152,9 @@ def bench_general_command(n, seed, out_dir, seconds, only, materials, json_path)
     built mesh against the visible mask and the whole outline from the photo's view (>= 0.85) and against
     the truth from the camera orbited ±45° (>= 0.7), position error (after the one scale a photo cannot
     show) over the camera distance (<= 5 %), longest dimension within 1.5x; per scene pitch within 10°.
-    Prints a row per scene and build, then the pass rates (Markdown).
+    With --materials K, K objects of each scene also simulate 1 s as each of mpm_elastic, mpm_sand and
+    pbd_cloth without a stop or a non-finite value. Prints a row per scene and build, then the pass rates
+    (Markdown).
 
     \b
     Needs Blender's Python module (bpy==5.0.1 pins numpy<2): install it in an environment of its own and
