@@ -632,17 +632,37 @@ def _non_finite(stage) -> list[str]:
 MATERIALS = ("mpm_elastic", "mpm_sand", "pbd_cloth")
 
 
-def material_trials(shot_folder, names, seconds: float = 1.0) -> list[dict]:
-    """Each of ``names`` switched in turn to each of :data:`MATERIALS` (``estimate --set NAME.material=KIND``)
-    on a copy of the built shot, simulated ``seconds``: ``ok`` when simulate finishes (no guard stop) and
-    every value it wrote is finite."""
-    import shutil
+#: Longest a material trial may take before it counts as stopped, seconds (they take 0.5-3 min here).
+MATERIAL_LIMIT_S = 600.0
 
+
+def _material_trial(shot_folder, name: str, kind: str, seconds: float) -> dict:
+    """One trial of :func:`material_trials` on the shot in ``shot_folder`` (changed in place: a copy)."""
     import physomni_usd as api
 
     from ..settings import SimulateSettings
     from ..usd import layers
 
+    folder = pathlib.Path(shot_folder)
+    try:
+        api.estimate(folder / layers.SHOT, sets=[f"{name}.material={kind}"])
+        api.simulate(folder / layers.SHOT, SimulateSettings(seconds=seconds))
+        bad = _non_finite(layers.open_shot(folder))
+        return {"ok": not bad, "error": f"non-finite values in {bad[0]}" if bad else None}
+    except Exception as exc:  # noqa: BLE001 — a stop is what this counts
+        return {"ok": False, "error": f"{type(exc).__name__}: {exc}"}
+
+
+def material_trials(shot_folder, names, seconds: float = 1.0, limit_s: float = MATERIAL_LIMIT_S) -> list[dict]:
+    """Each of ``names`` switched in turn to each of :data:`MATERIALS` (``estimate --set NAME.material=KIND``)
+    on a copy of the built shot, simulated ``seconds``: ``ok`` when simulate finishes within ``limit_s`` (no
+    guard stop, no endless refinement) and every value it wrote is finite. Each trial runs in a process of
+    its own, so that one that does not end can be stopped."""
+    import shutil
+
+    code = ("import json, sys\nfrom physomni_usd.bench.general import _material_trial\n"
+            "print('RESULT ' + json.dumps(_material_trial(sys.argv[1], sys.argv[2], sys.argv[3], "
+            "float(sys.argv[4]))))")
     out = []
     for name in names:
         for kind in MATERIALS:
@@ -650,15 +670,15 @@ def material_trials(shot_folder, names, seconds: float = 1.0) -> list[dict]:
                 copy = pathlib.Path(tmp) / "shot"
                 shutil.copytree(shot_folder, copy)
                 t0 = time.perf_counter()
-                trial = {"object": name, "material": kind, "ok": False, "error": None}
+                trial = {"object": name, "material": kind}
                 try:
-                    api.estimate(copy / layers.SHOT, sets=[f"{name}.material={kind}"])
-                    api.simulate(copy / layers.SHOT, SimulateSettings(seconds=seconds))
-                    bad = _non_finite(layers.open_shot(copy))
-                    trial["ok"] = not bad
-                    trial["error"] = f"non-finite values in {bad[0]}" if bad else None
-                except Exception as exc:  # noqa: BLE001 — a stop is what this counts
-                    trial["error"] = f"{type(exc).__name__}: {exc}"
+                    proc = subprocess.run([sys.executable, "-c", code, str(copy), name, kind, str(seconds)],
+                                          capture_output=True, text=True, timeout=limit_s)
+                    line = next((x for x in proc.stdout.splitlines() if x.startswith("RESULT ")), None)
+                    trial |= (json.loads(line[len("RESULT "):]) if line else
+                              {"ok": False, "error": (proc.stderr.strip().splitlines() or ["no output"])[-1]})
+                except subprocess.TimeoutExpired:
+                    trial |= {"ok": False, "error": f"{seconds:g} s not simulated in {limit_s:g} s"}
                 trial["seconds"] = round(time.perf_counter() - t0, 1)
                 out.append(trial)
     return out
