@@ -141,3 +141,25 @@ def rest_drift(stage: Usd.Stage, names=None) -> dict[str, float]:
             d = np.linalg.norm(now[n].vertices - first[n].vertices, axis=1).max()
             drift[n] = max(drift[n], float(d))
     return drift
+
+
+def rest_turn(stage: Usd.Stage, names=None) -> dict[str, float]:
+    """Largest rotation of each object over the stage's frames against its start frame, degrees, prim name →
+    degrees: what :func:`rest_drift` misses on a small object that tips over (it turns far while its points
+    move little). The rotation is the best fit (Kabsch) of the frame's points to the start's, so it reads a
+    rigid body's turn exactly and a deforming body's mean turn."""
+    start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
+    meshes = WorldMeshes(stage)
+    first = meshes.vertices(start)
+    keep = [n for n in first if names is None or n in names]
+    turn = dict.fromkeys(keep, 0.0)
+    centred = {n: first[n] - first[n].mean(0) for n in keep}
+    for t in np.arange(start + 1, end + 0.5):
+        now = meshes.vertices(float(t))
+        for n in keep:
+            u, _s, vt = np.linalg.svd(centred[n].T @ (now[n] - now[n].mean(0)))
+            d = np.sign(np.linalg.det(u @ vt))
+            r = u @ np.diag([1.0, 1.0, d]) @ vt
+            angle = np.degrees(np.arccos(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0)))
+            turn[n] = max(turn[n], float(angle))
+    return turn

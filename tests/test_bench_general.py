@@ -1,0 +1,135 @@
+"""``bench general``'s scenes: drawn fresh on every run (the seeds are in each failure's message), so that no
+scene can be tuned for.
+
+Without Blender: the generator's truth is consistent (the same seed draws the same scene; objects do not
+interpenetrate, stand where they are said to, and are inside the frame), and the command says how to get
+Blender's Python. With it (``PHYSOMNI_BLENDER_PYTHON``, as ``.ci/run`` sets it): two fresh scenes are
+rendered with Cycles, the object-id render agrees with a ray cast of the true meshes through the true camera,
+and each scene built from its visible masks meets every invariant of issue 38: build exits 0 (asserted);
+simulate does not refuse it, no start overlap over 2 mm, nothing moves over 1 cm or turns over 5° in 2 s
+unpushed (asserted, and marked as failing on some fresh scenes until issue 38's part 1 lands:
+:data:`NOT_YET` says how often).
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+from physomni_usd.bench import general
+from physomni_usd.metrics.geometry import overlaps
+
+from .conftest import cli
+
+FRESH = [int(s) for s in np.random.default_rng().integers(1, 10**8, 3)]
+
+
+@pytest.mark.parametrize("seed", FRESH)
+def test_the_same_seed_draws_the_same_scene_and_its_truth_holds_together(seed):
+    a, b = general.describe_scene(seed), general.describe_scene(seed)
+    assert [o["name"] for o in a["objects"]] == [o["name"] for o in b["objects"]], f"seed {seed}"
+    assert all(np.array_equal(x["mesh"].vertices, y["mesh"].vertices) for x, y in zip(a["objects"], b["objects"]))
+    assert a["objects"], f"seed {seed}: nothing visible drawn"
+    cam = a["camera"]
+    assert 0.0 <= cam.pitch_deg <= 90.0 and 25.0 <= cam.fov_deg <= 80.0
+    meshes = {o["name"]: o["mesh"] for o in a["objects"]}
+    deep = {pair: d for pair, d in overlaps(meshes).items() if d > 0.001}
+    assert not deep, f"seed {seed}: the truth's meshes interpenetrate {deep}"
+    for o in a["objects"]:
+        uv, depth = cam.project(o["mesh"].vertices)
+        assert depth.min() > 0 and uv.min() >= 0 and (uv <= [cam.width, cam.height]).all(), f"seed {seed}: {o['name']}"
+        low = o["mesh"].bounds[0][2]
+        if o["place"] == "support":  # on the support or on another object, never below the support's top
+            assert low >= -1e-6, f"seed {seed}: {o['name']} sinks {low} m into the support"
+
+
+def test_without_blender_the_command_says_how_to_get_it():
+    env = {k: v for k, v in os.environ.items() if k != "PHYSOMNI_BLENDER_PYTHON"}
+    try:
+        general.blender_python()
+    except general.NoBlender:
+        pass
+    else:
+        if "PHYSOMNI_BLENDER_PYTHON" not in os.environ:
+            pytest.skip("this Python has bpy itself, so the command never lacks Blender here")
+    proc = cli("bench", "general", "--n", "1", env=env)
+    assert proc.returncode == 2, proc.stderr
+    assert "PHYSOMNI_BLENDER_PYTHON" in proc.stderr
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    """Two fresh scenes rendered and built from their visible masks, simulated 2 s with nothing pushed."""
+    try:
+        general.blender_python()
+    except general.NoBlender as exc:
+        pytest.skip(str(exc))
+    seed = int(np.random.default_rng().integers(1, 10**6))
+    rows, folders = [], [tmp_path_factory.mktemp(f"general{i}") for i in range(2)]
+    for i, folder in enumerate(folders):
+        rows += general.scene_rows(i, seed, folder, modes=("masks",), echo=lambda m: None)
+    assert rows, f"seed {seed}: no scene"
+    return seed, rows, folders
+
+
+def _scenes(rows) -> str:
+    return "; ".join(f"scene {r['seed']} ({r['layout']}, pitch {r['pitch_true']}°, "
+                     f"{', '.join(o['label'] for o in r['objects']) or r['objects_n']}): "
+                     + (", ".join(k for k, v in r['invariants'].items() if not v) or "ok")
+                     + (f" [{r['error']}]" if r["error"] else "") for r in rows)
+
+
+def test_the_photo_and_its_masks_come_from_the_same_camera(built):
+    """The id render's visible masks against a ray cast of the true meshes: Blender's camera is the truth's."""
+    import json
+
+    seed, rows, folders = built
+    for truth_file in (f / "truth.json" for f in folders if (f / "truth.json").exists()):
+        truth = json.loads(truth_file.read_text())
+        for o in truth["objects"]:
+            assert o["visible_px"] >= general.MIN_VISIBLE_PX - 20, f"seed {seed}: {o}"
+            assert o["id_render_iou"] >= 0.9, f"scene {truth['seed']}: {o['name']} id render IoU {o['id_render_iou']}"
+
+
+#: Invariants that fresh scenes still break (issue 38, part 1, is open), as measured on 2026-12-03 by
+#: `bench general` on two runs of ten scenes built from masks (docs/benchmarks.md, *Any photo*): half the
+#: scenes have fruit that rolls or a book that slides, and one in ten has a cup or a book built 1-1.5 cm
+#: inside what holds it, which simulate refuses. Marked here, not loosened: each is still asserted and
+#: reported, and when part 1 lands these marks go. "builds" (20 of 20 from masks) is asserted unmarked.
+NOT_YET = {"simulates": "1 in 10 fresh scenes is built with an object 1-1.5 cm inside its support, which "
+                        "simulate refuses (issue 38, part 1)",
+           "start_overlap": "1 in 10 fresh scenes starts with an overlap over 2 mm (issue 38, part 1)",
+           "rest_drift": "unpushed objects of half the fresh scenes move over 1 cm in 2 s (issue 38, part 1)",
+           "rest_turn": "unpushed objects of half the fresh scenes turn over 5° in 2 s (issue 38, part 1)"}
+
+
+@pytest.mark.parametrize("invariant", [pytest.param(k, marks=pytest.mark.xfail(reason=NOT_YET[k], strict=False))
+                                       if k in NOT_YET else k for k in general.INVARIANTS])
+def test_a_fresh_scene_built_from_its_masks_meets_the_invariant(built, invariant):
+    seed, rows, _ = built
+    failed = [r for r in rows if not r["invariants"][invariant]]
+    assert not failed, f"{invariant} fails on {_scenes(failed)} (run seed {seed})"
+
+
+def test_rest_turn_reads_a_tip_that_barely_moves_any_point():
+    """A 2 cm cube turned 30° about its own centre over the take: no point moves 1 cm, the turn is 30°."""
+    import trimesh
+    from pxr import Usd, UsdGeom
+
+    from physomni_usd.metrics.geometry import rest_drift, rest_turn
+
+    stage = Usd.Stage.CreateInMemory()
+    stage.SetStartTimeCode(0)
+    stage.SetEndTimeCode(10)
+    cube = trimesh.creation.box((0.02, 0.02, 0.02))
+    mesh = UsdGeom.Mesh.Define(stage, "/World/Objects/cube")
+    mesh.CreatePointsAttr([tuple(map(float, v)) for v in cube.vertices])
+    mesh.CreateFaceVertexCountsAttr([3] * len(cube.faces))
+    mesh.CreateFaceVertexIndicesAttr([int(i) for i in cube.faces.ravel()])
+    turn = UsdGeom.Xformable(mesh).AddRotateXOp()
+    for t in range(11):
+        turn.Set(3.0 * t, Usd.TimeCode(t))
+    assert rest_turn(stage)["cube"] == pytest.approx(30.0, abs=0.01)
+    assert rest_drift(stage)["cube"] < 0.01
