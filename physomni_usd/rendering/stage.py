@@ -89,6 +89,27 @@ def read_photo_camera(stage: Usd.Stage, width: int, height: int) -> RenderCamera
     return read_camera(stage, Usd.TimeCode(stage.GetStartTimeCode()), width, height)
 
 
+def read_photo_points(stage: Usd.Stage, objects: list[RenderObject]) -> list[np.ndarray | None] | None:
+    """Per object, its (N, 3) world points where ``build`` placed it in ``scene.usda`` (the pose the photo
+    shows it in), whatever the layers above do with it (an edit or a session layer moving its start); None for
+    an object the scene layer does not hold, and None in place of the list for stages without a scene layer."""
+    scene = _scene_stage(stage)
+    if scene is None:
+        return None
+    time = Usd.TimeCode(stage.GetStartTimeCode())
+    cache = UsdGeom.XformCache(time)
+    out = []
+    for o in objects:
+        prim = scene.GetPrimAtPath(o.path)
+        pts = UsdGeom.Mesh(prim).GetPointsAttr().Get(time) if prim and prim.IsA(UsdGeom.Mesh) else None
+        if pts is None:
+            out.append(None)
+            continue
+        m = np.array(cache.GetLocalToWorldTransform(prim))
+        out.append(np.asarray(pts, np.float64) @ m[:3, :3] + m[3, :3])
+    return out
+
+
 def read_photo(stage: Usd.Stage) -> np.ndarray | None:
     """The original photo named by the background card's ``physomni:photo`` custom data (a path relative to
     the layer that wrote it), (H, W, 3) uint8; None for shots without one or when the file is gone."""

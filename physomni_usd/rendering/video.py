@@ -27,7 +27,7 @@ from ..usd.author import write_render_layer
 from .moves import MAX_AMOUNT, MOVES, move_matrices
 from .encode import encoder_failure, even_sides, video_writer
 from .passes import PassWriter, pass_files
-from .stage import (read_camera, read_objects, read_particles, read_photo, read_photo_camera,
+from .stage import (read_camera, read_objects, read_particles, read_photo, read_photo_camera, read_photo_points,
                     read_photo_camera_matrix, read_plate, read_wide_plate, visible, world_points)
 from .world import photo_environment
 
@@ -38,8 +38,9 @@ from .world import photo_environment
 SHADOW_STEP = 8
 #: An object that has moved no more than this many pixels is in place: the frame shows the photo there (its
 #: edges, its real shadow), not the texture over the plate. Through the photo's camera the motion is that of the
-#: object's own points since the first frame, so that the first frame is the photo whatever mesh the build lifted;
-#: through any other camera it is how far the surface seen is from where the photo shows it.
+#: object's own points from where build placed them (:meth:`ShotRenderer._photo_points`), so that the first frame
+#: is the photo whatever mesh the build lifted; through any other camera it is how far the surface seen is from
+#: where the photo shows it.
 IN_PLACE_PX = 0.75
 #: Further motion, in pixels, over which an object changes from the photo to its texture over the plate
 #: (the plate without it and its contact shadow, and its synthetic shadow wherever it now is).
@@ -222,11 +223,33 @@ class ShotRenderer:
             pts = self.points_at(Usd.TimeCode(0))
             self.caster = RayCaster(pts, self.faces, self.corner_px, self.atlas_alpha, self.device)
             self.contact = ContactCaster(pts, self.faces, self.face_object, self.device)
-            self._start_points = self.points_at(Usd.TimeCode(self.stage.GetStartTimeCode()))
+            self._start_points = self._photo_points()
             self._start_hidden = list(self._hidden)
         start = Usd.TimeCode(self.stage.GetStartTimeCode())
         self._start_particles = {str(p.prim.GetPath()): np.asarray(UsdGeom.Points(p.prim).GetPointsAttr().Get(start)
                                                                    or [], np.float64) for p in self.particles}
+
+    def _photo_points(self) -> np.ndarray:
+        """(N, 3) every object's points where the photo shows it, in :meth:`points_at`'s order: as ``build``
+        placed them in ``scene.usda``, not as the first frame composes them. Motion is measured from these, so an
+        object that an edit or a session layer moved at the first frame itself has left where the photo shows it
+        (the saucer shows where the cup stood, the cup shows where it now is), while the first frame simulate
+        writes, where build put everything, is still the photo. Stages without a scene layer measure from their
+        first frame."""
+        points = self.points_at(Usd.TimeCode(self.stage.GetStartTimeCode()))
+        placed = read_photo_points(self.stage, self.objects)
+        if placed is None:
+            return points
+        points = points.copy()
+        for k, pts in enumerate(placed):
+            lo, hi = self._point_range[k]
+            if pts is not None and len(pts) == hi - lo and not self._hidden[k]:
+                points[lo:hi] = pts
+            elif not self._hidden[k]:
+                # an object the scene layer lacks (added by an edit) or holds with other points is not one the
+                # photo shows: no place to be still at (NaN counts as moved in _pixel_motion)
+                points[lo:hi] = np.nan
+        return points
 
     def points_at(self, time: Usd.TimeCode) -> np.ndarray:
         """(N, 3) world points of every object mesh at ``time``, in the ray caster's order (a hidden object's
@@ -388,7 +411,7 @@ class ShotRenderer:
     def _contact_shadow(self, cam, time: Usd.TimeCode, points: np.ndarray, moved: np.ndarray) -> np.ndarray:
         """(h, w) darkening of the ground on the shadow grid: each object's contact shadow, weighted by how far
         it has left the photo (``moved`` (K + 1,) from :meth:`_moved`; an object in place keeps the photo's own
-        shadow). Under the photo's camera an object still at its first frame's pose casts none, even where the
+        shadow). Under the photo's camera an object still where build placed it casts none, even where the
         photo does not show it, so that frame 0 is the photo; a hidden object casts none."""
         k_all = len(self.objects)
         weight = self.settings.shadow_strength * moved[:k_all].astype(np.float64)
@@ -451,7 +474,7 @@ class ShotRenderer:
 
     def _pixel_motion(self, cam, now: np.ndarray, start: np.ndarray) -> float:
         """The farthest any of the points ``now`` (N, 3) has moved on the screen of ``cam`` (pixels) from where it
-        was at the first frame (``start``, the same points); 0 for points that have not moved at all."""
+        was in the photo (``start``, the same points); 0 for points that have not moved at all."""
         if now.shape != start.shape:
             return np.inf
         if np.array_equal(now, start):
@@ -464,8 +487,8 @@ class ShotRenderer:
         return float(np.max(np.hypot(*(uv1 - uv0).T))) if len(now) else 0.0
 
     def _moved_since_start(self, cam, points: np.ndarray, particles: list) -> tuple[np.ndarray, list]:
-        """Through the photo's camera: (K + 1,) per object, 0 where it has not moved since the first frame, rising
-        to 1 once a point of it has moved :data:`IN_PLACE_PX` + :data:`REVEAL_PX` pixels (as :meth:`_moved`);
+        """Through the photo's camera: (K + 1,) per object, 0 where it has not moved from where the photo shows it,
+        rising to 1 once a point of it has moved :data:`IN_PLACE_PX` + :data:`REVEAL_PX` pixels (as :meth:`_moved`);
         and the particle sets (of ``particles``) that have moved at all, the only ones drawn.
 
         Motion, not how well the lifted mesh reproduces the photo, decides: an object in place is the photo,
