@@ -81,6 +81,7 @@ def _scenes(rows) -> str:
                      + (f" [{r['error']}]" if r["error"] else "") for r in rows)
 
 
+@pytest.mark.slow  # two Cycles renders, two builds and 2 s simulations: about 2 minutes on 2 cores
 def test_the_photo_and_its_masks_come_from_the_same_camera(built):
     """The id render's visible masks against a ray cast of the true meshes: Blender's camera is the truth's."""
     import json
@@ -105,6 +106,7 @@ NOT_YET = {"simulates": "1 in 10 fresh scenes is built with an object 1-1.5 cm i
            "rest_turn": "unpushed objects of half the fresh scenes turn over 5° in 2 s (issue 38, part 1)"}
 
 
+@pytest.mark.slow  # the same two scenes (the fixture is the module's)
 @pytest.mark.parametrize("invariant", [pytest.param(k, marks=pytest.mark.xfail(reason=NOT_YET[k], strict=False))
                                        if k in NOT_YET else k for k in general.INVARIANTS])
 def test_a_fresh_scene_built_from_its_masks_meets_the_invariant(built, invariant):
