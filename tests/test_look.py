@@ -182,8 +182,11 @@ def test_contact_sheet_is_one_row_of_equal_heights():
 def test_where_the_desk_ball_stood_the_plate_continues_the_wood(tmp_path):
     """The bundled desk example, its ball pushed for half a second: in the last frame the area it left
     has the wood's grain, no outline and the wood's colour, at 480 px and at the photo's own 640 px (the
-    size a render of 880 px gives it: frames are never larger than the photo)."""
+    size a render of 880 px gives it: frames are never larger than the photo). The ball strikes the cap,
+    which takes its share of the blow and slides 1.6 mm (2 px at 480, 3 px at 640, a jolt a viewer sees):
+    what the cap left must continue the wood too, and nothing that stayed in place reveals its plate."""
     import physomni_usd as api
+    from pxr import UsdGeom
     from physomni_usd.rendering.video import ShotRenderer
     from physomni_usd.settings import RenderSettings, SimulateSettings
     from physomni_usd.usd import layers
@@ -193,6 +196,13 @@ def test_where_the_desk_ball_stood_the_plate_continues_the_wood(tmp_path):
     result = api.build(folder / spec["photo"], tmp_path / "shot", (), spec["boxes"], pushes=spec["push"])
     api.simulate(result.shot, SimulateSettings(seconds=0.6))
     stage = layers.open_shot(result.shot)
+    start, end = UsdGeom.XformCache(stage.GetStartTimeCode()), UsdGeom.XformCache(stage.GetEndTimeCode())
+    # the objects the take moved at all, by their pose: only these may show their plate (the cap's plate shows
+    # because the ball knocked it aside, not because the ball's shadow or the photo's slabs say so)
+    moved = {p.GetName().split("_")[0] for p in stage.GetPrimAtPath("/World/Objects").GetChildren()
+             if p.IsA(UsdGeom.Xformable) and not np.allclose(start.GetLocalToWorldTransform(p),
+                                                            end.GetLocalToWorldTransform(p), atol=1e-6)}
+    assert "ball" in moved, moved
     for size in (480, 880):
         renderer = ShotRenderer(stage, RenderSettings(max_size=size))
         image, state = renderer.render(float(stage.GetEndTimeCode()))
@@ -201,8 +211,9 @@ def test_where_the_desk_ball_stood_the_plate_continues_the_wood(tmp_path):
             float(stage.GetEndTimeCode()))
         figures = {f["object"].rsplit("/", 1)[-1].split("_")[0]: f
                    for f in revealed_figures(renderer, image, state, unshaded)}
-        assert set(figures) == {"ball"}, (size, figures)
-        assert within_targets(figures["ball"]), (size, renderer.width, figures["ball"])
+        assert "ball" in figures and set(figures) <= moved, (size, moved, figures)
+        for name, figure in figures.items():
+            assert within_targets(figure), (size, renderer.width, name, figure)
 
 
 @pytest.mark.slow  # 27 s (builds the motorcycle example) on a loaded 2-core machine
