@@ -11,6 +11,7 @@ import signal
 import subprocess
 import sys
 import threading
+from contextlib import contextmanager
 
 import cv2
 import numpy as np
@@ -60,6 +61,44 @@ def test_the_video_length_is_the_page_s_field_else_the_shot_s_and_is_written_to_
             session.check_seconds(bad)
 
 
+def studio_port() -> int:
+    """A free port whose next one exists too (the studio runs its preview there)."""
+    port = free_port()
+    while port + 1 > 65535:
+        port = free_port()
+    return port
+
+
+@contextmanager
+def studio_page(port: int, photo_width: int, viewport=(1400, 760)):
+    """The studio's page at ``port`` in chromium, once it has drawn the photo: yields ``(browser, page, at,
+    drag)``, ``at(x, y)`` the page's point over photo pixel (x, y) (``photo_width`` pixels wide) and
+    ``drag(a, b)`` the mouse pressed from photo pixel ``a`` to ``b`` in five steps, as a hand draws."""
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=[
+            "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox"])
+        page = browser.new_page(viewport={"width": viewport[0], "height": viewport[1]})
+        page.goto(f"http://127.0.0.1:{port}/")
+        page.wait_for_selector("body[data-ready='1']", timeout=30000)
+        page.wait_for_function("() => document.getElementById('photo').width > 0")
+        c = page.locator("#photo").bounding_box()
+        scale = c["width"] / photo_width
+
+        def at(x, y):
+            return c["x"] + (x + 0.5) * scale, c["y"] + (y + 0.5) * scale
+
+        def drag(a, b):
+            page.mouse.move(*at(*a))
+            page.mouse.down()
+            for k in range(1, 6):
+                page.mouse.move(*at(a[0] + (b[0] - a[0]) * k / 5, a[1] + (b[1] - a[1]) * k / 5))
+            page.mouse.up()
+
+        yield browser, page, at, drag
+
+
 def _start(photo, out, port):
     proc = subprocess.Popen([sys.executable, "-m", "physomni_usd.cli", "studio", str(photo), "-o", str(out),
                              "--port", str(port), "--no-open", "--duration", "900"],
@@ -92,35 +131,12 @@ def _iou(a: np.ndarray, b: np.ndarray) -> float:
 
 @pytest.fixture(scope="module")
 def studio_run(photo, tmp_path_factory):
-    from playwright.sync_api import sync_playwright
-
     out = tmp_path_factory.mktemp("studio") / "shot"
-    port = free_port()
-    while port + 1 > 65535:
-        port = free_port()
+    port = studio_port()
     proc, lines = _start(photo["photo"], out, port)
     result = {"out": out, "lines": lines}
     try:
-        with sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, args=[
-                "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox"])
-            page = browser.new_page(viewport={"width": 1600, "height": 720})
-            page.goto(f"http://127.0.0.1:{port}/")
-            page.wait_for_selector("body[data-ready='1']", timeout=30000)
-            page.wait_for_function("() => document.getElementById('photo').width > 0")
-            c = page.locator("#photo").bounding_box()
-            scale = c["width"] / W
-
-            def at(x, y):
-                return c["x"] + (x + 0.5) * scale, c["y"] + (y + 0.5) * scale
-
-            def drag(a, b):
-                page.mouse.move(*at(*a))
-                page.mouse.down()
-                for k in range(1, 6):
-                    page.mouse.move(*at(a[0] + (b[0] - a[0]) * k / 5, a[1] + (b[1] - a[1]) * k / 5))
-                page.mouse.up()
-
+        with studio_page(port, W, (1600, 720)) as (browser, page, at, drag):
             def mask_ready(i, clicks):
                 page.wait_for_function(
                     f"() => studio.masks[{i}] && studio.masks[{i}].complete && studio.S.objects[{i}].spec"

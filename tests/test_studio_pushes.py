@@ -16,8 +16,7 @@ import pytest
 from pxr import Usd, UsdGeom
 
 from .conftest import cli
-from .test_preview import CHROMIUM, free_port
-from .test_studio import _start
+from .test_studio import _start, studio_page, studio_port
 
 W, H = 240, 180
 #: The crate's box holds the ball's box: an arrow started on the ball is the ball's.
@@ -55,36 +54,13 @@ def final_positions(folder) -> dict:
 
 @pytest.fixture(scope="module")
 def drawn(tmp_path_factory):
-    from playwright.sync_api import sync_playwright
-
     photo = crate_and_ball(tmp_path_factory.mktemp("photo"))
     out = tmp_path_factory.mktemp("studio") / "shot"
-    port = free_port()
-    while port + 1 > 65535:
-        port = free_port()
+    port = studio_port()
     proc, lines = _start(photo, out, port)
     result = {"out": out, "lines": lines}
     try:
-        with sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, args=[
-                "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox"])
-            page = browser.new_page(viewport={"width": 1400, "height": 760})
-            page.goto(f"http://127.0.0.1:{port}/")
-            page.wait_for_selector("body[data-ready='1']", timeout=30000)
-            page.wait_for_function("() => document.getElementById('photo').width > 0")
-            c = page.locator("#photo").bounding_box()
-            scale = c["width"] / W
-
-            def at(x, y):
-                return c["x"] + (x + 0.5) * scale, c["y"] + (y + 0.5) * scale
-
-            def drag(a, b):
-                page.mouse.move(*at(*a))
-                page.mouse.down()
-                for k in range(1, 6):
-                    page.mouse.move(*at(a[0] + (b[0] - a[0]) * k / 5, a[1] + (b[1] - a[1]) * k / 5))
-                page.mouse.up()
-
+        with studio_page(port, W, (1400, 760)) as (browser, page, at, drag):
             # the ball first, then the crate around it: the last box holding a pixel is the crate's
             for i, (box, label) in enumerate(((BALL_BOX, "ball"), (CRATE_BOX, "crate"))):
                 drag(box[:2], box[2:])

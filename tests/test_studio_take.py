@@ -15,8 +15,8 @@ from pxr import Sdf
 
 from physomni_usd.studio import Options, Studio, session
 
-from .test_preview import CHROMIUM, free_port
-from .test_studio import _start
+from .test_preview import free_port
+from .test_studio import _start, studio_page, studio_port
 from .test_studio_pushes import BALL_BOX, BALL_CENTRE, CRATE_BOX, W, crate_and_ball
 
 PLAY_S = 1.0  # wall seconds the preview plays before the take is saved: far fewer frames than the 3 s field's
@@ -37,36 +37,13 @@ def test_studio_sh_with_a_kept_take_renders_it_and_runs_nothing_that_would_write
 
 @pytest.fixture(scope="module")
 def kept(tmp_path_factory):
-    from playwright.sync_api import sync_playwright
-
     photo = crate_and_ball(tmp_path_factory.mktemp("photo"))
     out = tmp_path_factory.mktemp("studio") / "shot"
-    port = free_port()
-    while port + 1 > 65535:
-        port = free_port()
+    port = studio_port()
     proc, lines = _start(photo, out, port)
     result = {"out": out, "lines": lines}
     try:
-        with sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, args=[
-                "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox"])
-            page = browser.new_page(viewport={"width": 1400, "height": 760})
-            page.goto(f"http://127.0.0.1:{port}/")
-            page.wait_for_selector("body[data-ready='1']", timeout=30000)
-            page.wait_for_function("() => document.getElementById('photo').width > 0")
-            c = page.locator("#photo").bounding_box()
-            scale = c["width"] / W
-
-            def at(x, y):
-                return c["x"] + (x + 0.5) * scale, c["y"] + (y + 0.5) * scale
-
-            def drag(a, b):
-                page.mouse.move(*at(*a))
-                page.mouse.down()
-                for k in range(1, 6):
-                    page.mouse.move(*at(a[0] + (b[0] - a[0]) * k / 5, a[1] + (b[1] - a[1]) * k / 5))
-                page.mouse.up()
-
+        with studio_page(port, W, (1400, 760)) as (browser, page, at, drag):
             for i, (box, label) in enumerate(((BALL_BOX, "ball"), (CRATE_BOX, "crate"))):
                 drag(box[:2], box[2:])
                 page.get_by_label(f"Label of object {i}").fill(label)
