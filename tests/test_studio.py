@@ -120,6 +120,23 @@ def _start(photo, out, port):
     return proc, lines
 
 
+@contextmanager
+def running_studio(photo, out):
+    """The studio on ``photo`` writing ``out``, on a free port: yields ``(port, proc, lines)`` (``lines`` its
+    stderr so far); ends it with Ctrl-C, killed if it has not ended, and a failure inside shows its stderr."""
+    port = studio_port()
+    proc, lines = _start(photo, out, port)
+    try:
+        yield port, proc, lines
+        proc.send_signal(signal.SIGINT)
+        proc.wait(120)
+    except Exception as exc:
+        raise AssertionError(f"{exc}\nstudio's stderr (exit {proc.poll()}):\n" + "\n".join(lines)) from exc
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+
+
 def _decode(data_url: str) -> np.ndarray:
     png = base64.b64decode(data_url.split(",", 1)[1])
     return cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_UNCHANGED)[..., 3] > 0
@@ -132,10 +149,8 @@ def _iou(a: np.ndarray, b: np.ndarray) -> float:
 @pytest.fixture(scope="module")
 def studio_run(photo, tmp_path_factory):
     out = tmp_path_factory.mktemp("studio") / "shot"
-    port = studio_port()
-    proc, lines = _start(photo["photo"], out, port)
-    result = {"out": out, "lines": lines}
-    try:
+    with running_studio(photo["photo"], out) as (port, proc, lines):
+        result = {"out": out, "lines": lines}
         with studio_page(port, W, (1600, 720)) as (browser, page, at, drag):
             def mask_ready(i, clicks):
                 page.wait_for_function(
@@ -196,13 +211,6 @@ def studio_run(photo, tmp_path_factory):
             page.get_by_text("rendered").wait_for(timeout=300000)
             result["video_src"] = page.evaluate("() => document.getElementById('video').src")
             browser.close()
-        proc.send_signal(signal.SIGINT)
-        proc.wait(120)
-    except Exception as exc:
-        raise AssertionError(f"{exc}\nstudio's stderr (exit {proc.poll()}):\n" + "\n".join(lines)) from exc
-    finally:
-        if proc.poll() is None:
-            proc.kill()
     result["returncode"] = proc.returncode
     return result
 

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import json
 import shlex
-import signal
 
 import cv2
 import imageio.v2 as imageio
@@ -16,7 +15,7 @@ import pytest
 from pxr import Usd, UsdGeom
 
 from .conftest import cli
-from .test_studio import _start, studio_page, studio_port
+from .test_studio import running_studio, studio_page
 
 W, H = 240, 180
 #: The crate's box holds the ball's box: an arrow started on the ball is the ball's.
@@ -56,10 +55,8 @@ def final_positions(folder) -> dict:
 def drawn(tmp_path_factory):
     photo = crate_and_ball(tmp_path_factory.mktemp("photo"))
     out = tmp_path_factory.mktemp("studio") / "shot"
-    port = studio_port()
-    proc, lines = _start(photo, out, port)
-    result = {"out": out, "lines": lines}
-    try:
+    with running_studio(photo, out) as (port, proc, lines):
+        result = {"out": out, "lines": lines}
         with studio_page(port, W, (1400, 760)) as (browser, page, at, drag):
             # the ball first, then the crate around it: the last box holding a pixel is the crate's
             for i, (box, label) in enumerate(((BALL_BOX, "ball"), (CRATE_BOX, "crate"))):
@@ -102,13 +99,6 @@ def drawn(tmp_path_factory):
             result["status"] = page.locator("#status").inner_text()
             page.screenshot(path=str(out.parent / "page_rendered.png"))
             browser.close()
-        proc.send_signal(signal.SIGINT)
-        proc.wait(120)
-    except Exception as exc:
-        raise AssertionError(f"{exc}\nstudio's stderr (exit {proc.poll()}):\n" + "\n".join(lines)) from exc
-    finally:
-        if proc.poll() is None:
-            proc.kill()
     result["returncode"] = proc.returncode
     return result
 

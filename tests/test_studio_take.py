@@ -6,7 +6,6 @@ simulate over it, and a change of pushes or a Build drops the take, the page say
 from __future__ import annotations
 
 import re
-import signal
 import types
 
 import imageio.v2 as imageio
@@ -16,7 +15,7 @@ from pxr import Sdf
 from physomni_usd.studio import Options, Studio, session
 
 from .test_preview import free_port
-from .test_studio import _start, studio_page, studio_port
+from .test_studio import running_studio, studio_page
 from .test_studio_pushes import BALL_BOX, BALL_CENTRE, CRATE_BOX, W, crate_and_ball
 
 PLAY_S = 1.0  # wall seconds the preview plays before the take is saved: far fewer frames than the 3 s field's
@@ -39,10 +38,8 @@ def test_studio_sh_with_a_kept_take_renders_it_and_runs_nothing_that_would_write
 def kept(tmp_path_factory):
     photo = crate_and_ball(tmp_path_factory.mktemp("photo"))
     out = tmp_path_factory.mktemp("studio") / "shot"
-    port = studio_port()
-    proc, lines = _start(photo, out, port)
-    result = {"out": out, "lines": lines}
-    try:
+    with running_studio(photo, out) as (port, proc, lines):
+        result = {"out": out, "lines": lines}
         with studio_page(port, W, (1400, 760)) as (browser, page, at, drag):
             for i, (box, label) in enumerate(((BALL_BOX, "ball"), (CRATE_BOX, "crate"))):
                 drag(box[:2], box[2:])
@@ -82,13 +79,6 @@ def kept(tmp_path_factory):
             result["status_rebuilt"] = page.locator("#status").inner_text()
             result["plan_rebuilt"] = page.locator("#plan").inner_text()
             browser.close()
-        proc.send_signal(signal.SIGINT)
-        proc.wait(120)
-    except Exception as exc:
-        raise AssertionError(f"{exc}\nstudio's stderr (exit {proc.poll()}):\n" + "\n".join(lines)) from exc
-    finally:
-        if proc.poll() is None:
-            proc.kill()
     result["returncode"] = proc.returncode
     return result
 
