@@ -51,6 +51,15 @@ def final_positions(folder) -> dict:
             for p in stage.GetPrimAtPath("/World/Objects").GetChildren()}
 
 
+def draw_ball_and_crate(page, drag) -> None:
+    """Box the ball first, then the crate around it (so the last box holding a ball pixel is the crate's),
+    label each and wait for its mask."""
+    for i, (box, label) in enumerate(((BALL_BOX, "ball"), (CRATE_BOX, "crate"))):
+        drag(box[:2], box[2:])
+        page.get_by_label(f"Label of object {i}").fill(label)
+        page.wait_for_function(f"() => studio.masks[{i}] && studio.masks[{i}].bits", timeout=60000)
+
+
 @pytest.fixture(scope="module")
 def drawn(tmp_path_factory):
     photo = crate_and_ball(tmp_path_factory.mktemp("photo"))
@@ -58,11 +67,7 @@ def drawn(tmp_path_factory):
     with running_studio(photo, out) as (port, proc, lines):
         result = {"out": out, "lines": lines}
         with studio_page(port, W, (1400, 760)) as (browser, page, at, drag):
-            # the ball first, then the crate around it: the last box holding a pixel is the crate's
-            for i, (box, label) in enumerate(((BALL_BOX, "ball"), (CRATE_BOX, "crate"))):
-                drag(box[:2], box[2:])
-                page.get_by_label(f"Label of object {i}").fill(label)
-                page.wait_for_function(f"() => studio.masks[{i}] && studio.masks[{i}].bits", timeout=60000)
+            draw_ball_and_crate(page, drag)
             page.get_by_label("Push arrow").check()
             arrow = (BALL_CENTRE, (BALL_CENTRE[0] + W // 8, BALL_CENTRE[1]))  # 0.5 m/s to the right
             drag(*arrow)

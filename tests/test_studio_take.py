@@ -16,7 +16,7 @@ from physomni_usd.studio import Options, Studio, session
 
 from .test_preview import free_port
 from .test_studio import running_studio, studio_page
-from .test_studio_pushes import BALL_BOX, BALL_CENTRE, CRATE_BOX, W, crate_and_ball
+from .test_studio_pushes import BALL_CENTRE, W, crate_and_ball, draw_ball_and_crate
 
 PLAY_S = 1.0  # wall seconds the preview plays before the take is saved: far fewer frames than the 3 s field's
 
@@ -41,10 +41,7 @@ def kept(tmp_path_factory):
     with running_studio(photo, out) as (port, proc, lines):
         result = {"out": out, "lines": lines}
         with studio_page(port, W, (1400, 760)) as (browser, page, at, drag):
-            for i, (box, label) in enumerate(((BALL_BOX, "ball"), (CRATE_BOX, "crate"))):
-                drag(box[:2], box[2:])
-                page.get_by_label(f"Label of object {i}").fill(label)
-                page.wait_for_function(f"() => studio.masks[{i}] && studio.masks[{i}].bits", timeout=60000)
+            draw_ball_and_crate(page, drag)
             page.get_by_label("Push arrow").check()
             drag(BALL_CENTRE, (BALL_CENTRE[0] + W // 8, BALL_CENTRE[1]))
             page.get_by_role("button", name="Build").click()
