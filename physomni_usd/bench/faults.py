@@ -517,8 +517,15 @@ def base_shot(work: pathlib.Path, example: pathlib.Path | None = None, echo=prin
 
 
 def bench_faults(only=(), echo=print) -> dict:
-    """Run every case (or those named in ``only``) and print the matrix: case, tried, clean."""
+    """Run every case (or those named in ``only``) and print the matrix: case, tried, clean. An unknown case
+    is refused (InputError) before any work."""
     import tempfile
+
+    from ..errors import InputError
+
+    unknown = [c for c in only if c not in CASES]
+    if unknown:
+        raise InputError(f"--only {unknown[0]!r}: not a case; one of {', '.join(CASES)}")
 
     rows = {}
     with tempfile.TemporaryDirectory(prefix="physomni-faults-") as tmp:

@@ -143,18 +143,13 @@ storage), or give --upload; every node needs physomni-usd installed.
 def batch(shots, address, workers, retries, force, summary_path, cpus_per_shot, gpus_per_shot, upload, quiet):
     """Run many shots (each a `physomni-usd run`) as Ray tasks; resumable, one failure never stops the rest."""
     with errors():
-        from ..errors import InputError
+        from ..batch.runner import check_batch
 
-        try:
-            import ray  # noqa: F401
-        except ImportError:
-            raise InputError("batch needs Ray: pip install 'physomni-usd[batch]'") from None
+        check_batch(summary_path)
         from ..batch.progress import Progress
         from ..batch.runner import Quiet, run_batch
         from ..batch.shots import read_shot_list
 
-        if summary_path is not None and not summary_path.parent.resolve().is_dir():
-            raise InputError(f"--summary {summary_path}: folder {summary_path.parent} does not exist")
         shot_list = read_shot_list(shots, parse_run)
         summary = run_batch(shot_list, address=address, workers=workers, retries=retries, force=force,
                             cpus_per_shot=cpus_per_shot, gpus_per_shot=gpus_per_shot,
