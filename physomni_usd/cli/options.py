@@ -12,7 +12,7 @@ import typing
 
 import click
 
-from ..settings import (BuildSettings, CameraSettings, LiftSettings, RenderSettings, SimulateSettings, option)
+from ..settings import BuildSettings, CameraSettings, LiftSettings, RenderSettings, SimulateSettings, option
 
 PUSH_HELP = ("Give an object this velocity in m/s (each component at most 1000 in size) at T seconds "
              "(default 0, T ≥ 0); world axes: Z up, +Y away from the camera, +X to the image's right. A label "
@@ -40,15 +40,13 @@ def range_help(text: str, model, field: str) -> str:
 
 
 def _click_type(annotation):
-    """The click type of a field's annotation: int, float or str, or a choice of a Literal's values."""
-    args = [a for a in typing.get_args(annotation) if a is not type(None)] or [annotation]
+    """The click type of a field's annotation: a choice of a Literal's values, else int, float or str."""
     if typing.get_origin(annotation) is typing.Literal:
         return click.Choice(list(typing.get_args(annotation)))
+    args = [a for a in typing.get_args(annotation) if a is not type(None)] or [annotation]
     for kind in (int, float, str):
         if kind in args:
             return kind
-    if len(args) == 1 and typing.get_origin(args[0]) is typing.Literal:
-        return click.Choice(list(typing.get_args(args[0])))
     raise TypeError(f"no command-line type for {annotation}")
 
 
@@ -90,9 +88,9 @@ class SettingsOptions:
         taken = {name: params.pop(name) for name in self.fields if name in params}
         return {name: value for name, value in taken.items() if value is not None}
 
-    def settings(self, params: dict, **extra):
+    def settings(self, params: dict):
         """The settings model of the values given, taken out of ``params`` (pydantic checks them)."""
-        return self.model(**self.values(params), **extra)
+        return self.model(**self.values(params))
 
 
 CAMERA = SettingsOptions(CameraSettings)
