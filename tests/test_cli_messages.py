@@ -110,6 +110,32 @@ def test_the_api_and_the_command_simulate_the_same_length_and_refuse_the_same_va
     assert f"error: {found.message}" in proc.stderr.splitlines() and args[0] in found.message
 
 
+def test_a_simulate_option_is_one_field_that_every_command_and_batch_line_takes(tmp_path):
+    """Each field of ``SimulateSettings`` that carries an Option is an option of ``simulate`` and of ``run``
+    (``--fps`` there is the build's), reaches the settings a ``batch`` line runs with, and names a refused
+    value: nothing lists simulate's options by hand."""
+    from pydantic import ValidationError
+
+    from physomni_usd.cli.cmd_run import run_arguments
+    from physomni_usd.failure import failure_of
+    from physomni_usd.settings import SimulateSettings, option
+
+    fields = {f: option(SimulateSettings, f).flag for f in SimulateSettings.model_fields
+              if option(SimulateSettings, f) is not None}
+    assert {"seconds", "fps", "substeps", "particle_spacing", "mpm_steps"} <= set(fields)
+    for name, left_out in (("simulate", set()), ("run", {"--fps"})):
+        flags = {flag for p in main.commands[name].params for flag in getattr(p, "opts", ())}
+        assert set(fields.values()) - left_out <= flags, name
+    given = {"seconds": "1.5", "substeps": "7", "particle_spacing": "0.02", "mpm_steps": "3"}
+    args = [str(tmp_path / "photo.png"), "-o", str(tmp_path / "out")]
+    settings = run_arguments(args + [a for f, v in given.items() for a in (fields[f], v)])["simulate_settings"]
+    assert {f: getattr(settings, f) for f in given} == {f: type(getattr(settings, f))(v) for f, v in given.items()}
+    for field in given:
+        with pytest.raises(ValidationError) as refused:
+            SimulateSettings(**{field: -1})
+        assert failure_of(refused.value).message.startswith(f"{fields[field]} -1")
+
+
 def _numeric_options(command: click.Command):
     for param in command.params:
         if isinstance(param, click.Option) and isinstance(param.type, (click.types.FloatParamType,
