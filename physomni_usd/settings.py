@@ -45,20 +45,20 @@ class _Settings(BaseModel):
 class CameraSettings(_Settings):
     fov_deg: Annotated[float | None, Option(
         "--fov", "Vertical field of view of the photo in degrees",
-        "from the photo's vanishing points, else 50°")] = Field(None, gt=5.0, lt=150.0,
-                                  description="Vertical field of view of the photo, degrees; None estimates it from "
-                                              "the photo's vanishing points, else 50° (a phone's main camera).")
+        "from the photo's vanishing points, else 50°")] = Field(
+        None, gt=5.0, lt=150.0, description="Vertical field of view of the photo, degrees; None estimates it from "
+                                            "the photo's vanishing points, else 50° (a phone's main camera).")
     pitch_deg: Annotated[float | None, Option(
         "--pitch", "Downward camera tilt in degrees, 0 (level) to 90 (straight down)",
-        "estimated from the photo: round outlines, vanishing points, horizon, where objects stand")] = Field(None, ge=0.0, le=90.0,
-                                    description="Downward tilt of the camera, degrees; None estimates it from the "
-                                                "photo (align/cues.py).")
+        "estimated from the photo: round outlines, vanishing points, horizon, where objects stand")] = Field(
+        None, ge=0.0, le=90.0, description="Downward tilt of the camera, degrees; None estimates it from the "
+                                           "photo (align/cues.py).")
     height_m: Annotated[float | None, Option(
         "--camera-height", "Camera height above the ground in metres; sets the scene's scale",
-        "from the objects' typical sizes by label, else 1 m")] = Field(None, gt=0.01, le=1000.0,
-                                   description="Height of the camera above the ground, metres; it sets the scene's "
-                                               "scale. None: the scale comes from the objects' typical sizes "
-                                               "(physomni_usd/sizes.py), or a camera 1 m high if no label has one.")
+        "from the objects' typical sizes by label, else 1 m")] = Field(
+        None, gt=0.01, le=1000.0, description="Height of the camera above the ground, metres; it sets the scene's "
+                                              "scale. None: the scale comes from the objects' typical sizes "
+                                              "(physomni_usd/sizes.py), or a camera 1 m high if no label has one.")
 
 
 class LiftSettings(_Settings):
@@ -66,9 +66,8 @@ class LiftSettings(_Settings):
     sections: int = Field(16, ge=8, le=128, description="Vertices around each cross-section.")
     shape: Annotated[Literal["auto", "round", "extrude"], Option(
         "--shape", "How silhouettes become meshes: surface of revolution, extrusion, or by symmetry.")] = Field(
-                       "auto",
-                       description="round: surface of revolution; extrude: slab of the outline; "
-                                   "auto: round when the outline is mirror-symmetric.")
+        "auto", description="round: surface of revolution; extrude: slab of the outline; "
+                            "auto: round when the outline is mirror-symmetric.")
     depth_ratio: float = Field(0.4, gt=0.01, le=2.0,
                                description="Depth of an extruded object as a fraction of the smaller of its "
                                            "width and height.")
@@ -92,9 +91,8 @@ class BuildSettings(_Settings):
     # 40 MP covers a full-frame camera's photo; what a build needs grows with the pixels (gigabytes at 48 MP)
     max_pixels: Annotated[int, Option(
         "--max-pixels", "Refuse a larger photo (width × height), judged from its header before decoding.")] = Field(
-                            40_000_000, ge=65_536, le=1_000_000_000,
-                            description="Largest photo, in pixels (width × height), read from its header before "
-                                        "anything decodes it.")
+        40_000_000, ge=65_536, le=1_000_000_000, description="Largest photo, in pixels (width × height), read from "
+                                                             "its header before anything decodes it.")
     working_pixels: int = Field(1_000_000, ge=65_536, le=1_000_000_000,
                                 description="A larger photo is worked on (masks, cues, lifting, placement) at "
                                             "this many pixels; the plate, the textures and frame 0 keep the "
