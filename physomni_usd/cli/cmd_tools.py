@@ -24,12 +24,12 @@ def validate(stage, warnings):
         from ..validate import validate_stage
 
         findings = validate_stage(stage)
-        errors = [f for f in findings if f.severity == "error"]
+        failed = [f for f in findings if f.severity == "error"]
         for f in findings:
             if f.severity == "error" or warnings:
                 click.echo(str(f))
-        click.echo(f"{stage}: {len(errors)} error(s), {len(findings) - len(errors)} warning(s)", err=True)
-        if errors:
+        click.echo(f"{stage}: {len(failed)} error(s), {len(findings) - len(failed)} warning(s)", err=True)
+        if failed:
             sys.exit(1)
 
 
