@@ -47,8 +47,8 @@ def estimate(shot, estimator: str = "rules", vlm=None, sets=(), forces=(), echo=
 
 def simulate(shot, settings=None, progress=None, echo=lambda m: None) -> dict:
     """Simulate the composed stage of ``shot`` and write ``sim.usdc`` beside it; ``settings`` a
-    :class:`physomni_usd.settings.SimulateSettings` (seconds, fps, substeps; defaults when None). Returns the
-    report's ``simulate`` section. A rigid-only shot imports no torch."""
+    :class:`physomni_usd.settings.SimulateSettings` (seconds, fps, substeps; defaults when None: the shot's own
+    length, at its frame rate). Returns the report's ``simulate`` section. A rigid-only shot imports no torch."""
     from .physics.simulate import simulate_shot
     from .settings import SimulateSettings
 
@@ -58,7 +58,8 @@ def simulate(shot, settings=None, progress=None, echo=lambda m: None) -> dict:
 def render(shot, output=None, settings=None, progress=None, **options) -> dict:
     """Render every frame of ``shot`` to ``output`` (default ``video.mp4`` beside it); ``settings`` a
     :class:`physomni_usd.settings.RenderSettings` (defaults when None); ``options``: ``passes``,
-    ``passes_dir``, ``camera`` (a move of :data:`physomni_usd.rendering.moves.MOVES`) and ``camera_amount``.
+    ``passes_dir``, ``camera`` (a move of :data:`physomni_usd.rendering.moves.MOVES`), ``camera_amount`` and
+    ``still`` (render a shot never simulated: one frame; refused without it).
     Returns the report's ``render`` section."""
     from .rendering.video import render_shot
     from .settings import RenderSettings
@@ -76,9 +77,10 @@ def run(photo, out_dir, masks=(), boxes=(), settings=None, simulate_settings=Non
     ``shot.usda``, ``video.mp4`` and ``report.json`` (with a ``run`` section, its total seconds).
 
     ``photo``, ``masks``, ``boxes``, ``settings`` and ``options`` as :func:`build` takes them;
-    ``simulate_settings`` a :class:`physomni_usd.settings.SimulateSettings` (when None, its defaults, 3
-    simulated seconds at the shot's frame rate, ended once nothing has moved for
-    :data:`~physomni_usd.settings.REST_SECONDS`), ``render_settings`` a
+    ``simulate_settings`` a :class:`physomni_usd.settings.SimulateSettings` (when None, its defaults); a take
+    whose ``seconds`` are not given is :data:`~physomni_usd.settings.DEFAULT_SECONDS` long, ended once nothing
+    has moved for :data:`~physomni_usd.settings.REST_SECONDS` (unless its ``rest_seconds`` says otherwise);
+    ``render_settings`` a
     :class:`physomni_usd.settings.RenderSettings`; ``camera`` and ``camera_amount`` as :func:`render` takes
     them. Every option is checked, and the video's path found writable, before any work.
     ``progress(stage, done, total)`` follows simulate and render frame by frame; ``on_stage(stage, result)``
@@ -100,6 +102,7 @@ def run(photo, out_dir, masks=(), boxes=(), settings=None, simulate_settings=Non
     from .failure import failure_of
     from .rendering.video import check_camera_move
     from .report import update_report
+    from .building import check_build_inputs
     from .settings import REST_SECONDS, BuildSettings, RenderSettings, SimulateSettings
 
     def stage(name, result=None):
@@ -112,8 +115,13 @@ def run(photo, out_dir, masks=(), boxes=(), settings=None, simulate_settings=Non
     with all_or_nothing():
         stage("check")
         settings = settings or BuildSettings()
-        simulate_settings = simulate_settings or SimulateSettings(rest_seconds=REST_SECONDS)
+        simulate_settings = simulate_settings or SimulateSettings()
+        if simulate_settings.seconds is None and simulate_settings.rest_seconds is None:
+            # seconds asked for are simulated to the end; the default length ends once all is still
+            simulate_settings = simulate_settings.model_copy(update={"rest_seconds": REST_SECONDS})
         render_settings = render_settings or RenderSettings()
+        check_build_inputs(photo, masks, boxes, settings)
+        simulate_settings.for_shot(None, simulate_settings.fps or settings.fps)  # the step cap, on the new shot
         check_camera_move(camera, camera_amount)
         check_writable([pathlib.Path(out_dir) / "video.mp4"])
         stage("check", {})

@@ -35,7 +35,7 @@ from .geometry.depth import ground_pitch
 from .materials.defaults import GROUND_MATERIAL
 from .materials.report import material_report
 from .perceive.amodal import complete, complete_texture
-from .perceive.masks import check_labels, contact_sheet, read_photo
+from .perceive.masks import check_labels, check_photo_size, contact_sheet, read_photo
 from .perceive.plate import carry_plate, object_texture
 from .perceive.working import working
 from .lift.sides import corner_st, two_sided_texture
@@ -186,9 +186,19 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
                backends=None, find=None, finder=None) -> BuildResult:
     """``backends``: kind → backend name for the swappable steps (see ``backends.steps.BUILD_KINDS``);
     ``find``: phrases ('cup, saucer') whose every instance the ``finder`` backend finds (default sam3)."""
+    check_build_inputs(photo_path, masks, boxes, settings)
     with all_or_nothing():
         return _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, forces, fixed, meshes_dir,
                            sizes, backends, find, finder)
+
+
+def check_build_inputs(photo_path, masks, boxes, settings: BuildSettings) -> None:
+    """Refuse (InputError, before any work) more masks and boxes than ``settings.max_objects`` and a photo
+    over ``settings.max_pixels``, judged from its header."""
+    count = len(masks) + len(boxes)
+    if count > settings.max_objects:
+        raise InputError(f"--mask/--box: {count} objects; a shot has at most {settings.max_objects}")
+    check_photo_size(photo_path, settings.max_pixels)
 
 
 @dataclass

@@ -13,11 +13,7 @@ from pydantic import ValidationError
 
 from ._files import io_failure, shown_name
 from .errors import PhysOmniError
-
-#: Settings fields → the options that set them, so that a refused value is named as the user typed it.
-OPTIONS = {"fov_deg": "--fov", "pitch_deg": "--pitch", "height_m": "--camera-height", "shape": "--shape",
-           "fps": "--fps", "seconds": "--seconds", "substeps": "--substeps", "iterations": "--iterations",
-           "particle_spacing": "--particle-spacing", "mpm_steps": "--mpm-steps", "max_size": "--max-size"}
+from .settings import option_of
 
 INTERRUPTED = "interrupted by {name}: the shot's files are put back as they were before this command"
 #: The signal came in the commit's last moment (well under a millisecond), which is not cut in half.
@@ -47,7 +43,8 @@ def failure_of(exc: BaseException, stage: str | None = None) -> Failure:
     if isinstance(exc, ValidationError):
         first = exc.errors()[0]
         loc = [str(x) for x in first.get("loc", ())]
-        where = OPTIONS.get(loc[-1], ".".join(loc)) if loc else "value"
+        # named by the option that sets the field (the settings model's own Option), as the user typed it
+        where = (option_of(exc.title, loc[-1]) or ".".join(loc)) if loc else "value"
         msg = str(first.get("msg", "is not valid"))
         msg = msg[len("Input "):] if msg.startswith("Input ") else msg
         value = first.get("input")

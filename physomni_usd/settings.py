@@ -1,12 +1,34 @@
-"""Every tunable of the pipeline, with its default, unit and valid range.
+"""Every tunable of the pipeline, with its default, unit and valid range, and the rules on them.
 
 Defaults follow the paper where it gives one (``shared`` REFERENCE table);
-where it is silent the choice is ours and written beside the field.
+where it is silent the choice is ours and written beside the field. A field
+that the command line sets carries an :class:`Option` (its flag and help):
+the CLI declares its options from these, and a refused value is named by its
+flag (:func:`option_of`), so a new option is one field here.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Annotated, Literal
+
 from pydantic import BaseModel, ConfigDict, Field
+
+from .errors import InputError
+
+
+@dataclass(frozen=True)
+class Option:
+    """How a settings field is given on the command line: ``flag`` (``--seconds``), ``text`` (what it is,
+    one sentence without a full stop where ``default`` follows), ``default`` (the default in words, for
+    a field whose default None stands for a choice made later), ``limit`` (what bounds it beyond its
+    range, appended to the range), ``metavar``."""
+
+    flag: str
+    text: str
+    default: str | None = None
+    limit: str = ""
+    metavar: str | None = None
 
 #: What build and estimate write to a shot's physics scene: XPBD substeps per frame (30 fps), the step
 #: planner's count for free rigid motion (``physics/stability.py``'s ``RIGID_SUBSTEPS["free"]``), and XPBD
@@ -21,24 +43,31 @@ class _Settings(BaseModel):
 
 
 class CameraSettings(_Settings):
-    fov_deg: float | None = Field(None, gt=5.0, lt=150.0,
-                                  description="Vertical field of view of the photo, degrees; None estimates it from "
-                                              "the photo's vanishing points, else 50° (a phone's main camera).")
-    pitch_deg: float | None = Field(None, ge=0.0, le=90.0,
-                                    description="Downward tilt of the camera, degrees; None estimates it from the "
-                                                "photo (align/cues.py).")
-    height_m: float | None = Field(None, gt=0.01, le=1000.0,
-                                   description="Height of the camera above the ground, metres; it sets the scene's "
-                                               "scale. None: the scale comes from the objects' typical sizes "
-                                               "(physomni_usd/sizes.py), or a camera 1 m high if no label has one.")
+    fov_deg: Annotated[float | None, Option(
+        "--fov", "Vertical field of view of the photo in degrees",
+        "from the photo's vanishing points, else 50°")] = Field(
+        None, gt=5.0, lt=150.0, description="Vertical field of view of the photo, degrees; None estimates it from "
+                                            "the photo's vanishing points, else 50° (a phone's main camera).")
+    pitch_deg: Annotated[float | None, Option(
+        "--pitch", "Downward camera tilt in degrees, 0 (level) to 90 (straight down)",
+        "estimated from the photo: round outlines, vanishing points, horizon, where objects stand")] = Field(
+        None, ge=0.0, le=90.0, description="Downward tilt of the camera, degrees; None estimates it from the "
+                                           "photo (align/cues.py).")
+    height_m: Annotated[float | None, Option(
+        "--camera-height", "Camera height above the ground in metres; sets the scene's scale",
+        "from the objects' typical sizes by label, else 1 m")] = Field(
+        None, gt=0.01, le=1000.0, description="Height of the camera above the ground, metres; it sets the scene's "
+                                              "scale. None: the scale comes from the objects' typical sizes "
+                                              "(physomni_usd/sizes.py), or a camera 1 m high if no label has one.")
 
 
 class LiftSettings(_Settings):
     rows: int = Field(16, ge=4, le=256, description="Cross-sections sampled along an object's silhouette.")
     sections: int = Field(16, ge=8, le=128, description="Vertices around each cross-section.")
-    shape: str = Field("auto", pattern="^(auto|round|extrude)$",
-                       description="round: surface of revolution; extrude: slab of the outline; "
-                                   "auto: round when the outline is mirror-symmetric.")
+    shape: Annotated[Literal["auto", "round", "extrude"], Option(
+        "--shape", "How silhouettes become meshes: surface of revolution, extrusion, or by symmetry.")] = Field(
+        "auto", description="round: surface of revolution; extrude: slab of the outline; "
+                            "auto: round when the outline is mirror-symmetric.")
     depth_ratio: float = Field(0.4, gt=0.01, le=2.0,
                                description="Depth of an extruded object as a fraction of the smaller of its "
                                            "width and height.")
@@ -49,7 +78,8 @@ class LiftSettings(_Settings):
 class BuildSettings(_Settings):
     camera: CameraSettings = CameraSettings()
     lift: LiftSettings = LiftSettings()
-    fps: float = Field(30.0, ge=1.0, le=1000.0, description="Frames per second of the shot.")
+    fps: Annotated[float, Option("--fps", "Frames per second of the shot.")] = Field(
+        30.0, ge=1.0, le=1000.0, description="Frames per second of the shot.")
     plate_dilation: float = Field(0.015, ge=0.0, le=0.2,
                                   description="Mask dilation before inpainting, as a fraction of the image diagonal.")
     alignment: str = Field("agmf", pattern="^(none|canonical|ransac|agmf)$",
@@ -59,9 +89,10 @@ class BuildSettings(_Settings):
     camera_search_evals: int = Field(300, ge=1, le=100000, description="Cap on renders of the camera search.")
     gap_m: float = Field(0.002, ge=0.0, le=1.0, description="Clearance left between objects' footprints, metres.")
     # 40 MP covers a full-frame camera's photo; what a build needs grows with the pixels (gigabytes at 48 MP)
-    max_pixels: int = Field(40_000_000, ge=65_536, le=1_000_000_000,
-                            description="Largest photo, in pixels (width × height), read from its header before "
-                                        "anything decodes it.")
+    max_pixels: Annotated[int, Option(
+        "--max-pixels", "Refuse a larger photo (width × height), judged from its header before decoding.")] = Field(
+        40_000_000, ge=65_536, le=1_000_000_000, description="Largest photo, in pixels (width × height), read from "
+                                                             "its header before anything decodes it.")
     working_pixels: int = Field(1_000_000, ge=65_536, le=1_000_000_000,
                                 description="A larger photo is worked on (masks, cues, lifting, placement) at "
                                             "this many pixels; the plate, the textures and frame 0 keep the "
@@ -84,22 +115,51 @@ MAX_PARTICLES = 2_000_000
 #: Seconds of stillness after which ``run`` ends a take when its length was not asked for.
 REST_SECONDS = 1.0
 
+#: Simulated seconds of a shot that has no length of its own yet (built, never simulated).
+DEFAULT_SECONDS = 3.0
+
 
 class SimulateSettings(_Settings):
-    seconds: float = Field(3.0, gt=0.0, le=600.0, description="Simulated seconds.")
-    fps: float | None = Field(None, ge=1.0, le=1000.0, description="Frames per second; None keeps the shot's.")
-    substeps: int | None = Field(None, ge=1, le=1000, description="Solver steps per frame; None keeps the shot's.")
+    seconds: Annotated[float | None, Option(
+        "--seconds", "Simulated seconds",
+        "the shot's own length, its last frame over its frame rate; "
+        f"{DEFAULT_SECONDS:g} for a shot never simulated")] = Field(
+        None, gt=0.0, le=600.0, description="Simulated seconds; None: the shot's own length (its last frame over "
+                                            f"its frame rate), {DEFAULT_SECONDS:g} for a shot never simulated.")
+    fps: Annotated[float | None, Option("--fps", "Frames per second", "the shot's")] = Field(
+        None, ge=1.0, le=1000.0, description="Frames per second; None keeps the shot's.")
+    substeps: Annotated[int | None, Option(
+        "--substeps", "Solver steps per frame", "chosen from the shot's materials and speeds",
+        f"; at most {MAX_SOLVER_STEPS:,} steps in all (frames × substeps)")] = Field(
+        None, ge=1, le=1000, description="Solver steps per frame; None keeps the shot's.")
     iterations: int | None = Field(None, ge=1, le=100, description="Solver iterations; None keeps the shot's.")
     device: str | None = Field(None, description="warp device ('cpu', 'cuda:0'); None picks cuda when present.")
-    particle_spacing: float | None = Field(None, gt=1e-4, le=10.0,
-                                           description="MPM particle spacing in metres; None chooses it from the "
-                                                       "objects' sizes.")
-    mpm_steps: int | None = Field(None, ge=1, le=1000,
-                                  description="MPM steps per frame; None chooses them from the materials.")
+    particle_spacing: Annotated[float | None, Option(
+        "--particle-spacing", "MPM particle spacing",
+        "the smallest MPM object 10 particles across, at most 15,000 particles",
+        f", and at most {MAX_PARTICLES:,} particles in all", metavar="METRES")] = Field(
+        None, gt=1e-4, le=10.0, description="MPM particle spacing in metres; None chooses it from the objects' sizes.")
+    mpm_steps: Annotated[int | None, Option(
+        "--mpm-steps", "MPM steps per frame",
+        "what the bench found accurate for the shot's materials (elastic 16, sand 4, liquid 2 at 30 fps), "
+        "fewer where the CFL bound allows; fewer is a faster, less accurate preview")] = Field(
+        None, ge=1, le=1000, description="MPM steps per frame; None chooses them from the materials.")
     rest_seconds: float | None = Field(None, gt=0.0, le=60.0,
                                        description="End the take once nothing has moved for this long (that "
                                                    "still stretch kept) and no push or force field is still to "
                                                    "act; None simulates all the seconds.")
+
+    def for_shot(self, own_seconds: float | None, fps: float) -> SimulateSettings:
+        """These settings for a shot whose own length is ``own_seconds`` (None: never simulated) at ``fps``
+        frames a second: ``seconds`` filled in where not asked for, and refused (InputError) when frames ×
+        ``substeps`` exceed :data:`MAX_SOLVER_STEPS`, before any work rather than after an hour of it."""
+        seconds = self.seconds if self.seconds is not None else (own_seconds or DEFAULT_SECONDS)
+        if self.substeps is not None:
+            steps = round(seconds * fps) * self.substeps
+            if steps > MAX_SOLVER_STEPS:
+                raise InputError(f"--substeps {self.substeps}: {seconds:g} s at {fps:g} fps is {steps:,} solver "
+                                 f"steps; at most {MAX_SOLVER_STEPS:,} (fewer --seconds, --fps or --substeps)")
+        return self.model_copy(update={"seconds": seconds})
 
 
 class RenderSettings(_Settings):
@@ -111,6 +171,28 @@ class RenderSettings(_Settings):
                                               "under it) is darkened a quarter as much as at contact.")
     shadow_blur: float = Field(0.012, ge=0.0, le=0.2, description="Shadow softness, fraction of the image diagonal.")
     quality: int = Field(9, ge=1, le=10, description="H.264 quality, 10 is best.")
-    max_size: int = Field(1920, ge=64, le=8192,
+    max_size: Annotated[int, Option(
+        "--max-size", "Longest side of the video in pixels; larger photos are rendered smaller. H.264 needs even "
+                      "sides: an odd width or height loses its last column or row. A frame's cost grows with its "
+                      "pixels: about 0.19 CPU seconds a frame at 741×500 and 1.2 at 1920×1295 on a 2-core CPU "
+                      "(bench scale). The default is a full-HD video's width: a 12 MP photo's own 4000 px would "
+                      "cost 4× as much a frame.")] = Field(1920, ge=64, le=8192,
                           description="Longest side of the video in pixels; larger photos are rendered smaller.")
     device: str | None = Field(None, description="warp device; None picks cuda when present.")
+
+
+#: Every settings model whose fields the command line sets.
+MODELS = (CameraSettings, LiftSettings, BuildSettings, SimulateSettings, RenderSettings)
+
+
+def option(model: type[BaseModel], field: str) -> Option | None:
+    """The :class:`Option` that ``model``'s ``field`` carries, or None."""
+    return next((m for m in model.model_fields[field].metadata if isinstance(m, Option)), None)
+
+
+def option_of(model_name: str, field: str) -> str | None:
+    """The flag that sets ``field`` of the settings model named ``model_name`` (a pydantic error's
+    title), else of any model with such a field; None when no option sets it."""
+    found = [m for m in MODELS if field in m.model_fields and option(m, field) is not None]
+    found.sort(key=lambda m: m.__name__ != model_name)
+    return option(found[0], field).flag if found else None

@@ -169,15 +169,15 @@ def test_second_pass_skips_finished_shots(first_pass):
 @pytest.mark.slow  # the first pass's batch: 180 s on a loaded 2-core machine; a quicker test runs batch through Ray
 def test_interrupted_or_changed_shot_is_not_finished(first_pass, tmp_path):
     from physomni_usd.batch.shots import inputs_hash, is_finished, mark_started, read_shot_list
-    from physomni_usd.cli import _run_parser
+    from physomni_usd.cli.cmd_run import parse_run
     from physomni_usd.report import update_report
 
-    shots = read_shot_list(first_pass["shots"], _run_parser)
+    shots = read_shot_list(first_pass["shots"], parse_run)
     cup = shots[0]
     digest = inputs_hash(cup)
     assert is_finished(cup.output, digest)
     other = read_shot_list(_list_with(tmp_path, first_pass["shots"], "--push box=0.6,0,0", "--push box=0.7,0,0"),
-                           _run_parser)[0]
+                           parse_run)[0]
     assert inputs_hash(other) != digest  # an option changed
     copy = tmp_path / "copy"
     shutil.copytree(cup.output, copy)
@@ -271,9 +271,9 @@ def test_upload_ships_inputs_and_outputs_through_ray(tmp_path):
     assert report["objects"][0]["label"] == "box"  # the mask's file name still labels the object
 
     from physomni_usd.batch.shots import inputs_hash, is_finished, read_shot_list
-    from physomni_usd.cli import _run_parser
+    from physomni_usd.cli.cmd_run import parse_run
 
-    assert is_finished(out, inputs_hash(read_shot_list(shots, _run_parser)[0]))
+    assert is_finished(out, inputs_hash(read_shot_list(shots, parse_run)[0]))
 
 
 def test_bad_shot_list_names_the_line(tmp_path):
@@ -291,9 +291,9 @@ def test_bad_shot_list_names_the_line(tmp_path):
 
 def test_yaml_and_json_lists_read_like_text(tmp_path):
     from physomni_usd.batch.shots import read_shot_list
-    from physomni_usd.cli import _run_parser
+    from physomni_usd.cli.cmd_run import parse_run
 
-    text = read_shot_list(_write_list(tmp_path), _run_parser)
+    text = read_shot_list(_write_list(tmp_path), parse_run)
     (tmp_path / "shots.yaml").write_text(
         "# the same shots\n"
         "- photo: photos/photo.png\n  output: out/cup\n  mask: [photos/cup.png:cup, photos/box.png:box]\n"
@@ -304,10 +304,10 @@ def test_yaml_and_json_lists_read_like_text(tmp_path):
     from physomni_usd.batch.shots import inputs_hash
 
     for other in ("shots.yaml", "shots.json"):
-        shots = read_shot_list(tmp_path / other, _run_parser)
+        shots = read_shot_list(tmp_path / other, parse_run)
         assert [s.output for s in shots] == [s.output for s in text]
         assert [inputs_hash(s) for s in shots] == [inputs_hash(s) for s in text]
-    assert read_shot_list(tmp_path / "shots.yaml", _run_parser)[2].where.endswith("shots.yaml:9")
+    assert read_shot_list(tmp_path / "shots.yaml", parse_run)[2].where.endswith("shots.yaml:9")
     (tmp_path / "bad.yaml").write_text("- photos/photo.png -o out/a\n- {photo: photos/photo.png}\n")
     proc = cli("batch", tmp_path / "bad.yaml")
     assert proc.returncode == 2 and "bad.yaml:2" in proc.stderr and "--output" in proc.stderr

@@ -78,6 +78,64 @@ def test_simulate_without_seconds_keeps_the_shot_length(tmp_path, shot):
     assert report["frames"] == 5 and report["simulated_seconds"] == pytest.approx(0.2)
 
 
+@pytest.mark.parametrize("args, settings", [
+    (["--substeps", "1000", "--seconds", "600"], {"substeps": 1000, "seconds": 600.0}),  # 12 M solver steps
+    (["--seconds", "0"], {"seconds": 0.0}),
+    (["--mpm-steps", "0"], {"mpm_steps": 0}),
+])
+def test_the_api_and_the_command_simulate_the_same_length_and_refuse_the_same_values(tmp_path, shot, args,
+                                                                                       settings):
+    """``physomni_usd.simulate(shot)`` and ``physomni-usd simulate shot``: the library owns the rules, so both
+    simulate the shot's own length, and a value one refuses the other refuses with the same line and code."""
+    import physomni_usd
+    from physomni_usd.failure import failure_of
+    from physomni_usd.settings import SimulateSettings
+
+    folder = tmp_path / "shot"
+    shutil.copytree(shot["dir"], folder)
+    root = Sdf.Layer.FindOrOpen(str(folder / "shot.usda"))
+    root.endTimeCode = 4.0  # a 0.2 s shot at 20 fps
+    root.Save()
+    by_api = physomni_usd.simulate(folder / "shot.usda")
+    cli("simulate", folder / "shot.usda", "-q", check=True)
+    by_command = json.loads((folder / "report.json").read_text())["stages"]["simulate"]
+    assert by_api["frames"] == by_command["frames"] == 5
+    assert by_api["simulated_seconds"] == pytest.approx(by_command["simulated_seconds"]) == pytest.approx(0.2)
+
+    proc = cli("simulate", folder / "shot.usda", *args)
+    with pytest.raises(Exception) as refused:
+        physomni_usd.simulate(folder / "shot.usda", SimulateSettings(**settings))
+    found = failure_of(refused.value)
+    assert proc.returncode == found.exit_code == 2
+    assert f"error: {found.message}" in proc.stderr.splitlines() and args[0] in found.message
+
+
+def test_a_simulate_option_is_one_field_that_every_command_and_batch_line_takes(tmp_path):
+    """Each field of ``SimulateSettings`` that carries an Option is an option of ``simulate`` and of ``run``
+    (``--fps`` there is the build's), reaches the settings a ``batch`` line runs with, and names a refused
+    value: nothing lists simulate's options by hand."""
+    from pydantic import ValidationError
+
+    from physomni_usd.cli.cmd_run import run_arguments
+    from physomni_usd.failure import failure_of
+    from physomni_usd.settings import SimulateSettings, option
+
+    fields = {f: option(SimulateSettings, f).flag for f in SimulateSettings.model_fields
+              if option(SimulateSettings, f) is not None}
+    assert {"seconds", "fps", "substeps", "particle_spacing", "mpm_steps"} <= set(fields)
+    for name, left_out in (("simulate", set()), ("run", {"--fps"})):
+        flags = {flag for p in main.commands[name].params for flag in getattr(p, "opts", ())}
+        assert set(fields.values()) - left_out <= flags, name
+    given = {"seconds": "1.5", "substeps": "7", "particle_spacing": "0.02", "mpm_steps": "3"}
+    args = [str(tmp_path / "photo.png"), "-o", str(tmp_path / "out")]
+    settings = run_arguments(args + [a for f, v in given.items() for a in (fields[f], v)])["simulate_settings"]
+    assert {f: getattr(settings, f) for f in given} == {f: type(getattr(settings, f))(v) for f, v in given.items()}
+    for field in given:
+        with pytest.raises(ValidationError) as refused:
+            SimulateSettings(**{field: -1})
+        assert failure_of(refused.value).message.startswith(f"{fields[field]} -1")
+
+
 def _numeric_options(command: click.Command):
     for param in command.params:
         if isinstance(param, click.Option) and isinstance(param.type, (click.types.FloatParamType,

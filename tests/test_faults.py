@@ -109,12 +109,12 @@ def test_a_build_of_several_boxes_says_each_mask_as_it_is_cut():
 
 SWALLOWED = """
 import os, pathlib, signal, sys, time
-from physomni_usd.cli import _stop_on_signals
+from physomni_usd.cli.shell import stop_on_signals
 from physomni_usd._files import all_or_nothing, write_bytes
 from physomni_usd.errors import Interrupted
 
 target = pathlib.Path(sys.argv[1])
-_stop_on_signals()
+stop_on_signals()
 try:
     with all_or_nothing():
         write_bytes(target, b"new")
@@ -223,11 +223,11 @@ def test_no_write_goes_through_a_link(tmp_path):
 
 CAUGHT = """
 import os, pathlib, signal, sys, time
-from physomni_usd.cli import _stop_on_signals
+from physomni_usd.cli.shell import stop_on_signals
 from physomni_usd._files import all_or_nothing, write_bytes
 
 target = pathlib.Path(sys.argv[1])
-_stop_on_signals()
+stop_on_signals()
 try:
     os.kill(os.getpid(), signal.SIGTERM)
     time.sleep(5)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import pytest
 
-from physomni_usd.bench import faults
+from physomni_usd.bench import hostile_folders as faults
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,7 @@ import pytest
 
 import physomni_usd
 from physomni_usd.batch.child import attempt
-from physomni_usd.cli import _run_arguments
+from physomni_usd.cli.cmd_run import run_arguments
 from physomni_usd.errors import InputError
 from physomni_usd.settings import BuildSettings, SimulateSettings
 
@@ -45,7 +45,7 @@ def test_run_checks_every_option_before_any_work(tmp_path, photo):
 def test_a_shot_that_fails_tells_its_stage_type_message_and_code(tmp_path, photo, args, stage, kind, code, says):
     lines = []
     base = [str(photo["photo"]), "-o", str(tmp_path / "out")]
-    failure, exit_code = attempt(_run_arguments, base + args, lines.append)
+    failure, exit_code = attempt(run_arguments, base + args, lines.append)
     assert failure["stage"] == stage and failure["type"] == kind and failure["exit_code"] == exit_code == code
     assert says in failure["message"] and f"error: {failure['message']}" in lines
     assert not (tmp_path / "out").exists()

@@ -117,9 +117,9 @@ def test_a_full_size_mask_keeps_its_own_edge(builds):
 
 
 def test_run_takes_the_render_size(tmp_path):
-    from physomni_usd.cli import _run_arguments
+    from physomni_usd.cli.cmd_run import run_arguments
 
     photo = EXAMPLE.parent / "motorcycle" / "photo.png"
     args = [str(photo), "-o", str(tmp_path / "shot"), "--mask", str(photo.parent / "bin.png")]
-    assert _run_arguments(args)["render_settings"].max_size == 1920
-    assert _run_arguments(args + ["--max-size", "640"])["render_settings"].max_size == 640
+    assert run_arguments(args)["render_settings"].max_size == 1920
+    assert run_arguments(args + ["--max-size", "640"])["render_settings"].max_size == 640

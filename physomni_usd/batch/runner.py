@@ -183,6 +183,17 @@ def start_ray(address: str | None, include_gpus: bool = True) -> str:
     return "local"
 
 
+def check_batch(summary_path: pathlib.Path | None = None) -> None:
+    """Refuse (InputError, before the shot list is read) a machine without Ray and a summary whose folder
+    does not exist."""
+    try:
+        import ray  # noqa: F401
+    except ImportError:
+        raise InputError("batch needs Ray: pip install 'physomni-usd[batch]'") from None
+    if summary_path is not None and not pathlib.Path(summary_path).parent.resolve().is_dir():
+        raise InputError(f"--summary {summary_path}: folder {pathlib.Path(summary_path).parent} does not exist")
+
+
 def run_batch(shots: list[Shot], *, address: str | None = None, workers: int | None = None, retries: int = 2,
               force: bool = False, cpus_per_shot: float = 1.0, gpus_per_shot: float = 0.0, progress=None,
               summary_path: pathlib.Path | None = None, upload=None, call) -> dict:

@@ -349,7 +349,13 @@ def _mean_rows(rows: list[dict]) -> list[dict]:
 
 def bench_alignment(quick: bool = False, echo=print, only: str = "all", stacks=None) -> dict:
     """``only``: 'all', 'ablation' (the scene and camera tables) or 'stacks' (the holistic scenes, or those
-    named in ``stacks``)."""
+    named in ``stacks``; an unknown name is refused, InputError, before any work)."""
+    from ..errors import InputError
+    from .synthetic import STACKS
+
+    unknown = sorted(set(stacks or ()) - set(STACKS))
+    if unknown:
+        raise InputError(f"--stack {unknown[0]!r}: no such stacked scene (known: {', '.join(STACKS)})")
     machine = f"{platform.machine()}, {__import__('os').cpu_count()} cores"
     numbers = {"machine": machine}
     if only in ("all", "ablation"):

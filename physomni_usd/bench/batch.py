@@ -48,8 +48,22 @@ def _ray_start_seconds() -> float:
     return seconds
 
 
+#: Most shots one timing of ``bench batch`` runs.
+MAX_COUNT = 64
+
+
 def bench_batch(example, counts=(1, 2, 4, 8), size: int = 320, seconds: float = 1.0, fps: float = 30.0,
                 echo=print) -> dict:
+    """``batch`` against ``run`` one after another for each count of shots in ``counts`` (each 1 to
+    :data:`MAX_COUNT`); refused (InputError) before any work without Ray or with a count out of range."""
+    from ..errors import InputError
+
+    try:
+        import ray  # noqa: F401
+    except ImportError:
+        raise InputError("bench batch needs Ray: pip install 'physomni-usd[batch]'") from None
+    if not counts or min(counts) < 1 or max(counts) > MAX_COUNT:
+        raise InputError(f"--counts {','.join(map(str, counts))!r}: each count must be 1 to {MAX_COUNT}")
     example = pathlib.Path(example)
     counts = sorted(set(counts))
     with tempfile.TemporaryDirectory(prefix="physomni-bench-batch-") as tmp:

@@ -495,9 +495,13 @@ def look_example(example: pathlib.Path, work: pathlib.Path, size: int, seconds: 
 def bench_look(examples: list[pathlib.Path], out_dir: pathlib.Path, size: int = 880, seconds: float | None = None,
                browser: bool = True, echo=print) -> dict:
     """A contact sheet (``out_dir/<example>.png``) and the figures of every example in ``examples``;
-    returns the figures by example (also written to ``out_dir/look.json``)."""
+    returns the figures by example (also written to ``out_dir/look.json``). No ``examples``: every folder
+    of ``examples/`` here that has an example.json (InputError where there is none)."""
     from .._files import make_dirs, write_json
 
+    examples = list(examples) or sorted(p.parent for p in pathlib.Path("examples").glob("*/example.json"))
+    if not examples:
+        raise InputError("bench look: no --example given and no examples/*/example.json here")
     make_dirs(out_dir)
     out = {}
     echo(f"{'example':<12}{'frame 0 dB':>11}{'preview SSIM':>14}{'orbit wall':>11}{'mirror':>8}"

@@ -109,7 +109,14 @@ def measure(photo: np.ndarray, mask: np.ndarray, method: str, dilation: float) -
 
 
 def bench_plate(quick: bool = False, echo=print) -> dict:
-    """Every surface × hole, exemplar and Telea side by side; rows and whether the acceptance holds."""
+    """Every surface × hole, exemplar and Telea side by side; rows and whether the acceptance holds. Refused
+    (InputError) where scikit-image, whose photos the surfaces are, is not installed."""
+    try:
+        import skimage  # noqa: F401
+    except ImportError:
+        from ..errors import InputError
+
+        raise InputError("bench plate: scikit-image is not installed (pip install 'physomni-usd[test]')") from None
     dilation = BuildSettings().plate_dilation
     rows = []
     echo(f"{'surface':<8}{'hole':<8}{'pixels':>8} | {'exemplar: ratio':>15}{'colour':>8}{'ssim':>7}{'s':>7} | "

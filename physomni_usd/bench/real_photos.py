@@ -224,3 +224,30 @@ def rest_check(shot, seconds: float = REST_SECONDS, particle_spacing: float | No
             "overlap_m": {k: round(v, 5) for k, v in overlap.items()},
             "max_drift_m": round(max(drift.values(), default=0.0), 5),
             "max_overlap_m": round(max(overlap.values(), default=0.0), 5)}
+
+
+def bench_both_halves(pitches=(), seconds: float = 0.5, real=(), only: str = "all", echo=print) -> dict:
+    """``bench photos``: the synthetic scenes at ``pitches`` (default :data:`PITCHES`; left out when ``real``
+    photos are named) and the real photos named in ``real`` (default all), or ``only`` one half ('synthetic',
+    'real'). An unknown photo, or scikit-image missing for a photo that comes with it, is refused
+    (InputError) before any work."""
+    from ..errors import InputError
+    from .photos import PITCHES, bench_photos
+
+    truth = load_truth()
+    unknown = sorted(set(real) - set(truth))
+    if unknown:
+        raise InputError(f"--real {unknown[0]!r}: no such photo (known: {', '.join(truth)})")
+    wanted = [truth[n] for n in (real or truth)] if only in ("all", "real") else []
+    if any(r["photo"].startswith("skimage:") for r in wanted):
+        try:
+            import skimage  # noqa: F401
+        except ImportError:
+            raise InputError("bench photos: scikit-image is not installed, and the coffee and motorcycle photos "
+                             "come with it (pip install 'physomni-usd[test]', or --only synthetic)") from None
+    numbers = {}
+    if only in ("all", "synthetic") and not real:
+        numbers = bench_photos(pitches or PITCHES, seconds=seconds, echo=echo)
+    if only in ("all", "real"):
+        numbers["real"] = bench_real_photos(real or None, seconds=seconds, echo=echo)
+    return numbers

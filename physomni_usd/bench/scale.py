@@ -82,7 +82,11 @@ def _timed(cmd: list[str], env: dict) -> dict:
 def bench_scale(example: pathlib.Path, sizes=SIZES_MP, repeats: int = 1, seconds: float = 3.0,
                 stages=STAGES, max_size: int = 1920, echo=print) -> dict:
     """Each size's stages, ``repeats`` times with the sizes alternating; medians and ratios to the smallest.
-    A size of 0 means the example as it is."""
+    A size of 0 means the example as it is. A folder without example.json is refused (InputError)."""
+    from ..errors import InputError
+
+    if not (pathlib.Path(example) / "example.json").is_file():
+        raise InputError(f"--example {example!r}: no example.json in {example}")
     env = dict(os.environ)
     cli = [sys.executable, "-m", "physomni_usd.cli"]
     runs: dict[float, list[dict]] = {s: [] for s in sizes}

@@ -80,13 +80,15 @@ _CHECKED: dict = {}
 
 
 def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progress=None, echo=lambda m: None) -> dict:
-    """Simulate the composed stage of ``shot`` and write ``sim.usdc`` beside it; returns the report section."""
+    """Simulate the composed stage of ``shot`` and write ``sim.usdc`` beside it; returns the report section.
+    Without ``settings.seconds``, the shot's own length (:meth:`SimulateSettings.for_shot`)."""
     t_start = time.perf_counter()
     folder = layers.shot_folder(shot)
     stage = layers.open_shot(shot, mute_sim=True)
     prepare_writes(folder, [layers.SIM, layers.SHOT], echo)  # refuse an unwritable folder before any work
     layers.warn_orphan_overs(stage, folder, echo)
     cfg = scene_settings(stage, settings)
+    settings = settings.for_shot(layers.shot_seconds(shot), cfg["fps"])  # the shot's own length, the step cap
     digest = layers.content_digest(stage)
     checked = _CHECKED.get("digest") == digest
     if not checked:

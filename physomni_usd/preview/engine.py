@@ -31,7 +31,7 @@ from ..physics.recording import Recorder, write_take
 from ..physics.runner import GuardedRun
 from ..physics.simulate import scene_settings
 from ..physics.stability import plan_steps
-from ..settings import SimulateSettings
+from ..settings import DEFAULT_SECONDS, SimulateSettings
 from ..usd import layers
 from ..usd.author import OBJECTS
 
@@ -138,7 +138,7 @@ class Engine:
         self.device = sim.device
         self.base_plan = plan_steps(
             objects, self.cfg["fps"], self.cfg["substeps"], base_iterations=self.cfg["iterations"], mpm=sim.mpm,
-            acceleration=sim.field_acceleration(self.settings.seconds), cloth_masses=sim.cloth_masses,
+            acceleration=sim.field_acceleration(DEFAULT_SECONDS), cloth_masses=sim.cloth_masses,
             field_kinds=[f.kind for f in sim.fields.fields], particles=bool(sim.model.particle_count),
             cloth_stiffness=sim.cloth_stiffness, soft_dt=sim.soft_dt, mpm_steps=None)
         self.hand = _Hand(sim.model, self.device)

@@ -615,13 +615,29 @@ def _environment(renderer: ShotRenderer):
 
 def render_shot(shot, output=None, settings: RenderSettings = RenderSettings(), progress=None,
                 passes: tuple[str, ...] = (), passes_dir=None, camera: str | None = None,
-                camera_amount: float = 1.0) -> dict:
+                camera_amount: float = 1.0, still: bool = False) -> dict:
     """Render every frame of ``shot`` to ``output`` (default: ``video.mp4`` beside it); returns the report section.
     ``passes`` (names from :data:`passes.PASSES`) also go to ``passes_dir`` (default: ``passes/`` beside the shot).
     ``camera`` (a name from :data:`moves.MOVES`) first writes that move, ``camera_amount`` × its default size,
-    to the shot's ``render.usda``; None renders the camera the shot already has."""
+    to the shot's ``render.usda``; None renders the camera the shot already has. A shot never simulated is
+    refused unless ``still`` (its video would be one frame of the photo)."""
+    check_render_inputs(shot, passes, passes_dir, still)
     with all_or_nothing():
         return _render_shot(shot, output, settings, progress, passes, passes_dir, camera, camera_amount)
+
+
+def check_render_inputs(shot, passes, passes_dir, still: bool) -> None:
+    """Refuse (InputError, before any work) a shot never simulated unless ``still``, ``passes_dir`` without
+    ``passes``, and a shot whose composed stage holds a non-finite or absurd value."""
+    from ..physics.checks import check_values
+
+    root = layers.shot_file(shot)
+    if not still and root.is_file() and layers.shot_seconds(root) is None:
+        raise InputError(f"{root} was never simulated, so its video would be one still frame: run "
+                         f"`physomni-usd simulate {root}` first, or pass --still for that one frame")
+    if passes_dir is not None and not passes:
+        raise InputError("--passes-dir needs --passes (e.g. --passes depth,normal,flow,mask)")
+    check_values(layers.open_shot(shot))
 
 
 def check_camera_move(camera: str | None, amount: float) -> None:
