@@ -14,6 +14,7 @@ objects resting on others move with them, the rest are kept apart
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import cv2
@@ -26,6 +27,7 @@ from ..settings import BuildSettings
 from ..errors import InputError
 from ..geometry.camera import PinholeCamera, pick_pitch
 from ..geometry.mesh import longest_dimension
+from .compare import search_pitch, score_scene
 from .cues import ELLIPSE_IOU, MAX_PITCH_DEG, estimate_camera, mask_ellipse
 from .place import footprint, make_room, separate
 from .scale import fit_scale
@@ -255,10 +257,33 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
     camera_info = est.as_dict() | {"pitch_deg": round(pitch, 3)}
     if camera_warnings:
         camera_info |= {"pitch_given_deg": float(cam_cfg.pitch_deg), "warnings": camera_warnings}
-    unit = PinholeCamera(w, h, est.fov_deg, pitch, (0.0, 0.0, 1.0))
-
     found = find_supports(masks)
     hides = occlusion_order(list(visible)) if visible is not None else []
+
+    def lift_at(p: float):
+        unit = PinholeCamera(w, h, est.fov_deg, p, (0.0, 0.0, 1.0))
+        return (unit, *_lift_scaled(masks, labels, names, unit, settings, found, hides, photo, visible, user_sizes))
+
+    if cam_cfg.pitch_deg is None and settings.render_compare:
+        # the photo is the arbiter: the cues' pitch against the others, each scene lifted and compared with the
+        # masks (align.compare); the cues' stands unless another explains the silhouettes clearly better
+        searched = search_pitch(lambda p: _scored(lift_at, p, masks, labels, found), pitch,
+                                max(est.min_pitch_deg, 0.0), MAX_PITCH_DEG)
+        camera_info["render_compare"] = searched.as_dict()
+        if searched.pitch_deg != round(pitch, 3):
+            camera_info |= {"cue_pitch_deg": round(pitch, 3), "pitch_deg": round(searched.pitch_deg, 3),
+                            "pitch_source": "render-and-compare (silhouettes, sizes, supports)"}
+            pitch = searched.pitch_deg
+    unit, lifted, supports, fit, scale = lift_at(pitch)
+    lifted = [replace(m, vertices=m.vertices * scale, contact=m.contact * scale) for m in lifted]
+    camera = PinholeCamera(w, h, unit.fov_deg, unit.pitch_deg, (0.0, 0.0, scale))
+    return GroundLift(camera, lifted, supports, {"scale": fit.as_dict(camera.origin[2]), "camera": camera_info})
+
+
+def _lift_scaled(masks, labels, names, unit: PinholeCamera, settings: BuildSettings, found, hides, photo, visible,
+                 user_sizes):
+    """Every mask lifted under the unit-height camera ``unit`` at the scene's scale, the scale and the lift
+    agreeing (:data:`SCALE_ROUNDS`): (lifted at unit height, supports kept, the scale's fit, its factor)."""
     scale = 1.0
     fit = None
     for _ in range(SCALE_ROUNDS):
@@ -268,14 +293,48 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
         lifted = lift_all(masks, labels, unit, settings, scale, supports, photo=photo, hides=hides,
                           visible=visible)
         longest = [longest_dimension(m.vertices) for m in lifted]
-        fit = fit_scale(names, labels, longest, user_sizes, cam_cfg.height_m)
+        fit = fit_scale(names, labels, longest, user_sizes, settings.camera.height_m)
         if abs(np.log(fit.factor / scale)) < 1e-3:
             break
         scale = fit.factor
-    scale = fit.factor
-    lifted = [replace(m, vertices=m.vertices * scale, contact=m.contact * scale) for m in lifted]
-    camera = PinholeCamera(w, h, unit.fov_deg, unit.pitch_deg, (0.0, 0.0, scale))
-    return GroundLift(camera, lifted, supports, {"scale": fit.as_dict(camera.origin[2]), "camera": camera_info})
+    return lifted, supports, fit, fit.factor
+
+
+#: Largest log-ratio a single object adds to the size term (a failed lift counts, but does not swamp the rest).
+SIZE_LOG_CAP = math.log(4.0)
+
+
+def _scored(lift_at, pitch: float, masks, labels, found):
+    """The render-and-compare score (``align.compare.score_scene``) of the scene ``lift_at(pitch)`` lifts; None
+    where none can be lifted under that pitch (a foot above its horizon, a lift that fails)."""
+    try:
+        unit, lifted, supports, fit, scale = lift_at(pitch)
+    except (InputError, ValueError):
+        return None
+    size_logs, thin = [], []
+    for m, label in zip(lifted, labels):
+        prior = size_prior(label)
+        ext = np.sort(_principal_extents(m.vertices * scale))
+        if prior is not None and prior.votes and ext[2] > 0:
+            size_logs.append(min(abs(math.log(ext[2] / prior.longest_m)), SIZE_LOG_CAP))
+            if prior.height_m:  # its height over its length, as the label's: free of the scene's scale
+                h = float(np.ptp(m.vertices[:, 2])) * scale
+                size_logs.append(min(abs(math.log(max(h, 1e-6) / ext[2] / (prior.height_m / prior.longest_m))),
+                                     SIZE_LOG_CAP))
+        flat = bool(prior and prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * (prior.longest_m or 0.0))
+        thin.append(0.0 if flat or ext[1] <= 0 else max(0.0, 1.0 - ext[0] / (ext[1] / 3.0)))
+    lost = (len(found) - len(supports)) / len(found) if found else 0.0
+    return score_scene([m.vertices for m in lifted], [m.faces for m in lifted], unit, masks, size_logs, thin, lost)
+
+
+def _principal_extents(vertices: np.ndarray) -> np.ndarray:
+    """(3,) extents of ``vertices`` along their principal axes (metres in, metres out)."""
+    v = vertices - vertices.mean(0)
+    try:
+        _, _, axes = np.linalg.svd(v, full_matrices=False)
+    except np.linalg.LinAlgError:
+        return np.ptp(vertices, axis=0)
+    return np.ptp(v @ axes.T, axis=0)
 
 
 def place_on_ground(lifted, names, gap_m: float) -> PhotoScene:

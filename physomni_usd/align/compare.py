@@ -1,0 +1,179 @@
+"""Render-and-compare: the photo is the arbiter of the camera the cues propose.
+
+Owns the silhouette comparison of a lifted scene against the photo's masks and the pitch search built on it.
+:func:`silhouette` rasterises a triangle mesh through a :class:`~physomni_usd.geometry.camera.PinholeCamera`
+with OpenCV (CPU, a few milliseconds at a photo's working size); :func:`mask_iou` compares two masks.
+:func:`score_scene` judges one lifted scene: the mismatch between each mesh's silhouette and its (completed)
+mask, plus the terms a photo's silhouettes cannot settle alone — support (an object standing on another still
+over it), size priors (each label's typical size against the one scale of the scene), and thickness (a
+solid object no thinner than a third of its outline's smaller side). :func:`search_pitch` scores the cues'
+pitch against a coarse grid of pitches, refined about the best, and keeps the cues' one unless another
+explains the whole scene clearly better, so a single cue contradicting every silhouette (a traced board read
+as a horizon) loses.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from ..geometry.camera import PinholeCamera
+
+#: Sub-pixel bits of the rasteriser's vertex coordinates (cv2.fillPoly's ``shift``).
+SHIFT = 4
+#: Rasterised at this many times the camera's size, then averaged down (OpenCV fills the pixels edges touch).
+SUPERSAMPLE = 4
+#: Vertices nearer the camera than this (its units) are not rasterised.
+NEAR = 1e-4
+#: Weights of the score's terms: silhouettes (1 − IoU, mean over objects), size priors (mean squared log of
+#: each object's size over its label's after the scene's one scale), thickness (mean shortfall of the thinnest
+#: side under a third of the outline's smaller side), support (share of the supports the photo shows that the
+#: lift could not keep).
+WEIGHTS = {"silhouette": 1.0, "size": 0.5, "thin": 0.5, "support": 0.3}
+#: Coarse grid of pitches tried (degrees), then a finer step about the best.
+COARSE_STEP_DEG = 10.0
+FINE_STEP_DEG = 3.0
+#: Another pitch replaces the cues' one only when its score is lower by at least this much (absolute) plus
+#: this fraction of the cues' score: the cues' reading is kept where the silhouettes cannot tell.
+MIN_GAIN = 0.02
+MIN_GAIN_FRACTION = 0.15
+#: Silhouette IoU under which ``build`` warns, naming the object.
+WARN_IOU = 0.85
+
+
+def silhouette(vertices: np.ndarray, faces: np.ndarray, camera: PinholeCamera) -> np.ndarray:
+    """(H, W) bool: the pixels the mesh (``vertices`` (N, 3) world, ``faces`` (M, 3)) covers through
+    ``camera``; triangles with a corner behind the camera are left out."""
+    h, w = camera.height, camera.width
+    if len(faces) == 0:
+        return np.zeros((h, w), bool)
+    k = SUPERSAMPLE
+    out = np.zeros((h * k, w * k), np.uint8)
+    uv, z = camera.project(np.asarray(vertices, float))
+    uv = uv * k
+    tri = np.asarray(faces, np.int64)
+    ok = np.all(z[tri] > NEAR, axis=1)
+    pts = uv[tri[ok]]  # (K, 3, 2)
+    if not len(pts):
+        return np.zeros((h, w), bool)
+    # keep far-off corners inside what int32 holds after the shift; fillPoly clips to the image itself
+    pts = np.clip(pts, -4.0 * k * (w + h), 5.0 * k * (w + h))
+    fixed = np.round((pts - 0.5) * (1 << SHIFT)).astype(np.int32)  # pixel centres at integer + 0.5
+    # one triangle at a time: fillPoly given them all fills by parity, and overlapping triangles cancel
+    for t in fixed:
+        cv2.fillConvexPoly(out, t, 255, lineType=cv2.LINE_8, shift=SHIFT)
+    # OpenCV fills every pixel a triangle's edge touches: at k× and then by area, a pixel is in where its
+    # centre half is, as a ray cast through pixel centres has it
+    return cv2.resize(out, (w, h), interpolation=cv2.INTER_AREA) >= 128
+
+
+def mask_iou(a: np.ndarray, b: np.ndarray) -> float:
+    """Intersection over union of two (H, W) masks; 1 when both are empty."""
+    a, b = np.asarray(a, bool), np.asarray(b, bool)
+    union = int((a | b).sum())
+    return 1.0 if union == 0 else float((a & b).sum()) / union
+
+
+def silhouette_ious(vertex_sets, faces, camera: PinholeCamera, masks) -> list[float]:
+    """Per object, the IoU of its mesh's whole silhouette through ``camera`` with its mask (same size)."""
+    return [mask_iou(silhouette(v, f, camera), m) for v, f, m in zip(vertex_sets, faces, masks)]
+
+
+def visible_ious(vertex_sets, faces, camera: PinholeCamera, masks) -> list[float]:
+    """Per object, the IoU of the part of its mesh the others do not hide (a ray cast through ``camera``)
+    with what the photo shows of it (``masks``, its visible masks at the camera's size)."""
+    from .external import visible_silhouettes
+
+    seen = visible_silhouettes(list(vertex_sets), list(faces), camera)
+    return [mask_iou(s, m) for s, m in zip(seen, masks)]
+
+
+@dataclass
+class SceneScore:
+    """One lifted scene's mismatch with the photo; lower is better."""
+
+    total: float
+    terms: dict
+    ious: list[float] = field(default_factory=list)
+
+    def as_dict(self) -> dict:
+        return {"score": round(self.total, 4), **{k: round(v, 4) for k, v in self.terms.items()},
+                "silhouette_iou": [round(x, 4) for x in self.ious]}
+
+
+def score_scene(vertex_sets, faces, camera: PinholeCamera, masks, size_logs=(), thin=(),
+                supports_lost: float = 0.0) -> SceneScore:
+    """The score of one lifted scene (see the module): ``masks`` the outlines it was lifted from (H, W);
+    ``size_logs`` each object's log(size / its label's typical size) after the scene's scale (objects with no
+    typical size left out); ``thin`` each object's shortfall (0..1) of its thinnest side under a third of its
+    outline's smaller side; ``supports_lost`` the share of the photo's supports the lift dropped."""
+    ious = silhouette_ious(vertex_sets, faces, camera, masks)
+    terms = {"silhouette": 1.0 - float(np.mean(ious)) if ious else 0.0,
+             "size": float(np.mean(np.square(size_logs))) if len(size_logs) else 0.0,
+             "thin": float(np.mean(thin)) if len(thin) else 0.0,
+             "support": float(supports_lost)}
+    total = sum(WEIGHTS[k] * v for k, v in terms.items())
+    return SceneScore(total, terms, ious)
+
+
+@dataclass
+class PitchSearch:
+    pitch_deg: float
+    cue_pitch_deg: float
+    score: SceneScore
+    cue_score: SceneScore
+    tried: list[tuple[float, float]]  # (pitch°, score), in the order tried
+
+    def as_dict(self) -> dict:
+        return {"pitch_deg": round(self.pitch_deg, 3), "cue_pitch_deg": round(self.cue_pitch_deg, 3),
+                "chosen": "cues" if self.pitch_deg == self.cue_pitch_deg else "silhouettes",
+                "score": self.score.as_dict(), "cue_score": self.cue_score.as_dict(),
+                "tried": [[round(p, 2), round(s, 4)] for p, s in self.tried]}
+
+
+def search_pitch(evaluate, cue_pitch: float, lowest: float, highest: float,
+                 coarse_step: float = COARSE_STEP_DEG, fine_step: float = FINE_STEP_DEG) -> PitchSearch:
+    """The pitch (degrees) whose lifted scene scores best, from ``lowest`` to ``highest``.
+
+    ``evaluate(pitch) -> SceneScore | None`` lifts and scores the scene under that pitch (None: no scene
+    there). The cues' ``cue_pitch`` is scored first, then a coarse grid, then ``fine_step`` either side of
+    the best twice halving; the cues' pitch stays unless the best beats it by :data:`MIN_GAIN` plus
+    :data:`MIN_GAIN_FRACTION` of its score."""
+    scores: dict[float, SceneScore | None] = {}
+
+    def at(p: float):
+        p = float(min(max(p, lowest), highest))
+        key = round(p, 3)
+        if key not in scores:
+            scores[key] = evaluate(p)
+        return scores[key]
+
+    cue = at(cue_pitch)
+    start = math.ceil(lowest / coarse_step) * coarse_step
+    for p in np.arange(start, highest + 1e-9, coarse_step):
+        at(p)
+    if highest - start < 1e-9 or highest - (start + coarse_step * int((highest - start) / coarse_step)) > 1.0:
+        at(highest)
+    step = fine_step
+    for _ in range(2):
+        best = min((k for k, s in scores.items() if s is not None), key=lambda k: scores[k].total, default=None)
+        if best is None:
+            break
+        at(best - step)
+        at(best + step)
+        step /= 2
+    valid = {k: s for k, s in scores.items() if s is not None}
+    tried = [(k, s.total) for k, s in valid.items()]
+    key_cue = round(float(min(max(cue_pitch, lowest), highest)), 3)
+    if cue is None:
+        if not valid:
+            raise ValueError("no pitch gave a scene")
+        best = min(valid, key=lambda k: valid[k].total)
+        return PitchSearch(best, key_cue, valid[best], valid[best], tried)
+    best = min(valid, key=lambda k: valid[k].total)
+    if valid[best].total < cue.total - MIN_GAIN - MIN_GAIN_FRACTION * cue.total:
+        return PitchSearch(best, key_cue, valid[best], cue, tried)
+    return PitchSearch(key_cue, key_cue, cue, cue, tried)
