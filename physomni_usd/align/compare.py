@@ -26,48 +26,87 @@ from ..geometry.camera import PinholeCamera
 SHIFT = 4
 #: Rasterised at this many times the camera's size, then averaged down (OpenCV fills the pixels edges touch).
 SUPERSAMPLE = 4
-#: Vertices nearer the camera than this (its units) are not rasterised.
+#: What is nearer the camera than this (its units) is not drawn.
 NEAR = 1e-4
+#: Triangles are clipped to the frame widened by this fraction of its size each way (the rest is off-screen).
+FRAME_MARGIN = 0.5
 #: Weights of the score's terms: silhouettes (1 − IoU, mean over objects), size priors (mean squared log of
 #: each object's size over its label's after the scene's one scale), thickness (mean shortfall of the thinnest
 #: side under a third of the outline's smaller side), support (share of the supports the photo shows that the
 #: lift could not keep).
 WEIGHTS = {"silhouette": 1.0, "size": 0.5, "thin": 0.5, "support": 0.3}
 #: Coarse grid of pitches tried (degrees), then a finer step about the best.
-COARSE_STEP_DEG = 10.0
-FINE_STEP_DEG = 3.0
+COARSE_STEP_DEG = 15.0
+FINE_STEP_DEG = 5.0
 #: Another pitch replaces the cues' one only when its score is lower by at least this much (absolute) plus
 #: this fraction of the cues' score: the cues' reading is kept where the silhouettes cannot tell.
 MIN_GAIN = 0.02
-MIN_GAIN_FRACTION = 0.15
+MIN_GAIN_FRACTION = 0.4
 #: Silhouette IoU under which ``build`` warns, naming the object.
 WARN_IOU = 0.85
 
 
 def silhouette(vertices: np.ndarray, faces: np.ndarray, camera: PinholeCamera) -> np.ndarray:
     """(H, W) bool: the pixels the mesh (``vertices`` (N, 3) world, ``faces`` (M, 3)) covers through
-    ``camera``; triangles with a corner behind the camera are left out."""
+    ``camera``; what is behind the camera is cut away."""
     h, w = camera.height, camera.width
     if len(faces) == 0:
         return np.zeros((h, w), bool)
     k = SUPERSAMPLE
     out = np.zeros((h * k, w * k), np.uint8)
-    uv, z = camera.project(np.asarray(vertices, float))
-    uv = uv * k
+    p = (np.asarray(vertices, float) - camera.origin) @ camera.world_from_camera  # camera axes (N, 3)
     tri = np.asarray(faces, np.int64)
-    ok = np.all(z[tri] > NEAR, axis=1)
-    pts = uv[tri[ok]]  # (K, 3, 2)
-    if not len(pts):
-        return np.zeros((h, w), bool)
-    # keep far-off corners inside what int32 holds after the shift; fillPoly clips to the image itself
-    pts = np.clip(pts, -4.0 * k * (w + h), 5.0 * k * (w + h))
-    fixed = np.round((pts - 0.5) * (1 << SHIFT)).astype(np.int32)  # pixel centres at integer + 0.5
+    planes = _frustum(camera)
+    inside = np.all(p[tri] @ planes[:, :3].T + planes[:, 3] >= 0.0, axis=(1, 2))
+    # triangles wholly inside a frustum a margin wider than the frame project as they are; the others (a
+    # floor reaching behind the camera) are clipped to it first, so every corner projects finitely
+    f = camera.focal_px
+    centre = np.array(camera.principal_point)
+
+    def to_fixed(q):  # (..., 3) camera axes → fixed-point pixels of the k× grid, pixel centres at integer + 0.5
+        uv = q[..., :2] / q[..., 2:3] * f + centre
+        return np.round((uv * k - 0.5) * (1 << SHIFT)).astype(np.int32)
+
+    fixed = list(to_fixed(p[tri[inside]]))
+    for t in tri[~inside]:
+        clipped = _clip(p[t], planes)
+        if len(clipped) >= 3:
+            fixed.append(to_fixed(clipped))
     # one triangle at a time: fillPoly given them all fills by parity, and overlapping triangles cancel
     for t in fixed:
         cv2.fillConvexPoly(out, t, 255, lineType=cv2.LINE_8, shift=SHIFT)
     # OpenCV fills every pixel a triangle's edge touches: at k× and then by area, a pixel is in where its
     # centre half is, as a ray cast through pixel centres has it
     return cv2.resize(out, (w, h), interpolation=cv2.INTER_AREA) >= 128
+
+
+def _frustum(camera: PinholeCamera) -> np.ndarray:
+    """(5, 4) planes (normal, offset) in camera axes whose positive sides bound what is drawn: in front of
+    :data:`NEAR`, and within the frame widened by :data:`FRAME_MARGIN` of its size each way."""
+    f = camera.focal_px
+    cx, cy = camera.principal_point
+    mu, mv = FRAME_MARGIN * camera.width, FRAME_MARGIN * camera.height
+    lo_u, hi_u, lo_v, hi_v = -mu, camera.width + mu, -mv, camera.height + mv
+    return np.array([[0.0, 0.0, 1.0, -NEAR],
+                     [f, 0.0, cx - lo_u, 0.0], [-f, 0.0, hi_u - cx, 0.0],  # u ≥ lo_u, u ≤ hi_u
+                     [0.0, f, cy - lo_v, 0.0], [0.0, -f, hi_v - cy, 0.0]])
+
+
+def _clip(poly: np.ndarray, planes: np.ndarray) -> np.ndarray:
+    """The convex polygon ``poly`` (n, 3) cut to the positive side of every plane (Sutherland–Hodgman)."""
+    for plane in planes:
+        if len(poly) == 0:
+            break
+        d = poly @ plane[:3] + plane[3]
+        out = []
+        for i in range(len(poly)):
+            j = (i + 1) % len(poly)
+            if d[i] >= 0:
+                out.append(poly[i])
+            if (d[i] >= 0) != (d[j] >= 0):
+                out.append(poly[i] + (poly[j] - poly[i]) * (d[i] / (d[i] - d[j])))
+        poly = np.array(out).reshape(-1, 3)
+    return poly
 
 
 def mask_iou(a: np.ndarray, b: np.ndarray) -> float:

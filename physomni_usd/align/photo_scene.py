@@ -35,6 +35,8 @@ from .support import find_supports, root_of, settle_on_supports, support_order
 
 #: Scale-and-lift rounds: an object's height from its prior depends on the scale, the scale on the lifted sizes.
 SCALE_ROUNDS = 3
+#: ... while the pitch search weighs a pitch, each started from the scale of the nearest pitch weighed.
+SEARCH_SCALE_ROUNDS = 2
 
 
 @dataclass
@@ -260,9 +262,16 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
     found = find_supports(masks)
     hides = occlusion_order(list(visible)) if visible is not None else []
 
+    searching = True
+    scales: dict[float, float] = {}  # pitch → the scale its lift settled on: a start for the pitches near it
+
     def lift_at(p: float):
         unit = PinholeCamera(w, h, est.fov_deg, p, (0.0, 0.0, 1.0))
-        return (unit, *_lift_scaled(masks, labels, names, unit, settings, found, hides, photo, visible, user_sizes))
+        start = scales[min(scales, key=lambda q: abs(q - p))] if scales else 1.0
+        out = _lift_scaled(masks, labels, names, unit, settings, found, hides, photo, visible, user_sizes, start,
+                           SEARCH_SCALE_ROUNDS if searching else SCALE_ROUNDS)
+        scales[p] = out[3]
+        return (unit, *out)
 
     if cam_cfg.pitch_deg is None and settings.render_compare:
         # the photo is the arbiter: the cues' pitch against the others, each scene lifted and compared with the
@@ -274,6 +283,7 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
             camera_info |= {"cue_pitch_deg": round(pitch, 3), "pitch_deg": round(searched.pitch_deg, 3),
                             "pitch_source": "render-and-compare (silhouettes, sizes, supports)"}
             pitch = searched.pitch_deg
+    searching = False
     unit, lifted, supports, fit, scale = lift_at(pitch)
     lifted = [replace(m, vertices=m.vertices * scale, contact=m.contact * scale) for m in lifted]
     camera = PinholeCamera(w, h, unit.fov_deg, unit.pitch_deg, (0.0, 0.0, scale))
@@ -281,12 +291,12 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
 
 
 def _lift_scaled(masks, labels, names, unit: PinholeCamera, settings: BuildSettings, found, hides, photo, visible,
-                 user_sizes):
+                 user_sizes, scale: float = 1.0, rounds: int = SCALE_ROUNDS):
     """Every mask lifted under the unit-height camera ``unit`` at the scene's scale, the scale and the lift
-    agreeing (:data:`SCALE_ROUNDS`): (lifted at unit height, supports kept, the scale's fit, its factor)."""
-    scale = 1.0
+    agreeing (:data:`SCALE_ROUNDS`, from ``scale``): (lifted at unit height, supports kept, the scale's fit,
+    its factor)."""
     fit = None
-    for _ in range(SCALE_ROUNDS):
+    for _ in range(rounds):
         # every round judges the supports afresh: a first round's lift, at a guessed scale, can stand a cup
         # off its saucer's back, and a support dropped then would stay dropped
         supports = dict(found)
