@@ -35,6 +35,10 @@ from .support import find_supports, root_of, settle_on_supports, support_order
 
 #: Scale-and-lift rounds: an object's height from its prior depends on the scale, the scale on the lifted sizes.
 SCALE_ROUNDS = 3
+#: A cue at least this heavy (``align.cues``) confines the pitch search to CUE_WINDOW_DEG either side of the
+#: cues' pitch.
+STRONG_CUE = 0.5
+CUE_WINDOW_DEG = 20.0
 #: ... while the pitch search weighs a pitch, each started from the scale of the nearest pitch weighed.
 SEARCH_SCALE_ROUNDS = 2
 
@@ -267,7 +271,9 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
 
     def lift_at(p: float):
         unit = PinholeCamera(w, h, est.fov_deg, p, (0.0, 0.0, 1.0))
-        start = scales[min(scales, key=lambda q: abs(q - p))] if scales else 1.0
+        # the search starts each pitch from the nearest one's scale; the pitch taken is lifted as without the
+        # search (from 1), so that where the cues' pitch stands the scene is the one the cues alone build
+        start = scales[min(scales, key=lambda q: abs(q - p))] if scales and searching else 1.0
         out = _lift_scaled(masks, labels, names, unit, settings, found, hides, photo, visible, user_sizes, start,
                            SEARCH_SCALE_ROUNDS if searching else SCALE_ROUNDS)
         scales[p] = out[3]
@@ -276,8 +282,12 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
     if cam_cfg.pitch_deg is None and settings.render_compare:
         # the photo is the arbiter: the cues' pitch against the others, each scene lifted and compared with the
         # masks (align.compare); the cues' stands unless another explains the silhouettes clearly better
+        # a pitch a strong cue reads (a vanishing point, an ellipse) is searched about, not over the whole
+        # range: a lift seen from straight above matches any outline, so the silhouettes alone favour it
+        strong = any(c.pitch_deg is not None and c.weight >= STRONG_CUE for c in est.cues)
+        window = CUE_WINDOW_DEG if strong else 90.0
         searched = search_pitch(lambda p: _scored(lift_at, p, masks, labels, found), pitch,
-                                max(est.min_pitch_deg, 0.0), MAX_PITCH_DEG)
+                                max(est.min_pitch_deg, 0.0, pitch - window), min(MAX_PITCH_DEG, pitch + window))
         camera_info["render_compare"] = searched.as_dict()
         if searched.pitch_deg != round(pitch, 3):
             camera_info |= {"cue_pitch_deg": round(pitch, 3), "pitch_deg": round(searched.pitch_deg, 3),
