@@ -41,6 +41,10 @@ STRONG_CUE = 0.5
 CUE_WINDOW_DEG = 20.0
 #: ... while the pitch search weighs a pitch, each started from the scale of the nearest pitch weighed.
 SEARCH_SCALE_ROUNDS = 2
+#: ... on copies of the photo and masks whose longer side is at most this (pixels).
+SEARCH_SIDE_PX = 320
+#: ... unless an object's outline would keep fewer pixels than this there.
+SEARCH_MIN_PX = 30
 
 
 @dataclass
@@ -268,13 +272,15 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
 
     searching = True
     scales: dict[float, float] = {}  # pitch → the scale its lift settled on: a start for the pitches near it
+    small = _search_copies(photo, masks, visible)  # the search weighs pitches on copies at most SEARCH_SIDE_PX
 
     def lift_at(p: float):
-        unit = PinholeCamera(w, h, est.fov_deg, p, (0.0, 0.0, 1.0))
+        ph, ms, vs = small if searching else (photo, masks, visible)
+        unit = PinholeCamera(ph.shape[1], ph.shape[0], est.fov_deg, p, (0.0, 0.0, 1.0))
         # the search starts each pitch from the nearest one's scale; the pitch taken is lifted as without the
         # search (from 1), so that where the cues' pitch stands the scene is the one the cues alone build
         start = scales[min(scales, key=lambda q: abs(q - p))] if scales and searching else 1.0
-        out = _lift_scaled(masks, labels, names, unit, settings, found, hides, photo, visible, user_sizes, start,
+        out = _lift_scaled(ms, labels, names, unit, settings, found, hides, ph, vs, user_sizes, start,
                            SEARCH_SCALE_ROUNDS if searching else SCALE_ROUNDS)
         scales[p] = out[3]
         return (unit, *out)
@@ -286,10 +292,15 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
         # range: a lift seen from straight above matches any outline, so the silhouettes alone favour it
         strong = any(c.pitch_deg is not None and c.weight >= STRONG_CUE for c in est.cues)
         window = CUE_WINDOW_DEG if strong else 90.0
-        searched = search_pitch(lambda p: _scored(lift_at, p, masks, labels, found), pitch,
-                                max(est.min_pitch_deg, 0.0, pitch - window), min(MAX_PITCH_DEG, pitch + window))
-        camera_info["render_compare"] = searched.as_dict()
-        if searched.pitch_deg != round(pitch, 3):
+        try:
+            searched = search_pitch(lambda p: _scored(lift_at, p, small[1], labels, found), pitch,
+                                    max(est.min_pitch_deg, 0.0, pitch - window), min(MAX_PITCH_DEG, pitch + window))
+        except ValueError:  # no pitch lifted a scene the search could score: the cues' pitch, as without it
+            searched = None
+            camera_info["render_compare"] = {"chosen": "cues", "skipped": "no pitch tried gave a scene"}
+        if searched is not None:
+            camera_info["render_compare"] = searched.as_dict()
+        if searched is not None and searched.pitch_deg != round(pitch, 3):
             camera_info |= {"cue_pitch_deg": round(pitch, 3), "pitch_deg": round(searched.pitch_deg, 3),
                             "pitch_source": "render-and-compare (silhouettes, sizes, supports)"}
             pitch = searched.pitch_deg
@@ -298,6 +309,26 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
     lifted = [replace(m, vertices=m.vertices * scale, contact=m.contact * scale) for m in lifted]
     camera = PinholeCamera(w, h, unit.fov_deg, unit.pitch_deg, (0.0, 0.0, scale))
     return GroundLift(camera, lifted, supports, {"scale": fit.as_dict(camera.origin[2]), "camera": camera_info})
+
+
+def _search_copies(photo: np.ndarray, masks, visible):
+    """(photo, masks, visible) shrunk so that the longer side is at most :data:`SEARCH_SIDE_PX` (as they are
+    when already no larger): the pitch search lifts the scene a dozen times, and a pitch is no finer for more
+    pixels."""
+    h, w = photo.shape[:2]
+    f = SEARCH_SIDE_PX / max(h, w)
+    if f >= 1.0:
+        return photo, masks, visible
+    size = (max(8, int(round(w * f))), max(8, int(round(h * f))))
+
+    def shrink(m):
+        return cv2.resize(np.asarray(m, np.uint8) * 255, size, interpolation=cv2.INTER_AREA) >= 128
+
+    out = [shrink(m) for m in masks]
+    if any(m.sum() < SEARCH_MIN_PX for m in out):  # a small thing would vanish: the search takes the photo itself
+        return photo, masks, visible
+    return (cv2.resize(photo, size, interpolation=cv2.INTER_AREA), out,
+            None if visible is None else [shrink(m) for m in visible])
 
 
 def _lift_scaled(masks, labels, names, unit: PinholeCamera, settings: BuildSettings, found, hides, photo, visible,
