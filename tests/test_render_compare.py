@@ -88,6 +88,18 @@ def test_the_search_replaces_a_cue_the_scene_contradicts_and_keeps_one_it_cannot
     assert compare.search_pitch(_valley(20.0), cue_pitch=5.0, lowest=12.0, highest=89.5).cue_pitch_deg == 12.0
 
 
+def test_on_a_plateau_of_good_pitches_the_one_nearest_the_cues_is_taken():
+    def plateau(p):  # every pitch from 45° up explains the scene about as well (a view from above fits any outline)
+        return compare.SceneScore(0.10 - 0.01 * (p - 45.0) / 45.0 if p >= 45.0 else 0.8, {})
+    found = compare.search_pitch(plateau, cue_pitch=10.0, lowest=0.0, highest=89.5)
+    assert found.as_dict()["chosen"] == "silhouettes" and found.pitch_deg == pytest.approx(45.0)
+    # a strong cue asks for a far better scene: a third better is not enough
+    def third_better(p):
+        return compare.SceneScore(0.2 if p >= 30.0 else 0.3, {})
+    assert compare.search_pitch(third_better, 20.0, 0.0, 40.0, gain_fraction=0.7).pitch_deg == 20.0
+    assert compare.search_pitch(third_better, 20.0, 0.0, 40.0, gain_fraction=0.2).pitch_deg == 30.0
+
+
 def _synthetic(pitch: float, width: int = 240, height: int = 180):
     """Two cans, a book lying flat and an apple, each its label's typical size, standing on the ground where
     the camera ``pitch`` degrees down sees them; their masks drawn through it and a plain photo."""

@@ -42,6 +42,11 @@ FINE_STEP_DEG = 5.0
 #: this fraction of the cues' score: the cues' reading is kept where the silhouettes cannot tell.
 MIN_GAIN = 0.02
 MIN_GAIN_FRACTION = 0.4
+#: ... or this fraction when a strong cue (a vanishing point, an ellipse) reads the cues' pitch.
+STRONG_GAIN_FRACTION = 0.7
+#: Pitches scoring within this fraction (plus NEAR_BEST_ABS) of the best are as good as the best.
+NEAR_BEST_FRACTION = 0.15
+NEAR_BEST_ABS = 0.01
 #: Silhouette IoU under which ``build`` warns, naming the object.
 WARN_IOU = 0.85
 
@@ -174,13 +179,15 @@ class PitchSearch:
 
 
 def search_pitch(evaluate, cue_pitch: float, lowest: float, highest: float,
-                 coarse_step: float = COARSE_STEP_DEG, fine_step: float = FINE_STEP_DEG) -> PitchSearch:
+                 coarse_step: float = COARSE_STEP_DEG, fine_step: float = FINE_STEP_DEG,
+                 gain_fraction: float = MIN_GAIN_FRACTION) -> PitchSearch:
     """The pitch (degrees) whose lifted scene scores best, from ``lowest`` to ``highest``.
 
     ``evaluate(pitch) -> SceneScore | None`` lifts and scores the scene under that pitch (None: no scene
     there). The cues' ``cue_pitch`` is scored first, then a coarse grid, then ``fine_step`` either side of
-    the best twice halving; the cues' pitch stays unless the best beats it by :data:`MIN_GAIN` plus
-    :data:`MIN_GAIN_FRACTION` of its score."""
+    the best twice halving. The cues' pitch stays unless a pitch beats it by :data:`MIN_GAIN` plus
+    ``gain_fraction`` of its score; of the pitches that do and score within :data:`NEAR_BEST_FRACTION` (plus
+    :data:`NEAR_BEST_ABS`) of the best, the one nearest the cues' is taken."""
     scores: dict[float, SceneScore | None] = {}
 
     def at(p: float):
@@ -213,6 +220,12 @@ def search_pitch(evaluate, cue_pitch: float, lowest: float, highest: float,
         best = min(valid, key=lambda k: valid[k].total)
         return PitchSearch(best, key_cue, valid[best], valid[best], tried)
     best = min(valid, key=lambda k: valid[k].total)
-    if valid[best].total < cue.total - MIN_GAIN - MIN_GAIN_FRACTION * cue.total:
-        return PitchSearch(best, key_cue, valid[best], cue, tried)
+    beats = cue.total - MIN_GAIN - gain_fraction * cue.total
+    # where the scores are flat near the best (seen from above, any outline matches), the pitch nearest the
+    # cues' among those about as good: the silhouettes move the cues' reading only as far as they need to
+    near = [k for k, v in valid.items()
+            if v.total <= min(beats, valid[best].total * (1.0 + NEAR_BEST_FRACTION) + NEAR_BEST_ABS)]
+    if near:
+        pick = min(near, key=lambda k: (abs(k - key_cue), valid[k].total))
+        return PitchSearch(pick, key_cue, valid[pick], cue, tried)
     return PitchSearch(key_cue, key_cue, cue, cue, tried)

@@ -27,7 +27,7 @@ from ..settings import BuildSettings
 from ..errors import InputError
 from ..geometry.camera import PinholeCamera, pick_pitch
 from ..geometry.mesh import longest_dimension
-from .compare import search_pitch, score_scene
+from .compare import MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, search_pitch, score_scene
 from .cues import ELLIPSE_IOU, MAX_PITCH_DEG, estimate_camera, mask_ellipse
 from .place import footprint, make_room, separate
 from .scale import fit_scale
@@ -289,12 +289,14 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
         # the photo is the arbiter: the cues' pitch against the others, each scene lifted and compared with the
         # masks (align.compare); the cues' stands unless another explains the silhouettes clearly better
         # a pitch a strong cue reads (a vanishing point, an ellipse) is searched about, not over the whole
-        # range: a lift seen from straight above matches any outline, so the silhouettes alone favour it
+        # range, and gives way only to a far better one: a lift seen from straight above matches any outline,
+        # so the silhouettes alone favour it
         strong = any(c.pitch_deg is not None and c.weight >= STRONG_CUE for c in est.cues)
         window = CUE_WINDOW_DEG if strong else 90.0
         try:
             searched = search_pitch(lambda p: _scored(lift_at, p, small[1], labels, found), pitch,
-                                    max(est.min_pitch_deg, 0.0, pitch - window), min(MAX_PITCH_DEG, pitch + window))
+                                    max(est.min_pitch_deg, 0.0, pitch - window), min(MAX_PITCH_DEG, pitch + window),
+                                    gain_fraction=STRONG_GAIN_FRACTION if strong else MIN_GAIN_FRACTION)
         except ValueError:  # no pitch lifted a scene the search could score: the cues' pitch, as without it
             searched = None
             camera_info["render_compare"] = {"chosen": "cues", "skipped": "no pitch tried gave a scene"}
