@@ -321,7 +321,8 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
     with timer.step("align.place"):
         _place(scene)
     for warning in ((scene.align_info.get("camera") or {}).get("warnings", [])
-                    + (scene.align_info.get("scale") or {}).get("warnings", [])):
+                    + (scene.align_info.get("scale") or {}).get("warnings", [])
+                    + scene.align_info.get("silhouette_warnings", [])):
         echo(f"warning: {warning}")
     with timer.step("perceive.texture"):
         _texture(scene, out)
@@ -450,6 +451,7 @@ def _place(scene: Scene) -> None:
     align_info["solve"] = solved.info | {"objects": [{"name": o.name, **s} for o, s in
                                                      zip(scene.objects, solved.info["objects"])]}
     verts = _separated(scene, camera, solved.vertices, faces, shapes, supports, align_info)
+    _silhouette_report(scene, camera, verts, faces, align_info)
     centre = centring_offset(verts)
     scene.camera = camera.moved(centre)
     scene.align_info = align_info
@@ -459,6 +461,22 @@ def _place(scene: Scene) -> None:
                           [o.name for o in scene.objects])
     for o, r in zip(scene.objects, rest):
         o.rest = r
+
+
+def _silhouette_report(scene: Scene, camera, verts, faces, align_info: dict) -> None:
+    """Each placed mesh's visible silhouette through the photo's camera against what the photo shows of it
+    (``align.compare.visible_ious``), into ``align_info["silhouette_iou"]``, and a warning naming each object
+    under ``align.compare.WARN_IOU``: the photo is the arbiter of the whole build, not of the pitch alone."""
+    from .align.compare import WARN_IOU, visible_ious
+
+    ious = visible_ious(verts, faces, camera, scene.masks)
+    align_info["silhouette_iou"] = {o.name: round(v, 4) for o, v in zip(scene.objects, ious)}
+    low = [(o.name, v) for o, v in zip(scene.objects, ious) if v < WARN_IOU]
+    if low:
+        align_info["silhouette_warnings"] = [
+            "the built scene does not match the photo's outline of " + ", ".join(
+                f"{name} (silhouette IoU {v:.2f})" for name, v in low)
+            + f" (under {WARN_IOU:g}); give its mask again, --size or --pitch"]
 
 
 def _separated(scene: Scene, camera, verts, faces, shapes, supports, align_info: dict) -> list:

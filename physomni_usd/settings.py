@@ -84,6 +84,9 @@ class BuildSettings(_Settings):
                                   description="Mask dilation before inpainting, as a fraction of the image diagonal.")
     alignment: str = Field("agmf", pattern="^(none|canonical|ransac|agmf)$",
                            description="Scene alignment of external meshes (--meshes): the paper's ablation variants.")
+    render_compare: bool = Field(True, description="Weigh the cues' camera pitch against others by lifting the "
+                                                   "scene under each and comparing its silhouettes, sizes and "
+                                                   "supports with the photo's (align.compare).")
     camera_search: bool = Field(True, description="Refine the camera against the masks after aligning external "
                                                    "meshes (coarse-to-fine: random samples, then Powell).")
     camera_search_evals: int = Field(300, ge=1, le=100000, description="Cap on renders of the camera search.")

@@ -14,6 +14,7 @@ objects resting on others move with them, the rest are kept apart
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import cv2
@@ -26,6 +27,7 @@ from ..settings import BuildSettings
 from ..errors import InputError
 from ..geometry.camera import PinholeCamera, pick_pitch
 from ..geometry.mesh import longest_dimension
+from .compare import MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, search_pitch, score_scene
 from .cues import ELLIPSE_IOU, MAX_PITCH_DEG, estimate_camera, mask_ellipse
 from .place import footprint, make_room, separate
 from .scale import fit_scale
@@ -33,6 +35,16 @@ from .support import find_supports, root_of, settle_on_supports, support_order
 
 #: Scale-and-lift rounds: an object's height from its prior depends on the scale, the scale on the lifted sizes.
 SCALE_ROUNDS = 3
+#: A cue at least this heavy (``align.cues``) confines the pitch search to CUE_WINDOW_DEG either side of the
+#: cues' pitch.
+STRONG_CUE = 0.5
+CUE_WINDOW_DEG = 20.0
+#: ... while the pitch search weighs a pitch, each started from the scale of the nearest pitch weighed.
+SEARCH_SCALE_ROUNDS = 2
+#: ... on copies of the photo and masks whose longer side is at most this (pixels).
+SEARCH_SIDE_PX = 320
+#: ... unless an object's outline would keep fewer pixels than this there.
+SEARCH_MIN_PX = 30
 
 
 @dataclass
@@ -255,27 +267,127 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
     camera_info = est.as_dict() | {"pitch_deg": round(pitch, 3)}
     if camera_warnings:
         camera_info |= {"pitch_given_deg": float(cam_cfg.pitch_deg), "warnings": camera_warnings}
-    unit = PinholeCamera(w, h, est.fov_deg, pitch, (0.0, 0.0, 1.0))
-
     found = find_supports(masks)
     hides = occlusion_order(list(visible)) if visible is not None else []
-    scale = 1.0
+
+    searching = True
+    scales: dict[float, float] = {}  # pitch → the scale its lift settled on: a start for the pitches near it
+    small = _search_copies(photo, masks, visible)  # the search weighs pitches on copies at most SEARCH_SIDE_PX
+
+    def lift_at(p: float):
+        ph, ms, vs = small if searching else (photo, masks, visible)
+        unit = PinholeCamera(ph.shape[1], ph.shape[0], est.fov_deg, p, (0.0, 0.0, 1.0))
+        # the search starts each pitch from the nearest one's scale; the pitch taken is lifted as without the
+        # search (from 1), so that where the cues' pitch stands the scene is the one the cues alone build
+        start = scales[min(scales, key=lambda q: abs(q - p))] if scales and searching else 1.0
+        out = _lift_scaled(ms, labels, names, unit, settings, found, hides, ph, vs, user_sizes, start,
+                           SEARCH_SCALE_ROUNDS if searching else SCALE_ROUNDS)
+        scales[p] = out[3]
+        return (unit, *out)
+
+    if cam_cfg.pitch_deg is None and settings.render_compare:
+        # the photo is the arbiter: the cues' pitch against the others, each scene lifted and compared with the
+        # masks (align.compare); the cues' stands unless another explains the silhouettes clearly better
+        # a pitch a strong cue reads (a vanishing point, an ellipse) is searched about, not over the whole
+        # range, and gives way only to a far better one: a lift seen from straight above matches any outline,
+        # so the silhouettes alone favour it
+        strong = any(c.pitch_deg is not None and c.weight >= STRONG_CUE for c in est.cues)
+        window = CUE_WINDOW_DEG if strong else 90.0
+        try:
+            searched = search_pitch(lambda p: _scored(lift_at, p, small[1], labels, found), pitch,
+                                    max(est.min_pitch_deg, 0.0, pitch - window), min(MAX_PITCH_DEG, pitch + window),
+                                    gain_fraction=STRONG_GAIN_FRACTION if strong else MIN_GAIN_FRACTION)
+        except ValueError:  # no pitch lifted a scene the search could score: the cues' pitch, as without it
+            searched = None
+            camera_info["render_compare"] = {"chosen": "cues", "skipped": "no pitch tried gave a scene"}
+        if searched is not None:
+            camera_info["render_compare"] = searched.as_dict()
+        if searched is not None and searched.pitch_deg != round(pitch, 3):
+            camera_info |= {"cue_pitch_deg": round(pitch, 3), "pitch_deg": round(searched.pitch_deg, 3),
+                            "pitch_source": "render-and-compare (silhouettes, sizes, supports)"}
+            pitch = searched.pitch_deg
+    searching = False
+    unit, lifted, supports, fit, scale = lift_at(pitch)
+    lifted = [replace(m, vertices=m.vertices * scale, contact=m.contact * scale) for m in lifted]
+    camera = PinholeCamera(w, h, unit.fov_deg, unit.pitch_deg, (0.0, 0.0, scale))
+    return GroundLift(camera, lifted, supports, {"scale": fit.as_dict(camera.origin[2]), "camera": camera_info})
+
+
+def _search_copies(photo: np.ndarray, masks, visible):
+    """(photo, masks, visible) shrunk so that the longer side is at most :data:`SEARCH_SIDE_PX` (as they are
+    when already no larger): the pitch search lifts the scene a dozen times, and a pitch is no finer for more
+    pixels."""
+    h, w = photo.shape[:2]
+    f = SEARCH_SIDE_PX / max(h, w)
+    if f >= 1.0:
+        return photo, masks, visible
+    size = (max(8, int(round(w * f))), max(8, int(round(h * f))))
+
+    def shrink(m):
+        return cv2.resize(np.asarray(m, np.uint8) * 255, size, interpolation=cv2.INTER_AREA) >= 128
+
+    out = [shrink(m) for m in masks]
+    if any(m.sum() < SEARCH_MIN_PX for m in out):  # a small thing would vanish: the search takes the photo itself
+        return photo, masks, visible
+    return (cv2.resize(photo, size, interpolation=cv2.INTER_AREA), out,
+            None if visible is None else [shrink(m) for m in visible])
+
+
+def _lift_scaled(masks, labels, names, unit: PinholeCamera, settings: BuildSettings, found, hides, photo, visible,
+                 user_sizes, scale: float = 1.0, rounds: int = SCALE_ROUNDS):
+    """Every mask lifted under the unit-height camera ``unit`` at the scene's scale, the scale and the lift
+    agreeing (:data:`SCALE_ROUNDS`, from ``scale``): (lifted at unit height, supports kept, the scale's fit,
+    its factor)."""
     fit = None
-    for _ in range(SCALE_ROUNDS):
+    for _ in range(rounds):
         # every round judges the supports afresh: a first round's lift, at a guessed scale, can stand a cup
         # off its saucer's back, and a support dropped then would stay dropped
         supports = dict(found)
         lifted = lift_all(masks, labels, unit, settings, scale, supports, photo=photo, hides=hides,
                           visible=visible)
         longest = [longest_dimension(m.vertices) for m in lifted]
-        fit = fit_scale(names, labels, longest, user_sizes, cam_cfg.height_m)
+        fit = fit_scale(names, labels, longest, user_sizes, settings.camera.height_m)
         if abs(np.log(fit.factor / scale)) < 1e-3:
             break
         scale = fit.factor
-    scale = fit.factor
-    lifted = [replace(m, vertices=m.vertices * scale, contact=m.contact * scale) for m in lifted]
-    camera = PinholeCamera(w, h, unit.fov_deg, unit.pitch_deg, (0.0, 0.0, scale))
-    return GroundLift(camera, lifted, supports, {"scale": fit.as_dict(camera.origin[2]), "camera": camera_info})
+    return lifted, supports, fit, fit.factor
+
+
+#: Largest log-ratio a single object adds to the size term (a failed lift counts, but does not swamp the rest).
+SIZE_LOG_CAP = math.log(4.0)
+
+
+def _scored(lift_at, pitch: float, masks, labels, found):
+    """The render-and-compare score (``align.compare.score_scene``) of the scene ``lift_at(pitch)`` lifts; None
+    where none can be lifted under that pitch (a foot above its horizon, a lift that fails)."""
+    try:
+        unit, lifted, supports, fit, scale = lift_at(pitch)
+    except (InputError, ValueError):
+        return None
+    size_logs, thin = [], []
+    for m, label in zip(lifted, labels):
+        prior = size_prior(label)
+        ext = np.sort(_principal_extents(m.vertices * scale))
+        if prior is not None and prior.votes and ext[2] > 0:
+            size_logs.append(min(abs(math.log(ext[2] / prior.longest_m)), SIZE_LOG_CAP))
+            if prior.height_m:  # its height over its length, as the label's: free of the scene's scale
+                h = float(np.ptp(m.vertices[:, 2])) * scale
+                size_logs.append(min(abs(math.log(max(h, 1e-6) / ext[2] / (prior.height_m / prior.longest_m))),
+                                     SIZE_LOG_CAP))
+        flat = bool(prior and prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * (prior.longest_m or 0.0))
+        thin.append(0.0 if flat or ext[1] <= 0 else max(0.0, 1.0 - ext[0] / (ext[1] / 3.0)))
+    lost = (len(found) - len(supports)) / len(found) if found else 0.0
+    return score_scene([m.vertices for m in lifted], [m.faces for m in lifted], unit, masks, size_logs, thin, lost)
+
+
+def _principal_extents(vertices: np.ndarray) -> np.ndarray:
+    """(3,) extents of ``vertices`` along their principal axes (metres in, metres out)."""
+    v = vertices - vertices.mean(0)
+    try:
+        _, _, axes = np.linalg.svd(v, full_matrices=False)
+    except np.linalg.LinAlgError:
+        return np.ptp(vertices, axis=0)
+    return np.ptp(v @ axes.T, axis=0)
 
 
 def place_on_ground(lifted, names, gap_m: float) -> PhotoScene:

@@ -1,6 +1,6 @@
 """Render one generated scene with Blender's Cycles on the CPU: run by the Python that has ``bpy``, not imported.
 
-``python blender_scene.py SCENE.json`` reads the scene that ``bench/general.py`` describes (triangle meshes in
+``python blender_scene.py SCENE.json`` reads the scene that ``bench/general_render.py`` describes (triangle meshes in
 world coordinates, metres, Z up; their procedural materials; the camera in OpenCV axes; the lights) and
 writes two PNGs: the photo (path tracing, denoised) and the object-id image (each object's own flat
 emission, one sample per pixel, no filter, no colour transform), from which the visible masks are read.

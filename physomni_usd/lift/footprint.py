@@ -99,7 +99,14 @@ def footprint(poly_uv: np.ndarray, camera, base_z: float, height: float) -> np.n
 
 
 def circle_fit(poly: np.ndarray) -> tuple[np.ndarray, float, float]:
-    """(centre (2,), radius, IoU of the polygon with that circle); the circle has the polygon's area."""
+    """(centre (2,), radius, IoU of the polygon with that circle); the circle has the polygon's area.
+
+    A polygon with fewer than three finite corners, or none of any size (a footprint cast from rays at the
+    horizon), is no circle: (the mean of its finite corners, 0, 0)."""
+    poly = np.asarray(poly, float)
+    poly = poly[np.all(np.isfinite(poly), axis=1)]
+    if len(poly) < 3 or not np.ptp(poly, axis=0).max() > 0:
+        return (poly.mean(0) if len(poly) else np.zeros(2)), 0.0, 0.0
     area = abs(cv2.contourArea(poly.astype(np.float32)))
     m = cv2.moments(poly.astype(np.float32))
     centre = np.array([m["m10"] / m["m00"], m["m01"] / m["m00"]]) if m["m00"] else poly.mean(0)

@@ -1,0 +1,231 @@
+"""Render-and-compare: the photo is the arbiter of the camera the cues propose.
+
+Owns the silhouette comparison of a lifted scene against the photo's masks and the pitch search built on it.
+:func:`silhouette` rasterises a triangle mesh through a :class:`~physomni_usd.geometry.camera.PinholeCamera`
+with OpenCV (CPU, a few milliseconds at a photo's working size); :func:`mask_iou` compares two masks.
+:func:`score_scene` judges one lifted scene: the mismatch between each mesh's silhouette and its (completed)
+mask, plus the terms a photo's silhouettes cannot settle alone — support (an object standing on another still
+over it), size priors (each label's typical size against the one scale of the scene), and thickness (a
+solid object no thinner than a third of its outline's smaller side). :func:`search_pitch` scores the cues'
+pitch against a coarse grid of pitches, refined about the best, and keeps the cues' one unless another
+explains the whole scene clearly better, so a single cue contradicting every silhouette (a traced board read
+as a horizon) loses.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from ..geometry.camera import PinholeCamera
+
+#: Sub-pixel bits of the rasteriser's vertex coordinates (cv2.fillPoly's ``shift``).
+SHIFT = 4
+#: Rasterised at this many times the camera's size, then averaged down (OpenCV fills the pixels edges touch).
+SUPERSAMPLE = 4
+#: What is nearer the camera than this (its units) is not drawn.
+NEAR = 1e-4
+#: Triangles are clipped to the frame widened by this fraction of its size each way (the rest is off-screen).
+FRAME_MARGIN = 0.5
+#: Weights of the score's terms: silhouettes (1 − IoU, mean over objects), size priors (mean squared log of
+#: each object's size over its label's after the scene's one scale), thickness (mean shortfall of the thinnest
+#: side under a third of the outline's smaller side), support (share of the supports the photo shows that the
+#: lift could not keep).
+WEIGHTS = {"silhouette": 1.0, "size": 0.5, "thin": 0.5, "support": 0.3}
+#: Coarse grid of pitches tried (degrees), then a finer step about the best.
+COARSE_STEP_DEG = 15.0
+FINE_STEP_DEG = 5.0
+#: Another pitch replaces the cues' one only when its score is lower by at least this much (absolute) plus
+#: this fraction of the cues' score: the cues' reading is kept where the silhouettes cannot tell.
+MIN_GAIN = 0.02
+MIN_GAIN_FRACTION = 0.4
+#: ... or this fraction when a strong cue (a vanishing point, an ellipse) reads the cues' pitch.
+STRONG_GAIN_FRACTION = 0.7
+#: Pitches scoring within this fraction (plus NEAR_BEST_ABS) of the best are as good as the best.
+NEAR_BEST_FRACTION = 0.15
+NEAR_BEST_ABS = 0.01
+#: Silhouette IoU under which ``build`` warns, naming the object.
+WARN_IOU = 0.85
+
+
+def silhouette(vertices: np.ndarray, faces: np.ndarray, camera: PinholeCamera) -> np.ndarray:
+    """(H, W) bool: the pixels the mesh (``vertices`` (N, 3) world, ``faces`` (M, 3)) covers through
+    ``camera``; what is behind the camera is cut away."""
+    h, w = camera.height, camera.width
+    if len(faces) == 0:
+        return np.zeros((h, w), bool)
+    k = SUPERSAMPLE
+    out = np.zeros((h * k, w * k), np.uint8)
+    p = (np.asarray(vertices, float) - camera.origin) @ camera.world_from_camera  # camera axes (N, 3)
+    tri = np.asarray(faces, np.int64)
+    planes = _frustum(camera)
+    inside = np.all(p[tri] @ planes[:, :3].T + planes[:, 3] >= 0.0, axis=(1, 2))
+    # triangles wholly inside a frustum a margin wider than the frame project as they are; the others (a
+    # floor reaching behind the camera) are clipped to it first, so every corner projects finitely
+    f = camera.focal_px
+    centre = np.array(camera.principal_point)
+
+    def to_fixed(q):  # (..., 3) camera axes → fixed-point pixels of the k× grid, pixel centres at integer + 0.5
+        uv = q[..., :2] / q[..., 2:3] * f + centre
+        return np.round((uv * k - 0.5) * (1 << SHIFT)).astype(np.int32)
+
+    fixed = list(to_fixed(p[tri[inside]]))
+    for t in tri[~inside]:
+        clipped = _clip(p[t], planes)
+        if len(clipped) >= 3:
+            fixed.append(to_fixed(clipped))
+    # one triangle at a time: fillPoly given them all fills by parity, and overlapping triangles cancel
+    for t in fixed:
+        cv2.fillConvexPoly(out, t, 255, lineType=cv2.LINE_8, shift=SHIFT)
+    # OpenCV fills every pixel a triangle's edge touches: at k× and then by area, a pixel is in where its
+    # centre half is, as a ray cast through pixel centres has it
+    return cv2.resize(out, (w, h), interpolation=cv2.INTER_AREA) >= 128
+
+
+def _frustum(camera: PinholeCamera) -> np.ndarray:
+    """(5, 4) planes (normal, offset) in camera axes whose positive sides bound what is drawn: in front of
+    :data:`NEAR`, and within the frame widened by :data:`FRAME_MARGIN` of its size each way."""
+    f = camera.focal_px
+    cx, cy = camera.principal_point
+    mu, mv = FRAME_MARGIN * camera.width, FRAME_MARGIN * camera.height
+    lo_u, hi_u, lo_v, hi_v = -mu, camera.width + mu, -mv, camera.height + mv
+    return np.array([[0.0, 0.0, 1.0, -NEAR],
+                     [f, 0.0, cx - lo_u, 0.0], [-f, 0.0, hi_u - cx, 0.0],  # u ≥ lo_u, u ≤ hi_u
+                     [0.0, f, cy - lo_v, 0.0], [0.0, -f, hi_v - cy, 0.0]])
+
+
+def _clip(poly: np.ndarray, planes: np.ndarray) -> np.ndarray:
+    """The convex polygon ``poly`` (n, 3) cut to the positive side of every plane (Sutherland–Hodgman)."""
+    for plane in planes:
+        if len(poly) == 0:
+            break
+        d = poly @ plane[:3] + plane[3]
+        out = []
+        for i in range(len(poly)):
+            j = (i + 1) % len(poly)
+            if d[i] >= 0:
+                out.append(poly[i])
+            if (d[i] >= 0) != (d[j] >= 0):
+                out.append(poly[i] + (poly[j] - poly[i]) * (d[i] / (d[i] - d[j])))
+        poly = np.array(out).reshape(-1, 3)
+    return poly
+
+
+def mask_iou(a: np.ndarray, b: np.ndarray) -> float:
+    """Intersection over union of two (H, W) masks; 1 when both are empty."""
+    a, b = np.asarray(a, bool), np.asarray(b, bool)
+    union = int((a | b).sum())
+    return 1.0 if union == 0 else float((a & b).sum()) / union
+
+
+def silhouette_ious(vertex_sets, faces, camera: PinholeCamera, masks) -> list[float]:
+    """Per object, the IoU of its mesh's whole silhouette through ``camera`` with its mask (same size)."""
+    return [mask_iou(silhouette(v, f, camera), m) for v, f, m in zip(vertex_sets, faces, masks)]
+
+
+def visible_ious(vertex_sets, faces, camera: PinholeCamera, masks) -> list[float]:
+    """Per object, the IoU of the part of its mesh the others do not hide (a ray cast through ``camera``)
+    with what the photo shows of it (``masks``, its visible masks at the camera's size)."""
+    from .external import visible_silhouettes
+
+    seen = visible_silhouettes(list(vertex_sets), list(faces), camera)
+    return [mask_iou(s, m) for s, m in zip(seen, masks)]
+
+
+@dataclass
+class SceneScore:
+    """One lifted scene's mismatch with the photo; lower is better."""
+
+    total: float
+    terms: dict
+    ious: list[float] = field(default_factory=list)
+
+    def as_dict(self) -> dict:
+        return {"score": round(self.total, 4), **{k: round(v, 4) for k, v in self.terms.items()},
+                "silhouette_iou": [round(x, 4) for x in self.ious]}
+
+
+def score_scene(vertex_sets, faces, camera: PinholeCamera, masks, size_logs=(), thin=(),
+                supports_lost: float = 0.0) -> SceneScore:
+    """The score of one lifted scene (see the module): ``masks`` the outlines it was lifted from (H, W);
+    ``size_logs`` each object's log(size / its label's typical size) after the scene's scale (objects with no
+    typical size left out); ``thin`` each object's shortfall (0..1) of its thinnest side under a third of its
+    outline's smaller side; ``supports_lost`` the share of the photo's supports the lift dropped."""
+    ious = silhouette_ious(vertex_sets, faces, camera, masks)
+    terms = {"silhouette": 1.0 - float(np.mean(ious)) if ious else 0.0,
+             "size": float(np.mean(np.square(size_logs))) if len(size_logs) else 0.0,
+             "thin": float(np.mean(thin)) if len(thin) else 0.0,
+             "support": float(supports_lost)}
+    total = sum(WEIGHTS[k] * v for k, v in terms.items())
+    return SceneScore(total, terms, ious)
+
+
+@dataclass
+class PitchSearch:
+    pitch_deg: float
+    cue_pitch_deg: float
+    score: SceneScore
+    cue_score: SceneScore
+    tried: list[tuple[float, float]]  # (pitch°, score), in the order tried
+
+    def as_dict(self) -> dict:
+        return {"pitch_deg": round(self.pitch_deg, 3), "cue_pitch_deg": round(self.cue_pitch_deg, 3),
+                "chosen": "cues" if self.pitch_deg == self.cue_pitch_deg else "silhouettes",
+                "score": self.score.as_dict(), "cue_score": self.cue_score.as_dict(),
+                "tried": [[round(p, 2), round(s, 4)] for p, s in self.tried]}
+
+
+def search_pitch(evaluate, cue_pitch: float, lowest: float, highest: float,
+                 coarse_step: float = COARSE_STEP_DEG, fine_step: float = FINE_STEP_DEG,
+                 gain_fraction: float = MIN_GAIN_FRACTION) -> PitchSearch:
+    """The pitch (degrees) whose lifted scene scores best, from ``lowest`` to ``highest``.
+
+    ``evaluate(pitch) -> SceneScore | None`` lifts and scores the scene under that pitch (None: no scene
+    there). The cues' ``cue_pitch`` is scored first, then a coarse grid, then ``fine_step`` either side of
+    the best twice halving. The cues' pitch stays unless a pitch beats it by :data:`MIN_GAIN` plus
+    ``gain_fraction`` of its score; of the pitches that do and score within :data:`NEAR_BEST_FRACTION` (plus
+    :data:`NEAR_BEST_ABS`) of the best, the one nearest the cues' is taken."""
+    scores: dict[float, SceneScore | None] = {}
+
+    def at(p: float):
+        p = float(min(max(p, lowest), highest))
+        key = round(p, 3)
+        if key not in scores:
+            scores[key] = evaluate(p)
+        return scores[key]
+
+    cue = at(cue_pitch)
+    start = math.ceil(lowest / coarse_step) * coarse_step
+    for p in np.arange(start, highest + 1e-9, coarse_step):
+        at(p)
+    if highest - start < 1e-9 or highest - (start + coarse_step * int((highest - start) / coarse_step)) > 1.0:
+        at(highest)
+    step = fine_step
+    for _ in range(2):
+        best = min((k for k, s in scores.items() if s is not None), key=lambda k: scores[k].total, default=None)
+        if best is None:
+            break
+        at(best - step)
+        at(best + step)
+        step /= 2
+    valid = {k: s for k, s in scores.items() if s is not None}
+    tried = [(k, s.total) for k, s in valid.items()]
+    key_cue = round(float(min(max(cue_pitch, lowest), highest)), 3)
+    if cue is None:
+        if not valid:
+            raise ValueError("no pitch gave a scene")
+        best = min(valid, key=lambda k: valid[k].total)
+        return PitchSearch(best, key_cue, valid[best], valid[best], tried)
+    best = min(valid, key=lambda k: valid[k].total)
+    beats = cue.total - MIN_GAIN - gain_fraction * cue.total
+    # where the scores are flat near the best (seen from above, any outline matches), the pitch nearest the
+    # cues' among those about as good: the silhouettes move the cues' reading only as far as they need to
+    near = [k for k, v in valid.items()
+            if v.total <= min(beats, valid[best].total * (1.0 + NEAR_BEST_FRACTION) + NEAR_BEST_ABS)]
+    if near:
+        pick = min(near, key=lambda k: (abs(k - key_cue), valid[k].total))
+        return PitchSearch(pick, key_cue, valid[pick], cue, tried)
+    return PitchSearch(key_cue, key_cue, cue, cue, tried)

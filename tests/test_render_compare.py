@@ -1,0 +1,133 @@
+"""Render-and-compare (``align.compare``): the rasteriser draws a known mesh where a camera sees it, the IoU is the
+IoU, the pitch search keeps the cues' pitch unless another explains the scene clearly better, and on a
+synthetic scene (meshes of known size standing on the ground, masks drawn through a known camera, a photo with
+no lines to read a pitch from) the search finds the camera's pitch that the cues alone miss."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from physomni_usd.align import compare
+from physomni_usd.align.photo_scene import lift_photo_scene
+from physomni_usd.geometry.camera import PinholeCamera
+from physomni_usd.geometry.raycast import SilhouetteRenderer
+from physomni_usd.settings import BuildSettings
+
+
+def _hull_mask(points_uv: np.ndarray, width: int, height: int) -> np.ndarray:
+    """The convex hull of projected points, drawn by pixel centres (a convex mesh's silhouette)."""
+    import cv2
+
+    hull = cv2.convexHull(points_uv.astype(np.float32)).reshape(-1, 2)
+    v, u = np.mgrid[0:height, 0:width] + 0.5
+    inside = np.ones((height, width), bool)
+    for a, b in zip(hull, np.roll(hull, -1, axis=0)):  # every edge keeps the hull's side
+        cross = (b[0] - a[0]) * (v - a[1]) - (b[1] - a[1]) * (u - a[0])
+        side = np.sign((b[0] - a[0]) * (hull.mean(0)[1] - a[1]) - (b[1] - a[1]) * (hull.mean(0)[0] - a[0]))
+        inside &= cross * side >= 0
+    return inside
+
+
+@pytest.mark.parametrize("pitch", [15.0, 50.0, 85.0])
+def test_a_box_is_drawn_where_the_camera_sees_it(pitch):
+    cam = PinholeCamera(160, 120, 55.0, pitch, (0.0, 0.0, 0.5))
+    box = trimesh.creation.box((0.3, 0.2, 0.15))
+    box.apply_translation(cam.ground_points(70.0, 90.0) + [0, 0, 0.075])
+    drawn = compare.silhouette(box.vertices, box.faces, cam)
+    uv, _ = cam.project(box.vertices)
+    hull = _hull_mask(uv, 160, 120)
+    assert hull.sum() > 800
+    assert compare.mask_iou(drawn, hull) > 0.97
+    # as the ray caster the bench measures with sees it
+    cast = SilhouetteRenderer([box.vertices], [box.faces]).render(cam) == 0
+    assert compare.mask_iou(drawn, cast) > 0.97
+
+
+def test_what_is_behind_the_camera_is_not_drawn_and_a_half_visible_mesh_is_clipped():
+    cam = PinholeCamera(100, 80, 60.0, 30.0, (0.0, 0.0, 1.0))
+    behind = trimesh.creation.icosphere(2, radius=0.2)
+    behind.apply_translation(cam.origin - 1.0 * cam.world_from_camera[:, 2])
+    assert not compare.silhouette(behind.vertices, behind.faces, cam).any()
+    big = trimesh.creation.box((40.0, 40.0, 0.01))  # a floor far wider than the frame
+    floor = compare.silhouette(big.vertices, big.faces, cam)
+    assert floor[-1].all() and not floor[0].any()  # the floor fills the bottom rows, the sky the top
+    assert compare.silhouette(big.vertices, np.zeros((0, 3), int), cam).shape == (80, 100)
+
+
+def test_mask_iou():
+    a = np.zeros((10, 10), bool)
+    b = np.zeros((10, 10), bool)
+    a[:, :5] = True
+    b[:, 2:6] = True
+    assert compare.mask_iou(a, b) == pytest.approx(30 / 60)
+    assert compare.mask_iou(a, a) == 1.0
+    assert compare.mask_iou(a, ~a) == 0.0
+    assert compare.mask_iou(np.zeros((3, 3), bool), np.zeros((3, 3), bool)) == 1.0
+
+
+def _valley(truth: float, depth: float = 1.0):
+    """A score with its minimum at ``truth`` (and None above 80°: no scene there)."""
+    def evaluate(p):
+        if p > 80.0:
+            return None
+        return compare.SceneScore(0.05 + depth * min(abs(p - truth) / 30.0, 1.0), {"silhouette": 0.0})
+    return evaluate
+
+
+def test_the_search_replaces_a_cue_the_scene_contradicts_and_keeps_one_it_cannot_tell_from_others():
+    found = compare.search_pitch(_valley(47.0), cue_pitch=10.0, lowest=0.0, highest=89.5)
+    assert abs(found.pitch_deg - 47.0) <= 2.5
+    assert found.cue_pitch_deg == 10.0 and found.as_dict()["chosen"] == "silhouettes"
+    assert all(p <= 80.0 for p, _ in found.tried)  # pitches with no scene are not tried as scores
+    # a landscape too flat to tell: the cues' pitch stays
+    kept = compare.search_pitch(_valley(47.0, depth=0.01), cue_pitch=30.0, lowest=0.0, highest=89.5)
+    assert kept.pitch_deg == 30.0 and kept.as_dict()["chosen"] == "cues"
+    # a cue under the lowest pitch is read at the lowest
+    assert compare.search_pitch(_valley(20.0), cue_pitch=5.0, lowest=12.0, highest=89.5).cue_pitch_deg == 12.0
+
+
+def test_on_a_plateau_of_good_pitches_the_one_nearest_the_cues_is_taken():
+    def plateau(p):  # every pitch from 45° up explains the scene about as well (a view from above fits any outline)
+        return compare.SceneScore(0.10 - 0.01 * (p - 45.0) / 45.0 if p >= 45.0 else 0.8, {})
+    found = compare.search_pitch(plateau, cue_pitch=10.0, lowest=0.0, highest=89.5)
+    assert found.as_dict()["chosen"] == "silhouettes" and found.pitch_deg == pytest.approx(45.0)
+    # a strong cue asks for a far better scene: a third better is not enough
+    def third_better(p):
+        return compare.SceneScore(0.2 if p >= 30.0 else 0.3, {})
+    assert compare.search_pitch(third_better, 20.0, 0.0, 40.0, gain_fraction=0.7).pitch_deg == 20.0
+    assert compare.search_pitch(third_better, 20.0, 0.0, 40.0, gain_fraction=0.2).pitch_deg == 30.0
+
+
+def _synthetic(pitch: float, width: int = 240, height: int = 180):
+    """Two cans, a book lying flat and an apple, each its label's typical size, standing on the ground where
+    the camera ``pitch`` degrees down sees them; their masks drawn through it and a plain photo."""
+    cam = PinholeCamera(width, height, 50.0, pitch, (0.0, 0.0, 0.6))
+    at = lambda u, v: cam.ground_points(u * width, v * height)  # noqa: E731
+    can_a = trimesh.creation.cylinder(0.033, 0.12, sections=48)
+    can_a.apply_translation(at(0.3, 0.62) + [0, 0, 0.06])
+    can_b = trimesh.creation.cylinder(0.033, 0.12, sections=48)
+    can_b.apply_translation(at(0.72, 0.8) + [0, 0, 0.06])
+    book = trimesh.creation.box((0.24, 0.17, 0.03))
+    book.apply_translation(at(0.62, 0.45) + [0, 0, 0.015])
+    apple = trimesh.creation.icosphere(3, radius=0.04)
+    apple.apply_translation(at(0.22, 0.87) + [0, 0, 0.04])
+    meshes = [can_a, can_b, book, apple]
+    masks = [compare.silhouette(m.vertices, m.faces, cam) for m in meshes]
+    photo = np.clip(np.random.default_rng(1).normal(128, 3, (height, width, 3)), 0, 255).astype(np.uint8)
+    return masks, ["can", "can", "book", "apple"], photo
+
+
+@pytest.mark.parametrize("pitch", [30.0, 60.0])
+def test_the_search_recovers_the_pitch_of_a_synthetic_scene_the_cues_miss(pitch):
+    masks, labels, photo = _synthetic(pitch)
+    names = [f"o{i}" for i in range(len(masks))]
+    cues_only = lift_photo_scene(masks, labels, names, photo, BuildSettings(render_compare=False), {}, visible=masks)
+    searched = lift_photo_scene(masks, labels, names, photo, BuildSettings(), {}, visible=masks)
+    assert abs(cues_only.camera.pitch_deg - pitch) > 15.0  # nothing in a plain photo says the pitch
+    assert abs(searched.camera.pitch_deg - pitch) <= 7.5
+    info = searched.info["camera"]
+    assert info["render_compare"]["chosen"] == "silhouettes"
+    assert info["pitch_deg"] == pytest.approx(searched.camera.pitch_deg, abs=1e-3)
+    assert min(info["render_compare"]["score"]["silhouette_iou"]) > 0.8
