@@ -566,7 +566,7 @@ def run(photo, out_dir, masks, boxes, fov, pitch, camera_height, sizes, shape, f
     \b
     Example:
       physomni-usd run examples/motorcycle/photo.png -o out/ \\
-          --mask examples/motorcycle/motorcycle.png --push motorcycle=1.4,0,0
+          --mask examples/motorcycle/motorcycle.png --push motorcycle=0,2,0
     """
     with _errors():
         import physomni_usd
