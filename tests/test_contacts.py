@@ -100,3 +100,14 @@ def test_a_thin_object_lying_flat_bounces_off_a_flat_support_as_its_restitution_
     spoon, saucer = _throw_spoon(tmp_path, plate, "extrude", 0.9, seconds=0.5)
     v = np.hypot(3.0, np.sqrt(2 * 9.81 * 0.05))
     assert _first_rise(spoon, saucer + 0.0025 + SPOON[2] / 2) >= 0.5 * 0.9 ** 2 * v ** 2 / (2 * 9.81)
+
+
+def test_a_thin_object_lying_flat_does_not_bounce_off_a_flat_support_at_restitution_0(tmp_path):
+    """The same throw at restitution 0: the contact's position correction gives back no bounce (it rises
+    under 5 mm, where 0.9 sends it up 0.2 m or more)."""
+    plate = trimesh.creation.cylinder(radius=0.08, height=0.005, sections=24)
+    plate.apply_translation((0.0, 0.0, 0.0025))
+    spoon, saucer = _throw_spoon(tmp_path, plate, "extrude", 0.0, seconds=0.5)
+    rest = saucer + 0.0025 + SPOON[2] / 2  # the spoon's centre lying on the plate
+    assert abs(spoon[-1] - rest[-1]) < 0.003  # it ends lying on the plate, not through it
+    assert _first_rise(spoon, rest) < 0.005

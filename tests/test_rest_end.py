@@ -18,12 +18,15 @@ from physomni_usd.usd import layers
 
 def _slide(folder, rest_seconds):
     """A 10 cm box pushed along the ground at 1 m/s (friction 0.5 stops it in about 0.2 s), simulated for 3 s.
-    Returns the report's section and the box's x at every frame written."""
+    Returns the report's section (with ``said``: the lines simulate echoed), the box's x at every frame written
+    and the stage."""
     box = trimesh.creation.box((0.1, 0.1, 0.1))
     box.apply_translation((0.0, 0.0, 0.05))
     shot = write_bench_shot(folder, [BenchObject("box", box, "rigid", {"dynamic_friction": 0.5, "static_friction": 0.5},
                                                  velocity=(1.0, 0.0, 0.0))])
-    report = simulate_shot(shot, SimulateSettings(seconds=3.0, rest_seconds=rest_seconds))
+    said = []
+    report = simulate_shot(shot, SimulateSettings(seconds=3.0, rest_seconds=rest_seconds), echo=said.append)
+    report["said"] = said
     stage = layers.open_shot(shot)
     xf = UsdGeom.Xformable(stage.GetPrimAtPath("/World/Objects/box"))
     x = np.array([xf.ComputeLocalToWorldTransform(f).ExtractTranslation()[0] for f in range(report["frames"])])
@@ -41,11 +44,15 @@ def test_a_take_at_rest_ends_a_second_after_the_last_motion(tmp_path):
     assert x[-1] - x[0] > 0.05  # the slide is all in it
     still = round(REST_SECONDS * fps)
     assert np.ptp(x[-still - 1:]) < 1e-3 and np.ptp(x[-still - 3:]) > 0  # its last second, and only that, still
+    # and it says so, with the times it went by
+    line = f"everything at rest from {rest['still_from_s']:.2f} s; the take ends at {rest['ended_s']:.2f} s of the 3 s"
+    assert any(line in m for m in report["said"]), report["said"]
 
 
 def test_asked_seconds_are_simulated_to_the_end(tmp_path):
     report, x, _ = _slide(tmp_path / "all", None)
     assert report["ended_at_rest"] is None and report["frames"] == round(3.0 * report["fps"]) + 1
+    assert not any("at rest" in m for m in report["said"]), report["said"]
 
 
 def test_a_push_or_a_field_still_to_come_keeps_the_take_going():

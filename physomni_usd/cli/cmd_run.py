@@ -36,7 +36,7 @@ def run(quiet, **params):
     \b
     Example:
       physomni-usd run examples/motorcycle/photo.png -o out/ \\
-          --mask examples/motorcycle/motorcycle.png --push motorcycle=1.4,0,0
+          --mask examples/motorcycle/motorcycle.png --push motorcycle=0,2,0
     """
     with errors():
         import physomni_usd
