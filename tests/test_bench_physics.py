@@ -10,7 +10,7 @@ import numpy as np
 
 from physomni_usd.bench import deformable, markdown, rigid, selection
 from physomni_usd.bench.stability import run_matrix
-from physomni_usd.physics.stability import (CLOTH_FACTOR, MPM_STEPS, RIGID_SUBSTEPS, StepPlan, plan_steps,
+from physomni_usd.physics.stability import (CLOTH_FACTOR, MPM_STEPS, RIGID_SUBSTEPS, PlanInputs, StepPlan, plan_steps,
                                             scene_kinds)
 
 from .conftest import cli
@@ -128,7 +128,7 @@ def test_mpm_steps_follow_the_material_the_bench_measured():
     def plan(kinds, wave_speed=100.0, fps=30.0):
         mpm = SimpleNamespace(wave_speed=wave_speed, spacing=0.01,
                               objects=[SimpleNamespace(obj=SimpleNamespace(kind=k)) for k in kinds])
-        return plan_steps([], fps, 8, mpm=mpm)
+        return plan_steps(PlanInputs([], fps, 8, mpm=mpm))
 
     assert plan(["mpm_liquid"]).mpm_steps == MPM_STEPS["liquid"]
     assert plan(["mpm_sand"]).mpm_steps == MPM_STEPS["granular"]

@@ -7,6 +7,8 @@ against it too.
 
 from __future__ import annotations
 
+import pathlib
+
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -301,3 +303,22 @@ def test_every_kind_of_the_table_has_a_law(kind):
     f = field_from_values(kind, {"drag": {"linear": 0.5}}.get(kind, {}))
     a = FieldSet([f]).acceleration(START[None], V0[None], 0.0)
     assert np.isfinite(a).all() and np.abs(a).sum() > 0
+
+
+def test_every_reader_of_the_kinds_reads_the_table(tmp_path):
+    """The CLI's help, the VLM's prompt, the studio's presets and the schema list every kind of
+    ``fields.FIELD_KINDS`` (none keeps a list of its own that a new kind would miss)."""
+    from click.testing import CliRunner
+
+    from physomni_usd.cli import main
+    from physomni_usd.fields import FIELD_KINDS
+    from physomni_usd.materials.vlm import SYSTEM_PROMPT
+    from physomni_usd.studio.session import FORCE_PRESETS
+
+    helps = " ".join(CliRunner().invoke(main, [command, "--help"]).output.replace("\n", " ")
+                     for command in ("build", "run"))
+    schema = (pathlib.Path(__file__).parents[1] / "schemas" / "physomni" / "schema.usda").read_text()
+    asked = SYSTEM_PROMPT.split("of types ", 1)[1].split(";", 1)[0].split(", ")  # the VLM's choice of kinds
+    assert asked == [k.name for k in FIELD_KINDS if k.suggested]
+    for kind in FIELD_KINDS:
+        assert kind.name in helps and kind.name in FORCE_PRESETS and f'"{kind.name}"' in schema, kind.name

@@ -94,7 +94,7 @@ def back_edges() -> set[tuple[str, str]]:
 
 def test_every_module_has_a_layer():
     assert all(_rank(m) >= 0 for m in _modules())
-    assert "physics.forces" in _modules() and ("physics.simulate", "physics.stability") in imports()
+    assert "physics.forces" in _modules() and ("physics.prepare", "physics.stability") in imports()
 
 
 def test_each_package_has_one_rank():

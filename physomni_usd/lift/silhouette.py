@@ -262,55 +262,83 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
     the outline alone decides, as for an unknown label.
     """
     solid = fill_holes(mask)
-    mode = lift_mode(solid, camera, settings, flat)
+    seen = Silhouette(solid, lift_mode(solid, camera, settings, flat), camera, settings, height_hint, prior_shape,
+                      base_z, flat, photo)
     kind = body_kind(label) if label else None
-    lifted = _lift_as(kind, solid, mode, camera, settings, height_hint, prior_shape, base_z, flat, photo)
-    if lifted is None and kind is not None:
-        lifted = _lift_as(None, solid, mode, camera, settings, height_hint, prior_shape, base_z, flat, photo)
+    lifted = None
+    for body in dict.fromkeys((kind, None)):  # the label's body, then the outline alone
+        for lift in LIFTS[seen.mode]:
+            lifted = lift(seen, body)
+            if lifted is not None:
+                return lifted
     return lifted
 
 
-def _lift_as(kind, solid, mode, camera, settings, height_hint, prior_shape, base_z, flat, photo):
-    """:func:`lift_silhouette` for a body of ``kind`` (``sizes.body_kind``); None where that body cannot be
-    made."""
-    if mode == "footprint" and kind == "vessel":
-        from .footprint import fine_faces, outline
-        from .vessel import lift_vessel
+@dataclass
+class Silhouette:
+    """What a silhouette is lifted from: its hole-filled mask ``solid`` (H, W) bool, how it is seen (``mode``:
+    'footprint' or 'standing', :func:`lift_mode`), and :func:`lift_silhouette`'s camera and hints."""
+    solid: np.ndarray
+    mode: str
+    camera: PinholeCamera
+    settings: LiftSettings
+    height_hint: float | None
+    prior_shape: str | None
+    base_z: float
+    flat: bool
+    photo: np.ndarray | None
 
-        found = lift_vessel(solid, outline(solid), camera, base_z)
-        if found is not None:
-            mesh, info = found
-            verts, faces = fine_faces(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64), camera)
-            base = verts[verts[:, 2] <= base_z + 1e-9, :2]  # the contact: the base's point nearest the camera
-            contact = np.r_[base[np.argmin(np.linalg.norm(base - camera.origin[:2], axis=1))], base_z]
-            return LiftedMesh(verts, faces, "vessel", contact, foot_pixel(solid)[1],
-                              {"mode": "footprint", "shape": "vessel"} | info)
-    if mode == "footprint":
-        from .footprint import lift_footprint
 
-        found = lift_footprint(solid, camera, height_hint, prior_shape, base_z, photo=photo, flat_prior=flat,
-                               kind=kind)
-        if found is not None:
-            verts, faces, shape, contact, info = found
-            return LiftedMesh(verts, faces, shape, contact, foot_pixel(solid)[1], info)
-    rows = StandingRows.cast(solid, camera, settings, base_z, photo)
-    return SHAPES[standing_shape(solid, settings, kind, photo)](rows)
+def vessel_from_above(seen: Silhouette, kind: str | None) -> LiftedMesh | None:
+    """An open container seen from above (``vessel.py``): a hollow body with a rim; None where the label is no
+    vessel's or the outline shows no rim."""
+    if kind != "vessel":
+        return None
+    from .footprint import fine_faces, outline
+    from .vessel import lift_vessel
+
+    solid, camera, base_z = seen.solid, seen.camera, seen.base_z
+    found = lift_vessel(solid, outline(solid), camera, base_z)
+    if found is None:
+        return None
+    mesh, info = found
+    verts, faces = fine_faces(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64), camera)
+    base = verts[verts[:, 2] <= base_z + 1e-9, :2]  # the contact: the base's point nearest the camera
+    contact = np.r_[base[np.argmin(np.linalg.norm(base - camera.origin[:2], axis=1))], base_z]
+    return LiftedMesh(verts, faces, "vessel", contact, foot_pixel(solid)[1], {"mode": "footprint", "shape": "vessel"} | info)
+
+
+def footprint_from_above(seen: Silhouette, kind: str | None) -> LiftedMesh | None:
+    """The footprint extruded to its height (``footprint.py``); None where it cannot be."""
+    from .footprint import lift_footprint
+
+    found = lift_footprint(seen.solid, seen.camera, seen.height_hint, seen.prior_shape, seen.base_z,
+                           photo=seen.photo, flat_prior=seen.flat, kind=kind)
+    if found is None:
+        return None
+    verts, faces, shape, contact, info = found
+    return LiftedMesh(verts, faces, shape, contact, foot_pixel(seen.solid)[1], info)
+
+
+def standing(seen: Silhouette, kind: str | None) -> LiftedMesh | None:
+    """The silhouette standing on the ground, lifted as the shape :func:`standing_shape` picks from :data:`SHAPES`."""
+    rows = StandingRows.cast(seen.solid, seen.camera, seen.settings, seen.base_z, seen.photo)
+    return SHAPES[standing_shape(seen.solid, seen.settings, kind, seen.photo)](rows)
+
+
+#: How each mode of :func:`lift_mode` lifts a silhouette: lifters ``(Silhouette, body kind) → mesh or None``,
+#: tried in turn until one makes a mesh (seen from above, what cannot be a footprint stands).
+LIFTS = {"footprint": (vessel_from_above, footprint_from_above, standing), "standing": (standing,)}
 
 
 def standing_shape(solid: np.ndarray, settings: LiftSettings, kind: str | None, photo: np.ndarray | None) -> str:
     """The key in :data:`SHAPES` a standing silhouette is lifted as: ``--shape`` where given; else round where the
     outline is mirror-symmetric without a flat bottom, extruded otherwise, unless the label's body (``kind``)
-    says inflated or cuboid."""
+    turns that shape into its own (:data:`BODY_SHAPES`)."""
     if settings.shape != "auto":
         return settings.shape
     shape = "round" if mirror_iou(solid) >= settings.symmetry_iou and not flat_bottom(solid) else "extrude"
-    if kind == "organic" and shape == "extrude":
-        return "inflated"
-    if kind == "boxy" and photo is not None:
-        # a box seen corner-on from above is a mirror-symmetric hexagon with no flat bottom, which would
-        # make it round: a boxy label keeps square edges whatever its outline's symmetry
-        return "cuboid"
-    return shape
+    return BODY_SHAPES.get(kind, {}).get(shape, shape)
 
 
 @dataclass
@@ -459,10 +487,12 @@ def inflated_body(rows: StandingRows) -> LiftedMesh | None:
     return None
 
 
-def cuboid_body(rows: StandingRows) -> LiftedMesh:
+def cuboid_body(rows: StandingRows) -> LiftedMesh | None:
     """A box with square edges, its height from the front side's top edge in the photo; the slab of the
     outline where the top does not show."""
     r = rows
+    if r.photo is None:  # no photo to find the top's edge in: the outline decides
+        return None
     box = cuboid_from_faces(r.solid, r.camera, r.photo, r.left, r.right, r.z, r.contact, r.normal, r.tangent,
                             r.base_z)
     if box is None:
@@ -473,6 +503,10 @@ def cuboid_body(rows: StandingRows) -> LiftedMesh:
 #: How a standing silhouette becomes each shape: one function per shape, :class:`StandingRows` → mesh, or None
 #: where the photo says the object is not that body. :func:`standing_shape` picks the key.
 SHAPES = {"round": round_body, "extrude": extruded_body, "inflated": inflated_body, "cuboid": cuboid_body}
+#: The shape a label's body (``sizes.body_kind``) makes of a standing silhouette in place of the outline's:
+#: organic things bulge where the outline would be a slab (a round outline stays round); boxy things keep square
+#: edges whatever their outline (a box seen corner-on from above is a mirror-symmetric hexagon).
+BODY_SHAPES = {"organic": {"extrude": "inflated"}, "boxy": {"round": "cuboid", "extrude": "cuboid"}}
 
 
 #: The shares of an inflated body's height that may rest flat on the ground (:func:`flat_base`), tried in

@@ -27,6 +27,7 @@ from .mpm import bind_surface, build_mpm_scene
 from .objects import SimObject
 from .params import particle_friction
 from .pieces import add_decomposed, is_decomposed
+from .stability import SceneConfig
 from .stepping import FrameGraphs, Stepper, contact_pipeline, xpbd_solver
 from .support import add_hidden_support
 
@@ -36,9 +37,11 @@ MAX_HULL_VERTICES = 256
 
 
 class ShotModels:
-    """The Newton models of one shot and the stepper that advances them."""
+    """The Newton models of one shot and the stepper that advances them, built as Newton's own examples
+    build a scene: a model builder filled (rigid bodies, cloth and soft bodies, controls, force fields),
+    finalized into a model, its solvers made, and a stepper over its states."""
 
-    def __init__(self, stage: Usd.Stage, objects: list[SimObject], cfg: dict, settings: SimulateSettings):
+    def __init__(self, stage: Usd.Stage, objects: list[SimObject], cfg: SceneConfig, settings: SimulateSettings):
         self.stage = stage
         t0 = time.perf_counter()
         wp, newton = load_warp(), load_newton()
@@ -46,8 +49,37 @@ class ShotModels:
         self.cfg, self.objects = cfg, objects
         self.device = str(pick_device(settings.device))
         builder = newton.ModelBuilder(up_axis=newton.Axis.Z)
-        # the stage's rigid bodies come through Newton's USD import; objects whose material now says
-        # otherwise (switched by a layer over the build) are left to their own solver
+        self._add_rigid_bodies(builder)
+        self._add_deformables(builder)
+        pushes = self._add_controls(builder)
+        self._add_fields(builder)
+        with wp.ScopedDevice(self.device), warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            model = self.model = self._finalize(builder)
+            solver = self._add_solvers(model, settings)
+            self._add_stepper(model, solver, pushes)
+        self.notes = [str(w.message) for w in caught]
+        self.notes += [f"{path.rsplit('/', 1)[-1]} started inside what it touches: moved out by {d * 1000:.1f} mm, "
+                       "as a whole, before the first step" for path, d in self.lifted.items()]
+        masses = model.particle_mass.numpy() if model.particle_count else np.zeros(0)
+        cloth_idx = [np.arange(s, s + n) for p, (s, n) in self.ranges.items()]
+        self.cloth_masses = masses[np.concatenate(cloth_idx)] if cloth_idx else None
+        self.cloth_stiffness = max((float(model.spring_stiffness.numpy().max()) if model.spring_count else 0.0), 0.0)
+        self.t_model = time.perf_counter() - t0
+        self.t_built = time.perf_counter()
+        with wp.ScopedDevice(self.device):
+            self._start = self.stepper.checkpoint()
+        self._buffers = (self.stepper.state, self.stepper.state_next)
+        self._graphs = None
+        self.reused = False
+
+    def _add_rigid_bodies(self, builder) -> None:
+        """The stage's rigid bodies through Newton's USD import, hollow ones cut into convex pieces,
+        stand-ins for objects a layer switched to rigid, and hidden feet where needed (``path_body``:
+        object path → body index; ``supported``: the objects given feet)."""
+        stage, objects, newton, wp = self.stage, self.objects, self.newton, self.wp
+        # objects whose material now says otherwise (switched by a layer over the build) are left to
+        # their own solver
         not_rigid = [o.path for o in objects if o.family != "rigid" and o.is_body]
         # hollow bodies (a bowl) are cut into convex pieces here, not by Newton's importer (see pieces.py)
         hollow = [o for o in objects if o.family == "rigid" and o.is_body and is_decomposed(o.prim)]
@@ -64,12 +96,16 @@ class ShotModels:
                                                        and not o.is_body], newton, wp))
         # feet for objects whose visible geometry cannot stand where the photo shows them standing
         self.supported = add_hidden_support(builder, objects, self.path_body, _ground_height(stage), newton, wp)
+
+    def _add_deformables(self, builder) -> None:
+        """Cloths and soft bodies as particles of the builder, with what their surfaces follow."""
+        wp = self.wp
         self.ranges = {}  # cloth / soft body path → (first particle, count)
         self.cloth_sheets = {}  # cloth path → its cloth.ClothSheet (how its surface follows its particles)
         self.soft_bindings = {}  # soft body path → its surface's binding to the tetrahedra
         self.soft_rest = {}  # soft body path → its particles' rest positions (P, 3)
         self.soft_dt = None
-        for o in objects:
+        for o in self.objects:
             if o.family == "cloth":
                 start, count, self.cloth_sheets[o.path] = add_cloth(builder, o, wp)
                 self.ranges[o.path] = (start, count)
@@ -79,77 +115,81 @@ class ShotModels:
                 self.ranges[o.path] = (start, count)
                 self.soft_bindings[o.path] = bind_surface(o.points, rest)
                 self.soft_rest[o.path] = rest
-        fixed, pushes = read_controls(stage, self.path_body)
-        pushes += particle_pushes(stage, self.ranges)
+
+    def _add_controls(self, builder) -> list:
+        """Fixed bodies made kinematic; returns the pushes of bodies and particles (MPM's come later)."""
+        fixed, pushes = read_controls(self.stage, self.path_body)
+        pushes += particle_pushes(self.stage, self.ranges)
         for b in fixed:
             # a kinematic body with no velocity stays put and still collides with everything else
-            builder.body_flags[b] = int(newton.BodyFlags.KINEMATIC)
-            builder.body_qd[b] = wp.spatial_vector(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-        self.fields = FieldSet(read_force_fields(stage), self.device)
+            builder.body_flags[b] = int(self.newton.BodyFlags.KINEMATIC)
+            builder.body_qd[b] = self.wp.spatial_vector(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        return pushes
+
+    def _add_fields(self, builder) -> None:
+        """The stage's force fields, sampled over each body's mesh."""
+        self.fields = FieldSet(read_force_fields(self.stage), self.device)
         if self.fields:
             points = [np.zeros((1, 3))] * builder.body_count
             for path, b in self.path_body.items():
-                mesh = UsdGeom.Mesh(stage.GetPrimAtPath(path))
+                mesh = UsdGeom.Mesh(self.stage.GetPrimAtPath(path))
                 points[b] = np.asarray(mesh.GetPointsAttr().Get(), float) if mesh else np.zeros((1, 3))
             self.fields.set_body_samples(body_samples(points))
-        with wp.ScopedDevice(self.device), warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            model = builder.finalize(device=self.device)
-            # no particle–particle contact: a lofted surface has vertices closer than their radii (near
-            # its poles), and pushing those apart threw cloths up; cloth and soft bodies still collide
-            # with the ground and the rigid bodies
-            model.particle_max_radius = 0.0
-            model.particle_grid = None
-            if particle_friction(objects) is not None:
-                model.soft_contact_mu = particle_friction(objects)
-            air = AirDrag.of(objects, self.ranges, model.particle_count, self.device)
-            self.model = model
-            self.solvers = []
-            solver = None
-            if model.body_count or model.particle_count:
-                solver = xpbd_solver(model, cfg["iterations"])
-                relaxation = soft_relaxation(objects)
-                if relaxation is not None:
-                    solver.soft_body_relaxation = relaxation
-                self.solvers.append("xpbd")
-            mpm_objects = [o for o in objects if o.family == "mpm"]
-            self.mpm = build_mpm_scene(mpm_objects, model, self.device, settings.particle_spacing) \
-                if mpm_objects else None
-            self.mpm_objects = {m.obj.path: m for m in self.mpm.objects} if self.mpm else {}
-            if self.mpm:
-                self.solvers.append("implicit_mpm")
-                pushes += particle_pushes(stage, {o.obj.path: (o.start, o.count) for o in self.mpm.objects},
-                                          mpm=True)
-            pipeline, contacts = contact_pipeline(model) if solver else (None, None)
-            self.stepper = Stepper(model, solver, pipeline=pipeline, contacts=contacts, fields=self.fields,
-                                   mpm=self.mpm, pushes=pushes, air=air,
-                                   damping=ShapeDamping.of(objects, self.ranges, model.particle_count, self.device))
-            # start overlaps of cloth are held to the separation bound; a soft body is moved out whole
-            # (bounding its particles would clip its own elastic motion), or what lies on it is lifted
-            cloth = [np.arange(s, s + n) for o in objects if o.family == "cloth" for s, n in [self.ranges[o.path]]]
-            self.stepper.separating_particles = np.concatenate(cloth) if cloth else np.zeros(0, int)
-            soft = {o.path: self.ranges[o.path] for o in objects if o.family == "soft"}
-            bodies = {int(b): p for p, b in self.path_body.items()}
-            fixed_soft = {o.path for o in objects if o.family == "soft" and o.fixed}
-            self.lifted = lift_out(self.stepper, soft, bodies, fixed_soft) if pipeline and soft else {}
-            if pipeline:
-                # Newton builds the narrow phase's kernels per pipeline, so warp hashes its module again
-                # on the first search (~0.5 s here): pay it while setting up, not in the first frame
-                pipeline.collide(self.stepper.state, contacts)
-        self.notes = [str(w.message) for w in caught]
-        self.notes += [f"{path.rsplit('/', 1)[-1]} started inside what it touches: moved out by {d * 1000:.1f} mm, "
-                       "as a whole, before the first step" for path, d in self.lifted.items()]
-        masses = model.particle_mass.numpy() if model.particle_count else np.zeros(0)
-        cloth_idx = [np.arange(s, s + n) for p, (s, n) in self.ranges.items()]
-        self.cloth_masses = masses[np.concatenate(cloth_idx)] if cloth_idx else None
-        self.cloth_stiffness = max((float(model.spring_stiffness.numpy().max()) if model.spring_count else 0.0), 0.0)
-        self.t_model = time.perf_counter() - t0
-        self.t_built = time.perf_counter()
-        with wp.ScopedDevice(self.device):
-            self._start = self.stepper.checkpoint()
-        self._buffers = (self.stepper.state, self.stepper.state_next)
-        self._graphs = None
-        self.reused = False
+
+    def _finalize(self, builder):
+        """The builder's model on the device, its particle contacts set as the materials need."""
+        model = builder.finalize(device=self.device)
+        # no particle–particle contact: a lofted surface has vertices closer than their radii (near
+        # its poles), and pushing those apart threw cloths up; cloth and soft bodies still collide
+        # with the ground and the rigid bodies
+        model.particle_max_radius = 0.0
+        model.particle_grid = None
+        if particle_friction(self.objects) is not None:
+            model.soft_contact_mu = particle_friction(self.objects)
+        return model
+
+    def _add_solvers(self, model, settings: SimulateSettings):
+        """XPBD for the model's bodies and particles (returned; None where it has neither) and the MPM
+        scene for MPM objects (``mpm``); ``solvers`` names them."""
+        self.solvers = []
+        solver = None
+        if model.body_count or model.particle_count:
+            solver = xpbd_solver(model, self.cfg.iterations)
+            relaxation = soft_relaxation(self.objects)
+            if relaxation is not None:
+                solver.soft_body_relaxation = relaxation
+            self.solvers.append("xpbd")
+        mpm_objects = [o for o in self.objects if o.family == "mpm"]
+        self.mpm = build_mpm_scene(mpm_objects, model, self.device, settings.particle_spacing) \
+            if mpm_objects else None
+        self.mpm_objects = {m.obj.path: m for m in self.mpm.objects} if self.mpm else {}
+        if self.mpm:
+            self.solvers.append("implicit_mpm")
+        return solver
+
+    def _add_stepper(self, model, solver, pushes: list) -> None:
+        """The :class:`~.stepping.Stepper` over the model's states, its start overlaps bounded, and the
+        contacts searched once (``lifted``: soft bodies moved out of what they started inside, path → m)."""
+        objects, stage = self.objects, self.stage
+        air = AirDrag.of(objects, self.ranges, model.particle_count, self.device)
+        if self.mpm:
+            pushes += particle_pushes(stage, {o.obj.path: (o.start, o.count) for o in self.mpm.objects}, mpm=True)
+        pipeline, contacts = contact_pipeline(model) if solver else (None, None)
+        self.stepper = Stepper(model, solver, pipeline=pipeline, contacts=contacts, fields=self.fields,
+                               mpm=self.mpm, pushes=pushes, air=air,
+                               damping=ShapeDamping.of(objects, self.ranges, model.particle_count, self.device))
+        # start overlaps of cloth are held to the separation bound; a soft body is moved out whole
+        # (bounding its particles would clip its own elastic motion), or what lies on it is lifted
+        cloth = [np.arange(s, s + n) for o in objects if o.family == "cloth" for s, n in [self.ranges[o.path]]]
+        self.stepper.separating_particles = np.concatenate(cloth) if cloth else np.zeros(0, int)
+        soft = {o.path: self.ranges[o.path] for o in objects if o.family == "soft"}
+        bodies = {int(b): p for p, b in self.path_body.items()}
+        fixed_soft = {o.path for o in objects if o.family == "soft" and o.fixed}
+        self.lifted = lift_out(self.stepper, soft, bodies, fixed_soft) if pipeline and soft else {}
+        if pipeline:
+            # Newton builds the narrow phase's kernels per pipeline, so warp hashes its module again
+            # on the first search (~0.5 s here): pay it while setting up, not in the first frame
+            pipeline.collide(self.stepper.state, contacts)
 
     def frame_graphs(self, enabled: bool = True) -> FrameGraphs:
         """The stepper's captured frames, kept with the model: a run of the same schedule replays them."""
@@ -224,13 +264,13 @@ def _add_stand_ins(builder, objects: list[SimObject], newton, wp) -> dict:
 _LAST: dict = {}
 
 
-def shot_models(stage: Usd.Stage, objects: list[SimObject], cfg: dict, settings: SimulateSettings,
+def shot_models(stage: Usd.Stage, objects: list[SimObject], cfg: SceneConfig, settings: SimulateSettings,
                 digest: str | None = None) -> ShotModels:
     """The :class:`ShotModels` of ``stage``: the last one built, rewound, when the composed stage (every
     layer's content, ``digest`` where the caller has it: :func:`~..usd.layers.content_digest`) and the
     settings are the same and the model can be rewound exactly; else a new one."""
     digest = digest or layers.content_digest(stage)
-    key = (digest, tuple(sorted(cfg.items())), settings.device, settings.particle_spacing)
+    key = (digest, cfg, settings.device, settings.particle_spacing)
     models = _LAST.get(key)
     if models is not None and models.reusable:
         models.rewind()

@@ -4,6 +4,8 @@ finished run."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..metrics.geometry import WorldMeshes, max_penetration
@@ -16,6 +18,23 @@ from .mpm import SURFACE_TYPES, deform_surface, particle_gradients
 #: move": such prims get no time samples.
 STILL_METRES = 1e-3
 STILL_RADIANS = 2e-3
+
+
+@dataclass
+class Take:
+    """A run's recorded frames, what ``sim.usdc`` is written from: rigid bodies' poses ``body_q``
+    (F, B, 7: x, y, z, qx, qy, qz, qw), deformed surfaces ``surfaces`` (prim path → (F, N, 3) local
+    points), MPM particles ``mpm_points`` (F, P, 3, or None), the ``plan`` (``stability.StepPlan``) they
+    were stepped on, and the ``seconds`` they simulate."""
+    plan: object
+    body_q: np.ndarray
+    surfaces: dict
+    mpm_points: np.ndarray | None
+    seconds: float
+
+    @property
+    def frames(self) -> int:
+        return len(self.body_q)
 
 
 class Recorder:
@@ -91,6 +110,10 @@ class Recorder:
             self._reach_m = reach
         return self._reach_m
 
+    def take(self, plan, seconds: float) -> Take:
+        """The frames recorded, as a :class:`Take` of ``seconds`` stepped on ``plan``."""
+        return Take(plan, self.body_q, self.surfaces, self.mpm_points, seconds)
+
     def truncate(self, frames: int) -> None:
         """Keep the first ``frames`` frames (a run that ended early)."""
         self.body_q = self.body_q[:frames]
@@ -117,13 +140,12 @@ def moving_tracks(path_body: dict, body_q: np.ndarray, surfaces: dict) -> tuple[
     return tracks, point_tracks, moved
 
 
-def write_take(folder, models, cfg: dict, plan, body_q: np.ndarray, surfaces: dict, mpm_points, seconds: float,
-               metadata: dict | None = None) -> list[str]:
+def write_take(folder, models, take: Take, metadata: dict | None = None) -> list[str]:
     """Write ``folder/sim.usdc`` (time samples only for what moved, the previous layer replaced once the
-    new one is complete) and the shot's time range from recorded frames of ``models`` (a
-    :class:`~.assembly.ShotModels`) stepped on ``plan``: ``body_q`` (F, B, 7), ``surfaces`` path → (F, N, 3),
-    ``mpm_points`` (F, P, 3) or None; ``seconds`` simulated. Returns the moved prims' paths."""
-    frames = len(body_q)
+    new one is complete) and the shot's time range from ``take``, frames recorded from ``models`` (a
+    :class:`~.assembly.ShotModels`); ``metadata`` adds to the layer's. Returns the moved prims' paths."""
+    frames, plan, cfg = take.frames, take.plan, models.cfg
+    body_q, surfaces, mpm_points, seconds = take.body_q, take.surfaces, take.mpm_points, take.seconds
     tracks, point_tracks, moved = moving_tracks(models.path_body, body_q, surfaces)
     particles = {}
     if models.mpm:
@@ -131,15 +153,15 @@ def write_take(folder, models, cfg: dict, plan, body_q: np.ndarray, surfaces: di
             particles[o.obj.name] = {"points": mpm_points[:, o.start:o.start + o.count], "show": o.binding is None,
                                      "mesh": o.obj.path, "colour": o.colour, "width": models.mpm.spacing}
             moved.append(f"{PARTICLES}/{o.obj.name}")
-    meta = {"physomni:solver": cfg["solver"], "physomni:substeps": plan.substeps, "physomni:dt": plan.dt,
+    meta = {"physomni:solver": cfg.solver, "physomni:substeps": plan.substeps, "physomni:dt": plan.dt,
             "physomni:iterations": plan.iterations, "physomni:seconds": seconds,
             "physomni:solvers": ", ".join(models.solvers)}
     if plan.mpm_steps:
         meta |= {"physomni:mpmSteps": plan.mpm_steps, "physomni:mpmDt": plan.mpm_dt,
                  "physomni:particleSpacing": models.mpm.spacing}
-    write_sim_layer(folder / layers.SIM, fps=cfg["fps"], frames=frames, tracks=tracks,
+    write_sim_layer(folder / layers.SIM, fps=cfg.fps, frames=frames, tracks=tracks,
                     metadata=meta | (metadata or {}), point_tracks=point_tracks, particles=particles)
-    layers.set_shot_time(folder, cfg["fps"], frames)
+    layers.set_shot_time(folder, cfg.fps, frames)
     return moved
 
 

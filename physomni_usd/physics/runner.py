@@ -11,13 +11,14 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import PhysOmniError
 from .depenetration import Depenetration
 from .diagnose import FRAME_WALL_BUDGET_S, failure_line
-from .recording import Recorder
+from .recording import Recorder, Take
 from .stability import ENERGY_TOLERANCE, Guard, StepPlan
 from .stepping import FrameGraphs
 
@@ -205,13 +206,27 @@ class GuardedRun:
                 "rollbacks": self.rollbacks, "diagnoses": self.log, "depenetration": self.depenetration.as_dict()}
 
 
-def run_guarded(models, plan: StepPlan, frames: int, progress=None, echo=lambda m: None,
-                rest_seconds: float | None = None) -> dict:
-    """Step ``frames − 1`` frames of ``models`` (a :class:`~.assembly.ShotModels`) under the guard; with
-    ``rest_seconds``, end early once nothing has moved for that long and nothing is left to move it
-    (:func:`at_rest`), keeping that still stretch. Returns what the writer needs: the final plan, the
-    recorded frames (only those stepped), timings, the guard's log, and ``rest`` (None, or the time the
-    scene came to rest and the time the run ended, s)."""
+@dataclass
+class GuardedTake:
+    """What :func:`run_guarded` leaves: the ``take`` to write, ``rest`` (None, or the time the scene came
+    to rest and the time the run ended, s), the wall seconds spent stepping, the graph capture's counts,
+    the fastest speed met (m/s), Newton's warnings and the guard's report."""
+    take: Take
+    rest: dict | None
+    t_step: float
+    capture: dict
+    max_speed: float
+    notes: list
+    guard: dict
+
+
+def run_guarded(models, plan: StepPlan, seconds: float, progress=None, echo=lambda m: None,
+                rest_seconds: float | None = None) -> GuardedTake:
+    """Step ``seconds`` of ``models`` (a :class:`~.assembly.ShotModels`), one recorded frame per video frame
+    from t = 0, under the guard; with ``rest_seconds``, end early once nothing has moved for that long and
+    nothing is left to move it (:func:`at_rest`), keeping that still stretch (the take then simulates
+    until then). The take's plan is the last one stepped (a roll-back refines it)."""
+    frames = int(round(seconds * plan.fps)) + 1
     run = GuardedRun(models.stepper, plan, capture=CAPTURE, stage=models.stage, echo=echo,
                      graphs=models.frame_graphs(CAPTURE))
     rec = Recorder(models, frames)
@@ -238,12 +253,10 @@ def run_guarded(models, plan: StepPlan, frames: int, progress=None, echo=lambda 
     graphs = run.graphs
     if rest is not None:
         rec.truncate(run.frame + 1)
-    return {"plan": run.plan, "body_q": rec.body_q, "surfaces": rec.surfaces, "mpm_points": rec.mpm_points,
-            "rest": rest,
-            "t_step": t_step, "capture": {"enabled": graphs.enabled, "frames_replayed": graphs.captured_frames - replayed,
-                                          "graphs": graphs.captures - captures, "graphs_kept": len(graphs.graphs),
-                                          "error": graphs.error},
-            "max_speed": round(run.max_speed, 4), "notes": sorted(set(models.notes)), "guard": run.report()}
+    capture = {"enabled": graphs.enabled, "frames_replayed": graphs.captured_frames - replayed,
+               "graphs": graphs.captures - captures, "graphs_kept": len(graphs.graphs), "error": graphs.error}
+    take = rec.take(run.plan, seconds if rest is None else rest["ended_s"])
+    return GuardedTake(take, rest, t_step, capture, round(run.max_speed, 4), sorted(set(models.notes)), run.report())
 
 
 def at_rest(rec: Recorder, f: int, window: int, stepper, t: float) -> bool:

@@ -178,21 +178,50 @@ def mpm_family(kind: str) -> str:
     return "elastic"
 
 
-def plan_steps(objects, fps: float, base_substeps: int, *, base_iterations: int = DEFAULT_ITERATIONS, mpm=None,
-               cloth_masses=None, cloth_stiffness: float = 0.0, soft_dt: float | None = None,
-               acceleration: float = 0.0, field_kinds=(), particles: bool = False,
-               fixed_substeps: bool = False, mpm_steps: int | None = None) -> StepPlan:
-    """Substeps per frame from the scene (see the module's rules). ``base_substeps`` is the solver's
-    recommended count; ``fixed_substeps`` keeps it as given (the user asked for it), as ``mpm_steps``
-    does for MPM steps per frame. ``acceleration`` is the largest a force field gives (m/s²)."""
+@dataclass(frozen=True)
+class SceneConfig:
+    """The solver and rates a shot is stepped at: the command's where given, else its physics scene's
+    (``physics.prepare.scene_settings``)."""
+    solver: str  # physomni:solver
+    substeps: int  # the solver's recommended substeps per frame
+    iterations: int  # XPBD iterations
+    fps: float  # frames per second of the take
+
+
+@dataclass(frozen=True, eq=False)
+class PlanInputs:
+    """What a step plan is chosen from: the scene's objects, the rates asked for, and what the built
+    models say of the scene (``physics.prepare.plan_inputs`` reads them from a shot's models)."""
+    objects: list  # SimObject
+    fps: float
+    base_substeps: int  # the solver's recommended substeps per frame
+    base_iterations: int = DEFAULT_ITERATIONS
+    fixed_substeps: bool = False  # keep ``base_substeps`` as given (the user asked for it)
+    mpm_steps: int | None = None  # MPM steps per frame given by the user, None: chosen here
+    mpm: object = None  # the MPM scene (``mpm.MPMScene``), or None
+    cloth_masses: np.ndarray | None = None  # (P,) kg, the cloths' particle masses
+    cloth_stiffness: float = 0.0  # N/m, the stiffest cloth spring
+    soft_dt: float | None = None  # s, the largest step the soft bodies allow
+    acceleration: float = 0.0  # m/s², the largest a force field gives
+    field_kinds: tuple = ()  # the force fields' kinds
+    particles: bool = False  # whether the XPBD model steps particles (cloth, soft bodies)
+
+
+def plan_steps(inputs: PlanInputs) -> StepPlan:
+    """Substeps per frame from the scene (see the module's rules): at least ``inputs.base_substeps``,
+    exactly that with ``fixed_substeps``; MPM steps per frame as given, else from the CFL bound and
+    :data:`MPM_STEPS`."""
+    objects, fps, base_substeps = inputs.objects, inputs.fps, inputs.base_substeps
+    mpm, mpm_steps, acceleration = inputs.mpm, inputs.mpm_steps, inputs.acceleration
+    cloth_masses, cloth_stiffness, soft_dt = inputs.cloth_masses, inputs.cloth_stiffness, inputs.soft_dt
     frame = 1.0 / fps
     v = reachable_speed(objects)
-    kinds = scene_kinds(objects, field_kinds)
+    kinds = scene_kinds(objects, inputs.field_kinds)
     by_kind = max(round(RIGID_SUBSTEPS[k] * 30.0 / fps) for k in kinds)
     reasons = {"base": base_substeps, "scene": kinds, "by_scene": by_kind, "reachable_speed_m_s": round(v, 4)}
     need = max(base_substeps, by_kind)
     thinnest = None
-    iterations = base_iterations
+    iterations = inputs.base_iterations
     restitution = True
     moving = [o for o in objects if o.family == "rigid" and not o.fixed]
     colliders = [o for o in objects if o.family == "rigid"]
@@ -231,8 +260,8 @@ def plan_steps(objects, fps: float, base_substeps: int, *, base_iterations: int 
     if soft_dt:
         reasons["soft_body"] = {"dt": soft_dt, "substeps": math.ceil(frame / soft_dt)}
         need = max(need, math.ceil(frame / soft_dt))
-    substeps = base_substeps if fixed_substeps else min(need, MAX_SUBSTEPS)
-    collide_every = contact_reuse(substeps, particles)
+    substeps = base_substeps if inputs.fixed_substeps else min(need, MAX_SUBSTEPS)
+    collide_every = contact_reuse(substeps, inputs.particles)
     if mpm is None:
         mpm_steps = 0
     else:

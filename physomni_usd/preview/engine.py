@@ -1,5 +1,6 @@
-"""The preview's one door into the simulator: the shot's Newton models built exactly as ``simulate``
-builds them (``physics.assembly``: every material, every force field, the artist's layer), stepped a
+"""The preview's one door into the simulator: the shot prepared exactly as ``simulate`` prepares it
+(``physics.prepare``: the same checks, every material, every force field, the artist's layer, the same
+step plan), stepped a
 frame at a time by ``simulate``'s own guarded loop (``physics.runner.GuardedRun``: the same graphs, the
 same bound on start overlaps, the same guard), plus what only a live session has — a hand that pulls
 bodies toward the cursor, parameters changed while it runs, a take kept and written by ``simulate``'s
@@ -20,20 +21,13 @@ from functools import lru_cache
 import numpy as np
 
 from .._files import all_or_nothing, check_writable, folder_lock
-from ..errors import InputError
-from ..physics.assembly import ShotModels
-from ..physics.checks import check_inputs
-from ..physics.diagnose import refuse_broken_scene
 from ..fields import ForceField
 from ..physics.forces import FieldSet
-from ..physics.objects import scene_objects
-from ..physics.recording import Recorder, write_take
+from ..physics.prepare import prepare_simulation
+from ..physics.recording import Recorder, Take, write_take
 from ..physics.runner import GuardedRun
-from ..physics.simulate import scene_settings
-from ..physics.stability import plan_steps
-from ..settings import DEFAULT_SECONDS, SimulateSettings
+from ..settings import SimulateSettings
 from ..usd import layers
-from ..usd.author import OBJECTS
 
 #: The hand: a spring-damper toward the cursor, per unit mass so that light and heavy bodies follow
 #: alike — 2 Hz, damped at 0.7 of critical, its pull capped at 10 g (Newton's desktop picking caps it too).
@@ -123,24 +117,16 @@ class Engine:
         self.folder = layers.shot_folder(shot)
         stage = layers.open_shot(shot, mute_sim=True)
         self.settings = SimulateSettings(device=device)
-        self.cfg = scene_settings(stage, self.settings)
-        objects = scene_objects(stage)
-        if not objects:
-            raise InputError(f"{shot}: no objects to simulate under {OBJECTS}")
-        check_inputs(stage)
-        refuse_broken_scene(stage)
+        # its own models, not the last ones simulate built: the preview changes them as it runs
+        prep = prepare_simulation(stage, self.settings, name=str(shot), reuse=False)
+        self.cfg = prep.config
         self.stage = stage
-        self.scene_objects = objects
-        sim = ShotModels(stage, objects, self.cfg, self.settings)
-        self.sim = sim
+        self.scene_objects = prep.objects
+        sim = self.sim = prep.models
         self.stepper = sim.stepper
         self.wp = sim.wp
         self.device = sim.device
-        self.base_plan = plan_steps(
-            objects, self.cfg["fps"], self.cfg["substeps"], base_iterations=self.cfg["iterations"], mpm=sim.mpm,
-            acceleration=sim.field_acceleration(DEFAULT_SECONDS), cloth_masses=sim.cloth_masses,
-            field_kinds=[f.kind for f in sim.fields.fields], particles=bool(sim.model.particle_count),
-            cloth_stiffness=sim.cloth_stiffness, soft_dt=sim.soft_dt, mpm_steps=None)
+        self.base_plan = prep.plan
         self.hand = _Hand(sim.model, self.device)
         self.stepper.extra_forces.append(self.hand)
         # the preview's guard watches speed and finiteness only (the hand's work is not known), so the
@@ -151,7 +137,7 @@ class Engine:
         self._samples = sim.fields.samples.numpy() if sim.fields.samples is not None else None
         self.gravity = self._scene_gravity(stage)
         self.initial_gravity = self.gravity
-        self.objects = self._live_objects(objects)
+        self.objects = self._live_objects(prep.objects)
         m = sim.model
         self._mass0 = m.body_mass.numpy().copy() if m.body_count else None
         self._inertia0 = m.body_inertia.numpy().copy() if m.body_count else None
@@ -192,7 +178,7 @@ class Engine:
 
     @property
     def fps(self) -> float:
-        return float(self.cfg["fps"])
+        return float(self.cfg.fps)
 
     @property
     def body_paths(self) -> dict:
@@ -428,15 +414,14 @@ class Engine:
         """Write the take (frame 0 to now) to ``sim.usdc`` by ``simulate``'s writer: samples only for prims
         that moved, the previous layer replaced only once the new one is complete. The layer and the shot's
         frame range are written together or not at all, under the shot's lock, never through a link."""
-        sim, plan = self.sim, self.plan
+        plan = self.plan
         frames = len(self.take_body_q)
-        surfaces = {p: np.stack(v) for p, v in self.take_surfaces.items()}
-        mpm = np.stack(self.take_mpm) if self.take_mpm else None
         seconds = max(frames - 1, 0) / plan.fps
+        take = Take(plan, np.stack(self.take_body_q), {p: np.stack(v) for p, v in self.take_surfaces.items()},
+                    np.stack(self.take_mpm) if self.take_mpm else None, seconds)
         with all_or_nothing(), folder_lock(self.folder):
             self.check_writable()
-            moved = write_take(self.folder, sim, self.cfg, plan, np.stack(self.take_body_q), surfaces, mpm,
-                               seconds, metadata={"physomni:source": "preview"})
+            moved = write_take(self.folder, self.sim, take, metadata={"physomni:source": "preview"})
         return {"frames": frames, "seconds": seconds, "moving_prims": moved, "path": str(self.folder / layers.SIM)}
 
 

@@ -248,7 +248,7 @@ class Studio:
 
     def _start_preview(self, shot) -> None:
         from .._warp import compiled_seconds
-        from ..physics.simulate import kernels_first_use
+        from ..physics.prepare import kernels_first_use
         from ..preview.app import Options as PreviewOptions, Preview
 
         first_use = kernels_first_use()
