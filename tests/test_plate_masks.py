@@ -14,8 +14,9 @@ from pxr import Usd
 from physomni_usd.bench.plate import MAX_COLOUR_DIFF, RATIO_RANGE, gradient_ratio, measure
 from physomni_usd.metrics import ssim
 from physomni_usd.perceive.masks import _grabcut, mask_from_box, mask_quality
-from physomni_usd.perceive.plate import (SHADING_DEPTH, SHADING_SIGMA, SHADING_TRUST, _match_shading,
-                                        background_plate, feather_px, fill_hole, match_grain, plate_hole)
+from physomni_usd.texture.exemplar import SHADING_DEPTH, SHADING_SIGMA, SHADING_TRUST, _match_shading
+from physomni_usd.texture.fill import background_plate, feather_px, fill_hole, plate_hole
+from physomni_usd.texture.grain import match_grain
 from physomni_usd.rendering.video import ShotRenderer
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
@@ -268,7 +269,7 @@ def test_fill_methods_fill_only_the_hole(method):
     photo = rng.integers(0, 255, (64, 80, 3), dtype=np.uint8)
     hole = np.zeros((64, 80), bool)
     hole[20:40, 30:50] = True
-    from physomni_usd.perceive.plate import fill_hole
+    from physomni_usd.texture.fill import fill_hole
 
     out = fill_hole(photo, hole, method)
     assert np.array_equal(out[~hole], photo[~hole])
