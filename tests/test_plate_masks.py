@@ -14,7 +14,7 @@ from pxr import Usd
 from physomni_usd.bench.plate import MAX_COLOUR_DIFF, RATIO_RANGE, gradient_ratio, measure
 from physomni_usd.metrics import ssim
 from physomni_usd.perceive.masks import _grabcut, mask_from_box, mask_quality
-from physomni_usd.texture.exemplar import SHADING_DEPTH, SHADING_SIGMA, SHADING_TRUST, _match_shading
+from physomni_usd.texture.exemplar import SHADING_DEPTH, SHADING_SIGMA, SHADING_TRUST, match_shading
 from physomni_usd.texture.fill import background_plate, feather_px, fill_hole, plate_hole
 from physomni_usd.texture.grain import match_grain
 from physomni_usd.rendering.video import ShotRenderer
@@ -152,7 +152,7 @@ def test_a_darker_patch_copied_into_a_tall_hole_takes_the_sky_beside_it():
     hole[40:360, 120:180] = True
     filled = photo.copy()
     filled[hole] = np.clip(photo[hole].astype(np.int16) - 30, 0, 255).astype(np.uint8)
-    out = _match_shading(photo, filled, hole, max(3.0, SHADING_SIGMA * 60), SHADING_DEPTH * np.hypot(h, w),
+    out = match_shading(photo, filled, hole, max(3.0, SHADING_SIGMA * 60), SHADING_DEPTH * np.hypot(h, w),
                          SHADING_TRUST)
     middle = out[60:340, 140:160].astype(np.float32).mean(1)
     beside = np.concatenate([photo[60:340, 80:110], photo[60:340, 190:220]], 1).astype(np.float32).mean(1)

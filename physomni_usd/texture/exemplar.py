@@ -34,7 +34,7 @@ EXEMPLAR_CONTEXT = 0.6
 MAX_SHIFTS = 128
 #: Width of the low-pass by which the exemplar fill's shading is matched to its border, as a fraction
 #: of the hole's narrower side (at least 3 pixels), and the depth into the hole over which that match fades
-#: (1/e), as a fraction of the image diagonal (both corrections of :func:`_match_shading` are smoothed by it
+#: (1/e), as a fraction of the image diagonal (both corrections of :func:`match_shading` are smoothed by it
 #: over the hole). Patches copied from elsewhere bring their own brightness
 #: (a darker sky from above the rocket, a wall's colour onto the garage floor): at 0.012 the fill where the
 #: rocket stood was 35 levels off the sky around it and the motorcycle's 27 off the floor; at 0.1 the
@@ -45,7 +45,7 @@ MAX_SHIFTS = 128
 SHADING_SIGMA = 0.08
 SHADING_DEPTH = 0.1
 #: Low-pass (Gaussian sigma, pixels of the window's copy at most 160 pixels long) with which the step the fill
-#: makes against the photo is measured along the hole's border (:func:`_match_shading`). The match used to
+#: makes against the photo is measured along the hole's border (:func:`match_shading`). The match used to
 #: take the fill's low frequencies from a smooth fill of the border's colours, which across a horizon is
 #: a smear of the two surfaces: where the water example's block stood the fill was 12-29 levels lighter and
 #: bluer than the floor beside it in the 40 rows below the horizon, though the exemplar had copied the
@@ -54,7 +54,7 @@ SHADING_DEPTH = 0.1
 #: (the motorcycle's floor towards the camera) read as a step and darkened the fill (its colour 8.6 levels
 #: off its ring); at 3 pixels, 3.0.
 SHADING_STEP = 3.0
-#: How much of the border step :func:`_match_shading` carries across the hole without the fade
+#: How much of the border step :func:`match_shading` carries across the hole without the fade
 #: (:data:`SHADING_DEPTH`): the part beyond STEP_NOISE times the surface's own grain at the step's scale
 #: (the photo's low-pass by :data:`SHADING_STEP` less one GRAIN_STEP times wider, its median spread as a
 #: standard deviation over a ring around the hole; both low-passes over the known surface alone). Faded
@@ -106,6 +106,26 @@ def _exemplar_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float,
     at most ``budget`` pixels (and the window :data:`EXEMPLAR_PIXELS`), its shifts applied at full resolution;
     ``size`` (pixels, the hole's narrower side) sets the shading match's low-pass (:data:`SHADING_SIGMA`)."""
     h, w = hole.shape
+    out, offsets = shift_map(img, hole, budget)
+    ys, xs = np.nonzero(hole)
+    d = offsets[ys, xs]
+    qy, qx = ys + d[:, 0], xs + d[:, 1]
+    ok = (d[:, 0] != NO_SHIFT) & (qy >= 0) & (qy < h) & (qx >= 0) & (qx < w)
+    ok[ok] &= ~hole[qy[ok], qx[ok]]
+    out[ys[ok], xs[ok]] = img[qy[ok], qx[ok]]
+    if sources is not None:  # where each copied pixel came from, in the window (fill_exemplar moves it)
+        sources[ys[ok], xs[ok]] = np.stack([qy[ok], qx[ok]], 1)
+    out = match_shading(img, out, hole, max(3.0, SHADING_SIGMA * size), depth, SHADING_TRUST)
+    return match_grain(img, out, hole)
+
+
+def shift_map(img: np.ndarray, hole: np.ndarray, budget: float) -> tuple[np.ndarray, np.ndarray]:
+    """Shift-map of ``hole`` in the window ``img`` (h, w, 3) RGB, on a copy reduced until the hole has at most
+    ``budget`` pixels (and the window :data:`EXEMPLAR_PIXELS`): the window (h, w, 3) uint8 with the hole's pixels
+    the reduced result upsampled, and (h, w, 2) int64, for each pixel of the hole the offset (dy, dx) at full
+    resolution of the pixel its reduced pixel copied (:func:`recover_shifts`; :data:`NO_SHIFT` where none was
+    read back, where shift-map may also have left its pixel unfilled), 0 elsewhere."""
+    h, w = hole.shape
     f = max(1.0, float(np.sqrt(h * w / EXEMPLAR_PIXELS)), float(np.sqrt(hole.sum() / max(budget, 64.0))))
     for _ in range(4):
         sw, sh = max(8, round(w / f)), max(8, round(h / f))
@@ -131,15 +151,12 @@ def _exemplar_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float,
     sy = np.minimum((ys / fy).astype(int), sh - 1)
     sx = np.minimum((xs / fx).astype(int), sw - 1)
     d = shifts[sy, sx]
-    qy = ys + np.round(d[:, 0] * fy).astype(int)
-    qx = xs + np.round(d[:, 1] * fx).astype(int)
-    ok = (d[:, 0] != NO_SHIFT) & (qy >= 0) & (qy < h) & (qx >= 0) & (qx < w)
-    ok[ok] &= ~hole[qy[ok], qx[ok]]
-    out[ys[ok], xs[ok]] = img[qy[ok], qx[ok]]
-    if sources is not None:  # where each copied pixel came from, in the window (fill_exemplar moves it)
-        sources[ys[ok], xs[ok]] = np.stack([qy[ok], qx[ok]], 1)
-    out = _match_shading(img, out, hole, max(3.0, SHADING_SIGMA * size), depth, SHADING_TRUST)
-    return match_grain(img, out, hole)
+    offsets = np.zeros((h, w, 2), np.int64)
+    none = d[:, 0] == NO_SHIFT
+    offsets[ys, xs, 0] = np.where(none, NO_SHIFT, np.round(d[:, 0] * fy).astype(np.int64))
+    offsets[ys, xs, 1] = np.where(none, NO_SHIFT, np.round(d[:, 1] * fx).astype(np.int64))
+    return out, offsets
+
 
 def _reduced_hole(hole: np.ndarray, sw: int, sh: int) -> np.ndarray:
     """``hole`` at ``sw`` × ``sh``: a reduced pixel is unknown if any full-resolution pixel under it is, and
@@ -147,7 +164,7 @@ def _reduced_hole(hole: np.ndarray, sw: int, sh: int) -> np.ndarray:
     return dilate(cv2.resize(hole.astype(np.float32), (sw, sh), interpolation=cv2.INTER_AREA) > 0, 1)
 
 
-def _match_shading(img: np.ndarray, filled: np.ndarray, hole: np.ndarray, sigma: float, depth: float,
+def match_shading(img: np.ndarray, filled: np.ndarray, hole: np.ndarray, sigma: float, depth: float,
                    trust: float) -> np.ndarray:
     """``filled`` (h, w, 3) uint8 with the low frequencies of its ``hole`` pixels shifted so that patches
     copied from brighter or darker parts of the surface meet the hole's edge, and each other, without a seam.

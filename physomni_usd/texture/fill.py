@@ -1,8 +1,10 @@
 """The background plate: the photo with the objects (and their contact shadows) removed and the hole filled.
 
 Owns what the plate replaces (:func:`plate_hole`: the masks, widened, each object's contact shadow and a
-seam around all of it) and the choice of fill (:data:`METHODS`): by exemplar (``exemplar.py``: patches of
-the surface around the hole copied into it, so the fill keeps the surface's grain) or by OpenCV's Telea
+seam around all of it) and the choice of fill (:data:`METHODS`): the blend (``blend.py``, the default: the
+exemplar's copies laid softly where they meet, kept only where they look like the surface, a smooth fill
+elsewhere, and no colour the surroundings lack), the exemplar alone (``exemplar.py``: patches of the surface
+around the hole copied into it, so the fill keeps the surface's grain, with hard seams) or OpenCV's Telea
 diffusion (kept as ``method="telea"`` for comparison). Across the seam the fill fades into the photo;
 outside the hole the plate is the photo, pixel for pixel.
 """
@@ -12,6 +14,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from .blend import fill_blend
 from .exemplar import fill_exemplar
 from .pixels import INPAINT_RADIUS, blur, dilate, gradient, within
 
@@ -41,16 +44,17 @@ SHADOW_REACH = 0.25
 #: motorcycle's 1.06×, the desk's 0.94×).
 FEATHER = 0.010
 
-METHODS = ("exemplar", "telea")
+METHODS = ("exemplar", "telea", "blend")
 
-def background_plate(photo: np.ndarray, masks, dilation: float, method: str = "exemplar",
+def background_plate(photo: np.ndarray, masks, dilation: float, method: str = "blend",
                      shadows: bool = True, sources: np.ndarray | None = None) -> np.ndarray:
     """The photo with every object (and, with ``shadows``, its contact shadow) filled in, (H, W, 3) uint8.
 
     ``dilation`` widens each mask by that fraction of the image diagonal, so that soft edges go too.
     Outside the hole (:func:`plate_hole`) the plate is the photo, pixel for pixel. ``sources``: (H, W, 2)
-    int32, filled with -1 by the caller; the exemplar fill writes there, for each pixel of the hole it copied,
-    the (y, x) of the photo's pixel it copied from (:func:`~.carry.carry_plate` takes the fill's detail from there).
+    int32, filled with -1 by the caller; the exemplar fill (not the blend) writes there, for each pixel of the
+    hole it copied, the (y, x) of the photo's pixel it copied from (:func:`~.carry.carry_plate` takes the fill's
+    detail from there).
     """
     hole = plate_hole(photo, masks, dilation, shadows)
     return fill_hole(photo, hole, method, feather_px(photo.shape), sources)
@@ -61,7 +65,7 @@ def feather_px(shape) -> int:
     return max(4, int(round(FEATHER * np.hypot(shape[0], shape[1]))))
 
 
-def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = "exemplar", feather: int = 0,
+def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = "blend", feather: int = 0,
               sources: np.ndarray | None = None) -> np.ndarray:
     """``photo`` (H, W, 3) uint8 RGB with the pixels of ``hole`` (H, W) bool filled by ``method``; with
     ``feather`` > 0 the hole's outer ``feather`` pixels blend from the photo (at its edge) to the fill.
@@ -85,6 +89,8 @@ def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str, sources: np.nda
         return np.broadcast_to(photo.reshape(-1, 3).mean(0).astype(np.uint8), photo.shape).copy()
     if method == "telea":
         return fill_telea(photo, hole)
+    if method == "blend":
+        return fill_blend(photo, hole)
     return fill_exemplar(photo, hole, sources)
 
 
