@@ -1,6 +1,6 @@
 """The plate's fill against a known background: the blend fill holds to what surrounds the hole, leaves no
-unfilled (blue) pixel, and on a surface whose truth is known errs no more than Telea or the exemplar; the
-bench's measures (distance to the surroundings' colours, the colour cap) count what they say."""
+unfilled (blue) pixel, and on a surface whose truth is known errs less than Telea; the bench's measures
+(distance to the surroundings' colours, the colour cap) count what they say."""
 
 from __future__ import annotations
 
@@ -31,12 +31,12 @@ def _floor_and_photo():
     return photo, floor, box
 
 
-def test_the_blend_fill_errs_least_and_brings_no_colour_the_surroundings_lack():
+def test_the_blend_fill_errs_less_than_telea_and_brings_no_colour_the_surroundings_lack():
     photo, truth, box = _floor_and_photo()
     row = fill_rows(photo, truth, [box], 0.01)
     m = row["methods"]
-    # below Telea's smear (measured 21.1 against 37.9); on this axis-aligned checker the exemplar lines its copies
-    # up with the tiles (15.1), which the generated scenes' perspective does not allow (bench fill_truth)
+    # below Telea's smear (measured 19.2 against 37.9); on this axis-aligned checker the exemplar's copies line
+    # up with the tiles (15.1), half of which the blend gives up for the smooth fill (texture/blend.COPY_SHARE)
     assert m["blend"]["error"] <= m["telea"]["error"]
     assert m["blend"]["far"] == 0 and m["blend"]["far_max"] <= FAR_LEVELS
     plate = row["plates"]["blend"]
@@ -50,10 +50,10 @@ def test_no_pixel_is_left_unfilled_where_shift_map_gives_up():
     photo, _, _ = _floor_and_photo()
     hole = np.zeros(photo.shape[:2], bool)
     hole[20:170, 10:230] = True
-    plate = background_plate(photo, [hole], 0.0)
-    p = plate.astype(int)
-    blue = p[..., 2] - np.maximum(p[..., 0], p[..., 1]) > 60
-    assert not blue.any()
+    blue = lambda p: (p[..., 2].astype(int) - np.maximum(p[..., 0], p[..., 1]) > 60).sum()  # noqa: E731
+    assert blue(photo) == 0
+    assert blue(background_plate(photo, [hole], 0.0, method="exemplar")) > 500  # measured 2452: the case is real
+    assert blue(background_plate(photo, [hole], 0.0)) == 0
 
 
 def test_the_distance_to_the_surroundings_counts_a_foreign_colour():

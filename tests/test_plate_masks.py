@@ -80,16 +80,18 @@ def test_a_flat_or_a_busy_fill_takes_the_grain_of_the_surface_around_it():
 
 def test_the_fill_meets_the_surface_without_an_outline():
     """Where the desk's ball stood (a crop of the bundled photo): faded into the photo over its seam, the
-    fill shows no outline along the hole's edge; the same fill cut in hard does."""
+    fill shows no outline along the hole's edge; the exemplar fill cut in hard does, the blend's feathered not."""
     photo = cv2.cvtColor(cv2.imread(str(EXAMPLES / "desk" / "photo.jpg")), cv2.COLOR_BGR2RGB)[60:320, 260:520]
     ball = np.zeros(photo.shape[:2], np.uint8)
     cv2.circle(ball, (135, 126), 60, 1, -1)
     hole = plate_hole(photo, [ball > 0], 0.01)
-    soft = fill_hole(photo, hole, feather=feather_px(photo.shape))
-    hard = fill_hole(photo, hole)
+    soft = fill_hole(photo, hole, "exemplar", feather=feather_px(photo.shape))
+    hard = fill_hole(photo, hole, "exemplar")
     assert _border_ratio(hard, hole) > 1.4  # measured 1.68
     assert _border_ratio(soft, hole) < 1.3  # measured 1.13; bench look's target
     assert np.array_equal(soft[~hole], photo[~hole])
+    # the default (blend) fill meets it without one too (its hard cut measured 1.15: its copies meet softly)
+    assert _border_ratio(fill_hole(photo, hole, feather=feather_px(photo.shape)), hole) < 1.3
 
 
 def test_contact_shadow_is_removed_from_the_plate():

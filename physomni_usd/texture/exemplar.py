@@ -106,7 +106,7 @@ def _exemplar_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float,
     at most ``budget`` pixels (and the window :data:`EXEMPLAR_PIXELS`), its shifts applied at full resolution;
     ``size`` (pixels, the hole's narrower side) sets the shading match's low-pass (:data:`SHADING_SIGMA`)."""
     h, w = hole.shape
-    out, offsets = shift_map(img, hole, budget)
+    out, offsets, _ = shift_map(img, hole, budget)
     ys, xs = np.nonzero(hole)
     d = offsets[ys, xs]
     qy, qx = ys + d[:, 0], xs + d[:, 1]
@@ -119,12 +119,13 @@ def _exemplar_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float,
     return match_grain(img, out, hole)
 
 
-def shift_map(img: np.ndarray, hole: np.ndarray, budget: float) -> tuple[np.ndarray, np.ndarray]:
+def shift_map(img: np.ndarray, hole: np.ndarray, budget: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Shift-map of ``hole`` in the window ``img`` (h, w, 3) RGB, on a copy reduced until the hole has at most
     ``budget`` pixels (and the window :data:`EXEMPLAR_PIXELS`): the window (h, w, 3) uint8 with the hole's pixels
     the reduced result upsampled, and (h, w, 2) int64, for each pixel of the hole the offset (dy, dx) at full
     resolution of the pixel its reduced pixel copied (:func:`recover_shifts`; :data:`NO_SHIFT` where none was
-    read back, where shift-map may also have left its pixel unfilled), 0 elsewhere."""
+    read back), 0 elsewhere; and (h, w) bool, the pixels of the hole whose reduced pixel shift-map left unfilled
+    (zero in CIELAB: a pure blue in the window's result)."""
     h, w = hole.shape
     f = max(1.0, float(np.sqrt(h * w / EXEMPLAR_PIXELS)), float(np.sqrt(hole.sum() / max(budget, 64.0))))
     for _ in range(4):
@@ -155,7 +156,9 @@ def shift_map(img: np.ndarray, hole: np.ndarray, budget: float) -> tuple[np.ndar
     none = d[:, 0] == NO_SHIFT
     offsets[ys, xs, 0] = np.where(none, NO_SHIFT, np.round(d[:, 0] * fy).astype(np.int64))
     offsets[ys, xs, 1] = np.where(none, NO_SHIFT, np.round(d[:, 1] * fx).astype(np.int64))
-    return out, offsets
+    unfilled = np.zeros((h, w), bool)
+    unfilled[ys, xs] = ~np.any(dst[sy, sx], axis=-1) & small_hole[sy, sx]
+    return out, offsets, unfilled
 
 
 def _reduced_hole(hole: np.ndarray, sw: int, sh: int) -> np.ndarray:
