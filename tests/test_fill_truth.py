@@ -1,5 +1,5 @@
 """The plate's fill against a known background: the blend fill holds to what surrounds the hole, leaves no
-unfilled (blue) pixel, and on a surface whose truth is known errs less than Telea; the bench's measures
+unfilled (blue) pixel, and on a surface whose truth is known errs less than Telea and the exemplar; the bench's measures
 (distance to the surroundings' colours, the colour cap) count what they say."""
 
 from __future__ import annotations
@@ -31,13 +31,12 @@ def _floor_and_photo():
     return photo, floor, box
 
 
-def test_the_blend_fill_errs_less_than_telea_and_brings_no_colour_the_surroundings_lack():
+def test_the_blend_fill_errs_least_and_brings_no_colour_the_surroundings_lack():
     photo, truth, box = _floor_and_photo()
     row = fill_rows(photo, truth, [box], 0.01)
     m = row["methods"]
-    # below Telea's smear (measured 19.2 against 37.9); on this axis-aligned checker the exemplar's copies line
-    # up with the tiles (15.1), half of which the blend gives up for the smooth fill (texture/blend.COPY_SHARE)
-    assert m["blend"]["error"] <= m["telea"]["error"]
+    # measured 12.5 against Telea's 37.9 and the exemplar's 15.1 (whose copies of the bottle the blend leaves out)
+    assert m["blend"]["error"] <= min(m["telea"]["error"], m["exemplar"]["error"])
     assert m["blend"]["far"] == 0 and m["blend"]["far_max"] <= FAR_LEVELS
     plate = row["plates"]["blend"]
     hole = plate_hole(photo, [box], 0.01)

@@ -32,9 +32,12 @@ from .pixels import blur, within
 #: Width over which copies that meet are averaged, as a fraction of the hole's narrower side (at least 1.5 px).
 SEAM_SIGMA = 0.03
 #: Low-pass (Gaussian sigma, pixels) of the copies' and the smooth fill's colours when they are compared, and
-#: the colour difference (RGB distance, levels) at which a copy's weight has fallen to 1/e.
+#: the colour difference (RGB distance, levels) at which a copy's weight has fallen to 1/e. At 30 the smooth
+#: fill took too much of the motorcycle's revealed floor from the dark shadow beside it (its colour 9.0 levels
+#: off the floor around it, where bench look allows 8; 4.0 at 60, and the exemplar's 3.8); without the test at
+#: all, copies of the bottle beside the hole in tests/test_fill_truth.py came back (57 yellow pixels; 3 at 60).
 LIKENESS_SIGMA = 3.0
-LIKENESS = 30.0
+LIKENESS = 60.0
 #: ... growing with the depth into the hole: by LIKENESS more for each LIKENESS_DEPTH of the window's diagonal.
 LIKENESS_DEPTH = 0.05
 #: A copy's colour must be common around the hole: its share of the surroundings (the known pixels within
@@ -44,10 +47,11 @@ LIKENESS_DEPTH = 0.05
 TYPICAL = 0.2
 TYPICAL_REACH = 0.25
 COLOUR_BIN = 16
-#: How much of the fill is the copies, the rest being the smooth fill: where a copy guesses wrong (tiles in
-#: perspective, which no shift continues), half of its error is left (bench fill_truth, 4 scenes of seed 1: mean
-#: error 16.7 levels against 18.3 with the copies alone; Telea 16.9); the grain matching restores the detail.
-COPY_SHARE = 0.5
+#: How much of the fill is the copies, the rest being the smooth fill. Less would err less against the truth where
+#: no copy continues the surface (bench fill_truth, 4 scenes of seed 1, with LIKENESS 30: mean error 16.7 levels
+#: at 0.5, 18.3 at 1; Telea 16.9) but loses the grain: at 0.5 the desk cap's revealed strip was 8.8 levels off the
+#: wood around it (bench look allows 8) and the ball's grain 0.63 of the wood's; at 0.75, 7.85 and 0.75.
+COPY_SHARE = 1.0
 #: Weight of the smooth fill beside the copies: it shows only where no likely copy reaches.
 SMOOTH_WEIGHT = 0.02
 #: Most distance (RGB, levels) a filled pixel may lie from every colour of its surroundings (the known pixels
