@@ -35,7 +35,7 @@ def test_the_blend_fill_errs_least_and_brings_no_colour_the_surroundings_lack():
     photo, truth, box = _floor_and_photo()
     row = fill_rows(photo, truth, [box], 0.01)
     m = row["methods"]
-    # measured 12.5 against Telea's 37.9 and the exemplar's 15.1 (whose copies of the bottle the blend leaves out)
+    # measured 14.1 against Telea's 37.9 and the exemplar's 15.1 (whose copies of the bottle the blend leaves out)
     assert m["blend"]["error"] <= min(m["telea"]["error"], m["exemplar"]["error"])
     assert m["blend"]["far"] == 0 and m["blend"]["far_max"] <= FAR_LEVELS
     plate = row["plates"]["blend"]
