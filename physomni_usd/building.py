@@ -23,7 +23,7 @@ from .align.camera_search import search_camera
 from .align.cues import DEFAULT_FOV_DEG
 from .align.external import place_external, posed_entries
 from .align.photo_scene import place_on_ground
-from .align.place import centring_offset, occlusion_kept
+from .align.place import centring_offset
 from .align.scale import parse_sizes
 from .align.solve import solve_places
 from .align.support import start_contacts
@@ -34,14 +34,15 @@ from .fields import parse_force_options
 from .geometry.depth import ground_pitch
 from .materials.defaults import GROUND_MATERIAL
 from .materials.report import material_report
-from .perceive.amodal import complete, complete_texture
+from .perceive.amodal import complete
 from .perceive.masks import check_labels, check_photo_size, contact_sheet, read_photo
-from .perceive.plate import carry_plate, object_texture
 from .perceive.working import working
-from .lift.sides import corner_st, two_sided_texture
 from .physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
 from .report import REPORT, Timer, read_report, set_aside_damaged, update_report
 from .settings import BuildSettings
+from .texture.carry import carry_plate
+from .texture.hidden import believed, occlusion_kept, painted_part
+from .texture.objects import at_photo_size, texture_object
 from .usd import layers
 from .usd.author import (
     PhysicsObject,
@@ -57,14 +58,6 @@ INPUTS = "inputs"
 WIDE_PLATE = "plate_wide.png"
 #: The contact sheet of the masks over the photo, in the shot folder.
 MASKS_SHEET = "masks.png"
-#: Texture alpha of what the complete stage painted behind an object's occluders: opaque to every
-#: renderer's cut-out, yet not 255, the alpha of the pixels the photo shows of the object.
-COMPLETED_ALPHA = 254
-#: An occluder the placed meshes put in front of the object at fewer than this fraction of the pixels where the
-#: photo shows it hiding it (:func:`~physomni_usd.align.place.occlusion_kept`) hides nothing of it: nothing is
-#: painted behind it (a big concave object's closure takes in the bench behind it; painted, that is a grey slab
-#: once it moves).
-OCCLUSION_BELIEVED = 0.5
 #: Solver defaults written to the physics layer (the physics benchmark revisits them).
 DEFAULT_SOLVER = "xpbd"
 
@@ -308,23 +301,23 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
     for o, m in zip(scene.objects, full_masks):
         o.full_mask = m
 
-    echo("perceive: filling the background plate behind the objects")
-    with timer.step("perceive.plate"):
-        _plate(scene)
-    echo("perceive: widening the plate beyond the photo's frame (for camera moves)")
-    with timer.step("perceive.outpaint"):
-        _outpaint(scene)
     with timer.step("perceive.complete"):
         _complete(scene)
-    with timer.step("perceive.lift"):
+    with timer.step("lift"):  # the built-in lifter also measures the ground and the camera (align.photo_scene)
         _lift(scene, lifter, user_sizes, out)
+    echo("texture: filling the background plate behind the objects")
+    with timer.step("texture.plate"):
+        _plate(scene)
+    echo("texture: widening the plate beyond the photo's frame (for camera moves)")
+    with timer.step("texture.outpaint"):
+        _outpaint(scene)
     with timer.step("align.place"):
         _place(scene)
     for warning in ((scene.align_info.get("camera") or {}).get("warnings", [])
                     + (scene.align_info.get("scale") or {}).get("warnings", [])
                     + scene.align_info.get("silhouette_warnings", [])):
         echo(f"warning: {warning}")
-    with timer.step("perceive.texture"):
+    with timer.step("texture.objects"):
         _texture(scene, out)
     with timer.step("estimate"):
         _estimate(scene, push, fixed_names)
@@ -372,7 +365,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
 
 def _plate(scene: Scene) -> None:
     """The background plate behind the objects; for a photo above the working resolution, filled on its working
-    copy and carried to the photo's size (``perceive.plate.carry_plate``)."""
+    copy and carried to the photo's size (``texture.carry.carry_plate``)."""
     if scene.work is None:
         scene.plate = backend_steps.make_plate(scene.photo, scene.masks, scene.settings.plate_dilation,
                                                scene.backends["inpainter"])
@@ -528,28 +521,15 @@ def _kept(scene: Scene, o, k: int) -> float | None:
 
 def _painted(scene: Scene, o) -> np.ndarray:
     """(H, W) bool at the photo's size: the part of ``o``'s completed outline that is painted in its texture,
-    behind the occluders the placed meshes agree are in front of it (:data:`OCCLUSION_BELIEVED`)."""
+    behind the occluders the placed meshes agree are in front of it (``texture.hidden.believed``)."""
     visible, amodal = _photo_size(scene, o)
-    hidden = amodal & ~visible
-    for k in o.occluders:
-        kept = _kept(scene, o, k)
-        if kept is not None and kept < OCCLUSION_BELIEVED:
-            hidden &= ~_photo_size(scene, scene.objects[k])[0]
-    return hidden
+    return painted_part(visible, amodal, [_photo_size(scene, scene.objects[k])[0] for k in o.occluders
+                                          if not believed(_kept(scene, o, k))])
 
 
 def _photo_size(scene: Scene, o) -> tuple[np.ndarray, np.ndarray]:
-    """(H, W) bool at the photo's size: ``o``'s mask (a mask file's own, else the working one smoothed up) and
-    its outline completed behind its occluders (that mask, and the working completion where it is hidden)."""
-    if scene.work is None:
-        return o.mask.mask, o.amodal
-    visible = o.full_mask if o.full_mask is not None else scene.work.up_mask(o.mask.mask)
-    hidden = o.amodal & ~o.mask.mask
-    if not hidden.any():
-        return visible, visible
-    # a working pixel wider than the hidden part, so that it meets the visible edge with no gap between them
-    hidden = cv2.dilate(hidden.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool) & o.amodal
-    return visible, visible | scene.work.up_mask(hidden)
+    """``o``'s mask and completed outline at the photo's size (``texture.objects.at_photo_size``)."""
+    return at_photo_size(scene.work, o.mask.mask, o.amodal, o.full_mask)
 
 
 def _texture(scene: Scene, out: pathlib.Path) -> None:
@@ -563,18 +543,11 @@ def _texture(scene: Scene, out: pathlib.Path) -> None:
     for so in scene.objects:
         o, v, f = so.mask, so.vertices, so.faces
         visible, amodal = _photo_size(scene, so)
-        # where others hide it, the object is painted from its own visible surface (perceive/amodal.py)
-        rgba, (x0, y0) = _object_texture(scene, photo, visible, amodal)
-        # drawn like the rest, but not the photo's pixels of it: renderers show the photo only at 255
+        # where others hide it, the object is painted from its own visible surface (texture/hidden.py)
         painted = _painted(scene, so)
-        crop = (slice(y0, y0 + rgba.shape[0]), slice(x0, x0 + rgba.shape[1]))
-        rgba[..., 3][(amodal & ~visible & ~painted)[crop]] = 0  # behind what the meshes put behind it
-        rgba[..., 3][painted[crop]] = COMPLETED_ALPHA
-        # texture coordinates: the photo projected from the camera onto the object where it was seen, and
-        # a planar map for the sides it saw edge-on (lift/sides.py)
-        st = corner_st(so.projected, np.asarray(f), camera, (rgba.shape[1], rgba.shape[0]), (x0, y0),
-                       mask=rgba[..., 3] > 0, open_back=so.shape == "extrude")
-        rgba = two_sided_texture(rgba, 1.0 if scene.work is None else scene.work.fx)
+        tex = texture_object(photo, camera, visible, amodal, painted, so.projected, f,
+                             open_back=so.shape == "extrude", work=scene.work)
+        rgba, st, (x0, y0) = tex.rgba, tex.st, tex.origin
         tm = trimesh.Trimesh(v, f, process=False)
         origin = tm.center_mass if tm.is_volume else v.mean(0)
         rel = f"{TEXTURES}/{o.name}.png"
@@ -604,21 +577,6 @@ def _texture(scene: Scene, out: pathlib.Path) -> None:
         mask = _photo_size(scene, o)[0][..., None] * np.uint8(255)
         # a large photo's mask in one channel (a third of the encoding); readers take either
         _write_png(out / INPUTS / "masks" / f"{o.name}.png", np.repeat(mask, 3, 2) if scene.work is None else mask)
-
-
-def _object_texture(scene: Scene, photo: np.ndarray, visible: np.ndarray, amodal: np.ndarray):
-    """``perceive.plate.object_texture`` of the object completed behind its occluders (``complete_texture``),
-    and its (x0, y0) in the photo; above the working resolution, worked on the object's part of the photo only
-    (the padding object_texture keeps, 8 pixels, and the completion's softening reach, kept the photo's)."""
-    if scene.work is None:
-        return object_texture(complete_texture(photo, visible, amodal), amodal)
-    ys, xs = np.nonzero(amodal)
-    h, w = amodal.shape
-    x0, x1, y0, y1 = max(0, xs.min() - 8), min(w, xs.max() + 9), max(0, ys.min() - 8), min(h, ys.max() + 9)
-    part = (slice(y0, y1), slice(x0, x1))
-    radius = max(1, int(round(0.02 * max(h, w))))
-    rgba, (cx, cy) = object_texture(complete_texture(photo[part], visible[part], amodal[part], radius), amodal[part])
-    return rgba, (int(x0 + cx), int(y0 + cy))
 
 
 def _estimate(scene: Scene, push: dict, fixed_names: set[str]) -> None:

@@ -6,7 +6,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from physomni_usd.perceive.amodal import complete, complete_texture, occlusion_order
+from physomni_usd.perceive.amodal import complete, occlusion_order
+from physomni_usd.texture.hidden import complete_texture
 
 H, W = 160, 220
 

@@ -1,7 +1,7 @@
 """Imports flow one way: cli → apps (bench, batch, preview) → the public API → commands (build, validate,
 rerender, the built-in backends) → stages in pipeline order (render may use physics, physics materials, …,
-align lift, lift perceive) → shared primitives (settings, the plugin interface) → usd/ → the base (errors,
-file writing, warp loading). Each package sits on one layer: its modules share its rank.
+align texture, texture lift, lift perceive) → shared primitives (settings, the plugin interface) → usd/ → the
+base (errors, file writing, warp loading). Each package sits on one layer: its modules share its rank.
 
 Every module of the package is read with ``ast`` (imports inside functions count too) and each import of a
 module ranked above the importer is listed. ``KNOWN_BACK_EDGES`` holds the ones not yet re-layered; the test
@@ -26,6 +26,7 @@ RANKS = {
     "swappable": 2,
     "perceive": 3,
     "lift": 4,
+    "texture": 4.5,  # the plate and the textures: after lift, before (and after) align in the build's order
     "align": 5,
     "materials": 6,
     "physics": 7,

@@ -255,7 +255,7 @@ def _ncc(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def test_exemplar_margins_continue_each_surface_and_mirror_nothing():
-    from physomni_usd.perceive.plate import exemplar_outpaint, mirror_outpaint
+    from physomni_usd.texture.outpaint import exemplar_outpaint, mirror_outpaint
 
     plate = _two_surfaces()
     m = (60, 60, 80, 80)
@@ -309,7 +309,7 @@ def test_the_default_build_widens_the_world_without_a_mirrored_copy_of_the_photo
     """The wide plate ``build`` writes with its default outpainter: no margin is the photo reflected (the
     same check finds the mirror outpainter's reflection in it)."""
     from physomni_usd.metrics import mirror_similarity
-    from physomni_usd.perceive.plate import mirror_outpaint
+    from physomni_usd.texture.outpaint import mirror_outpaint
     from physomni_usd.rendering.stage import read_wide_plate
     from physomni_usd.usd import layers
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from physomni_usd.align.place import occlusion_kept
+from physomni_usd.texture.hidden import occlusion_kept
 from physomni_usd.geometry.camera import PinholeCamera
 
 

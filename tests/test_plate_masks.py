@@ -14,8 +14,9 @@ from pxr import Usd
 from physomni_usd.bench.plate import MAX_COLOUR_DIFF, RATIO_RANGE, gradient_ratio, measure
 from physomni_usd.metrics import ssim
 from physomni_usd.perceive.masks import _grabcut, mask_from_box, mask_quality
-from physomni_usd.perceive.plate import (SHADING_DEPTH, SHADING_SIGMA, SHADING_TRUST, _match_shading,
-                                        background_plate, feather_px, fill_hole, match_grain, plate_hole)
+from physomni_usd.texture.exemplar import SHADING_DEPTH, SHADING_SIGMA, SHADING_TRUST, match_shading
+from physomni_usd.texture.fill import background_plate, feather_px, fill_hole, plate_hole
+from physomni_usd.texture.grain import match_grain
 from physomni_usd.rendering.video import ShotRenderer
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
@@ -79,16 +80,18 @@ def test_a_flat_or_a_busy_fill_takes_the_grain_of_the_surface_around_it():
 
 def test_the_fill_meets_the_surface_without_an_outline():
     """Where the desk's ball stood (a crop of the bundled photo): faded into the photo over its seam, the
-    fill shows no outline along the hole's edge; the same fill cut in hard does."""
+    fill shows no outline along the hole's edge; the exemplar fill cut in hard does, the blend's feathered not."""
     photo = cv2.cvtColor(cv2.imread(str(EXAMPLES / "desk" / "photo.jpg")), cv2.COLOR_BGR2RGB)[60:320, 260:520]
     ball = np.zeros(photo.shape[:2], np.uint8)
     cv2.circle(ball, (135, 126), 60, 1, -1)
     hole = plate_hole(photo, [ball > 0], 0.01)
-    soft = fill_hole(photo, hole, feather=feather_px(photo.shape))
-    hard = fill_hole(photo, hole)
+    soft = fill_hole(photo, hole, "exemplar", feather=feather_px(photo.shape))
+    hard = fill_hole(photo, hole, "exemplar")
     assert _border_ratio(hard, hole) > 1.4  # measured 1.68
     assert _border_ratio(soft, hole) < 1.3  # measured 1.13; bench look's target
     assert np.array_equal(soft[~hole], photo[~hole])
+    # the default (blend) fill meets it without one too (its hard cut measured 1.15: its copies meet softly)
+    assert _border_ratio(fill_hole(photo, hole, feather=feather_px(photo.shape)), hole) < 1.3
 
 
 def test_contact_shadow_is_removed_from_the_plate():
@@ -151,7 +154,7 @@ def test_a_darker_patch_copied_into_a_tall_hole_takes_the_sky_beside_it():
     hole[40:360, 120:180] = True
     filled = photo.copy()
     filled[hole] = np.clip(photo[hole].astype(np.int16) - 30, 0, 255).astype(np.uint8)
-    out = _match_shading(photo, filled, hole, max(3.0, SHADING_SIGMA * 60), SHADING_DEPTH * np.hypot(h, w),
+    out = match_shading(photo, filled, hole, max(3.0, SHADING_SIGMA * 60), SHADING_DEPTH * np.hypot(h, w),
                          SHADING_TRUST)
     middle = out[60:340, 140:160].astype(np.float32).mean(1)
     beside = np.concatenate([photo[60:340, 80:110], photo[60:340, 190:220]], 1).astype(np.float32).mean(1)
@@ -268,7 +271,7 @@ def test_fill_methods_fill_only_the_hole(method):
     photo = rng.integers(0, 255, (64, 80, 3), dtype=np.uint8)
     hole = np.zeros((64, 80), bool)
     hole[20:40, 30:50] = True
-    from physomni_usd.perceive.plate import fill_hole
+    from physomni_usd.texture.fill import fill_hole
 
     out = fill_hole(photo, hole, method)
     assert np.array_equal(out[~hole], photo[~hole])

@@ -127,7 +127,7 @@ def test_preview_keeps_each_faces_side_of_the_texture():
 def test_the_opaque_copy_takes_the_interior_reflected_not_the_rim_drawn_out():
     """Outside a disc, every texel of the copy comes from inside it, and neighbours from different places
     (the nearest rim pixel would give a whole ray of texels one colour)."""
-    from physomni_usd.lift.sides import copy_sources, filled_copy
+    from physomni_usd.texture.sides import copy_sources, filled_copy
 
     y, x = np.mgrid[:60, :80]
     mask = (x - 40) ** 2 + (y - 30) ** 2 < 18 ** 2
@@ -147,7 +147,7 @@ def test_an_edge_on_face_over_the_background_between_two_parts_stays_transparent
     the gap keeps the photo's projection, which is transparent there; a wall on a part takes the opaque
     planar map."""
     from physomni_usd.geometry.camera import PinholeCamera
-    from physomni_usd.lift.sides import corner_st
+    from physomni_usd.texture.sides import corner_st
 
     camera = PinholeCamera(200, 200, 60.0, 0.0)  # level, at (0, 0, 1), looking along +y
     mask = np.zeros((100, 100), bool)

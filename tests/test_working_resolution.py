@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from physomni_usd.building import build_shot
-from physomni_usd.perceive.plate import carry_plate
+from physomni_usd.texture.carry import carry_plate
 from physomni_usd.perceive.working import Working, working
 from physomni_usd.settings import BuildSettings
 

@@ -187,28 +187,3 @@ def centring_offset(vertex_sets: list[np.ndarray]) -> np.ndarray:
     mid = 0.5 * (xy.min(0) + xy.max(0))
     return np.array([-mid[0], -mid[1], 0.0])
 
-
-def occlusion_kept(camera, front, behind, pixels: np.ndarray, samples: int = 200, seed: int = 0) -> float | None:
-    """Fraction of ``pixels`` (n, 2: x, y) where the photo shows ``front`` hiding ``behind`` and the placed
-    meshes agree: the ray through the pixel meets ``front`` (a ``trimesh.Trimesh``, world metres) before
-    ``behind``, or misses ``behind``. None where no ray meets ``front``; at most ``samples`` pixels are cast."""
-    pixels = np.asarray(pixels, float)
-    if len(pixels) > samples:
-        pixels = pixels[np.random.default_rng(seed).choice(len(pixels), samples, replace=False)]
-    if not len(pixels):
-        return None
-    dirs = camera.rays(pixels[:, 0] + 0.5, pixels[:, 1] + 0.5)
-    origins = np.repeat(camera.origin[None], len(dirs), 0)
-
-    def first_hit(mesh):
-        out = np.full(len(dirs), np.inf)
-        hits, ray, _ = mesh.ray.intersects_location(origins, dirs, multiple_hits=False)
-        if len(ray):  # with no hit trimesh answers a flat empty array, which has no rows to measure
-            out[ray] = np.linalg.norm(np.reshape(hits, (-1, 3)) - camera.origin, axis=1)
-        return out
-
-    near, far = first_hit(front), first_hit(behind)
-    seen = np.isfinite(near)
-    if not seen.any():
-        return None
-    return float((near[seen] <= far[seen]).mean())

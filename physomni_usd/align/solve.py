@@ -32,7 +32,8 @@ import cv2
 import numpy as np
 from scipy.optimize import least_squares
 
-from .place import footprint, occlusion_kept, separation
+from ..texture.hidden import occlusion_kept
+from .place import footprint, separation
 
 #: Points sampled along each outline (the mask's and the projected mesh's).
 OUTLINE_SAMPLES = 32

@@ -1,5 +1,5 @@
-"""The built-in backends: thin adapters from the protocols to the classical code in perceive/, lift/, align/ and
-materials/."""
+"""The built-in backends: thin adapters from the protocols to the classical code in perceive/, lift/, texture/,
+align/ and materials/."""
 
 from __future__ import annotations
 
@@ -37,26 +37,26 @@ class GrabCutSegmenter(_Builtin):
 
 
 class BuiltinInpainter(_Builtin):
-    """The classical fill of ``perceive.plate.background_plate``."""
+    """The classical fill of ``texture.fill.background_plate``."""
 
     kind, name = "inpainter", "builtin"
 
     def inpaint(self, photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
-        from ..perceive.plate import background_plate
+        from ..texture.fill import background_plate
 
         return background_plate(photo, [hole], 0.0)
 
     def plate(self, photo: np.ndarray, masks: list[np.ndarray], dilation: float,
               sources: np.ndarray | None = None) -> np.ndarray:
         """The whole plate as ``build`` has always made it (dilation included); ``sources`` as
-        ``perceive.plate.background_plate`` takes it."""
-        from ..perceive.plate import background_plate
+        ``texture.fill.background_plate`` takes it."""
+        from ..texture.fill import background_plate
 
         return background_plate(photo, masks, dilation, sources=sources)
 
 
 class MirrorOutpainter(_Builtin):
-    """The plate mirrored across its edges, softened with the distance from them (``perceive.plate.mirror_outpaint``).
+    """The plate mirrored across its edges, softened with the distance from them (``texture.outpaint.mirror_outpaint``).
 
     Seen only when the camera moves: every margin is the photo reflected, so an orbit shows the scene again
     as in a mirror; kept for shots that want no invented texture at all (``build --outpainter mirror``)."""
@@ -64,7 +64,7 @@ class MirrorOutpainter(_Builtin):
     kind, name = "outpainter", "mirror"
 
     def outpaint(self, plate: np.ndarray, margins: tuple[int, int, int, int]) -> np.ndarray:
-        from ..perceive.plate import mirror_outpaint
+        from ..texture.outpaint import mirror_outpaint
 
         return mirror_outpaint(plate, margins)
 
@@ -153,12 +153,12 @@ class VLMEstimator(_Builtin):
 
 
 class ExemplarOutpainter(_Builtin):
-    """The plate's margins quilted from its own surfaces (``perceive.plate.exemplar_outpaint``): camera moves
+    """The plate's margins quilted from its own surfaces (``texture.outpaint.exemplar_outpaint``): camera moves
     reveal more floor, table and wall, and no mirrored copy of the photo. The default."""
 
     kind, name = "outpainter", "exemplar"
 
     def outpaint(self, plate: np.ndarray, margins: tuple[int, int, int, int]) -> np.ndarray:
-        from ..perceive.plate import exemplar_outpaint
+        from ..texture.outpaint import exemplar_outpaint
 
         return exemplar_outpaint(plate, margins)

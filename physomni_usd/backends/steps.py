@@ -135,7 +135,7 @@ def make_wide_plate(plate: np.ndarray, outpainter) -> tuple[np.ndarray, tuple[in
 
 def make_plate(photo: np.ndarray, masks, dilation: float, inpainter, sources=None) -> np.ndarray:
     """The background plate: the built-in's own, or the photo with the inpainter's fill in the hole only.
-    ``sources``: where the built-in's exemplar fill copied each pixel from (``perceive.plate.background_plate``),
+    ``sources``: where the built-in's exemplar fill copied each pixel from (``texture.fill.background_plate``),
     if it is the built-in; a plugin's fill says nothing of the kind."""
     if hasattr(inpainter, "plate"):
         if sources is not None and "sources" in inspect.signature(inpainter.plate).parameters:

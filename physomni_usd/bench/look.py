@@ -66,7 +66,7 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
-from ..lift.sides import copy_sources
+from ..texture.sides import copy_sources
 
 #: Revealed areas smaller than this many pixels (at the rendered size) say nothing and are not measured.
 MIN_REVEALED = 60
@@ -252,7 +252,7 @@ MAX_WALL = 0.02
 def source_atlas(renderer) -> np.ndarray:
     """(H_atlas, W_atlas, 2) float32: for every texel of ``renderer``'s atlas, the photo pixel (x, y) its colour
     came from — its own place for the photo crop; for the opaque copy of the unseen sides, the place
-    ``lift.sides.copy_sources`` takes it from; NaN for objects not placed in the photo."""
+    ``texture.sides.copy_sources`` takes it from; NaN for objects not placed in the photo."""
     atlas = np.full(renderer.atlas_rgb.shape[:2] + (2,), np.nan, np.float32)
     row = 0
     for o in renderer.objects:

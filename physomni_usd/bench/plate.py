@@ -4,7 +4,7 @@ Surfaces are real photos shipped with scikit-image (``skimage.data``: brick,
 grass, gravel, and the wooden table and the garage floor beside the coffee cup
 and the motorcycle). Object-shaped holes (a cup, a saucer seen from above, a
 pencil lying diagonally, a bottle, a chair) are cut in each, the plate is made
-exactly as ``build`` makes it (:func:`~physomni_usd.perceive.plate.background_plate`,
+exactly as ``build`` makes it (:func:`~physomni_usd.texture.fill.background_plate`,
 default dilation, with and without the shift-map exemplar fill), and the fill
 is compared with the photo inside the hole:
 
@@ -24,7 +24,7 @@ import cv2
 import numpy as np
 
 from ..metrics.image import ssim
-from ..perceive.plate import background_plate, plate_hole
+from ..texture.fill import background_plate, plate_hole
 from ..settings import BuildSettings
 
 #: Ring around a hole in which the surface's own gradient is measured, pixels.

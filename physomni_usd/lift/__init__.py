@@ -1,7 +1,6 @@
-"""Lift: one closed, watertight mesh per object from its silhouette, and the texture of the sides the photo never saw.
+"""Lift: one closed, watertight mesh per object from its silhouette.
 
-Its own floor between perceive (masks, the plate, who hides whom) and align (camera, scale, placement),
-which is its only user besides the build's texture stage: ``silhouette.py`` lofts a side view,
-``footprint.py`` a view from above, ``sections.py`` the cross-sections both share, ``sides.py`` the
-texture of edge-on faces.
+Its own floor between perceive (masks, who hides whom) and texture and align (the plate and textures; camera,
+scale, placement), which use it: ``silhouette.py`` lofts a side view, ``footprint.py`` a view from above,
+``sections.py`` the cross-sections both share.
 """

@@ -1,4 +1,4 @@
-"""Who hides whom in the photo, and each hidden object completed behind what hides it (outline and texture).
+"""Who hides whom in the photo, and each hidden object's outline completed behind what hides it.
 
 Owns the occlusion order and the amodal completion that ``build`` runs between
 segmenting and lifting. A user's or a segmenter's mask is the object's
@@ -8,8 +8,7 @@ occluder's pixels, the occluder's does not reach into it. The hidden part is
 then completed by an ellipse where the visible outline is round (a saucer
 seen at an angle, a plate), else by the convex closure, and only behind the
 occluders (anywhere else the photo would have shown it). Its texture there is
-filled from the object's own visible surface, never from the occluder's or the
-background's pixels, so that a saucer the cup leaves is whole.
+painted by the texture stage (``texture/hidden.py``).
 """
 
 from __future__ import annotations
@@ -113,25 +112,3 @@ def _ellipse(visible: np.ndarray, behind: np.ndarray) -> np.ndarray | None:
     fills = (seen & visible).sum() / max(seen.sum(), 1)
     return filled if holds >= ELLIPSE_HOLDS and fills >= ELLIPSE_FILLS else None
 
-
-def complete_texture(photo: np.ndarray, visible: np.ndarray, amodal: np.ndarray, radius: int | None = None) -> np.ndarray:
-    """The photo (H, W, 3) uint8 with the hidden part of one object (``amodal`` but not ``visible``) painted
-    from that object's own visible pixels: each hidden pixel takes the colour of the nearest visible one,
-    softened across the fill so that no seam of single pixels is repeated (over ``radius`` pixels, default
-    2 % of the image's longer side: give the whole photo's when ``photo`` is a part of it)."""
-    hidden = amodal & ~visible
-    if not hidden.any() or not visible.any():
-        return photo.copy()
-    # labels of the nearest zero pixel: the zeros are the object's visible pixels, so colours come from them
-    _, labels = cv2.distanceTransformWithLabels((~visible).astype(np.uint8), cv2.DIST_L2, 5,
-                                                labelType=cv2.DIST_LABEL_PIXEL)
-    ys, xs = np.nonzero(visible)
-    colour_of = np.zeros((int(labels.max()) + 1, 3), np.float32)
-    colour_of[labels[ys, xs]] = photo[ys, xs]
-    filled = colour_of[labels]
-    r = max(1, int(round(0.02 * max(visible.shape)))) if radius is None else radius
-    weight = cv2.blur(amodal.astype(np.float32), (2 * r + 1, 2 * r + 1))
-    soft = cv2.blur(filled * amodal[..., None], (2 * r + 1, 2 * r + 1)) / np.maximum(weight, 1e-6)[..., None]
-    out = photo.copy()
-    out[hidden] = np.clip(soft[hidden] + 0.5, 0, 255).astype(np.uint8)
-    return out

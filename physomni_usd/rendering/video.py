@@ -435,7 +435,7 @@ class ShotRenderer:
 
         ``obj`` (H, W) is the object seen through each pixel (−1 for none), ``px`` its atlas coordinates."""
         # only the photo crop of each texture says where the photo shows the object; its unseen sides'
-        # opaque copy (lift/sides.py) lies to the right of it and says nothing
+        # opaque copy (texture/sides.py) lies to the right of it and says nothing
         hit = (obj >= 0) & (px[..., 0] < self.photo_width[np.maximum(obj, 0)])
         ys, xs = np.nonzero(hit)
         k = obj[hit]

@@ -165,7 +165,7 @@ def write_scene_layer(path: pathlib.Path, *, fps: float, image_size: tuple[int, 
         prim.GetAttribute("physomni:label").Set(obj.label)
         prim.GetAttribute("physomni:maskIndex").Set(int(obj.mask_index))
         prim.SetCustomDataByKey("physomni:liftedShape", obj.shape)
-        if obj.st_per_corner:  # the texture holds [photo crop | unseen sides] side by side (lift/sides.py)
+        if obj.st_per_corner:  # the texture holds [photo crop | unseen sides] side by side (texture/sides.py)
             prim.SetCustomDataByKey("physomni:unseenSides", "right half")
         if obj.texture_origin is not None:
             prim.SetCustomDataByKey("physomni:textureOrigin", Gf.Vec2i(*map(int, obj.texture_origin)))

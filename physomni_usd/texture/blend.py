@@ -1,0 +1,215 @@
+"""The blend fill: the exemplar's copies of the surface, blended where they meet and held to the surroundings.
+
+The exemplar fill (``exemplar.py``) lays patches copied from around the hole side by side: where two
+patches meet the seam is a hard line, a patch that shift-map could not place stays unfilled (its
+reduced pixels are zero in CIELAB, a pure blue), and a patch of something that is not the surface (a
+bottle on a shelf beside the hole) is copied whole. The blend fill keeps the same shifts but lays them
+softly and only where they look like the surface:
+
+- every shift read back is laid over the pixels that chose it and, fading with a Gaussian
+  (:data:`SEAM_SIGMA`), over their neighbours: where patches meet, both are averaged, so a seam is a
+  gradual change, not a line; where no shift was read back, shift-map's own reduced result is laid the
+  same way, and where it left pixels unfilled, nothing is;
+- each copy is weighed by how close its local colour comes to a smooth fill of the surroundings
+  (:func:`smooth_fill`; :data:`LIKENESS`, looser deep inside a large hole) and by how common its colour is
+  around the hole (:data:`TYPICAL`): a copy of another thing fades out, and the smooth fill (itself made of
+  the surroundings' common colours only) takes what no likely copy covers;
+- the fill is the smooth fill and :data:`COPY_SHARE` of the copies' difference from it; then the shading
+  and grain matching of the exemplar fill, and no pixel is left farther than :data:`COLOUR_CAP` from every
+  colour of its surroundings (:func:`cap_colours`).
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from .exemplar import EXEMPLAR_CONTEXT, EXEMPLAR_HOLE_PIXELS, NO_SHIFT, SHADING_DEPTH, SHADING_SIGMA, \
+    SHADING_TRUST, match_shading, shift_map
+from .grain import match_grain, odd_border
+from .pixels import blur, within
+
+#: Width over which copies that meet are averaged, as a fraction of the hole's narrower side (at least 1.5 px).
+SEAM_SIGMA = 0.03
+#: Low-pass (Gaussian sigma, pixels) of the copies' and the smooth fill's colours when they are compared, and
+#: the colour difference (RGB distance, levels) at which a copy's weight has fallen to 1/e. At 30 the smooth
+#: fill took too much of the motorcycle's revealed floor from the dark shadow beside it (its colour 9.0 levels
+#: off the floor around it, where bench look allows 8; 4.0 at 60, and the exemplar's 3.8); without the test at
+#: all, copies of the bottle beside the hole in tests/test_fill_truth.py came back (57 yellow pixels; 3 at 60).
+LIKENESS_SIGMA = 3.0
+LIKENESS = 60.0
+#: ... growing with the depth into the hole: by LIKENESS more for each LIKENESS_DEPTH of the window's diagonal.
+LIKENESS_DEPTH = 0.05
+#: A copy's colour must be common around the hole: its share of the surroundings (the known pixels within
+#: TYPICAL_REACH of the hole's narrower side, their colours in bins of COLOUR_BIN levels) at least TYPICAL of a
+#: typical colour's there, else its weight falls in proportion (a bottle on the shelf beside the hole is rare
+#: around it; the wall and the floor are not).
+TYPICAL = 0.2
+TYPICAL_REACH = 0.25
+COLOUR_BIN = 16
+#: How much of the fill is the copies, the rest being the smooth fill. Less would err less against the truth where
+#: no copy continues the surface (bench fill_truth, 4 scenes of seed 1, with LIKENESS 30: mean error 16.7 levels
+#: at 0.5, 18.3 at 1; Telea 16.9) but loses the grain: at 0.5 the desk cap's revealed strip was 8.8 levels off the
+#: wood around it (bench look allows 8) and the ball's grain 0.63 of the wood's; at 0.75, 7.85 and 0.75.
+COPY_SHARE = 1.0
+#: Weight of the smooth fill beside the copies: it shows only where no likely copy reaches.
+SMOOTH_WEIGHT = 0.02
+#: Most distance (RGB, levels) a filled pixel may lie from every colour of its surroundings (the known pixels
+#: within :data:`SURROUND` of the diagonal of its part of the hole); a pixel farther is moved towards the
+#: nearest of them until it is this far.
+COLOUR_CAP = 55.0
+SURROUND = 0.05
+
+
+def fill_blend(photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
+    """``photo`` (H, W, 3) uint8 RGB with ``hole`` (H, W) bool filled as the module says, one window per
+    connected part of the hole (as :func:`~.exemplar.fill_exemplar` makes them)."""
+    h, w = hole.shape
+    out = photo.copy()
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(hole.astype(np.uint8), connectivity=8)
+    total = max(1, int(hole.sum()))
+    for k in range(1, n):
+        x, y, bw, bh = stats[k, :4]
+        m = int(round(EXEMPLAR_CONTEXT * max(bw, bh))) + 8
+        x0, y0, x1, y1 = max(0, x - m), max(0, y - m), min(w, x + bw + m), min(h, y + bh + m)
+        win_hole = hole[y0:y1, x0:x1]
+        if win_hole.all():
+            win_hole = hole
+            x0, y0, x1, y1 = 0, 0, w, h
+        filled = _blend_window(photo[y0:y1, x0:x1], win_hole, min(bw, bh), SHADING_DEPTH * np.hypot(h, w),
+                               EXEMPLAR_HOLE_PIXELS * float(stats[k, 4]) / total)
+        own = labels[y0:y1, x0:x1] == k
+        out[y0:y1, x0:x1][own] = filled[own]
+    return cap_colours(photo, out, hole)
+
+
+def _blend_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float, budget: float) -> np.ndarray:
+    """The blend fill of ``hole`` in the window ``img`` (h, w, 3) RGB; ``size``, ``depth`` and ``budget`` as the
+    exemplar's window takes them."""
+    coarse, offsets, unfilled = shift_map(img, hole, budget)
+    src = img.astype(np.float32)
+    known = ~hole
+    src_low = cv2.GaussianBlur(src, (0, 0), LIKENESS_SIGMA)
+    frequency = _colour_frequency(src_low, known & within(hole, max(8.0, TYPICAL_REACH * size)))
+    # the smooth fill from the surface alone: what is rare around the hole (a bottle beside it) takes no part
+    surface = (known & ~odd_border(cv2.cvtColor(img, cv2.COLOR_RGB2BGR), hole)).astype(np.float32)
+    smooth = smooth_fill(src, surface * np.clip(frequency(src_low) / TYPICAL, 0.0, 1.0))
+    smooth_low = cv2.GaussianBlur(smooth, (0, 0), LIKENESS_SIGMA)
+    sigma = max(1.5, SEAM_SIGMA * size)
+    ys, xs = np.nonzero(hole)
+    y0, y1, x0, x1 = ys.min(), ys.max() + 1, xs.min(), xs.max() + 1
+    box = (slice(y0, y1), slice(x0, x1))
+    # deep in a large hole the smooth fill is a guess (the mean of a wall and a floor): trust it less there
+    depth_in = cv2.distanceTransform(hole.astype(np.uint8), cv2.DIST_L2, 5)[box]
+    likeness = LIKENESS * (1.0 + depth_in / (LIKENESS_DEPTH * float(np.hypot(*hole.shape))))
+    acc = smooth[box] * SMOOTH_WEIGHT
+    weight = np.full((y1 - y0, x1 - x0), SMOOTH_WEIGHT, np.float32)
+    d = offsets[ys, xs]
+    found = d[:, 0] != NO_SHIFT
+    h, w = hole.shape
+    # where no shift was read back, shift-map's own reduced result (upsampled) is laid like one more copy,
+    # except where it left its pixels unfilled
+    rest = ~found & ~unfilled[ys, xs]
+    layers = [(dy, dx, found & (d[:, 0] == dy) & (d[:, 1] == dx)) for dy, dx in np.unique(d[found], axis=0)]
+    if rest.any():
+        layers.append((None, None, rest))
+    for dy, dx, pick in layers:
+        chose = np.zeros((h, w), np.float32)
+        chose[ys[pick], xs[pick]] = 1.0
+        if dy is None:
+            copy, valid = coarse.astype(np.float32), hole.copy()
+        else:  # the copy laid over the whole window: each pixel takes the pixel (dy, dx) from it, where known
+            shift = np.float32([[1, 0, dx], [0, 1, dy]])
+            copy = cv2.warpAffine(src, shift, (w, h), flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
+                                  borderMode=cv2.BORDER_CONSTANT)
+            valid = cv2.warpAffine(known.astype(np.uint8), shift, (w, h),
+                                   flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT) > 0
+        spread = blur(chose, sigma) * valid
+        if not spread[box].any():
+            continue
+        low = cv2.GaussianBlur(copy * valid[..., None], (0, 0), LIKENESS_SIGMA)
+        low /= np.maximum(cv2.GaussianBlur(valid.astype(np.float32), (0, 0), LIKENESS_SIGMA), 1e-3)[..., None]
+        unlike = np.linalg.norm(low[box] - smooth_low[box], axis=-1) / likeness
+        wk = spread[box] * np.exp(-unlike ** 2) * np.clip(frequency(low[box]) / TYPICAL, 0.0, 1.0)
+        acc += copy[box] * wk[..., None]
+        weight += wk
+    out = img.copy()
+    # the copies' share of the fill, beside the smooth fill's: their grain and structure, less their guesses
+    laid = smooth[box] + COPY_SHARE * (acc / weight[..., None] - smooth[box])
+    out[box] = np.where(hole[box][..., None], np.clip(laid + 0.5, 0, 255), img[box]).astype(np.uint8)
+    out = match_shading(img, out, hole, max(3.0, SHADING_SIGMA * size), depth, SHADING_TRUST)
+    return match_grain(img, out, hole)
+
+
+def _colour_frequency(low: np.ndarray, ring: np.ndarray):
+    """A function of colours (..., 3) float32 → (...) float32: how common each is among the pixels ``ring``
+    (h, w) bool of ``low`` (h, w, 3) float32, as the share of those pixels in its bin (and the bins next to it, of
+    :data:`COLOUR_BIN` levels a side) over the share a typical one of them sees in its own."""
+    from scipy.ndimage import uniform_filter
+
+    n = 256 // COLOUR_BIN
+    index = lambda c: (np.clip(c, 0, 255).astype(np.int64) // COLOUR_BIN) @ np.int64([n * n, n, 1])  # noqa: E731
+    if not ring.any():
+        return lambda c: np.ones(c.shape[:-1], np.float32)
+    hist = np.bincount(index(low[ring]), minlength=n ** 3).astype(np.float32) / float(ring.sum())
+    hist = uniform_filter(hist.reshape(n, n, n), size=3, mode="constant").ravel() * 27.0
+    typical = float(hist[index(low[ring])].mean())
+    return lambda c: hist[index(c)] / max(typical, 1e-9)
+
+
+def smooth_fill(img: np.ndarray, known: np.ndarray) -> np.ndarray:
+    """(h, w, 3) float32: ``img`` (h, w, 3) float32 where ``known`` (h, w) float32 is 1, and elsewhere a smooth
+    interpolation of the pixels it weighs (push-pull: weighted averages at halving sizes, each size's gaps
+    filled from the next coarser one, blended in by how much of it is known)."""
+    known = np.asarray(known, np.float32)
+    levels = []
+    value, weight = img * known[..., None], known
+    while True:
+        levels.append((value, weight))
+        h, w = weight.shape
+        if min(h, w) <= 2 or weight.min() > 0:
+            break
+        size = (max(1, (w + 1) // 2), max(1, (h + 1) // 2))
+        value = cv2.resize(value, size, interpolation=cv2.INTER_AREA)
+        weight = cv2.resize(weight, size, interpolation=cv2.INTER_AREA)
+    value, weight = levels[-1]
+    filled = value / np.maximum(weight, 1e-6)[..., None]
+    if weight.max() <= 0:
+        filled[:] = 0.0
+    for value, weight in reversed(levels[:-1]):
+        up = cv2.resize(filled, weight.shape[::-1], interpolation=cv2.INTER_LINEAR)
+        mean = value / np.maximum(weight, 1e-6)[..., None]
+        a = np.clip(weight * 4.0, 0.0, 1.0)[..., None]  # a coarse pixel half known is trusted fully
+        filled = mean * a + up * (1.0 - a)
+    return np.where(known[..., None] >= 1.0, img, filled).astype(np.float32)
+
+
+def cap_colours(photo: np.ndarray, filled: np.ndarray, hole: np.ndarray, cap: float = COLOUR_CAP) -> np.ndarray:
+    """``filled`` (H, W, 3) uint8 with each pixel of ``hole`` (H, W) bool that lies farther than ``cap`` (RGB
+    distance, levels) from every colour of its surroundings in ``photo`` (the known pixels within
+    :data:`SURROUND` of the diagonal of its connected part of the hole) moved straight towards the nearest of
+    those colours until it is ``cap`` from it."""
+    from scipy.spatial import cKDTree
+
+    hole = np.asarray(hole, bool)
+    if not hole.any() or hole.all():
+        return filled
+    h, w = hole.shape
+    reach = max(8.0, SURROUND * float(np.hypot(h, w)))
+    out = filled.copy()
+    n, labels = cv2.connectedComponents(hole.astype(np.uint8), connectivity=8)
+    for k in range(1, n):
+        part = labels == k
+        ring = (cv2.distanceTransform((~part).astype(np.uint8), cv2.DIST_L2, 5) <= reach) & ~hole
+        if not ring.any():
+            continue
+        colours = np.unique(photo[ring].reshape(-1, 3), axis=0).astype(np.float32)
+        here = out[part].astype(np.float32)
+        dist, idx = cKDTree(colours).query(here)
+        far = dist > cap
+        if not far.any():
+            continue
+        near = colours[idx[far]]
+        here[far] = near + (here[far] - near) * (cap / dist[far])[:, None]
+        out[part] = np.clip(np.round(here), 0, 255).astype(np.uint8)
+    return out

@@ -1,0 +1,178 @@
+"""The background plate: the photo with the objects (and their contact shadows) removed and the hole filled.
+
+Owns what the plate replaces (:func:`plate_hole`: the masks, widened, each object's contact shadow and a
+seam around all of it) and the choice of fill (:data:`METHODS`): the blend (``blend.py``, the default: the
+exemplar's copies laid softly where they meet, kept only where they look like the surface, a smooth fill
+elsewhere, and no colour the surroundings lack), the exemplar alone (``exemplar.py``: patches of the surface
+around the hole copied into it, so the fill keeps the surface's grain, with hard seams) or OpenCV's Telea
+diffusion (kept as ``method="telea"`` for comparison). Across the seam the fill fades into the photo;
+outside the hole the plate is the photo, pixel for pixel.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from .blend import fill_blend
+from .exemplar import fill_exemplar
+from .pixels import INPAINT_RADIUS, blur, dilate, gradient, within
+
+#: Longest side at which large holes are inpainted by Telea; the fill is then upsampled.
+INPAINT_MAX_SIDE = 480
+#: A pixel near an object's foot is in its contact shadow when it is darker than this fraction of the
+#: surface's brightness around it.
+SHADOW_RATIO = 0.85
+#: The shadow's soft edge: pixels joined to a contact shadow and darker than this fraction of the surface
+#: around them go with it, so that the fill's border lies on lit surface, not on a dark rim of penumbra.
+PENUMBRA_RATIO = 0.96
+#: Beyond that, the penumbra also takes pixels joined to it that are darker than the surface at all and whose
+#: lightness gradient (smoothed over a pixel) is more than this many times the surface's around them. On
+#: white paper a sweet's shade fades from 250 to 254 in steps of one level (a Sobel gradient of 4 against the
+#: paper's 1.2); the seam that lay across those steps carried them into the plate as an outline (candy_5's
+#: border 1.48× its ring, the photo's gradient on those border pixels 3.4× the ring's); taking them, 1.23×.
+PENUMBRA_GRADIENT = 2.0
+
+#: How far below an object its contact shadow may reach, as a fraction of the object's height in the photo.
+SHADOW_REACH = 0.25
+#: Width of the seam where the fill fades into the photo, as a fraction of the image diagonal (at least
+#: 4 pixels): the hole grows by it and, across it, the plate goes from the photo to the fill. Two textures
+#: that meet on one pixel show as an outline (the gradient along a desk ball's hole was 2.2× the wood's
+#: around it); faded over about 5 pixels they meet without one (1.0×). At 0.006 the rocket's narrow column
+#: still showed its outline (border 1.46× the sky's): its patches are steps of a sky that darkens upward,
+#: and 5 pixels did not hide them; from 0.009 to 0.012 its border is 1.21× to 0.95× (0.010: 1.08×; the
+#: motorcycle's 1.06×, the desk's 0.94×).
+FEATHER = 0.010
+
+METHODS = ("exemplar", "telea", "blend")
+
+def background_plate(photo: np.ndarray, masks, dilation: float, method: str = "blend",
+                     shadows: bool = True, sources: np.ndarray | None = None) -> np.ndarray:
+    """The photo with every object (and, with ``shadows``, its contact shadow) filled in, (H, W, 3) uint8.
+
+    ``dilation`` widens each mask by that fraction of the image diagonal, so that soft edges go too.
+    Outside the hole (:func:`plate_hole`) the plate is the photo, pixel for pixel. ``sources``: (H, W, 2)
+    int32, filled with -1 by the caller; the exemplar fill (not the blend) writes there, for each pixel of the
+    hole it copied, the (y, x) of the photo's pixel it copied from (:func:`~.carry.carry_plate` takes the fill's
+    detail from there).
+    """
+    hole = plate_hole(photo, masks, dilation, shadows)
+    return fill_hole(photo, hole, method, feather_px(photo.shape), sources)
+
+
+def feather_px(shape) -> int:
+    """Width in pixels of the seam :func:`plate_hole` adds around the hole of an image of ``shape`` (H, W, ...)."""
+    return max(4, int(round(FEATHER * np.hypot(shape[0], shape[1]))))
+
+
+def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = "blend", feather: int = 0,
+              sources: np.ndarray | None = None) -> np.ndarray:
+    """``photo`` (H, W, 3) uint8 RGB with the pixels of ``hole`` (H, W) bool filled by ``method``; with
+    ``feather`` > 0 the hole's outer ``feather`` pixels blend from the photo (at its edge) to the fill.
+    ``sources``: as :func:`background_plate` takes it."""
+    filled = _fill_hole(photo, hole, method, sources)
+    if feather <= 0 or not np.any(hole) or np.all(hole):
+        return filled
+    inside = cv2.distanceTransform(np.asarray(hole, np.uint8), cv2.DIST_L2, 5)
+    a = np.clip(inside / (feather + 1.0), 0.0, 1.0)[..., None]
+    blend = photo.astype(np.float32) * (1.0 - a) + filled.astype(np.float32) * a
+    return np.where(np.asarray(hole, bool)[..., None], np.clip(blend + 0.5, 0, 255), photo).astype(np.uint8)
+
+
+def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str, sources: np.ndarray | None = None) -> np.ndarray:
+    if method not in METHODS:
+        raise ValueError(f"unknown fill method {method!r} (known: {', '.join(METHODS)})")
+    hole = np.asarray(hole, bool)
+    if not hole.any():
+        return photo.copy()
+    if hole.all():  # nothing to copy from or to diffuse
+        return np.broadcast_to(photo.reshape(-1, 3).mean(0).astype(np.uint8), photo.shape).copy()
+    if method == "telea":
+        return fill_telea(photo, hole)
+    if method == "blend":
+        return fill_blend(photo, hole)
+    return fill_exemplar(photo, hole, sources)
+
+
+def plate_hole(photo: np.ndarray, masks, dilation: float, shadows: bool = True) -> np.ndarray:
+    """(H, W) bool: the pixels the plate replaces, every mask dilated by ``dilation`` × the diagonal,
+    plus (with ``shadows``) the contact shadow found under each object (:func:`contact_shadow`), and the
+    seam (:data:`FEATHER`) around all of it, over which the fill fades into the photo."""
+    h, w = photo.shape[:2]
+    union = np.zeros((h, w), bool)
+    for m in masks:
+        union |= np.asarray(m, bool)
+    hole = dilate(union, int(round(dilation * np.hypot(h, w))))
+    if shadows:
+        lum = cv2.cvtColor(photo, cv2.COLOR_RGB2Lab)[..., 0].astype(np.float32)
+        for m in masks:
+            hole |= contact_shadow(lum, np.asarray(m, bool), hole)
+    return dilate(hole, feather_px(photo.shape)) if hole.any() else hole
+
+
+def contact_shadow(lum: np.ndarray, mask: np.ndarray, hole: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the dark patch on the surface just under the object ``mask``.
+
+    ``lum`` (H, W) is the photo's lightness; ``hole`` what is already removed. Candidates lie below the
+    middle of the object and within :data:`SHADOW_REACH` of its height from it; a candidate is shadow
+    where it is darker than :data:`SHADOW_RATIO` × the surface around it (the lightness outside the
+    candidates and the hole, averaged with a Gaussian as wide as the reach), and only the dark
+    patches that touch the object (through the hole) count. The shadow then grows through its penumbra
+    (:data:`PENUMBRA_RATIO`, :data:`PENUMBRA_GRADIENT`), so that the hole's edge lies where the shade has
+    faded into the surface.
+    """
+    ys, xs = np.nonzero(mask)
+    if ys.size == 0:
+        return np.zeros_like(mask)
+    h, w = mask.shape
+    height = ys.max() - ys.min() + 1
+    reach = int(np.clip(SHADOW_REACH * height, 3, 0.15 * np.hypot(h, w)))
+    near_all = within(mask, reach)
+    near = near_all.copy()
+    near[: (ys.min() + ys.max()) // 2] = False
+    band = near & ~hole
+    if not band.any():
+        return np.zeros_like(mask)
+    known = (~(band | hole)).astype(np.float32)
+    sigma = max(2.0, float(reach))
+    weight = blur(known, sigma)
+    surround = blur(lum * known, sigma) / np.maximum(weight, 1e-3)
+    # a contact shadow darkens the surface smoothly: compare the lightness averaged over a few pixels, so
+    # that the dark grains of a textured surface (gravel, grass) do not count
+    smooth = blur(lum, max(1.0, reach / 6.0))
+    dark = band & (smooth < SHADOW_RATIO * surround) & (weight > 0.05)
+    if not dark.any():
+        return np.zeros_like(mask)
+    dark = cv2.morphologyEx(dark.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8)) > 0
+    seed = dilate(hole & near_all, 2)
+    n, labels = cv2.connectedComponents((dark | seed).astype(np.uint8), connectivity=8)
+    touching = np.unique(labels[seed & (labels > 0)])
+    shadow = np.isin(labels, touching) & dark
+    if shadow.any():  # grow it through its penumbra
+        soft = band & (smooth < PENUMBRA_RATIO * surround) & (weight > 0.05)
+        # and, darker than the surface at all, where its lightness still falls faster than the surface's own
+        # grain: on white paper a sweet's shade fades in steps of one level, each a line the seam would show
+        g = gradient(blur(lum, 1.0))
+        surface_g = blur(g * known, sigma) / np.maximum(weight, 1e-3)
+        soft |= band & (smooth < surround) & (g > PENUMBRA_GRADIENT * surface_g) & (weight > 0.05)
+        n, labels = cv2.connectedComponents((soft | shadow).astype(np.uint8), connectivity=8)
+        shadow |= np.isin(labels, np.unique(labels[shadow & (labels > 0)])) & soft
+    return dilate(shadow, 2) & near
+
+
+def fill_telea(photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
+    """OpenCV Telea (diffusion) fill of ``hole``; large photos are filled smaller and upsampled."""
+    h, w = hole.shape
+    bgr = cv2.cvtColor(photo, cv2.COLOR_RGB2BGR)
+    hole8 = hole.astype(np.uint8)
+    scale = min(1.0, INPAINT_MAX_SIDE / max(h, w))
+    if scale < 1.0:
+        small = cv2.resize(bgr, (max(1, round(w * scale)), max(1, round(h * scale))), interpolation=cv2.INTER_AREA)
+        small_hole = cv2.resize(hole8, small.shape[1::-1], interpolation=cv2.INTER_NEAREST)
+        small_hole = cv2.dilate(small_hole, np.ones((3, 3), np.uint8))
+        filled = cv2.resize(cv2.inpaint(small, small_hole, INPAINT_RADIUS, cv2.INPAINT_TELEA), (w, h),
+                            interpolation=cv2.INTER_CUBIC)
+    else:
+        filled = cv2.inpaint(bgr, hole8, INPAINT_RADIUS, cv2.INPAINT_TELEA)
+    out = np.where(hole[..., None], filled, bgr)
+    return cv2.cvtColor(out, cv2.COLOR_BGR2RGB)

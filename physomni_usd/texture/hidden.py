@@ -1,0 +1,86 @@
+"""The surfaces of an object that the photo hides: which of them are painted, and how.
+
+Where another object hides part of one (``perceive/amodal.py`` completes its outline there), that part is
+painted from the object's own visible surface (:func:`complete_texture`), never from the occluder's or the
+background's pixels, so that a saucer the cup leaves is whole. It is painted only behind occluders that the
+placed meshes agree are in front of it (:func:`occlusion_kept`, :data:`OCCLUSION_BELIEVED`), and at an alpha
+(:data:`COMPLETED_ALPHA`) that tells renderers it is not the photo's own pixels of the object.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+#: Texture alpha of what is painted behind an object's occluders: opaque to every renderer's cut-out, yet not
+#: 255, the alpha of the pixels the photo shows of the object.
+COMPLETED_ALPHA = 254
+#: An occluder the placed meshes put in front of the object at fewer than this fraction of the pixels where the
+#: photo shows it hiding it (:func:`occlusion_kept`) hides nothing of it: nothing is painted behind it (a big
+#: concave object's closure takes in the bench behind it; painted, that is a grey slab once it moves).
+OCCLUSION_BELIEVED = 0.5
+
+
+def complete_texture(photo: np.ndarray, visible: np.ndarray, amodal: np.ndarray,
+                     radius: int | None = None) -> np.ndarray:
+    """The photo (H, W, 3) uint8 with the hidden part of one object (``amodal`` but not ``visible``) painted
+    from that object's own visible pixels: each hidden pixel takes the colour of the nearest visible one,
+    softened across the fill so that no seam of single pixels is repeated (over ``radius`` pixels, default
+    2 % of the image's longer side: give the whole photo's when ``photo`` is a part of it)."""
+    hidden = amodal & ~visible
+    if not hidden.any() or not visible.any():
+        return photo.copy()
+    # labels of the nearest zero pixel: the zeros are the object's visible pixels, so colours come from them
+    _, labels = cv2.distanceTransformWithLabels((~visible).astype(np.uint8), cv2.DIST_L2, 5,
+                                                labelType=cv2.DIST_LABEL_PIXEL)
+    ys, xs = np.nonzero(visible)
+    colour_of = np.zeros((int(labels.max()) + 1, 3), np.float32)
+    colour_of[labels[ys, xs]] = photo[ys, xs]
+    filled = colour_of[labels]
+    r = max(1, int(round(0.02 * max(visible.shape)))) if radius is None else radius
+    weight = cv2.blur(amodal.astype(np.float32), (2 * r + 1, 2 * r + 1))
+    soft = cv2.blur(filled * amodal[..., None], (2 * r + 1, 2 * r + 1)) / np.maximum(weight, 1e-6)[..., None]
+    out = photo.copy()
+    out[hidden] = np.clip(soft[hidden] + 0.5, 0, 255).astype(np.uint8)
+    return out
+
+def painted_part(visible: np.ndarray, amodal: np.ndarray, disbelieved: list[np.ndarray]) -> np.ndarray:
+    """(H, W) bool: the part of an object's completed outline ``amodal`` that is painted in its texture, the
+    hidden part (not ``visible``) less the pixels of each occluder whose occlusion the placed meshes do not
+    keep (``disbelieved``: those occluders' visible masks, (H, W) bool each)."""
+    hidden = amodal & ~visible
+    for mask in disbelieved:
+        hidden &= ~mask
+    return hidden
+
+
+def believed(kept: float | None) -> bool:
+    """Whether an occluder hides the object as the photo shows it, from its :func:`occlusion_kept` (None: no ray
+    met the occluder, which says nothing against it)."""
+    return kept is None or kept >= OCCLUSION_BELIEVED
+
+
+def occlusion_kept(camera, front, behind, pixels: np.ndarray, samples: int = 200, seed: int = 0) -> float | None:
+    """Fraction of ``pixels`` (n, 2: x, y) where the photo shows ``front`` hiding ``behind`` and the placed
+    meshes agree: the ray through the pixel meets ``front`` (a ``trimesh.Trimesh``, world metres) before
+    ``behind``, or misses ``behind``. None where no ray meets ``front``; at most ``samples`` pixels are cast."""
+    pixels = np.asarray(pixels, float)
+    if len(pixels) > samples:
+        pixels = pixels[np.random.default_rng(seed).choice(len(pixels), samples, replace=False)]
+    if not len(pixels):
+        return None
+    dirs = camera.rays(pixels[:, 0] + 0.5, pixels[:, 1] + 0.5)
+    origins = np.repeat(camera.origin[None], len(dirs), 0)
+
+    def first_hit(mesh):
+        out = np.full(len(dirs), np.inf)
+        hits, ray, _ = mesh.ray.intersects_location(origins, dirs, multiple_hits=False)
+        if len(ray):  # with no hit trimesh answers a flat empty array, which has no rows to measure
+            out[ray] = np.linalg.norm(np.reshape(hits, (-1, 3)) - camera.origin, axis=1)
+        return out
+
+    near, far = first_hit(front), first_hit(behind)
+    seen = np.isfinite(near)
+    if not seen.any():
+        return None
+    return float((near[seen] <= far[seen]).mean())

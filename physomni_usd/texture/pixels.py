@@ -1,0 +1,50 @@
+"""Small image operations the texture stage's fills share: blurs over part of an image, distances to a
+mask, growing a mask, a gradient, and the radius of OpenCV's Telea fill."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+#: Inpainting radius of OpenCV's Telea method, pixels.
+INPAINT_RADIUS = 5
+
+
+def gradient(grey: np.ndarray) -> np.ndarray:
+    """(h, w) float32 Sobel gradient magnitude of ``grey`` (the measure ``bench look`` holds a fill to)."""
+    return np.hypot(cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3), cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3))
+
+
+def blur(img: np.ndarray, sigma: float) -> np.ndarray:
+    """Gaussian blur of float32 ``img`` by ``sigma`` pixels; wide blurs are done on a reduced copy (same result
+    to within the reduction's interpolation, a fraction of the time)."""
+    img = np.asarray(img, np.float32)
+    k = int(sigma // 4)
+    if k < 2:
+        return cv2.GaussianBlur(img, (0, 0), sigma)
+    h, w = img.shape[:2]
+    small = cv2.resize(img, (max(1, w // k), max(1, h // k)), interpolation=cv2.INTER_AREA)
+    small = cv2.GaussianBlur(small, (0, 0), sigma / k)
+    return cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
+
+
+def blur_over(img: np.ndarray, weight: np.ndarray, sigma: float) -> np.ndarray:
+    """``img`` (h, w) or (h, w, C) blurred by ``sigma`` pixels over the pixels that ``weight`` (h, w) float32
+    holds alone: what lies outside them (a hole, an object) takes no part in the mean."""
+    total = np.maximum(blur(weight, sigma), 1e-3)
+    if img.ndim == 3:
+        return blur(img * weight[..., None], sigma) / total[..., None]
+    return blur(img * weight, sigma) / total
+
+
+def within(mask: np.ndarray, r: float) -> np.ndarray:
+    """Pixels within ``r`` pixels of ``mask`` (a distance transform: fast for any ``r``)."""
+    return cv2.distanceTransform((~np.asarray(mask, bool)).astype(np.uint8), cv2.DIST_L2, 5) <= r
+
+
+def dilate(mask: np.ndarray, r: int) -> np.ndarray:
+    """``mask`` grown by a disc of radius ``r`` pixels."""
+    if r <= 0:
+        return np.asarray(mask, bool).copy()
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+    return cv2.dilate(np.asarray(mask, np.uint8), kernel) > 0
