@@ -271,17 +271,27 @@ def mask_from_box(photo: np.ndarray, spec: str, index: int) -> ObjectMask:
 
 
 def _coarse_to_fine(photo: np.ndarray, spec: str, box, clicks, index: int) -> tuple[np.ndarray, dict]:
-    """:func:`mask_from_box` of ``spec`` on a copy of ``photo`` reduced to :data:`GRABCUT_WORK_PIXELS`, its edge cut
+    """:func:`mask_from_box` of ``spec`` on a copy of ``photo`` reduced to :data:`GRABCUT_WORK_PIXELS` (area
+    averaging; the box widened to whole reduced pixels, each click on the reduced pixel holding it), its edge cut
     again at the photo's size; the mask (H, W) bool and its quality, measured at the photo's size (what the
     reduced cut alone knows, ``method`` and ``ground_like``, is kept from it)."""
-    from .working import working
-
-    coarse = working(photo.shape, GRABCUT_WORK_PIXELS)
+    h, w = photo.shape[:2]
+    s = float(np.sqrt(GRABCUT_WORK_PIXELS / (h * w)))
+    sw, sh = max(16, int(w * s)), max(16, int(h * s))
+    fx, fy = w / sw, h / sh
+    x0, y0, x1, y1 = box
+    small_box = (int(np.floor(x0 / fx)), int(np.floor(y0 / fy)), min(sw, int(np.ceil(x1 / fx))),
+                 min(sh, int(np.ceil(y1 / fy))))
+    small_clicks = [(min(sw - 1, int(x / fx)), min(sh - 1, int(y / fy)), on) for x, y, on in clicks]
+    label = parse_box(spec)[1]
     try:
-        small = mask_from_box(coarse.down(photo), coarse.box_spec(spec), index)
+        small = mask_from_box(cv2.resize(photo, (sw, sh), interpolation=cv2.INTER_AREA),
+                              box_spec(small_box, label, small_clicks), index)
     except InputError:  # nothing left at the reduced size (a sliver of a box): cut it at the photo's size
-        return _full_size(photo, box, parse_box(spec)[1], clicks)
-    mask = refine_edge(photo, coarse.up_mask(small.mask), box, clicks, max(coarse.fx, coarse.fy))
+        return _full_size(photo, box, label, clicks)
+    # back at the photo's size, the staircase smoothed (cv2.resize maps pixel centres exactly)
+    up = cv2.resize(small.mask.astype(np.uint8) * 255, (w, h), interpolation=cv2.INTER_LINEAR) >= 128
+    mask = refine_edge(photo, up, box, clicks, max(fx, fy))
     quality = dict(small.quality or {})
     if mask.any():
         coarse_warning = quality.get("warning")
