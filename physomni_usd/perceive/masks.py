@@ -253,17 +253,7 @@ def mask_from_box(photo: np.ndarray, spec: str, index: int) -> ObjectMask:
     if h * w > GRABCUT_PIXELS and (clicks or not whole):
         result, quality = _coarse_to_fine(photo, spec, box, clicks, index)
     else:
-        if whole:
-            # GrabCut needs some background to model; a box over the whole photo keeps the box.
-            result = np.zeros((h, w), bool)
-            result[y0:y1, x0:x1] = True
-            quality = {"method": "box"}
-        else:
-            result, quality = segment_box(photo, box, label)
-        if clicks:
-            result = refine_with_clicks(photo, box, result, clicks)
-            quality = dict(mask_quality(photo, result, box), method=quality["method"] + "+clicks") \
-                if result.any() else {"method": quality["method"] + "+clicks"}
+        result, quality = _full_size(photo, box, label, clicks)
     source = f"box:{x0},{y0},{x1},{y1}" + "".join(f":{'+' if on else '-'}{x},{y}" for x, y, on in clicks)
     obj = ObjectMask(label or f"object{index}", index, checked_mask(result, f"--box {spec!r}"), source)
     obj.quality = quality
@@ -284,6 +274,11 @@ def _coarse_to_fine(photo: np.ndarray, spec: str, box, clicks, index: int) -> tu
                  min(sh, int(np.ceil(y1 / fy))))
     small_clicks = [(min(sw - 1, int(x / fx)), min(sh - 1, int(y / fy)), on) for x, y, on in clicks]
     label = parse_box(spec)[1]
+    whole = (x1 - x0) * (y1 - y0) >= 0.98 * w * h
+    if whole != ((small_box[2] - small_box[0]) * (small_box[3] - small_box[1]) >= 0.98 * sw * sh):
+        # widened to whole reduced pixels, a box just short of the whole photo covers all of the copy: the
+        # copy would keep the box where the photo is cut
+        return _full_size(photo, box, label, clicks)
     try:
         small = mask_from_box(cv2.resize(photo, (sw, sh), interpolation=cv2.INTER_AREA),
                               box_spec(small_box, label, small_clicks), index)
@@ -302,8 +297,17 @@ def _coarse_to_fine(photo: np.ndarray, spec: str, box, clicks, index: int) -> tu
 
 
 def _full_size(photo: np.ndarray, box, label, clicks) -> tuple[np.ndarray, dict]:
-    """GrabCut of ``box`` on ``photo`` as it is, then its ``clicks``: the mask and its quality."""
-    result, quality = segment_box(photo, box, label)
+    """``box`` cut on ``photo`` as it is (a box over the whole photo kept as it is), then its ``clicks``: the
+    mask and its quality."""
+    h, w = photo.shape[:2]
+    x0, y0, x1, y1 = box
+    if (x1 - x0) * (y1 - y0) >= 0.98 * w * h:
+        # GrabCut needs some background to model; a box over the whole photo keeps the box.
+        result = np.zeros((h, w), bool)
+        result[y0:y1, x0:x1] = True
+        quality = {"method": "box"}
+    else:
+        result, quality = segment_box(photo, box, label)
     if clicks:
         result = refine_with_clicks(photo, box, result, clicks)
         quality = dict(mask_quality(photo, result, box), method=quality["method"] + "+clicks") \
