@@ -226,7 +226,9 @@ class ShotRenderer:
         # textures holding [photo crop | unseen sides] are twice the crop's width: the crop's own width
         self.photo_width = np.array([o.texture.shape[1] // 2 if o.two_sided else o.texture.shape[1]
                                      for o in self.objects] + [0], np.float32)
-        self.atlas_rgb = atlas[..., :3].astype(np.float32)
+        # bytes, not floats: a 12 MP photo's atlas is 29 MP (334 MB as floats); a frame's colours are sampled
+        # from it and made floats at the frame's size
+        self.atlas_rgb = np.ascontiguousarray(atlas[..., :3])
         self.atlas_alpha = atlas[..., 3].astype(np.float32) / 255.0
         self.faces = np.concatenate(faces) if faces else np.zeros((0, 3), np.int64)
         self.corner_px = np.concatenate(corners) if corners else np.zeros((0, 2))  # (F·3, 2) atlas pixels
@@ -589,7 +591,8 @@ class ShotRenderer:
         out = back * (1.0 - shadow[..., None])
         mx = np.where(hit, px[..., 0] - 0.5, -10).astype(np.float32)
         my = np.where(hit, px[..., 1] - 0.5, -10).astype(np.float32)
-        colour = cv2.remap(self.atlas_rgb, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        colour = cv2.remap(self.atlas_rgb, mx, my, cv2.INTER_LINEAR,
+                           borderMode=cv2.BORDER_REPLICATE).astype(np.float32)
         colour *= self._turned_shading(face, state)[..., None]
         alpha = cv2.remap(self.atlas_alpha, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         if self.photo is not None:  # an object in place is the photo itself, without resampling, unless the
