@@ -1,4 +1,5 @@
-"""``bench scale``: what a larger photo costs each stage, as ratios to the smallest.
+"""``bench scale``: what a larger photo costs each stage, as ratios to the smallest; and what more objects cost
+``simulate`` (:func:`bench_objects`).
 
 One example (the motorcycle by default) is scaled to each size asked for (photo by cubic interpolation, masks
 by their pixels' majority), and ``build``, ``simulate`` and ``render`` run on it each in a fresh process, the
@@ -138,3 +139,45 @@ def bench_scale(example: pathlib.Path, sizes=SIZES_MP, repeats: int = 1, seconds
                          f"{v.get('load', float('nan')):5.1f}")
     echo("\n".join(table))
     return {"example": str(example), "repeats": repeats, "seconds": seconds, "max_size": max_size, "rows": rows}
+
+
+#: Object counts of the second axis: boxes dropped onto the ground five to a row (``bench physics``' ten objects'
+#: scene, :func:`~physomni_usd.bench.scenes.falling_boxes`), each landing on its own: the rigid contacts are
+#: those of each box's base with the ground, as many as the boxes.
+COUNTS = (3, 10, 30, 100)
+
+
+def bench_objects(counts=COUNTS, seconds: float = 2.0, echo=print) -> dict:
+    """``simulate`` (each a fresh process) on ``counts`` dropped boxes for ``seconds``: the command's wall and
+    CPU seconds and peak memory, and its stepping's seconds (the report's ``seconds.step``), as ratios to the
+    fewest; ``exponent``: the slope of log(stepping seconds) over log(boxes), least squares (1: the stepping
+    grows as the boxes and their contacts do)."""
+    from .scenes import falling_boxes, write_bench_shot
+
+    env = dict(os.environ)
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="physomni-objects-") as tmp:
+        for n in counts:
+            folder = pathlib.Path(tmp) / f"boxes-{n}"
+            shot = write_bench_shot(folder, falling_boxes(n))
+            row = _timed([sys.executable, "-m", "physomni_usd.cli", "simulate", str(shot), "--seconds",
+                          str(seconds), "-q"], env)
+            report = json.loads((folder / "report.json").read_text())
+            row["step_s"] = float(report["stages"]["simulate"]["seconds"]["step"])
+            row["objects"] = n
+            rows.append(row)
+            echo(f"objects: {n} boxes: simulate {row['wall_s']:.1f} s wall / {row['cpu_s']:.1f} s cpu / "
+                 f"{row['peak_mb']:.0f} MB, stepping {row['step_s']:.2f} s (load {row['load']:.1f})")
+    base = rows[0]
+    for row in rows:
+        row["ratio_to_fewest"] = {k: round(row[k] / max(base[k], 1e-9), 2) for k in ("wall_s", "cpu_s", "step_s")}
+    x = np.log([r["objects"] for r in rows])
+    y = np.log([max(r["step_s"], 1e-9) for r in rows])
+    exponent = float(np.polyfit(x, y, 1)[0]) if len(rows) > 1 else float("nan")
+    table = [f"{'boxes':>6} {'wall s':>8} {'cpu s':>8} {'step s':>8} {'peak MB':>8} {'× step':>7} {'load':>5}"]
+    for r in rows:
+        table.append(f"{r['objects']:>6} {r['wall_s']:8.1f} {r['cpu_s']:8.1f} {r['step_s']:8.2f} {r['peak_mb']:8.0f} "
+                     f"{r['ratio_to_fewest']['step_s']:7.2f} {r['load']:5.1f}")
+    table.append(f"stepping grows as boxes^{exponent:.2f} (least squares over {len(rows)} counts; contacts ∝ boxes)")
+    echo("\n".join(table))
+    return {"seconds": seconds, "rows": rows, "exponent": round(exponent, 3)}

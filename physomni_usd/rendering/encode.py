@@ -11,6 +11,13 @@ def even_sides(frame: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(frame[:h - h % 2, :w - w % 2])
 
 
+#: x264's preset: how hard it searches for the smallest file at the quality asked for. "veryfast" encodes a
+#: 1920×1296 shot in 2.1 CPU seconds against the default "medium"'s 4.9 (91 frames, the 12 MP motorcycle's),
+#: its file no larger there (1.19 against 1.39 MB): what x264 gains by a longer search is a few per cent of file
+#: size on detailed motion, and a video of a few seconds is small either way.
+X264_PRESET = "veryfast"
+
+
 def video_writer(path, fps: float, quality: float):
     """An H.264 (yuv420p) MP4 writer for ``path``. Its ffmpeg prints nothing of its own (``quiet``): when it
     stops, :func:`encoder_failure` names the cause in one line instead of ffmpeg's lines on the user's
@@ -18,7 +25,8 @@ def video_writer(path, fps: float, quality: float):
     import imageio.v2 as imageio
 
     return imageio.get_writer(str(path), format="FFMPEG", mode="I", fps=fps, codec="libx264", quality=quality,
-                              macro_block_size=1, pixelformat="yuv420p", ffmpeg_log_level="quiet")
+                              macro_block_size=1, pixelformat="yuv420p", ffmpeg_log_level="quiet",
+                              output_params=["-preset", X264_PRESET])
 
 
 #: Below this much free space on the video's file system, a stopped encoder is taken to have filled it.

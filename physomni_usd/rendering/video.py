@@ -7,6 +7,7 @@ the video never shows a pixel the photo does not have.
 
 from __future__ import annotations
 
+import dataclasses
 import pathlib
 import time
 from dataclasses import dataclass
@@ -45,6 +46,12 @@ IN_PLACE_PX = 0.75
 #: Further motion, in pixels, over which an object changes from the photo to its texture over the plate
 #: (the plate without it and its contact shadow, and its synthetic shadow wherever it now is).
 REVEAL_PX = 2.0
+#: A frame of a video whose objects have all moved less than this many pixels on the screen since the last frame
+#: drawn (through the same camera, nothing shown or hidden, no particles) is that frame again: a shot's objects
+#: come to rest within a second or two and then lie still, or creep by the solver's rounding (1e-8 m a frame,
+#: 1e-5 px). It is that small because a lifted mesh's stretched side walls alias: on the 12 MP motorcycle at
+#: 960 px, a motion of 5e-3 px changed 633 pixels by up to 183 levels, one of 1.1e-4 px no pixel by more than 2.
+STILL_PX = 1e-4
 #: Particles are drawn as spheres spread over this multiple of their projected radius (they overlap, so
 #: that a set of them reads as one surface), shaded by a light travelling along PARTICLE_LIGHT (camera axes:
 #: right, down, forward: from above the camera, to its left) with PARTICLE_AMBIENT of their colour in full shade.
@@ -84,6 +91,11 @@ class ShotRenderer:
     def __init__(self, stage: Usd.Stage, settings: RenderSettings = RenderSettings()):
         self.stage = stage
         self.settings = settings
+        #: Whether :meth:`render` may give the last frame drawn again for a frame where nothing moved by
+        #: :data:`STILL_PX` (a video's frames, in order, of a stage nobody edits between them); off, every call
+        #: draws: a preview that edits the stage between frames, and the control passes, read each frame's own.
+        self.reuse_still = False
+        self._last = None
         plate = read_plate(stage)
         h, w = plate.shape[:2]
         scale = min(1.0, settings.max_size / max(h, w))
@@ -214,7 +226,9 @@ class ShotRenderer:
         # textures holding [photo crop | unseen sides] are twice the crop's width: the crop's own width
         self.photo_width = np.array([o.texture.shape[1] // 2 if o.two_sided else o.texture.shape[1]
                                      for o in self.objects] + [0], np.float32)
-        self.atlas_rgb = atlas[..., :3].astype(np.float32)
+        # bytes, not floats: a 12 MP photo's atlas is 29 MP (334 MB as floats); a frame's colours are sampled
+        # from it and made floats at the frame's size
+        self.atlas_rgb = np.ascontiguousarray(atlas[..., :3])
         self.atlas_alpha = atlas[..., 3].astype(np.float32) / 255.0
         self.faces = np.concatenate(faces) if faces else np.zeros((0, 3), np.int64)
         self.corner_px = np.concatenate(corners) if corners else np.zeros((0, 2))  # (F·3, 2) atlas pixels
@@ -546,6 +560,9 @@ class ShotRenderer:
             image = np.clip(self._splat(out, cam, particles, None, drawn) + 0.5, 0, 255).astype(np.uint8)
             return image, FrameState(float(t), cam, self._rays, particle_alpha=drawn)
         points = self.points_at(time_code)
+        still = self._still(cam, points, particles)
+        if still is not None:
+            return still[0].copy(), dataclasses.replace(still[1], time=float(t))
         self.caster.update(points)
         face, px = self.caster.cast(cam.origin, self._rays, 1e6, pixels=covered_pixels(cam, points, self.faces))
         # the caster's buffers are overwritten by the next cast: the state keeps its own
@@ -574,7 +591,8 @@ class ShotRenderer:
         out = back * (1.0 - shadow[..., None])
         mx = np.where(hit, px[..., 0] - 0.5, -10).astype(np.float32)
         my = np.where(hit, px[..., 1] - 0.5, -10).astype(np.float32)
-        colour = cv2.remap(self.atlas_rgb, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        colour = cv2.remap(self.atlas_rgb, mx, my, cv2.INTER_LINEAR,
+                           borderMode=cv2.BORDER_REPLICATE).astype(np.float32)
         colour *= self._turned_shading(face, state)[..., None]
         alpha = cv2.remap(self.atlas_alpha, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         if self.photo is not None:  # an object in place is the photo itself, without resampling, unless the
@@ -590,7 +608,25 @@ class ShotRenderer:
         out = out * (1.0 - a) + colour * a
         if self.particles:
             out = self._splat(np.ascontiguousarray(out, np.float32), cam, particles, self.caster.depth, drawn)
-        return np.clip(out + 0.5, 0, 255).astype(np.uint8), state
+        image = np.clip(out + 0.5, 0, 255).astype(np.uint8)
+        if self.reuse_still and not self.particles:
+            self._last = (cam, tuple(self._hidden), points.copy(), image.copy(), state)
+        return image, state
+
+    def _still(self, cam, points: np.ndarray, particles: list):
+        """The last frame drawn and its state, where :attr:`reuse_still` allows and this frame would draw the
+        same: the same camera, the same objects shown, none moved :data:`STILL_PX` on the screen, no
+        particles; else None."""
+        if not self.reuse_still or self.particles or particles or self._last is None:
+            return None
+        last_cam, hidden, last_points, image, state = self._last
+        same_camera = (np.array_equal(cam.axes, last_cam.axes) and np.array_equal(cam.origin, last_cam.origin)
+                       and cam.fx == last_cam.fx and cam.fy == last_cam.fy)
+        if not same_camera or hidden != tuple(self._hidden) or points.shape != last_points.shape:
+            return None
+        if not np.array_equal(points, last_points) and self._pixel_motion(cam, points, last_points) >= STILL_PX:
+            return None
+        return image, state
 
 
 def _vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -706,6 +742,7 @@ def _render_shot(shot, output, settings: RenderSettings, progress, passes=(), pa
     make_dirs(out.parent)
     fps = stage.GetFramesPerSecond() or stage.GetTimeCodesPerSecond() or 30.0
     renderer = ShotRenderer(stage, settings)
+    renderer.reuse_still = not passes  # the frames in order, the stage unchanged; the passes read every frame
     t_setup = time.perf_counter()
     n = end - start + 1
     pass_writer = PassWriter(pass_dir, passes, renderer, fps, settings.quality) if passes else None
