@@ -176,9 +176,9 @@ class RenderSettings(_Settings):
     quality: int = Field(9, ge=1, le=10, description="H.264 quality, 10 is best.")
     max_size: Annotated[int, Option(
         "--max-size", "Longest side of the video in pixels; larger photos are rendered smaller. H.264 needs even "
-                      "sides: an odd width or height loses its last column or row. A frame's cost grows with its "
-                      "pixels: about 0.19 CPU seconds a frame at 741×500 and 1.2 at 1920×1295 on a 2-core CPU "
-                      "(bench scale). The default is a full-HD video's width: a 12 MP photo's own 4000 px would "
+                      "sides: an odd width or height loses its last column or row. A frame where an object moves costs "
+                      "about 0.19 CPU seconds at 741×500 and 1.2 at 1920×1295 on a 2-core CPU; a frame where "
+                      "nothing moved is the last one again and costs only its encoding (bench scale). The default is a full-HD video's width: a 12 MP photo's own 4000 px would "
                       "cost 4× as much a frame.")] = Field(1920, ge=64, le=8192,
                           description="Longest side of the video in pixels; larger photos are rendered smaller.")
     device: str | None = Field(None, description="warp device; None picks cuda when present.")
