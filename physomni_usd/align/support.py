@@ -181,3 +181,55 @@ def _rests_on(k: int, i: int, supports: dict[int, tuple[int, str]]) -> bool:
         if k == i:
             return True
     return False
+
+
+#: A footing's tolerance: vertices this close above an object's lowest point (metres) are its base.
+BASE_TOL_M = 1e-3
+#: The centre of mass must lie this far inside its base (a fraction of the base's narrower side, at most 3 mm).
+FOOT_MARGIN = 0.1
+#: The most of an object's height :func:`stable_footing` cuts off its bottom.
+MAX_FOOT_CUT = 0.3
+FOOT_STEPS = 30
+
+
+def _holds(base_xy: np.ndarray, point_xy: np.ndarray) -> bool:
+    """Whether ``point_xy`` lies inside the convex hull of ``base_xy`` (k, 2) by :data:`FOOT_MARGIN`."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    if len(base_xy) < 3:
+        return False
+    try:
+        hull = ConvexHull(base_xy)
+    except QhullError:  # the base is a line or a point: nothing stands on it
+        return False
+    margin = min(FOOT_MARGIN * float(np.ptp(base_xy, axis=0).min()), 0.003)
+    return bool((hull.equations[:, :2] @ point_xy + hull.equations[:, 2] <= -margin).all())
+
+
+def stable_footing(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, float]:
+    """``vertices`` (n, 3) of a solid that stands on its lowest points, and the height (metres) cut off its bottom
+    for it to: a lifted outline can end in a corner or a curve (a box seen across a corner extruded, a fruit,
+    a bowl's round foot) on which the solid tips over as soon as it is simulated. Where its centre of mass
+    lies outside its base (the vertices within :data:`BASE_TOL_M` of its lowest), the least slice (up to
+    :data:`MAX_FOOT_CUT` of its height) is flattened off its bottom so that it does, and the solid is lowered
+    by that much, so that it stands where it stood; (vertices, 0) when it already stands or no slice helps."""
+    import trimesh
+
+    v = np.asarray(vertices, float)
+    z0, height = float(v[:, 2].min()), float(np.ptp(v[:, 2]))
+
+    def cut(h):
+        c = v.copy()
+        c[:, 2] = np.maximum(c[:, 2], z0 + h)
+        m = trimesh.Trimesh(c, faces, process=False)
+        centre = m.center_mass if m.is_volume else c.mean(0)
+        return c, _holds(c[c[:, 2] <= z0 + h + BASE_TOL_M][:, :2], centre[:2])
+
+    if height <= 0 or cut(0.0)[1]:
+        return v, 0.0
+    for h in np.linspace(0.0, MAX_FOOT_CUT * height, FOOT_STEPS + 1)[1:]:
+        c, holds = cut(h)
+        if holds:
+            c[:, 2] -= h
+            return c, float(h)
+    return v, 0.0
