@@ -440,8 +440,6 @@ def _place(scene: Scene) -> None:
     align_info["solve"] = solved.info | {"objects": [{"name": o.name, **s} for o, s in
                                                      zip(scene.objects, solved.info["objects"])]}
     verts = solved.vertices if shapes[0] == "external" else _deepened(scene, camera, solved.vertices, align_info)
-    if shapes[0] != "external":
-        verts = _footed(scene, verts, faces, supports, align_info)
     verts = _separated(scene, camera, verts, faces, shapes, supports, align_info)
     centre = centring_offset(verts)
     scene.camera = camera.moved(centre)
@@ -477,37 +475,6 @@ def _deepened(scene: Scene, camera, verts, align_info: dict) -> list:
     if done:
         align_info["deepened"] = done
     return out
-
-
-def _footed(scene: Scene, verts, faces, supports: dict, align_info: dict) -> list:
-    """The placed vertices with every solid standing on its base (``align.support.stable_footing``): one whose
-    centre of mass overhangs its lowest points has the least slice flattened off its bottom and is lowered by
-    it, and whatever rests on it with it; lower objects first."""
-    from .align.support import stable_footing, support_order
-
-    verts = [np.asarray(v, float).copy() for v in verts]
-    done = []
-    for i in support_order(len(verts), supports):
-        verts[i], h = stable_footing(verts[i], faces[i])
-        if h > 0:
-            done.append({"object": scene.objects[i].name, "cut_m": round(h, 4)})
-            riders = [k for k in range(len(verts)) if k != i and _rests_on(k, i, supports)]
-            for k in riders:
-                verts[k] = verts[k] - [0.0, 0.0, h]
-    if done:
-        align_info["footed"] = done
-    return verts
-
-
-def _rests_on(k: int, i: int, supports: dict) -> bool:
-    """Whether object ``k`` rests, directly or through others, on object ``i``."""
-    seen = set()
-    while k in supports and k not in seen:
-        seen.add(k)
-        k = supports[k][0]
-        if k == i:
-            return True
-    return False
 
 
 def _separated(scene: Scene, camera, verts, faces, shapes, supports, align_info: dict) -> list:
