@@ -428,8 +428,8 @@ def _render(shot, output, quiet, max_size=1920, passes=None, passes_dir=None, ca
                    f"Range: {limits(SimulateSettings, 'substeps')}; at most {MAX_SOLVER_STEPS:,} steps in all "
                    "(frames × substeps).")
 @click.option("--particle-spacing", type=float, default=None, metavar="METRES",
-              help="MPM particle spacing [default: 2 particles per cm³ of each MPM object, at least 1,000 and 3 "
-                   f"across its thinnest side, at most 15,000 particles]. Range: {limits(SimulateSettings, 'particle_spacing')}, and at most "
+              help="MPM particle spacing [default: 2 particles per cm³ of the MPM objects, each counted as at "
+                   f"least 1,000, at most 15,000 particles]. Range: {limits(SimulateSettings, 'particle_spacing')}, and at most "
                    f"{MAX_PARTICLES:,} particles in all.")
 @click.option("--mpm-steps", type=int, default=None,
               help="MPM steps per frame [default: what the bench found accurate for the shot's materials "
