@@ -443,7 +443,8 @@ def _place(scene: Scene) -> None:
                           [(k, i) for i, o in enumerate(scene.objects) for k in o.occluders], scene.masks)
     align_info["solve"] = solved.info | {"objects": [{"name": o.name, **s} for o, s in
                                                      zip(scene.objects, solved.info["objects"])]}
-    verts = _separated(scene, camera, solved.vertices, faces, shapes, supports, align_info)
+    verts = solved.vertices if shapes[0] == "external" else _deepened(scene, camera, solved.vertices, align_info)
+    verts = _separated(scene, camera, verts, faces, shapes, supports, align_info)
     _silhouette_report(scene, camera, verts, faces, align_info)
     centre = centring_offset(verts)
     scene.camera = camera.moved(centre)
@@ -470,6 +471,31 @@ def _silhouette_report(scene: Scene, camera, verts, faces, align_info: dict) -> 
             "the built scene does not match the photo's outline of " + ", ".join(
                 f"{name} (silhouette IoU {v:.2f})" for name, v in low)
             + f" (under {WARN_IOU:g}); give its mask again, --size or --pitch"]
+
+
+def _deepened(scene: Scene, camera, verts, align_info: dict) -> list:
+    """The placed vertices with no lifted solid thinner than its outline allows (``metrics.geometry.thin_side``:
+    a third of the outline's smaller side, a round thing round in depth, unless its label says flat): a thin
+    one grows along its thin axis, away from the camera or up from its base. Run before the separation pass,
+    which parts whatever the deeper object now presses."""
+    from .align.place import deepen
+    from .metrics.geometry import thin_side
+
+    out, done = [], []
+    for o, v in zip(scene.objects, verts):
+        first = thin = thin_side(v, o.mask.label, camera.origin)
+        for _ in range(3):  # the stretched solid's own box can lie otherwise: judge it again
+            if thin is None:
+                break
+            v = deepen(v, thin, camera.origin)
+            thin = thin_side(v, o.mask.label, camera.origin)
+        if first is not None:
+            done.append({"object": o.name, "from_m": round(first["thickness_m"], 4),
+                         "to_m": round(first["need_m"], 4)})
+        out.append(v)
+    if done:
+        align_info["deepened"] = done
+    return out
 
 
 def _separated(scene: Scene, camera, verts, faces, shapes, supports, align_info: dict) -> list:

@@ -139,7 +139,7 @@ class SimulateSettings(_Settings):
     device: str | None = Field(None, description="warp device ('cpu', 'cuda:0'); None picks cuda when present.")
     particle_spacing: Annotated[float | None, Option(
         "--particle-spacing", "MPM particle spacing",
-        "the smallest MPM object 10 particles across, at most 15,000 particles",
+        "2 particles per cm³ of the MPM objects, each counted as at least 1,000, at most 15,000 particles",
         f", and at most {MAX_PARTICLES:,} particles in all", metavar="METRES")] = Field(
         None, gt=1e-4, le=10.0, description="MPM particle spacing in metres; None chooses it from the objects' sizes.")
     mpm_steps: Annotated[int | None, Option(

@@ -6,11 +6,14 @@ Each case is built as a user would build it (the example's masks, boxes and size
 ``physomni_usd.simulate``, the function ``simulate`` runs (an exception here is a non-zero exit there). Then:
 
 - the simulation finished;
-- every *rigid* object's largest point displacement over the take is at most 1 cm. Sand, water, jelly and cloth
+- every *rigid* object's largest point displacement over the take is at most 1 cm, and its largest turn at
+  most 5° (a small thing that tips over moves its points less than a centimetre). Sand, water, jelly and cloth
   are meant to move under gravity, so in those examples only their rigid objects (the crates) are held still;
   the MPM ones (jelly, water) run at a particle spacing of 10 cm (``PARTICLE_SPACING_M``) to keep time down —
   the crates' rest does not depend on it;
-- no two objects' meshes start deeper in each other than 2 mm (signed distances, mesh against mesh).
+- no two objects' meshes start deeper in each other than 2 mm (signed distances, mesh against mesh);
+- no solid is thinner than a third of its outline's smaller side unless its label or outline says flat
+  (``metrics.geometry.thin_side``).
 
 An example with no rigid object at all (the sand) has nothing to hold still: only its start is checked, and it is
 not simulated here (``tests/test_deformables.py`` runs it).
@@ -31,6 +34,9 @@ import physomni_usd as api
 from physomni_usd.bench.real_photos import (REST_DRIFT_M, REST_SECONDS, START_OVERLAP_M, load_photo, load_truth,
                                             rest_check, write_inputs)
 
+#: Issue 38: nothing unpushed turns more than this in the take, degrees.
+REST_TURN_DEG = 5.0
+
 #: The whole net builds and simulates every example and bench photo: 15-20 minutes on a loaded 2-core machine.
 #: Quicker tests run each command it runs (build, simulate).
 pytestmark = pytest.mark.slow
@@ -42,7 +48,9 @@ PARTICLE_SPACING_M = 0.1
 DEFORMABLE = {"cloth", "jelly", "sand", "water"}
 
 #: Cases that fail on the code the net was cast on, with what was measured (see the module's docstring).
-KNOWN: dict[str, str] = {}
+KNOWN: dict[str, str] = {
+    "photo:rubberwhale": "the shell (shell_1) turns 5.73° in 2 s, its points moving 7.3 mm, since the 5° turn limit "
+                         "was added (measured 2026-12-05)"}
 
 
 def _cases():
@@ -105,12 +113,33 @@ def test_nothing_pushed_nothing_moves(case, built):
         return
     spacing = PARTICLE_SPACING_M if case.startswith("example:") and name in DEFORMABLE else None
     rest = rest_check(result.shot, seconds=REST_SECONDS, particle_spacing=spacing)
-    print(f"{case}: worst drift {1000 * rest['max_drift_m']:.1f} mm of {len(rest['rigid'])} rigid, "
-          f"worst start overlap {1000 * rest['max_overlap_m']:.1f} mm")  # the figures, under -s
+    print(f"{case}: worst drift {1000 * rest['max_drift_m']:.1f} mm, turn {rest['max_turn_deg']:.1f}° of "
+          f"{len(rest['rigid'])} rigid, worst start overlap {1000 * rest['max_overlap_m']:.1f} mm")  # under -s
     moved = {k: v for k, v in rest["drift_m"].items() if v > REST_DRIFT_M}
+    turned = {k: v for k, v in rest["turn_deg"].items() if v > REST_TURN_DEG}
     deep = {k: v for k, v in rest["overlap_m"].items() if v > START_OVERLAP_M}
-    assert not moved and not deep, (f"{case}: moved (m) {moved}; start overlaps (m) {deep}; "
-                                    f"worst drift {rest['max_drift_m']} m, worst overlap {rest['max_overlap_m']} m")
+    assert not moved and not turned and not deep, (
+        f"{case}: moved (m) {moved}; turned (°) {turned}; start overlaps (m) {deep}; worst drift "
+        f"{rest['max_drift_m']} m, worst turn {rest['max_turn_deg']}°, worst overlap {rest['max_overlap_m']} m")
+
+
+@pytest.mark.parametrize("case", [p.values[0] for p in _cases()])  # KNOWN marks the rest, not this
+def test_no_solid_is_thinner_than_its_outline_allows(case, built):
+    """Issue 38: a third of the outline's smaller side at least (a ball-shaped label round in depth), unless
+    the label or the outline says flat; on the shot as built (its start)."""
+    from physomni_usd.bench.alignment import _built_camera
+    from physomni_usd.metrics.geometry import thin_side, world_meshes
+    from physomni_usd.usd import layers
+
+    result, _ = built(case)
+    report = json.loads((result.folder / "report.json").read_text())
+    stage = layers.open_shot(result.shot)
+    shot = report["shot"]
+    camera = _built_camera(stage, shot["fov_deg"], shot["width"], shot["height"])
+    meshes = world_meshes(stage, stage.GetStartTimeCode())
+    thin = {o["name"]: (round(t["thickness_m"], 4), round(t["side_m"], 4)) for o in report["objects"]
+            if o["name"] in meshes and (t := thin_side(meshes[o["name"]].vertices, o["label"], camera.origin))}
+    assert not thin, f"{case}: (thickness, outline's smaller side) m {thin}"
 
 
 def test_every_example_and_photo_is_a_case():

@@ -187,3 +187,20 @@ def centring_offset(vertex_sets: list[np.ndarray]) -> np.ndarray:
     mid = 0.5 * (xy.min(0) + xy.max(0))
     return np.array([-mid[0], -mid[1], 0.0])
 
+
+def deepen(vertices: np.ndarray, thin: dict, camera_origin) -> np.ndarray:
+    """``vertices`` (n, 3) stretched along the thin axis of ``thin`` (``metrics.geometry.thin_side``) to its
+    ``need_m``. A near-vertical axis grows upward from the base, which stays on what holds it; any other grows
+    away from the camera behind the face it sees, so the outline the photo shows barely changes. The longest
+    side never grows (the least thickness is under the outline's smaller side)."""
+    v = np.asarray(vertices, float)
+    axis = np.asarray(thin["axis"], float)
+    if abs(axis[2]) > 0.7:
+        axis = axis if axis[2] > 0 else -axis
+    else:
+        away = thin["centre"] - np.asarray(camera_origin, float)
+        axis = axis if axis @ away > 0 else -axis
+    d = v @ axis
+    pivot = d.min()  # the base, or the face toward the camera
+    factor = thin["need_m"] / max(thin["thickness_m"], 1e-6)
+    return v + np.outer((factor - 1.0) * (d - pivot), axis)

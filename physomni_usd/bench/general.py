@@ -129,6 +129,9 @@ def build_row(folder, truth: dict, true_meshes: list, camera: PinholeCamera, mod
     mapped = built_camera.origin + built_camera.world_from_camera @ (
         camera.world_from_camera.T @ (middle - camera.origin) / k)
     got = _views_about(built_camera, mine, mapped)
+    from ..metrics.geometry import thin_side  # issue 38: no solid thinner than its outline allows
+
+    row["thin"] = [n for n, m, lab in zip(names, mine, labels) if thin_side(m.vertices, lab, built_camera.origin)]
     want = _views_about(camera, true_meshes, middle)
     for i, (name, label) in enumerate(zip(names, labels)):
         o = cmp["objects"][label if labels.count(label) == 1 else name]
@@ -242,7 +245,8 @@ def _judge(row: dict) -> dict:
         "simulates": sim,
         "start_overlap": sim and row["max_overlap_m"] <= lim["start_overlap_m"],
         "rest_drift": sim and row["max_drift_m"] <= lim["rest_drift_m"],
-        "rest_turn": sim and row["max_turn_deg"] <= lim["rest_turn_deg"]}
+        "rest_turn": sim and row["max_turn_deg"] <= lim["rest_turn_deg"],
+        "thickness": row["built"] and "thin" in row and not row["thin"]}
     if "materials" in row:
         row["invariants"]["every_material"] = all(t["ok"] for t in row["materials"])
     row["all_invariants"] = all(row["invariants"].values())
@@ -255,7 +259,7 @@ def _judge(row: dict) -> dict:
     return row
 
 
-INVARIANTS = ("builds", "simulates", "start_overlap", "rest_drift", "rest_turn")
+INVARIANTS = ("builds", "simulates", "start_overlap", "rest_drift", "rest_turn", "thickness")
 TRUTHS = ("iou_photo", "iou_amodal", "iou_novel", "position", "size")
 
 
@@ -381,6 +385,7 @@ def markdown(numbers: dict) -> str:
              "start_overlap": f"scenes: start overlap ≤ {1000 * LIMITS['start_overlap_m']:g} mm",
              "rest_drift": f"scenes: unpushed, nothing moves > {100 * LIMITS['rest_drift_m']:g} cm in 2 s",
              "rest_turn": f"scenes: unpushed, nothing turns > {LIMITS['rest_turn_deg']:g}° in 2 s",
+             "thickness": "scenes: no solid thinner than a third of its outline (unless flat)",
              "every_material": "scenes: sampled objects simulate 1 s as every material",
              "all_invariants": "**scenes: every invariant**",
              "pitch": f"scenes: pitch within {LIMITS['pitch_deg']:g}°",

@@ -205,12 +205,14 @@ def rest_check(shot, seconds: float = REST_SECONDS, particle_spacing: float | No
 
     Returns ``rigid`` (the names of the rigid objects: sand, water, jelly and cloth are meant to move under
     gravity and are left out of the drift), ``drift_m`` (rigid prim name → largest point displacement over
-    the take, metres), ``overlap_m`` ("a|b" → deepest start overlap of the two meshes, metres, pairs that
-    overlap only) and the worst of each, ``max_drift_m`` and ``max_overlap_m``. A failed simulation raises.
+    the take, metres), ``turn_deg`` (rigid prim name → largest turn from its start, degrees: a small thing
+    that tips moves little), ``overlap_m`` ("a|b" → deepest start overlap of the two meshes, metres, pairs
+    that overlap only) and the worst of each, ``max_drift_m``, ``max_turn_deg`` and ``max_overlap_m``. A
+    failed simulation raises.
     """
     import physomni_usd as api
 
-    from ..metrics.geometry import overlaps, rest_drift, world_meshes
+    from ..metrics.geometry import overlaps, rest_drift, rest_turn, world_meshes
     from ..settings import SimulateSettings
     from ..usd import layers
 
@@ -219,10 +221,13 @@ def rest_check(shot, seconds: float = REST_SECONDS, particle_spacing: float | No
     stage = layers.open_shot(shot)
     start = world_meshes(stage, stage.GetStartTimeCode())
     drift = rest_drift(stage, names=set(rigid))
+    turn = rest_turn(stage, names=set(rigid))
     overlap = {f"{a}|{b}": d for (a, b), d in overlaps(start).items()}
     return {"rigid": rigid, "drift_m": {k: round(v, 5) for k, v in drift.items()},
             "overlap_m": {k: round(v, 5) for k, v in overlap.items()},
+            "turn_deg": {k: round(v, 2) for k, v in turn.items()},
             "max_drift_m": round(max(drift.values(), default=0.0), 5),
+            "max_turn_deg": round(max(turn.values(), default=0.0), 2),
             "max_overlap_m": round(max(overlap.values(), default=0.0), 5)}
 
 

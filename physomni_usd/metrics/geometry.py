@@ -163,3 +163,58 @@ def rest_turn(stage: Usd.Stage, names=None) -> dict[str, float]:
             angle = np.degrees(np.arccos(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0)))
             turn[n] = max(turn[n], float(angle))
     return turn
+
+
+#: The thinnest a solid may come out, as a fraction of the smaller side of the outline a photo would show of it
+#: (issue: no slab where the photo shows a block); a round thing (a ball-shaped label) as deep as this
+#: fraction of its width instead.
+THIN_FRACTION = 1.0 / 3.0
+ROUND_FRACTION = 0.8
+#: A label whose typical resting height is under this fraction of its longest side says the thing is flat
+#: (a coin, a card, a book, a plate): it may be as thin as it is.
+FLAT_LABEL_RATIO = 1.0 / 3.0
+#: A thin side the photo sees (its axis within 60° of the image plane) is what the outline says: not judged.
+SEEN_AXIS_COS = 0.5
+
+
+def label_says(label: str) -> str | None:
+    """'flat' for a label whose typical size is flat, 'round' for a ball-shaped one, else None (``sizes``)."""
+    from ..sizes import size_prior
+
+    p = size_prior(label or "")
+    if p is None or p.longest_m is None:
+        return None
+    if p.height_m is not None and p.height_m < FLAT_LABEL_RATIO * p.longest_m:
+        return "flat"
+    return "round" if p.shape == "ball" else None
+
+
+def thin_side(vertices: np.ndarray, label: str, camera_origin) -> dict | None:
+    """How an object (``vertices`` (n, 3), world metres) is too thin, or None when it is not.
+
+    Its thinnest side is the smallest extent of its oriented bounding box; the smaller side of its outline the
+    middle one. It is too thin below :data:`THIN_FRACTION` of that side (:data:`ROUND_FRACTION` for a
+    ball-shaped label), unless its label says flat, or the thin side lies across the line of sight from
+    ``camera_origin`` (3,) so that the photo itself shows it thin. Returns ``thickness_m``, ``side_m``,
+    ``need_m`` (the least thickness allowed), ``axis`` (3,) unit and ``centre`` (3,) of the box."""
+    says = label_says(label)
+    if says == "flat":
+        return None
+    v = np.asarray(vertices, float)
+    try:
+        to_origin, extents = trimesh.bounds.oriented_bounds(v, angle_digits=2)
+    except Exception:  # noqa: BLE001 — a degenerate point set (a plane, a line) has no box: judge its axes
+        to_origin, extents = np.eye(4), np.ptp(v, axis=0)
+        to_origin[:3, 3] = -(v.min(0) + v.max(0)) / 2
+    order = np.argsort(extents)
+    thickness, side = float(extents[order[0]]), float(extents[order[1]])
+    need = (ROUND_FRACTION if says == "round" else THIN_FRACTION) * side
+    if thickness >= need * 0.98 or side <= 0:
+        return None
+    world = np.linalg.inv(to_origin)
+    axis, centre = world[:3, order[0]], world[:3, 3]
+    view = centre - np.asarray(camera_origin, float)
+    view /= max(np.linalg.norm(view), 1e-12)
+    if abs(float(axis @ view)) < SEEN_AXIS_COS:
+        return None
+    return {"thickness_m": thickness, "side_m": side, "need_m": need, "axis": axis, "centre": centre}

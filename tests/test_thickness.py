@@ -1,0 +1,119 @@
+"""No lifted solid is thinner than a third of its outline's smaller side unless its label or its outline says flat,
+and a round thing is round in depth (issue 38, part 1). ``metrics.geometry.thin_side`` judges it; ``build`` grows
+a thin solid along its thin axis (``align.place.deepen``) before the separation pass. A photo of blocks is built
+with the placement made to flatten one block to 4 mm along the line of sight (as a slab lift of its outline
+does); the built block must come out at least a third as deep as its outline's smaller side, its longest side
+unchanged."""
+
+from __future__ import annotations
+
+import json
+
+import cv2
+import numpy as np
+import pytest
+import trimesh
+from pxr import Usd
+
+from physomni_usd import building as build_module
+from physomni_usd.align.place import deepen
+from physomni_usd.bench.alignment import _built_camera
+from physomni_usd.bench.synthetic import render_truth
+from physomni_usd.building import build_shot
+from physomni_usd.geometry.camera import PinholeCamera
+from physomni_usd.metrics.geometry import THIN_FRACTION, label_says, max_penetration, thin_side, world_meshes
+
+CAMERA = PinholeCamera(240, 180, 50.0, 30.0, (0.0, -0.55, 0.35))
+SLAB_M = 0.004
+
+
+def _box(size, at):
+    b = trimesh.creation.box(size)
+    b.apply_translation([at[0], at[1], at[2] + size[2] / 2])
+    return b
+
+
+def test_labels_say_flat_or_round():
+    assert [label_says(x) for x in ("coin", "card", "book", "plate", "paper")] == ["flat"] * 5
+    assert label_says("apple") == "round" and label_says("orange") == "round"
+    assert label_says("box") is None and label_says("block") is None and label_says("") is None
+
+
+def test_a_slab_seen_face_on_is_too_thin_and_one_seen_edge_on_is_not():
+    slab = _box((0.1, 0.1, 0.01), (0, 0, 0))
+    above = thin_side(slab.vertices, "box", [0.0, -0.3, 1.0])  # its thin side along the line of sight
+    assert above is not None and above["need_m"] == pytest.approx(0.1 * THIN_FRACTION, rel=0.02)
+    assert abs(above["axis"][2]) > 0.99
+    assert thin_side(slab.vertices, "box", [0.0, -1.0, 0.01]) is None  # the photo shows how thin it is
+    assert thin_side(slab.vertices, "card", [0.0, -0.3, 1.0]) is None  # the label says flat
+    assert thin_side(_box((0.1, 0.08, 0.05), (0, 0, 0)).vertices, "box", [0.0, -0.3, 1.0]) is None
+
+
+def test_a_ball_flattened_along_the_view_is_judged_against_its_width():
+    ball = trimesh.creation.icosphere(radius=0.04)
+    ball.apply_scale([1.0, 0.6, 1.0])  # 4.8 cm deep for 8 wide: a third is fine, round is not
+    assert thin_side(ball.vertices, "box", [0.0, -1.0, 0.0]) is None
+    thin = thin_side(ball.vertices, "apple", [0.0, -1.0, 0.0])
+    assert thin is not None and thin["need_m"] > 0.06
+
+
+@pytest.mark.parametrize("camera_origin", [(0.0, -0.6, 0.05), (0.05, -0.1, 1.0)])
+def test_deepen_keeps_the_seen_face_and_the_longest_side(camera_origin):
+    slab = _box((0.12, SLAB_M, 0.06), (0, 0, 0)) if camera_origin[2] < 0.5 else _box((0.12, 0.08, SLAB_M), (0, 0, 0))
+    thin = thin_side(slab.vertices, "block", camera_origin)
+    assert thin is not None
+    v = deepen(slab.vertices, thin, camera_origin)
+    assert thin_side(v, "block", camera_origin) is None
+    assert np.ptp(v, axis=0).max() == pytest.approx(0.12)
+    assert v[:, 2].min() == pytest.approx(0.0, abs=1e-9)  # the base stays on the ground
+    if camera_origin[2] < 0.5:  # seen from the front: the front face stays, the block grows behind it
+        assert v[:, 1].min() == pytest.approx(slab.vertices[:, 1].min(), abs=1e-9)
+
+
+@pytest.fixture(scope="module")
+def blocks(tmp_path_factory):
+    """The photo and mask specs of an 8 cm block on a 30 cm one and a 7 cm block beside them."""
+    folder = tmp_path_factory.mktemp("blocks")
+    truth = [_box((0.30, 0.20, 0.10), (0, 0, 0)), _box((0.08, 0.08, 0.08), (-0.06, 0.02, 0.10)),
+             _box((0.07, 0.07, 0.07), (0.25, -0.05, 0.0))]
+    photo, masks = render_truth(CAMERA, truth, np.random.default_rng(5))
+    cv2.imwrite(str(folder / "photo.png"), cv2.cvtColor(photo, cv2.COLOR_RGB2BGR))
+    specs = []
+    for k, m in enumerate(masks):
+        cv2.imwrite(str(folder / f"block{k}.png"), m.astype(np.uint8) * 255)
+        specs.append(f"{folder / f'block{k}.png'}:block")
+    return folder, specs
+
+
+def test_a_block_placed_as_a_4mm_slab_is_built_a_block(blocks, tmp_path, monkeypatch):
+    folder, specs = blocks
+    solve = build_module.solve_places
+    before = {}
+
+    def flattening(camera, verts, faces, *args, **kwargs):
+        solved = solve(camera, verts, faces, *args, **kwargs)
+        v = solved.vertices[2]
+        view = v.mean(0) - camera.origin
+        view[2] = 0.0
+        view /= np.linalg.norm(view)
+        d = (v - v.mean(0)) @ view
+        front = d.min()
+        solved.vertices[2] = v - np.outer((d - front) * (1.0 - SLAB_M / np.ptp(d)), view)
+        before["longest"] = float(trimesh.bounds.oriented_bounds(solved.vertices[2])[1].max())
+        assert thin_side(solved.vertices[2], "block", camera.origin) is not None
+        return solved
+
+    monkeypatch.setattr(build_module, "solve_places", flattening)
+    build_shot(folder / "photo.png", tmp_path / "shot", masks=specs)
+    stage = Usd.Stage.Open(str(tmp_path / "shot" / "shot.usda"))
+    meshes = world_meshes(stage, 0)
+    report = json.loads((tmp_path / "shot" / "report.json").read_text())
+    origin = _built_camera(stage, report["shot"]["fov_deg"], 240, 180).origin
+    deepened = report["shot"]["alignment"]["deepened"]
+    assert [d["object"] for d in deepened] == ["block_2"] and deepened[0]["from_m"] < 0.006
+    block = meshes["block_2"]
+    extents = np.sort(trimesh.bounds.oriented_bounds(block.vertices)[1])
+    assert extents[0] >= 0.95 * THIN_FRACTION * extents[1], extents
+    assert extents[2] == pytest.approx(before["longest"], rel=0.03)
+    assert max_penetration(meshes) <= 0.002
+    assert all(thin_side(m.vertices, "block", origin) is None for m in meshes.values())
