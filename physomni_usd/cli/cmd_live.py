@@ -9,9 +9,6 @@ import click
 
 from .shell import errors
 
-#: What `preview` takes for a photo (and hands to the set-up page) rather than a shot.
-PHOTO_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
-
 
 @click.command()
 @click.argument("shot", type=click.Path(path_type=pathlib.Path))
@@ -49,26 +46,14 @@ def preview(shot, host, port, duration, record, open_browser, out_dir, play):
     are not grabbed. A take keeps at most 3600 frames.
     """
     with errors():
-        if shot.suffix.lower() in PHOTO_SUFFIXES:  # a photo: set the shot up first, on the studio's page
-            from ..errors import InputError
-            from ..studio import Options as StudioOptions, Studio
-
-            if out_dir is None:
-                raise InputError(f"{shot} is a photo, not a shot: name the folder to build it into with -o, e.g. "
-                                 f"physomni-usd preview {shot} -o shot/ (the same as physomni-usd studio)")
-            page = Studio(shot, out_dir, StudioOptions(host=host, port=port, duration=duration,
-                                                       open_browser=open_browser))
-            page.start()
-            page.wait()
-            return
-        from ..preview.app import Options, Preview
+        from ..preview.app import Options
+        from ..studio import preview_or_set_up
 
         options = Options(host=host, port=port, duration=duration, record=record, open_browser=open_browser,
                           play=play)
-        session = Preview(shot, options)
-        session.start()
-        result = session.run()
-        click.echo(f"preview: stopped after {result['frames']} frames", err=True)
+        result = preview_or_set_up(shot, options, out_dir)  # a photo: set up on the studio's page first
+        if result is not None:
+            click.echo(f"preview: stopped after {result['frames']} frames", err=True)
 
 
 @click.command()

@@ -543,3 +543,29 @@ def _check_request(path: str, body: dict) -> None:
     for key, what in (("force", "a KIND:key=value,... text"), ("camera", "a camera move's name")):
         if body.get(key) is not None and not isinstance(body[key], str):
             raise InputError(f"{key}: {what} or null, not {json.dumps(body[key])[:60]}")
+
+
+#: What ``preview`` takes for a photo (and sets up on this page first) rather than a shot.
+PHOTO_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
+
+
+def preview_or_set_up(path, options, out_dir=None) -> dict | None:
+    """``preview``'s entry: the live preview of the shot at ``path`` (``options``: the preview's
+    :class:`~physomni_usd.preview.app.Options`) until it stops, returning its result (``frames``: frames
+    stepped); a photo (:data:`PHOTO_SUFFIXES`) is set up first on this page, built into ``out_dir``
+    (InputError without one), and None is returned when the page stops."""
+    path = pathlib.Path(path)
+    if path.suffix.lower() in PHOTO_SUFFIXES:
+        if out_dir is None:
+            raise InputError(f"{path} is a photo, not a shot: name the folder to build it into with -o, e.g. "
+                             f"physomni-usd preview {path} -o shot/ (the same as physomni-usd studio)")
+        page = Studio(path, out_dir, Options(host=options.host, port=options.port, duration=options.duration,
+                                             open_browser=options.open_browser))
+        page.start()
+        page.wait()
+        return None
+    from ..preview.app import Preview
+
+    session = Preview(path, options)
+    session.start()
+    return session.run()

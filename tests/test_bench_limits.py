@@ -1,0 +1,70 @@
+"""The benches' own numbers are checked by the bench functions, and the ``bench`` commands read their
+defaults and ranges from the same tables: the Python call and the command refuse the same values with
+the same line, before any work."""
+
+from __future__ import annotations
+
+import pytest
+from click.testing import CliRunner
+
+from physomni_usd.bench import limits
+from physomni_usd.bench.batch import bench_batch
+from physomni_usd.bench.general import bench_general
+from physomni_usd.bench.look import bench_look
+from physomni_usd.bench.peer import bench_peer
+from physomni_usd.bench.pipeline import bench_pipeline
+from physomni_usd.bench.real_photos import bench_both_halves
+from physomni_usd.bench.render import bench_render
+from physomni_usd.bench.scale import bench_scale
+from physomni_usd.cli import main
+from physomni_usd.errors import InputError
+
+# (command, bench function called with the one bad value, the CLI's arguments); every call is refused
+# before it reads the example, starts Ray or Blender, or renders anything
+CASES = [
+    ("pipeline", lambda: bench_pipeline("examples/motorcycle", size=10), ["--size", "10"]),
+    ("pipeline", lambda: bench_pipeline("examples/motorcycle", repeats=51), ["--repeats", "51"]),
+    ("render", lambda: bench_render("examples/motorcycle", size=5000), ["--size", "5000"]),
+    ("render", lambda: bench_render("examples/motorcycle", seconds=0.05), ["--seconds", "0.05"]),
+    ("batch", lambda: bench_batch("examples/motorcycle", size=32), ["--size", "32"]),
+    ("batch", lambda: bench_batch("examples/motorcycle", fps=500.0), ["--fps", "500"]),
+    ("scale", lambda: bench_scale("examples/motorcycle", repeats=0), ["--repeats", "0"]),
+    ("look", lambda: bench_look([], "out/never", seconds=31.0), ["--seconds", "31"]),
+    ("photos", lambda: bench_both_halves(pitches=(30.0, 90.0)), ["--pitch", "30", "--pitch", "90"]),
+    ("general", lambda: bench_general(0), ["--n", "0"]),
+    ("general", lambda: bench_general(3, seed=-1), ["--n", "3", "--seed", "-1"]),
+    ("general", lambda: bench_general(3, materials=101), ["--n", "3", "--materials", "101"]),
+    ("peer", lambda: bench_peer(repeats=21), ["--repeats", "21"]),
+    ("peer", lambda: bench_peer(seconds=0.0), ["--seconds", "0"]),
+]
+
+
+@pytest.mark.parametrize("command,call,args", CASES, ids=[f"{c[0]} {' '.join(c[2])}" for c in CASES])
+def test_the_bench_function_refuses_what_the_command_refuses_with_the_same_line(command, call, args):
+    with pytest.raises(InputError) as refused:
+        call()
+    assert str(refused.value).startswith(f"{args[-2]} {args[-1]}: must be "), str(refused.value)
+    result = CliRunner().invoke(main, ["bench", command, *args])
+    assert result.exit_code == 2, result.output
+    assert result.output.strip().splitlines()[-1] == f"error: {refused.value}"
+
+
+def test_each_bench_option_takes_its_default_and_range_from_the_table():
+    for command, table in (("pipeline", limits.PIPELINE), ("render", limits.RENDER), ("batch", limits.BATCH),
+                           ("scale", limits.SCALE), ("look", limits.LOOK), ("photos", limits.PHOTOS),
+                           ("general", limits.GENERAL), ("peer", limits.PEER)):
+        params = {p.name: p for p in main.commands["bench"].commands[command].params}
+        for name, limit in table.items():
+            option = params[name]
+            assert option.opts[0] == limit.flag, (command, name)
+            assert option.default == limit.default, (command, name)
+            assert f"Range: {limit.span()}." in option.help, (command, name)
+
+
+def test_a_value_at_the_edge_of_a_range_passes_and_a_fraction_does_not_pass_for_a_count():
+    limits.PIPELINE.check(size=64, repeats=50)
+    limits.PHOTOS.check(pitches=(0.0, 89.5), seconds=0.0)
+    with pytest.raises(InputError, match=r"^--repeats 2.5: must be a whole number, 1 ≤ value ≤ 50$"):
+        limits.PIPELINE.check(repeats=2.5)
+    with pytest.raises(InputError, match=r"^--seconds nan: must be 0.1 ≤ value ≤ 20$"):
+        limits.PEER.check(seconds=float("nan"))
