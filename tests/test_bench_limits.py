@@ -1,12 +1,13 @@
-"""The benches' own numbers are checked by the bench functions, and the ``bench`` commands read their
-defaults and ranges from the same tables: the Python call and the command refuse the same values with
-the same line, before any work."""
+"""The numbers outside the settings models (the benches', the batch's, the re-render's) are checked by the
+functions that take them, and the commands read their defaults and ranges from the same tables: the
+Python call and the command refuse the same values with the same line, before any work."""
 
 from __future__ import annotations
 
 import pytest
 from click.testing import CliRunner
 
+from physomni_usd.batch.runner import LIMITS as BATCH, check_batch, run_batch
 from physomni_usd.bench import limits
 from physomni_usd.bench.batch import bench_batch
 from physomni_usd.bench.general import bench_general
@@ -18,6 +19,7 @@ from physomni_usd.bench.render import bench_render
 from physomni_usd.bench.scale import bench_scale
 from physomni_usd.cli import main
 from physomni_usd.errors import InputError
+from physomni_usd.rerender import LIMITS as RERENDER, rerender_shot
 
 # (command, bench function called with the one bad value, the CLI's arguments); every call is refused
 # before it reads the example, starts Ray or Blender, or renders anything
@@ -37,28 +39,42 @@ CASES = [
     ("peer", lambda: bench_peer(repeats=21), ["--repeats", "21"]),
     ("peer", lambda: bench_peer(seconds=0.0), ["--seconds", "0"]),
 ]
+# the same for commands outside ``bench``: (argv before the options, the call, the options)
+OTHERS = [
+    (["batch", "shots.txt"], lambda: run_batch([], retries=21, call=None), ["--retries", "21"]),
+    (["batch", "shots.txt"], lambda: check_batch(None, workers=0), ["--workers", "0"]),
+    (["batch", "shots.txt"], lambda: run_batch([], cpus_per_shot=0.0, call=None), ["--cpus-per-shot", "0"]),
+    (["rerender", "shot.usda"], lambda: rerender_shot("shot.usda", None, strength=0.0), ["--strength", "0"]),
+    (["rerender", "shot.usda"], lambda: rerender_shot("shot.usda", None, steps=1001), ["--steps", "1001"]),
+    (["rerender", "shot.usda"], lambda: rerender_shot("shot.usda", None, max_size=8), ["--max-size", "8"]),
+]
 
 
-@pytest.mark.parametrize("command,call,args", CASES, ids=[f"{c[0]} {' '.join(c[2])}" for c in CASES])
+@pytest.mark.parametrize("command,call,args", CASES + OTHERS,
+                         ids=[f"{' '.join(c[0]) if isinstance(c[0], list) else c[0]} {' '.join(c[2])}"
+                              for c in CASES + OTHERS])
 def test_the_bench_function_refuses_what_the_command_refuses_with_the_same_line(command, call, args):
     with pytest.raises(InputError) as refused:
         call()
     assert str(refused.value).startswith(f"{args[-2]} {args[-1]}: must be "), str(refused.value)
-    result = CliRunner().invoke(main, ["bench", command, *args])
+    result = CliRunner().invoke(main, (command if isinstance(command, list) else ["bench", command]) + args)
     assert result.exit_code == 2, result.output
     assert result.output.strip().splitlines()[-1] == f"error: {refused.value}"
 
 
-def test_each_bench_option_takes_its_default_and_range_from_the_table():
-    for command, table in (("pipeline", limits.PIPELINE), ("render", limits.RENDER), ("batch", limits.BATCH),
-                           ("scale", limits.SCALE), ("look", limits.LOOK), ("photos", limits.PHOTOS),
-                           ("general", limits.GENERAL), ("peer", limits.PEER)):
-        params = {p.name: p for p in main.commands["bench"].commands[command].params}
+def test_each_option_takes_its_default_and_range_from_the_table():
+    bench = main.commands["bench"]
+    for group, command, table in ((bench, "pipeline", limits.PIPELINE), (bench, "render", limits.RENDER),
+                                  (bench, "batch", limits.BATCH), (bench, "scale", limits.SCALE),
+                                  (bench, "look", limits.LOOK), (bench, "photos", limits.PHOTOS),
+                                  (bench, "general", limits.GENERAL), (bench, "peer", limits.PEER),
+                                  (main, "batch", BATCH), (main, "rerender", RERENDER)):
+        params = {p.name: p for p in group.commands[command].params}
         for name, limit in table.items():
             option = params[name]
             assert option.opts[0] == limit.flag, (command, name)
             assert option.default == limit.default, (command, name)
-            assert f"Range: {limit.span()}." in option.help, (command, name)
+            assert f"Range: {limit.span()}." in option.help or not limit.span(), (command, name)
 
 
 def test_a_value_at_the_edge_of_a_range_passes_and_a_fraction_does_not_pass_for_a_count():
@@ -68,3 +84,6 @@ def test_a_value_at_the_edge_of_a_range_passes_and_a_fraction_does_not_pass_for_
         limits.PIPELINE.check(repeats=2.5)
     with pytest.raises(InputError, match=r"^--seconds nan: must be 0.1 ≤ value ≤ 20$"):
         limits.PEER.check(seconds=float("nan"))
+    BATCH.check(cpus_per_shot=0.01, gpus_per_shot=0.0)
+    with pytest.raises(InputError, match=r"^--seed 1.5: must be a whole number$"):
+        RERENDER.check(seed=1.5)

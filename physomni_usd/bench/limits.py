@@ -1,59 +1,10 @@
 """The benches' own numbers — a photo's size, repeats, scene counts, simulated seconds — with their ranges
-and defaults, one table per bench. Each bench function checks its arguments against its table
-(:meth:`Limits.check`: an :class:`~physomni_usd.errors.InputError` naming the option), and each ``bench``
-command reads its options' defaults and ranges from the same table, so that the Python call and the
-command refuse the same values with the same line."""
+and defaults, one table per bench (:class:`~physomni_usd.limits.Limits`): each bench function checks its
+arguments against its table before any work, and its ``bench`` command reads its options from it."""
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-
-from ..errors import InputError
-
-
-@dataclass(frozen=True)
-class Limit:
-    """One number of a bench: its option (``flag``), what it is (``text``, one sentence), its default
-    (None: a choice the bench makes, said in ``default_text``) and its closed range ``[lo, hi]``
-    (``hi`` None: unbounded); ``whole`` for a count."""
-
-    flag: str
-    text: str
-    lo: float
-    hi: float | None
-    default: float | int | None = None
-    whole: bool = False
-    default_text: str = ""
-
-    def span(self) -> str:
-        """The range in words, e.g. ``64 ≤ value ≤ 8192``."""
-        return f"{self.lo:g} ≤ value" + (f" ≤ {self.hi:g}" if self.hi is not None else "")
-
-    def check(self, value) -> None:
-        """Refuse ``value`` (None: not given, the bench's own choice) outside the range, or not whole where
-        it must be."""
-        if value is None:
-            return
-        number = float(value)
-        whole = not self.whole or (not isinstance(value, bool) and number == int(number))
-        if not (math.isfinite(number) and whole and self.lo <= number
-                and (self.hi is None or number <= self.hi)):
-            kind = "a whole number, " if self.whole else ""
-            shown = f"{value:g}" if isinstance(value, float) else value
-            raise InputError(f"{self.flag} {shown}: must be {kind}{self.span()}")
-
-
-class Limits(dict):
-    """A bench's numbers by argument name (name → :class:`Limit`)."""
-
-    def check(self, **values) -> None:
-        """Refuse the first of ``values`` (argument name → value, or an iterable of values for a repeatable
-        option) that its :class:`Limit` does not allow."""
-        for name, value in values.items():
-            for one in (value if isinstance(value, (list, tuple)) else (value,)):
-                self[name].check(one)
-
+from ..limits import Limit, Limits
 
 _SIZE = "Longer side of the photo, pixels."
 PIPELINE = Limits(

@@ -10,7 +10,7 @@ import click
 
 from ..bench import limits
 from ..settings import SimulateSettings
-from .options import range_help
+from .options import limit_option, range_help
 from .shell import errors
 
 
@@ -31,15 +31,6 @@ def write_numbers(numbers, *paths) -> None:
     for path in paths:
         if path is not None:
             write_bytes(path, text)
-
-
-def limit_option(table: limits.Limits, name: str, **kwargs):
-    """The option of the bench's number ``name``: flag, default and help with its range, from the bench's
-    table (:mod:`physomni_usd.bench.limits`); the bench function itself refuses a value out of range."""
-    found = table[name]
-    text = found.text if found.default is not None else f"{found.text} [default: {found.default_text}]."
-    return click.option(found.flag, name, type=int if found.whole else float, default=found.default,
-                        show_default=found.default is not None, help=f"{text} Range: {found.span()}.", **kwargs)
 
 
 @click.group()
