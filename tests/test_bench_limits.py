@@ -19,6 +19,8 @@ from physomni_usd.bench.render import bench_render
 from physomni_usd.bench.scale import bench_scale
 from physomni_usd.cli import main
 from physomni_usd.errors import InputError
+from physomni_usd.preview import limits as pages
+from physomni_usd.preview.app import Options, Preview
 from physomni_usd.rerender import LIMITS as RERENDER, rerender_shot
 
 # (command, bench function called with the one bad value, the CLI's arguments); every call is refused
@@ -47,7 +49,16 @@ OTHERS = [
     (["rerender", "shot.usda"], lambda: rerender_shot("shot.usda", None, strength=0.0), ["--strength", "0"]),
     (["rerender", "shot.usda"], lambda: rerender_shot("shot.usda", None, steps=1001), ["--steps", "1001"]),
     (["rerender", "shot.usda"], lambda: rerender_shot("shot.usda", None, max_size=8), ["--max-size", "8"]),
+    (["preview", "shot.usda"], lambda: Preview("shot.usda", Options(port=0)), ["--port", "0"]),
+    (["preview", "shot.usda"], lambda: Preview("shot.usda", Options(duration=0.0)), ["--duration", "0"]),
+    (["studio", "photo.png", "-o", "out"], lambda: _studio(port=65535), ["--port", "65535"]),
 ]
+
+
+def _studio(**options):
+    from physomni_usd.studio import Options as StudioOptions, Studio
+
+    return Studio("photo.png", "out", StudioOptions(**options))
 
 
 @pytest.mark.parametrize("command,call,args", CASES + OTHERS,
@@ -68,7 +79,8 @@ def test_each_option_takes_its_default_and_range_from_the_table():
                                   (bench, "batch", limits.BATCH), (bench, "scale", limits.SCALE),
                                   (bench, "look", limits.LOOK), (bench, "photos", limits.PHOTOS),
                                   (bench, "general", limits.GENERAL), (bench, "peer", limits.PEER),
-                                  (main, "batch", BATCH), (main, "rerender", RERENDER)):
+                                  (main, "batch", BATCH), (main, "rerender", RERENDER),
+                                  (main, "preview", pages.PREVIEW), (main, "studio", pages.STUDIO)):
         params = {p.name: p for p in group.commands[command].params}
         for name, limit in table.items():
             option = params[name]

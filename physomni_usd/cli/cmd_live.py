@@ -7,15 +7,16 @@ import pathlib
 
 import click
 
+from ..preview.limits import PREVIEW as PREVIEW_LIMITS, STUDIO as STUDIO_LIMITS
+from .options import limit_option
 from .shell import errors
 
 
 @click.command()
 @click.argument("shot", type=click.Path(path_type=pathlib.Path))
 @click.option("--host", default="127.0.0.1", show_default=True, help="Address to serve the page on.")
-@click.option("--port", type=click.IntRange(1, 65535), default=8080, show_default=True, help="Port of the page.")
-@click.option("--duration", type=click.FloatRange(0, 86400, min_open=True), default=None, metavar="SECONDS",
-              help="Quit after this many seconds (for scripts) [default: run until Ctrl-C].")
+@limit_option(PREVIEW_LIMITS, "port")
+@limit_option(PREVIEW_LIMITS, "duration", metavar="SECONDS")
 @click.option("--record", is_flag=True, help="On exit, write the take since the last reset to sim.usdc.")
 @click.option("--open/--no-open", "open_browser", default=None,
               help="Open the page in a web browser [default: where one is available].")
@@ -63,12 +64,10 @@ def preview(shot, host, port, duration, record, open_browser, out_dir, play):
 @click.option("--host", default="127.0.0.1", show_default=True,
               help="Address to serve the page on. On any but a loopback address the printed URL carries a "
                    "per-run token, without which every request is refused.")
-@click.option("--port", type=click.IntRange(1, 65534), default=8070, show_default=True,
-              help="Port of the page; the live preview takes the next one.")
+@limit_option(STUDIO_LIMITS, "port")
 @click.option("--segmenter", default="grabcut", show_default=True, metavar="NAME",
               help="What cuts the masks as you pick (see `physomni-usd plugins`; sam takes clicks natively).")
-@click.option("--duration", type=click.FloatRange(0, 86400, min_open=True), default=None, metavar="SECONDS",
-              help="Quit after this many seconds (for scripts) [default: run until Ctrl-C].")
+@limit_option(STUDIO_LIMITS, "duration", metavar="SECONDS")
 @click.option("--open/--no-open", "open_browser", default=None,
               help="Open the page in a web browser [default: where one is available].")
 def studio(photo, out_dir, host, port, segmenter, duration, open_browser):

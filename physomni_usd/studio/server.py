@@ -37,6 +37,7 @@ import numpy as np
 
 from ..errors import InputError, PhysOmniError
 from ..preview import security
+from ..preview.limits import STUDIO
 from . import session
 
 PAGE = pathlib.Path(__file__).with_name("page.html")
@@ -54,7 +55,7 @@ NAVIGATION = ("GET", "navigate")
 @dataclass
 class Options:
     host: str = "127.0.0.1"
-    port: int = 8070
+    port: int = STUDIO["port"].default
     preview_port: int | None = None  # None: the port after ``port``
     open_browser: bool | None = None  # None: where one is available
     duration: float | None = None  # wall seconds, then quit (scripts, tests)
@@ -70,6 +71,7 @@ class Studio:
         from ..perceive.masks import read_photo
         from ..preview.app import check_port
 
+        STUDIO.check(port=options.port, duration=options.duration)
         self.options = options
         #: what the page's long work said, line by line, for the page to show while it runs (/api/progress)
         self.progress_lines: list[str] = []
