@@ -84,7 +84,7 @@ def bench_scale(example: pathlib.Path, sizes=SIZES_MP, repeats: int = 1, seconds
                 stages=STAGES, max_size: int = 1920, echo=print) -> dict:
     """Each size's stages, ``repeats`` times with the sizes alternating; medians and ratios to the smallest.
     A size of 0 means the example as it is. A folder without example.json is refused (InputError)."""
-    SCALE.check(repeats=repeats)  # before any work, as the command refuses them
+    SCALE.check(repeats=repeats, seconds=seconds, max_size=max_size)  # before any work, as the command refuses them
 
     from ..errors import InputError
 

@@ -142,8 +142,8 @@ def bench_plate_command(quick, json_path):
               help="Megapixels of the photos; 0 is the example as it is.")
 @limit_option(limits.SCALE, "repeats")
 @click.option("--stages", default="build,simulate,render", show_default=True, help="Which stages to run.")
-@click.option("--seconds", type=float, default=3.0, show_default=True, help="Simulated seconds.")
-@click.option("--max-size", type=int, default=1920, show_default=True, help="render --max-size.")
+@limit_option(limits.SCALE, "seconds")
+@limit_option(limits.SCALE, "max_size")
 @json_option("numbers")
 def bench_scale_command(example, sizes, repeats, stages, seconds, max_size, json_path):
     """Each stage's wall time, CPU time and peak memory on one example scaled to each photo size, as ratios to
