@@ -16,8 +16,8 @@ from .errors import InputError
 @dataclass(frozen=True)
 class Limit:
     """One number: its option (``flag``), what it is (``text``, one sentence), its default (None: a choice
-    made later, said in ``default_text``) and its range ``[lo, hi]`` (``lo`` None: any, ``hi`` None: unbounded above; ``lo_open``:
-    ``lo`` itself is out); ``whole`` for a count."""
+    made later, said in ``default_text``) and its range ``[lo, hi]`` (``lo`` None: any number; ``hi`` None:
+    unbounded above; ``lo_open``: ``lo`` itself is out); ``whole`` for a count."""
 
     flag: str
     text: str
@@ -32,7 +32,8 @@ class Limit:
         """The range in words, e.g. ``64 ≤ value ≤ 8192``; empty for a number without one."""
         if self.lo is None:
             return ""
-        return f"{self.lo:g} {'<' if self.lo_open else '≤'} value" + (f" ≤ {self.hi:g}" if self.hi is not None else "")
+        below = f" ≤ {self.hi:g}" if self.hi is not None else ""
+        return f"{self.lo:g} {'<' if self.lo_open else '≤'} value{below}"
 
     def check(self, value) -> None:
         """Refuse ``value`` (None: not given, a choice made later) outside the range, or not whole where
