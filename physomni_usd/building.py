@@ -179,8 +179,7 @@ def build_shot(photo_path, out_dir, masks=(), boxes=(), settings: BuildSettings 
                backends=None, find=None, finder=None) -> BuildResult:
     """``backends``: kind → backend name for the swappable steps (see ``backends.steps.BUILD_KINDS``);
     ``find``: phrases ('cup, saucer') whose every instance the ``finder`` backend finds (default sam3)."""
-    check_build_inputs(photo_path, masks, boxes, settings)
-    with all_or_nothing():
+    with all_or_nothing():  # the inputs are checked first thing in it, before any work or write
         return _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, forces, fixed, meshes_dir,
                            sizes, backends, find, finder)
 
@@ -250,6 +249,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
                 sizes, backends, find=None, finder=None) -> BuildResult:
     from .backends.finders import find_objects, load_finder
 
+    check_build_inputs(photo_path, masks, boxes, settings)
     timer = Timer()
     with timer.step("read"):
         chosen = backend_steps.resolve(backends, meshes_dir=meshes_dir)
@@ -625,6 +625,8 @@ def _estimate(scene: Scene, push: dict, fixed_names: set[str]) -> None:
 
 def _write(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, fields, files: set[str]):
     """The shot's layers; returns the shot layer's path and the stale files of the previous build it removed."""
+    # what the old build made that this one does not, read from the old report before anything is written
+    stale = _stale_files(out, files)
     settings, camera = scene.settings, scene.camera
     h, w = (scene.photo if scene.full_photo is None else scene.full_photo).shape[:2]
     camera = camera if scene.work is None else scene.work.camera(camera)
@@ -642,7 +644,6 @@ def _write(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, fields
     layers.reset_sim_layer(out, settings.fps)
     layers.ensure_edits_layer(out, settings.fps)
     shot = layers.write_shot_layer(out, settings.fps)
-    stale = _stale_files(out, files)
     for path in stale:
         remove_file(path)
     return shot, stale

@@ -13,11 +13,11 @@ import inspect
 import pathlib
 import time
 
-import cv2
 import numpy as np
 
 from ._files import atomic_path
 from .errors import InputError
+from .limits import Limit, Limits
 from .report import update_report
 from .swappable import registry
 from .swappable.protocols import ControlPasses
@@ -77,16 +77,25 @@ def default_prompt(stage) -> str:
     return f"{things} on the ground, photorealistic, consistent lighting"
 
 
+#: The re-render's numbers (``rerender_shot``'s arguments), with their options, defaults and ranges.
+LIMITS = Limits(
+    strength=Limit("--strength", "Share of the denoising run: low keeps the rendered frames, 1 starts from noise.",
+                   0, 1, 0.6, lo_open=True),
+    steps=Limit("--steps", "Denoising steps actually run.", 1, 1000, 20, whole=True),
+    seed=Limit("--seed", "Random seed of the noise.", None, None, 0, whole=True),
+    max_size=Limit("--max-size", "Longest side of the frames given to the model, pixels.", 16, 8192, 832, whole=True),
+)
+
+
 def rerender_shot(shot, model: str | None, strength: float = 0.6, steps: int = 20, output=None, prompt: str | None = None,
                   seed: int = 0, max_size: int = 832, progress=None) -> dict:
     """Re-render ``shot`` with re-renderer ``model`` (None: the one installed); writes the video (default
     ``rerender.mp4``) and the report."""
+    import cv2  # here, not at the top: the command line reads this module's LIMITS at start-up
+
     from .rendering.encode import even_sides, video_writer
 
-    if not 0.0 < strength <= 1.0:
-        raise InputError(f"--strength {strength:g}: must be in (0, 1]")
-    if steps < 1:
-        raise InputError(f"--steps {steps}: must be at least 1")
+    LIMITS.check(strength=strength, steps=steps, seed=seed, max_size=max_size)
     folder = layers.shot_folder(shot)
     out = pathlib.Path(output) if output else folder / "rerender.mp4"
     if out.suffix.lower() != ".mp4" or out.is_dir():

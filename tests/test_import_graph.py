@@ -19,7 +19,7 @@ ROOT = pathlib.Path(physomni_usd.__file__).resolve().parent
 
 #: Layer of each module, by longest matching dotted prefix (package-relative); higher may import lower.
 RANKS = {
-    "errors": 0, "_files": 0, "_warp": 0, "_version": 0, "suggest": 0,
+    "errors": 0, "_files": 0, "_warp": 0, "_version": 0, "suggest": 0, "limits": 0,
     "usd": 1,
     "rotations": 2, "settings": 2, "report": 2, "metrics": 2, "geometry": 2, "sizes": 2, "fields": 2,
     "failure": 2,  # names a refused value by the option its settings field declares

@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 from .._files import write_bytes
 from ..errors import InputError, PhysOmniError
 from ..failure import Failure
+from ..limits import Limit, Limits
 from .shots import LOG, OUTPUTS, Shot, inputs_hash, is_finished, mark_finished, mark_started, missing_input
 
 #: The object store holds only each shot's small result; Ray's default (30 % of memory) is wasted here.
@@ -183,9 +184,23 @@ def start_ray(address: str | None, include_gpus: bool = True) -> str:
     return "local"
 
 
-def check_batch(summary_path: pathlib.Path | None = None) -> None:
-    """Refuse (InputError, before the shot list is read) a machine without Ray and a summary whose folder
-    does not exist."""
+#: The batch's own numbers (``run_batch``'s arguments), with their options, defaults and ranges.
+LIMITS = Limits(
+    workers=Limit("--workers", "At most this many shots at once", 1, None, None, whole=True,
+                  default_text="as many as the CPUs (GPUs) allow"),
+    retries=Limit("--retries", "Attempts after the first for a shot that crashed, was killed or whose stage "
+                               "failed (never for bad input).", 0, 20, 2, whole=True),
+    cpus_per_shot=Limit("--cpus-per-shot", "CPUs Ray reserves for each shot.", 0, None, 1.0, lo_open=True),
+    gpus_per_shot=Limit("--gpus-per-shot", "GPUs Ray reserves for each shot (0.25: four shots share one); Ray "
+                                           "sets CUDA_VISIBLE_DEVICES to the reserved ones. Give at least a "
+                                           "fraction to run shots on GPUs.", 0, None, 0.0),
+)
+
+
+def check_batch(summary_path: pathlib.Path | None = None, **numbers) -> None:
+    """Refuse (InputError, before the shot list is read) ``numbers`` (``run_batch``'s: :data:`LIMITS`) out of
+    range, a machine without Ray and a summary whose folder does not exist."""
+    LIMITS.check(**numbers)
     try:
         import ray  # noqa: F401
     except ImportError:
@@ -204,6 +219,7 @@ def run_batch(shots: list[Shot], *, address: str | None = None, workers: int | N
     command, to ship inputs and outputs through Ray (see :mod:`.upload`) instead of reading and writing them
     at their paths on every node.
     """
+    LIMITS.check(workers=workers, retries=retries, cpus_per_shot=cpus_per_shot, gpus_per_shot=gpus_per_shot)
     progress = progress or Quiet()
     t0 = time.perf_counter()
     entries = [Entry(shot) for shot in shots]

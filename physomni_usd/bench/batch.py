@@ -21,6 +21,7 @@ import time
 
 from ..errors import PhysOmniError
 from .pipeline import _resized_example
+from .limits import BATCH
 
 _CLI = "import sys\nfrom physomni_usd.cli import main\nmain(sys.argv[1:], prog_name='physomni-usd')\n"
 
@@ -56,6 +57,8 @@ def bench_batch(example, counts=(1, 2, 4, 8), size: int = 320, seconds: float = 
                 echo=print) -> dict:
     """``batch`` against ``run`` one after another for each count of shots in ``counts`` (each 1 to
     :data:`MAX_COUNT`); refused (InputError) before any work without Ray or with a count out of range."""
+    BATCH.check(size=size, seconds=seconds, fps=fps)  # before any work, as the command refuses them
+
     from ..errors import InputError
 
     try:

@@ -35,6 +35,7 @@ import trimesh
 from ..geometry.camera import PinholeCamera
 from .general_render import (  # noqa: F401 — the scene side, re-exported
     MIN_VISIBLE_PX, SAMPLES, SIZE, NoBlender, blender_python, describe_scene, load_rendered, render_scene)
+from .limits import GENERAL
 
 #: The limits the pass rates are counted against (the issue's acceptance).
 LIMITS = {"start_overlap_m": 0.002, "rest_drift_m": 0.01, "rest_turn_deg": 5.0, "iou_photo": 0.85,
@@ -350,6 +351,7 @@ def bench_general(n: int, seed: int | None = None, out_dir=None, modes=MODES, se
                   echo=print, materials: int = 0) -> dict:
     """``n`` scenes drawn from ``seed`` (a new one, printed, when None), each built by every one of ``modes``;
     the scenes and shots go to ``out_dir`` (a temporary folder, removed, when None). Returns the numbers."""
+    GENERAL.check(n=n, seed=seed, seconds=seconds, materials=materials)  # before any work, as the command does
     blender_python()  # no Blender: say so before drawing anything
     if seed is None:
         seed = int(np.random.default_rng().integers(1, 1_000_000))

@@ -26,6 +26,7 @@ import cv2
 import numpy as np
 import trimesh
 
+from ..errors import InputError
 from ..geometry.camera import PinholeCamera
 
 
@@ -40,8 +41,9 @@ MIN_VISIBLE_PX = 80
 ID_STEP = 4
 
 
-class NoBlender(RuntimeError):
-    pass
+class NoBlender(InputError):
+    """No Python with Blender's ``bpy`` to render the scenes with: a missing prerequisite, refused as bad
+    input is (exit 2)."""
 
 
 def blender_python() -> str:

@@ -67,6 +67,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..texture.sides import copy_sources
+from .limits import LOOK
 
 #: Revealed areas smaller than this many pixels (at the rendered size) say nothing and are not measured.
 MIN_REVEALED = 60
@@ -497,6 +498,8 @@ def bench_look(examples: list[pathlib.Path], out_dir: pathlib.Path, size: int = 
     """A contact sheet (``out_dir/<example>.png``) and the figures of every example in ``examples``;
     returns the figures by example (also written to ``out_dir/look.json``). No ``examples``: every folder
     of ``examples/`` here that has an example.json (InputError where there is none)."""
+    LOOK.check(size=size, seconds=seconds)  # before any work, as the command refuses them
+
     from .._files import make_dirs, write_json
 
     examples = list(examples) or sorted(p.parent for p in pathlib.Path("examples").glob("*/example.json"))

@@ -15,6 +15,7 @@ import statistics
 import tempfile
 import time
 
+from .limits import PEER
 from .scenes import BOX, BOX_DENSITY, box, boxes_at_rest  # noqa: F401 (the cases' scenes)
 
 #: The cases, in the order they run; ``--only`` takes these names.
@@ -183,6 +184,8 @@ def run_case(name: str, repeats: int = 3, seconds: float = 2.0, echo=lambda m: N
 def bench_peer(only=(), repeats: int = 3, seconds: float = 2.0, echo=print) -> dict:
     """Run the cases (``only``: a subset of :data:`CASES`) and print one line each; returns the numbers,
     or ``{"genesis": None}`` having run nothing where Genesis is not installed."""
+    PEER.check(repeats=repeats, seconds=seconds)  # before any work, as the command refuses them
+
     import os
 
     from .physics import machine

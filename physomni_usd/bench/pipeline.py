@@ -19,6 +19,7 @@ import time
 import cv2
 
 from ..errors import InputError
+from .limits import PIPELINE
 
 
 def _resized_example(example: pathlib.Path, size: int, work: pathlib.Path) -> dict:
@@ -45,6 +46,8 @@ def _resized_example(example: pathlib.Path, size: int, work: pathlib.Path) -> di
 
 def bench_pipeline(example, size: int = 880, repeats: int = 3, seconds: float = 2.0, fps: float = 30.0,
                    echo=print) -> dict:
+    PIPELINE.check(size=size, repeats=repeats)  # before any work, as the command refuses them
+
     import physomni_usd as api
 
     from ..settings import BuildSettings, SimulateSettings

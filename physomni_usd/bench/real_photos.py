@@ -23,6 +23,7 @@ import time
 
 import cv2
 import numpy as np
+from .limits import PHOTOS
 
 REAL = pathlib.Path(__file__).with_name("real")
 #: An object whose longest dimension is within this factor of the truth passes (the issue's 1.5).
@@ -236,6 +237,8 @@ def bench_both_halves(pitches=(), seconds: float = 0.5, real=(), only: str = "al
     photos are named) and the real photos named in ``real`` (default all), or ``only`` one half ('synthetic',
     'real'). An unknown photo, or scikit-image missing for a photo that comes with it, is refused
     (InputError) before any work."""
+    PHOTOS.check(pitches=pitches, seconds=seconds)  # before any work, as the command refuses them
+
     from ..errors import InputError
     from .photos import PITCHES, bench_photos
 

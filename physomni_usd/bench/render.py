@@ -17,9 +17,12 @@ import tempfile
 import time
 
 from .pipeline import _resized_example
+from .limits import RENDER
 
 
 def bench_render(example, size: int = 880, seconds: float = 1.0, fps: float = 30.0, echo=print) -> dict:
+    RENDER.check(size=size, seconds=seconds)  # before any work, as the command refuses them
+
     from ..building import build_shot
     from ..physics.simulate import simulate_shot
     from ..rendering.passes import PASSES

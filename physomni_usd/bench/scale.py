@@ -22,6 +22,7 @@ import cv2
 import numpy as np
 
 from ..perceive.masks import photo_size
+from .limits import SCALE
 
 #: Megapixels of the photos by default: the examples' sizes up to a full-frame camera's (the --max-pixels cap).
 SIZES_MP = (0.3, 1.0, 4.0, 12.0, 40.0)
@@ -84,6 +85,8 @@ def bench_scale(example: pathlib.Path, sizes=SIZES_MP, repeats: int = 1, seconds
                 stages=STAGES, max_size: int = 1920, echo=print) -> dict:
     """Each size's stages, ``repeats`` times with the sizes alternating; medians and ratios to the smallest.
     A size of 0 means the example as it is. A folder without example.json is refused (InputError)."""
+    SCALE.check(repeats=repeats, seconds=seconds, max_size=max_size)  # before any work, as the command refuses them
+
     from ..errors import InputError
 
     if not (pathlib.Path(example) / "example.json").is_file():

@@ -8,9 +8,10 @@ import sys
 
 import click
 
+from ..bench import limits
 from ..settings import SimulateSettings
-from .options import range_help
-from .shell import errors, fail
+from .options import limit_option, range_help
+from .shell import errors
 
 
 def json_option(what: str):
@@ -41,9 +42,8 @@ def bench():
 @click.option("--example", type=click.Path(file_okay=False, path_type=pathlib.Path),
               default=pathlib.Path("examples/motorcycle"), show_default=True,
               help="Example folder with example.json, a photo and its masks.")
-@click.option("--size", type=click.IntRange(64, 8192), default=880, show_default=True,
-              help="Longer side of the photo, pixels.")
-@click.option("--repeats", type=click.IntRange(1, 50), default=3, show_default=True, help="Builds to time.")
+@limit_option(limits.PIPELINE, "size")
+@limit_option(limits.PIPELINE, "repeats")
 @click.option("--seconds", type=float, default=2.0, show_default=True,
               help=range_help("Simulated seconds in the run.", SimulateSettings, "seconds"))
 @json_option("numbers")
@@ -60,10 +60,8 @@ def bench_pipeline_command(example, size, repeats, seconds, json_path):
 @click.option("--example", type=click.Path(file_okay=False, path_type=pathlib.Path),
               default=pathlib.Path("examples/motorcycle"), show_default=True,
               help="Example folder with example.json, a photo and its masks.")
-@click.option("--size", type=click.IntRange(64, 4096), default=880, show_default=True,
-              help="Longer side of the photo and of the frames, pixels.")
-@click.option("--seconds", type=click.FloatRange(0.1, 30), default=1.0, show_default=True,
-              help="Simulated (and rendered) seconds.")
+@limit_option(limits.RENDER, "size")
+@limit_option(limits.RENDER, "seconds")
 @click.option("--quick", is_flag=True, help="Render 0.3 s (10 frames) instead of --seconds.")
 @json_option("numbers")
 def bench_render_command(example, size, seconds, quick, json_path):
@@ -86,11 +84,9 @@ def bench_render_command(example, size, seconds, quick, json_path):
               help="Example folder with example.json, a photo and its masks; every shot is this one.")
 @click.option("--counts", default="1,2,4,8", show_default=True, metavar="N,N,...",
               help="Numbers of shots to time.")
-@click.option("--size", type=click.IntRange(64, 4096), default=320, show_default=True,
-              help="Longer side of the photo, pixels.")
-@click.option("--seconds", type=click.FloatRange(0.1, 30), default=1.0, show_default=True,
-              help="Simulated seconds per shot.")
-@click.option("--fps", type=click.FloatRange(1, 120), default=30.0, show_default=True, help="Frames per second.")
+@limit_option(limits.BATCH, "size")
+@limit_option(limits.BATCH, "seconds")
+@limit_option(limits.BATCH, "fps")
 @json_option("numbers")
 def bench_batch_command(example, counts, size, seconds, fps, json_path):
     """Wall time and shots per hour of `batch` (local Ray) against `run` one after another.
@@ -144,11 +140,10 @@ def bench_plate_command(quick, json_path):
               help="Example folder (with example.json) to scale.")
 @click.option("--sizes", default="0.3,1,4,12,40", show_default=True, metavar="MP,MP,...",
               help="Megapixels of the photos; 0 is the example as it is.")
-@click.option("--repeats", type=click.IntRange(1, 20), default=1, show_default=True,
-              help="Rounds over the sizes, alternating (medians are reported).")
+@limit_option(limits.SCALE, "repeats")
 @click.option("--stages", default="build,simulate,render", show_default=True, help="Which stages to run.")
-@click.option("--seconds", type=float, default=3.0, show_default=True, help="Simulated seconds.")
-@click.option("--max-size", type=int, default=1920, show_default=True, help="render --max-size.")
+@limit_option(limits.SCALE, "seconds")
+@limit_option(limits.SCALE, "max_size")
 @json_option("numbers")
 def bench_scale_command(example, sizes, repeats, stages, seconds, max_size, json_path):
     """Each stage's wall time, CPU time and peak memory on one example scaled to each photo size, as ratios to
@@ -176,10 +171,8 @@ def bench_scale_command(example, sizes, repeats, stages, seconds, max_size, json
               help="Example folder with example.json (repeatable) [default: every folder of examples/].")
 @click.option("-o", "--output", "out_dir", type=click.Path(file_okay=False, path_type=pathlib.Path),
               default=pathlib.Path("out/look"), show_default=True, help="Folder for the sheets and look.json.")
-@click.option("--size", type=click.IntRange(64, 4096), default=880, show_default=True,
-              help="Longer side of the rendered frames, pixels.")
-@click.option("--seconds", type=click.FloatRange(0.1, 30), default=None,
-              help="Simulated seconds [default: each example's own].")
+@limit_option(limits.LOOK, "size")
+@limit_option(limits.LOOK, "seconds")
 @click.option("--no-browser", is_flag=True, help="Leave out the preview's opening view (no Chromium needed).")
 def bench_look_command(examples, out_dir, size, seconds, no_browser):
     """A contact sheet per bundled example and the figures of what is left where objects stood.
@@ -231,10 +224,8 @@ def bench_alignment_command(quick, only, stacks, json_path):
 
 
 @bench.command("photos")
-@click.option("--pitch", "pitches", type=click.FloatRange(0, 89.5), multiple=True,
-              help="Camera pitch of a synthetic scene, degrees; repeatable [default: 5, 30, 60 and 85].")
-@click.option("--seconds", type=click.FloatRange(0, 60), default=0.5, show_default=True,
-              help="Simulated seconds of each run (0: build only).")
+@limit_option(limits.PHOTOS, "pitches", multiple=True)
+@limit_option(limits.PHOTOS, "seconds")
 @click.option("--real", "real", multiple=True, metavar="NAME",
               help="Run only this real photo (desk, smarties, coffee, motorcycle, football, rubberwhale, fruits, "
                    "heap, parts); repeatable [default: all nine].")
@@ -273,21 +264,15 @@ def bench_photos_command(pitches, seconds, real, only, json_path):
 
 
 @bench.command("general")
-@click.option("--n", "n", type=click.IntRange(1, 1000), default=10, show_default=True,
-              help="How many scenes to generate and build.")
-@click.option("--seed", type=click.IntRange(0, 10**9), default=None,
-              help="Seed of the run (scene i is drawn from seed × 1000 + i) [default: a new one, printed].")
+@limit_option(limits.GENERAL, "n")
+@limit_option(limits.GENERAL, "seed")
 @click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False, path_type=pathlib.Path), default=None,
               help="Keep every scene (photo, masks, truth.json), its two shots, general.json and general.md here "
                    "[default: a temporary folder, removed at the end].")
-@click.option("--seconds", type=click.FloatRange(0.1, 60), default=2.0, show_default=True,
-              help="Simulated seconds with nothing pushed.")
+@limit_option(limits.GENERAL, "seconds")
 @click.option("--only", type=click.Choice(["both", "masks", "boxes"]), default="both", show_default=True,
               help="Build each scene from its visible masks, from their bounding boxes, or both.")
-@click.option("--materials", type=click.IntRange(0, 100), default=0, show_default=True,
-              help="Per scene, this many objects (drawn from the scene's seed) switched in turn to mpm_elastic, "
-                   "mpm_sand and pbd_cloth on the first build, each simulated 1 s: no stop, nothing non-finite "
-                   "(minutes per object on a CPU).")
+@limit_option(limits.GENERAL, "materials")
 @json_option("numbers")
 def bench_general_command(n, seed, out_dir, seconds, only, materials, json_path):
     """Scenes generated fresh, rendered with Blender's Cycles, each built as a user's photo would be.
@@ -320,13 +305,10 @@ def bench_general_command(n, seed, out_dir, seconds, only, materials, json_path)
       physomni-usd bench general --n 3 --seed 4242 --only masks
     """
     with errors():
-        from ..bench.general import MODES, NoBlender, bench_general, markdown
+        from ..bench.general import MODES, bench_general, markdown
 
-        try:
-            numbers = bench_general(n, seed, out_dir, MODES if only == "both" else (only,), seconds,
-                                    echo=click.echo, materials=materials)
-        except NoBlender as exc:
-            fail(str(exc), 2)
+        numbers = bench_general(n, seed, out_dir, MODES if only == "both" else (only,), seconds,
+                                echo=click.echo, materials=materials)
         write_numbers(numbers, json_path, out_dir / "general.json" if out_dir else None)
         if out_dir:
             from .._files import write_bytes
@@ -412,10 +394,8 @@ def bench_preview_command(quick, json_path):
 @bench.command("peer")
 @click.option("--only", "only", multiple=True, type=click.Choice(["boxes_at_rest", "box_pile", "sand_column"]),
               help="Run only this case (repeatable).")
-@click.option("--repeats", type=click.IntRange(1, 20), default=3, show_default=True,
-              help="Timed runs of each engine per case, alternating.")
-@click.option("--seconds", type=click.FloatRange(0.1, 20.0), default=2.0, show_default=True,
-              help="Simulated seconds a run.")
+@limit_option(limits.PEER, "repeats")
+@limit_option(limits.PEER, "seconds")
 @json_option("numbers")
 def bench_peer_command(only, repeats, seconds, json_path):
     """The simulator against Genesis 1.4.5, in one process, case by case.

@@ -7,18 +7,16 @@ import pathlib
 
 import click
 
+from ..preview.limits import PREVIEW as PREVIEW_LIMITS, STUDIO as STUDIO_LIMITS
+from .options import limit_option
 from .shell import errors
-
-#: What `preview` takes for a photo (and hands to the set-up page) rather than a shot.
-PHOTO_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
 
 
 @click.command()
 @click.argument("shot", type=click.Path(path_type=pathlib.Path))
 @click.option("--host", default="127.0.0.1", show_default=True, help="Address to serve the page on.")
-@click.option("--port", type=click.IntRange(1, 65535), default=8080, show_default=True, help="Port of the page.")
-@click.option("--duration", type=click.FloatRange(0, 86400, min_open=True), default=None, metavar="SECONDS",
-              help="Quit after this many seconds (for scripts) [default: run until Ctrl-C].")
+@limit_option(PREVIEW_LIMITS, "port")
+@limit_option(PREVIEW_LIMITS, "duration", metavar="SECONDS")
 @click.option("--record", is_flag=True, help="On exit, write the take since the last reset to sim.usdc.")
 @click.option("--open/--no-open", "open_browser", default=None,
               help="Open the page in a web browser [default: where one is available].")
@@ -49,26 +47,14 @@ def preview(shot, host, port, duration, record, open_browser, out_dir, play):
     are not grabbed. A take keeps at most 3600 frames.
     """
     with errors():
-        if shot.suffix.lower() in PHOTO_SUFFIXES:  # a photo: set the shot up first, on the studio's page
-            from ..errors import InputError
-            from ..studio import Options as StudioOptions, Studio
-
-            if out_dir is None:
-                raise InputError(f"{shot} is a photo, not a shot: name the folder to build it into with -o, e.g. "
-                                 f"physomni-usd preview {shot} -o shot/ (the same as physomni-usd studio)")
-            page = Studio(shot, out_dir, StudioOptions(host=host, port=port, duration=duration,
-                                                       open_browser=open_browser))
-            page.start()
-            page.wait()
-            return
-        from ..preview.app import Options, Preview
+        from ..preview.app import Options
+        from ..studio import preview_or_set_up
 
         options = Options(host=host, port=port, duration=duration, record=record, open_browser=open_browser,
                           play=play)
-        session = Preview(shot, options)
-        session.start()
-        result = session.run()
-        click.echo(f"preview: stopped after {result['frames']} frames", err=True)
+        result = preview_or_set_up(shot, options, out_dir)  # a photo: set up on the studio's page first
+        if result is not None:
+            click.echo(f"preview: stopped after {result['frames']} frames", err=True)
 
 
 @click.command()
@@ -78,12 +64,10 @@ def preview(shot, host, port, duration, record, open_browser, out_dir, play):
 @click.option("--host", default="127.0.0.1", show_default=True,
               help="Address to serve the page on. On any but a loopback address the printed URL carries a "
                    "per-run token, without which every request is refused.")
-@click.option("--port", type=click.IntRange(1, 65534), default=8070, show_default=True,
-              help="Port of the page; the live preview takes the next one.")
+@limit_option(STUDIO_LIMITS, "port")
 @click.option("--segmenter", default="grabcut", show_default=True, metavar="NAME",
               help="What cuts the masks as you pick (see `physomni-usd plugins`; sam takes clicks natively).")
-@click.option("--duration", type=click.FloatRange(0, 86400, min_open=True), default=None, metavar="SECONDS",
-              help="Quit after this many seconds (for scripts) [default: run until Ctrl-C].")
+@limit_option(STUDIO_LIMITS, "duration", metavar="SECONDS")
 @click.option("--open/--no-open", "open_browser", default=None,
               help="Open the page in a web browser [default: where one is available].")
 def studio(photo, out_dir, host, port, segmenter, duration, open_browser):

@@ -11,9 +11,10 @@ from contextlib import ExitStack, contextmanager
 
 import click
 
+from ..batch.runner import LIMITS as BATCH_LIMITS
 from ..settings import DEFAULT_SECONDS
 from .options import (RENDER, SIMULATE, backend_options, backends, build_options, build_settings, camera_options,
-                      output_folder_option, push_option, quiet_option)
+                      limit_option, output_folder_option, push_option, quiet_option)
 from .shell import errors, progress, said, say
 
 #: ``run``'s default length in words: :func:`physomni_usd.run` ends a take whose length was not asked for at rest.
@@ -122,20 +123,14 @@ storage), or give --upload; every node needs physomni-usd installed.
 @click.argument("shots", type=click.Path(dir_okay=False, path_type=pathlib.Path))
 @click.option("--address", envvar="RAY_ADDRESS", default=None, metavar="HOST:PORT",
               help="Ray cluster to run on [env: RAY_ADDRESS; default: start Ray on this machine with its CPUs].")
-@click.option("--workers", type=click.IntRange(1), default=None,
-              help="At most this many shots at once [default: as many as the CPUs (GPUs) allow].")
-@click.option("--retries", type=click.IntRange(0, 20), default=2, show_default=True,
-              help="Attempts after the first for a shot that crashed, was killed or whose stage failed "
-                   "(never for bad input).")
+@limit_option(BATCH_LIMITS, "workers")
+@limit_option(BATCH_LIMITS, "retries")
 @click.option("--force", is_flag=True, help="Run finished shots again.")
 @click.option("--summary", "summary_path", type=click.Path(dir_okay=False, path_type=pathlib.Path), default=None,
               help="Write a JSON summary here (one entry per shot: output, status, seconds, attempts, node, "
                    "reason); updated as shots finish.")
-@click.option("--cpus-per-shot", type=click.FloatRange(0, min_open=True), default=1.0, show_default=True,
-              help="CPUs Ray reserves for each shot.")
-@click.option("--gpus-per-shot", type=click.FloatRange(0), default=0.0, show_default=True,
-              help="GPUs Ray reserves for each shot (0.25: four shots share one); Ray sets CUDA_VISIBLE_DEVICES "
-                   "to the reserved ones. Give at least a fraction to run shots on GPUs.")
+@limit_option(BATCH_LIMITS, "cpus_per_shot")
+@limit_option(BATCH_LIMITS, "gpus_per_shot")
 @click.option("--upload", is_flag=True,
               help="Send each shot's input files with its task and its output folder back, through Ray's "
                    "object store: for a cluster whose nodes do not share storage with this machine.")
@@ -145,7 +140,8 @@ def batch(shots, address, workers, retries, force, summary_path, cpus_per_shot, 
     with errors():
         from ..batch.runner import check_batch
 
-        check_batch(summary_path)
+        check_batch(summary_path, workers=workers, retries=retries, cpus_per_shot=cpus_per_shot,
+                    gpus_per_shot=gpus_per_shot)
         from ..batch.progress import Progress
         from ..batch.runner import Quiet, run_batch
         from ..batch.shots import read_shot_list

@@ -8,7 +8,8 @@ import sys
 
 import click
 
-from .options import quiet_option
+from ..rerender import LIMITS as RERENDER_LIMITS
+from .options import limit_option, quiet_option
 from .shell import errors, progress
 
 
@@ -74,14 +75,11 @@ def plugins_command():
 @click.argument("shot", type=click.Path(path_type=pathlib.Path))
 @click.option("--model", default=None, metavar="NAME",
               help="Re-renderer backend, e.g. wan-vace (plugin physomni-wan) [default: the one installed].")
-@click.option("--strength", type=float, default=0.6, show_default=True,
-              help="Share of the denoising run, in (0, 1]: low keeps the rendered frames, 1 starts from noise.")
-@click.option("--steps", type=click.IntRange(1, 1000), default=20, show_default=True,
-              help="Denoising steps actually run.")
+@limit_option(RERENDER_LIMITS, "strength")
+@limit_option(RERENDER_LIMITS, "steps")
 @click.option("--prompt", default=None, help="Text prompt [default: made from the objects' labels].")
-@click.option("--seed", type=int, default=0, show_default=True, help="Random seed of the noise.")
-@click.option("--max-size", type=click.IntRange(16, 8192), default=832, show_default=True,
-              help="Longest side of the frames given to the model, pixels.")
+@limit_option(RERENDER_LIMITS, "seed")
+@limit_option(RERENDER_LIMITS, "max_size")
 @click.option("-o", "--output", type=click.Path(path_type=pathlib.Path), default=None,
               help="Video file (.mp4) [default: rerender.mp4 beside the shot].")
 @quiet_option

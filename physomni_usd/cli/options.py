@@ -1,6 +1,7 @@
 """Options declared once and shared by the commands that take them: the settings models' fields (each
 field that carries a :class:`physomni_usd.settings.Option` is one option, its type, range, default and help
-read from the field), and the build's inputs, backends, pushes and camera moves (``build`` and ``run``,
+read from the field; a number outside them, from its owner's :class:`~physomni_usd.limits.Limits` table),
+and the build's inputs, backends, pushes and camera moves (``build`` and ``run``,
 ``render`` and ``run``). Each group adds its options to a command and takes its values back out of the
 command's parameters, so that ``run``, ``batch`` and the stage commands cannot drift apart."""
 
@@ -12,6 +13,7 @@ import typing
 
 import click
 
+from ..limits import Limits
 from ..settings import BuildSettings, CameraSettings, LiftSettings, RenderSettings, SimulateSettings, option
 
 PUSH_HELP = ("Give an object this velocity in m/s (each component at most 1000 in size) at T seconds "
@@ -48,6 +50,16 @@ def _click_type(annotation):
         if kind in args:
             return kind
     raise TypeError(f"no command-line type for {annotation}")
+
+
+def limit_option(table: Limits, name: str, **kwargs):
+    """The option of the number ``name`` of a function's :class:`~physomni_usd.limits.Limits` table: flag,
+    default and help with its range, read from the table; the function itself refuses a value out of range."""
+    found = table[name]
+    text = found.text if found.default is not None else f"{found.text} [default: {found.default_text}]."
+    return click.option(found.flag, name, type=int if found.whole else float, default=found.default,
+                        show_default=found.default is not None,
+                        help=f"{text} Range: {found.span()}." if found.span() else text, **kwargs)
 
 
 class SettingsOptions:

@@ -18,14 +18,14 @@ from ..rotations import to_wxyz
 from ..settings import SimulateSettings
 from ..usd import layers
 from ..usd.author import OBJECTS
-from .cloth import AirDrag, ShapeDamping, add_cloth, add_soft_body, soft_relaxation
+from .cloth import AirDrag, ShapeDamping, add_cloth, add_soft_body
 from .controls import particle_pushes, read_controls
 from .depenetration import lift_out
 from ..fields import FIELD_KIND, read_force_fields
 from .forces import FieldSet, body_samples
 from .mpm import bind_surface, build_mpm_scene
 from .objects import SimObject
-from .params import particle_friction
+from .params import ParticleValues, particle_values
 from .pieces import add_decomposed, is_decomposed
 from .stability import SceneConfig
 from .stepping import FrameGraphs, Stepper, contact_pipeline, xpbd_solver
@@ -41,8 +41,11 @@ class ShotModels:
     build a scene: a model builder filled (rigid bodies, cloth and soft bodies, controls, force fields),
     finalized into a model, its solvers made, and a stepper over its states."""
 
-    def __init__(self, stage: Usd.Stage, objects: list[SimObject], cfg: SceneConfig, settings: SimulateSettings):
+    def __init__(self, stage: Usd.Stage, objects: list[SimObject], cfg: SceneConfig, settings: SimulateSettings,
+                 shared: ParticleValues | None = None):
+        """``shared``: :func:`~.params.particle_values` of ``objects``, when the caller has them already."""
         self.stage = stage
+        self.shared = shared or particle_values(objects)
         t0 = time.perf_counter()
         wp, newton = load_warp(), load_newton()
         self.wp, self.newton = wp, newton
@@ -128,7 +131,8 @@ class ShotModels:
 
     def _add_fields(self, builder) -> None:
         """The stage's force fields, sampled over each body's mesh."""
-        self.fields = FieldSet(read_force_fields(self.stage), self.device)
+        fields = read_force_fields(self.stage)
+        self.fields = FieldSet(fields, self.device)
         if self.fields:
             points = [np.zeros((1, 3))] * builder.body_count
             for path, b in self.path_body.items():
@@ -144,8 +148,8 @@ class ShotModels:
         # with the ground and the rigid bodies
         model.particle_max_radius = 0.0
         model.particle_grid = None
-        if particle_friction(self.objects) is not None:
-            model.soft_contact_mu = particle_friction(self.objects)
+        if self.shared.friction is not None:
+            model.soft_contact_mu = self.shared.friction
         return model
 
     def _add_solvers(self, model, settings: SimulateSettings):
@@ -155,9 +159,8 @@ class ShotModels:
         solver = None
         if model.body_count or model.particle_count:
             solver = xpbd_solver(model, self.cfg.iterations)
-            relaxation = soft_relaxation(self.objects)
-            if relaxation is not None:
-                solver.soft_body_relaxation = relaxation
+            if self.shared.relaxation is not None:
+                solver.soft_body_relaxation = self.shared.relaxation
             self.solvers.append("xpbd")
         mpm_objects = [o for o in self.objects if o.family == "mpm"]
         self.mpm = build_mpm_scene(mpm_objects, model, self.device, settings.particle_spacing) \
@@ -265,7 +268,7 @@ _LAST: dict = {}
 
 
 def shot_models(stage: Usd.Stage, objects: list[SimObject], cfg: SceneConfig, settings: SimulateSettings,
-                digest: str | None = None) -> ShotModels:
+                digest: str | None = None, shared: ParticleValues | None = None) -> ShotModels:
     """The :class:`ShotModels` of ``stage``: the last one built, rewound, when the composed stage (every
     layer's content, ``digest`` where the caller has it: :func:`~..usd.layers.content_digest`) and the
     settings are the same and the model can be rewound exactly; else a new one."""
@@ -276,7 +279,7 @@ def shot_models(stage: Usd.Stage, objects: list[SimObject], cfg: SceneConfig, se
         models.rewind()
         return models
     _LAST.clear()
-    models = ShotModels(stage, objects, cfg, settings)
+    models = ShotModels(stage, objects, cfg, settings, shared)
     if models.reusable:
         _LAST[key] = models
     return models

@@ -179,19 +179,6 @@ def add_cloth(builder, obj, wp) -> tuple[int, int, ClothSheet]:
     return start, len(world), sheet
 
 
-def relaxation_of(obj) -> float:
-    """A soft body's ``relaxation`` as authored, else the catalog's default for ``pbd_elastic``."""
-    value = obj.params.get("relaxation")
-    return float(CATALOG["pbd_elastic"].defaults["relaxation"] if value is None else value)
-
-
-def soft_relaxation(objects) -> float | None:
-    """The one relaxation Newton's XPBD gives all tetrahedra: the smallest soft body's
-    (:func:`relaxation_of`) within :data:`SOFT_RELAXATION`; None without a soft body."""
-    values = [relaxation_of(o) for o in objects if o.family == "soft"]
-    return float(np.clip(min(values), *SOFT_RELAXATION)) if values else None
-
-
 def voxel_tets(mesh, cell: float) -> tuple[np.ndarray, np.ndarray]:
     """A conforming tetrahedral mesh of the cubes of side ``cell`` whose centres lie inside a trimesh
     (:func:`.mpm.points_inside`, so a mesh with holes fills its volume, not its bounding box): (V, 3)

@@ -21,7 +21,12 @@ itself (the catalog's default, the rules estimator's) is no news to the user, wh
 
 from __future__ import annotations
 
-from .cloth import CLOTH_BEND_KE, CLOTH_SPRING_KE, SOFT_KE, relaxation_of, soft_relaxation
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..materials.catalog import CATALOG
+from .cloth import CLOTH_BEND_KE, CLOTH_SPRING_KE, SOFT_KE, SOFT_RELAXATION
 from .mpm import MPM_LAW
 
 PARTICLE_FAMILIES = ("cloth", "soft")
@@ -38,11 +43,40 @@ def particle_friction(objects) -> float | None:
     return None
 
 
-def ignored_parameters(objects) -> dict[str, list[dict]]:
+def relaxation_of(obj) -> float:
+    """A soft body's ``relaxation`` as authored, else the catalog's default for ``pbd_elastic``."""
+    value = obj.params.get("relaxation")
+    return float(CATALOG["pbd_elastic"].defaults["relaxation"] if value is None else value)
+
+
+def soft_relaxation(objects) -> float | None:
+    """The one relaxation Newton's XPBD gives all tetrahedra: the smallest soft body's
+    (:func:`relaxation_of`) within ``cloth.SOFT_RELAXATION``; None without a soft body."""
+    values = [relaxation_of(o) for o in objects if o.family == "soft"]
+    return float(np.clip(min(values), *SOFT_RELAXATION)) if values else None
+
+
+@dataclass(frozen=True)
+class ParticleValues:
+    """The one value each that Newton's XPBD gives all particles, whatever each object says: the contact
+    friction (``soft_contact_mu``, :func:`particle_friction`) and the soft bodies' relaxation
+    (:func:`soft_relaxation`); None where no object has one."""
+    friction: float | None
+    relaxation: float | None
+
+
+def particle_values(objects) -> ParticleValues:
+    """The :class:`ParticleValues` of ``objects``: what the model and its solver run with."""
+    return ParticleValues(particle_friction(objects), soft_relaxation(objects))
+
+
+def ignored_parameters(objects, shared: ParticleValues | None = None) -> dict[str, list[dict]]:
     """Per object name, the parameters that do not act as given: ``[{param, value, why, source}]``; the
-    source is who set the value (an object without ``sources`` counts as the user's)."""
+    source is who set the value (an object without ``sources`` counts as the user's). ``shared``:
+    :func:`particle_values` of ``objects``, when the caller has them already."""
     out = {}
-    mu, relax = particle_friction(objects), soft_relaxation(objects)
+    shared = shared or particle_values(objects)
+    mu, relax = shared.friction, shared.relaxation
     for o in objects:
         sources = getattr(o, "sources", None) or {}
         items = [{"param": k, "value": _value(v), "why": why, "source": sources.get(k, "user")}

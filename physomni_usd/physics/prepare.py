@@ -19,7 +19,7 @@ from .assembly import ShotModels, shot_models
 from .checks import check_inputs
 from .diagnose import refuse_broken_scene
 from .objects import SimObject, scene_objects
-from .params import authored, describe, ignored_parameters
+from .params import authored, describe, ignored_parameters, particle_values
 from .stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS, PlanInputs, SceneConfig, StepPlan, plan_steps
 
 SUPPORTED_SOLVERS = ("xpbd",)
@@ -112,7 +112,8 @@ def prepare_simulation(stage: Usd.Stage, settings: SimulateSettings = SimulateSe
     objects = scene_objects(stage)
     if not objects:
         raise InputError(f"{name or stage.GetRootLayer().identifier}: no objects to simulate under {OBJECTS}")
-    ignored = ignored_parameters(objects)
+    shared = particle_values(objects)
+    ignored = ignored_parameters(objects, shared)
     for kind, items in ignored.items():
         if authored(items):
             echo(f"simulate: {describe(kind, authored(items))}")
@@ -123,6 +124,7 @@ def prepare_simulation(stage: Usd.Stage, settings: SimulateSettings = SimulateSe
     if marker is not None:
         echo("simulate: compiling physics kernels, once per machine (a minute or two) ...")
     compiled_before = compiled_seconds()
-    models = shot_models(stage, objects, cfg, settings, digest) if reuse else ShotModels(stage, objects, cfg, settings)
+    models = (shot_models(stage, objects, cfg, settings, digest, shared) if reuse
+              else ShotModels(stage, objects, cfg, settings, shared))
     plan = plan_steps(plan_inputs(models, settings))
     return Prepared(stage, cfg, objects, ignored, models, plan, settings, marker, compiled_before)

@@ -34,7 +34,8 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     stage = layers.open_shot(shot, mute_sim=True)
     prepare_writes(folder, [layers.SIM, layers.SHOT], echo)  # refuse an unwritable folder before any work
     layers.warn_orphan_overs(stage, folder, echo)
-    prep = prepare_simulation(stage, settings, name=str(shot), own_seconds=layers.shot_seconds(shot), echo=echo)
+    own_seconds = layers.shot_seconds(shot)
+    prep = prepare_simulation(stage, settings, name=str(shot), own_seconds=own_seconds, echo=echo)
     cfg, objects, sim, plan, settings = prep.config, prep.objects, prep.models, prep.plan, prep.settings
     echo(f"simulate: solvers {', '.join(sim.solvers)}; {plan.substeps} substeps per frame"
          + (f", {plan.mpm_steps} MPM steps per frame ({sim.mpm.model.particle_count} particles, "
@@ -55,7 +56,8 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     t_write = time.perf_counter()
     plan, frames, seconds = take.plan, take.frames, take.seconds
     moved = write_take(folder, sim, take)
-    checks = shot_checks(layers.open_shot(folder), frames)
+    written = layers.open_shot(folder)
+    checks = shot_checks(written, frames)
     t_end = time.perf_counter()
 
     section = {

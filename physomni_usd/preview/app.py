@@ -20,6 +20,7 @@ import numpy as np
 
 from ..errors import InputError, PhysOmniError
 from . import security
+from .limits import PREVIEW
 from .card import Mover, OpeningCard
 from .engine import Engine, field_label
 from .scene import (SHADOW_LIFT, GroundShadow, ShadowTrack, background_card, contact_decal, drawn_objects,
@@ -41,7 +42,7 @@ CARD_EVERY = 0.2
 @dataclass
 class Options:
     host: str = "127.0.0.1"
-    port: int = 8080
+    port: int = PREVIEW["port"].default
     duration: float | None = None  # wall seconds, then quit
     record: bool = False  # write the take on exit
     open_browser: bool | None = None  # None: where one is available
@@ -98,6 +99,7 @@ class Preview:
     """One shot on one page."""
 
     def __init__(self, shot, options: Options = Options()):
+        PREVIEW.check(port=options.port, duration=options.duration)
         self.options = options
         self.echo = options.echo
         check_port(options.host, options.port)

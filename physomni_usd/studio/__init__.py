@@ -4,7 +4,7 @@ and off the object, a label), pushes drawn as arrows, a force field and a camera
 written as command lines (``studio.sh``) and as ``studio.json`` beside the shot, for the CLI to replay.
 """
 
-from .server import Options, Studio
+from .server import Options, Studio, preview_or_set_up
 from .session import commands, read_state
 
-__all__ = ["Options", "Studio", "commands", "read_state"]
+__all__ = ["Options", "Studio", "commands", "preview_or_set_up", "read_state"]

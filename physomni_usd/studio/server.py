@@ -37,6 +37,7 @@ import numpy as np
 
 from ..errors import InputError, PhysOmniError
 from ..preview import security
+from ..preview.limits import STUDIO
 from . import session
 
 PAGE = pathlib.Path(__file__).with_name("page.html")
@@ -54,7 +55,7 @@ NAVIGATION = ("GET", "navigate")
 @dataclass
 class Options:
     host: str = "127.0.0.1"
-    port: int = 8070
+    port: int = STUDIO["port"].default
     preview_port: int | None = None  # None: the port after ``port``
     open_browser: bool | None = None  # None: where one is available
     duration: float | None = None  # wall seconds, then quit (scripts, tests)
@@ -70,6 +71,7 @@ class Studio:
         from ..perceive.masks import read_photo
         from ..preview.app import check_port
 
+        STUDIO.check(port=options.port, duration=options.duration)
         self.options = options
         #: what the page's long work said, line by line, for the page to show while it runs (/api/progress)
         self.progress_lines: list[str] = []
@@ -543,3 +545,29 @@ def _check_request(path: str, body: dict) -> None:
     for key, what in (("force", "a KIND:key=value,... text"), ("camera", "a camera move's name")):
         if body.get(key) is not None and not isinstance(body[key], str):
             raise InputError(f"{key}: {what} or null, not {json.dumps(body[key])[:60]}")
+
+
+#: What ``preview`` takes for a photo (and sets up on this page first) rather than a shot.
+PHOTO_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
+
+
+def preview_or_set_up(path, options, out_dir=None) -> dict | None:
+    """``preview``'s entry: the live preview of the shot at ``path`` (``options``: the preview's
+    :class:`~physomni_usd.preview.app.Options`) until it stops, returning its result (``frames``: frames
+    stepped); a photo (:data:`PHOTO_SUFFIXES`) is set up first on this page, built into ``out_dir``
+    (InputError without one), and None is returned when the page stops."""
+    path = pathlib.Path(path)
+    if path.suffix.lower() in PHOTO_SUFFIXES:
+        if out_dir is None:
+            raise InputError(f"{path} is a photo, not a shot: name the folder to build it into with -o, e.g. "
+                             f"physomni-usd preview {path} -o shot/ (the same as physomni-usd studio)")
+        page = Studio(path, out_dir, Options(host=options.host, port=options.port, duration=options.duration,
+                                             open_browser=options.open_browser))
+        page.start()
+        page.wait()
+        return None
+    from ..preview.app import Preview
+
+    session = Preview(path, options)
+    session.start()
+    return session.run()

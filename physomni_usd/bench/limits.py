@@ -1,0 +1,50 @@
+"""The benches' own numbers — a photo's size, repeats, scene counts, simulated seconds — with their ranges
+and defaults, one table per bench (:class:`~physomni_usd.limits.Limits`): each bench function checks its
+arguments against its table before any work, and its ``bench`` command reads its options from it."""
+
+from __future__ import annotations
+
+from ..limits import Limit, Limits
+
+_SIZE = "Longer side of the photo, pixels."
+PIPELINE = Limits(
+    size=Limit("--size", _SIZE, 64, 8192, 880, whole=True),
+    repeats=Limit("--repeats", "Builds to time.", 1, 50, 3, whole=True),
+)
+RENDER = Limits(
+    size=Limit("--size", "Longer side of the photo and of the frames, pixels.", 64, 4096, 880, whole=True),
+    seconds=Limit("--seconds", "Simulated (and rendered) seconds.", 0.1, 30, 1.0),
+)
+BATCH = Limits(
+    size=Limit("--size", _SIZE, 64, 4096, 320, whole=True),
+    seconds=Limit("--seconds", "Simulated seconds per shot.", 0.1, 30, 1.0),
+    fps=Limit("--fps", "Frames per second.", 1, 120, 30.0),
+)
+SCALE = Limits(
+    repeats=Limit("--repeats", "Rounds over the sizes, alternating (medians are reported).", 1, 20, 1, whole=True),
+    seconds=Limit("--seconds", "Simulated seconds.", None, None, 3.0),  # simulate itself checks the range
+    max_size=Limit("--max-size", "render --max-size.", None, None, 1920, whole=True),  # as render checks it
+)
+LOOK = Limits(
+    size=Limit("--size", "Longer side of the rendered frames, pixels.", 64, 4096, 880, whole=True),
+    seconds=Limit("--seconds", "Simulated seconds", 0.1, 30, None, default_text="each example's own"),
+)
+PHOTOS = Limits(
+    pitches=Limit("--pitch", "Camera pitch of a synthetic scene, degrees; repeatable", 0, 89.5, None,
+                  default_text="5, 30, 60 and 85"),
+    seconds=Limit("--seconds", "Simulated seconds of each run (0: build only).", 0, 60, 0.5),
+)
+GENERAL = Limits(
+    n=Limit("--n", "How many scenes to generate and build.", 1, 1000, 10, whole=True),
+    seed=Limit("--seed", "Seed of the run (scene i is drawn from seed × 1000 + i)", 0, 10**9, None, whole=True,
+               default_text="a new one, printed"),
+    seconds=Limit("--seconds", "Simulated seconds with nothing pushed.", 0.1, 60, 2.0),
+    materials=Limit("--materials", "Per scene, this many objects (drawn from the scene's seed) switched in turn to "
+                                   "mpm_elastic, mpm_sand and pbd_cloth on the first build, each simulated 1 s: "
+                                   "no stop, nothing non-finite (minutes per object on a CPU).", 0, 100, 0,
+                    whole=True),
+)
+PEER = Limits(
+    repeats=Limit("--repeats", "Timed runs of each engine per case, alternating.", 1, 20, 3, whole=True),
+    seconds=Limit("--seconds", "Simulated seconds a run.", 0.1, 20.0, 2.0),
+)
