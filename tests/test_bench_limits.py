@@ -52,7 +52,21 @@ OTHERS = [
     (["preview", "shot.usda"], lambda: Preview("shot.usda", Options(port=0)), ["--port", "0"]),
     (["preview", "shot.usda"], lambda: Preview("shot.usda", Options(duration=0.0)), ["--duration", "0"]),
     (["studio", "photo.png", "-o", "out"], lambda: _studio(port=65535), ["--port", "65535"]),
+    (["estimate", "shot.usda"], lambda: _vlm(timeout_s=0.5), ["--vlm-timeout", "0.5"]),
+    (["render", "shot.usda"], lambda: _render(camera_amount=4.5), ["--camera", "orbit-left", "--camera-amount", "4.5"]),
 ]
+
+
+def _vlm(**kw):
+    from physomni_usd.materials.vlm import VLMSettings
+
+    return VLMSettings.resolve("http://localhost:1/v1", "model", **kw)
+
+
+def _render(**kw):
+    from physomni_usd.rendering.video import render_shot
+
+    return render_shot("shot.usda", "video.mp4", camera="orbit-left", **kw)
 
 
 def _studio(**options):

@@ -10,6 +10,7 @@ _SIZE = "Longer side of the photo, pixels."
 PIPELINE = Limits(
     size=Limit("--size", _SIZE, 64, 8192, 880, whole=True),
     repeats=Limit("--repeats", "Builds to time.", 1, 50, 3, whole=True),
+    seconds=Limit("--seconds", "Simulated seconds in the run.", None, None, 2.0),  # simulate itself checks the range
 )
 RENDER = Limits(
     size=Limit("--size", "Longer side of the photo and of the frames, pixels.", 64, 4096, 880, whole=True),

@@ -44,7 +44,8 @@ def _resized_example(example: pathlib.Path, size: int, work: pathlib.Path) -> di
             "sizes": spec.get("size", [])}
 
 
-def bench_pipeline(example, size: int = 880, repeats: int = 3, seconds: float = 2.0, fps: float = 30.0,
+def bench_pipeline(example, size: int = PIPELINE["size"].default, repeats: int = PIPELINE["repeats"].default,
+                   seconds: float = PIPELINE["seconds"].default, fps: float = 30.0,
                    echo=print) -> dict:
     PIPELINE.check(size=size, repeats=repeats)  # before any work, as the command refuses them
 

@@ -9,8 +9,7 @@ import sys
 import click
 
 from ..bench import limits
-from ..settings import SimulateSettings
-from .options import limit_option, range_help
+from .options import limit_option
 from .shell import errors
 
 
@@ -44,8 +43,7 @@ def bench():
               help="Example folder with example.json, a photo and its masks.")
 @limit_option(limits.PIPELINE, "size")
 @limit_option(limits.PIPELINE, "repeats")
-@click.option("--seconds", type=float, default=2.0, show_default=True,
-              help=range_help("Simulated seconds in the run.", SimulateSettings, "seconds"))
+@limit_option(limits.PIPELINE, "seconds")
 @json_option("numbers")
 def bench_pipeline_command(example, size, repeats, seconds, json_path):
     """Wall time of build and of a whole run on a bundled example (run twice for warm kernel caches)."""

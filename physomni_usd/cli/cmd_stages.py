@@ -8,8 +8,9 @@ import pathlib
 import click
 
 from .._files import all_or_nothing
+from ..materials.vlm import LIMITS as VLM_LIMITS
 from .options import (RENDER, SIMULATE, backend_options, backends, build_options, build_settings, camera_options,
-                      output_folder_option, push_option, quiet_option)
+                      limit_option, output_folder_option, push_option, quiet_option)
 from .shell import errors, progress, said, say, shot_lock
 
 EPILOG_BUILD = """
@@ -55,8 +56,7 @@ def build(photo, out_dir, quiet, **params):
               help="Model name on that server [env: PHYSOMNI_VLM_MODEL].")
 @click.option("--vlm-api-key", envvar="PHYSOMNI_VLM_API_KEY", default=None,
               help="Bearer token, if the server wants one [env: PHYSOMNI_VLM_API_KEY].")
-@click.option("--vlm-timeout", type=click.FloatRange(1, 3600), default=120.0, show_default=True,
-              help="Seconds to wait for one answer.")
+@limit_option(VLM_LIMITS, "timeout_s")
 @click.option("--set", "sets", multiple=True, metavar="NAME.KEY=VALUE",
               help="Your value for an object's material (KEY 'material') or parameter (density, friction, "
                    "youngs_modulus, poissons_ratio, …; each within its catalog range, which a refused value's "
@@ -65,7 +65,7 @@ def build(photo, out_dir, quiet, **params):
 @click.option("--force", "forces", multiple=True, metavar="KIND:key=value,...",
               help="Add a force field of yours (kept across later estimates). Repeatable.")
 @quiet_option
-def estimate(shot, estimator, vlm_url, vlm_model, vlm_api_key, vlm_timeout, sets, forces, quiet):
+def estimate(shot, estimator, vlm_url, vlm_model, vlm_api_key, timeout_s, sets, forces, quiet):
     """Estimate physical materials (and force fields) and write physics.usda; --set goes to edits.usda.
 
     The estimate is made from the photo that `build` keeps in the shot (inputs/photo.png). On a shot
@@ -77,6 +77,8 @@ def estimate(shot, estimator, vlm_url, vlm_model, vlm_api_key, vlm_timeout, sets
       physomni-usd estimate shot/shot.usda --estimator vlm --vlm-url http://localhost:8000/v1 \\
           --vlm-model Qwen2.5-VL-72B-Instruct
     """
+    with errors():
+        VLM_LIMITS.check(timeout_s=timeout_s)  # whichever estimator: the option's range is the range
     with errors(), all_or_nothing(), shot_lock(shot):
         import physomni_usd
 
@@ -84,7 +86,7 @@ def estimate(shot, estimator, vlm_url, vlm_model, vlm_api_key, vlm_timeout, sets
         if estimator == "vlm":
             from ..materials.vlm import VLMSettings
 
-            vlm = VLMSettings.resolve(vlm_url, vlm_model, vlm_api_key, timeout_s=vlm_timeout)
+            vlm = VLMSettings.resolve(vlm_url, vlm_model, vlm_api_key, timeout_s=timeout_s)
         section = physomni_usd.estimate(shot, estimator, vlm, sets, forces, echo=say(quiet))
         if not quiet:
             for name, obj in section["objects"].items():

@@ -36,11 +36,6 @@ def limits(model, field: str) -> str:
     return f"{lo}value{hi}{finite}" if (lo or hi) else ""
 
 
-def range_help(text: str, model, field: str) -> str:
-    """``text`` and the field's range, as the help of an option with a default of its own."""
-    return f"{text} Range: {limits(model, field)}."
-
-
 def _click_type(annotation):
     """The click type of a field's annotation: a choice of a Literal's values, else int, float or str."""
     if typing.get_origin(annotation) is typing.Literal:
@@ -209,8 +204,9 @@ def _camera_moves() -> tuple[str, ...]:
 
 def camera_options(f):
     """--camera and --camera-amount: the camera move ``render`` writes and renders (``run`` too)."""
-    f = click.option("--camera-amount", type=float, default=1.0, show_default=True,
-                     help="Size of the move as a multiple of its default. Range: 0 < value ≤ 4.")(f)
+    from ..rendering.moves import LIMITS as MOVE_LIMITS
+
+    f = limit_option(MOVE_LIMITS, "camera_amount")(f)
     return click.option(
         "--camera", type=click.Choice(list(_camera_moves())), default=None, metavar="MOVE",
         help="Write this camera move to the shot's render.usda, then render it: " + ", ".join(_camera_moves())

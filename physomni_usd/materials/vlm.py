@@ -18,10 +18,10 @@ import urllib.parse
 import urllib.request
 from dataclasses import dataclass, field
 
-import cv2
 import numpy as np
 
 from ..errors import PhysOmniError, redact
+from ..limits import Limit, Limits
 from ..fields import FIELD_KINDS
 from .parse import parse_reply
 
@@ -60,18 +60,24 @@ Answer with ONLY one JSON object: {"objects": [{"index": 0, "name": "...", "mate
     "{kinds}", ", ".join(k.name for k in FIELD_KINDS if k.suggested))
 
 
+#: The numbers of the VLM call that the command line takes (``estimate --vlm-timeout``).
+LIMITS = Limits(timeout_s=Limit("--vlm-timeout", "Seconds to wait for one answer.", 1, 3600, 120.0))
+
+
 @dataclass
 class VLMSettings:
     url: str
     model: str
     api_key: str | None = field(default=None, repr=False)  # never printed, never in a report
-    timeout_s: float = 120.0
+    timeout_s: float = LIMITS["timeout_s"].default
     retries: int = 2
     backoff_s: float = 1.0
 
     @classmethod
     def resolve(cls, url=None, model=None, api_key=None, **kw) -> "VLMSettings":
-        """Options first, then PHYSOMNI_VLM_URL / PHYSOMNI_VLM_MODEL / PHYSOMNI_VLM_API_KEY."""
+        """Options first, then PHYSOMNI_VLM_URL / PHYSOMNI_VLM_MODEL / PHYSOMNI_VLM_API_KEY; a number of
+        :data:`LIMITS` out of its range is refused."""
+        LIMITS.check(**{k: v for k, v in kw.items() if k in LIMITS})
         url = url or os.environ.get(ENV_URL)
         model = model or os.environ.get(ENV_MODEL)
         if not url:
@@ -84,6 +90,7 @@ class VLMSettings:
 
 def png_data_url(rgb_or_rgba: np.ndarray) -> str:
     img = rgb_or_rgba
+    import cv2  # here, not at the top: the command line reads LIMITS without loading OpenCV
     code = cv2.COLOR_RGBA2BGRA if img.shape[2] == 4 else cv2.COLOR_RGB2BGR
     ok, data = cv2.imencode(".png", cv2.cvtColor(img, code))
     if not ok:

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..limits import Limit, Limits
+
 #: Default size of each move over the whole shot, and its unit: orbits in degrees; truck, dolly and crane
 #: as a fraction of the camera's distance to the objects' centre (crane: of the camera's height).
 MOVES = {
@@ -26,6 +28,9 @@ MOVES = {
 }
 #: Largest ``--camera-amount``: four times the default already turns an orbit by 60°.
 MAX_AMOUNT = 4.0
+#: The size of a move as the command line takes it (``--camera-amount``), checked by ``render_shot``.
+LIMITS = Limits(camera_amount=Limit("--camera-amount", "Size of the move as a multiple of its default.", 0.0,
+                                    MAX_AMOUNT, 1.0, lo_open=True))
 #: The camera never comes closer to the ground than this share of its starting height.
 MIN_HEIGHT = 0.05
 

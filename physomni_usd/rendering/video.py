@@ -25,7 +25,7 @@ from ..usd import layers
 from ..geometry.camera import RenderCamera
 from ..geometry.raycast import ContactCaster, RayCaster, contact_falloff, covered_pixels
 from ..usd.author import write_render_layer
-from .moves import MAX_AMOUNT, MOVES, move_matrices
+from .moves import LIMITS as MOVE_LIMITS, MOVES, move_matrices
 from .encode import encoder_failure, even_sides, video_writer
 from .passes import PassWriter, pass_files
 from .stage import (read_camera, read_objects, read_particles, read_photo, read_photo_camera, read_photo_points,
@@ -657,6 +657,7 @@ def render_shot(shot, output=None, settings: RenderSettings = RenderSettings(), 
     ``camera`` (a name from :data:`moves.MOVES`) first writes that move, ``camera_amount`` × its default size,
     to the shot's ``render.usda``; None renders the camera the shot already has. A shot never simulated is
     refused unless ``still`` (its video would be one frame of the photo)."""
+    check_camera_move(camera, camera_amount)
     check_render_inputs(shot, passes, passes_dir, still)
     with all_or_nothing():
         return _render_shot(shot, output, settings, progress, passes, passes_dir, camera, camera_amount)
@@ -680,8 +681,7 @@ def check_camera_move(camera: str | None, amount: float) -> None:
     """One line naming the option when the move or its amount cannot be rendered."""
     if camera is not None and camera not in MOVES:
         raise InputError(f"--camera {camera}: no such move; one of {', '.join(MOVES)}")
-    if not (0.0 < amount <= MAX_AMOUNT):
-        raise InputError(f"--camera-amount {amount:g}: must be in (0, {MAX_AMOUNT:g}] (1 is the move's default size)")
+    MOVE_LIMITS.check(camera_amount=amount)
 
 
 def write_camera_move(folder: pathlib.Path, stage: Usd.Stage, camera: str, amount: float) -> dict:
