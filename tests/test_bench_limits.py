@@ -113,3 +113,12 @@ def test_a_value_at_the_edge_of_a_range_passes_and_a_fraction_does_not_pass_for_
     BATCH.check(cpus_per_shot=0.01, gpus_per_shot=0.0)
     with pytest.raises(InputError, match=r"^--seed 1.5: must be a whole number$"):
         RERENDER.check(seed=1.5)
+
+
+def test_the_object_axis_refuses_a_count_out_of_range_before_any_run():
+    from physomni_usd.bench.scale import bench_objects
+
+    with pytest.raises(InputError, match=r"^--objects 0: must be"):
+        bench_objects((0, 3))
+    result = CliRunner().invoke(main, ["bench", "scale", "--sizes", "", "--objects", "0,3"])
+    assert result.exit_code == 2 and "--objects 0: must be" in result.output

@@ -25,6 +25,8 @@ SCALE = Limits(
     repeats=Limit("--repeats", "Rounds over the sizes, alternating (medians are reported).", 1, 20, 1, whole=True),
     seconds=Limit("--seconds", "Simulated seconds.", None, None, 3.0),  # simulate itself checks the range
     max_size=Limit("--max-size", "render --max-size.", None, None, 1920, whole=True),  # as render checks it
+    objects=Limit("--objects", "Boxes dropped in one run of the object axis", 1, 1000, None, whole=True,
+                  default_text="none"),
 )
 LOOK = Limits(
     size=Limit("--size", "Longer side of the rendered frames, pixels.", 64, 4096, 880, whole=True),

@@ -155,7 +155,13 @@ def bench_objects(counts=COUNTS, seconds: float = 2.0, echo=print) -> dict:
     CPU seconds and peak memory, and its stepping's seconds (the report's ``seconds.step``), as ratios to the
     fewest; ``exponent``: the slope of log(stepping seconds) over log(boxes), least squares (1: the stepping
     grows as the boxes and their contacts do)."""
+    from ..errors import InputError
+    from .limits import SCALE
     from .scenes import falling_boxes, write_bench_shot
+
+    if not counts:
+        raise InputError("--objects: give at least one count of boxes, e.g. 3,10,30,100")
+    SCALE.check(objects=tuple(counts), seconds=seconds)
 
     env = dict(os.environ)
     rows = []

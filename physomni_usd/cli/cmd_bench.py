@@ -142,8 +142,12 @@ def bench_plate_command(quick, json_path):
 @click.option("--stages", default="build,simulate,render", show_default=True, help="Which stages to run.")
 @limit_option(limits.SCALE, "seconds")
 @limit_option(limits.SCALE, "max_size")
+@click.option("--objects", default=None, metavar="N,N,...",
+              help="Also simulate this many boxes dropped on the ground, each count a fresh process (e.g. "
+                   "3,10,30,100): simulate's stepping seconds against the number of objects, and the exponent "
+                   "of that growth. With --sizes '' only this axis runs.")
 @json_option("numbers")
-def bench_scale_command(example, sizes, repeats, stages, seconds, max_size, json_path):
+def bench_scale_command(example, sizes, repeats, stages, seconds, max_size, objects, json_path):
     """Each stage's wall time, CPU time and peak memory on one example scaled to each photo size, as ratios to
     the smallest; each stage a fresh process, the sizes alternating so that they share the load.
 
@@ -156,11 +160,21 @@ def bench_scale_command(example, sizes, repeats, stages, seconds, max_size, json
         from ..errors import InputError
 
         try:
-            mps = tuple(float(x) for x in sizes.split(","))
+            mps = tuple(float(x) for x in sizes.split(",") if x.strip())
         except ValueError:
             raise InputError(f"--sizes {sizes!r}: expected megapixels separated by commas") from None
-        numbers = bench_scale(example, mps, repeats, seconds, tuple(s.strip() for s in stages.split(",")),
-                              max_size, echo=click.echo)
+        try:
+            counts = tuple(int(x) for x in objects.split(",")) if objects else ()
+        except ValueError:
+            raise InputError(f"--objects {objects!r}: expected whole numbers separated by commas") from None
+        numbers = {}
+        if mps:
+            numbers = bench_scale(example, mps, repeats, seconds, tuple(s.strip() for s in stages.split(",")),
+                                  max_size, echo=click.echo)
+        if counts:
+            from ..bench.scale import bench_objects
+
+            numbers["objects"] = bench_objects(counts, seconds, echo=click.echo)
         write_numbers(numbers, json_path)
 
 
