@@ -145,7 +145,8 @@ def bench_plate_command(quick, json_path):
 @click.option("--objects", default=None, metavar="N,N,...",
               help="Also simulate this many boxes dropped on the ground, each count a fresh process (e.g. "
                    "3,10,30,100): simulate's stepping seconds against the number of objects, and the exponent "
-                   "of that growth. With --sizes '' only this axis runs.")
+                   "of that growth. With --sizes '' only this axis runs. Range: "
+                   f"{limits.SCALE['objects'].span()}.")
 @json_option("numbers")
 def bench_scale_command(example, sizes, repeats, stages, seconds, max_size, objects, json_path):
     """Each stage's wall time, CPU time and peak memory on one example scaled to each photo size, as ratios to
