@@ -21,7 +21,7 @@ import time
 
 from ..errors import PhysOmniError
 from .pipeline import _resized_example
-from .limits import BATCH
+from .limits import BATCH, EXAMPLE
 
 _CLI = "import sys\nfrom physomni_usd.cli import main\nmain(sys.argv[1:], prog_name='physomni-usd')\n"
 
@@ -53,7 +53,8 @@ def _ray_start_seconds() -> float:
 MAX_COUNT = 64
 
 
-def bench_batch(example, counts=(1, 2, 4, 8), size: int = 320, seconds: float = 1.0, fps: float = 30.0,
+def bench_batch(example=EXAMPLE, counts=(1, 2, 4, 8), size: int = BATCH["size"].default,
+                seconds: float = BATCH["seconds"].default, fps: float = BATCH["fps"].default,
                 echo=print) -> dict:
     """``batch`` against ``run`` one after another for each count of shots in ``counts`` (each 1 to
     :data:`MAX_COUNT`); refused (InputError) before any work without Ray or with a count out of range."""

@@ -4,7 +4,12 @@ arguments against its table before any work, and its ``bench`` command reads its
 
 from __future__ import annotations
 
+import pathlib
+
 from ..limits import Limit, Limits
+
+#: The bundled example a bench runs when none is named (a path in the project's checkout, where benches run).
+EXAMPLE = pathlib.Path("examples/motorcycle")
 
 _SIZE = "Longer side of the photo, pixels."
 PIPELINE = Limits(

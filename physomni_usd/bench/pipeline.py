@@ -19,7 +19,7 @@ import time
 import cv2
 
 from ..errors import InputError
-from .limits import PIPELINE
+from .limits import EXAMPLE, PIPELINE
 
 
 def _resized_example(example: pathlib.Path, size: int, work: pathlib.Path) -> dict:
@@ -44,7 +44,7 @@ def _resized_example(example: pathlib.Path, size: int, work: pathlib.Path) -> di
             "sizes": spec.get("size", [])}
 
 
-def bench_pipeline(example, size: int = PIPELINE["size"].default, repeats: int = PIPELINE["repeats"].default,
+def bench_pipeline(example=EXAMPLE, size: int = PIPELINE["size"].default, repeats: int = PIPELINE["repeats"].default,
                    seconds: float = PIPELINE["seconds"].default, fps: float = 30.0,
                    echo=print) -> dict:
     PIPELINE.check(size=size, repeats=repeats)  # before any work, as the command refuses them

@@ -17,10 +17,10 @@ import tempfile
 import time
 
 from .pipeline import _resized_example
-from .limits import RENDER
+from .limits import EXAMPLE, RENDER
 
 
-def bench_render(example, size: int = 880, seconds: float = 1.0, fps: float = 30.0, echo=print) -> dict:
+def bench_render(example=EXAMPLE, size: int = RENDER["size"].default, seconds: float = RENDER["seconds"].default, fps: float = 30.0, echo=print) -> dict:
     RENDER.check(size=size, seconds=seconds)  # before any work, as the command refuses them
 
     from ..building import build_shot

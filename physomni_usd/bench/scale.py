@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 
 from ..perceive.masks import photo_size
-from .limits import SCALE
+from .limits import EXAMPLE, SCALE
 
 #: Megapixels of the photos by default: the examples' sizes up to a full-frame camera's (the --max-pixels cap).
 SIZES_MP = (0.3, 1.0, 4.0, 12.0, 40.0)
@@ -81,8 +81,8 @@ def _timed(cmd: list[str], env: dict) -> dict:
             "peak_mb": round(usage.ru_maxrss / 1024.0, 1), "load": round((load + os.getloadavg()[0]) / 2, 2)}
 
 
-def bench_scale(example: pathlib.Path, sizes=SIZES_MP, repeats: int = 1, seconds: float = 3.0,
-                stages=STAGES, max_size: int = 1920, echo=print) -> dict:
+def bench_scale(example: pathlib.Path = EXAMPLE, sizes=SIZES_MP, repeats: int = SCALE["repeats"].default,
+                seconds: float = SCALE["seconds"].default, stages=STAGES, max_size: int = SCALE["max_size"].default, echo=print) -> dict:
     """Each size's stages, ``repeats`` times with the sizes alternating; medians and ratios to the smallest.
     A size of 0 means the example as it is. A folder without example.json is refused (InputError)."""
     SCALE.check(repeats=repeats, seconds=seconds, max_size=max_size)  # before any work, as the command refuses them
@@ -156,7 +156,6 @@ def bench_objects(counts=COUNTS, seconds: float = 2.0, echo=print) -> dict:
     fewest; ``exponent``: the slope of log(stepping seconds) over log(boxes), least squares (1: the stepping
     grows as the boxes and their contacts do)."""
     from ..errors import InputError
-    from .limits import SCALE
     from .scenes import falling_boxes, write_bench_shot
 
     if not counts:

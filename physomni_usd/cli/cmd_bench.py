@@ -39,7 +39,7 @@ def bench():
 
 @bench.command("pipeline")
 @click.option("--example", type=click.Path(file_okay=False, path_type=pathlib.Path),
-              default=pathlib.Path("examples/motorcycle"), show_default=True,
+              default=limits.EXAMPLE, show_default=True,
               help="Example folder with example.json, a photo and its masks.")
 @limit_option(limits.PIPELINE, "size")
 @limit_option(limits.PIPELINE, "repeats")
@@ -56,7 +56,7 @@ def bench_pipeline_command(example, size, repeats, seconds, json_path):
 
 @bench.command("render")
 @click.option("--example", type=click.Path(file_okay=False, path_type=pathlib.Path),
-              default=pathlib.Path("examples/motorcycle"), show_default=True,
+              default=limits.EXAMPLE, show_default=True,
               help="Example folder with example.json, a photo and its masks.")
 @limit_option(limits.RENDER, "size")
 @limit_option(limits.RENDER, "seconds")
@@ -78,7 +78,7 @@ def bench_render_command(example, size, seconds, quick, json_path):
 
 @bench.command("batch")
 @click.option("--example", type=click.Path(file_okay=False, path_type=pathlib.Path),
-              default=pathlib.Path("examples/motorcycle"), show_default=True,
+              default=limits.EXAMPLE, show_default=True,
               help="Example folder with example.json, a photo and its masks; every shot is this one.")
 @click.option("--counts", default="1,2,4,8", show_default=True, metavar="N,N,...",
               help="Numbers of shots to time.")
@@ -134,7 +134,7 @@ def bench_plate_command(quick, json_path):
 
 @bench.command("scale")
 @click.option("--example", type=click.Path(file_okay=False, path_type=pathlib.Path),
-              default=pathlib.Path("examples/motorcycle"), show_default=True,
+              default=limits.EXAMPLE, show_default=True,
               help="Example folder (with example.json) to scale.")
 @click.option("--sizes", default="0.3,1,4,12,40", show_default=True, metavar="MP,MP,...",
               help="Megapixels of the photos; 0 is the example as it is.")
