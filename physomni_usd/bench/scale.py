@@ -126,6 +126,7 @@ def bench_scale(example: pathlib.Path = EXAMPLE, sizes=SIZES_MP, repeats: int = 
                for k in runs[s][0]}
         total = {m: sum(med[k][m] for k in med) for m in ("wall_s", "cpu_s")}
         total["peak_mb"] = max(med[k]["peak_mb"] for k in med)
+        total["load"] = float(np.mean([med[k]["load"] for k in med]))  # the run's stages' mean
         med["run"] = total
         base = base or med
         ratios = {k: {m: round(med[k][m] / max(base[k][m], 1e-9), 2) for m in ("wall_s", "cpu_s", "peak_mb")}
@@ -139,7 +140,7 @@ def bench_scale(example: pathlib.Path = EXAMPLE, sizes=SIZES_MP, repeats: int = 
             q = row["ratio_to_smallest"][k]
             table.append(f"{row['width']}×{row['height']:<7} {k:>9} {v['wall_s']:8.1f} {v['cpu_s']:8.1f} "
                          f"{v['peak_mb']:8.0f} {q['wall_s']:7.2f} {q['cpu_s']:7.2f} {q['peak_mb']:7.2f} "
-                         f"{v.get('load', float('nan')):5.1f}")
+                         f"{v['load']:5.1f}")
     echo("\n".join(table))
     return {"example": str(example), "repeats": repeats, "seconds": seconds, "max_size": max_size, "rows": rows}
 
