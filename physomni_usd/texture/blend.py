@@ -24,8 +24,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .exemplar import EXEMPLAR_CONTEXT, EXEMPLAR_HOLE_PIXELS, NO_SHIFT, SHADING_DEPTH, SHADING_SIGMA, \
-    SHADING_TRUST, match_shading, shift_map
+from .exemplar import NO_SHIFT, SHADING_DEPTH, SHADING_SIGMA, SHADING_TRUST, hole_windows, match_shading, shift_map
 from .grain import match_grain, odd_border
 from .pixels import blur, within
 
@@ -66,19 +65,8 @@ def fill_blend(photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
     connected part of the hole (as :func:`~.exemplar.fill_exemplar` makes them)."""
     h, w = hole.shape
     out = photo.copy()
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(hole.astype(np.uint8), connectivity=8)
-    total = max(1, int(hole.sum()))
-    for k in range(1, n):
-        x, y, bw, bh = stats[k, :4]
-        m = int(round(EXEMPLAR_CONTEXT * max(bw, bh))) + 8
-        x0, y0, x1, y1 = max(0, x - m), max(0, y - m), min(w, x + bw + m), min(h, y + bh + m)
-        win_hole = hole[y0:y1, x0:x1]
-        if win_hole.all():
-            win_hole = hole
-            x0, y0, x1, y1 = 0, 0, w, h
-        filled = _blend_window(photo[y0:y1, x0:x1], win_hole, min(bw, bh), SHADING_DEPTH * np.hypot(h, w),
-                               EXEMPLAR_HOLE_PIXELS * float(stats[k, 4]) / total)
-        own = labels[y0:y1, x0:x1] == k
+    for (x0, y0, x1, y1), win_hole, own, size, budget in hole_windows(hole):
+        filled = _blend_window(photo[y0:y1, x0:x1], win_hole, size, SHADING_DEPTH * np.hypot(h, w), budget)
         out[y0:y1, x0:x1][own] = filled[own]
     return cap_colours(photo, out, hole)
 

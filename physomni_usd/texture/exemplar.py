@@ -74,11 +74,12 @@ STEP_NOISE = 3.0
 SHADING_TRUST = 0.5
 
 
-def fill_exemplar(photo: np.ndarray, hole: np.ndarray, sources: np.ndarray | None = None) -> np.ndarray:
-    """Shift-map (exemplar) fill of ``hole``, one window per connected part of it; ``sources``: as
-    :func:`~.fill.background_plate` takes it."""
+def hole_windows(hole: np.ndarray):
+    """Each connected part of ``hole`` (H, W) bool with the window of surface around it
+    (:data:`EXEMPLAR_CONTEXT` of its size, the whole photo where that window is all hole): yields the
+    window ``(x0, y0, x1, y1)``, the hole in it, the part's own pixels in it, the part's narrower side in
+    pixels and its share of :data:`EXEMPLAR_HOLE_PIXELS` (in proportion to its pixels)."""
     h, w = hole.shape
-    out = photo.copy()
     n, labels, stats, _ = cv2.connectedComponentsWithStats(hole.astype(np.uint8), connectivity=8)
     total = max(1, int(hole.sum()))
     for k in range(1, n):
@@ -89,10 +90,19 @@ def fill_exemplar(photo: np.ndarray, hole: np.ndarray, sources: np.ndarray | Non
         if win_hole.all():
             win_hole = hole  # no surface around this part: use the whole photo
             x0, y0, x1, y1 = 0, 0, w, h
+        yield ((x0, y0, x1, y1), win_hole, labels[y0:y1, x0:x1] == k, min(bw, bh),
+               EXEMPLAR_HOLE_PIXELS * float(stats[k, 4]) / total)
+
+
+def fill_exemplar(photo: np.ndarray, hole: np.ndarray, sources: np.ndarray | None = None) -> np.ndarray:
+    """Shift-map (exemplar) fill of ``hole``, one window per connected part of it; ``sources``: as
+    :func:`~.fill.background_plate` takes it."""
+    h, w = hole.shape
+    out = photo.copy()
+    for (x0, y0, x1, y1), win_hole, own, size, budget in hole_windows(hole):
         copied = None if sources is None else np.full((y1 - y0, x1 - x0, 2), -1, np.int32)
-        filled = _exemplar_window(photo[y0:y1, x0:x1], win_hole, min(bw, bh), SHADING_DEPTH * np.hypot(h, w),
-                                  EXEMPLAR_HOLE_PIXELS * float(stats[k, 4]) / total, copied)
-        own = labels[y0:y1, x0:x1] == k
+        filled = _exemplar_window(photo[y0:y1, x0:x1], win_hole, size, SHADING_DEPTH * np.hypot(h, w), budget,
+                                  copied)
         out[y0:y1, x0:x1][own] = filled[own]
         if sources is not None:
             found = own & (copied[..., 0] >= 0)
