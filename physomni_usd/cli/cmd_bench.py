@@ -37,10 +37,14 @@ def bench():
     """Benchmarks: each prints a table and can write the same numbers as JSON."""
 
 
+def example_option(help_text: str):
+    """--example: the bundled example folder a bench runs (the library's default, ``bench.limits.EXAMPLE``)."""
+    return click.option("--example", type=click.Path(file_okay=False, path_type=pathlib.Path),
+                        default=limits.EXAMPLE, show_default=True, help=help_text)
+
+
 @bench.command("pipeline")
-@click.option("--example", type=click.Path(file_okay=False, path_type=pathlib.Path),
-              default=limits.EXAMPLE, show_default=True,
-              help="Example folder with example.json, a photo and its masks.")
+@example_option("Example folder with example.json, a photo and its masks.")
 @limit_option(limits.PIPELINE, "size")
 @limit_option(limits.PIPELINE, "repeats")
 @limit_option(limits.PIPELINE, "seconds")
@@ -55,9 +59,7 @@ def bench_pipeline_command(example, size, repeats, seconds, json_path):
 
 
 @bench.command("render")
-@click.option("--example", type=click.Path(file_okay=False, path_type=pathlib.Path),
-              default=limits.EXAMPLE, show_default=True,
-              help="Example folder with example.json, a photo and its masks.")
+@example_option("Example folder with example.json, a photo and its masks.")
 @limit_option(limits.RENDER, "size")
 @limit_option(limits.RENDER, "seconds")
 @click.option("--quick", is_flag=True, help="Render 0.3 s (10 frames) instead of --seconds.")
@@ -77,9 +79,7 @@ def bench_render_command(example, size, seconds, quick, json_path):
 
 
 @bench.command("batch")
-@click.option("--example", type=click.Path(file_okay=False, path_type=pathlib.Path),
-              default=limits.EXAMPLE, show_default=True,
-              help="Example folder with example.json, a photo and its masks; every shot is this one.")
+@example_option("Example folder with example.json, a photo and its masks; every shot is this one.")
 @click.option("--counts", default="1,2,4,8", show_default=True, metavar="N,N,...",
               help="Numbers of shots to time.")
 @limit_option(limits.BATCH, "size")
@@ -133,9 +133,7 @@ def bench_plate_command(quick, json_path):
 
 
 @bench.command("scale")
-@click.option("--example", type=click.Path(file_okay=False, path_type=pathlib.Path),
-              default=limits.EXAMPLE, show_default=True,
-              help="Example folder (with example.json) to scale.")
+@example_option("Example folder (with example.json) to scale.")
 @click.option("--sizes", default="0.3,1,4,12,40", show_default=True, metavar="MP,MP,...",
               help="Megapixels of the photos; 0 is the example as it is.")
 @limit_option(limits.SCALE, "repeats")
