@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 
-import cv2
 import numpy as np
 import pytest
 import trimesh
@@ -18,10 +17,11 @@ from pxr import Usd
 from physomni_usd import building as build_module
 from physomni_usd.align.place import deepen
 from physomni_usd.bench.alignment import _built_camera
-from physomni_usd.bench.synthetic import render_truth
 from physomni_usd.building import build_shot
 from physomni_usd.geometry.camera import PinholeCamera
 from physomni_usd.metrics.geometry import THIN_FRACTION, label_says, max_penetration, thin_side, world_meshes
+
+from .test_separation import stack  # noqa: F401  (the photo of an 8 cm block on a 30 cm one, and one beside)
 
 CAMERA = PinholeCamera(240, 180, 50.0, 30.0, (0.0, -0.55, 0.35))
 SLAB_M = 0.004
@@ -70,23 +70,8 @@ def test_deepen_keeps_the_seen_face_and_the_longest_side(camera_origin):
         assert v[:, 1].min() == pytest.approx(slab.vertices[:, 1].min(), abs=1e-9)
 
 
-@pytest.fixture(scope="module")
-def blocks(tmp_path_factory):
-    """The photo and mask specs of an 8 cm block on a 30 cm one and a 7 cm block beside them."""
-    folder = tmp_path_factory.mktemp("blocks")
-    truth = [_box((0.30, 0.20, 0.10), (0, 0, 0)), _box((0.08, 0.08, 0.08), (-0.06, 0.02, 0.10)),
-             _box((0.07, 0.07, 0.07), (0.25, -0.05, 0.0))]
-    photo, masks = render_truth(CAMERA, truth, np.random.default_rng(5))
-    cv2.imwrite(str(folder / "photo.png"), cv2.cvtColor(photo, cv2.COLOR_RGB2BGR))
-    specs = []
-    for k, m in enumerate(masks):
-        cv2.imwrite(str(folder / f"block{k}.png"), m.astype(np.uint8) * 255)
-        specs.append(f"{folder / f'block{k}.png'}:block")
-    return folder, specs
-
-
-def test_a_block_placed_as_a_4mm_slab_is_built_a_block(blocks, tmp_path, monkeypatch):
-    folder, specs = blocks
+def test_a_block_placed_as_a_4mm_slab_is_built_a_block(stack, tmp_path, monkeypatch):
+    folder, specs = stack
     solve = build_module.solve_places
     before = {}
 
