@@ -37,6 +37,7 @@ def test_labels_say_flat_or_round():
     assert [label_says(x) for x in ("coin", "card", "book", "plate", "paper")] == ["flat"] * 5
     assert label_says("apple") == "round" and label_says("orange") == "round"
     assert label_says("box") is None and label_says("block") is None and label_says("") is None
+    assert label_says("bowl") == "vessel" and label_says("pot") == "vessel"  # their rims measured their height
 
 
 def test_a_slab_seen_face_on_is_too_thin_and_one_seen_edge_on_is_not():

@@ -178,15 +178,17 @@ SEEN_AXIS_COS = 0.5
 
 
 def label_says(label: str) -> str | None:
-    """'flat' for a label whose typical size is flat, 'round' for a ball-shaped one, else None (``sizes``)."""
-    from ..sizes import size_prior
+    """'flat' for a label whose typical size is flat, 'vessel' for an open container (a bowl, a pot: its rim
+    and wall in the photo measure its height), 'round' for a ball-shaped one, else None (``sizes``)."""
+    from ..sizes import body_kind, size_prior
 
     p = size_prior(label or "")
-    if p is None or p.longest_m is None:
-        return None
-    if p.height_m is not None and p.height_m < FLAT_LABEL_RATIO * p.longest_m:
+    if p is not None and p.longest_m is not None and p.height_m is not None \
+            and p.height_m < FLAT_LABEL_RATIO * p.longest_m:
         return "flat"
-    return "round" if p.shape == "ball" else None
+    if body_kind(label or "") == "vessel":
+        return "vessel"
+    return "round" if p is not None and p.longest_m is not None and p.shape == "ball" else None
 
 
 def thin_side(vertices: np.ndarray, label: str, camera_origin) -> dict | None:
@@ -194,11 +196,11 @@ def thin_side(vertices: np.ndarray, label: str, camera_origin) -> dict | None:
 
     Its thinnest side is the smallest extent of its oriented bounding box; the smaller side of its outline the
     middle one. It is too thin below :data:`THIN_FRACTION` of that side (:data:`ROUND_FRACTION` for a
-    ball-shaped label), unless its label says flat, or the thin side lies across the line of sight from
+    ball-shaped label), unless its label says flat or an open vessel, or the thin side lies across the line of sight from
     ``camera_origin`` (3,) so that the photo itself shows it thin. Returns ``thickness_m``, ``side_m``,
     ``need_m`` (the least thickness allowed), ``axis`` (3,) unit and ``centre`` (3,) of the box."""
     says = label_says(label)
-    if says == "flat":
+    if says in ("flat", "vessel"):  # as thin as it is: a flat thing, or a vessel whose rim measured it
         return None
     v = np.asarray(vertices, float)
     try:
