@@ -21,7 +21,7 @@ import time
 
 from ..errors import PhysOmniError
 from .pipeline import _resized_example
-from .limits import BATCH, EXAMPLE
+from .limits import BATCH, BATCH_COUNTS, EXAMPLE
 
 _CLI = "import sys\nfrom physomni_usd.cli import main\nmain(sys.argv[1:], prog_name='physomni-usd')\n"
 
@@ -53,7 +53,7 @@ def _ray_start_seconds() -> float:
 MAX_COUNT = 64
 
 
-def bench_batch(example=EXAMPLE, counts=(1, 2, 4, 8), size: int = BATCH["size"].default,
+def bench_batch(example=EXAMPLE, counts=BATCH_COUNTS, size: int = BATCH["size"].default,
                 seconds: float = BATCH["seconds"].default, fps: float = BATCH["fps"].default,
                 echo=print) -> dict:
     """``batch`` against ``run`` one after another for each count of shots in ``counts`` (each 1 to

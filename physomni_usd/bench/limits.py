@@ -10,6 +10,11 @@ from ..limits import Limit, Limits
 
 #: The bundled example a bench runs when none is named (a path in the project's checkout, where benches run).
 EXAMPLE = pathlib.Path("examples/motorcycle")
+#: ``bench batch``'s numbers of shots, ``bench scale``'s photo sizes (megapixels: the examples' sizes up to a
+#: full-frame camera's, the --max-pixels cap) and its stages, when none are named.
+BATCH_COUNTS = (1, 2, 4, 8)
+SCALE_SIZES_MP = (0.3, 1.0, 4.0, 12.0, 40.0)
+SCALE_STAGES = ("build", "simulate", "render")
 
 _SIZE = "Longer side of the photo, pixels."
 PIPELINE = Limits(

@@ -22,11 +22,11 @@ import cv2
 import numpy as np
 
 from ..perceive.masks import photo_size
-from .limits import EXAMPLE, SCALE
+from .limits import EXAMPLE, SCALE, SCALE_SIZES_MP, SCALE_STAGES
 
-#: Megapixels of the photos by default: the examples' sizes up to a full-frame camera's (the --max-pixels cap).
-SIZES_MP = (0.3, 1.0, 4.0, 12.0, 40.0)
-STAGES = ("build", "simulate", "render")
+#: Megapixels of the photos and the stages by default (``bench.limits``, where the command reads them too).
+SIZES_MP = SCALE_SIZES_MP
+STAGES = SCALE_STAGES
 
 
 def scaled_example(folder: pathlib.Path, megapixels: float | None, out: pathlib.Path) -> list[str]:
@@ -82,7 +82,8 @@ def _timed(cmd: list[str], env: dict) -> dict:
 
 
 def bench_scale(example: pathlib.Path = EXAMPLE, sizes=SIZES_MP, repeats: int = SCALE["repeats"].default,
-                seconds: float = SCALE["seconds"].default, stages=STAGES, max_size: int = SCALE["max_size"].default, echo=print) -> dict:
+                seconds: float = SCALE["seconds"].default, stages=STAGES, max_size: int = SCALE["max_size"].default,
+                echo=print) -> dict:
     """Each size's stages, ``repeats`` times with the sizes alternating; medians and ratios to the smallest.
     A size of 0 means the example as it is. A folder without example.json is refused (InputError)."""
     SCALE.check(repeats=repeats, seconds=seconds, max_size=max_size)  # before any work, as the command refuses them

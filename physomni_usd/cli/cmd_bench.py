@@ -80,7 +80,7 @@ def bench_render_command(example, size, seconds, quick, json_path):
 
 @bench.command("batch")
 @example_option("Example folder with example.json, a photo and its masks; every shot is this one.")
-@click.option("--counts", default="1,2,4,8", show_default=True, metavar="N,N,...",
+@click.option("--counts", default=",".join(map(str, limits.BATCH_COUNTS)), show_default=True, metavar="N,N,...",
               help="Numbers of shots to time.")
 @limit_option(limits.BATCH, "size")
 @limit_option(limits.BATCH, "seconds")
@@ -134,10 +134,10 @@ def bench_plate_command(quick, json_path):
 
 @bench.command("scale")
 @example_option("Example folder (with example.json) to scale.")
-@click.option("--sizes", default="0.3,1,4,12,40", show_default=True, metavar="MP,MP,...",
+@click.option("--sizes", default=",".join(f"{x:g}" for x in limits.SCALE_SIZES_MP), show_default=True, metavar="MP,MP,...",
               help="Megapixels of the photos; 0 is the example as it is.")
 @limit_option(limits.SCALE, "repeats")
-@click.option("--stages", default="build,simulate,render", show_default=True, help="Which stages to run.")
+@click.option("--stages", default=",".join(limits.SCALE_STAGES), show_default=True, help="Which stages to run.")
 @limit_option(limits.SCALE, "seconds")
 @limit_option(limits.SCALE, "max_size")
 @click.option("--objects", default=None, metavar="N,N,...",
