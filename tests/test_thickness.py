@@ -18,19 +18,12 @@ from physomni_usd import building as build_module
 from physomni_usd.align.place import deepen
 from physomni_usd.bench.alignment import _built_camera
 from physomni_usd.building import build_shot
-from physomni_usd.geometry.camera import PinholeCamera
 from physomni_usd.metrics.geometry import THIN_FRACTION, label_says, max_penetration, thin_side, world_meshes
 
-from .test_separation import stack  # noqa: F401  (the photo of an 8 cm block on a 30 cm one, and one beside)
+# the separation test's boxes and photo of an 8 cm block on a 30 cm one with a 7 cm one beside
+from .test_separation import _box, stack  # noqa: F401
 
-CAMERA = PinholeCamera(240, 180, 50.0, 30.0, (0.0, -0.55, 0.35))
 SLAB_M = 0.004
-
-
-def _box(size, at):
-    b = trimesh.creation.box(size)
-    b.apply_translation([at[0], at[1], at[2] + size[2] / 2])
-    return b
 
 
 def test_labels_say_flat_or_round():
