@@ -722,7 +722,6 @@ def _objects_centre(stage: Usd.Stage, time: Usd.TimeCode) -> np.ndarray:
 def _render_shot(shot, output, settings: RenderSettings, progress, passes=(), passes_dir=None, camera=None,
                  camera_amount: float = 1.0) -> dict:
     t0 = time.perf_counter()
-    check_camera_move(camera, camera_amount)
     folder = layers.shot_folder(shot)
     stage = layers.open_shot(shot)
     move = None
