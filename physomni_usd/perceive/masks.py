@@ -249,8 +249,7 @@ def mask_from_box(photo: np.ndarray, spec: str, index: int) -> ObjectMask:
     check_box(spec, (h, w))
     clicks = box_clicks(spec)
     box = (x0, y0, x1, y1)
-    whole = (x1 - x0) * (y1 - y0) >= 0.98 * w * h
-    if h * w > GRABCUT_PIXELS and (clicks or not whole):
+    if h * w > GRABCUT_PIXELS and (clicks or not _covers_whole(box, w, h)):
         result, quality = _coarse_to_fine(photo, spec, box, clicks, index)
     else:
         result, quality = _full_size(photo, box, label, clicks)
@@ -258,6 +257,13 @@ def mask_from_box(photo: np.ndarray, spec: str, index: int) -> ObjectMask:
     obj = ObjectMask(label or f"object{index}", index, checked_mask(result, f"--box {spec!r}"), source)
     obj.quality = quality
     return obj
+
+
+def _covers_whole(box, w: int, h: int) -> bool:
+    """Whether ``box`` (x0, y0, x1, y1) covers (nearly) all of a ``w`` × ``h`` photo, leaving GrabCut no
+    background to model."""
+    x0, y0, x1, y1 = box
+    return (x1 - x0) * (y1 - y0) >= 0.98 * w * h
 
 
 def _coarse_to_fine(photo: np.ndarray, spec: str, box, clicks, index: int) -> tuple[np.ndarray, dict]:
@@ -274,8 +280,7 @@ def _coarse_to_fine(photo: np.ndarray, spec: str, box, clicks, index: int) -> tu
                  min(sh, int(np.ceil(y1 / fy))))
     small_clicks = [(min(sw - 1, int(x / fx)), min(sh - 1, int(y / fy)), on) for x, y, on in clicks]
     label = parse_box(spec)[1]
-    whole = (x1 - x0) * (y1 - y0) >= 0.98 * w * h
-    if whole != ((small_box[2] - small_box[0]) * (small_box[3] - small_box[1]) >= 0.98 * sw * sh):
+    if _covers_whole(box, w, h) != _covers_whole(small_box, sw, sh):
         # widened to whole reduced pixels, a box just short of the whole photo covers all of the copy: the
         # copy would keep the box where the photo is cut
         return _full_size(photo, box, label, clicks)
@@ -301,7 +306,7 @@ def _full_size(photo: np.ndarray, box, label, clicks) -> tuple[np.ndarray, dict]
     mask and its quality."""
     h, w = photo.shape[:2]
     x0, y0, x1, y1 = box
-    if (x1 - x0) * (y1 - y0) >= 0.98 * w * h:
+    if _covers_whole(box, w, h):
         # GrabCut needs some background to model; a box over the whole photo keeps the box.
         result = np.zeros((h, w), bool)
         result[y0:y1, x0:x1] = True
