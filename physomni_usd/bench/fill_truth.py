@@ -32,12 +32,12 @@ import time
 import cv2
 import numpy as np
 
+from ..texture.pixels import SURROUND, nearest_surrounding
+
 #: The fills compared: today's exemplar, OpenCV's Telea, and the blend (``texture/blend.py``).
 METHODS = ("exemplar", "telea", "blend")
 #: A revealed pixel farther than this from every colour of its surroundings is counted (RGB distance, levels).
 FAR_LEVELS = 60.0
-#: The surroundings of a hole: the known pixels within this fraction of the image diagonal of it (at least 8 px).
-SURROUND = 0.05
 #: Width of the Gaussian over which the local colour is compared, pixels.
 LOCAL_SIGMA = 4.0
 
@@ -46,28 +46,8 @@ def surroundings_distance(image: np.ndarray, hole: np.ndarray, reach: float | No
     """(H, W) float32: for each pixel of ``hole`` (H, W) bool, the RGB distance (levels) from its colour in
     ``image`` (H, W, 3) uint8 to the nearest colour among the known pixels (not ``hole``) within ``reach``
     pixels of its connected part of the hole (default :data:`SURROUND` of the diagonal); 0 outside the hole,
-    inf for a part with no known pixel around it."""
-    from scipy.spatial import cKDTree
-
-    hole = np.asarray(hole, bool)
-    h, w = hole.shape
-    if reach is None:
-        reach = max(8.0, SURROUND * float(np.hypot(h, w)))
-    out = np.zeros((h, w), np.float32)
-    n, labels = cv2.connectedComponents(hole.astype(np.uint8), connectivity=8)
-    outside = cv2.distanceTransform((~hole).astype(np.uint8), cv2.DIST_L2, 5)  # 0 inside the hole
-    for k in range(1, n):
-        part = labels == k
-        near = cv2.distanceTransform((~part).astype(np.uint8), cv2.DIST_L2, 5) <= reach
-        ring = near & (outside > 0)
-        inside = image[part].astype(np.float32)
-        if not ring.any():
-            out[part] = np.inf
-            continue
-        colours = np.unique(image[ring].reshape(-1, 3), axis=0).astype(np.float32)
-        d, _ = cKDTree(colours).query(inside)
-        out[part] = d
-    return out
+    inf for a part with no known pixel around it. The fill's colour cap measures the same way."""
+    return nearest_surrounding(image, hole, reach)[1]
 
 
 def score(plate: np.ndarray, truth: np.ndarray, revealed: np.ndarray, hole: np.ndarray) -> dict:

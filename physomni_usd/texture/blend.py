@@ -26,7 +26,7 @@ import numpy as np
 
 from .exemplar import NO_SHIFT, SHADING_DEPTH, SHADING_SIGMA, SHADING_TRUST, hole_windows, match_shading, shift_map
 from .grain import match_grain, odd_border
-from .pixels import blur, within
+from .pixels import blur, nearest_surrounding, within
 
 #: Width over which copies that meet are averaged, as a fraction of the hole's narrower side (at least 1.5 px).
 SEAM_SIGMA = 0.03
@@ -54,10 +54,9 @@ COPY_SHARE = 1.0
 #: Weight of the smooth fill beside the copies: it shows only where no likely copy reaches.
 SMOOTH_WEIGHT = 0.02
 #: Most distance (RGB, levels) a filled pixel may lie from every colour of its surroundings (the known pixels
-#: within :data:`SURROUND` of the diagonal of its part of the hole); a pixel farther is moved towards the
-#: nearest of them until it is this far.
+#: within :data:`~.pixels.SURROUND` of the diagonal of its part of the hole); a pixel farther is moved towards
+#: the nearest of them until it is this far (rounding to whole levels adds at most 0.87).
 COLOUR_CAP = 55.0
-SURROUND = 0.05
 
 
 def fill_blend(photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
@@ -174,30 +173,18 @@ def smooth_fill(img: np.ndarray, known: np.ndarray) -> np.ndarray:
 
 def cap_colours(photo: np.ndarray, filled: np.ndarray, hole: np.ndarray, cap: float = COLOUR_CAP) -> np.ndarray:
     """``filled`` (H, W, 3) uint8 with each pixel of ``hole`` (H, W) bool that lies farther than ``cap`` (RGB
-    distance, levels) from every colour of its surroundings in ``photo`` (the known pixels within
-    :data:`SURROUND` of the diagonal of its connected part of the hole) moved straight towards the nearest of
-    those colours until it is ``cap`` from it."""
-    from scipy.spatial import cKDTree
-
+    distance, levels) from every colour of its surroundings in ``photo`` (:func:`~.pixels.nearest_surrounding`)
+    moved straight towards the nearest of those colours until it is ``cap`` from it."""
     hole = np.asarray(hole, bool)
     if not hole.any() or hole.all():
         return filled
-    h, w = hole.shape
-    reach = max(8.0, SURROUND * float(np.hypot(h, w)))
+    # the surroundings are the photo's, the colours weighed the fill's
+    image = np.where(hole[..., None], filled, photo)
+    nearest, dist = nearest_surrounding(image, hole)
+    far = hole & (dist > cap) & np.isfinite(dist)
+    if not far.any():
+        return filled
     out = filled.copy()
-    n, labels = cv2.connectedComponents(hole.astype(np.uint8), connectivity=8)
-    for k in range(1, n):
-        part = labels == k
-        ring = (cv2.distanceTransform((~part).astype(np.uint8), cv2.DIST_L2, 5) <= reach) & ~hole
-        if not ring.any():
-            continue
-        colours = np.unique(photo[ring].reshape(-1, 3), axis=0).astype(np.float32)
-        here = out[part].astype(np.float32)
-        dist, idx = cKDTree(colours).query(here)
-        far = dist > cap
-        if not far.any():
-            continue
-        near = colours[idx[far]]
-        here[far] = near + (here[far] - near) * (cap / dist[far])[:, None]
-        out[part] = np.clip(np.round(here), 0, 255).astype(np.uint8)
+    here, near = filled[far].astype(np.float32), nearest[far]
+    out[far] = np.clip(np.round(near + (here - near) * (cap / dist[far])[:, None]), 0, 255).astype(np.uint8)
     return out

@@ -48,3 +48,37 @@ def dilate(mask: np.ndarray, r: int) -> np.ndarray:
         return np.asarray(mask, bool).copy()
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
     return cv2.dilate(np.asarray(mask, np.uint8), kernel) > 0
+
+
+#: The surroundings of a hole whose colours a fill may use: the known pixels within this fraction of the image
+#: diagonal (at least 8 pixels) of each connected part of the hole.
+SURROUND = 0.05
+
+
+def nearest_surrounding(image: np.ndarray, hole: np.ndarray, reach: float | None = None
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """For each pixel of ``hole`` (H, W) bool, the colour of the known pixels (not ``hole``) within ``reach``
+    pixels of its connected part (default :data:`SURROUND` of the diagonal) nearest to its own colour in ``image``
+    (H, W, 3) uint8, and the RGB distance (levels) to it: (H, W, 3) float32 and (H, W) float32, the pixel's own
+    colour and 0 outside the hole, and its own colour and inf in a part with no known pixel around it. The one
+    measure both of the colour cap of the fill and of the bench that scores it."""
+    from scipy.spatial import cKDTree
+
+    hole = np.asarray(hole, bool)
+    h, w = hole.shape
+    if reach is None:
+        reach = max(8.0, SURROUND * float(np.hypot(h, w)))
+    nearest = image.astype(np.float32)
+    dist = np.zeros((h, w), np.float32)
+    n, labels = cv2.connectedComponents(hole.astype(np.uint8), connectivity=8)
+    for k in range(1, n):
+        part = labels == k
+        ring = within(part, reach) & ~hole
+        if not ring.any():
+            dist[part] = np.inf
+            continue
+        colours = np.unique(image[ring].reshape(-1, 3), axis=0).astype(np.float32)
+        d, idx = cKDTree(colours).query(nearest[part])
+        dist[part] = d
+        nearest[part] = colours[idx]
+    return nearest, dist
