@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from physomni_usd.bench.fill_truth import FAR_LEVELS, fill_rows, surroundings_distance
+from physomni_usd.bench.fill_truth import FAR_LEVELS, fill_rows, holds, surroundings_distance
 from physomni_usd.texture.blend import COLOUR_CAP, cap_colours
 from physomni_usd.texture.fill import background_plate, plate_hole
 
@@ -41,6 +41,50 @@ def test_the_blend_fill_errs_least_and_brings_no_colour_the_surroundings_lack():
     plate = row["plates"]["blend"]
     hole = plate_hole(photo, [box], 0.01)
     assert np.array_equal(plate[~hole], photo[~hole])  # the photo, pixel for pixel, outside the hole
+
+
+def _lit_wall_and_sand():
+    """A wall lit from one side (a smooth falloff, fine grain) over a floor of sand ripples, a box standing across
+    the line where they meet (the object, masked) and a blue cup on the floor beside it (not masked): the truth
+    and the photo."""
+    rng = np.random.default_rng(11)
+    h, w = 160, 220
+    y, x = np.mgrid[:h, :w].astype(np.float32)
+    wall = (200.0 - 0.45 * x)[..., None] * np.float32([1.0, 0.93, 0.85])
+    ripple = 150.0 + 14.0 * np.sin(x / 6.0 + 4.0 * np.sin(y / 23.0))
+    sand = ripple[..., None] * np.float32([1.0, 0.86, 0.62])
+    truth = np.where((y < 70)[..., None], wall, sand) + rng.normal(0, 3, (h, w, 1))
+    truth = np.clip(truth, 0, 255).astype(np.uint8)
+    photo = truth.copy()
+    box = np.zeros((h, w), bool)
+    box[40:120, 70:130] = True
+    photo[box] = (90, 40, 30)
+    photo[95:125, 145:160] = (40, 60, 210)
+    return photo, truth, box
+
+
+@pytest.mark.parametrize("scene", [_floor_and_photo, _lit_wall_and_sand])
+def test_the_default_fill_errs_at_most_as_much_as_telea_and_the_blend_and_keeps_to_the_surroundings(scene):
+    """The acceptance of the plate's fill, on two made-up scenes whose truth is known: in the revealed area its
+    error is at most the better of Telea's and the blend's, and no revealed pixel lies farther than 60 levels
+    from every colour around the hole (the cap holds it to 55)."""
+    photo, truth, box = scene()
+    row = fill_rows(photo, truth, [box], 0.01, ("mixed", "telea", "blend"))
+    m = row["methods"]
+    assert holds(row), m
+    assert m["mixed"]["far_max"] <= FAR_LEVELS
+    # the case is real: one of the fills it is held to errs clearly more than the other
+    assert abs(m["telea"]["error"] - m["blend"]["error"]) > 1.0, m
+
+
+def test_the_acceptance_counts_a_larger_error_and_a_foreign_colour():
+    row = {"methods": {"mixed": {"error": 5.0, "far": 0}, "telea": {"error": 5.0, "far": 3},
+                       "blend": {"error": 6.0, "far": 0}}}
+    assert holds(row)  # as good as the better one; Telea's own far pixels are not the default fill's
+    row["methods"]["mixed"]["error"] = 5.01
+    assert not holds(row)
+    row["methods"]["mixed"] |= {"error": 4.0, "far": 1}
+    assert not holds(row)
 
 
 def test_no_pixel_is_left_unfilled_where_shift_map_gives_up():

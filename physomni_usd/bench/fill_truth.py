@@ -34,8 +34,13 @@ import numpy as np
 
 from ..texture.pixels import SURROUND, nearest_surrounding
 
-#: The fills compared: today's exemplar, OpenCV's Telea, and the blend (``texture/blend.py``).
-METHODS = ("exemplar", "telea", "blend")
+#: The fills compared: the plate's default (``texture/fill.py``), OpenCV's Telea, the blend (``texture/blend.py``,
+#: the default before it) and the exemplar alone.
+METHODS = ("mixed", "telea", "blend", "exemplar")
+#: The fill the bench holds to the others: its error at most the better of these, and no revealed pixel farther
+#: than :data:`FAR_LEVELS` from every colour of its surroundings.
+HELD = "mixed"
+AGAINST = ("telea", "blend")
 #: A revealed pixel farther than this from every colour of its surroundings is counted (RGB distance, levels).
 FAR_LEVELS = 60.0
 #: Width of the Gaussian over which the local colour is compared, pixels.
@@ -145,7 +150,21 @@ def bench_fill_truth(n: int = 4, seed: int = 1, out_dir=None, methods=METHODS, e
         echo(f"mean {m}: error {s['error']}, local {s['error_local']}, hole {s['error_hole']}, far pixels {s['far']} "
              f"(in {s['scenes_far']} of {len(rows)} scenes), {s['seconds']} s; error at most the best other's in "
              f"{s['at_most_the_best_other']} of {len(rows)}")
-    return {"seed": seed, "n": n, "dilation": dilation, "far_levels": FAR_LEVELS, "rows": rows, "summary": summary}
+    numbers = {"seed": seed, "n": n, "dilation": dilation, "far_levels": FAR_LEVELS, "rows": rows, "summary": summary}
+    if HELD in methods and set(AGAINST) <= set(methods):
+        numbers["held"] = held = {"method": HELD, "against": list(AGAINST),
+                                  "scenes": [r["seed"] for r in rows if holds(r)], "of": len(rows)}
+        echo(f"{HELD}: error at most the better of {' and '.join(AGAINST)}'s and no revealed pixel farther than "
+             f"{FAR_LEVELS:g} levels from its surroundings' colours in {len(held['scenes'])} of {len(rows)} scenes")
+    return numbers
+
+
+def holds(row: dict, held: str = HELD, against=AGAINST) -> bool:
+    """Whether, in one scene's ``row`` (of :func:`fill_rows`), the fill ``held`` errs at most as much as the
+    better of ``against`` in the revealed area and leaves no revealed pixel farther than :data:`FAR_LEVELS`
+    from every colour of its surroundings."""
+    m = row["methods"]
+    return m[held]["error"] <= min(m[a]["error"] for a in against) and m[held]["far"] == 0
 
 
 def main(argv=None) -> None:

@@ -44,6 +44,10 @@ as the frame shows it, shadows and all (``*_as_shown``, ``colour_difference_plai
 "An object in this frame" is any face of a mesh (``FrameState.mesh_face``) and any
 pixel the particles are drawn over (``FrameState.particle_alpha``: water, sand).
 
+With ``--truth-scenes N`` the fill is also held against the truth: generated scenes rendered with their objects
+and without them, each fill's error against the empty render in the revealed area and its colours against
+the surroundings' (:func:`fill_truth_figure`).
+
 Frame 0 against the photo (PSNR, dB) and the preview's opening view against the
 photo (SSIM on grey) are reported beside them, and, under ``--camera orbit-left``
 at the last frame, each object's widest wall of stretched or repeated pixels
@@ -493,18 +497,39 @@ def look_example(example: pathlib.Path, work: pathlib.Path, size: int, seconds: 
     return figures, sheet
 
 
+def fill_truth_figure(n: int, seed: int, out_dir: pathlib.Path, echo=print) -> dict:
+    """The fill against the truth (:mod:`.fill_truth`): ``n`` generated scenes from ``seed`` rendered with their
+    objects and without them, the plate of each fill method held against the empty render in the revealed area
+    (renders and plates in ``out_dir``). Returns the means per method, per scene each method's error and
+    farthest colour, and the scenes where the plate's default fill errs at most as much as the better of Telea's
+    and the blend's with no revealed pixel farther than :data:`~.fill_truth.FAR_LEVELS` from its surroundings'
+    colours."""
+    from .fill_truth import bench_fill_truth
+
+    numbers = bench_fill_truth(n, seed, out_dir, echo=echo)
+    keep = ("error", "error_local", "far", "far_max")
+    return {"seed": seed, "n": n, "summary": numbers["summary"], "held": numbers.get("held"),
+            "scenes": [{"seed": r["seed"], "layout": r["layout"], "revealed_px": r["revealed_px"],
+                        "methods": {m: {k: v[k] for k in keep} for m, v in r["methods"].items()}}
+                       for r in numbers["rows"]]}
+
+
 def bench_look(examples: list[pathlib.Path], out_dir: pathlib.Path, size: int = 880, seconds: float | None = None,
-               browser: bool = True, echo=print) -> dict:
+               browser: bool = True, echo=print, truth_scenes: int = 0, truth_seed: int = 1) -> dict:
     """A contact sheet (``out_dir/<example>.png``) and the figures of every example in ``examples``;
     returns the figures by example (also written to ``out_dir/look.json``). No ``examples``: every folder
-    of ``examples/`` here that has an example.json (InputError where there is none)."""
+    of ``examples/`` here that has an example.json (InputError where there is none), unless ``truth_scenes``
+    is given. With ``truth_scenes`` > 0, also the fill's truth figure (:func:`fill_truth_figure`) on that many
+    generated scenes from ``truth_seed``, under ``fill_truth`` (renders and plates in ``out_dir/fill_truth``)."""
     LOOK.check(size=size, seconds=seconds)  # before any work, as the command refuses them
 
     from .._files import make_dirs, write_json
 
-    examples = list(examples) or sorted(p.parent for p in pathlib.Path("examples").glob("*/example.json"))
-    if not examples:
-        raise InputError("bench look: no --example given and no examples/*/example.json here")
+    examples = list(examples)
+    if not examples and truth_scenes <= 0:
+        examples = sorted(p.parent for p in pathlib.Path("examples").glob("*/example.json"))
+        if not examples:
+            raise InputError("bench look: no --example given and no examples/*/example.json here")
     make_dirs(out_dir)
     out = {}
     echo(f"{'example':<12}{'frame 0 dB':>11}{'preview SSIM':>14}{'orbit wall':>11}{'mirror':>8}"
@@ -524,5 +549,7 @@ def bench_look(examples: list[pathlib.Path], out_dir: pathlib.Path, size: int = 
         wall = f"{100 * figures['orbit_wall_max']:.1f} %" + ("" if figures["orbit_wall_max"] <= MAX_WALL else "!")
         mirror = f"{figures['wide_plate_mirror']:.2f}" if "wide_plate_mirror" in figures else "-"
         echo(f"{figures['example']:<12}{figures['frame0_psnr_db']:>11.2f}{ssim_text:>14}{wall:>11}{mirror:>8}  {rev}")
+    if truth_scenes > 0:
+        out["fill_truth"] = fill_truth_figure(truth_scenes, truth_seed, out_dir / "fill_truth", echo)
     write_json(out_dir / "look.json", out)
     return out

@@ -185,7 +185,11 @@ def bench_scale_command(example, sizes, repeats, stages, seconds, max_size, obje
 @limit_option(limits.LOOK, "size")
 @limit_option(limits.LOOK, "seconds")
 @click.option("--no-browser", is_flag=True, help="Leave out the preview's opening view (no Chromium needed).")
-def bench_look_command(examples, out_dir, size, seconds, no_browser):
+@click.option("--truth-scenes", type=click.IntRange(0, 100), default=0, show_default=True,
+              help="Also hold the fill against the truth on this many generated scenes (needs Blender's Python); "
+                   "with no --example, only these.")
+@click.option("--truth-seed", type=int, default=1, show_default=True, help="Seed of the generated scenes.")
+def bench_look_command(examples, out_dir, size, seconds, no_browser, truth_scenes, truth_seed):
     """A contact sheet per bundled example and the figures of what is left where objects stood.
 
     \b
@@ -194,7 +198,10 @@ def bench_look_command(examples, out_dir, size, seconds, no_browser):
     new contact shadows, for each revealed area against a ring around it: gradient ratio (target
     0.6-1.6), border gradient ratio (<= 1.3), colour difference against the ring's colour near each
     pixel of the area (<= 8 levels); in brackets, the frame as shown (gradient, border, and colour
-    against the ring's plain mean); frame 0's PSNR against the photo; the opening view's SSIM.
+    against the ring's plain mean); frame 0's PSNR against the photo; the opening view's SSIM. With
+    --truth-scenes, each fill's error against the true background (generated scenes rendered without
+    their objects) in the revealed area, and whether the default fill errs at most as much as Telea's and
+    the blend's with no revealed colour farther than 60 levels from its surroundings'.
 
     \b
     Example:
@@ -203,7 +210,8 @@ def bench_look_command(examples, out_dir, size, seconds, no_browser):
     with errors():
         from ..bench.look import bench_look
 
-        bench_look(list(examples), out_dir, size=size, seconds=seconds, browser=not no_browser, echo=click.echo)
+        bench_look(list(examples), out_dir, size=size, seconds=seconds, browser=not no_browser, echo=click.echo,
+                   truth_scenes=truth_scenes, truth_seed=truth_seed)
 
 
 @bench.command("alignment")

@@ -14,7 +14,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .blend import fill_blend
+from .blend import cap_colours, fill_blend
 from .exemplar import fill_exemplar
 from .pixels import INPAINT_RADIUS, blur, dilate, gradient, within
 
@@ -44,9 +44,20 @@ SHADOW_REACH = 0.25
 #: motorcycle's 1.06×, the desk's 0.94×).
 FEATHER = 0.010
 
-METHODS = ("exemplar", "telea", "blend")
+#: The held-out ring by which :func:`fill_mixed` weighs its two fills: the known pixels within this fraction of
+#: a part's narrower side of it (at least HOLDOUT_MIN pixels), filled as if they were hole and compared with
+#: the photo.
+HOLDOUT = 0.15
+HOLDOUT_MIN = 3.0
+#: The blend's weights :func:`fill_mixed` tries beside Telea's (the rest).
+MIX_WEIGHTS = (0.0, 0.25, 0.5, 0.75, 1.0)
 
-def background_plate(photo: np.ndarray, masks, dilation: float, method: str = "blend",
+METHODS = ("mixed", "exemplar", "telea", "blend")
+#: The fill a plate takes unless told otherwise.
+DEFAULT_METHOD = "mixed"
+
+
+def background_plate(photo: np.ndarray, masks, dilation: float, method: str = DEFAULT_METHOD,
                      shadows: bool = True, sources: np.ndarray | None = None) -> np.ndarray:
     """The photo with every object (and, with ``shadows``, its contact shadow) filled in, (H, W, 3) uint8.
 
@@ -65,7 +76,7 @@ def feather_px(shape) -> int:
     return max(4, int(round(FEATHER * np.hypot(shape[0], shape[1]))))
 
 
-def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = "blend", feather: int = 0,
+def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = DEFAULT_METHOD, feather: int = 0,
               sources: np.ndarray | None = None) -> np.ndarray:
     """``photo`` (H, W, 3) uint8 RGB with the pixels of ``hole`` (H, W) bool filled by ``method``; with
     ``feather`` > 0 the hole's outer ``feather`` pixels blend from the photo (at its edge) to the fill.
@@ -76,7 +87,10 @@ def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = "blend", feathe
     inside = cv2.distanceTransform(np.asarray(hole, np.uint8), cv2.DIST_L2, 5)
     a = np.clip(inside / (feather + 1.0), 0.0, 1.0)[..., None]
     blend = photo.astype(np.float32) * (1.0 - a) + filled.astype(np.float32) * a
-    return np.where(np.asarray(hole, bool)[..., None], np.clip(blend + 0.5, 0, 255), photo).astype(np.uint8)
+    out = np.where(np.asarray(hole, bool)[..., None], np.clip(blend + 0.5, 0, 255), photo).astype(np.uint8)
+    # the seam mixes in the photo's pixels under the hole's edge: the cap comes after it, so that no pixel of
+    # the plate's hole holds a colour its surroundings lack (Telea and the exemplar are kept as they are)
+    return cap_colours(photo, out, hole) if method in ("mixed", "blend") else out
 
 
 def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str, sources: np.ndarray | None = None) -> np.ndarray:
@@ -91,7 +105,41 @@ def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str, sources: np.nda
         return fill_telea(photo, hole)
     if method == "blend":
         return fill_blend(photo, hole)
+    if method == "mixed":
+        return fill_mixed(photo, hole)
     return fill_exemplar(photo, hole, sources)
+
+
+def fill_mixed(photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
+    """``hole`` (H, W) bool of ``photo`` (H, W, 3) uint8 RGB filled by Telea's diffusion and the blend (copies of
+    the surface, its grain) mixed, each connected part of the hole by its own weight: the one of
+    :data:`MIX_WEIGHTS` whose mix best predicts a ring of known surface around the part (:data:`HOLDOUT`) when
+    that ring is filled as hole too. Where the copies continue the surface (a checked wall, a horizon) they
+    predict the ring and are kept; where they bring a patch of the wrong shade or another thing's colour, the
+    smooth fill outweighs them; no rule of what the photo shows chooses, the photo's own pixels do."""
+    h, w = hole.shape
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(hole.astype(np.uint8), connectivity=8)
+    ring = np.zeros((h, w), np.int32)  # the part each held-out pixel belongs to (0: none)
+    for k in range(1, n):
+        r = max(HOLDOUT_MIN, HOLDOUT * float(min(stats[k, 2], stats[k, 3])))
+        ring[within(labels == k, r) & ~hole & (ring == 0)] = k
+    telea = fill_telea(photo, hole).astype(np.float32)
+    blend = fill_blend(photo, hole).astype(np.float32)
+    weight = np.full((h, w), 0.5, np.float32)
+    if ring.any():
+        wider = hole | (ring > 0)
+        t_ring = fill_telea(photo, wider).astype(np.float32)
+        b_ring = fill_blend(photo, wider).astype(np.float32)
+        truth = photo.astype(np.float32)
+        for k in range(1, n):
+            held = ring == k
+            if not held.any():
+                continue
+            t, b, p = t_ring[held], b_ring[held], truth[held]
+            errors = [float(np.abs(m * b + (1.0 - m) * t - p).mean()) for m in MIX_WEIGHTS]
+            weight[labels == k] = MIX_WEIGHTS[int(np.argmin(errors))]
+    mixed = blend * weight[..., None] + telea * (1.0 - weight[..., None])
+    return np.where(hole[..., None], np.clip(mixed + 0.5, 0, 255), photo).astype(np.uint8)
 
 
 def plate_hole(photo: np.ndarray, masks, dilation: float, shadows: bool = True) -> np.ndarray:
