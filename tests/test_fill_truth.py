@@ -69,21 +69,21 @@ def test_the_default_fill_errs_at_most_as_much_as_telea_and_the_blend_and_keeps_
     error is at most the better of Telea's and the blend's, and no revealed pixel lies farther than 60 levels
     from every colour around the hole (the cap holds it to 55)."""
     photo, truth, box = scene()
-    row = fill_rows(photo, truth, [box], 0.01, ("mixed", "telea", "blend"))
+    row = fill_rows(photo, truth, [box], 0.01, ("faded", "telea", "blend"))
     m = row["methods"]
     assert holds(row), m
-    assert m["mixed"]["far_max"] <= FAR_LEVELS
+    assert m["faded"]["far_max"] <= FAR_LEVELS
     # the case is real: one of the fills it is held to errs clearly more than the other
     assert abs(m["telea"]["error"] - m["blend"]["error"]) > 1.0, m
 
 
 def test_the_acceptance_counts_a_larger_error_and_a_foreign_colour():
-    row = {"methods": {"mixed": {"error": 5.0, "far": 0}, "telea": {"error": 5.0, "far": 3},
+    row = {"methods": {"faded": {"error": 5.0, "far": 0}, "telea": {"error": 5.0, "far": 3},
                        "blend": {"error": 6.0, "far": 0}}}
     assert holds(row)  # as good as the better one; Telea's own far pixels are not the default fill's
-    row["methods"]["mixed"]["error"] = 5.01
+    row["methods"]["faded"]["error"] = 5.01
     assert not holds(row)
-    row["methods"]["mixed"] |= {"error": 4.0, "far": 1}
+    row["methods"]["faded"] |= {"error": 4.0, "far": 1}
     assert not holds(row)
 
 

@@ -36,10 +36,10 @@ from ..texture.pixels import SURROUND, nearest_surrounding
 
 #: The fills compared: the plate's default (``texture/fill.py``), OpenCV's Telea, the blend (``texture/blend.py``,
 #: the default before it) and the exemplar alone.
-METHODS = ("mixed", "telea", "blend", "exemplar")
+METHODS = ("faded", "telea", "blend", "exemplar")
 #: The fill the bench holds to the others: its error at most the better of these, and no revealed pixel farther
 #: than :data:`FAR_LEVELS` from every colour of its surroundings.
-HELD = "mixed"
+HELD = "faded"
 AGAINST = ("telea", "blend")
 #: A revealed pixel farther than this from every colour of its surroundings is counted (RGB distance, levels).
 FAR_LEVELS = 60.0

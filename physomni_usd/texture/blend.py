@@ -57,17 +57,49 @@ SMOOTH_WEIGHT = 0.02
 #: within :data:`~.pixels.SURROUND` of the diagonal of its part of the hole); a pixel farther is moved towards
 #: the nearest of them until it is this far (rounding to whole levels adds at most 0.87).
 COLOUR_CAP = 55.0
+#: The faded blend (the plate's default, ``fill.py``): the widest its copies are averaged (Gaussian sigma), as a
+#: fraction of the image diagonal.
+FADE_MAX = 0.025
 
 
-def fill_blend(photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
+def fill_blend(photo: np.ndarray, hole: np.ndarray, fade: float = 0.0) -> np.ndarray:
     """``photo`` (H, W, 3) uint8 RGB with ``hole`` (H, W) bool filled as the module says, one window per
-    connected part of the hole (as :func:`~.exemplar.fill_exemplar` makes them)."""
+    connected part of the hole (as :func:`~.exemplar.fill_exemplar` makes them); with ``fade`` > 0 each window's
+    fill is then faded into its local mean with the depth into the hole (:func:`fade_with_depth`) and its grain
+    matched to the surface's again (:func:`~.grain.match_grain`)."""
     h, w = hole.shape
     out = photo.copy()
     for (x0, y0, x1, y1), win_hole, own, size, budget in hole_windows(hole):
         filled = _blend_window(photo[y0:y1, x0:x1], win_hole, size, SHADING_DEPTH * np.hypot(h, w), budget)
+        if fade > 0:  # the copies' detail faded, the surface's grain (not theirs) laid back where it went flat
+            filled = match_grain(photo[y0:y1, x0:x1],
+                                 fade_with_depth(filled, win_hole, fade, FADE_MAX * float(np.hypot(h, w))), win_hole)
         out[y0:y1, x0:x1][own] = filled[own]
     return cap_colours(photo, out, hole)
+
+
+def fade_with_depth(filled: np.ndarray, hole: np.ndarray, fade: float, most: float) -> np.ndarray:
+    """``filled`` (h, w, 3) uint8 with each pixel of ``hole`` (h, w) bool replaced by its mean over a Gaussian
+    ``fade`` times its distance into the hole wide (pixels; at most ``most``), so that the copies keep their
+    detail at the hole's edge, where they continue the surface beside them, and fade into their local colour
+    deeper in, where a copy's detail is a guess at where the surface's lines and spots lie."""
+    depth = cv2.distanceTransform(hole.astype(np.uint8), cv2.DIST_L2, 5)
+    want = np.clip(depth * fade, 0.0, max(most, 0.5))
+    sigmas = [0.0]
+    while sigmas[-1] < want.max():
+        sigmas.append(max(1.0, 2.0 * sigmas[-1]))
+    if len(sigmas) == 1:
+        return filled
+    src = filled.astype(np.float32)
+    stack = [src] + [cv2.GaussianBlur(src, (0, 0), s) for s in sigmas[1:]]
+    i = np.clip(np.searchsorted(sigmas, want), 1, len(sigmas) - 1)
+    lo, hi = np.float32(sigmas)[i - 1], np.float32(sigmas)[i]
+    a = np.clip((want - lo) / (hi - lo), 0.0, 1.0)[..., None]
+    out = np.zeros_like(src)
+    for k in range(1, len(sigmas)):
+        at = (i == k)[..., None]
+        out = np.where(at, stack[k - 1] * (1.0 - a) + stack[k] * a, out)
+    return np.where(hole[..., None], np.clip(out + 0.5, 0, 255), filled).astype(np.uint8)
 
 
 def _blend_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float, budget: float) -> np.ndarray:
