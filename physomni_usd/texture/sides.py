@@ -205,6 +205,17 @@ def folded_sides(points: np.ndarray, faces: np.ndarray, px: np.ndarray, seen: np
     return where[faces]
 
 
+def _laid(own: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """(F, 3, 2): each face's corners ``own`` (F, 3, 2, its own undistorted map) moved rigidly (turned, and mirrored
+    where that fits better) onto ``target`` (F, 3, 2) as closely as they go (least squares): where the fold
+    draws a face together (a wall around a wheel folded deeper than the wheel's radius), the face keeps its
+    size and takes the fold's place and direction."""
+    x = own - own.mean(1, keepdims=True)
+    y_mean = target.mean(1, keepdims=True)
+    u, _, vt = np.linalg.svd(np.einsum("fki,fkj->fij", x, target - y_mean))
+    return np.einsum("fki,fij->fkj", x, u @ vt) + y_mean
+
+
 def corner_st(points: np.ndarray, faces: np.ndarray, camera, texture_size: tuple[int, int],
               origin: tuple[int, int], mask: np.ndarray | None = None, open_back: bool = False) -> np.ndarray:
     """(F·3, 2) faceVarying ``st`` into a :func:`two_sided_texture`, for world ``points`` (N, 3) as the photo
@@ -237,17 +248,9 @@ def corner_st(points: np.ndarray, faces: np.ndarray, camera, texture_size: tuple
         back = np.einsum("ij,ij->i", n, to_cam) <= -EDGE_ON
         st[back, :, 0] = (clear[0] + 0.5) / (2.0 * w)
         st[back, :, 1] = 1.0 - (clear[1] + 0.5) / h
-    folded = None
-    if edge_on.any() and mask is not None:
-        facing = np.einsum("ij,ij->i", n, to_cam) >= EDGE_ON
-        folded = folded_sides(points, faces[edge_on], px, faces[facing], camera, mask)
-    if folded is not None:
-        st[edge_on, :, 0] = 0.5 + folded[..., 0] / (2.0 * w)
-        st[edge_on, :, 1] = 1.0 - folded[..., 1] / h
-    elif edge_on.any():
-        # without the outline, or with no face the photo saw: a planar map: the face's own horizontal and vertical directions, at the object's pixel density,
-        # centred on the middle of the opaque copy
-        c = points.mean(0)
+    if edge_on.any():
+        # each face's own map: its horizontal and vertical directions at the object's pixel density (one texel
+        # is as wide on the side as on the front: no face draws one texel out)
         ppm = float(camera.focal_px / max(np.median(depth), 1e-6))
         up = np.array([0.0, 0.0, 1.0])
         fn = n[edge_on]
@@ -256,10 +259,18 @@ def corner_st(points: np.ndarray, faces: np.ndarray, camera, texture_size: tuple
         side[flat] = camera.world_from_camera[:, 0]
         side /= np.linalg.norm(side, axis=1, keepdims=True)
         vert = np.cross(fn, side)
-        d = tri[edge_on] - c
-        a = np.einsum("fkj,fj->fk", d, side) * ppm + 0.5 * w
-        b = -np.einsum("fkj,fj->fk", d, vert) * ppm + 0.5 * h
-        a, b = _fit_faces(a, 0.5, w - 0.5), _fit_faces(b, 0.5, h - 0.5)
+        d = tri[edge_on] - tri[edge_on].mean(1, keepdims=True)
+        own = np.stack([np.einsum("fkj,fj->fk", d, side), -np.einsum("fkj,fj->fk", d, vert)], -1) * ppm
+        facing = np.einsum("ij,ij->i", n, to_cam) >= EDGE_ON
+        folded = None if mask is None else folded_sides(points, faces[edge_on], px, faces[facing], camera, mask)
+        if folded is None:  # without the outline, or with no face the photo saw: centred on the copy's middle
+            centre = tri[edge_on].mean(1) - points.mean(0)
+            at = np.stack([np.einsum("fj,fj->f", centre, side) * ppm + 0.5 * w,
+                           -np.einsum("fj,fj->f", centre, vert) * ppm + 0.5 * h], -1)
+            placed = own + at[:, None, :]
+        else:  # laid where the fold puts it, turned (or mirrored) as the fold turns it
+            placed = _laid(own, folded)
+        a, b = _fit_faces(placed[..., 0], 0.5, w - 0.5), _fit_faces(placed[..., 1], 0.5, h - 0.5)
         st[edge_on, :, 0] = 0.5 + a / (2.0 * w)
         st[edge_on, :, 1] = 1.0 - b / h
     return st.reshape(-1, 2)
