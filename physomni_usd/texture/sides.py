@@ -11,7 +11,9 @@ at the rim (:func:`folded_sides`): a point of a side as far behind the surface
 the photo saw as it is takes the pixel that far inside the outline, at the
 photo's pixel density, so that a side continues the front beside it (a
 tyre's tread next to the tyre, a box's side next to its front's edge) rather
-than repeating the middle of the object on every wall; the
+than repeating the middle of the object on every wall. Each face keeps its own
+undistorted map, laid rigidly where the fold puts it (:func:`_laid`), so that a
+fold deeper than the outline's curvature draws no face together; the
 texture file holds [photo crop | opaque copy] side by side and ``st`` is
 faceVarying (one pair per triangle corner) so that a DCC tool shows the same.
 """
