@@ -117,6 +117,34 @@ def test_contact_shadow_is_removed_from_the_plate():
     assert gradient_ratio(plate, hole) > 0.3
 
 
+def test_the_floor_shadow_of_an_object_that_fills_the_photo_is_removed_too():
+    """A large object (two wheels under a body, most of the photo's width and height) whose band of shadow
+    candidates fills nearly all of the floor around its shadow: the floor's lightness is read from farther
+    out, and the shadow goes with the object (it stayed in the plate as a hard patch behind a pushed bike)."""
+    rng = np.random.default_rng(2)
+    h, w = 240, 360
+    floor = np.clip(170 + rng.normal(0, 4, (h, w, 1)) * np.ones(3), 0, 255)
+    floor[:110] = 90  # a wall behind, darker than the floor
+    obj = np.zeros((h, w), np.uint8)
+    cv2.circle(obj, (80, 170), 45, 1, -1)
+    cv2.circle(obj, (280, 170), 45, 1, -1)
+    cv2.rectangle(obj, (60, 20), (300, 120), 1, -1)
+    cv2.rectangle(obj, (150, 120), (210, 175), 1, -1)
+    shadow = np.zeros((h, w), np.float32)
+    cv2.ellipse(shadow, (180, 200), (120, 16), 0, 0, 360, 1.0, -1)
+    shadow = cv2.GaussianBlur(shadow, (0, 0), 3) * (1 - obj)
+    photo = floor * (1 - 0.5 * shadow[..., None])
+    photo[obj > 0] = (200, 40, 40)
+    photo = photo.astype(np.uint8)
+    dark = shadow > 0.5
+    assert dark.sum() > 1500
+    without = plate_hole(photo, [obj > 0], 0.01, shadows=False)
+    assert without[dark].mean() < 0.5
+    assert plate_hole(photo, [obj > 0], 0.01)[dark].mean() > 0.95
+    plate = background_plate(photo, [obj > 0], 0.01)
+    assert abs(plate[dark].mean() - floor[dark].mean()) < 12
+
+
 def test_the_shading_match_does_not_spread_a_horizon_across_the_hole():
     """A grey-blue backdrop over a brown floor, the horizon straight across a tall hole: the exemplar copies
     the horizon from beside the hole, and away from it (4 rows or more) each row of the fill stays within

@@ -165,3 +165,51 @@ def test_an_edge_on_face_over_the_background_between_two_parts_stays_transparent
     assert (plain[..., 0] >= 0.5).all(), plain  # without the mask both take the opaque copy's planar map
     assert (cut[0, :, 0] < 0.5).all(), cut[0]  # over the gap: the photo's half, transparent there
     assert (cut[1, :, 0] >= 0.5).all(), cut[1]  # on a part: still the planar map
+
+
+def test_a_side_continues_the_front_beside_it():
+    """A box whose front is red on its left third, green in the middle, blue on its right: seen edge-on, its left
+    side takes the red beside it and its right side the blue, not the front's middle on both (the motorcycle's
+    rear wall showed its tank and engine)."""
+    from physomni_usd.geometry.camera import PinholeCamera
+    from physomni_usd.texture.sides import corner_st, two_sided_texture
+
+    camera = PinholeCamera(200, 200, 60.0, 0.0)  # level, at (0, 0, 1), looking along +y
+    x0, x1, y0, y1, z0, z1 = -0.3, 0.3, 3.0, 3.1, 0.8, 1.2
+    points = np.array([[x, y, z] for x in (x0, x1) for y in (y0, y1) for z in (z0, z1)], float)
+    import trimesh
+
+    box = trimesh.convex.convex_hull(points)
+    points, faces = np.asarray(box.vertices, float), np.asarray(box.faces)
+    front = points[np.isclose(points[:, 1], y0)]
+    uv, _ = camera.project(front)
+    origin = (int(np.floor(uv[:, 0].min())) - 4, int(np.floor(uv[:, 1].min())) - 4)
+    w, h = int(np.ceil(uv[:, 0].max())) - origin[0] + 5, int(np.ceil(uv[:, 1].max())) - origin[1] + 5
+    mask = np.zeros((h, w), np.uint8)
+    hull = cv2.convexHull(np.round(uv - origin).astype(np.int32))
+    cv2.fillConvexPoly(mask, hull, 1)
+    mask = mask > 0
+    xs = np.nonzero(mask.any(0))[0]
+    third = (xs.max() - xs.min() + 1) / 3.0
+    rgba = np.zeros((h, w, 4), np.uint8)
+    col = np.arange(w)
+    rgba[:, col < xs.min() + third, :3] = (220, 20, 20)
+    rgba[:, (col >= xs.min() + third) & (col < xs.min() + 2 * third), :3] = (20, 220, 20)
+    rgba[:, col >= xs.min() + 2 * third, :3] = (20, 20, 220)
+    rgba[..., 3] = mask * 255
+    texture = two_sided_texture(rgba)
+    st = corner_st(points, faces, camera, (w, h), origin, mask=mask).reshape(-1, 3, 2)
+    tri = points[faces]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+
+    def colour(sel):
+        s = st[sel].reshape(-1, 2)
+        tx = np.clip((s[:, 0] * 2 * w).astype(int), 0, 2 * w - 1)
+        ty = np.clip(((1.0 - s[:, 1]) * h).astype(int), 0, h - 1)
+        assert (tx >= w).all()  # in the opaque copy
+        return texture[ty, tx, :3].astype(float).mean(0)
+
+    left, right = colour(n[:, 0] < -0.9), colour(n[:, 0] > 0.9)
+    assert left[0] > 2 * max(left[1], left[2]), left
+    assert right[2] > 2 * max(right[0], right[1]), right

@@ -4,10 +4,16 @@ The photo projected from its camera textures the surfaces that face the camera
 (and, mirrored, those that face away: a round or extruded lift is symmetric
 front to back). Surfaces at a grazing angle to the photo's camera — an
 extrusion's walls, the flanks of a turned object — would take the rim's few
-pixels smeared along their whole width. They are textured instead by a planar map along their
-own tangent plane, at the photo's pixel density, into an opaque copy of the
+pixels smeared along their whole width. They are textured instead from an opaque copy of the
 object's texture whose outside is filled from its own interior, reflected
-through the silhouette (never the border's pixels drawn outward); the
+through the silhouette (never the border's pixels drawn outward), folded in
+at the rim (:func:`folded_sides`): a point of a side as far behind the surface
+the photo saw as it is takes the pixel that far inside the outline, at the
+photo's pixel density, so that a side continues the front beside it (a
+tyre's tread next to the tyre, a box's side next to its front's edge) rather
+than repeating the middle of the object on every wall. Each face keeps its own
+undistorted map, laid rigidly where the fold puts it (:func:`_laid`), so that a
+fold deeper than the outline's curvature draws no face together; the
 texture file holds [photo crop | opaque copy] side by side and ``st`` is
 faceVarying (one pair per triangle corner) so that a DCC tool shows the same.
 """
@@ -148,6 +154,70 @@ def _clear_texel(mask: np.ndarray) -> tuple[int, int] | None:
     return (int(x), int(y)) if far[y, x] >= 2.0 else None
 
 
+#: The inward direction at the rim is read off the outline's signed distance smoothed over this many pixels,
+#: so that the fold follows the outline's course, not its pixel steps.
+FOLD_SMOOTH = 2.0
+
+
+def _inward(mask: np.ndarray) -> np.ndarray:
+    """(h, w, 2) float32 unit vectors (x, y) pointing into ``mask`` (h, w) bool across its outline: the gradient
+    of its smoothed signed distance; (0, 0) where that is flat."""
+    inside = cv2.distanceTransform(np.pad(mask, 1).astype(np.uint8), cv2.DIST_L2, 5)[1:-1, 1:-1]
+    outside = cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, 5)
+    sd = cv2.GaussianBlur(inside - outside, (0, 0), FOLD_SMOOTH)
+    g = np.dstack([cv2.Sobel(sd, cv2.CV_32F, 1, 0, ksize=3), cv2.Sobel(sd, cv2.CV_32F, 0, 1, ksize=3)])
+    norm = np.linalg.norm(g, axis=-1, keepdims=True)
+    return np.where(norm > 1e-6, g / np.maximum(norm, 1e-6), 0.0).astype(np.float32)
+
+
+def folded_sides(points: np.ndarray, faces: np.ndarray, px: np.ndarray, seen: np.ndarray, camera,
+                 mask: np.ndarray) -> np.ndarray | None:
+    """(F, 3, 2) crop pixels of the corners of the edge-on ``faces`` (F, 3) in the opaque copy: each corner, at
+    ``px`` (N, 2, crop pixels of every point as the photo saw it), lies some distance behind the surface the photo
+    saw there (the distance from the camera beyond the nearest corner of the ``seen`` faces (M, 3) in the image);
+    it takes the pixel that many metres, at the photo's density there, inside the outline ``mask`` (h, w) bool,
+    reflected back into the crop where it would leave it (the copy's outside is the interior reflected, so a
+    fold past a thin part comes back into it). None where the photo saw no face of the object."""
+    from scipy.spatial import cKDTree
+
+    front = np.unique(seen)
+    if not len(front) or not mask.any():
+        return None
+    h, w = mask.shape
+    along = np.linalg.norm(points - camera.origin, axis=1)
+    _, depth = camera.project(points)
+    used = np.unique(faces)
+    _, nearest = cKDTree(px[front]).query(px[used])
+    ahead = front[nearest]
+    behind = np.maximum(along[used] - along[ahead], 0.0)
+    ppm = camera.focal_px / np.maximum(depth[ahead], 1e-6)
+    inward = _inward(mask)
+    q = px[used]
+    qi = np.clip(np.rint(q), 0, [w - 1, h - 1]).astype(np.int64)
+    g = inward[qi[:, 1], qi[:, 0]]
+    flat = ~np.any(g != 0.0, axis=1)  # where the outline's distance is flat: towards its middle
+    if flat.any():
+        ys, xs = np.nonzero(mask)
+        d = np.array([xs.mean(), ys.mean()]) - q[flat]
+        g[flat] = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-9)
+    to = q + g * (behind * ppm)[:, None]
+    to = np.stack([_fold(to[:, 0], 0.5, w - 0.5), _fold(to[:, 1], 0.5, h - 0.5)], -1)
+    where = np.zeros((len(points), 2))
+    where[used] = to
+    return where[faces]
+
+
+def _laid(own: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """(F, 3, 2): each face's corners ``own`` (F, 3, 2, its own undistorted map) moved rigidly (turned, and mirrored
+    where that fits better) onto ``target`` (F, 3, 2) as closely as they go (least squares): where the fold
+    draws a face together (a wall around a wheel folded deeper than the wheel's radius), the face keeps its
+    size and takes the fold's place and direction."""
+    x = own - own.mean(1, keepdims=True)
+    y_mean = target.mean(1, keepdims=True)
+    u, _, vt = np.linalg.svd(np.einsum("fki,fkj->fij", x, target - y_mean))
+    return np.einsum("fki,fij->fkj", x, u @ vt) + y_mean
+
+
 def corner_st(points: np.ndarray, faces: np.ndarray, camera, texture_size: tuple[int, int],
               origin: tuple[int, int], mask: np.ndarray | None = None, open_back: bool = False) -> np.ndarray:
     """(F·3, 2) faceVarying ``st`` into a :func:`two_sided_texture`, for world ``points`` (N, 3) as the photo
@@ -181,9 +251,8 @@ def corner_st(points: np.ndarray, faces: np.ndarray, camera, texture_size: tuple
         st[back, :, 0] = (clear[0] + 0.5) / (2.0 * w)
         st[back, :, 1] = 1.0 - (clear[1] + 0.5) / h
     if edge_on.any():
-        # the planar map: the face's own horizontal and vertical directions, at the object's pixel density,
-        # centred on the middle of the opaque copy
-        c = points.mean(0)
+        # each face's own map: its horizontal and vertical directions at the object's pixel density (one texel
+        # is as wide on the side as on the front: no face draws one texel out)
         ppm = float(camera.focal_px / max(np.median(depth), 1e-6))
         up = np.array([0.0, 0.0, 1.0])
         fn = n[edge_on]
@@ -192,10 +261,18 @@ def corner_st(points: np.ndarray, faces: np.ndarray, camera, texture_size: tuple
         side[flat] = camera.world_from_camera[:, 0]
         side /= np.linalg.norm(side, axis=1, keepdims=True)
         vert = np.cross(fn, side)
-        d = tri[edge_on] - c
-        a = np.einsum("fkj,fj->fk", d, side) * ppm + 0.5 * w
-        b = -np.einsum("fkj,fj->fk", d, vert) * ppm + 0.5 * h
-        a, b = _fit_faces(a, 0.5, w - 0.5), _fit_faces(b, 0.5, h - 0.5)
+        d = tri[edge_on] - tri[edge_on].mean(1, keepdims=True)
+        own = np.stack([np.einsum("fkj,fj->fk", d, side), -np.einsum("fkj,fj->fk", d, vert)], -1) * ppm
+        facing = np.einsum("ij,ij->i", n, to_cam) >= EDGE_ON
+        folded = None if mask is None else folded_sides(points, faces[edge_on], px, faces[facing], camera, mask)
+        if folded is None:  # without the outline, or with no face the photo saw: centred on the copy's middle
+            centre = tri[edge_on].mean(1) - points.mean(0)
+            at = np.stack([np.einsum("fj,fj->f", centre, side) * ppm + 0.5 * w,
+                           -np.einsum("fj,fj->f", centre, vert) * ppm + 0.5 * h], -1)
+            placed = own + at[:, None, :]
+        else:  # laid where the fold puts it, turned (or mirrored) as the fold turns it
+            placed = _laid(own, folded)
+        a, b = _fit_faces(placed[..., 0], 0.5, w - 0.5), _fit_faces(placed[..., 1], 0.5, h - 0.5)
         st[edge_on, :, 0] = 0.5 + a / (2.0 * w)
         st[edge_on, :, 1] = 1.0 - b / h
     return st.reshape(-1, 2)
