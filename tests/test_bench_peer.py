@@ -69,4 +69,10 @@ def test_boxes_at_rest_against_genesis_gives_a_ratio():
     assert r["genesis"]["substeps"] == r["ours"]["substeps"]
     assert r["ours"]["captured_frames"] > 0  # the stepping timed is simulate's, graphs replayed
     assert r["ratio"]["min"] > 0
+    # CPU seconds beside the wall's, both sides: the steps took some, and a simulated second's CPU cannot
+    # exceed the two cores' worth of its wall by much (the clocks agree)
+    for side in ("ours", "genesis"):
+        cpu, wall = r[side]["cpu_seconds_per_sim_second"][0], r[side]["seconds_per_sim_second"][0]
+        assert 0 < cpu <= 2.5 * wall + 0.05
+    assert r["cpu_ratio"]["min"] > 0
     json.dumps(r)

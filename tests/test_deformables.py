@@ -38,7 +38,8 @@ def test_no_mpm_kernels_compiled_for_a_rigid_scene(tmp_path, shot):
               f"simulate_shot({str(out / 'shot.usda')!r}, SimulateSettings(seconds=0.1))\n"
               "from warp._src import context\n"
               "loaded = [m.name for m in context.user_modules.values() if m.execs]\n"
-              "print('LOADED', ' '.join(loaded))\n")
+              "print('LOADED', ' '.join(loaded))\n"
+              "print('IMPORTED', ' '.join(sorted(sys.modules)))\n")
     import subprocess
     import sys
 
@@ -46,6 +47,13 @@ def test_no_mpm_kernels_compiled_for_a_rigid_scene(tmp_path, shot):
     line = next(x for x in proc.stdout.splitlines() if x.startswith("LOADED"))
     assert "solvers.xpbd" in line
     assert "implicit_mpm" not in line and "style3d" not in line and "vbd" not in line
+    # nor are the deformable solvers' modules imported (each defines its kernels on import), nor the
+    # libraries only other solvers use
+    imported = next(x for x in proc.stdout.splitlines() if x.startswith("IMPORTED")).split()[1:]
+    assert "newton._src.solvers.xpbd" in imported
+    unneeded = ("newton._src.solvers.implicit_mpm", "newton._src.solvers.vbd", "newton._src.solvers.style3d",
+                "newton._src.solvers.featherstone", "mujoco", "mujoco_warp", "torch")
+    assert not [m for m in imported if m in unneeded or m.startswith(tuple(u + "." for u in unneeded))]
 
 
 @pytest.mark.slow  # sand 203 s, liquid 66 s on a loaded 2-core machine; a quicker test runs the same solver

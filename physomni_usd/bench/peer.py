@@ -71,8 +71,9 @@ def sand_column() -> list:
 
 
 class Ours:
-    """A case through ``simulate_shot``; :meth:`run` returns its stepping's wall seconds (the report's
-    ``seconds.step``: the guarded loop with its checks and recording, what ``simulate`` runs)."""
+    """A case through ``simulate_shot``; :meth:`run` returns its stepping's wall and CPU seconds (the report's
+    ``seconds.step`` and ``seconds.step_cpu``: the guarded loop with its checks and recording, what
+    ``simulate`` runs)."""
 
     def __init__(self, folder: pathlib.Path, objects: list, seconds: float):
         from .scenes import write_bench_shot
@@ -80,19 +81,19 @@ class Ours:
         self.shot, self.seconds = write_bench_shot(folder, objects), seconds
         self.section = None
 
-    def run(self) -> float:
+    def run(self) -> tuple[float, float]:
         from ..physics.simulate import simulate_shot
         from ..settings import SimulateSettings
 
         self.section = simulate_shot(self.shot, SimulateSettings(seconds=self.seconds))
-        return self.section["seconds"]["step"]
+        return self.section["seconds"]["step"], self.section["seconds"]["step_cpu"]
 
 
 class Genesis:
     """The same case as a Genesis scene on its CPU backend: boxes as ``gs.morphs.Box`` of the same size,
     pose and density on a plane; the sand as ``gs.morphs.Box`` of ``gs.materials.MPM.Sand`` sampled on a
-    regular grid at ``spacing``. :meth:`run` steps ``frames`` frames from the start and returns the wall
-    seconds ``scene.step()`` took."""
+    regular grid at ``spacing``. :meth:`run` steps ``frames`` frames from the start and returns the wall and
+    the process's CPU seconds (all its threads) ``scene.step()`` took."""
 
     def __init__(self, objects: list, fps: float, substeps: int, spacing: float | None = None):
         import genesis as gs
@@ -128,12 +129,12 @@ class Genesis:
     def particles(self) -> int:
         return int(sum(getattr(e, "n_particles", 0) for e in self.entities))
 
-    def run(self, frames: int) -> float:
+    def run(self, frames: int) -> tuple[float, float]:
         self.scene.reset()
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         for _ in range(frames):
             self.scene.step()
-        return time.perf_counter() - t0
+        return time.perf_counter() - t0, time.process_time() - c0
 
     def finite(self) -> bool:
         import numpy as np
@@ -165,20 +166,30 @@ def run_case(name: str, repeats: int = 3, seconds: float = 2.0, echo=lambda m: N
                     else s["substeps"])
         gen = Genesis(objects, s["fps"], substeps, spacing)
         gen.run(frames)  # untimed: Genesis's kernels compiled on their first step
-        ours_s, gen_s = [], []
+        ours_s, gen_s, ours_cpu, gen_cpu = [], [], [], []
         for _ in range(repeats):
-            ours_s.append(ours.run() / seconds)
-            gen_s.append(gen.run(frames) / seconds)
-            echo(f"  {name}: ours {ours_s[-1]:.4f}, Genesis {gen_s[-1]:.4f} s per simulated second")
+            wall, cpu = ours.run()
+            ours_s.append(wall / seconds)
+            ours_cpu.append(cpu / seconds)
+            wall, cpu = gen.run(frames)
+            gen_s.append(wall / seconds)
+            gen_cpu.append(cpu / seconds)
+            echo(f"  {name}: ours {ours_s[-1]:.4f}, Genesis {gen_s[-1]:.4f} s per simulated second "
+                 f"(CPU: ours {ours_cpu[-1]:.4f}, Genesis {gen_cpu[-1]:.4f})")
     ratios = sorted(g / o for g, o in zip(gen_s, ours_s) if o > 0)
+    cpu_ratios = sorted(g / o for g, o in zip(gen_cpu, ours_cpu) if o > 0)
     return {"case": name, "objects": len(objects), "fps": s["fps"], "frames": frames,
             "ours": {"substeps": s["substeps"], "mpm_steps": s["steps"].get("mpm_steps") if mpm else None,
                      "particles": mpm["particles"] if mpm else None, "spacing_m": spacing,
                      "captured_frames": s["captured_step"]["frames_replayed"],
-                     "seconds_per_sim_second": ours_s},
+                     "seconds_per_sim_second": ours_s, "cpu_seconds_per_sim_second": ours_cpu},
             "genesis": {"substeps": gen.substeps, "particles": gen.particles if mpm else None,
-                        "finite": gen.finite(), "seconds_per_sim_second": gen_s},
-            "ratio": {"min": min(ratios), "median": statistics.median(ratios), "max": max(ratios)} if ratios else None}
+                        "finite": gen.finite(), "seconds_per_sim_second": gen_s, "cpu_seconds_per_sim_second": gen_cpu},
+            "ratio": _spread(ratios), "cpu_ratio": _spread(cpu_ratios)}
+
+
+def _spread(ratios: list) -> dict | None:
+    return {"min": min(ratios), "median": statistics.median(ratios), "max": max(ratios)} if ratios else None
 
 
 def bench_peer(only=(), repeats: int = 3, seconds: float = 2.0, echo=print) -> dict:
@@ -215,6 +226,9 @@ def case_line(r: dict) -> str:
             f"{o['particles']} particles ours, {g['particles']} Genesis; MPM steps a frame {o['mpm_steps']} ours, "
             f"{g['substeps']} Genesis (its explicit MPM's suggested step, 2e-2·dx)")
     ratio = (f"Genesis/ours min {q['min']:.2f}, median {q['median']:.2f}, max {q['max']:.2f}" if q else "no ratio")
+    c = r.get("cpu_ratio")
+    if c:  # what a loaded machine does not skew: wall seconds favour the engine running more threads
+        ratio += f"; in CPU seconds min {c['min']:.2f}, median {c['median']:.2f}, max {c['max']:.2f}"
     finite = "" if g["finite"] else "; Genesis's particles not finite"
     return (f"{r['case']} ({what}; {r['fps']:g} fps): ours {statistics.median(o['seconds_per_sim_second']):.4f}, "
             f"Genesis {statistics.median(g['seconds_per_sim_second']):.4f} s per simulated second; {ratio}"

@@ -427,7 +427,8 @@ def bench_peer_command(only, repeats, seconds, json_path):
     the same fps and substeps (for the sand: ours at its implicit MPM's steps a frame, Genesis's explicit
     MPM at the substep it suggests, 0.02 s per metre of particle spacing).
     Each engine's model build, kernel compiling and first run are left out alike. Prints, per case,
-    Genesis's time over ours, min / median / max over the runs (> 1: ours is faster).
+    Genesis's time over ours, min / median / max over the runs (> 1: ours is faster), in wall seconds
+    and in the process's CPU seconds (which a loaded machine does not inflate).
 
     \b
     Genesis pins its own pillow: install it in an environment of its own (pip install torch==2.13.0

@@ -210,7 +210,8 @@ class GuardedRun:
 class GuardedTake:
     """What :func:`run_guarded` leaves: the ``take`` to write, ``rest`` (None, or the time the scene came
     to rest and the time the run ended, s), the wall seconds spent stepping, the graph capture's counts,
-    the fastest speed met (m/s), Newton's warnings and the guard's report."""
+    the fastest speed met (m/s), Newton's warnings and the guard's report; ``cpu_step``: the process's CPU
+    seconds over the same stretch, which a shared machine's load does not inflate as it does the wall's."""
     take: Take
     rest: dict | None
     t_step: float
@@ -218,6 +219,7 @@ class GuardedTake:
     max_speed: float
     notes: list
     guard: dict
+    cpu_step: float = 0.0
 
 
 def run_guarded(models, plan: StepPlan, seconds: float, progress=None, echo=lambda m: None,
@@ -232,7 +234,7 @@ def run_guarded(models, plan: StepPlan, seconds: float, progress=None, echo=lamb
     rec = Recorder(models, frames)
     rec.record(0)
     replayed, captures = run.graphs.captured_frames, run.graphs.captures  # the graphs outlive a run
-    t1 = time.perf_counter()
+    t1, c1 = time.perf_counter(), time.process_time()
     last = frames - 1
     window = max(1, round(rest_seconds * plan.fps)) if rest_seconds else None
     rest = None
@@ -249,14 +251,15 @@ def run_guarded(models, plan: StepPlan, seconds: float, progress=None, echo=lamb
         if window and run.frame < last and at_rest(rec, run.frame, window, models.stepper, run.t):
             rest = {"still_from_s": round((run.frame - window) / plan.fps, 4), "ended_s": round(run.t, 4)}
             break
-    t_step = time.perf_counter() - t1
+    t_step, cpu_step = time.perf_counter() - t1, time.process_time() - c1
     graphs = run.graphs
     if rest is not None:
         rec.truncate(run.frame + 1)
     capture = {"enabled": graphs.enabled, "frames_replayed": graphs.captured_frames - replayed,
                "graphs": graphs.captures - captures, "graphs_kept": len(graphs.graphs), "error": graphs.error}
     take = rec.take(run.plan, seconds if rest is None else rest["ended_s"])
-    return GuardedTake(take, rest, t_step, capture, round(run.max_speed, 4), sorted(set(models.notes)), run.report())
+    return GuardedTake(take, rest, t_step, capture, round(run.max_speed, 4), sorted(set(models.notes)), run.report(),
+                        cpu_step)
 
 
 def at_rest(rec: Recorder, f: int, window: int, stepper, t: float) -> bool:

@@ -79,7 +79,7 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
         "modules": {"torch": "torch" in sys.modules},
         "model_reused": sim.reused,
         "seconds": {"read": round(sim.t_built - t_start - sim.t_model, 4), "build_model": round(sim.t_model, 4),
-                    "step": round(run.t_step, 4), "write": round(t_end - t_write, 4)},
+                    "step": round(run.t_step, 4), "step_cpu": round(run.cpu_step, 4), "write": round(t_end - t_write, 4)},
         "total_seconds": round(t_end - t_start, 4),
         "seconds_per_simulated_second": round(run.t_step / max(seconds, 1e-9), 4),
     }
