@@ -31,7 +31,7 @@ from .compare import MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, search_pitch, scor
 from .cues import ELLIPSE_IOU, MAX_PITCH_DEG, estimate_camera, mask_ellipse
 from .place import footprint, make_room, separate
 from .scale import fit_scale
-from .support import find_supports, root_of, settle_on_supports, support_order
+from .support import find_supports, raise_unseen, root_of, settle_on_supports, support_order
 
 #: Scale-and-lift rounds: an object's height from its prior depends on the scale, the scale on the lifted sizes.
 SCALE_ROUNDS = 3
@@ -137,6 +137,8 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
             out[i] = lift_silhouette(reached, camera, settings.lift, base_z=0.0,
                                      **_lift_options(labels[i], scale, photo))
             out[i].info["foot"] = "reached down behind what hides it"
+    # what rests on something the masks do not show (a shelf, a wall) stands where its size agrees with the others'
+    raise_unseen(out, labels, supports, camera, scale)
     return out
 
 
@@ -376,7 +378,7 @@ def _scored(lift_at, pitch: float, masks, labels, found):
                                      SIZE_LOG_CAP))
         flat = bool(prior and prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * (prior.longest_m or 0.0))
         thin.append(0.0 if flat or ext[1] <= 0 else max(0.0, 1.0 - ext[0] / (ext[1] / 3.0)))
-    lost = (len(found) - len(supports)) / len(found) if found else 0.0
+    lost = sum(i not in supports for i in found) / len(found) if found else 0.0
     return score_scene([m.vertices for m in lifted], [m.faces for m in lifted], unit, masks, size_logs, thin, lost)
 
 

@@ -10,7 +10,14 @@ From the masks alone: object A rests on object B when
   object standing in front of B shows the ground below it instead).
 
 The masks cannot tell a cup on a saucer from a cup hidden behind the saucer's
-rim; the first reading is taken, which the README states. Each upper object
+rim; the first reading is taken, which the README states.
+
+An object that rests on nothing the masks show (on a shelf, hung on a wall, on an object its contact was not
+seen with) is read from its size instead (:func:`raise_unseen`): stood on the ground, its foot's ray lands far
+behind the others and its outline makes it larger than its label's typical size by more than the others'
+sizes allow. It is brought nearer along the camera's rays (a scale about the camera's centre, which keeps its
+outline exactly) to the depth at which its size agrees with the others'; there it stands on the object under
+its base, or, with none, is held where it is by what the photo shows no mask of. Each upper object
 then stands on its lower one's surface (``align.photo_scene.surface_under``)
 instead of on the ground, moves with it when objects are moved apart, and is
 raised out of it where it starts inside it (:func:`settle_on_supports`).
@@ -112,10 +119,11 @@ def root_of(i: int, supports: dict[int, tuple[int, str]]) -> int:
     return i
 
 
-def start_contacts(vertex_sets, faces, supports: dict[int, tuple[int, str]], names) -> list[dict]:
+def start_contacts(vertex_sets, faces, supports: dict[int, tuple[int, str]], names, held=()) -> list[dict]:
     """What each placed object stands on and how far from it it starts, for ``report.json``.
 
-    ``support``: 'ground' or the name of the object it rests on; ``clearance_m``: the gap under it (its
+    ``support``: 'ground', the name of the object it rests on, or 'held' (``held``: indices resting on what
+    no mask shows, :func:`raise_unseen`); ``clearance_m``: the gap under it (its
     lowest point above the ground, or its lowest vertices' distance outside the supporter's mesh; < 0 when
     inside); ``overlap_m``: the deepest any vertex of it lies inside another object's mesh (0 when none).
     """
@@ -128,6 +136,8 @@ def start_contacts(vertex_sets, faces, supports: dict[int, tuple[int, str]], nam
     for i, m in enumerate(meshes):
         z = m.vertices[:, 2]
         entry = {"support": "ground", "clearance_m": round(float(z.min()), 4)}
+        if i in held:
+            entry = {"support": "held", "clearance_m": round(float(z.min()), 4)}
         if i in supports:
             j = supports[i][0]
             low = m.vertices[z <= z.min() + 0.2 * max(float(np.ptp(z)), 1e-9)]
@@ -181,3 +191,94 @@ def _rests_on(k: int, i: int, supports: dict[int, tuple[int, str]]) -> bool:
         if k == i:
             return True
     return False
+
+
+#: An object stood on the ground whose size, under the scale the other objects' sizes give, is this many times
+#: its label's typical size (and which stands behind all of them) rests on something the masks do not show.
+RAISE_RATIO = 1.5
+#: ... brought nearer to the depth at which it is this many times its typical size: the middle of what the
+#: other objects' own sizes spread over, rather than the prior exactly.
+RAISE_TO = 1.0
+#: Raised, it stands on another object whose top lies within this fraction of its own height of its base.
+LAND_FRACTION = 0.35
+
+
+def _riders_of(i: int, supports: dict) -> list[int]:
+    out, grew = [i], True
+    while grew:
+        grew = False
+        for k, (j, _) in supports.items():
+            if j in out and k not in out:
+                out.append(k)
+                grew = True
+    return out
+
+
+def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0) -> dict[int, dict]:
+    """Objects stood on the ground that rest on something the masks do not show, brought to where their size
+    agrees with the others' (see the module); ``lifted`` (``lift.silhouette.LiftedMesh``, under ``camera``) are
+    changed in place, objects resting on a raised one move with it, and ``supports`` gains those that now stand
+    on another object (how: 'size'). Returns {index: what was done} for the report; a raised object that stands
+    on nothing has ``held`` True (``build`` holds it fixed where the photo shows it).
+
+    ``scale`` turns the camera's units into metres (the labels' typical sizes are metres)."""
+    from ..geometry.mesh import longest_dimension
+    from ..sizes import size_prior
+    from .place import footprint
+
+    n = len(lifted)
+    priors = [size_prior(label) for label in labels]
+    typical = [p.longest_m / scale if p is not None and p.votes and p.longest_m else None for p in priors]
+    longest = [longest_dimension(m.vertices) for m in lifted]
+    origin = np.asarray(camera.origin, float)
+    free = [i for i in range(n) if i not in supports]
+    out: dict[int, dict] = {}
+
+    def reach(i):  # horizontal distance from the camera of an object's farthest and nearest vertex
+        d = np.linalg.norm(lifted[i].vertices[:, :2] - origin[:2], axis=1)
+        return float(d.min()), float(d.max())
+
+    for i in free:
+        if typical[i] is None or lifted[i].info.get("foot"):
+            continue
+        others = [j for j in range(n) if j != i and typical[j] is not None and j not in _riders_of(i, supports)]
+        if not others:
+            continue
+        # the scene's scale as the others' sizes read it: each is its typical size over its lifted one
+        ref = float(np.exp(np.median([np.log(typical[j] / max(longest[j], 1e-9)) for j in others])))
+        ratio = ref * longest[i] / typical[i]
+        ground = [j for j in free if j != i and j not in _riders_of(i, supports)]
+        behind = bool(ground) and reach(i)[0] > max(reach(j)[1] for j in ground)
+        if ratio <= RAISE_RATIO or not behind:
+            continue
+        t = RAISE_TO / ratio
+        base0 = float(lifted[i].vertices[:, 2].min())
+        z_base = origin[2] + t * (base0 - origin[2])
+        moved = origin + t * (lifted[i].vertices - origin)
+        height = float(np.ptp(moved[:, 2]))
+        centre = moved[:, :2].mean(0)
+        land = None
+        for j in range(n):
+            if j in _riders_of(i, supports):
+                continue
+            top = float(lifted[j].vertices[:, 2].max())
+            hull = footprint(lifted[j].vertices).astype(np.float32).reshape(-1, 1, 2)
+            inside = cv2.pointPolygonTest(hull, (float(centre[0]), float(centre[1])), False) >= 0
+            if inside and abs(top - z_base) <= LAND_FRACTION * height and (land is None or top > land[1]):
+                land = (j, top)
+        if land is not None:  # on what is under it: the depth at which its base meets that top
+            t = (land[1] - origin[2]) / (base0 - origin[2])
+        for k in _riders_of(i, supports):
+            m = lifted[k]
+            m.vertices = origin + t * (m.vertices - origin)
+            m.contact = origin + t * (np.asarray(m.contact, float) - origin)
+        entry = {"size_ratio": round(ratio, 3), "nearer": round(1.0 - t, 4),
+                 "base_m": round(float(lifted[i].vertices[:, 2].min()) * scale, 4)}
+        if land is not None:
+            supports[i] = (land[0], "size")
+            entry["on"] = land[0]
+        else:
+            entry["held"] = True
+        lifted[i].info["raised"] = entry
+        out[i] = entry
+    return out
