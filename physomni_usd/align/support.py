@@ -4,7 +4,7 @@ From the masks alone: object A rests on object B when
 
 - seen from the side, most of A's lowest outline (the bottom pixel of each of
   its columns) touches B's mask just below it, A's foot is higher in the photo
-  than B's, and A's bottom lies within B's columns; or
+  than B's, and most of A's bottom lies within B's columns (it may overhang); or
 - seen from above, most of the ring just outside A's mask is B, its lowest
   quarter included (A lies inside B's outline, B partly hidden by A; an
   object standing in front of B shows the ground below it instead).
@@ -35,6 +35,8 @@ from ..lift.silhouette import fill_holes, foot_pixel
 #: Fraction of A's lowest outline that must touch B (side view), or of the ring around A that must be B (above).
 CONTACT_FRACTION = 0.6
 ENCLOSED_FRACTION = 0.6
+#: Seen from the side, this fraction of A's columns must lie within B's (A may overhang B by the rest).
+WITHIN_FRACTION = 0.7
 
 
 def _lowest_outline(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -53,7 +55,9 @@ def support_score(upper: np.ndarray, lower: np.ndarray, reach: int) -> tuple[flo
     touch = np.array([b[min(r + 1, h - 1):min(r + 1 + reach, h), c].any() for c, r in zip(cols, rows)])
     contact = float(touch.mean()) if len(touch) else 0.0
     b_cols = np.nonzero(b.any(axis=0))[0]
-    inside = len(b_cols) and cols.min() >= b_cols.min() - reach and cols.max() <= b_cols.max() + reach
+    # most of A's width over B's: an upper box turned or shifted on its lower one overhangs it by a little
+    within = (cols >= b_cols.min() - reach) & (cols <= b_cols.max() + reach) if len(b_cols) else cols < 0
+    inside = bool(len(b_cols)) and float(within.mean()) >= WITHIN_FRACTION
     foot_a, foot_b = foot_pixel(a)[1], foot_pixel(fill_holes(b))[1]
     if contact >= CONTACT_FRACTION and inside and foot_a < foot_b - 1:
         return contact, "contact"
