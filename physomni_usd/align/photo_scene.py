@@ -31,7 +31,7 @@ from .compare import MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, search_pitch, scor
 from .cues import ELLIPSE_IOU, MAX_PITCH_DEG, estimate_camera, mask_ellipse
 from .place import footprint, make_room, separate
 from .scale import fit_scale
-from .support import find_supports, raise_unseen, root_of, settle_on_supports, support_order
+from .support import find_supports, raise_unseen, reach_under, root_of, settle_on_supports, support_order
 
 #: Scale-and-lift rounds: an object's height from its prior depends on the scale, the scale on the lifted sizes.
 SCALE_ROUNDS = 3
@@ -123,6 +123,11 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
             supports.pop(i)
             out[i] = lift_silhouette(masks[i], camera, settings.lift, base_z=0.0, **kwargs)
             continue
+        if i in supports and not balances_on(out[i], out[supports[i][0]], base):
+            # the lower one may only be lifted too shallow: its top, which this one hides, shows no depth
+            deeper = reach_under(out[supports[i][0]], out[i], camera, base)
+            if deeper is not None:
+                out[supports[i][0]].vertices = deeper
         if i in supports and not balances_on(out[i], out[supports[i][0]], base):
             # standing on the lower one's surface it would topple off it (a box on the crown of a crumpled
             # bag): the photo shows it as well standing on the ground, where it stays

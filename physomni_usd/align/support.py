@@ -242,8 +242,10 @@ def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0) -> 
         d = np.linalg.norm(lifted[i].vertices[:, :2] - origin[:2], axis=1)
         return float(d.min()), float(d.max())
 
+    holders = {j for j, _ in supports.values()}
     for i in free:
-        if typical[i] is None or lifted[i].info.get("foot"):
+        # what holds others up stands on the ground (a stack on a shelf is left where the cues put it)
+        if typical[i] is None or lifted[i].info.get("foot") or i in holders:
             continue
         others = [j for j in range(n) if j != i and typical[j] is not None and j not in _riders_of(i, supports)]
         if not others:
@@ -286,3 +288,42 @@ def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0) -> 
         lifted[i].info["raised"] = entry
         out[i] = entry
     return out
+
+
+#: A supporter is deepened (:func:`reach_under`) to at most this many times its width.
+MAX_REACH = 2.5
+
+
+def reach_under(lower, upper, camera, base: float) -> np.ndarray | None:
+    """``lower``'s vertices deepened away from the camera until ``upper`` (standing at height ``base`` on it)
+    has its centre well over its top, or None where depth is not what it lacks.
+
+    The top of a box that another stands on is hidden by it, so the photo shows the box's front and sides and
+    not how deep it is: lifted shallow, what the photo shows on it would overhang its back and topple. Its
+    depth is the one dimension the photo leaves free, so the box reaches back under what it holds (its front,
+    which the photo shows, stays), up to :data:`MAX_REACH` times its width. Where the upper's centre is beside
+    the top rather than behind it (a box on the crown of a crumpled bag), nothing is deepened."""
+    from .photo_scene import TOP_BAND
+
+    v = np.asarray(lower.vertices, float)
+    fwd = np.asarray(camera.world_from_camera, float)[:, 2].copy()
+    fwd[2] = 0.0
+    if np.linalg.norm(fwd) < 1e-6:  # straight down: the depth is what the photo shows
+        return None
+    fwd /= np.linalg.norm(fwd)
+    side = np.array([-fwd[1], fwd[0], 0.0])
+    z = v[:, 2]
+    top = v[z >= base - TOP_BAND * max(float(np.ptp(z)), 1e-9)]
+    u = np.asarray(upper.vertices, float)
+    centre = u.mean(0)
+    across = top @ side
+    if len(top) < 3 or not across.min() <= centre @ side <= across.max():
+        return None
+    along = v @ fwd
+    front, back = float(along.min()), float(along.max())
+    target = float(centre @ fwd + 0.2 * (np.max(u @ fwd) - centre @ fwd))  # its centre well inside
+    width = float(np.ptp(v @ side))
+    if target <= back or target - front > MAX_REACH * max(width, back - front):
+        return None
+    k = (target - front) / max(back - front, 1e-9)
+    return v + np.outer((k - 1.0) * (along - front), fwd)
