@@ -7,7 +7,12 @@ From the masks alone: object A rests on object B when
   than B's, and most of A's bottom lies within B's columns (it may overhang); or
 - seen from above, most of the ring just outside A's mask is B, its lowest
   quarter included (A lies inside B's outline, B partly hidden by A; an
-  object standing in front of B shows the ground below it instead).
+  object standing in front of B shows the ground below it instead); or
+- A's foot (its lowest tenth) lies on B's face, below B's top and above B's
+  foot, though the rest of its lowest outline does not (a plant whose lowest
+  leaf hangs over its pot's front); or
+- side by side, several objects together are under most of A's lowest outline
+  (a fruit in the hollow of three): A rests on the one it touches most.
 
 The masks cannot tell a cup on a saucer from a cup hidden behind the saucer's
 rim; the first reading is taken, which the README states.
@@ -35,6 +40,10 @@ from ..lift.silhouette import fill_holes, foot_pixel
 #: Fraction of A's lowest outline that must touch B (side view), or of the ring around A that must be B (above).
 CONTACT_FRACTION = 0.6
 ENCLOSED_FRACTION = 0.6
+#: A's foot: its pixels within this fraction of its height of its lowest row; a foot on B's face scores this
+#: fraction of what a contact along the whole lowest outline does.
+FOOT_BAND = 0.1
+FOOT_WEIGHT = 0.5
 #: Seen from the side, this fraction of A's columns must lie within B's (A may overhang B by the rest).
 WITHIN_FRACTION = 0.7
 
@@ -47,7 +56,7 @@ def _lowest_outline(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def support_score(upper: np.ndarray, lower: np.ndarray, reach: int) -> tuple[float, str]:
-    """(score in [0, 1], 'contact' | 'enclosed') of ``upper`` resting on ``lower``; 0 when it does not."""
+    """(score in [0, 1], 'contact' | 'enclosed' | 'foot') of ``upper`` resting on ``lower``; 0 when it does not."""
     a = fill_holes(upper)
     b = lower.astype(bool)
     h = a.shape[0]
@@ -70,6 +79,16 @@ def support_score(upper: np.ndarray, lower: np.ndarray, reach: int) -> tuple[flo
     below = float((low & b).sum() / max(low.sum(), 1))
     if enclosed >= ENCLOSED_FRACTION and below >= ENCLOSED_FRACTION:
         return enclosed, "enclosed"
+    # A's foot on B's face, between B's top and its foot: a plant whose lowest leaf hangs over its pot's front,
+    # a toy sitting in a box; it ranks under a contact along A's whole lowest outline
+    rows_a = np.nonzero(a.any(axis=1))[0]
+    rows_b = np.nonzero(b.any(axis=1))[0]
+    if len(rows_a) and len(rows_b) and rows_b[0] < foot_a < foot_b - 1:
+        band = a & (np.arange(h)[:, None] >= foot_a - FOOT_BAND * (rows_a[-1] - rows_a[0] + 1))
+        near_b = cv2.dilate(b.astype(np.uint8), np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)) > 0
+        on = float((band & near_b).sum() / max(band.sum(), 1))
+        if on >= CONTACT_FRACTION:
+            return FOOT_WEIGHT * on, "foot"
     return 0.0, ""
 
 
@@ -86,6 +105,11 @@ def find_supports(masks) -> dict[int, tuple[int, str]]:
             score, how = support_score(a, b, reach)
             if score > 0 and (i not in best or score > best[i][0]):
                 best[i] = (score, j, how)
+    for i, a in enumerate(masks):
+        if i not in best:
+            found = _on_several(i, masks, reach)
+            if found is not None:
+                best[i] = (0.0, found, "contact")
     out = {i: (j, how) for i, (_, j, how) in best.items()}
     # break cycles: in a cycle, the object lowest in the photo rests on nothing
     feet = [foot_pixel(fill_holes(m))[1] for m in masks]
@@ -98,6 +122,23 @@ def find_supports(masks) -> dict[int, tuple[int, str]]:
             cycle = seen[seen.index(k):]
             out.pop(max(cycle, key=lambda n: feet[n]), None)
     return out
+
+
+def _on_several(i: int, masks, reach: int) -> int | None:
+    """The object ``masks[i]`` rests on where its lowest outline touches several (a fruit in the hollow of three
+    others, a box across two): the one it touches most, when together they are under most of it."""
+    a = fill_holes(masks[i])
+    h = a.shape[0]
+    cols, rows = _lowest_outline(a)
+    foot_a = foot_pixel(a)[1]
+    under = [j for j in range(len(masks)) if j != i and foot_pixel(fill_holes(masks[j]))[1] > foot_a + 1]
+    if len(cols) == 0 or len(under) < 2:
+        return None
+    touches = np.array([[masks[j][min(r + 1, h - 1):min(r + 1 + reach, h), c].any() for c, r in zip(cols, rows)]
+                        for j in under])
+    if touches.any(axis=0).mean() < CONTACT_FRACTION or (touches.sum(axis=1) > 0).sum() < 2:
+        return None
+    return under[int(np.argmax(touches.sum(axis=1)))]
 
 
 def support_order(n: int, supports: dict[int, tuple[int, str]]) -> list[int]:

@@ -169,9 +169,12 @@ def build_row(folder, truth: dict, true_meshes: list, camera: PinholeCamera, mod
 
 def _support_ok(on: str, built: str, true_names: list[str], names: list[str]) -> bool:
     """Whether the build stands an object on what holds it in the truth: the ground on the support, the object
-    it rests on on that object, anything but the ground on a shelf, a wall or an object left out as unseen."""
+    it rests on on that object (or one of several), anything but the ground on a shelf, a wall or an object left
+    out as unseen."""
     if on == "support":
         return built == "ground"
+    if isinstance(on, list):  # in the hollow of several: on any of them
+        return built in [names[true_names.index(k)] for k in on if k in true_names]
     if on in true_names:
         return built == names[true_names.index(on)]
     return built != "ground"

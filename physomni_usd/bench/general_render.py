@@ -9,7 +9,7 @@ softness. :func:`render_scene` hands it to ``blender_scene.py`` in the Python th
 (``PHYSOMNI_BLENDER_PYTHON``) and writes the scene's folder: ``photo.png``, per object ``modal_K.png``
 (visible, from Blender's object-id render) and ``amodal_K.png`` (its whole outline, ray cast alone), and
 ``truth.json`` (camera intrinsics and pose, each object's label, pose, size and what holds it: ``on``, the
-support, the shelf, the wall or another object's name); :func:`load_rendered` reads
+support, the shelf, the wall, another object's name, or the names of the several it rests on); :func:`load_rendered` reads
 such a folder back instead of rendering it again.
 """
 
@@ -230,7 +230,7 @@ def _group(rng) -> list[dict]:
                 at = [d * math.cos(a), d * math.sin(a), 0.0]
             else:
                 at = [0, 0, 1.633 * r * 1.04 + 0.004]
-                o["on_k"] = 0  # in the hollow of the three: the first stands for them
+                o["on_k"] = [0, 1, 2]  # in the hollow of the three: on each of them
             o["mesh"] = _turned(o["mesh"], u(0, 2 * np.pi), at)
             out.append(o)
     elif pick == "bowl":  # a bowl with a fruit lying on its floor
@@ -363,7 +363,8 @@ def describe_scene(seed: int, width: int = SIZE[0], height: int = SIZE[1]) -> di
         for o in g:
             o["mesh"].apply_translation([at[0], at[1], 0.0])
             o["place"] = "support"
-            o["on"] = g[o.pop("on_k")] if "on_k" in o else "support"
+            k = o.pop("on_k", None)
+            o["on"] = "support" if k is None else [g[j] for j in k] if isinstance(k, list) else g[k]
         groups.append(g)
     objects = [o for g in groups for o in g]
     surfaces = [{"name": "support", "mesh": _slab([-10, -10, -0.05], [10, 10, 0.0]),
@@ -413,9 +414,11 @@ def describe_scene(seed: int, width: int = SIZE[0], height: int = SIZE[1]) -> di
     for o in objects:
         names[o["label"]] = names.get(o["label"], 0) + 1
         o["name"] = f"{o['label']}{names[o['label']]}"
-    for o in objects:  # what holds each: a surface's name, or the object's ('hidden' when left out as unseen)
-        if isinstance(o["on"], dict):
-            o["on"] = o["on"].get("name", "hidden") if any(o["on"] is k for k in objects) else "hidden"
+    for o in objects:  # what holds each: a surface's name, or the objects' ('hidden' when left out as unseen)
+        held_by = o["on"] if isinstance(o["on"], list) else [o["on"]]
+        if isinstance(held_by[0], dict):
+            seen = [k["name"] for k in held_by if any(k is m for m in objects)]
+            o["on"] = seen if isinstance(o["on"], list) and seen else seen[0] if seen else "hidden"
     middle = np.mean([o["mesh"].bounds.mean(0) for o in objects], axis=0) if objects else np.zeros(3)
     return {"seed": seed, "layout": layout, "objects": objects, "surfaces": surfaces, "camera": camera,
             "light": _light(rng, middle)}
