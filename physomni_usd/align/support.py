@@ -98,13 +98,26 @@ def find_supports(masks) -> dict[int, tuple[int, str]]:
         return {}
     reach = max(2, int(round(0.01 * masks[0].shape[0])))
     best: dict[int, tuple[float, int, str]] = {}
+    found: dict[tuple[int, int], tuple[float, str]] = {}
     for i, a in enumerate(masks):
         for j, b in enumerate(masks):
             if i == j:
                 continue
             score, how = support_score(a, b, reach)
+            if score > 0:
+                found[(i, j)] = (score, how)
             if score > 0 and (i not in best or score > best[i][0]):
                 best[i] = (score, j, how)
+    # in a stack, the completed outline of a lower object reaches up behind the ones on it, so the top one touches
+    # every object under it: it rests on the one between (a candidate that itself rests on the chosen one)
+    for i in list(best):
+        for _ in range(len(masks)):
+            j = best[i][1]
+            between = [k for (a, k) in found if a == i and k != j and (k, j) in found]
+            if not between:
+                break
+            k = max(between, key=lambda k: found[(i, k)][0])
+            best[i] = (found[(i, k)][0], k, found[(i, k)][1])
     for i, a in enumerate(masks):
         if i not in best:
             found = _on_several(i, masks, reach)
