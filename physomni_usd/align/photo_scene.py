@@ -383,7 +383,9 @@ def _scored(lift_at, pitch: float, masks, labels, found):
                                      SIZE_LOG_CAP))
         flat = bool(prior and prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * (prior.longest_m or 0.0))
         thin.append(0.0 if flat or ext[1] <= 0 else max(0.0, 1.0 - ext[0] / (ext[1] / 3.0)))
-    lost = sum(i not in supports for i in found) / len(found) if found else 0.0
+    # a foot on another's face is the weakest reading of a support: a pitch that cannot keep it is not worse
+    shown = [i for i, (_, how) in found.items() if how != "foot"]
+    lost = sum(i not in supports for i in shown) / len(shown) if shown else 0.0
     return score_scene([m.vertices for m in lifted], [m.faces for m in lifted], unit, masks, size_logs, thin, lost)
 
 

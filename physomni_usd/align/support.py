@@ -10,9 +10,7 @@ From the masks alone: object A rests on object B when
   object standing in front of B shows the ground below it instead); or
 - A's foot (its lowest tenth) lies on B's face, below B's top and above B's
   foot, though the rest of its lowest outline does not (a plant whose lowest
-  leaf hangs over its pot's front); or
-- side by side, several objects together are under most of A's lowest outline
-  (a fruit in the hollow of three): A rests on the one it touches most.
+  leaf hangs over its pot's front).
 
 The masks cannot tell a cup on a saucer from a cup hidden behind the saucer's
 rim; the first reading is taken, which the README states.
@@ -79,21 +77,26 @@ def support_score(upper: np.ndarray, lower: np.ndarray, reach: int) -> tuple[flo
     below = float((low & b).sum() / max(low.sum(), 1))
     if enclosed >= ENCLOSED_FRACTION and below >= ENCLOSED_FRACTION:
         return enclosed, "enclosed"
-    # A's foot on B's face, between B's top and its foot: a plant whose lowest leaf hangs over its pot's front,
+    # A's foot over B's face, inside B's outline, between B's top and its foot: a plant whose lowest leaf hangs over its pot's front,
     # a toy sitting in a box; it ranks under a contact along A's whole lowest outline
     rows_a = np.nonzero(a.any(axis=1))[0]
     rows_b = np.nonzero(b.any(axis=1))[0]
     if len(rows_a) and len(rows_b) and rows_b[0] < foot_a < foot_b - 1:
         band = a & (np.arange(h)[:, None] >= foot_a - FOOT_BAND * (rows_a[-1] - rows_a[0] + 1))
-        near_b = cv2.dilate(b.astype(np.uint8), np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)) > 0
-        on = float((band & near_b).sum() / max(band.sum(), 1))
+        # on B's face, in front of it: inside B's outline, not on its edge (a fruit in the hollow behind another
+        # touches that one's top edge only)
+        ys, xs = np.nonzero(b)
+        hull = cv2.convexHull(np.stack([xs, ys], 1).astype(np.int32))
+        over_b = cv2.fillConvexPoly(np.zeros(b.shape, np.uint8), hull, 1) > 0
+        on = float((band & over_b).sum() / max(band.sum(), 1))
         if on >= CONTACT_FRACTION:
             return FOOT_WEIGHT * on, "foot"
     return 0.0, ""
 
 
 def find_supports(masks) -> dict[int, tuple[int, str]]:
-    """``{upper index: (lower index, how)}``; no object rests on itself or, through others, on itself."""
+    """``{upper index: (lower index, how)}`` (how: 'contact', 'enclosed' or 'foot'); no object rests on
+    itself or, through others, on itself."""
     if not masks:
         return {}
     reach = max(2, int(round(0.01 * masks[0].shape[0])))
@@ -118,11 +121,6 @@ def find_supports(masks) -> dict[int, tuple[int, str]]:
                 break
             k = max(between, key=lambda k: found[(i, k)][0])
             best[i] = (found[(i, k)][0], k, found[(i, k)][1])
-    for i, a in enumerate(masks):
-        if i not in best:
-            found = _on_several(i, masks, reach)
-            if found is not None:
-                best[i] = (0.0, found, "contact")
     out = {i: (j, how) for i, (_, j, how) in best.items()}
     # break cycles: in a cycle, the object lowest in the photo rests on nothing
     feet = [foot_pixel(fill_holes(m))[1] for m in masks]
@@ -135,23 +133,6 @@ def find_supports(masks) -> dict[int, tuple[int, str]]:
             cycle = seen[seen.index(k):]
             out.pop(max(cycle, key=lambda n: feet[n]), None)
     return out
-
-
-def _on_several(i: int, masks, reach: int) -> int | None:
-    """The object ``masks[i]`` rests on where its lowest outline touches several (a fruit in the hollow of three
-    others, a box across two): the one it touches most, when together they are under most of it."""
-    a = fill_holes(masks[i])
-    h = a.shape[0]
-    cols, rows = _lowest_outline(a)
-    foot_a = foot_pixel(a)[1]
-    under = [j for j in range(len(masks)) if j != i and foot_pixel(fill_holes(masks[j]))[1] > foot_a + 1]
-    if len(cols) == 0 or len(under) < 2:
-        return None
-    touches = np.array([[masks[j][min(r + 1, h - 1):min(r + 1 + reach, h), c].any() for c, r in zip(cols, rows)]
-                        for j in under])
-    if touches.any(axis=0).mean() < CONTACT_FRACTION or (touches.sum(axis=1) > 0).sum() < 2:
-        return None
-    return under[int(np.argmax(touches.sum(axis=1)))]
 
 
 def support_order(n: int, supports: dict[int, tuple[int, str]]) -> list[int]:
