@@ -452,7 +452,7 @@ def _place(scene: Scene) -> None:
     for o, v, seen, f, shape, note in zip(scene.objects, verts, projected, faces, shapes, notes):
         o.vertices, o.projected, o.faces, o.shape, o.notes = v + centre, seen + centre, f, shape, note
     rest = start_contacts([o.vertices for o in scene.objects], [o.faces for o in scene.objects], supports,
-                          [o.name for o in scene.objects])
+                          [o.name for o in scene.objects], held={i for i, o in enumerate(scene.objects) if _held(o)})
     for o, r in zip(scene.objects, rest):
         o.rest = r
 
@@ -605,6 +605,11 @@ def _texture(scene: Scene, out: pathlib.Path) -> None:
         _write_png(out / INPUTS / "masks" / f"{o.name}.png", np.repeat(mask, 3, 2) if scene.work is None else mask)
 
 
+def _held(o) -> bool:
+    ground = getattr(o.lifted, "ground", None)
+    return bool(ground is not None and (ground.info or {}).get("raised", {}).get("held"))
+
+
 def _estimate(scene: Scene, push: dict, fixed_names: set[str]) -> None:
     """Each object's material from the estimator, its push and whether it is fixed."""
     scene.config = scene.backends["estimator"].estimate(scene.photo, scene.masks,
@@ -614,6 +619,14 @@ def _estimate(scene: Scene, push: dict, fixed_names: set[str]) -> None:
             o.report["push"] = {"velocity_m_s": list(push[o.name][0]), "at_s": push[o.name][1]}
         if o.name in fixed_names:
             o.report["fixed"] = True
+    # what rests on something the masks do not show (a shelf, a wall: align.support.raise_unseen) is held where
+    # the photo shows it; the artist frees it in edits.usda (physomni:fixed)
+    held = {o.name for o in scene.objects if _held(o)}
+    for o in scene.objects:
+        if o.name in held - fixed_names:
+            o.report["fixed"] = True
+            o.report["held"] = "rests on what no mask shows (a shelf, a wall): held where the photo shows it"
+    fixed_names = set(fixed_names) | held
     scene.physics_objects = []
     for o, cfg in zip(scene.objects, scene.config.objects):
         velocity, at = push.get(o.name, (None, 0.0))

@@ -59,6 +59,34 @@ def test_without_blender_the_command_says_how_to_get_it():
     assert "PHYSOMNI_BLENDER_PYTHON" in proc.stderr
 
 
+@pytest.mark.parametrize("seed", FRESH)
+def test_the_truth_says_what_holds_each_object_and_it_does(seed):
+    scene = general.describe_scene(seed)
+    objects = {o["name"]: o for o in scene["objects"]}
+    for o in scene["objects"]:
+        lo, hi = o["mesh"].bounds
+        on = o["on"]
+        if on == "support":
+            assert abs(lo[2]) <= 1e-6, f"seed {seed}: {o['name']} is said to stand on the support, {lo[2]} m up"
+        elif on in ("wall", "shelf"):
+            assert lo[2] >= 0.1, f"seed {seed}: {o['name']} is said to be on the {on}, {lo[2]} m up"
+        elif on != "hidden":  # on another object (or several): its base between their bottoms and tops, over them
+            under = [objects[k]["mesh"].bounds for k in (on if isinstance(on, list) else [on])]
+            centre = 0.5 * (lo[:2] + hi[:2])
+            assert any(b[0][2] - 1e-6 <= lo[2] <= b[1][2] + 1e-3 for b in under), f"seed {seed}: {o['name']} on {on}"
+            assert any(np.all(centre >= b[0][:2] - 0.04) and np.all(centre <= b[1][:2] + 0.04) for b in under), \
+                f"seed {seed}: {o['name']} is not over {on}"
+
+
+def test_support_is_judged_against_what_holds_each_object():
+    true, built = ["box1", "box2", "apple1", "lemon1"], ["box_0", "box_1", "apple_2", "lemon_3"]
+    assert general._support_ok("support", "ground", true, built)
+    assert not general._support_ok("support", "box_0", true, built)
+    assert general._support_ok("box1", "box_0", true, built) and not general._support_ok("box1", "ground", true, built)
+    assert general._support_ok(["apple1", "lemon1"], "lemon_3", true, built)
+    assert general._support_ok("wall", "held", true, built) and not general._support_ok("shelf", "ground", true, built)
+
+
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
     """Two fresh scenes rendered and built from their visible masks, simulated 2 s with nothing pushed."""

@@ -31,7 +31,7 @@ from .compare import MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, search_pitch, scor
 from .cues import ELLIPSE_IOU, MAX_PITCH_DEG, estimate_camera, mask_ellipse
 from .place import footprint, make_room, separate
 from .scale import fit_scale
-from .support import find_supports, root_of, settle_on_supports, support_order
+from .support import find_supports, raise_unseen, reach_under, root_of, settle_on_supports, support_order
 
 #: Scale-and-lift rounds: an object's height from its prior depends on the scale, the scale on the lifted sizes.
 SCALE_ROUNDS = 3
@@ -124,6 +124,11 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
             out[i] = lift_silhouette(masks[i], camera, settings.lift, base_z=0.0, **kwargs)
             continue
         if i in supports and not balances_on(out[i], out[supports[i][0]], base):
+            # the lower one may only be lifted too shallow: its top, which this one hides, shows no depth
+            deeper = reach_under(out[supports[i][0]], out[i], camera, base)
+            if deeper is not None:
+                out[supports[i][0]].vertices = deeper
+        if i in supports and not balances_on(out[i], out[supports[i][0]], base):
             # standing on the lower one's surface it would topple off it (a box on the crown of a crumpled
             # bag): the photo shows it as well standing on the ground, where it stays
             supports.pop(i)
@@ -137,6 +142,8 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
             out[i] = lift_silhouette(reached, camera, settings.lift, base_z=0.0,
                                      **_lift_options(labels[i], scale, photo))
             out[i].info["foot"] = "reached down behind what hides it"
+    # what rests on something the masks do not show (a shelf, a wall) stands where its size agrees with the others'
+    raise_unseen(out, labels, supports, camera, scale)
     return out
 
 
@@ -376,7 +383,9 @@ def _scored(lift_at, pitch: float, masks, labels, found):
                                      SIZE_LOG_CAP))
         flat = bool(prior and prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * (prior.longest_m or 0.0))
         thin.append(0.0 if flat or ext[1] <= 0 else max(0.0, 1.0 - ext[0] / (ext[1] / 3.0)))
-    lost = (len(found) - len(supports)) / len(found) if found else 0.0
+    # a foot on another's face is the weakest reading of a support: a pitch that cannot keep it is not worse
+    shown = [i for i, (_, how) in found.items() if how != "foot"]
+    lost = sum(i not in supports for i in shown) / len(shown) if shown else 0.0
     return score_scene([m.vertices for m in lifted], [m.faces for m in lifted], unit, masks, size_logs, thin, lost)
 
 

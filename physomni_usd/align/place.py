@@ -1,7 +1,7 @@
 """Keeping objects apart on the ground, and centring the scene on the origin.
 
-Objects stand on z = 0, so two of them can only overlap where their
-footprints do. An object's depth is the one dimension a single photo does not
+Objects stand on z = 0 (or, held on a wall or shelf, above the others), so two of them can only overlap where
+their footprints do and their heights meet. An object's depth is the one dimension a single photo does not
 show, so an overlap is first resolved by making the nearer object shallower
 (its front, which the camera sees, stays where it is); only what that cannot
 fix is resolved by moving objects apart, which shifts them in the image.
@@ -61,10 +61,13 @@ def separate(vertex_sets: list[np.ndarray], gap: float = 0.002) -> list[np.ndarr
     k = len(vertex_sets)
     offsets = np.zeros((k, 2))
     base = [footprint(v) for v in vertex_sets]
+    heights = [(float(np.min(v[:, 2])), float(np.max(v[:, 2]))) for v in map(np.asarray, vertex_sets)]
     for _ in range(MAX_PASSES):
         moved = False
         for i in range(k):
             for j in range(i + 1, k):
+                if not _level(heights[i], heights[j]):
+                    continue  # one above the other (held on a wall, on a shelf): their footprints may cross
                 pa = base[i] + offsets[i]
                 pb = base[j] + offsets[j]
                 g = effective_gap(pa, pb, gap)
@@ -158,7 +161,14 @@ def _shrink_footprint(a: int, originals, verts, scales, gap: float) -> None:
     verts[a] = scaled(k)
 
 
+def _level(a: tuple[float, float], b: tuple[float, float]) -> bool:
+    """Whether two height ranges (lowest, highest) overlap: only then can two objects' footprints collide."""
+    return min(a[1], b[1]) > max(a[0], b[0])
+
+
 def _apart(va: np.ndarray, vb: np.ndarray, gap: float) -> bool:
+    if not _level((va[:, 2].min(), va[:, 2].max()), (vb[:, 2].min(), vb[:, 2].max())):
+        return True
     pa, pb = footprint(va), footprint(vb)
     gap = effective_gap(pa, pb, gap)
     return separation(pa + gap * _outward_dirs(pa), pb + gap * _outward_dirs(pb)) is None

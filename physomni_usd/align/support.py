@@ -4,13 +4,23 @@ From the masks alone: object A rests on object B when
 
 - seen from the side, most of A's lowest outline (the bottom pixel of each of
   its columns) touches B's mask just below it, A's foot is higher in the photo
-  than B's, and A's bottom lies within B's columns; or
+  than B's, and most of A's bottom lies within B's columns (it may overhang); or
 - seen from above, most of the ring just outside A's mask is B, its lowest
   quarter included (A lies inside B's outline, B partly hidden by A; an
-  object standing in front of B shows the ground below it instead).
+  object standing in front of B shows the ground below it instead); or
+- A's foot (its lowest tenth) lies on B's face, below B's top and above B's
+  foot, though the rest of its lowest outline does not (a plant whose lowest
+  leaf hangs over its pot's front).
 
 The masks cannot tell a cup on a saucer from a cup hidden behind the saucer's
-rim; the first reading is taken, which the README states. Each upper object
+rim; the first reading is taken, which the README states.
+
+An object that rests on nothing the masks show (on a shelf, hung on a wall, on an object its contact was not
+seen with) is read from its size instead (:func:`raise_unseen`): stood on the ground, its foot's ray lands far
+behind the others and its outline makes it larger than its label's typical size by more than the others'
+sizes allow. It is brought nearer along the camera's rays (a scale about the camera's centre, which keeps its
+outline exactly) to the depth at which its size agrees with the others'; there it stands on the object under
+its base, or, with none, is held where it is by what the photo shows no mask of. Each upper object
 then stands on its lower one's surface (``align.photo_scene.surface_under``)
 instead of on the ground, moves with it when objects are moved apart, and is
 raised out of it where it starts inside it (:func:`settle_on_supports`).
@@ -28,6 +38,12 @@ from ..lift.silhouette import fill_holes, foot_pixel
 #: Fraction of A's lowest outline that must touch B (side view), or of the ring around A that must be B (above).
 CONTACT_FRACTION = 0.6
 ENCLOSED_FRACTION = 0.6
+#: A's foot: its pixels within this fraction of its height of its lowest row; a foot on B's face scores this
+#: fraction of what a contact along the whole lowest outline does.
+FOOT_BAND = 0.1
+FOOT_WEIGHT = 0.5
+#: Seen from the side, this fraction of A's columns must lie within B's (A may overhang B by the rest).
+WITHIN_FRACTION = 0.7
 
 
 def _lowest_outline(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -38,7 +54,7 @@ def _lowest_outline(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def support_score(upper: np.ndarray, lower: np.ndarray, reach: int) -> tuple[float, str]:
-    """(score in [0, 1], 'contact' | 'enclosed') of ``upper`` resting on ``lower``; 0 when it does not."""
+    """(score in [0, 1], 'contact' | 'enclosed' | 'foot') of ``upper`` resting on ``lower``; 0 when it does not."""
     a = fill_holes(upper)
     b = lower.astype(bool)
     h = a.shape[0]
@@ -46,7 +62,9 @@ def support_score(upper: np.ndarray, lower: np.ndarray, reach: int) -> tuple[flo
     touch = np.array([b[min(r + 1, h - 1):min(r + 1 + reach, h), c].any() for c, r in zip(cols, rows)])
     contact = float(touch.mean()) if len(touch) else 0.0
     b_cols = np.nonzero(b.any(axis=0))[0]
-    inside = len(b_cols) and cols.min() >= b_cols.min() - reach and cols.max() <= b_cols.max() + reach
+    # most of A's width over B's: an upper box turned or shifted on its lower one overhangs it by a little
+    within = (cols >= b_cols.min() - reach) & (cols <= b_cols.max() + reach) if len(b_cols) else cols < 0
+    inside = bool(len(b_cols)) and float(within.mean()) >= WITHIN_FRACTION
     foot_a, foot_b = foot_pixel(a)[1], foot_pixel(fill_holes(b))[1]
     if contact >= CONTACT_FRACTION and inside and foot_a < foot_b - 1:
         return contact, "contact"
@@ -59,22 +77,50 @@ def support_score(upper: np.ndarray, lower: np.ndarray, reach: int) -> tuple[flo
     below = float((low & b).sum() / max(low.sum(), 1))
     if enclosed >= ENCLOSED_FRACTION and below >= ENCLOSED_FRACTION:
         return enclosed, "enclosed"
+    # A's foot over B's face, inside B's outline, between B's top and its foot: a plant whose lowest leaf hangs over its pot's front,
+    # a toy sitting in a box; it ranks under a contact along A's whole lowest outline
+    rows_a = np.nonzero(a.any(axis=1))[0]
+    rows_b = np.nonzero(b.any(axis=1))[0]
+    if len(rows_a) and len(rows_b) and rows_b[0] < foot_a < foot_b - 1:
+        band = a & (np.arange(h)[:, None] >= foot_a - FOOT_BAND * (rows_a[-1] - rows_a[0] + 1))
+        # on B's face, in front of it: inside B's outline, not on its edge (a fruit in the hollow behind another
+        # touches that one's top edge only)
+        ys, xs = np.nonzero(b)
+        hull = cv2.convexHull(np.stack([xs, ys], 1).astype(np.int32))
+        over_b = cv2.fillConvexPoly(np.zeros(b.shape, np.uint8), hull, 1) > 0
+        on = float((band & over_b).sum() / max(band.sum(), 1))
+        if on >= CONTACT_FRACTION:
+            return FOOT_WEIGHT * on, "foot"
     return 0.0, ""
 
 
 def find_supports(masks) -> dict[int, tuple[int, str]]:
-    """``{upper index: (lower index, how)}``; no object rests on itself or, through others, on itself."""
+    """``{upper index: (lower index, how)}`` (how: 'contact', 'enclosed' or 'foot'); no object rests on
+    itself or, through others, on itself."""
     if not masks:
         return {}
     reach = max(2, int(round(0.01 * masks[0].shape[0])))
     best: dict[int, tuple[float, int, str]] = {}
+    found: dict[tuple[int, int], tuple[float, str]] = {}
     for i, a in enumerate(masks):
         for j, b in enumerate(masks):
             if i == j:
                 continue
             score, how = support_score(a, b, reach)
+            if score > 0:
+                found[(i, j)] = (score, how)
             if score > 0 and (i not in best or score > best[i][0]):
                 best[i] = (score, j, how)
+    # in a stack, the completed outline of a lower object reaches up behind the ones on it, so the top one touches
+    # every object under it: it rests on the one between (a candidate that itself rests on the chosen one)
+    for i in list(best):
+        for _ in range(len(masks)):
+            j = best[i][1]
+            between = [k for (a, k) in found if a == i and k != j and (k, j) in found]
+            if not between:
+                break
+            k = max(between, key=lambda k: found[(i, k)][0])
+            best[i] = (found[(i, k)][0], k, found[(i, k)][1])
     out = {i: (j, how) for i, (_, j, how) in best.items()}
     # break cycles: in a cycle, the object lowest in the photo rests on nothing
     feet = [foot_pixel(fill_holes(m))[1] for m in masks]
@@ -112,10 +158,11 @@ def root_of(i: int, supports: dict[int, tuple[int, str]]) -> int:
     return i
 
 
-def start_contacts(vertex_sets, faces, supports: dict[int, tuple[int, str]], names) -> list[dict]:
+def start_contacts(vertex_sets, faces, supports: dict[int, tuple[int, str]], names, held=()) -> list[dict]:
     """What each placed object stands on and how far from it it starts, for ``report.json``.
 
-    ``support``: 'ground' or the name of the object it rests on; ``clearance_m``: the gap under it (its
+    ``support``: 'ground', the name of the object it rests on, or 'held' (``held``: indices resting on what
+    no mask shows, :func:`raise_unseen`); ``clearance_m``: the gap under it (its
     lowest point above the ground, or its lowest vertices' distance outside the supporter's mesh; < 0 when
     inside); ``overlap_m``: the deepest any vertex of it lies inside another object's mesh (0 when none).
     """
@@ -128,6 +175,8 @@ def start_contacts(vertex_sets, faces, supports: dict[int, tuple[int, str]], nam
     for i, m in enumerate(meshes):
         z = m.vertices[:, 2]
         entry = {"support": "ground", "clearance_m": round(float(z.min()), 4)}
+        if i in held:
+            entry = {"support": "held", "clearance_m": round(float(z.min()), 4)}
         if i in supports:
             j = supports[i][0]
             low = m.vertices[z <= z.min() + 0.2 * max(float(np.ptp(z)), 1e-9)]
@@ -181,3 +230,135 @@ def _rests_on(k: int, i: int, supports: dict[int, tuple[int, str]]) -> bool:
         if k == i:
             return True
     return False
+
+
+#: An object stood on the ground whose size, under the scale the other objects' sizes give, is this many times
+#: its label's typical size (and which stands behind all of them) rests on something the masks do not show.
+RAISE_RATIO = 1.5
+#: ... brought nearer to the depth at which it is this many times its typical size: the middle of what the
+#: other objects' own sizes spread over, rather than the prior exactly.
+RAISE_TO = 1.0
+#: Raised, it stands on another object whose top lies within this fraction of its own height of its base.
+LAND_FRACTION = 0.35
+
+
+def _riders_of(i: int, supports: dict) -> list[int]:
+    out, grew = [i], True
+    while grew:
+        grew = False
+        for k, (j, _) in supports.items():
+            if j in out and k not in out:
+                out.append(k)
+                grew = True
+    return out
+
+
+def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0) -> dict[int, dict]:
+    """Objects stood on the ground that rest on something the masks do not show, brought to where their size
+    agrees with the others' (see the module); ``lifted`` (``lift.silhouette.LiftedMesh``, under ``camera``) are
+    changed in place, objects resting on a raised one move with it, and ``supports`` gains those that now stand
+    on another object (how: 'size'). Returns {index: what was done} for the report; a raised object that stands
+    on nothing has ``held`` True (``build`` holds it fixed where the photo shows it).
+
+    ``scale`` turns the camera's units into metres (the labels' typical sizes are metres)."""
+    from ..geometry.mesh import longest_dimension
+    from ..sizes import size_prior
+    from .place import footprint
+
+    n = len(lifted)
+    priors = [size_prior(label) for label in labels]
+    typical = [p.longest_m / scale if p is not None and p.votes and p.longest_m else None for p in priors]
+    longest = [longest_dimension(m.vertices) for m in lifted]
+    origin = np.asarray(camera.origin, float)
+    free = [i for i in range(n) if i not in supports]
+    out: dict[int, dict] = {}
+
+    def reach(i):  # horizontal distance from the camera of an object's farthest and nearest vertex
+        d = np.linalg.norm(lifted[i].vertices[:, :2] - origin[:2], axis=1)
+        return float(d.min()), float(d.max())
+
+    holders = {j for j, _ in supports.values()}
+    for i in free:
+        # what holds others up stands on the ground (a stack on a shelf is left where the cues put it)
+        if typical[i] is None or lifted[i].info.get("foot") or i in holders:
+            continue
+        others = [j for j in range(n) if j != i and typical[j] is not None and j not in _riders_of(i, supports)]
+        if not others:
+            continue
+        # the scene's scale as the others' sizes read it: each is its typical size over its lifted one
+        ref = float(np.exp(np.median([np.log(typical[j] / max(longest[j], 1e-9)) for j in others])))
+        ratio = ref * longest[i] / typical[i]
+        ground = [j for j in free if j != i and j not in _riders_of(i, supports)]
+        behind = bool(ground) and reach(i)[0] > max(reach(j)[1] for j in ground)
+        if ratio <= RAISE_RATIO or not behind:
+            continue
+        t = RAISE_TO / ratio
+        base0 = float(lifted[i].vertices[:, 2].min())
+        z_base = origin[2] + t * (base0 - origin[2])
+        moved = origin + t * (lifted[i].vertices - origin)
+        height = float(np.ptp(moved[:, 2]))
+        centre = moved[:, :2].mean(0)
+        land = None
+        for j in range(n):
+            if j in _riders_of(i, supports):
+                continue
+            top = float(lifted[j].vertices[:, 2].max())
+            hull = footprint(lifted[j].vertices).astype(np.float32).reshape(-1, 1, 2)
+            inside = cv2.pointPolygonTest(hull, (float(centre[0]), float(centre[1])), False) >= 0
+            if inside and abs(top - z_base) <= LAND_FRACTION * height and (land is None or top > land[1]):
+                land = (j, top)
+        if land is not None:  # on what is under it: the depth at which its base meets that top
+            t = (land[1] - origin[2]) / (base0 - origin[2])
+        for k in _riders_of(i, supports):
+            m = lifted[k]
+            m.vertices = origin + t * (m.vertices - origin)
+            m.contact = origin + t * (np.asarray(m.contact, float) - origin)
+        entry = {"size_ratio": round(ratio, 3), "nearer": round(1.0 - t, 4),
+                 "base_m": round(float(lifted[i].vertices[:, 2].min()) * scale, 4)}
+        if land is not None:
+            supports[i] = (land[0], "size")
+            entry["on"] = land[0]
+        else:
+            entry["held"] = True
+        lifted[i].info["raised"] = entry
+        out[i] = entry
+    return out
+
+
+#: A supporter is deepened (:func:`reach_under`) to at most this many times its width.
+MAX_REACH = 2.5
+
+
+def reach_under(lower, upper, camera, base: float) -> np.ndarray | None:
+    """``lower``'s vertices deepened away from the camera until ``upper`` (standing at height ``base`` on it)
+    has its centre well over its top, or None where depth is not what it lacks.
+
+    The top of a box that another stands on is hidden by it, so the photo shows the box's front and sides and
+    not how deep it is: lifted shallow, what the photo shows on it would overhang its back and topple. Its
+    depth is the one dimension the photo leaves free, so the box reaches back under what it holds (its front,
+    which the photo shows, stays), up to :data:`MAX_REACH` times its width. Where the upper's centre is beside
+    the top rather than behind it (a box on the crown of a crumpled bag), nothing is deepened."""
+    from .photo_scene import TOP_BAND
+
+    v = np.asarray(lower.vertices, float)
+    fwd = np.asarray(camera.world_from_camera, float)[:, 2].copy()
+    fwd[2] = 0.0
+    if np.linalg.norm(fwd) < 1e-6:  # straight down: the depth is what the photo shows
+        return None
+    fwd /= np.linalg.norm(fwd)
+    side = np.array([-fwd[1], fwd[0], 0.0])
+    z = v[:, 2]
+    top = v[z >= base - TOP_BAND * max(float(np.ptp(z)), 1e-9)]
+    u = np.asarray(upper.vertices, float)
+    centre = u.mean(0)
+    across = top @ side
+    if len(top) < 3 or not across.min() <= centre @ side <= across.max():
+        return None
+    along = v @ fwd
+    front, back = float(along.min()), float(along.max())
+    target = float(centre @ fwd + 0.2 * (np.max(u @ fwd) - centre @ fwd))  # its centre well inside
+    width = float(np.ptp(v @ side))
+    if target <= back or target - front > MAX_REACH * max(width, back - front):
+        return None
+    k = (target - front) / max(back - front, 1e-9)
+    return v + np.outer((k - 1.0) * (along - front), fwd)

@@ -134,11 +134,15 @@ def build_row(folder, truth: dict, true_meshes: list, camera: PinholeCamera, mod
 
     row["thin"] = [n for n, m, lab in zip(names, mine, labels) if thin_side(m.vertices, lab, built_camera.origin)]
     want = _views_about(camera, true_meshes, middle)
+    true_names = [o["name"] for o in truth["objects"]]
     for i, (name, label) in enumerate(zip(names, labels)):
+        on = truth["objects"][i].get("on", "support")
+        on_built = (report["objects"][i].get("start") or {}).get("support", "ground")
         o = cmp["objects"][label if labels.count(label) == 1 else name]
         ratio = o["longest_m"] / o["true_longest_m"]
         row["objects"].append({
             "name": name, "label": label, "place": truth["objects"][i]["place"],
+            "on": on, "on_built": on_built, "support_ok": _support_ok(on, on_built, true_names, names),
             "iou_photo": round(mask_iou(got[0][i], truth["modal"][i]), 4),
             "iou_amodal": round(mask_iou(_silhouette_alone(mine[i], built_camera), truth["amodal"][i]), 4),
             "iou_left": round(mask_iou(got[1][i], want[1][i]), 4),
@@ -161,6 +165,19 @@ def build_row(folder, truth: dict, true_meshes: list, camera: PinholeCamera, mod
         pick = np.random.default_rng(truth["seed"]).permutation(len(names))[:materials]
         row["materials"] = material_trials(result.folder, [names[i] for i in sorted(pick)])
     return _judge(row)
+
+
+def _support_ok(on: str, built: str, true_names: list[str], names: list[str]) -> bool:
+    """Whether the build stands an object on what holds it in the truth: the ground on the support, the object
+    it rests on on that object (or one of several), anything but the ground on a shelf, a wall or an object left
+    out as unseen."""
+    if on == "support":
+        return built == "ground"
+    if isinstance(on, list):  # in the hollow of several: on any of them
+        return built in [names[true_names.index(k)] for k in on if k in true_names]
+    if on in true_names:
+        return built == names[true_names.index(on)]
+    return built != "ground"
 
 
 def _non_finite(stage) -> list[str]:
@@ -256,12 +273,13 @@ def _judge(row: dict) -> dict:
                        "iou_amodal": o["iou_amodal"] >= lim["iou_photo"],
                        "iou_novel": min(o["iou_left"], o["iou_right"]) >= lim["iou_novel"],
                        "position": o["position_error_frac"] <= lim["position_frac"],
+                       "support": o.get("support_ok", True),
                        "size": max(o["size_ratio"], 1 / o["size_ratio"]) <= lim["size_factor"]}
     return row
 
 
 INVARIANTS = ("builds", "simulates", "start_overlap", "rest_drift", "rest_turn", "thickness")
-TRUTHS = ("iou_photo", "iou_amodal", "iou_novel", "position", "size")
+TRUTHS = ("iou_photo", "iou_amodal", "iou_novel", "position", "size", "support")
 
 
 def summarise(rows: list[dict]) -> dict:
@@ -314,6 +332,8 @@ def scene_rows(index: int, seed: int, folder, modes=MODES, seconds: float = 2.0,
     truth = load_rendered(scene, folder)  # a scene kept by an earlier run with ``-o``: not rendered again
     if truth is None:
         truth = render_scene(scene, folder)
+    for o, drawn in zip(truth["objects"], scene["objects"]):  # a render kept from before truth said what holds it
+        o.setdefault("on", drawn["on"])
     rows = []
     for mode in modes:
         row = build_row(folder, truth, [o["mesh"] for o in scene["objects"]], scene["camera"], mode, seconds,
@@ -395,7 +415,8 @@ def markdown(numbers: dict) -> str:
              "iou_amodal": f"objects: IoU ≥ {LIMITS['iou_photo']} against the whole outline",
              "iou_novel": f"objects: IoU ≥ {LIMITS['iou_novel']} from ±45°",
              "position": f"objects: position error ≤ {100 * LIMITS['position_frac']:g} % of camera distance",
-             "size": f"objects: longest dimension within {LIMITS['size_factor']}×"}
+             "size": f"objects: longest dimension within {LIMITS['size_factor']}×",
+             "support": "objects: standing on what holds them in the truth (ground, object, shelf or wall)"}
     for key, name in names.items():
         if any(key in s[m] for m in modes):
             lines.append(f"| {name} | " + " | ".join("—" if key not in s[m] else f"{100 * s[m][key]:.0f} %"

@@ -8,7 +8,8 @@ and a vertical field of view of 25–80°, framing them; a sun and an area light
 softness. :func:`render_scene` hands it to ``blender_scene.py`` in the Python that has ``bpy``
 (``PHYSOMNI_BLENDER_PYTHON``) and writes the scene's folder: ``photo.png``, per object ``modal_K.png``
 (visible, from Blender's object-id render) and ``amodal_K.png`` (its whole outline, ray cast alone), and
-``truth.json`` (camera intrinsics and pose, each object's label, pose and size); :func:`load_rendered` reads
+``truth.json`` (camera intrinsics and pose, each object's label, pose, size and what holds it: ``on``, the
+support, the shelf, the wall, another object's name, or the names of the several it rests on); :func:`load_rendered` reads
 such a folder back instead of rendering it again.
 """
 
@@ -214,6 +215,8 @@ def _group(rng) -> list[dict]:
             at = [u(-0.01, 0.01), u(-0.01, 0.01), z]
             o["mesh"] = _turned(m, u(-0.3, 0.3), at)
             z = o["mesh"].bounds[1][2]
+            if out:
+                o["on_k"] = len(out) - 1
             out.append(o)
     elif pick == "pile":  # three fruit touching on the support and a fourth resting in their hollow
         r = u(0.03, 0.038)
@@ -227,6 +230,7 @@ def _group(rng) -> list[dict]:
                 at = [d * math.cos(a), d * math.sin(a), 0.0]
             else:
                 at = [0, 0, 1.633 * r * 1.04 + 0.004]
+                o["on_k"] = [0, 1, 2]  # in the hollow of the three: on each of them
             o["mesh"] = _turned(o["mesh"], u(0, 2 * np.pi), at)
             out.append(o)
     elif pick == "bowl":  # a bowl with a fruit lying on its floor
@@ -237,12 +241,14 @@ def _group(rng) -> list[dict]:
         f = min(1.0, inner / (fruit["mesh"].extents[0] / 2) * 1.6)
         fruit["mesh"].apply_scale(f)
         fruit["mesh"] = _turned(fruit["mesh"], 0.0, [0, 0, 0.007 + 0.001])
+        fruit["on_k"] = 0
         out.append(fruit)
     elif pick == "coins":  # a card with a coin on it, and a coin beside it
         card = make_object("card", rng)
         card["mesh"] = _turned(card["mesh"], u(0, np.pi), [0, 0, 0])
         coin = make_object("coin", rng)
         coin["mesh"] = _turned(coin["mesh"], 0.0, [u(-0.015, 0.015), u(-0.01, 0.01), 0.0008])
+        coin["on_k"] = 0
         other = make_object("coin", rng)
         other["mesh"] = _turned(other["mesh"], 0.0, [0.06, 0.05, 0])
         out += [card, coin, other]
@@ -250,6 +256,8 @@ def _group(rng) -> list[dict]:
         yaw = u(0, 2 * np.pi)
         for o in _plant_in_pot(rng):
             o["mesh"] = _turned(o["mesh"], yaw, [0, 0, 0])
+            if out:
+                o["on_k"] = 0  # the plant grows in its pot
             out.append(o)
     else:  # a cup standing on a book
         book = make_object("book", rng)
@@ -257,6 +265,7 @@ def _group(rng) -> list[dict]:
         cup = make_object("cup", rng)
         cup["mesh"] = _turned(cup["mesh"], u(0, 2 * np.pi), [u(-0.02, 0.02), u(-0.02, 0.02),
                                                                book["mesh"].bounds[1][2]])
+        cup["on_k"] = 0
         out += [book, cup]
     return out
 
@@ -354,6 +363,8 @@ def describe_scene(seed: int, width: int = SIZE[0], height: int = SIZE[1]) -> di
         for o in g:
             o["mesh"].apply_translation([at[0], at[1], 0.0])
             o["place"] = "support"
+            k = o.pop("on_k", None)
+            o["on"] = "support" if k is None else [g[j] for j in k] if isinstance(k, list) else g[k]
         groups.append(g)
     objects = [o for g in groups for o in g]
     surfaces = [{"name": "support", "mesh": _slab([-10, -10, -0.05], [10, 10, 0.0]),
@@ -376,7 +387,7 @@ def describe_scene(seed: int, width: int = SIZE[0], height: int = SIZE[1]) -> di
         on["mesh"] = _turned(on["mesh"], u(-0.4, 0.4),
                              [x + u(-0.06, 0.06), back - depth / 2, shelf_z])
         if on["mesh"].bounds[0][1] > back - depth and on["mesh"].bounds[1][1] < back:
-            on["place"] = "shelf"
+            on["place"] = on["on"] = "shelf"
             objects.append(on)
         hung = make_object(str(rng.choice(["toy", "card"])), rng)
         m = hung["mesh"]
@@ -385,7 +396,7 @@ def describe_scene(seed: int, width: int = SIZE[0], height: int = SIZE[1]) -> di
         side = rng.choice([-1, 1]) * (0.15 + m.extents[0] / 2 + u(0.02, 0.08))  # beside the shelf, not in it
         m.apply_translation([x + side - m.centroid[0], back - m.bounds[1][1],
                              u(0.15, 0.35) - m.bounds[0][2]])
-        hung["place"] = "wall"
+        hung["place"] = hung["on"] = "wall"
         objects.append(hung)
     camera = _camera(rng, [o["mesh"] for o in objects], width, height, yaw, pitch, fov)
     # leave out what can hardly be seen (hidden behind others or a shelf): the others keep their places
@@ -403,6 +414,11 @@ def describe_scene(seed: int, width: int = SIZE[0], height: int = SIZE[1]) -> di
     for o in objects:
         names[o["label"]] = names.get(o["label"], 0) + 1
         o["name"] = f"{o['label']}{names[o['label']]}"
+    for o in objects:  # what holds each: a surface's name, or the objects' ('hidden' when left out as unseen)
+        held_by = o["on"] if isinstance(o["on"], list) else [o["on"]]
+        if isinstance(held_by[0], dict):
+            seen = [k["name"] for k in held_by if any(k is m for m in objects)]
+            o["on"] = seen if isinstance(o["on"], list) and seen else seen[0] if seen else "hidden"
     middle = np.mean([o["mesh"].bounds.mean(0) for o in objects], axis=0) if objects else np.zeros(3)
     return {"seed": seed, "layout": layout, "objects": objects, "surfaces": surfaces, "camera": camera,
             "light": _light(rng, middle)}
@@ -457,7 +473,7 @@ def render_scene(scene: dict, folder, samples: int = SAMPLES, threads: int = THR
         o["mesh"].export(str(folder / f"mesh_{k}.ply"))
         m = o["mesh"]
         obb = m.bounding_box_oriented
-        objects.append({"name": o["name"], "label": o["label"], "place": o["place"],
+        objects.append({"name": o["name"], "label": o["label"], "place": o["place"], "on": o["on"],
                         "modal": f"modal_{k}.png", "amodal": f"amodal_{k}.png", "mesh": f"mesh_{k}.ply",
                         "centre_m": m.bounds.mean(0).round(5).tolist(),
                         "pose": np.asarray(obb.primitive.transform).round(6).tolist(),
