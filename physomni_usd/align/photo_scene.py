@@ -31,7 +31,7 @@ from .compare import MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, search_pitch, scor
 from .cues import ELLIPSE_IOU, MAX_PITCH_DEG, estimate_camera, mask_ellipse
 from .place import footprint, make_room, separate
 from .scale import fit_scale
-from .support import find_supports, raise_unseen, reach_under, root_of, settle_on_supports, support_order
+from .support import TOP_BAND, find_supports, raise_unseen, reach_under, root_of, settle_on_supports, support_order
 
 #: Scale-and-lift rounds: an object's height from its prior depends on the scale, the scale on the lifted sizes.
 SCALE_ROUNDS = 3
@@ -216,11 +216,6 @@ def foot_behind(mask: np.ndarray, occluder_masks, occluders, camera: PinholeCame
             out[r, c] = True
             r += 1
     return out if foot_pixel(out)[1] > v + 1 else None
-
-
-#: The part of a supporter an object can rest on: what lies within this fraction of its height below the
-#: surface the object stands on.
-TOP_BAND = 0.15
 
 
 def balances_on(upper, lower, base: float) -> bool:

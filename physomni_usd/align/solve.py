@@ -34,6 +34,7 @@ from scipy.optimize import least_squares
 
 from ..texture.hidden import occlusion_kept
 from .place import footprint, separation
+from .support import TOP_BAND
 
 #: Points sampled along each outline (the mask's and the projected mesh's).
 OUTLINE_SAMPLES = 32
@@ -278,10 +279,8 @@ def solve_places(camera, vertices, faces, masks, supports=None, labels=None, occ
 
 def _base_inside(upper: np.ndarray, lower: np.ndarray) -> float:
     """Share of ``upper``'s base vertices (within 2 % of its height of its lowest) that stand, seen from above,
-    inside the hull of the part of ``lower`` that reaches up to them (``photo_scene.TOP_BAND``): a cup whose
+    inside the hull of the part of ``lower`` that reaches up to them (``support.TOP_BAND``): a cup whose
     centre stays on its saucer but whose foot hangs over the rim rocks off it."""
-    from .photo_scene import TOP_BAND
-
     zu, zl = upper[:, 2], lower[:, 2]
     base = upper[zu <= zu.min() + 0.02 * max(float(np.ptp(zu)), 1e-9), :2]
     top = lower[zl >= zu.min() - TOP_BAND * max(float(np.ptp(zl)), 1e-9)]

@@ -38,6 +38,9 @@ from ..lift.silhouette import fill_holes, foot_pixel
 #: Fraction of A's lowest outline that must touch B (side view), or of the ring around A that must be B (above).
 CONTACT_FRACTION = 0.6
 ENCLOSED_FRACTION = 0.6
+#: The part of a supporter an object can rest on: what lies within this fraction of its height below the
+#: surface the object stands on.
+TOP_BAND = 0.15
 #: A's foot: its pixels within this fraction of its height of its lowest row; a foot on B's face scores this
 #: fraction of what a contact along the whole lowest outline does.
 FOOT_BAND = 0.1
@@ -338,8 +341,6 @@ def reach_under(lower, upper, camera, base: float) -> np.ndarray | None:
     depth is the one dimension the photo leaves free, so the box reaches back under what it holds (its front,
     which the photo shows, stays), up to :data:`MAX_REACH` times its width. Where the upper's centre is beside
     the top rather than behind it (a box on the crown of a crumpled bag), nothing is deepened."""
-    from .photo_scene import TOP_BAND
-
     v = np.asarray(lower.vertices, float)
     fwd = np.asarray(camera.world_from_camera, float)[:, 2].copy()
     fwd[2] = 0.0
