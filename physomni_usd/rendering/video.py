@@ -52,6 +52,16 @@ REVEAL_PX = 2.0
 #: 1e-5 px). It is that small because a lifted mesh's stretched side walls alias: on the 12 MP motorcycle at
 #: 960 px, a motion of 5e-3 px changed 633 pixels by up to 183 levels, one of 1.1e-4 px no pixel by more than 2.
 STILL_PX = 1e-4
+#: A video frame larger than this (long side, pixels) casts its primary rays on a grid of every ``step``-th pixel,
+#: ``step`` = round(long side / WORK_PX), and only over the region that can differ from the photo (what moved,
+#: where it stood, their shadows): a pixel between four samples that see one surface, its texture mapped
+#: smoothly across them (:data:`SMOOTH_PX`), takes its texture coordinate by interpolation and the texture's own
+#: full-size texel; every other pixel there (silhouettes, seams, cut-outs) casts its own ray. So a frame of a
+#: 12 MP photo at 1920 px casts about as many rays as one at 741 px, and its textures stay as sharp.
+WORK_PX = 960
+#: Largest departure (frame pixels) of four samples' texture coordinates from one affine map, and of three in a
+#: row from a straight line, under which the pixels between them are interpolated rather than cast.
+SMOOTH_PX = 0.5
 #: Particles are drawn as spheres spread over this multiple of their projected radius (they overlap, so
 #: that a set of them reads as one surface), shaded by a light travelling along PARTICLE_LIGHT (camera axes:
 #: right, down, forward: from above the camera, to its left) with PARTICLE_AMBIENT of their colour in full shade.
@@ -115,6 +125,8 @@ class ShotRenderer:
         self.environment = _environment(self)
         self._read_wide_plate(stage, scale, (w, h))
         self._world_key = None
+        self._step = max(1, int(round(max(self.width, self.height) / WORK_PX)))
+        self._region_cache = None
 
     def _read_wide_plate(self, stage: Usd.Stage, scale: float, size: tuple[int, int]) -> None:
         """The plate beyond the frame at the frame's scale, and where the plate sits in it (x, y); shots built
@@ -442,12 +454,13 @@ class ShotRenderer:
         return self.contact.darkening(cam.origin, self._shadow_rays, weight, reach,
                                       (env.backdrop_normal, env.backdrop_offset))
 
-    def _texel_offset(self, obj: np.ndarray, px: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _texel_offset(self, obj: np.ndarray, px: np.ndarray, at=(0, 0)) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For each pixel that sees the photo crop of an object's texture: how far (frame pixels) the texel it
         sees lies from that pixel in the photo, as (H, W) bool which pixels those are, their objects and their
         distances (in the order of ``np.nonzero``); 0 where the surface shows the photo's own pixel.
 
-        ``obj`` (H, W) is the object seen through each pixel (−1 for none), ``px`` its atlas coordinates."""
+        ``obj`` (H, W) is the object seen through each pixel (−1 for none), ``px`` its atlas coordinates; ``at``
+        the frame pixel (x, y) of their top-left corner (a region of the frame)."""
         # only the photo crop of each texture says where the photo shows the object; its unseen sides'
         # opaque copy (texture/sides.py) lies to the right of it and says nothing
         hit = (obj >= 0) & (px[..., 0] < self.photo_width[np.maximum(obj, 0)])
@@ -456,7 +469,7 @@ class ShotRenderer:
         shift = self.atlas_to_photo[k]
         sx = (px[hit][:, 0] + shift[:, 0]) * self.to_frame[0]
         sy = (px[hit][:, 1] + shift[:, 1]) * self.to_frame[1]
-        return hit, k, np.hypot(sx - (xs + 0.5), sy - (ys + 0.5))
+        return hit, k, np.hypot(sx - (xs + at[0] + 0.5), sy - (ys + at[1] + 0.5))
 
     def _moved(self, obj: np.ndarray, px: np.ndarray) -> np.ndarray:
         """(K,) per object, 0 where it is seen where the photo shows it, rising to 1 once it has moved
@@ -478,10 +491,10 @@ class ShotRenderer:
                 moved[i] = np.clip((m - IN_PLACE_PX) / REVEAL_PX, 0.0, 1.0)
         return moved
 
-    def _shows_photo(self, obj: np.ndarray, px: np.ndarray) -> np.ndarray:
+    def _shows_photo(self, obj: np.ndarray, px: np.ndarray, at=(0, 0)) -> np.ndarray:
         """(H, W) float32, 1 where the surface seen shows the photo's own pixel there (to within :data:`IN_PLACE_PX`
         + :data:`REVEAL_PX`), 0 elsewhere: a side wall stretched from the outline, an unseen side, no surface."""
-        hit, _, d = self._texel_offset(obj, px)
+        hit, _, d = self._texel_offset(obj, px, at)
         out = np.zeros(obj.shape, np.float32)
         out[hit] = d <= IN_PLACE_PX + REVEAL_PX
         return out
@@ -564,6 +577,14 @@ class ShotRenderer:
         if still is not None:
             return still[0].copy(), dataclasses.replace(still[1], time=float(t))
         self.caster.update(points)
+        if (self._step > 1 and self.reuse_still and not self.particles and self.photo is not None
+                and self._is_photo_camera(cam)):
+            image = self._render_region(cam, time_code, points)
+            if image is not None:
+                # a video's frame: what its passes would need of it (the per-pixel hits) is not kept
+                state = FrameState(float(t), cam, self._rays, points)
+                self._last = (cam, tuple(self._hidden), points.copy(), image.copy(), state)
+                return image, state
         face, px = self.caster.cast(cam.origin, self._rays, 1e6, pixels=covered_pixels(cam, points, self.faces))
         # the caster's buffers are overwritten by the next cast: the state keeps its own
         state = FrameState(float(t), cam, self._rays, points, self.caster.mesh_face.copy(),
@@ -612,6 +633,172 @@ class ShotRenderer:
         if self.reuse_still and not self.particles:
             self._last = (cam, tuple(self._hidden), points.copy(), image.copy(), state)
         return image, state
+
+    def _region_setup(self):
+        """What :meth:`_render_region` keeps from frame to frame: the photo as bytes (the frame wherever nothing
+        changed), the sample grid's rows and columns (frame pixels), and per object (and K for no object) the box
+        (x0, y0, x1, y1) of the pixels it owns where the plate differs from the photo, None where there are none."""
+        if self._region_cache is None:
+            s = self._step
+            photo_u8 = np.clip(self.photo + 0.5, 0, 255).astype(np.uint8)
+            differs = np.any(np.abs(self.plate - self.photo) > 0.5, axis=2)
+            boxes = []
+            for k in list(range(len(self.objects))) + [-1]:
+                yy, xx = np.nonzero(differs & (self.owner == k))
+                boxes.append((int(xx.min()), int(yy.min()), int(xx.max()) + 1, int(yy.max()) + 1) if len(yy)
+                             else None)
+            self._region_cache = (photo_u8, np.arange(s // 2, self.height, s), np.arange(s // 2, self.width, s),
+                                  boxes)
+        return self._region_cache
+
+    def _render_region(self, cam, time_code: Usd.TimeCode, points: np.ndarray) -> np.ndarray | None:
+        """The frame through the photo's camera (no particles) for a frame larger than :data:`WORK_PX`, as
+        :meth:`render` composes it, but only over the box that can differ from the photo: the objects that moved
+        (where they are), what they owned in the photo where the plate differs from it (where they were), their
+        shadows, and the objects in place that the pixels of a moved object's photo now show in their texture.
+        Primary rays are cast on the sample grid of every ``step``-th pixel and, between samples, only where the
+        samples do not see one smoothly mapped surface (:data:`WORK_PX`, :data:`SMOOTH_PX`). None where a
+        point is behind the camera (the caller casts every ray)."""
+        photo_u8, gy, gx, boxes = self._region_setup()
+        s, c = self._step, self._step // 2
+        H, W = self.height, self.width
+        k_all = len(self.objects)
+        moved, _ = self._moved_since_start(cam, points, [])
+        uv, z = cam.project(points)
+        if not len(points) or np.min(z) <= 1e-6 or np.abs(uv).max() > 8.0 * max(W, H):
+            return None
+        # each object's triangles on the sample grid (sample (i, j) at grid coordinates (j, i))
+        gh, gw = len(gy), len(gx)
+        tri = np.round(((uv - 0.5 - c) / s) * 16).astype(np.int32)[self.faces]
+        cov_moved = np.zeros((gh, gw), np.uint8)
+        cov_still = np.zeros((gh, gw), np.uint8)
+        shows_moved = moved[self.face_object] > 0
+        for t, m in zip(tri, shows_moved):
+            cv2.fillConvexPoly(cov_moved if m else cov_still, t, 1, lineType=cv2.LINE_8, shift=4)
+        kernel = np.ones((3, 3), np.uint8)
+        cov_any = cv2.dilate(cov_moved | cov_still, kernel).astype(bool)
+        shadow = self._contact_shadow(cam, time_code, points, moved)
+        blur = self.settings.shadow_blur * float(np.hypot(W, H)) / SHADOW_STEP
+        if blur > 0.5 and shadow.any():
+            shadow = cv2.GaussianBlur(shadow, (0, 0), blur)
+        # the box, in frame pixels
+        box = []
+
+        def grid_box(mask):
+            yy, xx = np.nonzero(mask)
+            if len(yy):
+                box.append((gx[xx.min()] - s, gy[yy.min()] - s, gx[xx.max()] + s + 1, gy[yy.max()] + s + 1))
+
+        grid_box(cov_moved)
+        grid_box(cov_still & (moved[self._region_owner(gy, gx)] > 0))
+        for k, b in enumerate(boxes):
+            if b is not None and moved[k if k < k_all else -1] > 0:
+                box.append(b)
+        yy, xx = np.nonzero(shadow > 1e-3)
+        if len(yy):
+            box.append(((xx.min() - 1) * SHADOW_STEP, (yy.min() - 1) * SHADOW_STEP, (xx.max() + 2) * SHADOW_STEP,
+                        (yy.max() + 2) * SHADOW_STEP))
+        if not box:
+            return photo_u8.copy()
+        b = np.array(box)
+        x0, y0 = max(0, int(b[:, 0].min())), max(0, int(b[:, 1].min()))
+        x1, y1 = min(W, int(b[:, 2].max())), min(H, int(b[:, 3].max()))
+        if x1 <= x0 or y1 <= y0:
+            return photo_u8.copy()
+        # the samples around the box, cast where any triangle may cover them
+        i_lo, i_hi = max(0, (y0 - c) // s), min(gh - 1, -(-(y1 - 1 - c) // s))
+        j_lo, j_hi = max(0, (x0 - c) // s), min(gw - 1, -(-(x1 - 1 - c) // s))
+        sy, sx = gy[i_lo:i_hi + 1], gx[j_lo:j_hi + 1]
+        cov = cov_any[i_lo:i_hi + 1, j_lo:j_hi + 1]
+        flat = (sy[:, None] * W + sx[None, :])[cov].astype(np.int32)
+        face, px = self.caster.cast(cam.origin, self._rays, 1e6, pixels=flat)
+        g_face = face[np.ix_(sy, sx)]
+        g_px = px[np.ix_(sy, sx)].astype(np.float32)
+        g_mesh_face = self.caster.mesh_face[np.ix_(sy, sx)]
+        g_bary = self.caster.bary[np.ix_(sy, sx)]
+        g_hit = g_face >= 0
+        g_obj = np.where(g_hit, self.face_object[np.maximum(g_face, 0)], -1)
+        # cells whose four samples see one surface mapped smoothly: interpolated, not cast
+        tol = SMOOTH_PX / min(self.to_frame)
+        p = np.where(g_hit[..., None], g_px, np.nan)
+        bend = np.full(g_hit.shape, np.inf, np.float32)
+        with np.errstate(invalid="ignore"):
+            if p.shape[1] > 2:
+                bend[:, 1:-1] = np.abs(p[:, :-2] - 2 * p[:, 1:-1] + p[:, 2:]).max(-1)
+            if p.shape[0] > 2:
+                bend[1:-1] = np.fmax(bend[1:-1], np.abs(p[:-2] - 2 * p[1:-1] + p[2:]).max(-1))
+                bend[[0, -1]] = np.inf
+            flat_pt = bend <= tol
+            twist = np.abs(p[:-1, :-1] + p[1:, 1:] - p[1:, :-1] - p[:-1, 1:]).max(-1) <= tol
+        o = g_obj
+        cell = (flat_pt[:-1, :-1] & flat_pt[1:, :-1] & flat_pt[:-1, 1:] & flat_pt[1:, 1:] & twist
+                & (o[:-1, :-1] == o[1:, :-1]) & (o[:-1, :-1] == o[:-1, 1:]) & (o[:-1, :-1] == o[1:, 1:])
+                & (o[:-1, :-1] >= 0))
+        fy = (np.arange(y0, y1) - c) / s - i_lo
+        fx = (np.arange(x0, x1) - c) / s - j_lo
+        a, bb = np.floor(fy).astype(np.int64), np.floor(fx).astype(np.int64)
+        ok_y, ok_x = (a >= 0) & (a < cell.shape[0]), (bb >= 0) & (bb < cell.shape[1])
+        smooth = cell[np.clip(a, 0, max(cell.shape[0] - 1, 0))][:, np.clip(bb, 0, max(cell.shape[1] - 1, 0))] \
+            if cell.size else np.zeros((y1 - y0, x1 - x0), bool)
+        smooth &= ok_y[:, None] & ok_x[None, :]
+        # cells whose four samples see nothing: nothing drawn between them (a feature thinner than the step may
+        # fall between samples and go undrawn; WORK_PX)
+        empty = (o[:-1, :-1] < 0) & (o[1:, :-1] < 0) & (o[:-1, 1:] < 0) & (o[1:, 1:] < 0)
+        empty = empty[np.clip(a, 0, max(cell.shape[0] - 1, 0))][:, np.clip(bb, 0, max(cell.shape[1] - 1, 0))] \
+            if cell.size else np.zeros((y1 - y0, x1 - x0), bool)
+        empty &= ok_y[:, None] & ok_x[None, :]
+        near_y = np.clip(np.round(fy).astype(np.int64), 0, len(sy) - 1)
+        near_x = np.clip(np.round(fx).astype(np.int64), 0, len(sx) - 1)
+        exact = ~smooth & ~empty & cov[near_y][:, near_x]
+        map_x = np.broadcast_to(fx.astype(np.float32)[None, :], smooth.shape)
+        map_y = np.broadcast_to(fy.astype(np.float32)[:, None], smooth.shape)
+        pxr = cv2.remap(np.where(g_hit[..., None], g_px, 0.0).astype(np.float32), map_x, map_y, cv2.INTER_LINEAR,
+                        borderMode=cv2.BORDER_REPLICATE)
+        obj = np.where(smooth, o[near_y][:, near_x], -1)
+        sy_, sx_ = np.nonzero(smooth)
+        tx = np.clip(pxr[sy_, sx_, 0].astype(np.int64), 0, self.atlas_alpha.shape[1] - 1)
+        ty = np.clip(pxr[sy_, sx_, 1].astype(np.int64), 0, self.atlas_alpha.shape[0] - 1)
+        cut = self.atlas_alpha[ty, tx] < 0.5
+        exact[sy_[cut], sx_[cut]] = True
+        obj[sy_[cut], sx_[cut]] = -1
+        shade = cv2.remap(self._turned_shading(g_face, FrameState(0.0, cam, self._rays, points, g_mesh_face, None,
+                                                                  g_bary)),
+                          map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        ey, ex = np.nonzero(exact)
+        if len(ey):
+            flat = ((ey + y0) * W + ex + x0).astype(np.int32)
+            face, px = self.caster.cast(cam.origin, self._rays, 1e6, pixels=flat)
+            f = face.reshape(-1)[flat]
+            obj[ey, ex] = np.where(f >= 0, self.face_object[np.maximum(f, 0)], -1)
+            pxr[ey, ex] = px.reshape(-1, 2)[flat]
+        self.region_counts = (int(cov.sum()), int(len(ey)), (y1 - y0) * (x1 - x0))
+        hit = obj >= 0
+        # the frame's composition (:meth:`render`) over the box
+        ph = self.photo[y0:y1, x0:x1]
+        own = self.owner[y0:y1, x0:x1]
+        m_own = moved[own]
+        out = ph + m_own[..., None] * (self.plate[y0:y1, x0:x1] - ph)
+        sh = cv2.resize(shadow, (W, H), interpolation=cv2.INTER_LINEAR)[y0:y1, x0:x1]
+        out *= (1.0 - sh)[..., None]
+        mx = np.where(hit, pxr[..., 0] - 0.5, -10).astype(np.float32)
+        my = np.where(hit, pxr[..., 1] - 0.5, -10).astype(np.float32)
+        colour = cv2.remap(self.atlas_rgb, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        colour = colour.astype(np.float32) * shade[..., None]
+        colour = ph + np.maximum(moved[obj], m_own)[..., None] * (colour - ph)
+        alpha = cv2.remap(self.atlas_alpha, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        alpha = np.where(hit, np.clip(alpha, 0.0, 1.0), 0.0) * np.maximum(moved[obj],
+                                                                         self._shows_photo(obj, pxr, (x0, y0)))
+        alpha = alpha[..., None].astype(np.float32)
+        out += alpha * (colour - out)
+        image = photo_u8.copy()
+        image[y0:y1, x0:x1] = np.clip(out + 0.5, 0, 255).astype(np.uint8)
+        return image
+
+    def _region_owner(self, gy: np.ndarray, gx: np.ndarray) -> np.ndarray:
+        """The photo's owner (:meth:`_read_photo`) at the samples of rows ``gy`` and columns ``gx``."""
+        if getattr(self, "_grid_owner", None) is None:
+            self._grid_owner = self.owner[np.ix_(gy, gx)]
+        return self._grid_owner
 
     def _still(self, cam, points: np.ndarray, particles: list):
         """The last frame drawn and its state, where :attr:`reuse_still` allows and this frame would draw the
