@@ -58,7 +58,7 @@ STILL_PX = 1e-4
 #: smoothly across them (:data:`SMOOTH_PX`), takes its texture coordinate by interpolation and the texture's own
 #: full-size texel; every other pixel there (silhouettes, seams, cut-outs) casts its own ray. So a frame of a
 #: 12 MP photo at 1920 px casts about as many rays as one at 741 px, and its textures stay as sharp.
-WORK_PX = 960
+WORK_PX = 640
 #: Largest departure (frame pixels) of four samples' texture coordinates from one affine map, and of three in a
 #: row from a straight line, under which the pixels between them are interpolated rather than cast.
 SMOOTH_PX = 0.5
@@ -720,16 +720,22 @@ class ShotRenderer:
         g_obj = np.where(g_hit, self.face_object[np.maximum(g_face, 0)], -1)
         # cells whose four samples see one surface mapped smoothly: interpolated, not cast
         tol = SMOOTH_PX / min(self.to_frame)
-        p = np.where(g_hit[..., None], g_px, np.nan)
+        # per texture axis (planes, not a last axis of two: numpy reduces short last axes slowly)
+        planes = [np.where(g_hit, g_px[..., k], np.float32(np.nan)) for k in (0, 1)]
         bend = np.full(g_hit.shape, np.inf, np.float32)
+        twist = np.ones((max(g_hit.shape[0] - 1, 0), max(g_hit.shape[1] - 1, 0)), bool)
         with np.errstate(invalid="ignore"):
-            if p.shape[1] > 2:
-                bend[:, 1:-1] = np.abs(p[:, :-2] - 2 * p[:, 1:-1] + p[:, 2:]).max(-1)
-            if p.shape[0] > 2:
-                bend[1:-1] = np.fmax(bend[1:-1], np.abs(p[:-2] - 2 * p[1:-1] + p[2:]).max(-1))
-                bend[[0, -1]] = np.inf
+            across = np.zeros(g_hit.shape, np.float32)
+            down = np.zeros(g_hit.shape, np.float32)
+            for q in planes:
+                if q.shape[1] > 2:
+                    np.maximum(across[:, 1:-1], np.abs(q[:, :-2] - 2 * q[:, 1:-1] + q[:, 2:]), out=across[:, 1:-1])
+                if q.shape[0] > 2:
+                    np.maximum(down[1:-1], np.abs(q[:-2] - 2 * q[1:-1] + q[2:]), out=down[1:-1])
+                twist &= np.abs(q[:-1, :-1] + q[1:, 1:] - q[1:, :-1] - q[:-1, 1:]) <= tol
+            bend[1:-1, 1:-1] = np.maximum(across, down)[1:-1, 1:-1]
+            bend[~g_hit] = np.inf
             flat_pt = bend <= tol
-            twist = np.abs(p[:-1, :-1] + p[1:, 1:] - p[1:, :-1] - p[:-1, 1:]).max(-1) <= tol
         o = g_obj
         cell = (flat_pt[:-1, :-1] & flat_pt[1:, :-1] & flat_pt[:-1, 1:] & flat_pt[1:, 1:] & twist
                 & (o[:-1, :-1] == o[1:, :-1]) & (o[:-1, :-1] == o[:-1, 1:]) & (o[:-1, :-1] == o[1:, 1:])
@@ -772,24 +778,29 @@ class ShotRenderer:
             obj[ey, ex] = np.where(f >= 0, self.face_object[np.maximum(f, 0)], -1)
             pxr[ey, ex] = px.reshape(-1, 2)[flat]
         self.region_counts = (int(cov.sum()), int(len(ey)), (y1 - y0) * (x1 - x0))
-        hit = obj >= 0
-        # the frame's composition (:meth:`render`) over the box
+        # the frame's composition (:meth:`render`) over the box; the objects' colours only where one is seen
         ph = self.photo[y0:y1, x0:x1]
-        own = self.owner[y0:y1, x0:x1]
-        m_own = moved[own]
+        m_own = moved[self.owner[y0:y1, x0:x1]]
         out = ph + m_own[..., None] * (self.plate[y0:y1, x0:x1] - ph)
         sh = cv2.resize(shadow, (W, H), interpolation=cv2.INTER_LINEAR)[y0:y1, x0:x1]
         out *= (1.0 - sh)[..., None]
-        mx = np.where(hit, pxr[..., 0] - 0.5, -10).astype(np.float32)
-        my = np.where(hit, pxr[..., 1] - 0.5, -10).astype(np.float32)
-        colour = cv2.remap(self.atlas_rgb, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        colour = colour.astype(np.float32) * shade[..., None]
-        colour = ph + np.maximum(moved[obj], m_own)[..., None] * (colour - ph)
-        alpha = cv2.remap(self.atlas_alpha, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        alpha = np.where(hit, np.clip(alpha, 0.0, 1.0), 0.0) * np.maximum(moved[obj],
-                                                                         self._shows_photo(obj, pxr, (x0, y0)))
-        alpha = alpha[..., None].astype(np.float32)
-        out += alpha * (colour - out)
+        hy, hx = np.nonzero(obj >= 0)
+        if len(hy):
+            k = obj[hy, hx]
+            tx, ty = pxr[hy, hx, 0], pxr[hy, hx, 1]
+            colour = _sample(self.atlas_rgb, tx - 0.5, ty - 0.5).astype(np.float32)
+            colour *= shade[hy, hx][:, None]
+            p0 = ph[hy, hx]
+            colour = p0 + np.maximum(moved[k], m_own[hy, hx])[:, None] * (colour - p0)
+            alpha = np.clip(_sample(self.atlas_alpha, tx - 0.5, ty - 0.5), 0.0, 1.0)
+            if np.any(moved[k] < 1.0):  # an object in place is drawn only where it shows the photo's own pixel
+                crop = tx < self.photo_width[k]
+                shift = self.atlas_to_photo[k]
+                d = np.hypot((tx + shift[:, 0]) * self.to_frame[0] - (hx + x0 + 0.5),
+                             (ty + shift[:, 1]) * self.to_frame[1] - (hy + y0 + 0.5))
+                alpha *= np.maximum(moved[k], crop & (d <= IN_PLACE_PX + REVEAL_PX))
+            o0 = out[hy, hx]
+            out[hy, hx] = o0 + alpha[:, None] * (colour - o0)
         image = photo_u8.copy()
         image[y0:y1, x0:x1] = np.clip(out + 0.5, 0, 255).astype(np.uint8)
         return image
@@ -814,6 +825,23 @@ class ShotRenderer:
         if not np.array_equal(points, last_points) and self._pixel_motion(cam, points, last_points) >= STILL_PX:
             return None
         return image, state
+
+
+#: Points in a row of the maps :func:`_sample` gives cv2.remap (which takes fewer than 32767).
+REMAP_ROW = 16384
+
+
+def _sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``image`` (h, w[, C]) sampled bilinearly at the points (``x``, ``y``) (N,) pixel coordinates (pixel centres
+    at integers), clamped at its border: (N[, C]) of its type."""
+    n = len(x)
+    rows = -(-n // REMAP_ROW)
+    mx = np.zeros(rows * REMAP_ROW, np.float32)
+    my = np.zeros(rows * REMAP_ROW, np.float32)
+    mx[:n], my[:n] = x, y
+    out = cv2.remap(image, mx.reshape(rows, REMAP_ROW), my.reshape(rows, REMAP_ROW), cv2.INTER_LINEAR,
+                    borderMode=cv2.BORDER_REPLICATE)
+    return out.reshape((rows * REMAP_ROW,) + image.shape[2:])[:n]
 
 
 def _vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
