@@ -192,24 +192,27 @@ class ShotRenderer:
         if photo is None or photo.shape[1::-1] != size or not placed:
             return
         w, h = size
-        dist = np.full((h, w), np.inf, np.float32)
-        owner = np.full((h, w), -1, np.int32)
+        # the nearest object is found at the frame's size (a 12 MP photo's own distance transforms cost 1 s)
+        frame = (self.width, self.height)
+        dist = np.full(frame[::-1], np.inf, np.float32)
+        owner = np.full(frame[::-1], -1, np.int32)
         for k in placed:
             o = self.objects[k]
             x0, y0 = o.origin
-            mask = np.zeros((h, w), bool)
+            mask = np.zeros((h, w), np.uint8)
             # the photo crop: 255 where the photo shows the object; build paints what others hide at 254
             a = o.texture[:, : o.texture.shape[1] // 2 if o.two_sided else None, 3] == 255
             th, tw = min(a.shape[0], h - y0), min(a.shape[1], w - x0)
             if th <= 0 or tw <= 0:
                 continue
             mask[y0:y0 + th, x0:x0 + tw] = a[:th, :tw]
-            d = cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, 5)
+            if frame != size:  # a frame pixel any part of which shows the object is the object's
+                mask = cv2.resize(mask, frame, interpolation=cv2.INTER_AREA)
+            d = cv2.distanceTransform((mask == 0).astype(np.uint8), cv2.DIST_L2, 5)
             nearer = d < dist
             owner[nearer], dist[nearer] = k, d[nearer]
-        if (self.width, self.height) != size:
-            photo = cv2.resize(photo, (self.width, self.height), interpolation=cv2.INTER_AREA)
-            owner = cv2.resize(owner, (self.width, self.height), interpolation=cv2.INTER_NEAREST)
+        if frame != size:
+            photo = cv2.resize(photo, frame, interpolation=cv2.INTER_AREA)
         self.photo, self.owner = photo.astype(np.float32), owner
         self.to_frame = (self.width / w, self.height / h)  # photo pixels → frame pixels
 
