@@ -125,7 +125,8 @@ class ShotRenderer:
         self.environment = _environment(self)
         self._read_wide_plate(stage, scale, (w, h))
         self._world_key = None
-        self._step = max(1, int(round(max(self.width, self.height) / WORK_PX)))
+        step = max(1, int(round(max(self.width, self.height) / WORK_PX)))
+        self._step = step - 1 + step % 2  # odd: each sample is the centre of its step × step block
         self._region_cache = None
 
     def _read_wide_plate(self, stage: Usd.Stage, scale: float, size: tuple[int, int]) -> None:
@@ -638,8 +639,8 @@ class ShotRenderer:
         return image, state
 
     def _region_setup(self):
-        """What :meth:`_render_region` keeps from frame to frame: the photo as bytes (the frame wherever nothing
-        changed), the sample grid's rows and columns (frame pixels), and per object (and K for no object) the box
+        """What :meth:`_render_region` keeps from frame to frame: the photo and the plate as bytes (the frame
+        wherever nothing changed, and where an object left), the sample grid's rows and columns (frame pixels), and per object (and K for no object) the box
         (x0, y0, x1, y1) of the pixels it owns where the plate differs from the photo, None where there are none."""
         if self._region_cache is None:
             s = self._step
@@ -650,8 +651,9 @@ class ShotRenderer:
                 yy, xx = np.nonzero(differs & (self.owner == k))
                 boxes.append((int(xx.min()), int(yy.min()), int(xx.max()) + 1, int(yy.max()) + 1) if len(yy)
                              else None)
-            self._region_cache = (photo_u8, np.arange(s // 2, self.height, s), np.arange(s // 2, self.width, s),
-                                  boxes)
+            plate_u8 = np.clip(self.plate + 0.5, 0, 255).astype(np.uint8)
+            self._region_cache = (photo_u8, plate_u8, np.arange(s // 2, self.height, s),
+                                  np.arange(s // 2, self.width, s), boxes)
         return self._region_cache
 
     def _render_region(self, cam, time_code: Usd.TimeCode, points: np.ndarray) -> np.ndarray | None:
@@ -662,7 +664,7 @@ class ShotRenderer:
         Primary rays are cast on the sample grid of every ``step``-th pixel and, between samples, only where the
         samples do not see one smoothly mapped surface (:data:`WORK_PX`, :data:`SMOOTH_PX`). None where a
         point is behind the camera (the caller casts every ray)."""
-        photo_u8, gy, gx, boxes = self._region_setup()
+        photo_u8, plate_u8, gy, gx, boxes = self._region_setup()
         s, c = self._step, self._step // 2
         H, W = self.height, self.width
         k_all = len(self.objects)
@@ -704,13 +706,14 @@ class ShotRenderer:
         if not box:
             return photo_u8.copy()
         b = np.array(box)
-        x0, y0 = max(0, int(b[:, 0].min())), max(0, int(b[:, 1].min()))
+        # on whole blocks of the grid, so that its samples are the centres of the box's blocks
+        x0, y0 = max(0, int(b[:, 0].min())) // s * s, max(0, int(b[:, 1].min())) // s * s
         x1, y1 = min(W, int(b[:, 2].max())), min(H, int(b[:, 3].max()))
         if x1 <= x0 or y1 <= y0:
             return photo_u8.copy()
         # the samples around the box, cast where any triangle may cover them
-        i_lo, i_hi = max(0, (y0 - c) // s), min(gh - 1, -(-(y1 - 1 - c) // s))
-        j_lo, j_hi = max(0, (x0 - c) // s), min(gw - 1, -(-(x1 - 1 - c) // s))
+        i_lo, i_hi = y0 // s, min(gh - 1, (y1 - 1) // s)
+        j_lo, j_hi = x0 // s, min(gw - 1, (x1 - 1) // s)
         sy, sx = gy[i_lo:i_hi + 1], gx[j_lo:j_hi + 1]
         cov = cov_any[i_lo:i_hi + 1, j_lo:j_hi + 1]
         flat = (sy[:, None] * W + sx[None, :])[cov].astype(np.int32)
@@ -759,10 +762,7 @@ class ShotRenderer:
         near_y = np.clip(np.round(fy).astype(np.int64), 0, len(sy) - 1)
         near_x = np.clip(np.round(fx).astype(np.int64), 0, len(sx) - 1)
         exact = ~smooth & ~empty & cov[near_y][:, near_x]
-        map_x = np.broadcast_to(fx.astype(np.float32)[None, :], smooth.shape)
-        map_y = np.broadcast_to(fy.astype(np.float32)[:, None], smooth.shape)
-        pxr = cv2.remap(np.where(g_hit[..., None], g_px, 0.0).astype(np.float32), map_x, map_y, cv2.INTER_LINEAR,
-                        borderMode=cv2.BORDER_REPLICATE)
+        pxr = self._upsample(np.where(g_hit[..., None], g_px, 0.0).astype(np.float32), y0, x0, y1, x1, i_lo, j_lo)
         obj = np.where(smooth, o[near_y][:, near_x], -1)
         sy_, sx_ = np.nonzero(smooth)
         tx = np.clip(pxr[sy_, sx_, 0].astype(np.int64), 0, self.atlas_alpha.shape[1] - 1)
@@ -770,9 +770,8 @@ class ShotRenderer:
         cut = self.atlas_alpha[ty, tx] < 0.5
         exact[sy_[cut], sx_[cut]] = True
         obj[sy_[cut], sx_[cut]] = -1
-        shade = cv2.remap(self._turned_shading(g_face, FrameState(0.0, cam, self._rays, points, g_mesh_face, None,
-                                                                  g_bary)),
-                          map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        shade = self._upsample(self._turned_shading(g_face, FrameState(0.0, cam, self._rays, points, g_mesh_face,
+                                                                       None, g_bary)), y0, x0, y1, x1, i_lo, j_lo)
         ey, ex = np.nonzero(exact)
         if len(ey):
             flat = ((ey + y0) * W + ex + x0).astype(np.int32)
@@ -781,20 +780,30 @@ class ShotRenderer:
             obj[ey, ex] = np.where(f >= 0, self.face_object[np.maximum(f, 0)], -1)
             pxr[ey, ex] = px.reshape(-1, 2)[flat]
         self.region_counts = (int(cov.sum()), int(len(ey)), (y1 - y0) * (x1 - x0))
-        # the frame's composition (:meth:`render`) over the box; the objects' colours only where one is seen
-        ph = self.photo[y0:y1, x0:x1]
+        # the frame's composition (:meth:`render`) over the box, in bytes where it is the photo or the plate
+        # (the plate where its object left), in floats only where a shadow, a partly moved owner or an object is
         m_own = moved[self.owner[y0:y1, x0:x1]]
-        out = ph + m_own[..., None] * (self.plate[y0:y1, x0:x1] - ph)
         sh = cv2.resize(shadow, (W, H), interpolation=cv2.INTER_LINEAR)[y0:y1, x0:x1]
-        out *= (1.0 - sh)[..., None]
-        hy, hx = np.nonzero(obj >= 0)
+        image = photo_u8.copy()
+        region = image[y0:y1, x0:x1]
+        np.copyto(region, plate_u8[y0:y1, x0:x1], where=(m_own >= 1.0)[..., None])
+        hit = obj >= 0
+        fy, fx = np.nonzero(hit | (sh > 0.5 / 255.0) | ((m_own > 0.0) & (m_own < 1.0)))
+        if not len(fy):
+            return image
+        ph = self.photo[y0 + fy, x0 + fx]
+        m = m_own[fy, fx]
+        out = ph + m[:, None] * (self.plate[y0 + fy, x0 + fx] - ph)
+        out *= (1.0 - sh[fy, fx])[:, None]
+        seen = hit[fy, fx]
+        hy, hx = fy[seen], fx[seen]
         if len(hy):
             k = obj[hy, hx]
             tx, ty = pxr[hy, hx, 0], pxr[hy, hx, 1]
             colour = _sample(self.atlas_rgb, tx - 0.5, ty - 0.5).astype(np.float32)
             colour *= shade[hy, hx][:, None]
-            p0 = ph[hy, hx]
-            colour = p0 + np.maximum(moved[k], m_own[hy, hx])[:, None] * (colour - p0)
+            p0 = ph[seen]
+            colour = p0 + np.maximum(moved[k], m[seen])[:, None] * (colour - p0)
             alpha = np.clip(_sample(self.atlas_alpha, tx - 0.5, ty - 0.5), 0.0, 1.0)
             if np.any(moved[k] < 1.0):  # an object in place is drawn only where it shows the photo's own pixel
                 crop = tx < self.photo_width[k]
@@ -802,11 +811,23 @@ class ShotRenderer:
                 d = np.hypot((tx + shift[:, 0]) * self.to_frame[0] - (hx + x0 + 0.5),
                              (ty + shift[:, 1]) * self.to_frame[1] - (hy + y0 + 0.5))
                 alpha *= np.maximum(moved[k], crop & (d <= IN_PLACE_PX + REVEAL_PX))
-            o0 = out[hy, hx]
-            out[hy, hx] = o0 + alpha[:, None] * (colour - o0)
-        image = photo_u8.copy()
-        image[y0:y1, x0:x1] = np.clip(out + 0.5, 0, 255).astype(np.uint8)
+            o0 = out[seen]
+            out[seen] = o0 + alpha[:, None] * (colour - o0)
+        region[fy, fx] = np.clip(out + 0.5, 0, 255).astype(np.uint8)
         return image
+
+    def _upsample(self, grid: np.ndarray, y0: int, x0: int, y1: int, x1: int, i_lo: int, j_lo: int) -> np.ndarray:
+        """``grid`` (samples i_lo.., j_lo.. of the sample grid) interpolated bilinearly at the frame pixels of the
+        box (x0, y0)–(x1, y1), whose corner is that of sample (i_lo, j_lo)'s block: with an odd step, cv2.resize
+        maps the block centres onto the samples exactly."""
+        s = self._step
+        assert y0 == i_lo * s and x0 == j_lo * s
+        h, w = grid.shape[:2]
+        out = cv2.resize(grid, (w * s, h * s), interpolation=cv2.INTER_LINEAR)
+        short = (max(0, y1 - y0 - out.shape[0]), max(0, x1 - x0 - out.shape[1]))
+        if any(short):  # a last partial block without a sample of its own
+            out = cv2.copyMakeBorder(out, 0, short[0], 0, short[1], cv2.BORDER_REPLICATE)
+        return out[:y1 - y0, :x1 - x0]
 
     def _region_owner(self, gy: np.ndarray, gx: np.ndarray) -> np.ndarray:
         """The photo's owner (:meth:`_read_photo`) at the samples of rows ``gy`` and columns ``gx``."""
