@@ -53,10 +53,10 @@ REVEAL_PX = 2.0
 #: 960 px, a motion of 5e-3 px changed 633 pixels by up to 183 levels, one of 1.1e-4 px no pixel by more than 2.
 STILL_PX = 1e-4
 #: A video frame larger than this (long side, pixels) casts its primary rays on a grid of every ``step``-th pixel,
-#: ``step`` = round(long side / WORK_PX) made odd (down), and only over the region that can differ from the photo (what moved,
-#: where it stood, their shadows): a pixel between four samples that see one surface, its texture mapped
-#: smoothly across them (:data:`SMOOTH_PX`), takes its texture coordinate by interpolation and the texture's own
-#: full-size texel; every other pixel there (silhouettes, seams, cut-outs) casts its own ray. The step is odd, so
+#: ``step`` = round(long side / WORK_PX) made odd (down), and only over the region that can differ from the
+#: photo (what moved, where it stood, their shadows): a pixel between four samples that see one surface, its
+#: texture mapped smoothly across them (:data:`SMOOTH_PX`), takes its texture coordinate by interpolation and the
+#: texture's own full-size texel; every other pixel there (silhouettes, seams, cut-outs) casts its own ray. The step is odd, so
 #: that each sample is the centre of its block. On the 12 MP motorcycle at 1920 px (step 3) a moving frame casts
 #: 0.24 M rays where casting every covered pixel took 0.9–1.2 M (its 741 px photo casts 0.14–0.18 M), its texels
 #: still the full-size texture's; what it loses is a feature thinner than the step between two samples that
@@ -643,7 +643,8 @@ class ShotRenderer:
 
     def _region_setup(self):
         """What :meth:`_render_region` keeps from frame to frame: the photo and the plate as bytes (the frame
-        wherever nothing changed, and where an object left), the sample grid's rows and columns (frame pixels), and per object (and K for no object) the box
+        wherever nothing changed, and where an object left), the sample grid's rows and columns (frame pixels), and
+        per object (and K for no object) the box
         (x0, y0, x1, y1) of the pixels it owns where the plate differs from the photo, None where there are none."""
         if self._region_cache is None:
             s = self._step
