@@ -57,10 +57,10 @@ STILL_PX = 1e-4
 #: photo (what moved, where it stood, their shadows): a pixel between four samples that see one surface, its
 #: texture mapped smoothly across them (:data:`SMOOTH_PX`), takes its texture coordinate by interpolation and the
 #: texture's own full-size texel; every other pixel there (silhouettes, seams, cut-outs) casts its own ray. The
-#: step is odd, so that each sample is the centre of its block. On the 12 MP motorcycle at 1920 px (step 3) a moving frame casts
-#: 0.24 M rays where casting every covered pixel took 0.9–1.2 M (its 741 px photo casts 0.14–0.18 M), its texels
-#: still the full-size texture's; what it loses is a feature thinner than the step between two samples that
-#: both miss it, and it differs from casting every ray by a level or two along seams.
+#: step is odd, so that each sample is the centre of its block. On the 12 MP motorcycle at 1920 px (step 3) a
+#: moving frame casts 0.24 M rays where casting every covered pixel took 0.9–1.2 M (its 741 px photo casts
+#: 0.14–0.18 M), its texels still the full-size texture's; what it loses is a feature thinner than the step
+#: between two samples that both miss it, and it differs from casting every ray by a level or two along seams.
 WORK_PX = 640
 #: Largest departure (frame pixels) of four samples' texture coordinates from one affine map, and of three in a
 #: row from a straight line, under which the pixels between them are interpolated rather than cast.
