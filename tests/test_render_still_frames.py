@@ -46,3 +46,33 @@ def test_a_renderer_draws_every_frame_unless_told(shot):
     r.render(end)
     r.render(end)
     assert len(casts) == 2
+
+
+def test_a_large_frame_sampled_over_its_region_looks_like_every_ray_cast(shot, monkeypatch):
+    """A frame above WORK_PX casts rays on a grid of every step-th pixel over the region that can differ from the
+    photo and interpolates texture coordinates between samples on one smooth surface: the first frame is still
+    the photo exactly, and a moved object's frames differ from casting every ray only along seams."""
+    stage = Usd.Stage.Open(str(shot["shot"]))
+    start, end = int(stage.GetStartTimeCode()), int(stage.GetEndTimeCode())
+    every = ShotRenderer(stage, RenderSettings())
+    monkeypatch.setattr(video, "WORK_PX", max(every.width, every.height) / 3.0)
+    sampled = ShotRenderer(stage, RenderSettings())
+    sampled.reuse_still = True
+    assert sampled._step == 3 and every._step == 1
+    regions = []
+    region = sampled._render_region
+    sampled._render_region = lambda *a: (regions.append(1), region(*a))[1]
+    first = None
+    for t in range(start, end + 1):
+        a, _ = every.render(float(t))
+        sampled._last = None  # draw each frame, still or not
+        b, _ = sampled.render(float(t))
+        d = np.abs(a.astype(int) - b).max(-1)
+        if first is None:
+            first = int(d.max())
+            assert first == 0  # the photo, exactly
+        changed = np.any(a != sampled._region_setup()[0], axis=-1)  # where the frame is not the photo
+        if changed.any():
+            assert np.mean(d[changed] > 24) < 0.03, (t, np.mean(d[changed] > 24))
+            assert np.mean(d) < 1.5
+    assert len(regions) == end - start + 1

@@ -52,6 +52,19 @@ REVEAL_PX = 2.0
 #: 1e-5 px). It is that small because a lifted mesh's stretched side walls alias: on the 12 MP motorcycle at
 #: 960 px, a motion of 5e-3 px changed 633 pixels by up to 183 levels, one of 1.1e-4 px no pixel by more than 2.
 STILL_PX = 1e-4
+#: A video frame larger than this (long side, pixels) casts its primary rays on a grid of every ``step``-th pixel,
+#: ``step`` = round(long side / WORK_PX) made odd (down), and only over the region that can differ from the
+#: photo (what moved, where it stood, their shadows): a pixel between four samples that see one surface, its
+#: texture mapped smoothly across them (:data:`SMOOTH_PX`), takes its texture coordinate by interpolation and the
+#: texture's own full-size texel; every other pixel there (silhouettes, seams, cut-outs) casts its own ray. The
+#: step is odd, so that each sample is the centre of its block. On the 12 MP motorcycle at 1920 px (step 3) a
+#: moving frame casts 0.24 M rays where casting every covered pixel took 0.9–1.2 M (its 741 px photo casts
+#: 0.14–0.18 M), its texels still the full-size texture's; what it loses is a feature thinner than the step
+#: between two samples that both miss it, and it differs from casting every ray by a level or two along seams.
+WORK_PX = 640
+#: Largest departure (frame pixels) of four samples' texture coordinates from one affine map, and of three in a
+#: row from a straight line, under which the pixels between them are interpolated rather than cast.
+SMOOTH_PX = 0.5
 #: Particles are drawn as spheres spread over this multiple of their projected radius (they overlap, so
 #: that a set of them reads as one surface), shaded by a light travelling along PARTICLE_LIGHT (camera axes:
 #: right, down, forward: from above the camera, to its left) with PARTICLE_AMBIENT of their colour in full shade.
@@ -115,6 +128,9 @@ class ShotRenderer:
         self.environment = _environment(self)
         self._read_wide_plate(stage, scale, (w, h))
         self._world_key = None
+        step = max(1, int(round(max(self.width, self.height) / WORK_PX)))
+        self._step = step - 1 + step % 2  # odd: each sample is the centre of its step × step block
+        self._region_cache = None
 
     def _read_wide_plate(self, stage: Usd.Stage, scale: float, size: tuple[int, int]) -> None:
         """The plate beyond the frame at the frame's scale, and where the plate sits in it (x, y); shots built
@@ -180,24 +196,27 @@ class ShotRenderer:
         if photo is None or photo.shape[1::-1] != size or not placed:
             return
         w, h = size
-        dist = np.full((h, w), np.inf, np.float32)
-        owner = np.full((h, w), -1, np.int32)
+        # the nearest object is found at the frame's size (a 12 MP photo's own distance transforms cost 1 s)
+        frame = (self.width, self.height)
+        dist = np.full(frame[::-1], np.inf, np.float32)
+        owner = np.full(frame[::-1], -1, np.int32)
         for k in placed:
             o = self.objects[k]
             x0, y0 = o.origin
-            mask = np.zeros((h, w), bool)
+            mask = np.zeros((h, w), np.uint8)
             # the photo crop: 255 where the photo shows the object; build paints what others hide at 254
             a = o.texture[:, : o.texture.shape[1] // 2 if o.two_sided else None, 3] == 255
             th, tw = min(a.shape[0], h - y0), min(a.shape[1], w - x0)
             if th <= 0 or tw <= 0:
                 continue
             mask[y0:y0 + th, x0:x0 + tw] = a[:th, :tw]
-            d = cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, 5)
+            if frame != size:  # a frame pixel any part of which shows the object is the object's
+                mask = cv2.resize(mask, frame, interpolation=cv2.INTER_AREA)
+            d = cv2.distanceTransform((mask == 0).astype(np.uint8), cv2.DIST_L2, 5)
             nearer = d < dist
             owner[nearer], dist[nearer] = k, d[nearer]
-        if (self.width, self.height) != size:
-            photo = cv2.resize(photo, (self.width, self.height), interpolation=cv2.INTER_AREA)
-            owner = cv2.resize(owner, (self.width, self.height), interpolation=cv2.INTER_NEAREST)
+        if frame != size:
+            photo = cv2.resize(photo, frame, interpolation=cv2.INTER_AREA)
         self.photo, self.owner = photo.astype(np.float32), owner
         self.to_frame = (self.width / w, self.height / h)  # photo pixels → frame pixels
 
@@ -442,12 +461,13 @@ class ShotRenderer:
         return self.contact.darkening(cam.origin, self._shadow_rays, weight, reach,
                                       (env.backdrop_normal, env.backdrop_offset))
 
-    def _texel_offset(self, obj: np.ndarray, px: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _texel_offset(self, obj: np.ndarray, px: np.ndarray, at=(0, 0)) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For each pixel that sees the photo crop of an object's texture: how far (frame pixels) the texel it
         sees lies from that pixel in the photo, as (H, W) bool which pixels those are, their objects and their
         distances (in the order of ``np.nonzero``); 0 where the surface shows the photo's own pixel.
 
-        ``obj`` (H, W) is the object seen through each pixel (−1 for none), ``px`` its atlas coordinates."""
+        ``obj`` (H, W) is the object seen through each pixel (−1 for none), ``px`` its atlas coordinates; ``at``
+        the frame pixel (x, y) of their top-left corner (a region of the frame)."""
         # only the photo crop of each texture says where the photo shows the object; its unseen sides'
         # opaque copy (texture/sides.py) lies to the right of it and says nothing
         hit = (obj >= 0) & (px[..., 0] < self.photo_width[np.maximum(obj, 0)])
@@ -456,7 +476,7 @@ class ShotRenderer:
         shift = self.atlas_to_photo[k]
         sx = (px[hit][:, 0] + shift[:, 0]) * self.to_frame[0]
         sy = (px[hit][:, 1] + shift[:, 1]) * self.to_frame[1]
-        return hit, k, np.hypot(sx - (xs + 0.5), sy - (ys + 0.5))
+        return hit, k, np.hypot(sx - (xs + at[0] + 0.5), sy - (ys + at[1] + 0.5))
 
     def _moved(self, obj: np.ndarray, px: np.ndarray) -> np.ndarray:
         """(K,) per object, 0 where it is seen where the photo shows it, rising to 1 once it has moved
@@ -478,10 +498,10 @@ class ShotRenderer:
                 moved[i] = np.clip((m - IN_PLACE_PX) / REVEAL_PX, 0.0, 1.0)
         return moved
 
-    def _shows_photo(self, obj: np.ndarray, px: np.ndarray) -> np.ndarray:
+    def _shows_photo(self, obj: np.ndarray, px: np.ndarray, at=(0, 0)) -> np.ndarray:
         """(H, W) float32, 1 where the surface seen shows the photo's own pixel there (to within :data:`IN_PLACE_PX`
         + :data:`REVEAL_PX`), 0 elsewhere: a side wall stretched from the outline, an unseen side, no surface."""
-        hit, _, d = self._texel_offset(obj, px)
+        hit, _, d = self._texel_offset(obj, px, at)
         out = np.zeros(obj.shape, np.float32)
         out[hit] = d <= IN_PLACE_PX + REVEAL_PX
         return out
@@ -564,6 +584,14 @@ class ShotRenderer:
         if still is not None:
             return still[0].copy(), dataclasses.replace(still[1], time=float(t))
         self.caster.update(points)
+        if (self._step > 1 and self.reuse_still and not self.particles and self.photo is not None
+                and self._is_photo_camera(cam)):
+            image = self._render_region(cam, time_code, points)
+            if image is not None:
+                # a video's frame: what its passes would need of it (the per-pixel hits) is not kept
+                state = FrameState(float(t), cam, self._rays, points)
+                self._last = (cam, tuple(self._hidden), points.copy(), image.copy(), state)
+                return image, state
         face, px = self.caster.cast(cam.origin, self._rays, 1e6, pixels=covered_pixels(cam, points, self.faces))
         # the caster's buffers are overwritten by the next cast: the state keeps its own
         state = FrameState(float(t), cam, self._rays, points, self.caster.mesh_face.copy(),
@@ -613,6 +641,204 @@ class ShotRenderer:
             self._last = (cam, tuple(self._hidden), points.copy(), image.copy(), state)
         return image, state
 
+    def _region_setup(self):
+        """What :meth:`_render_region` keeps from frame to frame: the photo and the plate as bytes (the frame
+        wherever nothing changed, and where an object left), the sample grid's rows and columns (frame pixels), and
+        per object (and K for no object) the box
+        (x0, y0, x1, y1) of the pixels it owns where the plate differs from the photo, None where there are none."""
+        if self._region_cache is None:
+            s = self._step
+            photo_u8 = np.clip(self.photo + 0.5, 0, 255).astype(np.uint8)
+            differs = np.any(np.abs(self.plate - self.photo) > 0.5, axis=2)
+            boxes = []
+            for k in list(range(len(self.objects))) + [-1]:
+                yy, xx = np.nonzero(differs & (self.owner == k))
+                boxes.append((int(xx.min()), int(yy.min()), int(xx.max()) + 1, int(yy.max()) + 1) if len(yy)
+                             else None)
+            plate_u8 = np.clip(self.plate + 0.5, 0, 255).astype(np.uint8)
+            self._region_cache = (photo_u8, plate_u8, np.arange(s // 2, self.height, s),
+                                  np.arange(s // 2, self.width, s), boxes)
+        return self._region_cache
+
+    def _render_region(self, cam, time_code: Usd.TimeCode, points: np.ndarray) -> np.ndarray | None:
+        """The frame through the photo's camera (no particles) for a frame larger than :data:`WORK_PX`, as
+        :meth:`render` composes it, but only over the box that can differ from the photo: the objects that moved
+        (where they are), what they owned in the photo where the plate differs from it (where they were), their
+        shadows, and the objects in place that the pixels of a moved object's photo now show in their texture.
+        Primary rays are cast on the sample grid of every ``step``-th pixel and, between samples, only where the
+        samples do not see one smoothly mapped surface (:data:`WORK_PX`, :data:`SMOOTH_PX`). None where a
+        point is behind the camera (the caller casts every ray)."""
+        photo_u8, plate_u8, gy, gx, boxes = self._region_setup()
+        s, c = self._step, self._step // 2
+        H, W = self.height, self.width
+        k_all = len(self.objects)
+        moved, _ = self._moved_since_start(cam, points, [])
+        uv, z = cam.project(points)
+        if not len(points) or np.min(z) <= 1e-6 or np.abs(uv).max() > 8.0 * max(W, H):
+            return None
+        # each object's triangles on the sample grid (sample (i, j) at grid coordinates (j, i))
+        gh, gw = len(gy), len(gx)
+        tri = np.round(((uv - 0.5 - c) / s) * 16).astype(np.int32)[self.faces]
+        cov_moved = np.zeros((gh, gw), np.uint8)
+        cov_still = np.zeros((gh, gw), np.uint8)
+        shows_moved = moved[self.face_object] > 0
+        for t, m in zip(tri, shows_moved):
+            cv2.fillConvexPoly(cov_moved if m else cov_still, t, 1, lineType=cv2.LINE_8, shift=4)
+        kernel = np.ones((3, 3), np.uint8)
+        cov_any = cv2.dilate(cov_moved | cov_still, kernel).astype(bool)
+        shadow = self._contact_shadow(cam, time_code, points, moved)
+        blur = self.settings.shadow_blur * float(np.hypot(W, H)) / SHADOW_STEP
+        if blur > 0.5 and shadow.any():
+            shadow = cv2.GaussianBlur(shadow, (0, 0), blur)
+        # the box, in frame pixels
+        box = []
+
+        def grid_box(mask):
+            yy, xx = np.nonzero(mask)
+            if len(yy):
+                box.append((gx[xx.min()] - s, gy[yy.min()] - s, gx[xx.max()] + s + 1, gy[yy.max()] + s + 1))
+
+        grid_box(cov_moved)
+        grid_box(cov_still & (moved[self._region_owner(gy, gx)] > 0))
+        for k, b in enumerate(boxes):
+            if b is not None and moved[k if k < k_all else -1] > 0:
+                box.append(b)
+        yy, xx = np.nonzero(shadow > 1e-3)
+        if len(yy):
+            box.append(((xx.min() - 1) * SHADOW_STEP, (yy.min() - 1) * SHADOW_STEP, (xx.max() + 2) * SHADOW_STEP,
+                        (yy.max() + 2) * SHADOW_STEP))
+        if not box:
+            return photo_u8.copy()
+        b = np.array(box)
+        # on whole blocks of the grid, so that its samples are the centres of the box's blocks
+        x0, y0 = max(0, int(b[:, 0].min())) // s * s, max(0, int(b[:, 1].min())) // s * s
+        x1, y1 = min(W, int(b[:, 2].max())), min(H, int(b[:, 3].max()))
+        if x1 <= x0 or y1 <= y0:
+            return photo_u8.copy()
+        # the samples around the box, cast where any triangle may cover them
+        i_lo, i_hi = y0 // s, min(gh - 1, (y1 - 1) // s)
+        j_lo, j_hi = x0 // s, min(gw - 1, (x1 - 1) // s)
+        sy, sx = gy[i_lo:i_hi + 1], gx[j_lo:j_hi + 1]
+        cov = cov_any[i_lo:i_hi + 1, j_lo:j_hi + 1]
+        flat = (sy[:, None] * W + sx[None, :])[cov].astype(np.int32)
+        face, px = self.caster.cast(cam.origin, self._rays, 1e6, pixels=flat)
+        g_face = face[np.ix_(sy, sx)]
+        g_px = px[np.ix_(sy, sx)].astype(np.float32)
+        g_mesh_face = self.caster.mesh_face[np.ix_(sy, sx)]
+        g_bary = self.caster.bary[np.ix_(sy, sx)]
+        g_hit = g_face >= 0
+        g_obj = np.where(g_hit, self.face_object[np.maximum(g_face, 0)], -1)
+        # cells whose four samples see one surface mapped smoothly: interpolated, not cast
+        tol = SMOOTH_PX / min(self.to_frame)
+        # per texture axis (planes, not a last axis of two: numpy reduces short last axes slowly)
+        planes = [np.where(g_hit, g_px[..., k], np.float32(np.nan)) for k in (0, 1)]
+        bend = np.full(g_hit.shape, np.inf, np.float32)
+        twist = np.ones((max(g_hit.shape[0] - 1, 0), max(g_hit.shape[1] - 1, 0)), bool)
+        with np.errstate(invalid="ignore"):
+            across = np.zeros(g_hit.shape, np.float32)
+            down = np.zeros(g_hit.shape, np.float32)
+            for q in planes:
+                if q.shape[1] > 2:
+                    np.maximum(across[:, 1:-1], np.abs(q[:, :-2] - 2 * q[:, 1:-1] + q[:, 2:]), out=across[:, 1:-1])
+                if q.shape[0] > 2:
+                    np.maximum(down[1:-1], np.abs(q[:-2] - 2 * q[1:-1] + q[2:]), out=down[1:-1])
+                twist &= np.abs(q[:-1, :-1] + q[1:, 1:] - q[1:, :-1] - q[:-1, 1:]) <= tol
+            bend[1:-1, 1:-1] = np.maximum(across, down)[1:-1, 1:-1]
+            bend[~g_hit] = np.inf
+            flat_pt = bend <= tol
+        o = g_obj
+        cell = (flat_pt[:-1, :-1] & flat_pt[1:, :-1] & flat_pt[:-1, 1:] & flat_pt[1:, 1:] & twist
+                & (o[:-1, :-1] == o[1:, :-1]) & (o[:-1, :-1] == o[:-1, 1:]) & (o[:-1, :-1] == o[1:, 1:])
+                & (o[:-1, :-1] >= 0))
+        fy = (np.arange(y0, y1) - c) / s - i_lo
+        fx = (np.arange(x0, x1) - c) / s - j_lo
+        a, bb = np.floor(fy).astype(np.int64), np.floor(fx).astype(np.int64)
+        ok_y, ok_x = (a >= 0) & (a < cell.shape[0]), (bb >= 0) & (bb < cell.shape[1])
+        smooth = cell[np.clip(a, 0, max(cell.shape[0] - 1, 0))][:, np.clip(bb, 0, max(cell.shape[1] - 1, 0))] \
+            if cell.size else np.zeros((y1 - y0, x1 - x0), bool)
+        smooth &= ok_y[:, None] & ok_x[None, :]
+        # cells whose four samples see nothing: nothing drawn between them (a feature thinner than the step may
+        # fall between samples and go undrawn; WORK_PX)
+        empty = (o[:-1, :-1] < 0) & (o[1:, :-1] < 0) & (o[:-1, 1:] < 0) & (o[1:, 1:] < 0)
+        empty = empty[np.clip(a, 0, max(cell.shape[0] - 1, 0))][:, np.clip(bb, 0, max(cell.shape[1] - 1, 0))] \
+            if cell.size else np.zeros((y1 - y0, x1 - x0), bool)
+        empty &= ok_y[:, None] & ok_x[None, :]
+        near_y = np.clip(np.round(fy).astype(np.int64), 0, len(sy) - 1)
+        near_x = np.clip(np.round(fx).astype(np.int64), 0, len(sx) - 1)
+        exact = ~smooth & ~empty & cov[near_y][:, near_x]
+        pxr = self._upsample(np.where(g_hit[..., None], g_px, 0.0).astype(np.float32), y0, x0, y1, x1, i_lo, j_lo)
+        obj = np.where(smooth, o[near_y][:, near_x], -1)
+        sy_, sx_ = np.nonzero(smooth)
+        tx = np.clip(pxr[sy_, sx_, 0].astype(np.int64), 0, self.atlas_alpha.shape[1] - 1)
+        ty = np.clip(pxr[sy_, sx_, 1].astype(np.int64), 0, self.atlas_alpha.shape[0] - 1)
+        cut = self.atlas_alpha[ty, tx] < 0.5
+        exact[sy_[cut], sx_[cut]] = True
+        obj[sy_[cut], sx_[cut]] = -1
+        shade = self._upsample(self._turned_shading(g_face, FrameState(0.0, cam, self._rays, points, g_mesh_face,
+                                                                       None, g_bary)), y0, x0, y1, x1, i_lo, j_lo)
+        ey, ex = np.nonzero(exact)
+        if len(ey):
+            flat = ((ey + y0) * W + ex + x0).astype(np.int32)
+            face, px = self.caster.cast(cam.origin, self._rays, 1e6, pixels=flat)
+            f = face.reshape(-1)[flat]
+            obj[ey, ex] = np.where(f >= 0, self.face_object[np.maximum(f, 0)], -1)
+            pxr[ey, ex] = px.reshape(-1, 2)[flat]
+        self.region_counts = (int(cov.sum()), int(len(ey)), (y1 - y0) * (x1 - x0))
+        # the frame's composition (:meth:`render`) over the box, in bytes where it is the photo or the plate
+        # (the plate where its object left), in floats only where a shadow, a partly moved owner or an object is
+        m_own = moved[self.owner[y0:y1, x0:x1]]
+        sh = cv2.resize(shadow, (W, H), interpolation=cv2.INTER_LINEAR)[y0:y1, x0:x1]
+        image = photo_u8.copy()
+        region = image[y0:y1, x0:x1]
+        np.copyto(region, plate_u8[y0:y1, x0:x1], where=(m_own >= 1.0)[..., None])
+        hit = obj >= 0
+        fy, fx = np.nonzero(hit | (sh > 0.5 / 255.0) | ((m_own > 0.0) & (m_own < 1.0)))
+        if not len(fy):
+            return image
+        ph = self.photo[y0 + fy, x0 + fx]
+        m = m_own[fy, fx]
+        out = ph + m[:, None] * (self.plate[y0 + fy, x0 + fx] - ph)
+        out *= (1.0 - sh[fy, fx])[:, None]
+        seen = hit[fy, fx]
+        hy, hx = fy[seen], fx[seen]
+        if len(hy):
+            k = obj[hy, hx]
+            tx, ty = pxr[hy, hx, 0], pxr[hy, hx, 1]
+            colour = _sample(self.atlas_rgb, tx - 0.5, ty - 0.5).astype(np.float32)
+            colour *= shade[hy, hx][:, None]
+            p0 = ph[seen]
+            colour = p0 + np.maximum(moved[k], m[seen])[:, None] * (colour - p0)
+            alpha = np.clip(_sample(self.atlas_alpha, tx - 0.5, ty - 0.5), 0.0, 1.0)
+            if np.any(moved[k] < 1.0):  # an object in place is drawn only where it shows the photo's own pixel
+                crop = tx < self.photo_width[k]
+                shift = self.atlas_to_photo[k]
+                d = np.hypot((tx + shift[:, 0]) * self.to_frame[0] - (hx + x0 + 0.5),
+                             (ty + shift[:, 1]) * self.to_frame[1] - (hy + y0 + 0.5))
+                alpha *= np.maximum(moved[k], crop & (d <= IN_PLACE_PX + REVEAL_PX))
+            o0 = out[seen]
+            out[seen] = o0 + alpha[:, None] * (colour - o0)
+        region[fy, fx] = np.clip(out + 0.5, 0, 255).astype(np.uint8)
+        return image
+
+    def _upsample(self, grid: np.ndarray, y0: int, x0: int, y1: int, x1: int, i_lo: int, j_lo: int) -> np.ndarray:
+        """``grid`` (samples i_lo.., j_lo.. of the sample grid) interpolated bilinearly at the frame pixels of the
+        box (x0, y0)–(x1, y1), whose corner is that of sample (i_lo, j_lo)'s block: with an odd step, cv2.resize
+        maps the block centres onto the samples exactly."""
+        s = self._step
+        assert y0 == i_lo * s and x0 == j_lo * s
+        h, w = grid.shape[:2]
+        out = cv2.resize(grid, (w * s, h * s), interpolation=cv2.INTER_LINEAR)
+        short = (max(0, y1 - y0 - out.shape[0]), max(0, x1 - x0 - out.shape[1]))
+        if any(short):  # a last partial block without a sample of its own
+            out = cv2.copyMakeBorder(out, 0, short[0], 0, short[1], cv2.BORDER_REPLICATE)
+        return out[:y1 - y0, :x1 - x0]
+
+    def _region_owner(self, gy: np.ndarray, gx: np.ndarray) -> np.ndarray:
+        """The photo's owner (:meth:`_read_photo`) at the samples of rows ``gy`` and columns ``gx``."""
+        if getattr(self, "_grid_owner", None) is None:
+            self._grid_owner = self.owner[np.ix_(gy, gx)]
+        return self._grid_owner
+
     def _still(self, cam, points: np.ndarray, particles: list):
         """The last frame drawn and its state, where :attr:`reuse_still` allows and this frame would draw the
         same: the same camera, the same objects shown, none moved :data:`STILL_PX` on the screen, no
@@ -627,6 +853,23 @@ class ShotRenderer:
         if not np.array_equal(points, last_points) and self._pixel_motion(cam, points, last_points) >= STILL_PX:
             return None
         return image, state
+
+
+#: Points in a row of the maps :func:`_sample` gives cv2.remap (which takes fewer than 32767).
+REMAP_ROW = 16384
+
+
+def _sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``image`` (h, w[, C]) sampled bilinearly at the points (``x``, ``y``) (N,) pixel coordinates (pixel centres
+    at integers), clamped at its border: (N[, C]) of its type."""
+    n = len(x)
+    rows = -(-n // REMAP_ROW)
+    mx = np.zeros(rows * REMAP_ROW, np.float32)
+    my = np.zeros(rows * REMAP_ROW, np.float32)
+    mx[:n], my[:n] = x, y
+    out = cv2.remap(image, mx.reshape(rows, REMAP_ROW), my.reshape(rows, REMAP_ROW), cv2.INTER_LINEAR,
+                    borderMode=cv2.BORDER_REPLICATE)
+    return out.reshape((rows * REMAP_ROW,) + image.shape[2:])[:n]
 
 
 def _vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
