@@ -49,6 +49,16 @@ NEAR_BEST_FRACTION = 0.15
 NEAR_BEST_ABS = 0.01
 #: Silhouette IoU under which ``build`` warns, naming the object.
 WARN_IOU = 0.85
+#: Real things vary about their label's typical size by this factor (``physomni_usd/sizes.py``): a size or a
+#: proportion within it of the label's costs nothing, and only what lies beyond it counts (natural log).
+SIZE_TOLERANCE = 1.5
+#: Largest log-ratio one object adds to the size term (a failed lift counts, but does not swamp the rest).
+SIZE_LOG_CAP = math.log(4.0)
+#: Prior shapes whose height over longest side is the label's: a cup, a bottle or a fruit stands one way. So do
+#: flat things (a book, a card, a coin: ``lift.silhouette.FLAT_PRIOR_RATIO``), which lie on their broad face;
+#: any other box rests on any face (a carton on its side, a figure standing), and its proportions say nothing
+#: of the camera.
+FIXED_PROPORTIONS = frozenset({"round", "ball"})
 
 
 def silhouette(vertices: np.ndarray, faces: np.ndarray, camera: PinholeCamera) -> np.ndarray:
@@ -133,6 +143,43 @@ def visible_ious(vertex_sets, faces, camera: PinholeCamera, masks) -> list[float
 
     seen = visible_silhouettes(list(vertex_sets), list(faces), camera)
     return [mask_iou(s, m) for s, m in zip(seen, masks)]
+
+
+def prior_terms(vertex_sets, labels, scale: float = 1.0) -> tuple[list[float], list[float]]:
+    """The size-prior and thickness terms of :func:`score_scene` for meshes ``vertex_sets`` (camera units,
+    times ``scale`` for metres) labelled ``labels``: per object with a typical size, how far (log, beyond
+    :data:`SIZE_TOLERANCE`) its longest side lies from its label's, and for a label of
+    :data:`FIXED_PROPORTIONS` its height over its longest side from the label's; per object, the shortfall
+    (0..1) of its thinnest side under a third of its middle one, unless its label says it lies flat."""
+    from ..lift.silhouette import FLAT_PRIOR_RATIO
+    from ..sizes import size_prior
+
+    def beyond(ratio: float) -> float:
+        return min(max(0.0, abs(math.log(max(ratio, 1e-9))) - math.log(SIZE_TOLERANCE)), SIZE_LOG_CAP)
+
+    size_logs, thin = [], []
+    for v, label in zip(vertex_sets, labels):
+        prior = size_prior(label)
+        ext = np.sort(principal_extents(np.asarray(v, float) * scale))
+        if prior is not None and prior.votes and ext[2] > 0:
+            size_logs.append(beyond(ext[2] / prior.longest_m))
+            flat = bool(prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * prior.longest_m)
+            if prior.height_m and (prior.shape in FIXED_PROPORTIONS or flat):  # free of the scene's scale
+                h = float(np.ptp(np.asarray(v)[:, 2])) * scale
+                size_logs.append(beyond(max(h, 1e-6) / ext[2] / (prior.height_m / prior.longest_m)))
+        flat = bool(prior and prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * (prior.longest_m or 0.0))
+        thin.append(0.0 if flat or ext[1] <= 0 else max(0.0, 1.0 - ext[0] / (ext[1] / 3.0)))
+    return size_logs, thin
+
+
+def principal_extents(vertices: np.ndarray) -> np.ndarray:
+    """(3,) extents of ``vertices`` along their principal axes."""
+    v = vertices - vertices.mean(0)
+    try:
+        _, _, axes = np.linalg.svd(v, full_matrices=False)
+    except np.linalg.LinAlgError:
+        return np.ptp(vertices, axis=0)
+    return np.ptp(v @ axes.T, axis=0)
 
 
 @dataclass

@@ -27,7 +27,7 @@ from ..settings import BuildSettings
 from ..errors import InputError
 from ..geometry.camera import PinholeCamera, pick_pitch
 from ..geometry.mesh import longest_dimension
-from .compare import MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, search_pitch, score_scene
+from .compare import MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, prior_terms, search_pitch, score_scene
 from .cues import ELLIPSE_IOU, MAX_PITCH_DEG, estimate_camera, mask_ellipse
 from .place import footprint, make_room, separate
 from .scale import fit_scale
@@ -353,10 +353,6 @@ def _lift_scaled(masks, labels, names, unit: PinholeCamera, settings: BuildSetti
     return lifted, supports, fit, fit.factor
 
 
-#: Largest log-ratio a single object adds to the size term (a failed lift counts, but does not swamp the rest).
-SIZE_LOG_CAP = math.log(4.0)
-
-
 def _scored(lift_at, pitch: float, masks, labels, found):
     """The render-and-compare score (``align.compare.score_scene``) of the scene ``lift_at(pitch)`` lifts; None
     where none can be lifted under that pitch (a foot above its horizon, a lift that fails)."""
@@ -364,30 +360,9 @@ def _scored(lift_at, pitch: float, masks, labels, found):
         unit, lifted, supports, fit, scale = lift_at(pitch)
     except (InputError, ValueError):
         return None
-    size_logs, thin = [], []
-    for m, label in zip(lifted, labels):
-        prior = size_prior(label)
-        ext = np.sort(_principal_extents(m.vertices * scale))
-        if prior is not None and prior.votes and ext[2] > 0:
-            size_logs.append(min(abs(math.log(ext[2] / prior.longest_m)), SIZE_LOG_CAP))
-            if prior.height_m:  # its height over its length, as the label's: free of the scene's scale
-                h = float(np.ptp(m.vertices[:, 2])) * scale
-                size_logs.append(min(abs(math.log(max(h, 1e-6) / ext[2] / (prior.height_m / prior.longest_m))),
-                                     SIZE_LOG_CAP))
-        flat = bool(prior and prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * (prior.longest_m or 0.0))
-        thin.append(0.0 if flat or ext[1] <= 0 else max(0.0, 1.0 - ext[0] / (ext[1] / 3.0)))
+    size_logs, thin = prior_terms([m.vertices for m in lifted], labels, scale)
     lost = (len(found) - len(supports)) / len(found) if found else 0.0
     return score_scene([m.vertices for m in lifted], [m.faces for m in lifted], unit, masks, size_logs, thin, lost)
-
-
-def _principal_extents(vertices: np.ndarray) -> np.ndarray:
-    """(3,) extents of ``vertices`` along their principal axes (metres in, metres out)."""
-    v = vertices - vertices.mean(0)
-    try:
-        _, _, axes = np.linalg.svd(v, full_matrices=False)
-    except np.linalg.LinAlgError:
-        return np.ptp(vertices, axis=0)
-    return np.ptp(v @ axes.T, axis=0)
 
 
 def place_on_ground(lifted, names, gap_m: float) -> PhotoScene:
