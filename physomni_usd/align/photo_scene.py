@@ -27,8 +27,9 @@ from ..settings import BuildSettings
 from ..errors import InputError
 from ..geometry.camera import PinholeCamera, pick_pitch
 from ..geometry.mesh import longest_dimension
-from .compare import MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, prior_terms, search_pitch, score_scene
-from .cues import ELLIPSE_IOU, MAX_PITCH_DEG, estimate_camera, mask_ellipse
+from .compare import (MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, prior_terms, search_pitch, search_view,
+                      score_scene)
+from .cues import ELLIPSE_IOU, MAX_PITCH_DEG, estimate_camera, mask_ellipse, min_pitch
 from .place import footprint, make_room, separate
 from .scale import fit_scale
 from .support import find_supports, root_of, settle_on_supports, support_order
@@ -274,9 +275,11 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
     scales: dict[float, float] = {}  # pitch → the scale its lift settled on: a start for the pitches near it
     small = _search_copies(photo, masks, visible)  # the search weighs pitches on copies at most SEARCH_SIDE_PX
 
-    def lift_at(p: float):
+    fov = est.fov_deg
+
+    def lift_at(p: float, f: float | None = None):
         ph, ms, vs = small if searching else (photo, masks, visible)
-        unit = PinholeCamera(ph.shape[1], ph.shape[0], est.fov_deg, p, (0.0, 0.0, 1.0))
+        unit = PinholeCamera(ph.shape[1], ph.shape[0], fov if f is None else f, p, (0.0, 0.0, 1.0))
         # the search starts each pitch from the nearest one's scale; the pitch taken is lifted as without the
         # search (from 1), so that where the cues' pitch stands the scene is the one the cues alone build
         start = scales[min(scales, key=lambda q: abs(q - p))] if scales and searching else 1.0
@@ -293,10 +296,19 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
         # so the silhouettes alone favour it
         strong = any(c.pitch_deg is not None and c.weight >= STRONG_CUE for c in est.cues)
         window = CUE_WINDOW_DEG if strong else 90.0
+        gain = STRONG_GAIN_FRACTION if strong else MIN_GAIN_FRACTION
+        free_fov = cam_cfg.fov_deg is None and est.fov_source.startswith("default")
         try:
-            searched = search_pitch(lambda p: _scored(lift_at, p, small[1], labels, found), pitch,
-                                    max(est.min_pitch_deg, 0.0, pitch - window), min(MAX_PITCH_DEG, pitch + window),
-                                    gain_fraction=STRONG_GAIN_FRACTION if strong else MIN_GAIN_FRACTION)
+            if free_fov:  # no cue reads the field of view: it is searched with the pitch (align.compare.search_view)
+                feet = _feet(small[1])
+                searched = search_view(lambda p, f: _scored(lambda q: lift_at(q, f), p, small[1], labels, found),
+                                       pitch, fov,
+                                       lambda f: max(min_pitch(f, small[0].shape[0], feet), 0.0, pitch - window),
+                                       min(MAX_PITCH_DEG, pitch + window), gain_fraction=gain)
+            else:
+                searched = search_pitch(lambda p: _scored(lift_at, p, small[1], labels, found), pitch,
+                                        max(est.min_pitch_deg, 0.0, pitch - window),
+                                        min(MAX_PITCH_DEG, pitch + window), gain_fraction=gain)
         except ValueError:  # no pitch lifted a scene the search could score: the cues' pitch, as without it
             searched = None
             camera_info["render_compare"] = {"chosen": "cues", "skipped": "no pitch tried gave a scene"}
@@ -306,11 +318,19 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
             camera_info |= {"cue_pitch_deg": round(pitch, 3), "pitch_deg": round(searched.pitch_deg, 3),
                             "pitch_source": "render-and-compare (silhouettes, sizes, supports)"}
             pitch = searched.pitch_deg
+        if searched is not None and free_fov and searched.fov_deg != round(fov, 3):
+            camera_info |= {"fov_deg": round(searched.fov_deg, 3), "cue_fov_deg": round(fov, 3),
+                            "fov_source": "render-and-compare (silhouettes, sizes, supports)"}
+            fov = searched.fov_deg
     searching = False
     unit, lifted, supports, fit, scale = lift_at(pitch)
     lifted = [replace(m, vertices=m.vertices * scale, contact=m.contact * scale) for m in lifted]
     camera = PinholeCamera(w, h, unit.fov_deg, unit.pitch_deg, (0.0, 0.0, scale))
     return GroundLift(camera, lifted, supports, {"scale": fit.as_dict(camera.origin[2]), "camera": camera_info})
+
+
+def _feet(masks) -> list[float]:
+    return [foot_pixel(fill_holes(m))[1] for m in masks]
 
 
 def _search_copies(photo: np.ndarray, masks, visible):
