@@ -149,12 +149,17 @@ def visible_ious(vertex_sets, faces, camera: PinholeCamera, masks) -> list[float
     return [mask_iou(s, m) for s, m in zip(seen, masks)]
 
 
-def prior_terms(vertex_sets, labels, scale: float = 1.0) -> tuple[list[float], list[float]]:
+def prior_terms(vertex_sets, labels, scale: float = 1.0, heights_given=()) -> tuple[list[float], list[float]]:
     """The size-prior and thickness terms of :func:`score_scene` for meshes ``vertex_sets`` (camera units,
     times ``scale`` for metres) labelled ``labels``: per object with a typical size, how far (log, beyond
     :data:`SIZE_TOLERANCE`) its longest side lies from its label's, and for a label of
     :data:`FIXED_PROPORTIONS` its height over its longest side from the label's; per object, the shortfall
-    (0..1) of its thinnest side under a third of its middle one, unless its label says it lies flat."""
+    (0..1) of its thinnest side under a third of its middle one, unless its label says it lies flat.
+
+    ``heights_given`` flags the objects whose height the lift took from their label (a box seen from above,
+    whose sides do not show): their height is no evidence of the camera, only their footprint is. Counted,
+    it fulfils itself: every box seen straight down comes out as tall as its label, and the search favours
+    the top-down readings that stand boxes up as towers."""
     from ..lift.silhouette import FLAT_PRIOR_RATIO
     from ..sizes import size_prior
 
@@ -162,10 +167,14 @@ def prior_terms(vertex_sets, labels, scale: float = 1.0) -> tuple[list[float], l
         return min(max(0.0, abs(math.log(max(ratio, 1e-9))) - math.log(SIZE_TOLERANCE)), SIZE_LOG_CAP)
 
     size_logs, thin = [], []
-    for v, label in zip(vertex_sets, labels):
+    given = list(heights_given) + [False] * (len(labels) - len(heights_given))
+    for v, label, from_label in zip(vertex_sets, labels, given):
         prior = size_prior(label)
         ext = np.sort(principal_extents(np.asarray(v, float) * scale))
-        if prior is not None and prior.votes and ext[2] > 0:
+        if prior is not None and prior.votes and from_label:
+            across = float(np.ptp(np.asarray(v, float)[:, :2], axis=0).max()) * scale
+            size_logs.append(beyond(across / prior.longest_m) if across > 0 else SIZE_LOG_CAP)
+        elif prior is not None and prior.votes and ext[2] > 0:
             size_logs.append(beyond(ext[2] / prior.longest_m))
             flat = bool(prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * prior.longest_m)
             if prior.height_m and (prior.shape in FIXED_PROPORTIONS or flat):  # free of the scene's scale
