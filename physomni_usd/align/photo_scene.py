@@ -297,7 +297,7 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
         strong = any(c.pitch_deg is not None and c.weight >= STRONG_CUE for c in est.cues)
         window = CUE_WINDOW_DEG if strong else 90.0
         gain = STRONG_GAIN_FRACTION if strong else MIN_GAIN_FRACTION
-        free_fov = cam_cfg.fov_deg is None and est.fov_source.startswith("default")
+        free_fov = settings.render_compare_fov and cam_cfg.fov_deg is None and est.fov_source.startswith("default")
         try:
             if free_fov:  # no cue reads the field of view: it is searched with the pitch (align.compare.search_view)
                 feet = _feet(small[1])
