@@ -75,8 +75,11 @@ def test_build_scales_the_scene_from_the_labels_and_from_size(tmp_path, photo):
     report = json.loads((tmp_path / "a" / "report.json").read_text())
     scale = report["shot"]["scale"]
     assert scale["source"] == "priors" and len(scale["votes"]) == 2
-    # a cup and a box of about the same size in the photo: the fit sits between their priors
-    assert 0.11 < _longest(report, "cup_0") < 0.4
+    # a cup and a box of about the same size in the photo: a box comes in every size, a cup does not, so the
+    # cup says the scale and the box is as big as the cup beside it
+    assert _longest(report, "cup_0") == pytest.approx(0.11, rel=0.1)
+    box_vote = next(v for v in scale["votes"] if v["name"] == "box_1")
+    assert box_vote["inlier"] is False and "every size" in box_vote["broad"]
     assert report["shot"]["camera_height_m"] == pytest.approx(scale["camera_height_m"])
 
     cli("build", photo["photo"], "-o", tmp_path / "b", "-q", *masks, "--size", "cup=0.12", check=True)
@@ -88,3 +91,12 @@ def test_build_scales_the_scene_from_the_labels_and_from_size(tmp_path, photo):
     assert proc.returncode == 2 and "--size" in proc.stderr and "saucer" in proc.stderr
     assert not (tmp_path / "c" / "scene.usda").exists()
     assert math.isfinite(scale["factor"]) and np.isfinite(report["shot"]["camera_height_m"])
+
+
+def test_a_label_made_in_every_size_votes_only_where_no_narrower_one_does():
+    # a card (8.6 cm) measured 0.1 and a box measured 0.1: the card's scale, not a compromise with a carton's
+    fit = fit_scale(["card_0", "box_1"], ["card", "box"], [0.1, 0.1])
+    assert fit.factor == pytest.approx(0.86)
+    assert fit.votes[1]["inlier"] is False and fit.votes[0]["inlier"] is True
+    # boxes alone still vote
+    assert fit_scale(["box_0"], ["box"], [0.1]).factor == pytest.approx(4.0)
