@@ -100,3 +100,6 @@ def test_a_label_made_in_every_size_votes_only_where_no_narrower_one_does():
     assert fit.votes[1]["inlier"] is False and fit.votes[0]["inlier"] is True
     # boxes alone still vote
     assert fit_scale(["box_0"], ["box"], [0.1]).factor == pytest.approx(4.0)
+    # ... unless the narrower one is off them by more than the disagreement factor (a failed lift): all vote
+    odd = fit_scale(["card_0", "box_1", "box_2"], ["card", "box", "box"], [1.8, 0.5, 0.4])
+    assert odd.factor > 2 * 0.086 / 1.8 and "broad" not in odd.votes[1]  # not the card's 0.048 alone
