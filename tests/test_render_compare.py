@@ -149,14 +149,12 @@ def test_the_view_search_finds_pitch_and_field_of_view_together_and_keeps_the_cu
     assert all(p >= 70.0 - f / 2 - 1e-6 for p, f, _ in low.tried)
 
 
-def test_the_size_term_spares_the_priors_spread_and_a_height_the_label_gave():
-    box = trimesh.creation.box((0.3, 0.2, 0.3))  # a 'box' (0.4 m, 0.3 m high) within 1.5x of its label
-    cup = trimesh.creation.cylinder(0.15, 0.05)  # a 'cup' (0.11 m, as tall as wide) three times as wide, flat
+def test_the_size_term_measures_each_object_against_its_label():
+    box = trimesh.creation.box((0.4, 0.2, 0.3))  # a 'box' of its label's size and proportions (0.4 m, 0.3 m high)
+    cup = trimesh.creation.cylinder(0.15, 0.05)  # a 'cup' (0.11 m, about as tall as wide) three times wider, flat
     logs, thin = compare.prior_terms([box.vertices, cup.vertices], ["box", "cup"])
-    assert logs[0] == 0.0 and logs[1] > 0.5 and logs[2] > 0.5
+    assert logs[0] == pytest.approx(0.0, abs=1e-6) and logs[1] == pytest.approx(0.0, abs=1e-6)
+    assert logs[2] > 0.9 and logs[3] == pytest.approx(compare.SIZE_LOG_CAP)  # a flat cup: capped
     assert thin[0] == 0.0 and thin[1] > 0.4  # a cup is no disc: thinner than a third of its width
-    # a box seen from above whose height came from its label: only its footprint (0.3 m) counts, so a tower
-    # of the label's height is no better than the footprint says
-    tower = trimesh.creation.box((0.1, 0.08, 0.4))
-    assert compare.prior_terms([tower.vertices], ["box"])[0] == [0.0]
-    assert compare.prior_terms([tower.vertices], ["box"], heights_given=[True])[0][0] > 0.5
+    # the scene's scale counts: the same box at twice the scale is log 2 off
+    assert compare.prior_terms([box.vertices], ["box"], 2.0)[0][0] == pytest.approx(np.log(2.0), abs=1e-6)

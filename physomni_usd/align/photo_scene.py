@@ -380,8 +380,7 @@ def _scored(lift_at, pitch: float, masks, labels, found):
         unit, lifted, supports, fit, scale = lift_at(pitch)
     except (InputError, ValueError):
         return None
-    given = [str(m.info.get("height_source", "")).startswith("typical size") for m in lifted]
-    size_logs, thin = prior_terms([m.vertices for m in lifted], labels, scale, given)
+    size_logs, thin = prior_terms([m.vertices for m in lifted], labels, scale)
     lost = (len(found) - len(supports)) / len(found) if found else 0.0
     return score_scene([m.vertices for m in lifted], [m.faces for m in lifted], unit, masks, size_logs, thin, lost)
 
