@@ -14,7 +14,6 @@ objects resting on others move with them, the rest are kept apart
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 
 import cv2
