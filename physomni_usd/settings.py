@@ -87,6 +87,9 @@ class BuildSettings(_Settings):
     render_compare: bool = Field(True, description="Weigh the cues' camera pitch against others by lifting the "
                                                    "scene under each and comparing its silhouettes, sizes and "
                                                    "supports with the photo's (align.compare).")
+    render_compare_fov: bool = Field(False, description="Where no cue reads the field of view, search it with "
+                                                         "the pitch (align.compare.search_view; about 3x the "
+                                                         "pitch search's lifts).")
     camera_search: bool = Field(True, description="Refine the camera against the masks after aligning external "
                                                    "meshes (coarse-to-fine: random samples, then Powell).")
     camera_search_evals: int = Field(300, ge=1, le=100000, description="Cap on renders of the camera search.")

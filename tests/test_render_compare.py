@@ -131,3 +131,30 @@ def test_the_search_recovers_the_pitch_of_a_synthetic_scene_the_cues_miss(pitch)
     assert info["render_compare"]["chosen"] == "silhouettes"
     assert info["pitch_deg"] == pytest.approx(searched.camera.pitch_deg, abs=1e-3)
     assert min(info["render_compare"]["score"]["silhouette_iou"]) > 0.8
+
+
+def test_the_view_search_finds_pitch_and_field_of_view_together_and_keeps_the_cues_where_flat():
+    def bowl(p, f):  # the scene explained best by a 60° pitch under a 35° view; none under 20° of pitch
+        if p < 20.0:
+            return None
+        return compare.SceneScore(0.05 + min(abs(p - 60.0) / 30.0 + abs(f - 35.0) / 30.0, 1.0), {})
+    found = compare.search_view(bowl, cue_pitch=30.0, cue_fov=50.0, lowest=lambda f: 0.0, highest=89.5)
+    assert abs(found.pitch_deg - 60.0) <= 2.5 and abs(found.fov_deg - 35.0) <= 2.5
+    assert found.as_dict()["chosen"] == "silhouettes" and all(p >= 20.0 for p, _, _ in found.tried)
+    flat = compare.search_view(lambda p, f: compare.SceneScore(0.3 + 0.001 * abs(f - 40.0), {}), 30.0, 50.0,
+                               lambda f: 0.0, 89.5)
+    assert (flat.pitch_deg, flat.fov_deg) == (30.0, 50.0) and flat.as_dict()["chosen"] == "cues"
+    # the least pitch depends on the view: a wider one sees the feet lower in its frame
+    low = compare.search_view(bowl, 30.0, 50.0, lambda f: 70.0 - f / 2, 89.5)
+    assert all(p >= 70.0 - f / 2 - 1e-6 for p, f, _ in low.tried)
+
+
+def test_the_size_term_measures_each_object_against_its_label():
+    box = trimesh.creation.box((0.4, 0.2, 0.3))  # a 'box' of its label's size and proportions (0.4 m, 0.3 m high)
+    cup = trimesh.creation.cylinder(0.15, 0.05)  # a 'cup' (0.11 m, about as tall as wide) three times wider, flat
+    logs, thin = compare.prior_terms([box.vertices, cup.vertices], ["box", "cup"])
+    assert logs[0] == pytest.approx(0.0, abs=1e-6) and logs[1] == pytest.approx(0.0, abs=1e-6)
+    assert logs[2] > 0.9 and logs[3] == pytest.approx(compare.SIZE_LOG_CAP)  # a flat cup: capped
+    assert thin[0] == 0.0 and thin[1] > 0.4  # a cup is no disc: thinner than a third of its width
+    # the scene's scale counts: the same box at twice the scale is log 2 off
+    assert compare.prior_terms([box.vertices], ["box"], 2.0)[0][0] == pytest.approx(np.log(2.0), abs=1e-6)

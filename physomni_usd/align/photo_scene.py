@@ -14,7 +14,6 @@ objects resting on others move with them, the rest are kept apart
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 
 import cv2
@@ -27,8 +26,9 @@ from ..settings import BuildSettings
 from ..errors import InputError
 from ..geometry.camera import PinholeCamera, pick_pitch
 from ..geometry.mesh import longest_dimension
-from .compare import MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, search_pitch, score_scene
-from .cues import ELLIPSE_IOU, MAX_PITCH_DEG, estimate_camera, mask_ellipse
+from .compare import (MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, prior_terms, search_pitch, search_view,
+                      score_scene)
+from .cues import ELLIPSE_IOU, MAX_PITCH_DEG, estimate_camera, mask_ellipse, min_pitch
 from .place import footprint, make_room, separate
 from .scale import fit_scale
 from .support import TOP_BAND, find_supports, raise_unseen, reach_under, root_of, settle_on_supports, support_order
@@ -276,9 +276,11 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
     scales: dict[float, float] = {}  # pitch → the scale its lift settled on: a start for the pitches near it
     small = _search_copies(photo, masks, visible)  # the search weighs pitches on copies at most SEARCH_SIDE_PX
 
-    def lift_at(p: float):
+    fov = est.fov_deg
+
+    def lift_at(p: float, f: float | None = None):
         ph, ms, vs = small if searching else (photo, masks, visible)
-        unit = PinholeCamera(ph.shape[1], ph.shape[0], est.fov_deg, p, (0.0, 0.0, 1.0))
+        unit = PinholeCamera(ph.shape[1], ph.shape[0], fov if f is None else f, p, (0.0, 0.0, 1.0))
         # the search starts each pitch from the nearest one's scale; the pitch taken is lifted as without the
         # search (from 1), so that where the cues' pitch stands the scene is the one the cues alone build
         start = scales[min(scales, key=lambda q: abs(q - p))] if scales and searching else 1.0
@@ -295,10 +297,19 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
         # so the silhouettes alone favour it
         strong = any(c.pitch_deg is not None and c.weight >= STRONG_CUE for c in est.cues)
         window = CUE_WINDOW_DEG if strong else 90.0
+        gain = STRONG_GAIN_FRACTION if strong else MIN_GAIN_FRACTION
+        free_fov = settings.render_compare_fov and cam_cfg.fov_deg is None and est.fov_source.startswith("default")
         try:
-            searched = search_pitch(lambda p: _scored(lift_at, p, small[1], labels, found), pitch,
-                                    max(est.min_pitch_deg, 0.0, pitch - window), min(MAX_PITCH_DEG, pitch + window),
-                                    gain_fraction=STRONG_GAIN_FRACTION if strong else MIN_GAIN_FRACTION)
+            if free_fov:  # no cue reads the field of view: it is searched with the pitch (align.compare.search_view)
+                feet = _feet(small[1])
+                searched = search_view(lambda p, f: _scored(lambda q: lift_at(q, f), p, small[1], labels, found),
+                                       pitch, fov,
+                                       lambda f: max(min_pitch(f, small[0].shape[0], feet), 0.0, pitch - window),
+                                       min(MAX_PITCH_DEG, pitch + window), gain_fraction=gain)
+            else:
+                searched = search_pitch(lambda p: _scored(lift_at, p, small[1], labels, found), pitch,
+                                        max(est.min_pitch_deg, 0.0, pitch - window),
+                                        min(MAX_PITCH_DEG, pitch + window), gain_fraction=gain)
         except ValueError:  # no pitch lifted a scene the search could score: the cues' pitch, as without it
             searched = None
             camera_info["render_compare"] = {"chosen": "cues", "skipped": "no pitch tried gave a scene"}
@@ -308,11 +319,19 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
             camera_info |= {"cue_pitch_deg": round(pitch, 3), "pitch_deg": round(searched.pitch_deg, 3),
                             "pitch_source": "render-and-compare (silhouettes, sizes, supports)"}
             pitch = searched.pitch_deg
+        if searched is not None and free_fov and searched.fov_deg != round(fov, 3):
+            camera_info |= {"fov_deg": round(searched.fov_deg, 3), "cue_fov_deg": round(fov, 3),
+                            "fov_source": "render-and-compare (silhouettes, sizes, supports)"}
+            fov = searched.fov_deg
     searching = False
     unit, lifted, supports, fit, scale = lift_at(pitch)
     lifted = [replace(m, vertices=m.vertices * scale, contact=m.contact * scale) for m in lifted]
     camera = PinholeCamera(w, h, unit.fov_deg, unit.pitch_deg, (0.0, 0.0, scale))
     return GroundLift(camera, lifted, supports, {"scale": fit.as_dict(camera.origin[2]), "camera": camera_info})
+
+
+def _feet(masks) -> list[float]:
+    return [foot_pixel(fill_holes(m))[1] for m in masks]
 
 
 def _search_copies(photo: np.ndarray, masks, visible):
@@ -355,10 +374,6 @@ def _lift_scaled(masks, labels, names, unit: PinholeCamera, settings: BuildSetti
     return lifted, supports, fit, fit.factor
 
 
-#: Largest log-ratio a single object adds to the size term (a failed lift counts, but does not swamp the rest).
-SIZE_LOG_CAP = math.log(4.0)
-
-
 def _scored(lift_at, pitch: float, masks, labels, found):
     """The render-and-compare score (``align.compare.score_scene``) of the scene ``lift_at(pitch)`` lifts; None
     where none can be lifted under that pitch (a foot above its horizon, a lift that fails)."""
@@ -366,32 +381,11 @@ def _scored(lift_at, pitch: float, masks, labels, found):
         unit, lifted, supports, fit, scale = lift_at(pitch)
     except (InputError, ValueError):
         return None
-    size_logs, thin = [], []
-    for m, label in zip(lifted, labels):
-        prior = size_prior(label)
-        ext = np.sort(_principal_extents(m.vertices * scale))
-        if prior is not None and prior.votes and ext[2] > 0:
-            size_logs.append(min(abs(math.log(ext[2] / prior.longest_m)), SIZE_LOG_CAP))
-            if prior.height_m:  # its height over its length, as the label's: free of the scene's scale
-                h = float(np.ptp(m.vertices[:, 2])) * scale
-                size_logs.append(min(abs(math.log(max(h, 1e-6) / ext[2] / (prior.height_m / prior.longest_m))),
-                                     SIZE_LOG_CAP))
-        flat = bool(prior and prior.height_m and prior.height_m <= FLAT_PRIOR_RATIO * (prior.longest_m or 0.0))
-        thin.append(0.0 if flat or ext[1] <= 0 else max(0.0, 1.0 - ext[0] / (ext[1] / 3.0)))
+    size_logs, thin = prior_terms([m.vertices for m in lifted], labels, scale)
     # a foot on another's face is the weakest reading of a support: a pitch that cannot keep it is not worse
     shown = [i for i, (_, how) in found.items() if how != "foot"]
     lost = sum(i not in supports for i in shown) / len(shown) if shown else 0.0
     return score_scene([m.vertices for m in lifted], [m.faces for m in lifted], unit, masks, size_logs, thin, lost)
-
-
-def _principal_extents(vertices: np.ndarray) -> np.ndarray:
-    """(3,) extents of ``vertices`` along their principal axes (metres in, metres out)."""
-    v = vertices - vertices.mean(0)
-    try:
-        _, _, axes = np.linalg.svd(v, full_matrices=False)
-    except np.linalg.LinAlgError:
-        return np.ptp(vertices, axis=0)
-    return np.ptp(v @ axes.T, axis=0)
 
 
 def place_on_ground(lifted, names, gap_m: float) -> PhotoScene:

@@ -9,6 +9,10 @@ user gives (``--size LABEL=METRES``, longest dimension) replace the votes;
 ``--camera-height`` replaces them too. With neither, nor any label in the
 table, the camera is taken to stand 1 m above the ground, as before.
 
+A label of things made in every size (``BROAD_LABELS``: a box, a toy, a
+plant, a pot) votes only when no label of a narrower size does, or when the
+narrower ones are more than ``DISAGREE_FACTOR`` off it: a card or a cup says
+the scale, a box's typical size only guesses it.
 Objects of one label are one thing seen several times: they vote once, with
 the median of their sizes, so that eleven sweets do not outvote the one cup.
 When the votes disagree by more than ``DISAGREE_FACTOR`` (a whale among toys,
@@ -42,6 +46,13 @@ MAX_HANDHELD_M = 3.0
 #: Labels whose typical size is at most this are table-top things; under a reading, nothing in a photo of
 #: them grows past it (metres).
 TABLE_TOP_MAX_M = 1.0
+#: Labels of things made in every size (a ring box or a moving carton, a figurine or a plush, a seedling or a
+#: shrub, a flower pot or a stock pot): their typical size is a guess, not a measure, so they vote on the scale
+#: only when no label of a narrower size (a card, a coin, a cup, a fruit, a bottle, a book) does, or when the
+#: narrower ones read a scale more than DISAGREE_FACTOR off theirs (a card hung on a wall lifted as if it
+#: stood far off on the ground: one failed lift must not size the scene). Keywords of ``physomni_usd/sizes.py``.
+BROAD_LABELS = frozenset({"box", "toy", "figure", "plant", "flower", "pot", "bag", "basket", "package", "parcel",
+                          "bin", "crate", "container"})
 #: An object whose vote is this many times off a reading's scale is a failed lift under it, not a thing that
 #: size: it does not stop the reading from being a table top (it is that reading's outlier, and reported so).
 FAILED_LIFT_FACTOR = 10.0
@@ -124,9 +135,22 @@ def fit_scale(names, labels, longest_m, user_sizes: dict[str, float] | None = No
     if camera_height_m is not None:
         return ScaleFit(camera_height_m / unit_height_m, "camera-height", votes)
     priors = [v for v in votes if v["size_m"] is not None and v["measured_m"] > 0]
+    narrow = [v for v in priors if v["from"] not in {f"prior '{k}'" for k in BROAD_LABELS}]
+    broad = [v for v in priors if v not in narrow]
+    if narrow and broad and abs(_votes_log(narrow) - _votes_log(broad)) <= math.log(DISAGREE_FACTOR):
+        for v in priors:
+            if v not in narrow:
+                v |= {"inlier": False, "broad": "a label of things made in every size: it votes only where no "
+                                                "narrower one does"}
+        priors = narrow
     if priors:
         return _fit_priors(priors, votes, unit_height_m)
     return ScaleFit(DEFAULT_CAMERA_HEIGHT_M / unit_height_m, "default", votes)
+
+
+def _votes_log(votes: list[dict]) -> float:
+    """The robust mean of ``votes``' log(typical / measured)."""
+    return robust_log_mean([math.log(v["size_m"] / v["measured_m"]) for v in votes])[0]
 
 
 def _fit_priors(priors: list[dict], votes: list[dict], unit_height_m: float) -> ScaleFit:
