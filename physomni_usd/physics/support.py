@@ -85,3 +85,130 @@ def add_hidden_support(builder, objects, path_body: dict, ground_z: float, newto
                                       cfg=cfg, label=f"{o.path}/hidden_support")
         out.append(o.name)
     return out
+
+
+#: A stacked object's centre of mass is brought this far (m, or this fraction of its footprint's smaller side
+#: if less) inside the top of what holds it: on the edge, the solver's rocking tips it.
+STEADY_MARGIN = 0.01
+
+
+def _solid_com(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    import trimesh
+
+    mesh = trimesh.Trimesh(points, faces, process=False)
+    solid = mesh if mesh.is_watertight and mesh.volume > 0 else mesh.convex_hull
+    return np.asarray(solid.center_mass, float)
+
+
+def _top_under(supporter: np.ndarray, base_z: float, band: float) -> np.ndarray:
+    """(K, 2): the points of ``supporter`` seen from above at the height an object resting on it stands
+    (within ``band`` under ``base_z``), or its highest points where none are that high (a domed top)."""
+    z = supporter[:, 2]
+    top = supporter[z >= min(base_z, z.max()) - band, :2]
+    return np.unique(np.round(top, 6), axis=0)
+
+
+def _outside(region: np.ndarray, c: np.ndarray) -> float:
+    """Signed distance (m) of ``c`` (2,) outside the convex hull of ``region`` (K, 2); ≤ 0 inside."""
+    probe = np.column_stack([region, np.zeros(len(region))])
+    return overhang(probe, np.array([c[0], c[1], 0.0]))
+
+
+#: The top of what holds a stacked object is raised to its base by at most this fraction of its own height.
+RAISE_DEPTH = 0.15
+
+
+def raise_top(supporter: np.ndarray, foot: np.ndarray, base_z: float) -> np.ndarray:
+    """``supporter`` (N, 3) with its points under the convex hull of ``foot`` (K, 2, the base of what rests
+    on it), below ``base_z`` by no more than :data:`RAISE_DEPTH` of its height, raised to ``base_z``. A lifted
+    box's top follows its outline's upper edge, slanted or in steps; the box stacked on it stands on the
+    highest point, its centre of mass beyond it, and slides or tips off. Flat under the foot, it stands as the
+    photo shows; that part of the top is hidden from the camera by what stands on it."""
+    from scipy.spatial import Delaunay, QhullError
+
+    out = np.array(supporter, float)
+    try:
+        inside = Delaunay(np.unique(np.round(foot, 6), axis=0)).find_simplex(out[:, :2]) >= 0
+    except (QhullError, ValueError):
+        return out
+    lift = inside & (out[:, 2] < base_z) & (out[:, 2] >= base_z - RAISE_DEPTH * float(np.ptp(out[:, 2])))
+    out[lift, 2] = base_z
+    return out
+
+
+def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np.ndarray], list[dict]]:
+    """Vertex sets in which each object resting on another (``supports``: {upper: (lower, how)}) has its
+    centre of mass over the supporter's top, and what was moved. A lifted object stands where its outline's
+    foot is read, at a depth the photo hardly shows; a few centimetres too far forward of the box under it,
+    its centre of mass overhangs that box's top and, with nothing pushing it, it tips off (a box on a stack of
+    three fell 51 cm). It is shifted level, with whatever rests on it, the least that brings its centre of
+    mass :data:`STEADY_MARGIN` inside that top, towards the top's middle: the silhouette moves by the shift's
+    image, a few pixels, where a fall moves it off the frame. An object whose centre of mass overhangs its own
+    foot is left alone (no shift helps it), and so is one already steady. Lower objects first."""
+    verts = [np.asarray(v, float).copy() for v in vertex_sets]
+    above: dict[int, list[int]] = {}
+    for i, (j, _how) in supports.items():
+        above.setdefault(j, []).append(i)
+
+    def riders(i: int, seen: set) -> list[int]:
+        out = []
+        for k in above.get(i, []):
+            if k not in seen:
+                seen.add(k)
+                out += [k] + riders(k, seen)
+        return out
+
+    done = []
+    for i in sorted(supports, key=lambda k: float(verts[k][:, 2].min())):
+        j = supports[i][0]
+        pts = verts[i]
+        low = float(pts[:, 2].min())
+        band = max(CONTACT_BAND, CONTACT_BAND * float(np.ptp(pts[:, 2])))
+        com = _solid_com(pts, faces[i])
+        if overhang(pts, com) > OVERHANG:
+            continue  # it cannot stand on its own foot: no shift helps
+        region = _top_under(verts[j], low, band)
+        if len(region) < 3:
+            continue
+        foot = pts[pts[:, 2] <= low + band, :2]
+        margin = min(STEADY_MARGIN, 0.25 * float(np.ptp(foot, axis=0).min()) if len(foot) > 1 else STEADY_MARGIN)
+        c = com[:2]
+        if _outside(region, c) <= -margin:
+            continue
+        shift = np.zeros(2)
+        sight = com[:2] - np.asarray(eye, float)[:2] if eye is not None else np.zeros(2)
+        if np.linalg.norm(sight) > 1e-6:
+            # along the line of sight first: the photo hardly shows depth, so centring it there costs no pixel
+            d = sight / np.linalg.norm(sight)
+            reach = float(np.ptp(foot @ d)) if len(foot) > 1 else 0.0
+            along = float(np.clip((region.mean(axis=0) - c) @ d, -reach, reach))
+            shift = along * d
+            for k in [i] + riders(i, {i}):
+                verts[k][:, :2] += shift
+            pts, c = verts[i], c + shift
+            if _outside(region, c) <= -margin:
+                done.append({"object": i, "on": j, "shift_m": round(abs(along), 4), "along_sight": True})
+                continue
+        raised = raise_top(verts[j], foot, low)
+        if not np.array_equal(raised, verts[j]):
+            verts[j] = raised
+            region = _top_under(raised, low, band)
+            if _outside(region, c) <= -margin:
+                done.append({"object": i, "on": j, "shift_m": round(float(np.linalg.norm(shift)), 4),
+                             "raised_top": True})
+                continue
+        middle = region.mean(axis=0)
+        if _outside(region, middle) > -margin:  # a top too small for the margin: its middle is the best there is
+            t = 1.0
+        else:
+            lo, hi = 0.0, 1.0
+            for _ in range(30):
+                mid = 0.5 * (lo + hi)
+                lo, hi = (lo, mid) if _outside(region, c + mid * (middle - c)) <= -margin else (mid, hi)
+            t = hi
+        step = t * (middle - c)
+        for k in [i] + riders(i, {i}):
+            verts[k][:, :2] += step
+        done.append({"object": i, "on": j, "shift_m": round(float(np.linalg.norm(shift + step)), 4),
+                     "overhang_m": round(_outside(region, c - shift), 4)})
+    return verts, done
