@@ -56,3 +56,18 @@ def test_a_stepped_top_is_made_flat_under_the_foot_only():
     assert raised[:, 2].max() == 0.2
     assert np.all(raised[np.abs(raised[:, 0]) > 0.09, 2] <= v[np.abs(v[:, 0]) > 0.09, 2] + 1e-12)  # beyond: kept
     assert overhang(np.column_stack([foot, np.full(4, 0.2)]), np.array([0.0, 0.0, 0.3])) <= 0
+
+
+def test_only_what_stands_on_the_ground_gets_a_flat_foot():
+    """A ball on the ground is flattened where it rests; a ball held by it (as an orange in a bowl's mouth rests
+    on the rim by its roundness) is not, and goes down with it."""
+    def ball(z):
+        b = trimesh.creation.icosphere(subdivisions=3, radius=0.035)
+        b.apply_translation([0, 0, z])
+        return b
+
+    below, held = ball(0.035), ball(0.105)
+    verts, done = steady_stacks([below.vertices, held.vertices], [below.faces, held.faces], {1: (0, "on")}, None)
+    cut = {d["object"]: d["flat_foot_m"] for d in done if "flat_foot_m" in d}
+    assert set(cut) == {0}, done
+    assert np.allclose(verts[1], held.vertices - [0, 0, cut[0]], atol=1e-4)  # the report rounds the cut
