@@ -444,6 +444,7 @@ def _place(scene: Scene) -> None:
     align_info["solve"] = solved.info | {"objects": [{"name": o.name, **s} for o, s in
                                                      zip(scene.objects, solved.info["objects"])]}
     verts = solved.vertices if shapes[0] == "external" else _deepened(scene, camera, solved.vertices, align_info)
+    verts = _steadied(scene, camera, verts, faces, supports, align_info)
     verts = _separated(scene, camera, verts, faces, shapes, supports, align_info)
     _silhouette_report(scene, camera, verts, faces, align_info)
     centre = centring_offset(verts)
@@ -496,6 +497,20 @@ def _deepened(scene: Scene, camera, verts, align_info: dict) -> list:
     if done:
         align_info["deepened"] = done
     return out
+
+
+def _steadied(scene: Scene, camera, verts, faces, supports, align_info: dict) -> list:
+    """The placed vertices with every stacked object's centre of mass over the top of what holds it
+    (``physics.support.steady_stacks``), so that nothing unpushed tips off its support; before the separation
+    pass, which parts whatever a shift now presses."""
+    from .physics.support import steady_stacks
+
+    verts, done = steady_stacks(verts, faces, supports, camera.origin)
+    if done:
+        names = [o.name for o in scene.objects]
+        align_info["steadied"] = [d | {"object": names[d["object"]]} | ({"on": names[d["on"]]} if "on" in d else {})
+                                  for d in done]
+    return verts
 
 
 def _separated(scene: Scene, camera, verts, faces, shapes, supports, align_info: dict) -> list:

@@ -143,6 +143,30 @@ def test_a_fresh_scene_built_from_its_masks_meets_the_invariant(built, invariant
     assert not failed, f"{invariant} fails on {_scenes(failed)} (run seed {seed})"
 
 
+@pytest.mark.slow  # the same two scenes (the fixture is the module's)
+def test_frame_zero_of_every_fresh_scene_is_the_photo(built):
+    """Issue 39: frame 0 (composed before encoding) against the photo at least 40 dB, whatever the lift."""
+    seed, rows, _ = built
+    low = {r["seed"]: r.get("frame0_psnr_db") for r in rows
+           if not r.get("frame0_psnr_db", 0.0) >= general.LIMITS["frame0_psnr_db"]}
+    assert not low, f"frame 0 PSNR (dB) under {general.LIMITS['frame0_psnr_db']:g}: {low} (run seed {seed})"
+
+
+def test_the_pass_rates_count_frame_zero():
+    """The summary and its table carry the frame-0 pass rate and median (a row without the figure fails it)."""
+    row = {"seed": 1, "layout": "table", "mode": "masks", "objects_n": 0, "pitch_true": 30.0, "fov_true": 50.0,
+           "built": True, "simulated": True, "error": None, "objects": [], "max_overlap_m": 0.0,
+           "max_drift_m": 0.0, "max_turn_deg": 0.0, "thin": [], "pitch_error_deg": 1.0, "fov_error_frac": 0.0}
+    rows = [general._judge(dict(row, frame0_psnr_db=99.0)), general._judge(dict(row, seed=2, frame0_psnr_db=31.0)),
+            general._judge(dict(row, seed=3))]
+    s = general.summarise(rows)["masks"]
+    assert s["frame0"] == pytest.approx(1 / 3, abs=1e-3)
+    assert s["median"]["frame0_psnr_db"] == pytest.approx(65.0)
+    table = general.markdown({"n": 3, "seed": 0, "date": "today", "machine": "here", "size": [320, 240],
+                              "samples": 24, "seconds_per_scene": 1.0, "summary": {"masks": s}})
+    assert "frame 0 against the photo ≥ 40 dB" in table and "| 33 % |" in table
+
+
 def test_rest_turn_reads_a_tip_that_barely_moves_any_point():
     """A 2 cm cube turned 30° about its own centre over the take: no point moves 1 cm, the turn is 30°."""
     import trimesh

@@ -85,3 +85,190 @@ def add_hidden_support(builder, objects, path_body: dict, ground_z: float, newto
                                       cfg=cfg, label=f"{o.path}/hidden_support")
         out.append(o.name)
     return out
+
+
+#: A stacked object's centre of mass is brought this far (m, or this fraction of its footprint's smaller side
+#: if less) inside the top of what holds it: on the edge, the solver's rocking tips it.
+STEADY_MARGIN = 0.01
+
+
+def _solid_com(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    import trimesh
+
+    mesh = trimesh.Trimesh(points, faces, process=False)
+    solid = mesh if mesh.is_watertight and mesh.volume > 0 else mesh.convex_hull
+    return np.asarray(solid.center_mass, float)
+
+
+def _top_under(supporter: np.ndarray, base_z: float, band: float) -> np.ndarray:
+    """(K, 2): the points of ``supporter`` seen from above at the height an object resting on it stands
+    (within ``band`` under ``base_z``), or its highest points where none are that high (a domed top)."""
+    z = supporter[:, 2]
+    top = supporter[z >= min(base_z, z.max()) - band, :2]
+    return np.unique(np.round(top, 6), axis=0)
+
+
+def _outside(region: np.ndarray, c: np.ndarray) -> float:
+    """Signed distance (m) of ``c`` (2,) outside the convex hull of ``region`` (K, 2); ≤ 0 inside."""
+    probe = np.column_stack([region, np.zeros(len(region))])
+    return overhang(probe, np.array([c[0], c[1], 0.0]))
+
+
+#: The top of what holds a stacked object is raised to its base by at most this fraction of its own height.
+RAISE_DEPTH = 0.08
+
+
+def raise_top(supporter: np.ndarray, foot: np.ndarray, base_z: float) -> np.ndarray:
+    """``supporter`` (N, 3) with its points under the convex hull of ``foot`` (K, 2, the base of what rests
+    on it), below ``base_z`` by no more than :data:`RAISE_DEPTH` of its height, raised to ``base_z``. A lifted
+    box's top follows its outline's upper edge, slanted or in steps; the box stacked on it stands on the
+    highest point, its centre of mass beyond it, and slides or tips off. Flat under the foot, it stands as the
+    photo shows; that part of the top is hidden from the camera by what stands on it."""
+    from scipy.spatial import Delaunay, QhullError
+
+    out = np.array(supporter, float)
+    try:
+        inside = Delaunay(np.unique(np.round(foot, 6), axis=0)).find_simplex(out[:, :2]) >= 0
+    except (QhullError, ValueError):
+        return out
+    lift = inside & (out[:, 2] < base_z) & (out[:, 2] >= base_z - RAISE_DEPTH * float(np.ptp(out[:, 2])))
+    out[lift, 2] = base_z
+    return out
+
+
+def _cheapest_shift(region: np.ndarray, c: np.ndarray, margin: float, com: np.ndarray, eye) -> np.ndarray:
+    """The level shift (2,) of a centre of mass ``c`` into the convex hull of ``region`` by ``margin`` that moves
+    its image least: a shift along the line of sight from ``eye`` costs nothing, across it all its length (so
+    a level view forgives depth, a view from above forgives nothing). Where no point of the top is that far
+    inside, its deepest point."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        eq = ConvexHull(region).equations
+    except QhullError:
+        return region.mean(axis=0) - c
+    lo, hi = region.min(axis=0), region.max(axis=0)
+    g = np.stack(np.meshgrid(np.linspace(lo[0], hi[0], 48), np.linspace(lo[1], hi[1], 48)), -1).reshape(-1, 2)
+    depth = (g @ eq[:, :2].T + eq[:, 2]).max(axis=1)
+    ok = depth <= -margin
+    if not ok.any():
+        return g[np.argmin(depth)] - c
+    steps = g[ok] - c
+    ray = np.asarray(com, float) - np.asarray(eye, float) if eye is not None else np.zeros(3)
+    ray = ray / max(float(np.linalg.norm(ray)), 1e-12)
+    s3 = np.column_stack([steps, np.zeros(len(steps))])
+    across = s3 - np.outer(s3 @ ray, ray)
+    # a tenth of the length itself breaks ties: of the shifts the photo cannot tell apart, the shortest
+    return steps[np.argmin(np.linalg.norm(across, axis=1) + 0.1 * np.linalg.norm(steps, axis=1))]
+
+
+def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np.ndarray], list[dict]]:
+    """Vertex sets in which each object resting on another (``supports``: {upper: (lower, how)}) has its
+    centre of mass over the supporter's top, and what was moved. A lifted object stands where its outline's
+    foot is read, at a depth the photo hardly shows; a few centimetres too far forward of the box under it,
+    its centre of mass overhangs that box's top and, with nothing pushing it, it tips off (a box on a stack of
+    three fell 51 cm). First the top under its foot is made flat at its base (:func:`raise_top`: hidden by
+    it); where its centre of mass still overhangs, it is shifted level, with whatever rests on it, by the shift
+    into :data:`STEADY_MARGIN` inside that top that moves its image least (:func:`_cheapest_shift`): a few
+    pixels, where a fall moves it off the frame. An object whose centre of mass overhangs its own foot is left
+    alone (no shift helps it), and so is one already steady. Lower objects first. Before all that, every
+    object standing on a point on the ground gets a flat foot (:func:`flat_foot`), what rests on it lowered with
+    it (not one held by another object: an orange in a bowl's mouth, rounded, rests on its rim; flattened, it fell
+    24 cm)."""
+    verts = [np.asarray(v, float).copy() for v in vertex_sets]
+    above: dict[int, list[int]] = {}
+    for i, (j, _how) in supports.items():
+        above.setdefault(j, []).append(i)
+
+    def riders(i: int, seen: set) -> list[int]:
+        out = []
+        for k in above.get(i, []):
+            if k not in seen:
+                seen.add(k)
+                out += [k] + riders(k, seen)
+        return out
+
+    done = []
+    for i in sorted(range(len(verts)), key=lambda k: float(verts[k][:, 2].min())):
+        if i in supports:
+            continue  # on another object (an orange in a bowl's mouth): what holds it is not flat
+        verts[i], cut = flat_foot(verts[i])
+        if cut > 0:
+            for k in riders(i, {i}):
+                verts[k][:, 2] -= cut
+            done.append({"object": i, "flat_foot_m": round(cut, 4)})
+    for i in sorted(supports, key=lambda k: float(verts[k][:, 2].min())):
+        j = supports[i][0]
+        pts = verts[i]
+        low = float(pts[:, 2].min())
+        band = max(CONTACT_BAND, CONTACT_BAND * float(np.ptp(pts[:, 2])))
+        com = _solid_com(pts, faces[i])
+        if overhang(pts, com) > OVERHANG:
+            continue  # it cannot stand on its own foot: no shift helps
+        region = _top_under(verts[j], low, band)
+        if len(region) < 3:
+            continue
+        foot = pts[pts[:, 2] <= low + band, :2]
+        margin = min(STEADY_MARGIN, 0.25 * float(np.ptp(foot, axis=0).min()) if len(foot) > 1 else STEADY_MARGIN)
+        c = com[:2]
+        if _outside(region, c) <= -margin:
+            continue
+        raised = raise_top(verts[j], foot, low)
+        if not np.array_equal(raised, verts[j]):
+            # free: the top under its foot is hidden from the camera by what stands on it
+            verts[j] = raised
+            region = _top_under(raised, low, band)
+            if _outside(region, c) <= -margin:
+                done.append({"object": i, "on": j, "shift_m": 0.0, "raised_top": True})
+                continue
+        shift = _cheapest_shift(region, c, margin, com, eye)
+        for k in [i] + riders(i, {i}):
+            verts[k][:, :2] += shift
+        verts[j] = raise_top(verts[j], foot + shift, low)  # flat under where the foot now stands
+        done.append({"object": i, "on": j, "shift_m": round(float(np.linalg.norm(shift)), 4),
+                     "overhang_m": round(_outside(region, c), 4)})
+    return verts, done
+
+
+#: A rounded object standing on a point gets a flat contact this fraction of its smaller level half-width
+#: across (radius): a lifted fruit touches the ground at one vertex and any neighbour's touch rolls it away,
+#: where the real one rests on the patch its weight flattens.
+FOOT_FRACTION = 0.3
+#: The flattened cap is at most this fraction of the object's height (an orange: 2-3 mm).
+FOOT_CUT = 0.05
+
+
+def flat_foot(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """``points`` (N, 3) of an object resting on its lowest point with the cap under the height where its
+    contact is :data:`FOOT_FRACTION` of its half-width across made flat, and lowered by that height so that it
+    rests where it did; returns them and the cut (m, 0 when its foot was wide enough). A rounded base (a
+    fruit, a ball, a bottle's rim) then stands; a flat one is left as it is."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    pts = np.array(points, float)
+    z = pts[:, 2]
+    low, height = float(z.min()), float(np.ptp(z))
+    half = 0.5 * float(np.ptp(pts[:, :2], axis=0).min())
+    want = FOOT_FRACTION * half
+
+    def radius(h: float) -> float:
+        foot = pts[z <= low + h, :2]
+        if len(foot) < 3:
+            return 0.0
+        try:
+            return float(np.sqrt(ConvexHull(foot).volume / np.pi))  # a 2-d hull's volume is its area
+        except QhullError:
+            return 0.0
+
+    if height <= 0 or radius(max(1e-4, 1e-3 * height)) >= want:
+        return pts, 0.0
+    lo, hi = 0.0, FOOT_CUT * height
+    if radius(hi) < want:
+        cut = hi
+    else:
+        for _ in range(20):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if radius(mid) < want else (lo, mid)
+        cut = hi
+    pts[:, 2] = np.maximum(z, low + cut) - cut
+    return pts, cut

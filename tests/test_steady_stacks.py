@@ -1,0 +1,73 @@
+"""Issue 38, part 1 (nothing unpushed moves): the build's steadying pass (``physics.support.steady_stacks``)
+on meshes made here. A rounded object gets a flat foot where it rests, a box stacked forward of the box under it
+is brought over that box's top, the cheapest way for the photo's camera, and a stepped top is made flat under
+what stands on it. The simulated effect is measured by ``bench general`` and tests/test_gallery_rest.py."""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+
+from physomni_usd.physics.support import (FOOT_FRACTION, _outside, _top_under, flat_foot, overhang, raise_top,
+                                          steady_stacks)
+
+
+def _box(size, centre):
+    m = trimesh.creation.box(size)
+    m.apply_translation(centre)
+    return trimesh.Trimesh(m.vertices, m.faces)
+
+
+def test_a_ball_gets_a_flat_foot_and_a_box_keeps_its_own():
+    ball = trimesh.creation.icosphere(subdivisions=3, radius=0.035)
+    ball.apply_translation([0, 0, 0.035])
+    pts, cut = flat_foot(ball.vertices)
+    assert 0 < cut <= 0.05 * 0.07
+    assert abs(pts[:, 2].min()) < 1e-9  # it rests where it did
+    foot = pts[pts[:, 2] <= 1e-6, :2]
+    from scipy.spatial import ConvexHull
+    assert np.sqrt(ConvexHull(foot).volume / np.pi) >= FOOT_FRACTION * 0.035 * 0.9
+    box = _box((0.1, 0.06, 0.04), (0, 0, 0.02))
+    same, cut = flat_foot(box.vertices)
+    assert cut == 0 and np.array_equal(same, box.vertices)
+
+
+def test_a_box_stacked_forward_of_its_support_is_brought_over_it_along_the_line_of_sight():
+    lower = _box((0.2, 0.08, 0.2), (0, 0, 0.1))
+    upper = _box((0.12, 0.05, 0.2), (0, -0.06, 0.3))  # 6 cm nearer the camera: its centre beyond the top
+    eye = np.array([0.0, -2.0, 0.3])  # level view from the front: depth is what the photo cannot show
+    com = upper.center_mass
+    top = _top_under(lower.vertices, 0.2, 0.01)
+    assert _outside(top, com[:2]) > 0
+    verts, done = steady_stacks([lower.vertices, upper.vertices], [lower.faces, upper.faces], {1: (0, "on")}, eye)
+    moved = verts[1].mean(axis=0) - upper.vertices.mean(axis=0)
+    new_com = com + moved
+    assert _outside(top, new_com[:2]) <= -0.009, done
+    assert abs(moved[0]) < 0.1 * abs(moved[1]) and abs(moved[2]) < 1e-9, moved  # along the sight (y), level
+    assert np.array_equal(verts[0], lower.vertices)
+
+
+def test_a_stepped_top_is_made_flat_under_the_foot_only():
+    lower = _box((0.2, 0.08, 0.2), (0, 0, 0.1))
+    v = lower.vertices.copy()
+    v[(v[:, 0] > 0) & (v[:, 2] > 0.19), 2] = 0.19  # the right half of the top 1 cm lower: a step
+    foot = np.array([[-0.05, -0.03], [0.08, -0.03], [0.08, 0.03], [-0.05, 0.03]])
+    raised = raise_top(v, foot, 0.2)
+    assert raised[:, 2].max() == 0.2
+    assert np.all(raised[np.abs(raised[:, 0]) > 0.09, 2] <= v[np.abs(v[:, 0]) > 0.09, 2] + 1e-12)  # beyond: kept
+    assert overhang(np.column_stack([foot, np.full(4, 0.2)]), np.array([0.0, 0.0, 0.3])) <= 0
+
+
+def test_only_what_stands_on_the_ground_gets_a_flat_foot():
+    """A ball on the ground is flattened where it rests; a ball held by it (as an orange in a bowl's mouth rests
+    on the rim by its roundness) is not, and goes down with it."""
+    def ball(z):
+        b = trimesh.creation.icosphere(subdivisions=3, radius=0.035)
+        b.apply_translation([0, 0, z])
+        return b
+
+    below, held = ball(0.035), ball(0.105)
+    verts, done = steady_stacks([below.vertices, held.vertices], [below.faces, held.faces], {1: (0, "on")}, None)
+    cut = {d["object"]: d["flat_foot_m"] for d in done if "flat_foot_m" in d}
+    assert set(cut) == {0}, done
+    assert np.allclose(verts[1], held.vertices - [0, 0, cut[0]], atol=1e-4)  # the report rounds the cut
