@@ -798,22 +798,24 @@ class ShotRenderer:
         region = image[y0:y1, x0:x1]
         np.copyto(region, plate_u8[y0:y1, x0:x1], where=(m_own >= 1.0)[..., None])
         hit = obj >= 0
-        fy, fx = np.nonzero(hit | (sh > 0.5 / 255.0) | ((m_own > 0.0) & (m_own < 1.0)))
-        if not len(fy):
+        drawn = hit | (sh > 0.5 / 255.0) | ((m_own > 0.0) & (m_own < 1.0))
+        if not drawn.any():
             return image
-        ph = self.photo[y0 + fy, x0 + fx]
-        m = m_own[fy, fx]
-        out = ph + m[:, None] * (self.plate[y0 + fy, x0 + fx] - ph)
-        out *= (1.0 - sh[fy, fx])[:, None]
-        seen = hit[fy, fx]
-        hy, hx = fy[seen], fx[seen]
+        # over the whole box, not gathered pixel by pixel: most of a box is drawn, and numpy's whole-array
+        # arithmetic costs a fraction of its gathers and scatters at a 12 MP photo's frame size
+        ph = self.photo[y0:y1, x0:x1]
+        out = self.plate[y0:y1, x0:x1] - ph
+        out *= m_own[..., None]
+        out += ph
+        out *= (1.0 - sh)[..., None]
+        hy, hx = np.nonzero(hit)
         if len(hy):
             k = obj[hy, hx]
             tx, ty = pxr[hy, hx, 0], pxr[hy, hx, 1]
             colour = _sample(self.atlas_rgb, tx - 0.5, ty - 0.5).astype(np.float32)
             colour *= shade[hy, hx][:, None]
-            p0 = ph[seen]
-            colour = p0 + np.maximum(moved[k], m[seen])[:, None] * (colour - p0)
+            p0 = ph[hy, hx]
+            colour = p0 + np.maximum(moved[k], m_own[hy, hx])[:, None] * (colour - p0)
             alpha = np.clip(_sample(self.atlas_alpha, tx - 0.5, ty - 0.5), 0.0, 1.0)
             if np.any(moved[k] < 1.0):  # an object in place is drawn only where it shows the photo's own pixel
                 crop = tx < self.photo_width[k]
@@ -821,9 +823,10 @@ class ShotRenderer:
                 d = np.hypot((tx + shift[:, 0]) / per[:, 0] * self.to_frame[0] - (hx + x0 + 0.5),
                              (ty + shift[:, 1]) / per[:, 1] * self.to_frame[1] - (hy + y0 + 0.5))
                 alpha *= np.maximum(moved[k], crop & (d <= IN_PLACE_PX + REVEAL_PX))
-            o0 = out[seen]
-            out[seen] = o0 + alpha[:, None] * (colour - o0)
-        region[fy, fx] = np.clip(out + 0.5, 0, 255).astype(np.uint8)
+            o0 = out[hy, hx]
+            out[hy, hx] = o0 + alpha[:, None] * (colour - o0)
+        out += 0.5
+        np.copyto(region, np.clip(out, 0, 255).astype(np.uint8), where=drawn[..., None])
         return image
 
     def _upsample(self, grid: np.ndarray, y0: int, x0: int, y1: int, x1: int, i_lo: int, j_lo: int) -> np.ndarray:
