@@ -259,17 +259,23 @@ def source_atlas(renderer) -> np.ndarray:
     came from — its own place for the photo crop; for the opaque copy of the unseen sides, the place
     ``texture.sides.copy_sources`` takes it from; NaN for objects not placed in the photo."""
     atlas = np.full(renderer.atlas_rgb.shape[:2] + (2,), np.nan, np.float32)
+    scales = getattr(renderer, "atlas_scale", None)
     row = 0
-    for o in renderer.objects:
+    for k, o in enumerate(renderer.objects):
         th, tw = o.texture.shape[:2]
+        # the atlas holds each texture at the frame's scale (rendering.video._at_scale)
+        sx, sy = scales[k] if scales is not None else (1.0, 1.0)
+        ah = round(th * sy)
         if o.origin is not None:
             cw = tw // 2 if o.two_sided else tw
             ys, xs = np.mgrid[:th, :cw].astype(np.float32)
             own = np.stack([xs + o.origin[0], ys + o.origin[1]], -1)
-            atlas[row:row + th, :cw] = own
             if o.two_sided:
-                atlas[row:row + th, cw:2 * cw] = copy_sources(o.texture[:, :cw, 3] >= 128) + o.origin
-        row += th
+                own = np.concatenate([own, copy_sources(o.texture[:, :cw, 3] >= 128) + o.origin], 1)
+            if (sx, sy) != (1.0, 1.0):
+                own = cv2.resize(own, (round(own.shape[1] * sx), ah), interpolation=cv2.INTER_LINEAR)
+            atlas[row:row + own.shape[0], :own.shape[1]] = own
+        row += ah
     return atlas
 
 

@@ -123,7 +123,7 @@ class ShotRenderer:
         self.device = pick_device(settings.device)
         self.size = float(np.median([o.height for o in self.objects])) if self.objects else 1.0
         self._rays_key = None
-        self._build_atlas()
+        self._build_atlas(scale)
         self.photo_camera = read_photo_camera(stage, self.width, self.height)
         self.environment = _environment(self)
         self._read_wide_plate(stage, scale, (w, h))
@@ -220,33 +220,39 @@ class ShotRenderer:
         self.photo, self.owner = photo.astype(np.float32), owner
         self.to_frame = (self.width / w, self.height / h)  # photo pixels → frame pixels
 
-    def _build_atlas(self) -> None:
-        """Stack every texture in one RGBA atlas and map each triangle corner to atlas pixels."""
-        widths = [o.texture.shape[1] for o in self.objects] or [1]
+    def _build_atlas(self, scale: float = 1.0) -> None:
+        """Stack every texture in one RGBA atlas and map each triangle corner to atlas pixels. ``scale``: the
+        frame's size over the photo's; textures are stacked at it (a 12 MP photo's own textures make a 29 MP
+        atlas, which the frame samples at under half its resolution), so the atlas costs what the frame does."""
+        textures = [_at_scale(o.texture, o.two_sided, scale) for o in self.objects]
+        widths = [t.shape[1] for t in textures] or [1]
         atlas_w = max(widths)
         offsets, y = [], 0
-        for o in self.objects:
+        for t in textures:
             offsets.append(y)
-            y += o.texture.shape[0]
+            y += t.shape[0]
         atlas = np.zeros((max(y, 1), atlas_w, 4), np.uint8)
         faces, corners, base = [], [], 0
-        # atlas pixel → photo pixel, per object: + (x0, y0 − its row in the atlas)
-        self.atlas_to_photo = np.array([(o.origin[0], o.origin[1] - y0) if o.origin is not None else (0, 0)
-                                        for o, y0 in zip(self.objects, offsets)] + [(0, 0)], np.float32)
+        #: per object, atlas pixels over its texture's own pixels (x, y): the rounding of each texture's size
+        self.atlas_scale = np.array([(t.shape[1] / o.texture.shape[1], t.shape[0] / o.texture.shape[0])
+                                     for o, t in zip(self.objects, textures)] + [(1.0, 1.0)], np.float32)
+        # atlas pixel → photo pixel, per object: (atlas pixel + (x0, y0) · its scale − its row in the atlas)
+        # / its scale
+        self.atlas_to_photo = np.array([(o.origin[0] * sc[0], o.origin[1] * sc[1] - y0) if o.origin is not None
+                                        else (0, 0) for o, y0, sc in zip(self.objects, offsets, self.atlas_scale)]
+                                       + [(0, 0)], np.float32)
         self.face_object = np.concatenate([np.full(len(o.faces), k, np.int32) for k, o in enumerate(self.objects)]
                                           + [np.zeros(0, np.int32)])
-        for o, y0 in zip(self.objects, offsets):
-            th, tw = o.texture.shape[:2]
-            atlas[y0:y0 + th, :tw] = o.texture
+        for o, t, y0 in zip(self.objects, textures, offsets):
+            th, tw = t.shape[:2]
+            atlas[y0:y0 + th, :tw] = t
             cs = o.corner_st.reshape(-1, 2)
             corners.append(np.stack([cs[:, 0] * tw, (1.0 - cs[:, 1]) * th + y0], 1))
             faces.append(o.faces + base)
             base += len(o.st)
         # textures holding [photo crop | unseen sides] are twice the crop's width: the crop's own width
-        self.photo_width = np.array([o.texture.shape[1] // 2 if o.two_sided else o.texture.shape[1]
-                                     for o in self.objects] + [0], np.float32)
-        # bytes, not floats: a 12 MP photo's atlas is 29 MP (334 MB as floats); a frame's colours are sampled
-        # from it and made floats at the frame's size
+        self.photo_width = np.array([t.shape[1] // 2 if o.two_sided else t.shape[1]
+                                     for o, t in zip(self.objects, textures)] + [0], np.float32)
         self.atlas_rgb = np.ascontiguousarray(atlas[..., :3])
         self.atlas_alpha = atlas[..., 3].astype(np.float32) / 255.0
         self.faces = np.concatenate(faces) if faces else np.zeros((0, 3), np.int64)
@@ -473,9 +479,9 @@ class ShotRenderer:
         hit = (obj >= 0) & (px[..., 0] < self.photo_width[np.maximum(obj, 0)])
         ys, xs = np.nonzero(hit)
         k = obj[hit]
-        shift = self.atlas_to_photo[k]
-        sx = (px[hit][:, 0] + shift[:, 0]) * self.to_frame[0]
-        sy = (px[hit][:, 1] + shift[:, 1]) * self.to_frame[1]
+        shift, per = self.atlas_to_photo[k], self.atlas_scale[k]
+        sx = (px[hit][:, 0] + shift[:, 0]) / per[:, 0] * self.to_frame[0]
+        sy = (px[hit][:, 1] + shift[:, 1]) / per[:, 1] * self.to_frame[1]
         return hit, k, np.hypot(sx - (xs + at[0] + 0.5), sy - (ys + at[1] + 0.5))
 
     def _moved(self, obj: np.ndarray, px: np.ndarray) -> np.ndarray:
@@ -729,7 +735,7 @@ class ShotRenderer:
         g_hit = g_face >= 0
         g_obj = np.where(g_hit, self.face_object[np.maximum(g_face, 0)], -1)
         # cells whose four samples see one surface mapped smoothly: interpolated, not cast
-        tol = SMOOTH_PX / min(self.to_frame)
+        tol = SMOOTH_PX * float(self.atlas_scale.max()) / min(self.to_frame)  # frame pixels → atlas pixels
         # per texture axis (planes, not a last axis of two: numpy reduces short last axes slowly)
         planes = [np.where(g_hit, g_px[..., k], np.float32(np.nan)) for k in (0, 1)]
         bend = np.full(g_hit.shape, np.inf, np.float32)
@@ -792,32 +798,35 @@ class ShotRenderer:
         region = image[y0:y1, x0:x1]
         np.copyto(region, plate_u8[y0:y1, x0:x1], where=(m_own >= 1.0)[..., None])
         hit = obj >= 0
-        fy, fx = np.nonzero(hit | (sh > 0.5 / 255.0) | ((m_own > 0.0) & (m_own < 1.0)))
-        if not len(fy):
+        drawn = hit | (sh > 0.5 / 255.0) | ((m_own > 0.0) & (m_own < 1.0))
+        if not drawn.any():
             return image
-        ph = self.photo[y0 + fy, x0 + fx]
-        m = m_own[fy, fx]
-        out = ph + m[:, None] * (self.plate[y0 + fy, x0 + fx] - ph)
-        out *= (1.0 - sh[fy, fx])[:, None]
-        seen = hit[fy, fx]
-        hy, hx = fy[seen], fx[seen]
+        # over the whole box, not gathered pixel by pixel: most of a box is drawn, and numpy's whole-array
+        # arithmetic costs a fraction of its gathers and scatters at a 12 MP photo's frame size
+        ph = self.photo[y0:y1, x0:x1]
+        out = self.plate[y0:y1, x0:x1] - ph
+        out *= m_own[..., None]
+        out += ph
+        out *= (1.0 - sh)[..., None]
+        hy, hx = np.nonzero(hit)
         if len(hy):
             k = obj[hy, hx]
             tx, ty = pxr[hy, hx, 0], pxr[hy, hx, 1]
             colour = _sample(self.atlas_rgb, tx - 0.5, ty - 0.5).astype(np.float32)
             colour *= shade[hy, hx][:, None]
-            p0 = ph[seen]
-            colour = p0 + np.maximum(moved[k], m[seen])[:, None] * (colour - p0)
+            p0 = ph[hy, hx]
+            colour = p0 + np.maximum(moved[k], m_own[hy, hx])[:, None] * (colour - p0)
             alpha = np.clip(_sample(self.atlas_alpha, tx - 0.5, ty - 0.5), 0.0, 1.0)
             if np.any(moved[k] < 1.0):  # an object in place is drawn only where it shows the photo's own pixel
                 crop = tx < self.photo_width[k]
-                shift = self.atlas_to_photo[k]
-                d = np.hypot((tx + shift[:, 0]) * self.to_frame[0] - (hx + x0 + 0.5),
-                             (ty + shift[:, 1]) * self.to_frame[1] - (hy + y0 + 0.5))
+                shift, per = self.atlas_to_photo[k], self.atlas_scale[k]
+                d = np.hypot((tx + shift[:, 0]) / per[:, 0] * self.to_frame[0] - (hx + x0 + 0.5),
+                             (ty + shift[:, 1]) / per[:, 1] * self.to_frame[1] - (hy + y0 + 0.5))
                 alpha *= np.maximum(moved[k], crop & (d <= IN_PLACE_PX + REVEAL_PX))
-            o0 = out[seen]
-            out[seen] = o0 + alpha[:, None] * (colour - o0)
-        region[fy, fx] = np.clip(out + 0.5, 0, 255).astype(np.uint8)
+            o0 = out[hy, hx]
+            out[hy, hx] = o0 + alpha[:, None] * (colour - o0)
+        out += 0.5
+        np.copyto(region, np.clip(out, 0, 255).astype(np.uint8), where=drawn[..., None])
         return image
 
     def _upsample(self, grid: np.ndarray, y0: int, x0: int, y1: int, x1: int, i_lo: int, j_lo: int) -> np.ndarray:
@@ -857,6 +866,18 @@ class ShotRenderer:
 
 #: Points in a row of the maps :func:`_sample` gives cv2.remap (which takes fewer than 32767).
 REMAP_ROW = 16384
+
+
+def _at_scale(texture: np.ndarray, two_sided: bool, scale: float) -> np.ndarray:
+    """``texture`` (h, w, 4) uint8 resized by ``scale`` (≤ 1), a two-sided one's halves (the photo crop, its
+    unseen sides) each on its own so that neither bleeds into the other; as it is at 1. Colours reach past the
+    alpha edge (texture.objects.crop_texture), so an area average there keeps the object's colours."""
+    if scale >= 1.0:
+        return texture
+    halves = np.split(texture, 2, axis=1) if two_sided else [texture]
+    h, w = halves[0].shape[:2]
+    size = (max(1, round(w * scale)), max(1, round(h * scale)))
+    return np.concatenate([cv2.resize(t, size, interpolation=cv2.INTER_AREA) for t in halves], axis=1)
 
 
 def _sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:

@@ -108,16 +108,31 @@ def crop_texture(photo: np.ndarray, mask: np.ndarray, pad: int = PAD) -> tuple[n
 
 
 def extend_colours(rgb: np.ndarray, mask: np.ndarray, steps: int) -> np.ndarray:
-    """Grow the colours inside ``mask`` outward by ``steps`` pixels (mean of known neighbours)."""
-    known = mask.astype(bool).copy()
+    """Grow the colours inside ``mask`` outward by ``steps`` pixels (mean of known neighbours).
+
+    Step k reaches the pixels k from the mask (chessboard distance), each the mean of its neighbours reached
+    before it; only those rings are worked on (a 12 MP photo's crop filtered whole at each step cost seconds)."""
+    known = mask.astype(bool)
     out = rgb.astype(np.float32)
-    kernel = np.ones((3, 3), np.float32)
-    for _ in range(steps):
-        if known.all():
+    if known.all() or not known.any():
+        return np.clip(out + 0.5, 0, 255).astype(np.uint8)
+    h, w = known.shape
+    # the distance grown at, padded by one so that a pixel's eight neighbours are always addressable
+    ring = np.full((h + 2, w + 2), np.inf, np.float32)
+    ring[1:-1, 1:-1] = cv2.distanceTransform((~known).astype(np.uint8), cv2.DIST_C, 3)
+    padded = np.zeros((h + 2, w + 2, out.shape[2]), np.float32)
+    padded[1:-1, 1:-1] = out
+    offsets = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx]
+    for k in range(1, steps + 1):
+        ys, xs = np.nonzero(ring == k)
+        if not len(ys):
             break
-        w = cv2.filter2D(known.astype(np.float32), -1, kernel, borderType=cv2.BORDER_CONSTANT)
-        s = cv2.filter2D(out * known[..., None], -1, kernel, borderType=cv2.BORDER_CONSTANT)
-        grow = (~known) & (w > 0)
-        out[grow] = s[grow] / w[grow][:, None]
-        known |= grow
+        total = np.zeros((len(ys), out.shape[2]), np.float32)
+        count = np.zeros(len(ys), np.float32)
+        for dy, dx in offsets:
+            before = ring[ys + dy, xs + dx] < k
+            total += padded[ys + dy, xs + dx] * before[:, None]
+            count += before
+        padded[ys, xs] = total / count[:, None]
+    out = padded[1:-1, 1:-1]
     return np.clip(out + 0.5, 0, 255).astype(np.uint8)
