@@ -116,17 +116,3 @@ def test_simulate_captured_as_graphs_steps_as_launched(tmp_path, monkeypatch, fi
     assert graph["guard"]["work_j"] == pytest.approx(launched["guard"]["work_j"], rel=1e-4, abs=1e-6)
     if field:
         assert graph["guard"]["work_j"] > 0.1
-
-
-def test_restitution_passes_follow_the_travel_per_substep_against_the_thinnest_collider():
-    """A frame of a fast impact runs the extra restitution passes where a substep's travel is a sizeable part of
-    the thinnest collider (a 5 mm spoon at 3 m/s, 55 substeps) and Newton's few where it is not (20 cm boxes
-    falling at 3 m/s, 8 substeps); a frame at rest runs the few either way."""
-    from physomni_usd.physics.stability import RESTITUTION_PASSES, StepPlan
-
-    thin = StepPlan(30.0, 55, thinnest=0.005)
-    boxes = StepPlan(30.0, 8, thinnest=0.2)
-    assert thin.restitution_passes(3.0) == RESTITUTION_PASSES[0]
-    assert boxes.restitution_passes(3.0) == RESTITUTION_PASSES[1]
-    assert thin.restitution_passes(0.1) == RESTITUTION_PASSES[1]
-    assert RESTITUTION_PASSES[0] > RESTITUTION_PASSES[1]

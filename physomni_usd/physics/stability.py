@@ -56,9 +56,8 @@ BOUNCY = 0.3
 #: stopped falling at 4. The CFL bound (below) asks for more; the implicit solver is stable without.
 MPM_STEPS = {"elastic": 16, "granular": 4, "liquid": 2}
 ENERGY_TOLERANCE = 0.05
-#: Outer passes of XPBD's restitution solve in a frame that may hold an impact of a thin body (something moving
-#: faster than ``IMPACT_SPEED`` at its start, by ``THIN_TRAVEL`` of the thinnest collider a substep), and in any
-#: other frame (Newton's default). The pass couples the contacts
+#: Outer passes of XPBD's restitution solve in a frame that may hold an impact (something moving faster than
+#: ``IMPACT_SPEED`` at its start), and in any other frame (Newton's default). The pass couples the contacts
 #: of different body pairs by averaging, so a body pressed between two others (a saucer under a thrown spoon,
 #: on the ground) converges one pair per pass; at 2 it stops halfway, and what is left is the velocity the
 #: position correction gave while pushing the overlap out, which the next substep keeps as a separation: a
@@ -69,17 +68,6 @@ RESTITUTION_PASSES = (16, 2)
 #: m/s: a frame whose fastest body starts slower than this holds no impact worth the passes (objects at
 #: rest, a start overlap separating at up to ``depenetration.SEPARATION_SPEED``).
 IMPACT_SPEED = 0.15
-#: An impact needs the passes only where a substep's travel (the frame's fastest speed, plus what the
-#: acceleration adds in a frame, times the step) is at least this fraction of the thinnest collider. What
-#: too few passes leave is the velocity the position correction gave while pushing out an overlap over one
-#: step; the overlap is a part of the travel per substep, so it shows as a bounce where that travel is a
-#: sizeable part of a body's thickness: a thin body, whose step the tunnelling rule set (which holds the
-#: travel at the reachable speed to half the thinnest). Travel / thinnest in the frame of the impact, from
-#: ``simulate``: the 5 mm spoon thrown at 3 m/s onto a plate or saucer 0.40 (55 substeps), the 2 cm tile onto
-#: a 1.5 cm disc 0.37 (20), the 10 cm ball onto the ground 0.07 at 16 substeps and 0.14 at 8 (one contact
-#: pair: nothing to couple, it bounces as its restitution says at 2 passes); twenty 20 cm boxes falling into a
-#: pile at up to 3 m/s at most 0.07 (8).
-THIN_TRAVEL = 0.2
 #: Energies below this (J) are noise, not growth.
 ENERGY_FLOOR = 1e-3
 
@@ -147,14 +135,8 @@ class StepPlan:
 
     def restitution_passes(self, speed: float) -> int:
         """Outer passes of the restitution solve for a frame starting at ``speed`` (m/s; see
-        :data:`RESTITUTION_PASSES` and :data:`THIN_TRAVEL`)."""
-        if speed <= IMPACT_SPEED:
-            return RESTITUTION_PASSES[1]
-        if self.thinnest:
-            travel = (speed + self.acceleration / self.fps) * self.dt
-            if travel < THIN_TRAVEL * self.thinnest:
-                return RESTITUTION_PASSES[1]
-        return RESTITUTION_PASSES[0]
+        :data:`RESTITUTION_PASSES`)."""
+        return RESTITUTION_PASSES[0] if speed > IMPACT_SPEED else RESTITUTION_PASSES[1]
 
     @property
     def dt(self) -> float:
