@@ -24,6 +24,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from .support import riders
+
 #: A pair deeper in each other than this (metres) is separated; the contact margin is what is left.
 TARGET_M = 0.0015
 #: What each remedy leaves between the pair once it separates them (metres), under the 2 mm of a contact.
@@ -85,19 +87,6 @@ def silhouette_change(camera, before: dict, after: dict, shape: tuple[int, int])
         union = (a | b).sum()
         total += 0.0 if union == 0 else 1.0 - (a & b).sum() / union
     return total
-
-
-def _riders(i: int, supports: dict) -> list[int]:
-    """``i`` and every object resting on it, directly or through others."""
-    out = [i]
-    grew = True
-    while grew:
-        grew = False
-        for k, (j, _) in supports.items():
-            if j in out and k not in out:
-                out.append(k)
-                grew = True
-    return out
 
 
 def _least(separated, hi: float, lo: float = 0.0, limit: float = np.inf) -> float | None:
@@ -216,14 +205,14 @@ def _with_riders(changed: dict, moved: int, verts, supports, how: str, amount: f
     """``changed`` with every object resting on ``moved`` carried along: by the same move, or, for a shrink,
     by the drop of the top of what holds them."""
     out = dict(changed)
-    riders = [k for k in _riders(moved, supports) if k != moved]
-    if not riders:
+    carried = [k for k in riders(moved, supports) if k != moved]
+    if not carried:
         return out
     delta = np.zeros(3)
     if how in ("up", "apart"):
         delta = out[moved].mean(0) - verts[moved].mean(0)
     else:
         delta[2] = float(out[moved][:, 2].max() - verts[moved][:, 2].max())
-    for k in riders:
+    for k in carried:
         out[k] = verts[k] + delta
     return out

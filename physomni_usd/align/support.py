@@ -245,7 +245,8 @@ RAISE_TO = 1.0
 LAND_FRACTION = 0.35
 
 
-def _riders_of(i: int, supports: dict) -> list[int]:
+def riders(i: int, supports: dict) -> list[int]:
+    """``i`` and every object resting on it, directly or through others (``supports``: {upper: (lower, how)})."""
     out, grew = [i], True
     while grew:
         grew = False
@@ -285,13 +286,13 @@ def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0) -> 
         # what holds others up stands on the ground (a stack on a shelf is left where the cues put it)
         if typical[i] is None or lifted[i].info.get("foot") or i in holders:
             continue
-        others = [j for j in range(n) if j != i and typical[j] is not None and j not in _riders_of(i, supports)]
+        others = [j for j in range(n) if j != i and typical[j] is not None and j not in riders(i, supports)]
         if not others:
             continue
         # the scene's scale as the others' sizes read it: each is its typical size over its lifted one
         ref = float(np.exp(np.median([np.log(typical[j] / max(longest[j], 1e-9)) for j in others])))
         ratio = ref * longest[i] / typical[i]
-        ground = [j for j in free if j != i and j not in _riders_of(i, supports)]
+        ground = [j for j in free if j != i and j not in riders(i, supports)]
         behind = bool(ground) and reach(i)[0] > max(reach(j)[1] for j in ground)
         if ratio <= RAISE_RATIO or not behind:
             continue
@@ -303,7 +304,7 @@ def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0) -> 
         centre = moved[:, :2].mean(0)
         land = None
         for j in range(n):
-            if j in _riders_of(i, supports):
+            if j in riders(i, supports):
                 continue
             top = float(lifted[j].vertices[:, 2].max())
             hull = footprint(lifted[j].vertices).astype(np.float32).reshape(-1, 1, 2)
@@ -312,7 +313,7 @@ def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0) -> 
                 land = (j, top)
         if land is not None:  # on what is under it: the depth at which its base meets that top
             t = (land[1] - origin[2]) / (base0 - origin[2])
-        for k in _riders_of(i, supports):
+        for k in riders(i, supports):
             m = lifted[k]
             m.vertices = origin + t * (m.vertices - origin)
             m.contact = origin + t * (np.asarray(m.contact, float) - origin)
