@@ -19,29 +19,43 @@ COMPLETED_ALPHA = 254
 #: photo shows it hiding it (:func:`occlusion_kept`) hides nothing of it: nothing is painted behind it (a big
 #: concave object's closure takes in the bench behind it; painted, that is a grey slab once it moves).
 OCCLUSION_BELIEVED = 0.5
+#: Width, as a fraction of the image's longer side (at least :data:`EDGE_BAND_MIN` pixels), of the band of an
+#: object's visible pixels along what hides it that :func:`complete_texture` neither takes colours from nor
+#: keeps: anti-aliasing, the mask's own error and the occluder's contact shadow darken it.
+EDGE_BAND = 0.005
+EDGE_BAND_MIN = 2
 
 
 def complete_texture(photo: np.ndarray, visible: np.ndarray, amodal: np.ndarray,
                      radius: int | None = None) -> np.ndarray:
     """The photo (H, W, 3) uint8 with the hidden part of one object (``amodal`` but not ``visible``) painted
-    from that object's own visible pixels: each hidden pixel takes the colour of the nearest visible one,
-    softened across the fill so that no seam of single pixels is repeated (over ``radius`` pixels, default
-    2 % of the image's longer side: give the whole photo's when ``photo`` is a part of it)."""
+    from that object's own visible pixels: each hidden pixel takes the colour of the nearest visible one
+    beyond the occluder's edge (:data:`EDGE_BAND`), softened across the fill so that no seam of single pixels
+    is repeated (over ``radius`` pixels, default 2 % of the image's longer side: give the whole photo's when
+    ``photo`` is a part of it). The visible pixels along the edge are painted the same way: the photo mixes
+    the occluder's colours and its contact shadow into them, and once the occluder leaves they ring the fill."""
     hidden = amodal & ~visible
     if not hidden.any() or not visible.any():
         return photo.copy()
-    # labels of the nearest zero pixel: the zeros are the object's visible pixels, so colours come from them
-    _, labels = cv2.distanceTransformWithLabels((~visible).astype(np.uint8), cv2.DIST_L2, 5,
+    r = max(1, int(round(0.02 * max(visible.shape)))) if radius is None else radius
+    band = max(EDGE_BAND_MIN, int(round(EDGE_BAND * r / 0.02)))
+    # a coin's dark rim on a white card, taken as the card's nearest colour, fills the coin's place grey
+    edge = visible & (cv2.distanceTransform((~hidden).astype(np.uint8), cv2.DIST_L2, 5) <= band)
+    source = visible & ~edge
+    if not source.any():
+        source, edge = visible, np.zeros_like(visible)
+    # labels of the nearest zero pixel: the zeros are the sources, so colours come from the object beyond its edge
+    _, labels = cv2.distanceTransformWithLabels((~source).astype(np.uint8), cv2.DIST_L2, 5,
                                                 labelType=cv2.DIST_LABEL_PIXEL)
-    ys, xs = np.nonzero(visible)
+    ys, xs = np.nonzero(source)
     colour_of = np.zeros((int(labels.max()) + 1, 3), np.float32)
     colour_of[labels[ys, xs]] = photo[ys, xs]
     filled = colour_of[labels]
-    r = max(1, int(round(0.02 * max(visible.shape)))) if radius is None else radius
     weight = cv2.blur(amodal.astype(np.float32), (2 * r + 1, 2 * r + 1))
     soft = cv2.blur(filled * amodal[..., None], (2 * r + 1, 2 * r + 1)) / np.maximum(weight, 1e-6)[..., None]
     out = photo.copy()
-    out[hidden] = np.clip(soft[hidden] + 0.5, 0, 255).astype(np.uint8)
+    painted = hidden | edge
+    out[painted] = np.clip(soft[painted] + 0.5, 0, 255).astype(np.uint8)
     return out
 
 def painted_part(visible: np.ndarray, amodal: np.ndarray, disbelieved: list[np.ndarray]) -> np.ndarray:
