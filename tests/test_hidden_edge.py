@@ -9,6 +9,7 @@ import cv2
 import numpy as np
 
 from physomni_usd.perceive.amodal import complete
+from physomni_usd.texture.hidden import edge_band
 from physomni_usd.texture.objects import completed_crop
 
 H, W = 240, 320
@@ -51,3 +52,14 @@ def test_the_cards_part_under_the_coin_takes_the_cards_colour():
     ring = (card & (cv2.distanceTransform((~coin).astype(np.uint8), cv2.DIST_L2, 5) <= 1.5))
     ring = ring[y0:y0 + rgba.shape[0], x0:x0 + rgba.shape[1]]
     assert np.abs(rgba[..., :3][ring].astype(float).mean(0) - own).max() <= 6
+
+
+def test_the_rim_repainted_is_not_the_photos_pixels():
+    # the frame shows the photo wherever an object's texture is at 255 and it has not moved: the card's rim
+    # along the coin, repainted, is marked apart, or the coin's dark edge rings its place once it is pushed
+    photo, card, coin, _ = _coin_on_card(np.random.default_rng(4))
+    amodal = complete([card, coin])[0].amodal
+    rim = edge_band(card, amodal & ~card)
+    dark = card & (photo.astype(float).mean(2) < CARD.mean() - 25)
+    assert dark.any() and (dark & ~rim).sum() == 0
+    assert not (rim & (cv2.distanceTransform((~coin).astype(np.uint8), cv2.DIST_L2, 5) > 6)).any()

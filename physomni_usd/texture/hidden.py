@@ -26,21 +26,31 @@ EDGE_BAND = 0.005
 EDGE_BAND_MIN = 2
 
 
+def edge_band(visible: np.ndarray, hidden: np.ndarray, longer: int | None = None) -> np.ndarray:
+    """(H, W) bool: the object's ``visible`` pixels along its ``hidden`` part, :data:`EDGE_BAND` of the image's
+    longer side wide (``longer``: the whole photo's, when the masks are a part of it)."""
+    longer = max(visible.shape) if longer is None else longer
+    band = max(EDGE_BAND_MIN, int(round(EDGE_BAND * longer)))
+    if not hidden.any():
+        return np.zeros_like(visible)
+    return visible & (cv2.distanceTransform((~hidden).astype(np.uint8), cv2.DIST_L2, 5) <= band)
+
+
 def complete_texture(photo: np.ndarray, visible: np.ndarray, amodal: np.ndarray,
-                     radius: int | None = None) -> np.ndarray:
+                     longer: int | None = None) -> np.ndarray:
     """The photo (H, W, 3) uint8 with the hidden part of one object (``amodal`` but not ``visible``) painted
     from that object's own visible pixels: each hidden pixel takes the colour of the nearest visible one
-    beyond the occluder's edge (:data:`EDGE_BAND`), softened across the fill so that no seam of single pixels
-    is repeated (over ``radius`` pixels, default 2 % of the image's longer side: give the whole photo's when
-    ``photo`` is a part of it). The visible pixels along the edge are painted the same way: the photo mixes
-    the occluder's colours and its contact shadow into them, and once the occluder leaves they ring the fill."""
+    beyond the occluder's edge (:func:`edge_band`), softened across the fill so that no seam of single pixels
+    is repeated (over 2 % of the image's longer side; ``longer``: the whole photo's, when ``photo`` is a part
+    of it). The visible pixels along the edge are painted the same way: the photo mixes the occluder's
+    colours and its contact shadow into them, and once the occluder leaves they ring the fill."""
     hidden = amodal & ~visible
     if not hidden.any() or not visible.any():
         return photo.copy()
-    r = max(1, int(round(0.02 * max(visible.shape)))) if radius is None else radius
-    band = max(EDGE_BAND_MIN, int(round(EDGE_BAND * r / 0.02)))
+    longer = max(visible.shape) if longer is None else longer
+    r = max(1, int(round(0.02 * longer)))
     # a coin's dark rim on a white card, taken as the card's nearest colour, fills the coin's place grey
-    edge = visible & (cv2.distanceTransform((~hidden).astype(np.uint8), cv2.DIST_L2, 5) <= band)
+    edge = edge_band(visible, hidden, longer)
     source = visible & ~edge
     if not source.any():
         source, edge = visible, np.zeros_like(visible)

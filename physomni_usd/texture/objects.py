@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .hidden import COMPLETED_ALPHA, complete_texture
+from .hidden import COMPLETED_ALPHA, complete_texture, edge_band
 from .sides import corner_st, two_sided_texture
 
 #: Pixels of photo kept around an object's mask in its crop (:func:`crop_texture`).
@@ -49,6 +49,9 @@ def texture_object(photo: np.ndarray, camera, visible: np.ndarray, amodal: np.nd
     crop = (slice(y0, y0 + rgba.shape[0]), slice(x0, x0 + rgba.shape[1]))
     rgba[..., 3][(amodal & ~visible & ~painted)[crop]] = 0  # behind what the meshes put behind it
     rgba[..., 3][painted[crop]] = COMPLETED_ALPHA
+    # its rim along what is painted is repainted too (complete_texture): not the photo's pixels of it either,
+    # so that a frame shows it from the texture, not the photo's occluder edge, once the occluder has moved
+    rgba[..., 3][edge_band(visible, painted, max(photo.shape[:2]))[crop]] = COMPLETED_ALPHA
     # texture coordinates: the photo projected from the camera onto the object where it was seen, and
     # a planar map for the sides it saw edge-on (sides.py)
     st = corner_st(projected, np.asarray(faces), camera, (rgba.shape[1], rgba.shape[0]), (x0, y0),
@@ -68,8 +71,8 @@ def completed_crop(photo: np.ndarray, visible: np.ndarray, amodal: np.ndarray, p
     x0, x1 = max(0, xs.min() - PAD), min(w, xs.max() + PAD + 1)
     y0, y1 = max(0, ys.min() - PAD), min(h, ys.max() + PAD + 1)
     part = (slice(y0, y1), slice(x0, x1))
-    radius = max(1, int(round(0.02 * max(h, w))))
-    rgba, (cx, cy) = crop_texture(complete_texture(photo[part], visible[part], amodal[part], radius), amodal[part])
+    rgba, (cx, cy) = crop_texture(complete_texture(photo[part], visible[part], amodal[part], max(h, w)),
+                                  amodal[part])
     return rgba, (int(x0 + cx), int(y0 + cy))
 
 
