@@ -101,13 +101,7 @@ def test_contact_shadow_is_removed_from_the_plate():
     floor = np.clip(150 + rng.normal(0, 5, (h, w, 1)) * np.ones(3), 0, 255)
     obj = np.zeros((h, w), np.uint8)
     cv2.rectangle(obj, (80, 40), (120, 100), 1, -1)
-    shadow = np.zeros((h, w), np.float32)
-    cv2.ellipse(shadow, (100, 104), (36, 12), 0, 0, 360, 1.0, -1)
-    shadow = cv2.GaussianBlur(shadow, (0, 0), 2) * (1 - obj)
-    photo = floor * (1 - 0.5 * shadow[..., None])
-    photo[obj > 0] = (200, 40, 40)
-    photo = photo.astype(np.uint8)
-    dark = shadow > 0.5
+    photo, dark = _shadowed(floor, obj, (100, 104), (36, 12), 2)
     hole = plate_hole(photo, [obj > 0], 0.01)
     assert hole[dark].mean() > 0.95
     without = plate_hole(photo, [obj > 0], 0.01, shadows=False)
@@ -131,13 +125,7 @@ def test_the_floor_shadow_of_an_object_that_fills_the_photo_is_removed_too():
     cv2.circle(obj, (280, 170), 45, 1, -1)
     cv2.rectangle(obj, (60, 20), (300, 120), 1, -1)
     cv2.rectangle(obj, (150, 120), (210, 175), 1, -1)
-    shadow = np.zeros((h, w), np.float32)
-    cv2.ellipse(shadow, (180, 200), (120, 16), 0, 0, 360, 1.0, -1)
-    shadow = cv2.GaussianBlur(shadow, (0, 0), 3) * (1 - obj)
-    photo = floor * (1 - 0.5 * shadow[..., None])
-    photo[obj > 0] = (200, 40, 40)
-    photo = photo.astype(np.uint8)
-    dark = shadow > 0.5
+    photo, dark = _shadowed(floor, obj, (180, 200), (120, 16), 3)
     assert dark.sum() > 1500
     without = plate_hole(photo, [obj > 0], 0.01, shadows=False)
     assert without[dark].mean() < 0.5
@@ -307,3 +295,14 @@ def test_fill_methods_fill_only_the_hole(method):
     assert not np.array_equal(out[hole], photo[hole])
     with pytest.raises(ValueError):
         fill_hole(photo, hole, "nonsense")
+
+
+def _shadowed(floor, obj, centre, axes, blur):
+    """``floor`` (H, W, 3 float) with a red object ``obj`` (H, W, 0/1) and its soft elliptic floor shadow
+    (``centre``, ``axes`` px, blurred by ``blur`` px) half as bright: the photo (uint8) and where the shadow is dark."""
+    shadow = np.zeros(obj.shape, np.float32)
+    cv2.ellipse(shadow, centre, axes, 0, 0, 360, 1.0, -1)
+    shadow = cv2.GaussianBlur(shadow, (0, 0), blur) * (1 - obj)
+    photo = floor * (1 - 0.5 * shadow[..., None])
+    photo[obj > 0] = (200, 40, 40)
+    return photo.astype(np.uint8), shadow > 0.5
