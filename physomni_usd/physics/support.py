@@ -175,26 +175,16 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
     object standing on a point on the ground gets a flat foot (:func:`flat_foot`), what rests on it lowered with
     it (not one held by another object: an orange in a bowl's mouth, rounded, rests on its rim; flattened, it fell
     24 cm)."""
+    from ..align.support import riders  # the build's; simulate, which imports this module, needs none of align
+
     verts = [np.asarray(v, float).copy() for v in vertex_sets]
-    above: dict[int, list[int]] = {}
-    for i, (j, _how) in supports.items():
-        above.setdefault(j, []).append(i)
-
-    def riders(i: int, seen: set) -> list[int]:
-        out = []
-        for k in above.get(i, []):
-            if k not in seen:
-                seen.add(k)
-                out += [k] + riders(k, seen)
-        return out
-
     done = []
     for i in sorted(range(len(verts)), key=lambda k: float(verts[k][:, 2].min())):
         if i in supports:
             continue  # on another object (an orange in a bowl's mouth): what holds it is not flat
         verts[i], cut = flat_foot(verts[i])
         if cut > 0:
-            for k in riders(i, {i}):
+            for k in riders(i, supports)[1:]:
                 verts[k][:, 2] -= cut
             done.append({"object": i, "flat_foot_m": round(cut, 4)})
     for i in sorted(supports, key=lambda k: float(verts[k][:, 2].min())):
@@ -222,7 +212,7 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
                 done.append({"object": i, "on": j, "shift_m": 0.0, "raised_top": True})
                 continue
         shift = _cheapest_shift(region, c, margin, com, eye)
-        for k in [i] + riders(i, {i}):
+        for k in riders(i, supports):
             verts[k][:, :2] += shift
         verts[j] = raise_top(verts[j], foot + shift, low)  # flat under where the foot now stands
         done.append({"object": i, "on": j, "shift_m": round(float(np.linalg.norm(shift)), 4),
