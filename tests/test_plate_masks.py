@@ -111,7 +111,6 @@ def test_contact_shadow_is_removed_from_the_plate():
     assert gradient_ratio(plate, hole) > 0.3
 
 
-@pytest.mark.xfail(strict=True, reason="a large object's floor shadow stays in the plate: taking it (a 1 % share of known surface under the object) made the fill where the motorcycle stood 9.8 levels off its ring (target 8, test_look), so it was held back")
 def test_the_floor_shadow_of_an_object_that_fills_the_photo_is_removed_too():
     """A large object (two wheels under a body, most of the photo's width and height) whose band of shadow
     candidates fills nearly all of the floor around its shadow: the floor's lightness is read from farther

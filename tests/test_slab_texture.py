@@ -60,7 +60,6 @@ def test_a_slabs_back_is_open_not_its_front_again(motorcycle):
     assert (alpha[front] > 0).any(axis=1).mean() > 0.5  # the front is still the photo
 
 
-@pytest.mark.xfail(strict=True, reason="a large object's floor shadow stays in the plate: taking it (a 1 % share of known surface under the object) made the fill where the motorcycle stood 9.8 levels off its ring (target 8, test_look), so it was held back")
 def test_the_bikes_floor_shadow_goes_with_it(motorcycle):
     """Under the bike (between its outermost columns, within a quarter of its height of it) the photo's floor is
     dark (its shadow) where the plate is lit: a pushed bike leaves no hard dark patch behind (the plate kept
