@@ -411,3 +411,26 @@ def test_a_turned_surface_keeps_the_light_where_it_was():
     assert factor(rest, lit) == pytest.approx(1.0) and factor(rest, dark) == pytest.approx(1.0)
     assert factor(turned, lit) == pytest.approx(PARTICLE_AMBIENT, abs=0.05)
     assert 1.0 < factor(turned, dark) <= TURN_BRIGHTEN + 1e-6
+
+
+def test_the_novel_view_figure_counts_each_object_by_its_worse_side(monkeypatch, tmp_path):
+    """The truth scenes' novel-view figure: an object counts when both its -45° and +45° silhouettes reach the
+    limit; one side below it, or a scene that did not build, does not."""
+    from physomni_usd.bench import general
+
+    built = {7000: {"built": True, "objects": [{"label": "cup", "iou_left": 0.9, "iou_right": 0.8},
+                                                {"label": "book", "iou_left": 0.95, "iou_right": 0.5}]},
+             7001: {"built": False, "error": "no camera", "objects": []}}
+    calls = []
+
+    def rows(index, seed, folder, modes, seconds, echo):
+        calls.append((index, pathlib.Path(folder).parent.name, modes))
+        return [built[seed * 1000 + index]]
+
+    monkeypatch.setattr(general, "scene_rows", rows)
+    said = []
+    fig = look.novel_view_figure([{"seed": 7000}, {"seed": 7001}], 7, tmp_path, echo=said.append)
+    assert calls == [(0, "scene_000", ("masks",)), (1, "scene_001", ("masks",))]
+    assert [o["iou_novel"] for o in fig["objects"]] == [0.8, 0.5]
+    assert fig["held"] == 1 and fig["limit"] == general.LIMITS["iou_novel"]
+    assert any("not built" in s for s in said) and "1 of 2" in said[-1]

@@ -46,7 +46,9 @@ pixel the particles are drawn over (``FrameState.particle_alpha``: water, sand).
 
 With ``--truth-scenes N`` the fill is also held against the truth: generated scenes rendered with their objects
 and without them, each fill's error against the empty render in the revealed area and its colours against
-the surroundings' (:func:`fill_truth_figure`).
+the surroundings' (:func:`fill_truth_figure`); and what a moved object looks like from a novel view: each
+scene built from its visible masks and each object's silhouette from ±45° held against the truth render's
+(:func:`novel_view_figure`, IoU, the limit ``bench general``'s).
 
 Frame 0 against the photo (PSNR, dB) and the preview's opening view against the
 photo (SSIM on grey) are reported beside them, and, under ``--camera orbit-left``
@@ -517,7 +519,34 @@ def fill_truth_figure(n: int, seed: int, out_dir: pathlib.Path, echo=print) -> d
     return {"seed": seed, "n": n, "summary": numbers["summary"], "held": numbers.get("held"),
             "scenes": [{"seed": r["seed"], "layout": r["layout"], "revealed_px": r["revealed_px"],
                         "methods": {m: {k: v[k] for k in keep} for m, v in r["methods"].items()}}
-                       for r in numbers["rows"]]}
+                       for r in numbers["rows"]],
+            "novel_views": novel_view_figure(numbers["rows"], seed, out_dir, echo)}
+
+
+def novel_view_figure(rows: list[dict], seed: int, out_dir: pathlib.Path, echo=print) -> dict:
+    """What a moved object looks like from a novel view: each generated scene of ``rows`` (as
+    :func:`~.fill_truth.bench_fill_truth` rendered them under ``out_dir``) built from its visible masks as ``bench
+    general`` builds it, and each object's silhouette from the camera orbited -45 and +45 degrees held against
+    the truth render's (IoU, the lesser of the two; :func:`~.general.build_row`). A push moves an object, it does
+    not change its shape: the lifted mesh is what a novel view shows of it. Returns each object's IoU and how
+    many reach ``bench general``'s limit."""
+    from .general import LIMITS, scene_rows
+
+    objects = []
+    for r in rows:
+        index = r["seed"] - seed * 1000
+        for row in scene_rows(index, seed, out_dir / f"scene_{index:03d}" / "scene", modes=("masks",), seconds=0.2,
+                              echo=lambda m: None):
+            if not row.get("built"):
+                echo(f"scene {r['seed']}: not built ({row.get('error')}); its objects count as missing")
+            for o in row["objects"]:
+                iou = min(o.get("iou_left", 0.0), o.get("iou_right", 0.0))
+                objects.append({"seed": r["seed"], "label": o.get("label"), "iou_novel": round(float(iou), 3)})
+    limit = LIMITS["iou_novel"]
+    held = sum(o["iou_novel"] >= limit for o in objects)
+    echo(f"novel views: {held} of {len(objects)} objects' silhouettes from ±45° at IoU ≥ {limit:g} against the truth"
+         + (f" (median {np.median([o['iou_novel'] for o in objects]):.2f})" if objects else ""))
+    return {"limit": limit, "objects": objects, "held": held}
 
 
 def bench_look(examples: list[pathlib.Path], out_dir: pathlib.Path, size: int = 880, seconds: float | None = None,
