@@ -67,22 +67,15 @@ def fill_blend(photo: np.ndarray, hole: np.ndarray, fade: float = 0.0) -> np.nda
     connected part of the hole (as :func:`~.exemplar.fill_exemplar` makes them); with ``fade`` > 0 each window's
     fill is then faded into its local mean with the depth into the hole (:func:`fade_with_depth`) and its grain
     matched to the surface's again (:func:`~.grain.match_grain`)."""
-    return fill_blends(photo, hole, (fade,))[0]
-
-
-def fill_blends(photo: np.ndarray, hole: np.ndarray, fades) -> list[np.ndarray]:
-    """:func:`fill_blend` at each of ``fades``, from one set of copies (shift-map runs once per window)."""
     h, w = hole.shape
-    outs = [photo.copy() for _ in fades]
+    out = photo.copy()
     for (x0, y0, x1, y1), win_hole, own, size, budget in hole_windows(hole):
         filled = _blend_window(photo[y0:y1, x0:x1], win_hole, size, SHADING_DEPTH * np.hypot(h, w), budget)
-        for out, fade in zip(outs, fades):
-            laid = filled
-            if fade > 0:  # the copies' detail faded, the surface's grain (not theirs) laid back where it went flat
-                laid = match_grain(photo[y0:y1, x0:x1],
-                                   fade_with_depth(filled, win_hole, fade, FADE_MAX * float(np.hypot(h, w))), win_hole)
-            out[y0:y1, x0:x1][own] = laid[own]
-    return [cap_colours(photo, out, hole) for out in outs]
+        if fade > 0:  # the copies' detail faded, the surface's grain (not theirs) laid back where it went flat
+            filled = match_grain(photo[y0:y1, x0:x1],
+                                 fade_with_depth(filled, win_hole, fade, FADE_MAX * float(np.hypot(h, w))), win_hole)
+        out[y0:y1, x0:x1][own] = filled[own]
+    return cap_colours(photo, out, hole)
 
 
 def fade_with_depth(filled: np.ndarray, hole: np.ndarray, fade: float, most: float) -> np.ndarray:
