@@ -72,10 +72,13 @@ FEATHER = 0.010
 #: 51, 52 and 61): with a quarter of Telea's low frequencies the faded fill errs least on the mean (8.79 levels;
 #: the blend 9.30, Telea 9.91) but at most the better of the two in only 11 (2 of seed 61's 8): where Telea's
 #: smooth colour is the worse guess, its quarter costs the fill the few tenths by which it would beat the
-#: blend. At a tenth, 8.86 and 16 (5 of 8); without it, 8.93 and 17 (6 of 8). The 7 it still misses are
-#: scenes where Telea errs 1-4 levels less than any copy (checks seen too obliquely to line up); choosing
-#: Telea per part of the hole by trying the part's shape on known surface beside it picked right on seeds 51
-#: and 52 but not on 61 (12.7 against the faded fill's 12.2): the surface beside a hole is not the truth in it.
+#: blend. At a tenth, 8.86 and 16 (5 of 8); without it, 8.93 and 17 (6 of 8). On a fresh seed (62) a tenth
+#: and a quarter both hold in 2 of 8 (mean 5.75 and 5.72; the blend 5.96, Telea 6.58), three of the misses by
+#: less than 0.1 level against the blend: which of the two errs less is then a matter of tenths. Most other
+#: misses are scenes where Telea errs 1-4 levels less than any copy (checks seen too obliquely to line up);
+#: choosing among the three per part of the hole by trying the part's shape on known surface beside it lowered
+#: the mean on seeds 51 and 52 (7.09 to 6.86) but raised it on 61 (12.2 to 12.7): the surface beside a hole
+#: does not say which fill is right in it.
 FADE = 0.1
 FADE_LOW = 0.02
 FADE_TELEA = 0.1
