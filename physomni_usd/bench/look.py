@@ -511,7 +511,7 @@ def fill_truth_figure(n: int, seed: int, out_dir: pathlib.Path, echo=print) -> d
     (renders and plates in ``out_dir``). Returns the means per method, per scene each method's error and
     farthest colour, and the scenes where the plate's default fill errs at most as much as the better of Telea's
     and the blend's with no revealed pixel farther than :data:`~.fill_truth.FAR_LEVELS` from its surroundings'
-    colours."""
+    colours; and, under ``novel_views``, each object's silhouette from ±45° (:func:`novel_view_figure`)."""
     from .fill_truth import bench_fill_truth
 
     numbers = bench_fill_truth(n, seed, out_dir, echo=echo)
