@@ -79,9 +79,11 @@ def _views_about(camera: PinholeCamera, meshes, centre) -> list[list[np.ndarray]
 
 
 def build_row(folder, truth: dict, true_meshes: list, camera: PinholeCamera, mode: str,
-              seconds: float = 2.0, materials: int = 0) -> dict:
+              seconds: float = 2.0, materials: int = 0, camera_given: bool = False) -> dict:
     """One scene built from its masks or boxes (``mode``) into ``folder/mode``, simulated ``seconds`` with
-    nothing pushed, against the invariants and the truth (see the module)."""
+    nothing pushed, against the invariants and the truth (see the module). ``camera_given``: the build is
+    told the true pitch and field of view (``--pitch``, ``--fov``), into ``folder/mode-camera``; what is
+    left wrong is the lift's and the placement's, not the camera's."""
     import physomni_usd as api
     from pxr import Usd
 
@@ -96,12 +98,19 @@ def build_row(folder, truth: dict, true_meshes: list, camera: PinholeCamera, mod
     labels = [o["label"] for o in truth["objects"]]
     row = {"seed": truth["seed"], "layout": truth["layout"], "mode": mode, "objects_n": len(labels),
            "pitch_true": round(truth["camera"]["pitch_deg"], 2), "fov_true": round(truth["camera"]["fov_deg"], 2),
-           "built": False, "simulated": False, "error": None, "objects": []}
+           "built": False, "simulated": False, "error": None, "objects": [], "camera_given": camera_given}
     specs = _specs(folder, truth, mode)
+    settings = None
+    if camera_given:
+        from ..settings import BuildSettings
+
+        settings = BuildSettings()
+        settings = settings.model_copy(update={"camera": settings.camera.model_copy(
+            update={"pitch_deg": truth["camera"]["pitch_deg"], "fov_deg": truth["camera"]["fov_deg"]})})
     t0 = time.perf_counter()
     try:
-        result = api.build(folder / "photo.png", folder / mode, specs if mode == "masks" else (),
-                           specs if mode == "boxes" else ())
+        result = api.build(folder / "photo.png", folder / (f"{mode}-camera" if camera_given else mode),
+                           specs if mode == "masks" else (), specs if mode == "boxes" else (), settings)
     except BaseException as exc:  # noqa: BLE001 — a benchmark reports a failed build (even an exit) and goes on
         if isinstance(exc, KeyboardInterrupt):
             raise
@@ -360,7 +369,7 @@ def summarise(rows: list[dict]) -> dict:
 
 
 def scene_rows(index: int, seed: int, folder, modes=MODES, seconds: float = 2.0, echo=print,
-               materials: int = 0) -> list[dict]:
+               materials: int = 0, camera_given: bool = False) -> list[dict]:
     """Scene ``index`` of the run of ``seed``: generate, render, build by each of ``modes``; a row per mode."""
     from ..geometry.raycast import SilhouetteRenderer  # noqa: F401 — warp loads once, before the clock starts
 
@@ -379,7 +388,7 @@ def scene_rows(index: int, seed: int, folder, modes=MODES, seconds: float = 2.0,
     rows = []
     for mode in modes:
         row = build_row(folder, truth, [o["mesh"] for o in scene["objects"]], scene["camera"], mode, seconds,
-                        materials if mode == modes[0] else 0)
+                        materials if mode == modes[0] else 0, camera_given)
         row["scene"] = index
         row["seconds_render"] = truth["seconds_render"]
         rows.append(row)
@@ -411,23 +420,25 @@ HEADER = (f"{'scene':>10} {'layout':<7}{'from':<6}{'n':>3}{'pitch':>8}{'ovl mm':
 
 
 def bench_general(n: int, seed: int | None = None, out_dir=None, modes=MODES, seconds: float = 2.0,
-                  echo=print, materials: int = 0) -> dict:
-    """``n`` scenes drawn from ``seed`` (a new one, printed, when None), each built by every one of ``modes``;
-    the scenes and shots go to ``out_dir`` (a temporary folder, removed, when None). Returns the numbers."""
+                  echo=print, materials: int = 0, camera_given: bool = False) -> dict:
+    """``n`` scenes drawn from ``seed`` (a new one, printed, when None), each built by every one of ``modes``
+    (told the true camera with ``camera_given``: see :func:`build_row`); the scenes and shots go to
+    ``out_dir`` (a temporary folder, removed, when None). Returns the numbers."""
     GENERAL.check(n=n, seed=seed, seconds=seconds, materials=materials)  # before any work, as the command does
     blender_python()  # no Blender: say so before drawing anything
     if seed is None:
         seed = int(np.random.default_rng().integers(1, 1_000_000))
-    echo(f"bench general: seed {seed} ({n} scenes; rerun them with --seed {seed})")
+    echo(f"bench general: seed {seed} ({n} scenes; rerun them with --seed {seed})"
+         + ("; each build is given the true pitch and field of view" if camera_given else ""))
     started = time.perf_counter()
     rows = []
     with tempfile.TemporaryDirectory(prefix="physomni-general-") as tmp:
         root = pathlib.Path(out_dir) if out_dir else pathlib.Path(tmp)
         echo(HEADER)
         for i in range(n):
-            rows += scene_rows(i, seed, root / f"scene_{i:03d}", modes, seconds, echo, materials)
+            rows += scene_rows(i, seed, root / f"scene_{i:03d}", modes, seconds, echo, materials, camera_given)
     summary = summarise(rows) if rows else {}
-    numbers = {"seed": seed, "n": n, "date": time.strftime("%Y-%m-%d"),
+    numbers = {"seed": seed, "n": n, "camera_given": camera_given, "date": time.strftime("%Y-%m-%d"),
                "machine": f"{platform.machine()}, {os.cpu_count()} cores", "size": list(SIZE), "samples": SAMPLES,
                "limits": LIMITS, "summary": summary, "rows": rows,
                "seconds_total": round(time.perf_counter() - started, 1),
@@ -441,7 +452,8 @@ def markdown(numbers: dict) -> str:
     """The pass rates as a Markdown table, one column per build mode."""
     s = numbers["summary"]
     modes = list(s)
-    lines = [f"`bench general --n {numbers['n']} --seed {numbers['seed']}` on {numbers['date']} "
+    given = " --camera-given" if numbers.get("camera_given") else ""
+    lines = [f"`bench general --n {numbers['n']} --seed {numbers['seed']}{given}` on {numbers['date']} "
              f"({numbers['machine']}), {numbers['size'][0]}×{numbers['size'][1]} px, {numbers['samples']} samples: "
              f"{numbers['seconds_per_scene']} s per scene (render, {len(modes)} builds and their simulations).", "",
              "| pass rate | " + " | ".join(f"from {m}" for m in modes) + " |",
