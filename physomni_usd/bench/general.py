@@ -65,6 +65,24 @@ def _silhouette_alone(mesh: trimesh.Trimesh, camera: PinholeCamera) -> np.ndarra
     return SilhouetteRenderer([mesh.vertices], [mesh.faces]).render(camera) == 0
 
 
+def shape_novel_iou(mesh: trimesh.Trimesh, true_mesh: trimesh.Trimesh, built_camera: PinholeCamera,
+                    camera: PinholeCamera, k: float, centre) -> float:
+    """The worse of the IoUs from the true camera orbited ±45° about ``centre`` of ``mesh`` (built, seen by
+    ``built_camera``) and ``true_mesh``, each alone, with the built one carried into the truth's frame at the
+    one scale ``k`` and moved so that its box centre is the truth's: its shape and size from the side, its
+    position error (which ``iou_left``/``iou_right`` also count) taken out. A diagnostic, not a pass rate:
+    where the ±45° IoU fails and this holds, the object is misplaced, not misshapen."""
+    from ..metrics.image import mask_iou
+    from .alignment import ORBIT_DEG, _orbit
+
+    seen = (np.asarray(mesh.vertices) - built_camera.origin) @ built_camera.world_from_camera
+    world = camera.origin + (k * seen) @ camera.world_from_camera.T
+    world += 0.5 * (true_mesh.bounds[0] + true_mesh.bounds[1]) - 0.5 * (world.min(0) + world.max(0))
+    moved = trimesh.Trimesh(world, mesh.faces, process=False)
+    return min(mask_iou(_silhouette_alone(moved, cam), _silhouette_alone(true_mesh, cam))
+               for cam in (_orbit(camera, centre, a) for a in (-ORBIT_DEG, ORBIT_DEG)))
+
+
 def _views_about(camera: PinholeCamera, meshes, centre) -> list[list[np.ndarray]]:
     """Visible masks of ``meshes`` from ``camera`` and from it orbited −45° and +45° about the vertical through
     ``centre`` (``bench alignment``'s views, about a point given)."""
@@ -163,6 +181,7 @@ def build_row(folder, truth: dict, true_meshes: list, camera: PinholeCamera, mod
             "iou_amodal": round(mask_iou(_silhouette_alone(mine[i], built_camera), truth["amodal"][i]), 4),
             "iou_left": round(mask_iou(got[1][i], want[1][i]), 4),
             "iou_right": round(mask_iou(got[2][i], want[2][i]), 4),
+            "iou_shape_novel": round(shape_novel_iou(mine[i], true_meshes[i], built_camera, camera, k, middle), 4),
             "position_error_frac": round(float(np.linalg.norm(k * est_cam[i] - true_cam[i])
                                                / np.linalg.norm(true_cam[i])), 4),
             "raw_position_error_frac": round(o["raw_position_error_frac"], 4),
@@ -358,6 +377,7 @@ def summarise(rows: list[dict]) -> dict:
         s["median"] = {"iou_photo": med([o["iou_photo"] for o in objs]),
                        "iou_amodal": med([o["iou_amodal"] for o in objs]),
                        "iou_novel": med([min(o["iou_left"], o["iou_right"]) for o in objs]),
+                       "iou_shape_novel": med([o["iou_shape_novel"] for o in objs if "iou_shape_novel" in o]),
                        "position_error_frac": med([o["position_error_frac"] for o in objs]),
                        "raw_position_error_frac": med([o["raw_position_error_frac"] for o in objs]),
                        "size_ratio": med([o["size_ratio"] for o in objs]),
@@ -479,7 +499,9 @@ def markdown(numbers: dict) -> str:
                                                      for m in modes) + " |")
     lines.append("| scenes / objects | " + " | ".join(f"{s[m]['scenes']} / {s[m]['objects']}" for m in modes) + " |")
     meds = {"iou_photo": "median IoU, visible mask", "iou_amodal": "median IoU, whole outline",
-            "iou_novel": "median IoU, worse of ±45°", "position_error_frac": "median position error (after scale)",
+            "iou_novel": "median IoU, worse of ±45°",
+            "iou_shape_novel": "median IoU, worse of ±45°, alone, own position error taken out",
+            "position_error_frac": "median position error (after scale)",
             "raw_position_error_frac": "median position error (as built)", "size_ratio": "median size ratio",
             "pitch_error_deg": "median pitch error °", "fov_error_frac": "median field-of-view error",
             "frame0_psnr_db": "median frame 0 PSNR dB"}
@@ -489,5 +511,5 @@ def markdown(numbers: dict) -> str:
         return f"{100 * value:.1f} %" if "position" in key or "fov" in key else f"{value:.2f}"
 
     for key, name in meds.items():
-        lines.append(f"| {name} | " + " | ".join(cell(s[m]["median"][key], key) for m in modes) + " |")
+        lines.append(f"| {name} | " + " | ".join(cell(s[m]["median"].get(key), key) for m in modes) + " |")
     return "\n".join(lines) + "\n"
