@@ -187,3 +187,45 @@ def test_rest_turn_reads_a_tip_that_barely_moves_any_point():
         turn.Set(3.0 * t, Usd.TimeCode(t))
     assert rest_turn(stage)["cube"] == pytest.approx(30.0, abs=0.01)
     assert rest_drift(stage)["cube"] < 0.01
+
+
+def test_the_one_scale_follows_most_objects_and_still_sees_a_distorted_scene():
+    """A build that is the truth at 0.8 its size, but for one object put 1.8× too far: the common scale is 1/0.8
+    (the outlier does not rescale the rest, as a least-squares fit in metres does), the others' errors after
+    it vanish and the outlier's stays. Depth stretched unevenly (a wrong pitch) leaves errors the scale
+    cannot remove: the measure can still fail."""
+    rng = np.random.default_rng(5)
+    true = np.c_[rng.uniform(-0.3, 0.3, (6, 2)), rng.uniform(1.2, 2.0, 6)]
+    est = 0.8 * true
+    est[0] *= 1.8
+    k = general.common_scale(est, true)
+    assert k == pytest.approx(1.25, rel=1e-6)
+    err = np.linalg.norm(k * est - true, axis=1) / np.linalg.norm(true, axis=1)
+    assert err[1:].max() < 1e-9 and err[0] > 0.5
+    lsq = float((est * true).sum() / (est * est).sum())
+    assert np.median(np.linalg.norm(lsq * est[1:] - true[1:], axis=1) / np.linalg.norm(true[1:], axis=1)) > 0.1
+    stretched = true * np.c_[np.ones((6, 2)), 1.0 + 0.5 * (true[:, 2] - 1.2)]
+    k = general.common_scale(stretched, true)
+    err = np.linalg.norm(k * stretched - true, axis=1) / np.linalg.norm(true, axis=1)
+    assert err.max() > 0.05
+
+
+def test_the_shape_from_the_side_takes_out_position_and_keeps_shape():
+    """A box built 10 cm off its truth scores 1 on its shape from ±45° (its position is what it got wrong); one
+    built twice as deep scores under 0.7 (the measure can fail)."""
+    import trimesh
+
+    from physomni_usd.geometry.camera import PinholeCamera
+
+    box = trimesh.creation.box((0.1, 0.06, 0.08))
+    box.apply_translation([0.0, 0.0, 0.04])
+    look = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])  # columns: right, down, forward = x, -z, y
+    camera = PinholeCamera.from_pose(320, 240, 50.0, np.array([0.0, -0.6, 0.04]), look)
+    centre = np.array([0.0, 0.0, 0.04])
+    assert general._silhouette_alone(box, camera).sum() > 1000  # the box is in view
+    off = box.copy()
+    off.apply_translation([0.03, 0.1, 0.0])
+    assert general.shape_novel_iou(off, box, camera, camera, 1.0, centre) > 0.97
+    deep = box.copy()
+    deep.vertices[:, 1] *= 2.5
+    assert general.shape_novel_iou(deep, box, camera, camera, 1.0, centre) < 0.7

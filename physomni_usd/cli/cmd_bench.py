@@ -292,8 +292,11 @@ def bench_photos_command(pitches, seconds, real, only, json_path):
 @click.option("--only", type=click.Choice(["both", "masks", "boxes"]), default="both", show_default=True,
               help="Build each scene from its visible masks, from their bounding boxes, or both.")
 @limit_option(limits.GENERAL, "materials")
+@click.option("--camera-given", is_flag=True,
+              help="Tell each build the true pitch and field of view (--pitch, --fov): what is left wrong is the "
+                   "lift's and the placement's, not the camera's.")
 @json_option("numbers")
-def bench_general_command(n, seed, out_dir, seconds, only, materials, json_path):
+def bench_general_command(n, seed, out_dir, seconds, only, materials, camera_given, json_path):
     """Scenes generated fresh, rendered with Blender's Cycles, each built as a user's photo would be.
 
     \b
@@ -327,7 +330,7 @@ def bench_general_command(n, seed, out_dir, seconds, only, materials, json_path)
         from ..bench.general import MODES, bench_general, markdown
 
         numbers = bench_general(n, seed, out_dir, MODES if only == "both" else (only,), seconds,
-                                echo=click.echo, materials=materials)
+                                echo=click.echo, materials=materials, camera_given=camera_given)
         write_numbers(numbers, json_path, out_dir / "general.json" if out_dir else None)
         if out_dir:
             from .._files import write_bytes
