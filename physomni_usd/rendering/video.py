@@ -50,8 +50,11 @@ REVEAL_PX = 2.0
 #: drawn (through the same camera, nothing shown or hidden, no particles) is that frame again: a shot's objects
 #: come to rest within a second or two and then lie still, or creep by the solver's rounding (1e-8 m a frame,
 #: 1e-5 px). It is that small because a lifted mesh's stretched side walls alias: on the 12 MP motorcycle at
-#: 960 px, a motion of 5e-3 px changed 633 pixels by up to 183 levels, one of 1.1e-4 px no pixel by more than 2.
-STILL_PX = 1e-4
+#: 960 px, a motion of 5e-3 px changed 633 pixels by up to 183 levels. At 1920 px, over the frames where it
+#: creeps (40–90), each given as the last drawn: at 1e-4 px 27 of 51 drawn and at most 1 pixel a frame more
+#: than 2 levels off drawing it, at 3e-4 18 and 2, at 1e-3 8 and 6 (of 2.5 M; the worst 104 levels, against
+#: 61 at 1e-4): a few pixels' aliasing for a third of the creeping frames' cost.
+STILL_PX = 1e-3
 #: A video frame larger than this (long side, pixels) casts its primary rays on a grid of every ``step``-th pixel,
 #: ``step`` = round(long side / WORK_PX) made odd (down), and only over the region that can differ from the
 #: photo (what moved, where it stood, their shadows): a pixel between four samples that see one surface, its
