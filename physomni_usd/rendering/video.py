@@ -50,8 +50,11 @@ REVEAL_PX = 2.0
 #: drawn (through the same camera, nothing shown or hidden, no particles) is that frame again: a shot's objects
 #: come to rest within a second or two and then lie still, or creep by the solver's rounding (1e-8 m a frame,
 #: 1e-5 px). It is that small because a lifted mesh's stretched side walls alias: on the 12 MP motorcycle at
-#: 960 px, a motion of 5e-3 px changed 633 pixels by up to 183 levels, one of 1.1e-4 px no pixel by more than 2.
-STILL_PX = 1e-4
+#: 960 px, a motion of 5e-3 px changed 633 pixels by up to 183 levels. At 1920 px, over the frames where it
+#: creeps (40–90), each given as the last drawn: at 1e-4 px 27 of 51 drawn and at most 1 pixel a frame more
+#: than 2 levels off drawing it, at 3e-4 18 and 2, at 1e-3 8 and 6 (of 2.5 M; the worst 104 levels, against
+#: 61 at 1e-4): a few pixels' aliasing for a third of the creeping frames' cost.
+STILL_PX = 1e-3
 #: A video frame larger than this (long side, pixels) casts its primary rays on a grid of every ``step``-th pixel,
 #: ``step`` = round(long side / WORK_PX) made odd (down), and only over the region that can differ from the
 #: photo (what moved, where it stood, their shadows): a pixel between four samples that see one surface, its
@@ -798,24 +801,33 @@ class ShotRenderer:
         region = image[y0:y1, x0:x1]
         np.copyto(region, plate_u8[y0:y1, x0:x1], where=(m_own >= 1.0)[..., None])
         hit = obj >= 0
-        drawn = hit | (sh > 0.5 / 255.0) | ((m_own > 0.0) & (m_own < 1.0))
-        if not drawn.any():
+        partial = (m_own > 0.0) & (m_own < 1.0)
+        drawn = hit | (sh > 0.5 / 255.0) | partial
+        rows, cols = np.nonzero(drawn.any(1))[0], np.nonzero(drawn.any(0))[0]
+        if not len(rows):
             return image
-        # over the whole box, not gathered pixel by pixel: most of a box is drawn, and numpy's whole-array
-        # arithmetic costs a fraction of its gathers and scatters at a 12 MP photo's frame size
-        ph = self.photo[y0:y1, x0:x1]
-        out = self.plate[y0:y1, x0:x1] - ph
-        out *= m_own[..., None]
-        out += ph
-        out *= (1.0 - sh)[..., None]
+        # in floats over the drawn pixels' box only, and from the bytes just composed: where the owner's object
+        # is in place or gone (m_own 0 or 1) they are the photo or the plate exactly, as the floats would be;
+        # only a partly moved owner's pixels take the blend of the two
+        r0, r1, c0, c1 = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
+        inner = (slice(r0, r1), slice(c0, c1))
+        out = region[inner].astype(np.float32)
+        if partial.any():
+            py, px_ = np.nonzero(partial)
+            q = self.photo[y0 + py, x0 + px_]
+            out[py - r0, px_ - c0] = (self.plate[y0 + py, x0 + px_] - q) * m_own[py, px_][:, None] + q
+        out *= (1.0 - sh[inner])[..., None]
         hy, hx = np.nonzero(hit)
         if len(hy):
-            k = obj[hy, hx]
-            tx, ty = pxr[hy, hx, 0], pxr[hy, hx, 1]
+            # gathered through flat indices where the array allows: a fraction of the cost of two index arrays
+            flat = hy * hit.shape[1] + hx
+            k = _gather(obj, hy, hx, flat)
+            pf = pxr.reshape(-1, 2)[flat] if pxr.flags.c_contiguous else pxr[hy, hx]
+            tx, ty = pf[:, 0], pf[:, 1]
             colour = _sample(self.atlas_rgb, tx - 0.5, ty - 0.5).astype(np.float32)
-            colour *= shade[hy, hx][:, None]
-            p0 = ph[hy, hx]
-            colour = p0 + np.maximum(moved[k], m_own[hy, hx])[:, None] * (colour - p0)
+            colour *= _gather(shade, hy, hx, flat)[:, None]
+            p0 = self.photo.reshape(-1, 3)[(hy + y0) * W + hx + x0]
+            colour = p0 + np.maximum(moved[k], _gather(m_own, hy, hx, flat))[:, None] * (colour - p0)
             alpha = np.clip(_sample(self.atlas_alpha, tx - 0.5, ty - 0.5), 0.0, 1.0)
             if np.any(moved[k] < 1.0):  # an object in place is drawn only where it shows the photo's own pixel
                 crop = tx < self.photo_width[k]
@@ -823,10 +835,14 @@ class ShotRenderer:
                 d = np.hypot((tx + shift[:, 0]) / per[:, 0] * self.to_frame[0] - (hx + x0 + 0.5),
                              (ty + shift[:, 1]) / per[:, 1] * self.to_frame[1] - (hy + y0 + 0.5))
                 alpha *= np.maximum(moved[k], crop & (d <= IN_PLACE_PX + REVEAL_PX))
-            o0 = out[hy, hx]
-            out[hy, hx] = o0 + alpha[:, None] * (colour - o0)
+            o = out.reshape(-1, 3)
+            at = (hy - r0) * out.shape[1] + hx - c0
+            o0 = o[at]
+            o[at] = o0 + alpha[:, None] * (colour - o0)
+        # every term is a blend of colours and a darkening, never below 0: only the top needs the clip
         out += 0.5
-        np.copyto(region, np.clip(out, 0, 255).astype(np.uint8), where=drawn[..., None])
+        np.minimum(out, 255.0, out=out)
+        np.copyto(region[inner], out.astype(np.uint8), where=drawn[inner][..., None])
         return image
 
     def _upsample(self, grid: np.ndarray, y0: int, x0: int, y1: int, x1: int, i_lo: int, j_lo: int) -> np.ndarray:
@@ -891,6 +907,12 @@ def _sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     out = cv2.remap(image, mx.reshape(rows, REMAP_ROW), my.reshape(rows, REMAP_ROW), cv2.INTER_LINEAR,
                     borderMode=cv2.BORDER_REPLICATE)
     return out.reshape((rows * REMAP_ROW,) + image.shape[2:])[:n]
+
+
+def _gather(a: np.ndarray, ys: np.ndarray, xs: np.ndarray, flat: np.ndarray) -> np.ndarray:
+    """``a`` (h, w) at the pixels (``ys``, ``xs``), ``flat`` = ys · w + xs: through the flat index where ``a`` is
+    contiguous (one index array, not two)."""
+    return a.reshape(-1)[flat] if a.flags.c_contiguous else a[ys, xs]
 
 
 def _vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
