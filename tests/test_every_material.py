@@ -35,13 +35,7 @@ def desk(tmp_path_factory):
     return result.folder, names
 
 
-#: Runs that do not hold on today's code, with what was measured (strict: once fixed they XPASS and fail).
-KNOWN = {2: "cap mpm_sand, pencil pbd_cloth, ball rigid, coin mpm_elastic, lighter mpm_sand: the guard stops at "
-            "frame 4, the energy 0.082 -> 0.142 J (measured 2026-12-05; the other three runs pass)"}
-
-
-@pytest.mark.parametrize("turn", [pytest.param(t, marks=[pytest.mark.xfail(strict=True, reason=KNOWN[t])]
-                                               if t in KNOWN else []) for t in range(len(KINDS))])
+@pytest.mark.parametrize("turn", range(len(KINDS)))
 def test_each_object_made_each_kind_simulates_a_second(desk, turn, tmp_path):
     folder, names = desk
     shot = tmp_path / "shot"

@@ -33,6 +33,10 @@ class SimObject:
     matrix: np.ndarray  # (4, 4) local → world, row vectors (USD convention)
     #: canonical key → who set the value: "default" (the catalog's, nothing authored), "rules", "vlm", "user"
     sources: dict = field(default_factory=dict)
+    #: kg/m³: a cloth's density as authored for a solid kind (the estimate's for the object before ``--set
+    #: NAME.material=pbd_cloth``), which the cloth turns into kg/m² by the object's thickness
+    #: (:func:`.cloth.areal_density`); None where its density is a cloth's own (kg/m²) or the catalog's
+    volume_density: float | None = None
 
     @property
     def path(self) -> str:
@@ -85,10 +89,31 @@ def scene_objects(stage: Usd.Stage) -> list[SimObject]:
             if attr and attr.HasAuthoredValue():
                 params[key] = attr.Get()
                 sources[key] = attr.GetCustomDataByKey("physomni:source") or material_source
+        volume_density = None
+        if kind == "pbd_cloth" and sources.get("density", "default") != "default" and \
+                authored_with(mat, PARAMS["density"].attr) != "pbd_cloth":
+            volume_density = float(params["density"])
         fixed = bool(prim.GetAttribute("physomni:fixed").Get())
         m = np.array(cache.GetLocalToWorldTransform(prim))
         pts = np.asarray(mesh.GetPointsAttr().Get(), float)
         faces = triangulate(np.asarray(mesh.GetFaceVertexCountsAttr().Get(), np.int64),
                             np.asarray(mesh.GetFaceVertexIndicesAttr().Get(), np.int64))
-        out.append(SimObject(prim, kind, params, fixed, pts @ m[:3, :3] + m[3, :3], faces, m, sources))
+        out.append(SimObject(prim, kind, params, fixed, pts @ m[:3, :3] + m[3, :3], faces, m, sources,
+                             volume_density))
     return out
+
+
+def authored_with(mat: Usd.Prim, name: str):
+    """The ``physomni:materialType`` in force where ``mat``'s attribute ``name`` was authored: the strongest type
+    authored in that layer or a weaker one. A parameter means what the type it was written for says (a
+    density is kg/m³ for a solid, kg/m² for a cloth), and switching the type in a stronger layer (``--set
+    NAME.material=KIND`` in the edits) leaves the parameters written for the old one."""
+    stack = list(mat.GetStage().GetLayerStack())
+    specs = mat.GetAttribute(name).GetPropertyStack(Usd.TimeCode.Default())
+    if not specs or specs[0].layer not in stack:
+        return mat.GetAttribute("physomni:materialType").Get()
+    at = stack.index(specs[0].layer)
+    for spec in mat.GetAttribute("physomni:materialType").GetPropertyStack(Usd.TimeCode.Default()):
+        if spec.layer in stack and stack.index(spec.layer) >= at and spec.default is not None:
+            return spec.default
+    return None

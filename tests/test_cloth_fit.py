@@ -1,0 +1,75 @@
+"""A solid made cloth (issue 38, part 1): its density as a solid becomes the cloth's areal density by its
+thickness, and a thin object welded into one sheet keeps one layer of triangles (``physics/cloth.py``:
+:func:`areal_density`, :func:`manifold_sheet`; ``physics/objects.py``: :func:`authored_with`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+from pxr import Sdf, Usd
+
+from physomni_usd.physics.cloth import areal_density, cloth_sheet, manifold_sheet, triangle_quality
+from physomni_usd.physics.objects import SimObject, authored_with
+
+
+def _edge_counts(tris):
+    e = np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)
+    return np.unique(e, axis=0, return_counts=True)[1]
+
+
+def test_a_thin_slab_welded_into_one_sheet_keeps_one_layer():
+    slab = trimesh.creation.box((0.2, 0.05, 0.002))  # its two faces closer than the weld: one sheet
+    sheet = cloth_sheet(slab.vertices, slab.faces)
+    assert _edge_counts(sheet.triangles).max() <= 2
+    area = 0.5 * np.linalg.norm(np.cross(*(sheet.particles[sheet.triangles[:, k]] - sheet.particles[sheet.triangles[:, 0]]
+                                             for k in (1, 2))), axis=1).sum()
+    assert abs(area - 0.2 * 0.05) < 0.15 * 0.2 * 0.05  # one layer's area, not two
+
+
+def test_a_quad_in_both_triangulations_keeps_two_triangles_and_a_closed_surface_keeps_all():
+    quad = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    both = np.array([[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]])
+    kept = manifold_sheet(quad, both, triangle_quality(quad, both))
+    assert len(kept) == 2 and _edge_counts(kept).max() == 1 + (len(kept) == 2)  # the shared diagonal only
+    ball = trimesh.creation.icosphere(2)
+    tris = np.asarray(ball.faces)
+    assert len(manifold_sheet(ball.vertices, tris, triangle_quality(ball.vertices, tris))) == len(tris)
+
+
+def _material(tmp_path, weaker_type, stronger_type, density_in):
+    """A material whose type is ``weaker_type`` in the weaker layer and ``stronger_type`` in the stronger
+    one (None: not authored there), its density authored in ``density_in`` ('weak' or 'strong')."""
+    weak, strong = Sdf.Layer.CreateNew(str(tmp_path / "weak.usda")), Sdf.Layer.CreateNew(str(tmp_path / "strong.usda"))
+    root = Sdf.Layer.CreateNew(str(tmp_path / "root.usda"))
+    root.subLayerPaths[:] = [strong.identifier, weak.identifier]
+    stage = Usd.Stage.Open(root)
+    for layer, kind, density in ((weak, weaker_type, density_in == "weak"), (strong, stronger_type, density_in == "strong")):
+        stage.SetEditTarget(layer)
+        prim = stage.OverridePrim("/M")
+        if kind:
+            prim.CreateAttribute("physomni:materialType", Sdf.ValueTypeNames.Token).Set(kind)
+        if density:
+            prim.CreateAttribute("physics:density", Sdf.ValueTypeNames.Float).Set(200.0)
+    return stage, stage.GetPrimAtPath("/M")
+
+
+def test_a_density_means_what_the_type_it_was_written_with_says(tmp_path):
+    cases = [(("rigid", "pbd_cloth", "weak"), "rigid"),  # the estimate's rigid density, the edits' switch to cloth
+             (("rigid", "pbd_cloth", "strong"), "pbd_cloth"),  # the edits set the cloth's density too
+             (("pbd_cloth", None, "strong"), "pbd_cloth")]  # the edits set it over a cloth the estimate made
+    for k, (args, kind) in enumerate(cases):
+        (tmp_path / str(k)).mkdir()
+        stage, prim = _material(tmp_path / str(k), *args)
+        assert authored_with(prim, "physics:density") == kind, args
+
+
+def test_a_solid_made_cloth_weighs_what_the_solid_did():
+    box = trimesh.creation.box((0.1, 0.04, 0.02))
+    sheet = cloth_sheet(box.vertices, box.faces)
+    obj = SimObject(None, "pbd_cloth", {"density": 200.0}, False, np.asarray(box.vertices), np.asarray(box.faces),
+                    np.eye(4), {"density": "rules"}, volume_density=200.0)
+    tris = sheet.particles[sheet.triangles]
+    area = 0.5 * np.linalg.norm(np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]), axis=1).sum()
+    assert abs(areal_density(obj, sheet) * area - 200.0 * box.volume) < 1e-9
+    obj.volume_density = None  # a cloth's own density is kg/m² as authored
+    assert areal_density(obj, sheet) == 200.0
