@@ -6,7 +6,11 @@ lower in the frame than the far one), the lifted mesh touches the ground at one 
 mass overhangs that contact, and it tips over by itself although the photo shows it at rest. Such an
 object gets a second collision shape on its body: the convex hull of its points and their footprint on
 the ground, without mass, so that it stands on its whole footprint; what it looks like, its mass and its
-inertia stay those of the visible mesh."""
+inertia stay those of the visible mesh.
+
+Stacks too: where one object rests flat on another, both get a thin massless plate over the patch they
+share (:func:`add_stack_plates`), so that the upper stands on that whole patch; and before the shot is
+written, each stacked object's centre of mass is brought over what holds it (:func:`steady_stacks`)."""
 
 from __future__ import annotations
 
@@ -262,3 +266,130 @@ def flat_foot(points: np.ndarray) -> tuple[np.ndarray, float]:
         cut = hi
     pts[:, 2] = np.maximum(z, low + cut) - cut
     return pts, cut
+
+
+#: Two faces within this (m) of one level plane are one flat contact (a book's cover on another's).
+PLATE_FLAT = 0.002
+#: A stacked pair gets plates where the quadrilateral in their shared footprint is at least this fraction of
+#: the upper object's footprint seen from above (a book on a book, a cup's base on a book; not a ball, whose
+#: flat patch is its lowest few millimetres, nor an orange's flattened foot).
+PLATE_SHARE = 0.25
+#: The plates' thickness (m, or this fraction of the thinner object's height if less).
+PLATE_THICKNESS = 0.002
+
+
+def _flat_hull(points: np.ndarray, z: float):
+    """The 2-d convex hull (scipy ConvexHull) of ``points`` (N, 3) within :data:`PLATE_FLAT` of height ``z``,
+    or None where they span no area."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    near = points[np.abs(points[:, 2] - z) <= PLATE_FLAT, :2]
+    if len(near) < 3:
+        return None
+    try:
+        return ConvexHull(np.unique(np.round(near, 6), axis=0))
+    except QhullError:
+        return None
+
+
+def shared_quad(upper: np.ndarray, lower: np.ndarray) -> np.ndarray | None:
+    """(4, 2): the widest quadrilateral (corners of the shared outline) in the footprint that the flat foot of
+    ``upper`` (N, 3 world points) shares with the flat top of ``lower`` at the height of that foot, or None
+    where the two do not meet on a flat, level patch :data:`PLATE_SHARE` of the foot wide."""
+    from itertools import combinations
+
+    from scipy.optimize import linprog
+    from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
+
+    low = float(upper[:, 2].min())
+    foot, top = _flat_hull(upper, low), _flat_hull(lower, low)
+    if foot is None or top is None or lower[:, 2].min() >= low - PLATE_FLAT:
+        return None
+    eq = np.vstack([foot.equations, top.equations])  # a·x + b ≤ 0 inside both
+    norm = np.linalg.norm(eq[:, :2], axis=1)
+    # the point deepest inside both (Chebyshev centre) seeds the intersection
+    res = linprog([0, 0, -1], A_ub=np.column_stack([eq[:, :2], norm]), b_ub=-eq[:, 2],
+                  bounds=[(None, None), (None, None), (0, None)])
+    if not res.success or res.x[2] <= 1e-4:
+        return None
+    try:
+        shared = HalfspaceIntersection(eq, res.x[:2]).intersections
+        ring = shared[ConvexHull(shared).vertices]  # counter-clockwise
+    except QhullError:
+        return None
+    if len(ring) > 24:  # keep the search small: every other corner of a finely cut outline
+        ring = ring[np.linspace(0, len(ring), 24, endpoint=False).astype(int)]
+
+    if len(ring) < 4:
+        return None
+    # corners taken in the ring's order bound a convex quadrilateral inside it
+    quads = ring[np.array(list(combinations(range(len(ring)), 4)))]  # (K, 4, 2)
+    x, y = quads[..., 0], quads[..., 1]
+    areas = 0.5 * np.abs((x * np.roll(y, -1, axis=1) - y * np.roll(x, -1, axis=1)).sum(axis=1))
+    k = int(np.argmax(areas))
+    try:
+        whole = ConvexHull(upper[:, :2]).volume  # a 2-d hull's volume is its area
+    except QhullError:
+        return None
+    if areas[k] < PLATE_SHARE * whole:
+        return None
+    return quads[k]
+
+
+#: Newton's contact of two flat faces samples this many points of each: a face with no more corners is met
+#: at its corners.
+SAMPLED_CORNERS = 4
+
+
+def needs_plates(upper: np.ndarray, lower: np.ndarray) -> bool:
+    """Whether the flat foot of ``upper`` or the flat top of ``lower`` under it (N, 3 world points) has more
+    corners than Newton's contact samples (:data:`SAMPLED_CORNERS`). Two such faces of a box on a box
+    already touch at their corners; plates there only add contacts to the pair, and the solver shares each
+    body's correction among its contacts: a light box under a heavy one, held up from below by fewer of
+    them than it is pressed by from above, sank 11 mm into the ground."""
+    low = float(upper[:, 2].min())
+    hulls = [_flat_hull(upper, low), _flat_hull(lower, low)]
+    return any(h is not None and len(h.vertices) > SAMPLED_CORNERS for h in hulls)
+
+
+def add_stack_plates(builder, objects, path_body: dict, newton, wp) -> list[str]:
+    """For each rigid object resting flat on another, a thin massless box on each of the two bodies over the
+    quadrilateral of :func:`shared_quad`, meeting at the plane where they touch. Newton builds the contact of
+    two convex hulls from a few sampled points of each face; a lifted book's outline has dozens of corners,
+    and the few it samples can span a sliver under the book above, its centre of mass on that sliver's edge:
+    with nothing pushing it, it rocks, and the rocking throws it off (a book on a book slid 12 cm). Two plates
+    of four corners each touch at those corners: the stack stands on the whole patch the two share. Two faces
+    of four corners or fewer (a box on a box) get none (:func:`needs_plates`). Returns "upper on lower" for
+    each pair given plates."""
+    import trimesh
+    from scipy.spatial.transform import Rotation
+
+    rigid = [o for o in objects if o.family == "rigid" and path_body.get(o.path) is not None]
+    out = []
+    for up in rigid:
+        for lo in rigid:
+            if lo is up:
+                continue
+            quad = shared_quad(up.points, lo.points) if needs_plates(up.points, lo.points) else None
+            if quad is None:
+                continue
+            z = float(up.points[:, 2].min())
+            t = min(PLATE_THICKNESS, 0.25 * float(np.ptp(up.points[:, 2])), 0.25 * float(np.ptp(lo.points[:, 2])))
+            for o, z0, z1, tag in ((up, z, z + t, "foot_plate"), (lo, z - t, z, "top_plate")):
+                b = path_body[o.path]
+                pose = builder.body_q[b]
+                body = Rotation.from_quat([pose[3], pose[4], pose[5], pose[6]])
+                world = np.vstack([np.column_stack([quad, np.full(4, z0)]), np.column_stack([quad, np.full(4, z1)])])
+                local = body.inv().apply(world - np.array([pose[0], pose[1], pose[2]]))
+                cfg = newton.ModelBuilder.ShapeConfig()
+                cfg.density = 0.0  # collision only: the visible mesh keeps the mass and the inertia
+                shapes = builder.body_shapes.get(b) or []
+                if shapes:
+                    cfg.mu = float(builder.shape_material_mu[shapes[0]])
+                    cfg.restitution = float(builder.shape_material_restitution[shapes[0]])
+                hull = trimesh.convex.convex_hull(local)
+                builder.add_shape_convex_hull(b, mesh=newton.Mesh(hull.vertices.astype(np.float32),
+                                                                  hull.faces.ravel().astype(np.int32)),
+                                              cfg=cfg, label=f"{o.path}/{tag}")
+            out.append(f"{up.name} on {lo.name}")
+    return out
