@@ -14,6 +14,9 @@ From the masks alone: object A rests on object B when
 
 The masks cannot tell a cup on a saucer from a cup hidden behind the saucer's
 rim; the first reading is taken, which the README states.
+With the photo's occlusion order, an object that hides A stands in front of it and
+gives way to one that does not (a ball in a bowl, partly behind another ball, rests
+on the bowl, :func:`find_supports`).
 
 An object that rests on nothing the masks show (on a shelf, hung on a wall, on an object its contact was not
 seen with) is read from its size instead (:func:`raise_unseen`): stood on the ground, its foot's ray lands far
