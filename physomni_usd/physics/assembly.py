@@ -29,7 +29,7 @@ from .params import ParticleValues, particle_values
 from .pieces import add_decomposed, is_decomposed
 from .stability import SceneConfig
 from .stepping import FrameGraphs, Stepper, contact_pipeline, xpbd_solver
-from .support import add_hidden_support, add_stack_plates
+from .support import add_hidden_support
 
 #: Newton simplifies convex hulls to this many vertices; its default (64) cuts the corners of
 #: lofted meshes by centimetres, which shows as objects sinking into the ground.
@@ -99,8 +99,6 @@ class ShotModels:
                                                        and not o.is_body], newton, wp))
         # feet for objects whose visible geometry cannot stand where the photo shows them standing
         self.supported = add_hidden_support(builder, objects, self.path_body, _ground_height(stage), newton, wp)
-        # plates where one object rests flat on another, so that it stands on the whole patch they share
-        self.plates = add_stack_plates(builder, objects, self.path_body, newton, wp)
 
     def _add_deformables(self, builder) -> None:
         """Cloths and soft bodies as particles of the builder, with what their surfaces follow."""
