@@ -35,14 +35,7 @@ def test_quick_bench_writes_both_tables(tmp_path):
 STACKS = ("cup_saucer_spoon", "three_boxes", "bowl_of_spheres", "tray_of_parts")
 #: Scenes whose objects miss a target on the code these tests were written on, with what was measured; once a
 #: change meets it the test XPASSes and fails the run: remove the scene's entry then.
-KNOWN_MISSES: dict = {
-    # issue 38, a regression of this round's support reading: a ball in the bowl whose lowest outline lies mostly
-    # over the ball in front of it is read as resting on that ball (an upper object may now overhang by 30 %);
-    # that ball hides it, so it is stood on the ground behind, and pushing it clear moves every object 7 cm
-    # apart (bowl photo-view IoU 0.93 -> 0.27, position 1.8 -> 10.2 %)
-    ("bowl_of_spheres", "iou"): "a ball in the bowl is read as resting on the ball in front of it (issue 38)",
-    ("bowl_of_spheres", "position"): "a ball in the bowl is read as resting on the ball in front of it (issue 38)",
-}
+KNOWN_MISSES: dict = {}
 
 
 @pytest.fixture(scope="module")

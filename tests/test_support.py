@@ -119,3 +119,21 @@ def test_a_hidden_foot_reaches_down_behind_its_occluder_through_hidden_pixels_on
 
     cv2.circle(disc.view(np.uint8), (160, 90), 35, 1, -1)
     assert foot_behind(disc, [occluder], [behind], camera) is None
+
+
+def test_an_object_is_not_read_as_resting_on_what_hides_it():
+    """A ball in a bowl, its lowest outline partly over the ball in front of it (which hides it): it rests on
+    the bowl, not on that ball; without the occlusion order the ball in front reads as the one between."""
+    from physomni_usd.bench.synthetic import make_stack
+    from physomni_usd.perceive.amodal import complete, occlusion_order
+
+    scene = make_stack("bowl_of_spheres", 480, 360)
+    hides = occlusion_order(scene.masks)
+    amodal = [c.amodal for c in complete(scene.masks, hides)]
+    bowl = scene.labels.index("bowl")
+    behind = [(a, b) for a, b in hides if b != bowl and scene.labels[a] == scene.labels[b] == "ball"]
+    assert behind, hides  # the scene still has a ball hiding another
+    front, back = behind[0]
+    assert find_supports(amodal)[back][0] == front  # the reading the order corrects
+    found = find_supports(amodal, hides)
+    assert all(found[i][0] == bowl for i, label in enumerate(scene.labels) if label == "ball"), found

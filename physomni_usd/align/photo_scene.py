@@ -269,8 +269,8 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
     camera_info = est.as_dict() | {"pitch_deg": round(pitch, 3)}
     if camera_warnings:
         camera_info |= {"pitch_given_deg": float(cam_cfg.pitch_deg), "warnings": camera_warnings}
-    found = find_supports(masks)
     hides = occlusion_order(list(visible)) if visible is not None else []
+    found = find_supports(masks, hides)
 
     searching = True
     scales: dict[float, float] = {}  # pitch → the scale its lift settled on: a start for the pitches near it

@@ -14,6 +14,9 @@ From the masks alone: object A rests on object B when
 
 The masks cannot tell a cup on a saucer from a cup hidden behind the saucer's
 rim; the first reading is taken, which the README states.
+With the photo's occlusion order, an object that hides A stands in front of it and
+gives way to one that does not (a ball in a bowl, partly behind another ball, rests
+on the bowl, :func:`find_supports`).
 
 An object that rests on nothing the masks show (on a shelf, hung on a wall, on an object its contact was not
 seen with) is read from its size instead (:func:`raise_unseen`): stood on the ground, its foot's ray lands far
@@ -97,13 +100,21 @@ def support_score(upper: np.ndarray, lower: np.ndarray, reach: int) -> tuple[flo
     return 0.0, ""
 
 
-def find_supports(masks) -> dict[int, tuple[int, str]]:
+def find_supports(masks, hides=()) -> dict[int, tuple[int, str]]:
     """``{upper index: (lower index, how)}`` (how: 'contact', 'enclosed' or 'foot'); no object rests on
-    itself or, through others, on itself."""
+    itself or, through others, on itself.
+
+    ``hides``: (occluder, occluded) index pairs (``perceive.amodal.occlusion_order``). An object that hides
+    another stands in front of it: what the completed outline's foot touches there is that object's front,
+    not a top it stands on. Of the readings along the whole lowest outline or all around ('contact',
+    'enclosed'), one by an object that does not hide it goes first (a ball in a bowl, half hidden by the
+    ball in front of it, rests on the bowl); where only what hides it reads as a support, that reading
+    stands (a cup whose base the saucer's front rim hides), and the lift judges it
+    (``align.photo_scene.behind_what_hides_it``)."""
     if not masks:
         return {}
+    hides = set(hides)
     reach = max(2, int(round(0.01 * masks[0].shape[0])))
-    best: dict[int, tuple[float, int, str]] = {}
     found: dict[tuple[int, int], tuple[float, str]] = {}
     for i, a in enumerate(masks):
         for j, b in enumerate(masks):
@@ -112,14 +123,22 @@ def find_supports(masks) -> dict[int, tuple[int, str]]:
             score, how = support_score(a, b, reach)
             if score > 0:
                 found[(i, j)] = (score, how)
-            if score > 0 and (i not in best or score > best[i][0]):
-                best[i] = (score, j, how)
+
+    def rank(i, j):
+        score, how = found[(i, j)]
+        return (how != "foot" and (j, i) not in hides, score)
+
+    best: dict[int, tuple[float, int, str]] = {}
+    for (i, j) in found:
+        if i not in best or rank(i, j) > rank(i, best[i][1]):
+            best[i] = (found[(i, j)][0], j, found[(i, j)][1])
     # in a stack, the completed outline of a lower object reaches up behind the ones on it, so the top one touches
-    # every object under it: it rests on the one between (a candidate that itself rests on the chosen one)
+    # every object under it: it rests on the one between (a candidate that itself rests on the chosen one, and
+    # that does not hide it: one in front of it is not under it)
     for i in list(best):
         for _ in range(len(masks)):
             j = best[i][1]
-            between = [k for (a, k) in found if a == i and k != j and (k, j) in found]
+            between = [k for (a, k) in found if a == i and k != j and (k, j) in found and (k, i) not in hides]
             if not between:
                 break
             k = max(between, key=lambda k: found[(i, k)][0])
