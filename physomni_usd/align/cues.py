@@ -16,7 +16,13 @@ The camera is a level pinhole (no roll) looking down by ``pitch``. Cues:
   ``cy + f·cot(pitch)``, ground-parallel lines on the horizon at
   ``cy − f·tan(pitch)``. Both together give the focal length
   ``f² = (v_vertical − cy)(cy − v_horizon)`` and so the field of view; either
-  alone gives the pitch under the field of view in use.
+  alone gives the pitch under the field of view in use. Two points on the
+  horizon, either side of the centre (a board's, tiles' or a book's two
+  directions at right angles), give it too: ``(p1 − c)·(p2 − c) = −f²``
+  (the vertical and horizon relation is that identity's special case), and
+  such a pair says its lines lie on the ground, so a steep horizon it reads
+  needs no other cue's word. A reading from two points weighs what the
+  weaker rests on.
 - **horizon**: a straight edge crossing most of the photo above every
   object's foot (a sea or plain horizon, the far edge of a floor), weakly.
 - **identical objects** (weight up to 2): flat things of one label whose
