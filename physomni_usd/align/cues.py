@@ -16,7 +16,13 @@ The camera is a level pinhole (no roll) looking down by ``pitch``. Cues:
   ``cy + f·cot(pitch)``, ground-parallel lines on the horizon at
   ``cy − f·tan(pitch)``. Both together give the focal length
   ``f² = (v_vertical − cy)(cy − v_horizon)`` and so the field of view; either
-  alone gives the pitch under the field of view in use.
+  alone gives the pitch under the field of view in use. Two points on the
+  horizon, either side of the centre (a board's, tiles' or a book's two
+  directions at right angles), give it too: ``(p1 − c)·(p2 − c) = −f²``
+  (the vertical and horizon relation is that identity's special case), and
+  such a pair says its lines lie on the ground, so a steep horizon it reads
+  needs no other cue's word. A reading from two points weighs what the
+  weaker rests on.
 - **horizon**: a straight edge crossing most of the photo above every
   object's foot (a sea or plain horizon, the far edge of a floor), weakly.
 - **identical objects** (weight up to 2): flat things of one label whose
@@ -83,6 +89,10 @@ MAX_AXIS_TURN_DEG = 20.0
 STEEP_DEG = 45.0
 #: Fields of view a vanishing-point pair may give (degrees); outside, the pair is not trusted.
 FOV_RANGE = (15.0, 120.0)
+#: Two horizon vanishing points read the field of view (:func:`_orthogonal_pair`) when each rests on at least
+#: this many segments and the line through them is within PAIR_ROW_DEG of level.
+PAIR_MIN_SEGMENTS = 10
+PAIR_ROW_DEG = 2.0
 #: Outlines match when OpenCV's Hu-moment distance (``CONTOURS_MATCH_I1``) between them is at most this.
 SAME_OUTLINE = 0.15
 #: ... or when, turned to their principal axes at one area, their IoU (the best of the four mirrorings) is at
@@ -511,6 +521,30 @@ def vanishing_points(seg: np.ndarray, max_points: int = 3, min_support: int = 6,
     return out
 
 
+def _orthogonal_pair(horizon: list[dict], cx: float, cy: float, height: int) -> Cue | None:
+    """The field of view from two vanishing points on the horizon of ground directions at right angles (a
+    board's or tiles' grid, a book's or a box's sides): with the principal point c, (p1 − c)·(p2 − c) = −f²,
+    the relation the vertical point and the horizon obey too. Two points on one row, either side of the
+    centre, each resting on :data:`PAIR_MIN_SEGMENTS` segments; of several such pairs, the best supported."""
+    best = None
+    for i in range(len(horizon)):
+        for j in range(i + 1, len(horizon)):
+            a, b = horizon[i], horizon[j]
+            if min(a["inliers"], b["inliers"]) < PAIR_MIN_SEGMENTS or (a["u"] - cx) * (b["u"] - cx) >= 0:
+                continue
+            if abs(a["v"] - b["v"]) > math.tan(math.radians(PAIR_ROW_DEG)) * abs(a["u"] - b["u"]):
+                continue  # not on one horizon: no roll puts both on the same row
+            f2 = -((a["u"] - cx) * (b["u"] - cx) + (a["v"] - cy) * (b["v"] - cy))
+            if f2 <= 0:
+                continue
+            fov = math.degrees(2 * math.atan(0.5 * height / math.sqrt(f2)))
+            weight = min(3.0, min(a["inliers"], b["inliers"]) / 10.0)
+            if FOV_RANGE[0] <= fov <= FOV_RANGE[1] and (best is None or weight > best.weight):
+                best = Cue("orthogonal vanishing points", None, weight, fov,
+                           {"rows": [round(a["v"], 1), round(b["v"], 1)], "segments": [a["inliers"], b["inliers"]]})
+    return best
+
+
 def vanishing_cues(photo: np.ndarray, fov_deg: float | None, fov_given: bool, objects: np.ndarray | None = None):
     """(pitch cues, field-of-view cues, horizon row or None) from the vanishing points of the photo's edges.
 
@@ -543,11 +577,16 @@ def vanishing_cues(photo: np.ndarray, fov_deg: float | None, fov_given: bool, ob
     if horizon:
         v_h = weighted_median([x["v"] for x in horizon], [x["length"] for x in horizon])
     support = lambda *xs: min(3.0, sum(x["inliers"] for x in xs) / 10.0)  # noqa: E731
+    pair = _orthogonal_pair(horizon, cx, cy, h)
+    if pair is not None:
+        fov_cues.append(pair)
     if vertical is not None and v_h is not None and math.isfinite(vertical["v"]):
         f = math.sqrt((vertical["v"] - cy) * (cy - v_h))
         fov = math.degrees(2 * math.atan(0.5 * h / f))
         if FOV_RANGE[0] <= fov <= FOV_RANGE[1]:
-            fov_cues.append(Cue("vanishing points", None, support(vertical, *horizon), fov,
+            # a reading from two points is as good as the weaker: the verticals often rest on a few tapering
+            # sides (a pot, a bottle), where the horizon rests on a whole board's lines
+            fov_cues.append(Cue("vanishing points", None, min(support(vertical), support(*horizon)), fov,
                                 {"vertical_row": round(vertical["v"], 1), "horizon_row": round(v_h, 1)}))
         else:  # the two cannot both be right; the horizon rests on more segments as a rule
             vertical = None
@@ -733,8 +772,10 @@ def estimate_camera(photo: np.ndarray, masks, labels, foot_rows, fov_deg: float 
     lowest = min_pitch(fov, h, foot_rows)
     # Lines meeting far above the image are ground lines seen from above, or the verticals of a camera tilted
     # up (which this camera model cannot be): a steep horizon counts only when another cue agrees.
+    # Two horizon points whose directions meet at right angles (they read the field of view) are ground lines.
+    paired = any(c.kind == "orthogonal vanishing points" for c in fov_cues)
     for c in pitch_cues:
-        if c.kind == "horizon vanishing points" and c.pitch_deg > STEEP_DEG and not any(
+        if c.kind == "horizon vanishing points" and c.pitch_deg > STEEP_DEG and not paired and not any(
                 o is not c and o.pitch_deg is not None and abs(o.pitch_deg - c.pitch_deg) <= 10.0
                 and o.kind in ("ellipse", "vertical vanishing point") for o in pitch_cues):
             c.weight, c.detail["uncorroborated"] = 0.03, True
