@@ -280,6 +280,7 @@ def test_a_cloth_leaves_out_zero_area_triangles_and_newton_warns_of_none(caplog)
     points = np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0.1, 0.1, 0], [0.2, 0.2, 0]], float)
     faces = np.array([[0, 1, 2], [1, 3, 2], [0, 3, 4]])  # the last lies on one line: no area
     obj = SimpleNamespace(points=points, faces=faces, params={}, fixed=False, path="/World/Objects/c",
+                          volume_density=None,
                           prim=SimpleNamespace(GetAttribute=lambda name: SimpleNamespace(Get=lambda: None)))
     builder = newton.ModelBuilder(up_axis=newton.Axis.Z)
     with caplog.at_level(logging.WARNING):
