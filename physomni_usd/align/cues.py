@@ -521,6 +521,11 @@ def vanishing_points(seg: np.ndarray, max_points: int = 3, min_support: int = 6,
     return out
 
 
+def _support(*points) -> float:
+    """A vanishing-point reading's weight: a tenth of the segments its points rest on, at most 3."""
+    return min(3.0, sum(x["inliers"] for x in points) / 10.0)
+
+
 def _orthogonal_pair(horizon: list[dict], cx: float, cy: float, height: int) -> Cue | None:
     """The field of view from two vanishing points on the horizon of ground directions at right angles (a
     board's or tiles' grid, a book's or a box's sides): with the principal point c, (p1 − c)·(p2 − c) = −f²,
@@ -538,7 +543,7 @@ def _orthogonal_pair(horizon: list[dict], cx: float, cy: float, height: int) -> 
             if f2 <= 0:
                 continue
             fov = math.degrees(2 * math.atan(0.5 * height / math.sqrt(f2)))
-            weight = min(3.0, min(a["inliers"], b["inliers"]) / 10.0)
+            weight = min(_support(a), _support(b))
             if FOV_RANGE[0] <= fov <= FOV_RANGE[1] and (best is None or weight > best.weight):
                 best = Cue("orthogonal vanishing points", None, weight, fov,
                            {"rows": [round(a["v"], 1), round(b["v"], 1)], "segments": [a["inliers"], b["inliers"]]})
@@ -576,7 +581,6 @@ def vanishing_cues(photo: np.ndarray, fov_deg: float | None, fov_given: bool, ob
     v_h = None
     if horizon:
         v_h = weighted_median([x["v"] for x in horizon], [x["length"] for x in horizon])
-    support = lambda *xs: min(3.0, sum(x["inliers"] for x in xs) / 10.0)  # noqa: E731
     pair = _orthogonal_pair(horizon, cx, cy, h)
     if pair is not None:
         fov_cues.append(pair)
@@ -586,20 +590,20 @@ def vanishing_cues(photo: np.ndarray, fov_deg: float | None, fov_given: bool, ob
         if FOV_RANGE[0] <= fov <= FOV_RANGE[1]:
             # a reading from two points is as good as the weaker: the verticals often rest on a few tapering
             # sides (a pot, a bottle), where the horizon rests on a whole board's lines
-            fov_cues.append(Cue("vanishing points", None, min(support(vertical), support(*horizon)), fov,
+            fov_cues.append(Cue("vanishing points", None, min(_support(vertical), _support(*horizon)), fov,
                                 {"vertical_row": round(vertical["v"], 1), "horizon_row": round(v_h, 1)}))
         else:  # the two cannot both be right; the horizon rests on more segments as a rule
             vertical = None
     f_use = focal_px(fov_cues[0].fov_deg if fov_cues and not fov_given else fov_deg, h)
     if vertical is not None:
         pitch = 0.0 if not math.isfinite(vertical["v"]) else math.degrees(math.atan2(f_use, vertical["v"] - cy))
-        pitch_cues.append(Cue("vertical vanishing point", pitch, support(vertical),
+        pitch_cues.append(Cue("vertical vanishing point", pitch, _support(vertical),
                               detail={"row": None if not math.isfinite(vertical["v"]) else round(vertical["v"], 1),
                                       "segments": vertical["inliers"]}
                               | ({"face_on": True} if across and not math.isfinite(vertical["v"]) else {})))
     if v_h is not None:
         pitch = math.degrees(math.atan2(cy - v_h, f_use))
-        pitch_cues.append(Cue("horizon vanishing points", pitch, support(*horizon),
+        pitch_cues.append(Cue("horizon vanishing points", pitch, _support(*horizon),
                               detail={"row": round(v_h, 1), "points": len(horizon),
                                       "segments": sum(x["inliers"] for x in horizon)}))
     # a straight edge across most of the photo, above every foot: a visible horizon (weak)
