@@ -92,7 +92,8 @@ def cloth_sheet(points: np.ndarray, faces: np.ndarray) -> ClothSheet:
     longer than twice :data:`CLOTH_EDGE_FRACTION` of the diagonal are split, vertices within
     :data:`CLOTH_WELD` of that edge merged (a thin object's two faces become one sheet), collapsed and
     repeated triangles dropped, and so are slivers (:data:`CLOTH_MIN_QUALITY`), whose area is next to none,
-    and the welded faces' overlapping and folded triangles (:func:`manifold_sheet`). Each surface vertex follows the particle it merged into (or the nearest kept one) at its rest offset."""
+    and the welded faces' overlapping and folded triangles (:func:`manifold_sheet`). Each surface vertex
+    follows the particle it merged into (or the nearest kept one) at its rest offset."""
     import trimesh
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components

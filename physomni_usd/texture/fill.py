@@ -150,7 +150,8 @@ def fill_faded(photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
     copied in step, at the hole's edge); deeper in, where its lines and spots fall between the true ones
     (bricks, sand ripples copied a little off), it errs twice where the local mean errs once. The copies'
     local colour may come from elsewhere (a ripple's shaded side), Telea's from the border all round; Telea's
-    is the worse guess more often than not, so it takes a small share. What is left of the copies' detail is the surface's grain at the edge."""
+    is the worse guess more often than not, so it takes a small share. What is left of the copies' detail is
+    the surface's grain at the edge."""
     faded = fill_blend(photo, hole, fade=FADE).astype(np.float32)
     telea = fill_telea(photo, hole).astype(np.float32)
     sigma = FADE_LOW * float(np.hypot(*hole.shape))
@@ -202,7 +203,8 @@ def contact_shadow(lum: np.ndarray, mask: np.ndarray, hole: np.ndarray) -> np.nd
     sigma = max(2.0, float(reach))
     weight = blur(known, sigma)
     surround = blur(lum * known, sigma) / np.maximum(weight, 1e-3)
-    read = weight > KNOWN_SHARE
+    read_wide = weight > KNOWN_SHARE
+    read = read_wide.copy()
     read[:, xs.min():xs.max() + 1] |= weight[:, xs.min():xs.max() + 1] > KNOWN_SHARE_UNDER
     # a contact shadow darkens the surface smoothly: compare the lightness averaged over a few pixels, so
     # that the dark grains of a textured surface (gravel, grass) do not count
@@ -216,12 +218,12 @@ def contact_shadow(lum: np.ndarray, mask: np.ndarray, hole: np.ndarray) -> np.nd
     touching = np.unique(labels[seed & (labels > 0)])
     shadow = np.isin(labels, touching) & dark
     if shadow.any():  # grow it through its penumbra
-        soft = band & (smooth < PENUMBRA_RATIO * surround) & (weight > KNOWN_SHARE)
+        soft = band & (smooth < PENUMBRA_RATIO * surround) & read_wide
         # and, darker than the surface at all, where its lightness still falls faster than the surface's own
         # grain: on white paper a sweet's shade fades in steps of one level, each a line the seam would show
         g = gradient(blur(lum, 1.0))
         surface_g = blur(g * known, sigma) / np.maximum(weight, 1e-3)
-        soft |= band & (smooth < surround) & (g > PENUMBRA_GRADIENT * surface_g) & (weight > KNOWN_SHARE)
+        soft |= band & (smooth < surround) & (g > PENUMBRA_GRADIENT * surface_g) & read_wide
         n, labels = cv2.connectedComponents((soft | shadow).astype(np.uint8), connectivity=8)
         shadow |= np.isin(labels, np.unique(labels[shadow & (labels > 0)])) & soft
     return dilate(shadow, 2) & near
