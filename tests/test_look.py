@@ -429,7 +429,8 @@ def test_the_novel_view_figure_counts_each_object_by_its_worse_side(monkeypatch,
 
     monkeypatch.setattr(general, "scene_rows", rows)
     said = []
-    fig = look.novel_view_figure([{"seed": 7000}, {"seed": 7001}], 7, tmp_path, echo=said.append)
+    fig = look.novel_view_figure([{"seed": 7000, "index": 0}, {"seed": 7001, "index": 1}], 7, tmp_path,
+                                 echo=said.append)
     assert calls == [(0, "scene_000", ("masks",)), (1, "scene_001", ("masks",))]
     assert [o["iou_novel"] for o in fig["objects"]] == [0.8, 0.5]
     assert fig["held"] == 1 and fig["limit"] == general.LIMITS["iou_novel"]

@@ -133,7 +133,7 @@ def bench_fill_truth(n: int = 4, seed: int = 1, out_dir=None, methods=METHODS, e
             row = fill_rows(photo, truth, masks, dilation, methods)
             for m, plate in row.pop("plates").items():
                 cv2.imwrite(str(root / f"scene_{i:03d}" / f"plate_{m}.png"), cv2.cvtColor(plate, cv2.COLOR_RGB2BGR))
-            row |= {"seed": scene_seed, "layout": info["layout"], "objects_n": len(masks)}
+            row |= {"seed": scene_seed, "index": i, "layout": info["layout"], "objects_n": len(masks)}
             rows.append(row)
             echo(f"{scene_seed:>8} {row['layout']:<6}{row['hole_px']:>7}{row['floor']:>7.1f} | " + " | ".join(
                 f"{row['methods'][m]['error']:>12.1f}{row['methods'][m]['error_local']:>7.1f}"

@@ -534,7 +534,7 @@ def novel_view_figure(rows: list[dict], seed: int, out_dir: pathlib.Path, echo=p
 
     objects = []
     for r in rows:
-        index = r["seed"] - seed * 1000
+        index = r["index"]
         for row in scene_rows(index, seed, out_dir / f"scene_{index:03d}" / "scene", modes=("masks",), seconds=0.2,
                               echo=lambda m: None):
             if not row.get("built"):
