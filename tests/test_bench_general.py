@@ -229,3 +229,30 @@ def test_the_shape_from_the_side_takes_out_position_and_keeps_shape():
     deep = box.copy()
     deep.vertices[:, 1] *= 2.5
     assert general.shape_novel_iou(deep, box, camera, camera, 1.0, centre) < 0.7
+
+
+def test_the_depth_split_tells_a_box_misplaced_in_depth_from_one_too_deep():
+    """A box 8 cm too far along its ray: its depth error is 0.8 of its longest side, its depth extent right,
+    and placed at the right depth it scores 1 from ±45° where as built it scores low. A box 2.5× too deep,
+    placed right, keeps a low score with its depth error taken out: its extent says why."""
+    import trimesh
+
+    from physomni_usd.geometry.camera import PinholeCamera
+
+    box = trimesh.creation.box((0.1, 0.06, 0.08))
+    box.apply_translation([0.0, 0.0, 0.04])
+    look = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])  # columns: right, down, forward = x, -z, y
+    camera = PinholeCamera.from_pose(320, 240, 50.0, np.array([0.0, -0.6, 0.04]), look)
+    centre = np.array([0.0, 0.0, 0.04])
+    far = box.copy()
+    far.apply_translation([0.0, 0.08, 0.0])
+    split = general.depth_split(far, box, camera, camera, 1.0, centre)
+    assert split["depth_position"] == pytest.approx(0.8, abs=0.01)
+    assert split["depth_extent"] == pytest.approx(1.0, abs=0.01)
+    assert split["iou_novel_depth_placed"] > 0.97
+    assert general._novel_alone(far.vertices, far.faces, box, camera, centre) < 0.5
+    deep = box.copy()
+    deep.vertices[:, 1] *= 2.5
+    split = general.depth_split(deep, box, camera, camera, 1.0, centre)
+    assert split["depth_extent"] == pytest.approx(2.5, abs=0.01)
+    assert abs(split["depth_position"]) < 0.01 and split["iou_novel_depth_placed"] < 0.7

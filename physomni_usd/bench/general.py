@@ -15,8 +15,10 @@ visible masks and from their bounding boxes — and measures each build:
   silhouette against the amodal mask, and of its visible silhouette against the truth's from the camera
   orbited ±45° about the vertical through the objects' middle; position error over the true camera distance
   (after the one scale a photo cannot show, :func:`common_scale`, and before); the longest dimension over the
-  truth's (as built); per scene the pitch error. A diagnostic beside them (:func:`shape_novel_iou`): the ±45°
-  IoU of each object alone with its own position error taken out.
+  truth's (as built); per scene the pitch error. Diagnostics beside them: the ±45° IoU of each object alone
+  with its own position error taken out (:func:`shape_novel_iou`), and the split of its loss along the
+  photo's ray through it, its error in depth, its extent in depth and the IoU with the depth error alone
+  taken out (:func:`depth_split`).
 
 The ±45° IoU is a strict measure of position for small things: an object a twentieth of the camera distance
 across, 1 % of that distance off, is a fifth of its width off from the side, so the IoU ≥ 0.7 limit asks for
@@ -71,6 +73,23 @@ def _silhouette_alone(mesh: trimesh.Trimesh, camera: PinholeCamera) -> np.ndarra
     return SilhouetteRenderer([mesh.vertices], [mesh.faces]).render(camera) == 0
 
 
+def _in_truth_frame(mesh: trimesh.Trimesh, built_camera: PinholeCamera, camera: PinholeCamera, k: float) -> np.ndarray:
+    """``mesh``'s vertices (built, seen by ``built_camera``) carried into the truth's frame at the one scale ``k``."""
+    seen = (np.asarray(mesh.vertices) - built_camera.origin) @ built_camera.world_from_camera
+    return camera.origin + (k * seen) @ camera.world_from_camera.T
+
+
+def _novel_alone(world: np.ndarray, faces, true_mesh: trimesh.Trimesh, camera: PinholeCamera, centre) -> float:
+    """The worse of the IoUs from ``camera`` orbited ±45° about ``centre`` of the mesh (``world``, ``faces``) and
+    ``true_mesh``, each alone."""
+    from ..metrics.image import mask_iou
+    from .alignment import ORBIT_DEG, _orbit
+
+    moved = trimesh.Trimesh(world, faces, process=False)
+    return min(mask_iou(_silhouette_alone(moved, cam), _silhouette_alone(true_mesh, cam))
+               for cam in (_orbit(camera, centre, a) for a in (-ORBIT_DEG, ORBIT_DEG)))
+
+
 def shape_novel_iou(mesh: trimesh.Trimesh, true_mesh: trimesh.Trimesh, built_camera: PinholeCamera,
                     camera: PinholeCamera, k: float, centre) -> float:
     """The worse of the IoUs from the true camera orbited ±45° about ``centre`` of ``mesh`` (built, seen by
@@ -78,15 +97,29 @@ def shape_novel_iou(mesh: trimesh.Trimesh, true_mesh: trimesh.Trimesh, built_cam
     one scale ``k`` and moved so that its box centre is the truth's: its shape and size from the side, its
     position error (which ``iou_left``/``iou_right`` also count) taken out. A diagnostic, not a pass rate:
     where the ±45° IoU fails and this holds, the object is misplaced, not misshapen."""
-    from ..metrics.image import mask_iou
-    from .alignment import ORBIT_DEG, _orbit
-
-    seen = (np.asarray(mesh.vertices) - built_camera.origin) @ built_camera.world_from_camera
-    world = camera.origin + (k * seen) @ camera.world_from_camera.T
+    world = _in_truth_frame(mesh, built_camera, camera, k)
     world += 0.5 * (true_mesh.bounds[0] + true_mesh.bounds[1]) - 0.5 * (world.min(0) + world.max(0))
-    moved = trimesh.Trimesh(world, mesh.faces, process=False)
-    return min(mask_iou(_silhouette_alone(moved, cam), _silhouette_alone(true_mesh, cam))
-               for cam in (_orbit(camera, centre, a) for a in (-ORBIT_DEG, ORBIT_DEG)))
+    return _novel_alone(world, mesh.faces, true_mesh, camera, centre)
+
+
+def depth_split(mesh: trimesh.Trimesh, true_mesh: trimesh.Trimesh, built_camera: PinholeCamera,
+                camera: PinholeCamera, k: float, centre) -> dict:
+    """Where the ±45° IoU is lost along the photo's ray through the object (what one photo shows least):
+    ``depth_position`` (the built box centre's error along the true ray through the truth's, over the truth's
+    longest side; > 0 farther than the truth), ``depth_extent`` (the built object's extent along that ray
+    over the truth's), and ``iou_novel_depth_placed`` (the worse ±45° IoU alone, the depth-position error
+    alone taken out: what placing it at the right depth would give, its shape as built). Beside
+    ``iou_shape_novel`` (all the position error taken out) it splits an object's ±45° loss into placement
+    in depth, placement across the photo (small where the photo's IoU is high) and shape."""
+    world = _in_truth_frame(mesh, built_camera, camera, k)
+    tc = 0.5 * (true_mesh.bounds[0] + true_mesh.bounds[1])
+    ray = (tc - camera.origin) / max(float(np.linalg.norm(tc - camera.origin)), 1e-12)
+    along = float((0.5 * (world.min(0) + world.max(0)) - tc) @ ray)
+    extent = lambda v: float(np.ptp(np.asarray(v) @ ray))  # noqa: E731
+    return {"depth_position": round(along / max(float(true_mesh.extents.max()), 1e-12), 4),
+            "depth_extent": round(extent(world) / max(extent(true_mesh.vertices), 1e-12), 4),
+            "iou_novel_depth_placed": round(_novel_alone(world - along * ray, mesh.faces, true_mesh, camera,
+                                                         centre), 4)}
 
 
 def _views_about(camera: PinholeCamera, meshes, centre) -> list[list[np.ndarray]]:
@@ -188,6 +221,7 @@ def build_row(folder, truth: dict, true_meshes: list, camera: PinholeCamera, mod
             "iou_left": round(mask_iou(got[1][i], want[1][i]), 4),
             "iou_right": round(mask_iou(got[2][i], want[2][i]), 4),
             "iou_shape_novel": round(shape_novel_iou(mine[i], true_meshes[i], built_camera, camera, k, middle), 4),
+            **depth_split(mine[i], true_meshes[i], built_camera, camera, k, middle),
             "position_error_frac": round(float(np.linalg.norm(k * est_cam[i] - true_cam[i])
                                                / np.linalg.norm(true_cam[i])), 4),
             "raw_position_error_frac": round(o["raw_position_error_frac"], 4),
@@ -384,6 +418,10 @@ def summarise(rows: list[dict]) -> dict:
                        "iou_amodal": med([o["iou_amodal"] for o in objs]),
                        "iou_novel": med([min(o["iou_left"], o["iou_right"]) for o in objs]),
                        "iou_shape_novel": med([o["iou_shape_novel"] for o in objs if "iou_shape_novel" in o]),
+                       "iou_novel_depth_placed": med([o["iou_novel_depth_placed"] for o in objs
+                                                      if "iou_novel_depth_placed" in o]),
+                       "depth_position_abs": med([abs(o["depth_position"]) for o in objs if "depth_position" in o]),
+                       "depth_extent": med([o["depth_extent"] for o in objs if "depth_extent" in o]),
                        "position_error_frac": med([o["position_error_frac"] for o in objs]),
                        "raw_position_error_frac": med([o["raw_position_error_frac"] for o in objs]),
                        "size_ratio": med([o["size_ratio"] for o in objs]),
@@ -507,6 +545,9 @@ def markdown(numbers: dict) -> str:
     meds = {"iou_photo": "median IoU, visible mask", "iou_amodal": "median IoU, whole outline",
             "iou_novel": "median IoU, worse of ±45°",
             "iou_shape_novel": "median IoU, worse of ±45°, alone, own position error taken out",
+            "iou_novel_depth_placed": "median IoU, worse of ±45°, alone, own error along its ray taken out",
+            "depth_position_abs": "median error along its ray, over its longest side",
+            "depth_extent": "median extent along its ray over the truth's",
             "position_error_frac": "median position error (after scale)",
             "raw_position_error_frac": "median position error (as built)", "size_ratio": "median size ratio",
             "pitch_error_deg": "median pitch error °", "fov_error_frac": "median field-of-view error",
@@ -514,7 +555,7 @@ def markdown(numbers: dict) -> str:
     def cell(value, key):
         if value is None:
             return "—"
-        return f"{100 * value:.1f} %" if "position" in key or "fov" in key else f"{value:.2f}"
+        return f"{100 * value:.1f} %" if "position_error" in key or "fov" in key else f"{value:.2f}"
 
     for key, name in meds.items():
         lines.append(f"| {name} | " + " | ".join(cell(s[m]["median"].get(key), key) for m in modes) + " |")
