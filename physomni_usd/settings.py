@@ -178,12 +178,15 @@ class RenderSettings(_Settings):
     shadow_blur: float = Field(0.012, ge=0.0, le=0.2, description="Shadow softness, fraction of the image diagonal.")
     quality: int = Field(9, ge=1, le=10, description="H.264 quality, 10 is best.")
     max_size: Annotated[int, Option(
-        "--max-size", "Longest side of the video in pixels; larger photos are rendered smaller. H.264 needs even "
-                      "sides: an odd width or height loses its last column or row. A frame where an object moves costs "
-                      "about 0.19 CPU seconds at 741×500 and 0.7 at 1920×1295 on a 2-core CPU (above 1600 px, rays "
-                      "are cast on every third pixel where the surface seen is smooth); a frame where "
-                      "nothing moved is the last one again and costs only its encoding (bench scale). The default is a full-HD video's width: a 12 MP photo's own 4000 px would "
-                      "cost 4× as much a frame.")] = Field(1920, ge=64, le=8192,
+        "--max-size", "Longest side of the video in pixels; larger photos are rendered smaller (frame 0 is the photo "
+                      "at that size), smaller ones at their own size. H.264 needs even sides: an odd width or "
+                      "height loses its last column or row. The default is HD video's 1280 (1280×720's long "
+                      "side): a frame where an object moves costs about 0.2 CPU seconds at 741×500, 0.3 at "
+                      "1280×864 and 0.8 at 1920×1295 on a 2-core CPU, so a 12 MP photo's video at full HD "
+                      "costs about 2.7× its 1280 one; pass 1920 or the photo's own size for more. Above 1100 px "
+                      "rays are cast on every third pixel where the surface seen is smooth; a frame where "
+                      "nothing moved is the last one again and costs only its encoding.")] = Field(
+                          1280, ge=64, le=8192,
                           description="Longest side of the video in pixels; larger photos are rendered smaller.")
     device: str | None = Field(None, description="warp device; None picks cuda when present.")
 

@@ -121,5 +121,5 @@ def test_run_takes_the_render_size(tmp_path):
 
     photo = EXAMPLE.parent / "motorcycle" / "photo.png"
     args = [str(photo), "-o", str(tmp_path / "shot"), "--mask", str(photo.parent / "bin.png")]
-    assert run_arguments(args)["render_settings"].max_size == 1920
+    assert run_arguments(args)["render_settings"].max_size == 1280
     assert run_arguments(args + ["--max-size", "640"])["render_settings"].max_size == 640

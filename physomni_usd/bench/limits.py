@@ -7,6 +7,7 @@ from __future__ import annotations
 import pathlib
 
 from ..limits import Limit, Limits
+from ..settings import RenderSettings
 
 #: The bundled example a bench runs when none is named (a path in the project's checkout, where benches run).
 EXAMPLE = pathlib.Path("examples/motorcycle")
@@ -34,7 +35,8 @@ BATCH = Limits(
 SCALE = Limits(
     repeats=Limit("--repeats", "Rounds over the sizes, alternating (medians are reported).", 1, 20, 1, whole=True),
     seconds=Limit("--seconds", "Simulated seconds.", None, None, 3.0),  # simulate itself checks the range
-    max_size=Limit("--max-size", "render --max-size.", None, None, 1920, whole=True),  # as render checks it
+    max_size=Limit("--max-size", "render --max-size.", None, None, RenderSettings.model_fields["max_size"].default,
+                   whole=True),  # render's own default, and render checks it
     objects=Limit("--objects", "Boxes dropped in one run of the object axis", 1, 1000, None, whole=True,
                   default_text="none"),
 )

@@ -44,7 +44,8 @@ def texture_object(photo: np.ndarray, camera, visible: np.ndarray, amodal: np.nd
     camera see through (a slab's back, :func:`~.sides.corner_st`); ``work``: the
     :class:`~physomni_usd.perceive.working.Working` copy the build worked on, if any (the crop is then worked on
     the object's part of the photo only, and the opaque copy found on a reduced copy)."""
-    rgba, (x0, y0) = completed_crop(photo, visible, amodal, part_only=work is not None)
+    rgba, (x0, y0) = completed_crop(photo, visible, amodal, part_only=work is not None,
+                                   step=1.0 if work is None else min(work.fx, work.fy))
     # drawn like the rest, but not the photo's pixels of it: renderers show the photo only at 255
     crop = (slice(y0, y0 + rgba.shape[0]), slice(x0, x0 + rgba.shape[1]))
     rgba[..., 3][(amodal & ~visible & ~painted)[crop]] = 0  # behind what the meshes put behind it
@@ -59,11 +60,12 @@ def texture_object(photo: np.ndarray, camera, visible: np.ndarray, amodal: np.nd
     return ObjectTexture(two_sided_texture(rgba, 1.0 if work is None else work.fx), st, (x0, y0))
 
 
-def completed_crop(photo: np.ndarray, visible: np.ndarray, amodal: np.ndarray, part_only: bool = False):
+def completed_crop(photo: np.ndarray, visible: np.ndarray, amodal: np.ndarray, part_only: bool = False,
+                   step: float = 1.0):
     """:func:`crop_texture` of the object completed behind its occluders (:func:`~.hidden.complete_texture`),
     and its (x0, y0) in the photo; with ``part_only`` (a photo above the working resolution), worked on the
     object's part of the photo only (the padding :data:`PAD` and the completion's softening reach, kept the
-    whole photo's)."""
+    whole photo's) and its fill found on a copy reduced by ``step`` (photo pixels per working pixel)."""
     if not part_only:
         return crop_texture(complete_texture(photo, visible, amodal), amodal)
     ys, xs = np.nonzero(amodal)
@@ -71,7 +73,7 @@ def completed_crop(photo: np.ndarray, visible: np.ndarray, amodal: np.ndarray, p
     x0, x1 = max(0, xs.min() - PAD), min(w, xs.max() + PAD + 1)
     y0, y1 = max(0, ys.min() - PAD), min(h, ys.max() + PAD + 1)
     part = (slice(y0, y1), slice(x0, x1))
-    rgba, (cx, cy) = crop_texture(complete_texture(photo[part], visible[part], amodal[part], max(h, w)),
+    rgba, (cx, cy) = crop_texture(complete_texture(photo[part], visible[part], amodal[part], max(h, w), step),
                                   amodal[part])
     return rgba, (int(x0 + cx), int(y0 + cy))
 

@@ -70,15 +70,34 @@ def nearest_surrounding(image: np.ndarray, hole: np.ndarray, reach: float | None
         reach = max(8.0, SURROUND * float(np.hypot(h, w)))
     nearest = image.astype(np.float32)
     dist = np.zeros((h, w), np.float32)
-    n, labels = cv2.connectedComponents(hole.astype(np.uint8), connectivity=8)
+    # colours as one integer each: unique colours of a 12 MP photo's ring sort as a flat array in a fraction of
+    # the time rows take, and each part's pixels are looked up once per colour, not once per pixel
+    code = _colour_code(image)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(hole.astype(np.uint8), connectivity=8)
+    grow = int(np.ceil(reach)) + 1
     for k in range(1, n):
-        part = labels == k
-        ring = within(part, reach) & ~hole
+        # the part's box grown by the reach: nothing farther can be within it
+        x, y, bw, bh = stats[k, :4]
+        box = (slice(max(0, y - grow), min(h, y + bh + grow)), slice(max(0, x - grow), min(w, x + bw + grow)))
+        part = labels[box] == k
+        ring = within(part, reach) & ~hole[box]
         if not ring.any():
-            dist[part] = np.inf
+            dist[box][part] = np.inf
             continue
-        colours = np.unique(image[ring].reshape(-1, 3), axis=0).astype(np.float32)
-        d, idx = cKDTree(colours).query(nearest[part])
-        dist[part] = d
-        nearest[part] = colours[idx]
+        colours = _colour_of(np.unique(code[box][ring]))
+        own, back = np.unique(code[box][part], return_inverse=True)
+        d, idx = cKDTree(colours).query(_colour_of(own))
+        dist[box][part] = d[back.reshape(-1)]
+        nearest[box][part] = colours[idx[back.reshape(-1)]]
     return nearest, dist
+
+
+def _colour_code(image: np.ndarray) -> np.ndarray:
+    """(H, W) int32: each pixel's colour of ``image`` (H, W, 3) uint8 as one integer."""
+    c = image.astype(np.int32)
+    return (c[..., 0] << 16) | (c[..., 1] << 8) | c[..., 2]
+
+
+def _colour_of(code: np.ndarray) -> np.ndarray:
+    """(n, 3) float32 colours of :func:`_colour_code`'s integers."""
+    return np.stack([(code >> 16) & 255, (code >> 8) & 255, code & 255], axis=-1).astype(np.float32)
