@@ -80,3 +80,11 @@ def test_shot_checks_reports_the_deepest(stage):
     assert checks["max_penetration_m"] == round(max(max(overlaps(WorldMeshes(stage).at(t)).values(), default=0)
                                                     for t in (0, 1)), 5)
     assert checks["max_penetration_m"] > 0.015
+
+
+def test_one_mesh_overlaps_nothing():
+    st = Usd.Stage.CreateInMemory()
+    UsdGeom.Xform.Define(st, OBJECTS)
+    _mesh(st, "a", trimesh.creation.box((0.2, 0.2, 0.2)), {0: ((0, 0, 0), 0)})
+    assert Penetrations(WorldMeshes(st)).pairs(0) == {}
+    assert shot_checks(st, 1)["max_penetration_m"] == 0

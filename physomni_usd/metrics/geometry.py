@@ -78,8 +78,9 @@ class Penetrations:
     planes. The hull is taken once per mesh whose points no time sample moves, as indices into its points:
     an affine transform maps the hull of points to the hull of the transformed points, so the same triangles
     give every frame's planes. Inside a convex mesh (its own hull) the depth of a point is its distance to the
-    nearest plane, which is what the signed distance returns; for any other mesh the exact signed distance
-    runs on the points inside its hull alone.
+    nearest plane, which is what the signed distance returns (to rounding; trimesh's search for the nearest
+    face can settle on a farther one, by microns); for any other mesh the exact signed distance runs on the
+    points inside its hull alone.
     """
 
     #: (points × hull planes) entries one block of the half-space test holds (bounds its memory).
@@ -98,7 +99,7 @@ class Penetrations:
         verts = self.meshes.vertices(time)
         names = sorted(verts)
         if len(names) < 2:
-            return 0.0
+            return {}
         lo = np.array([verts[n].min(axis=0) for n in names])  # (n, 3) m
         hi = np.array([verts[n].max(axis=0) for n in names])
         touch = (lo[:, None] <= hi[None]).all(axis=2) & (lo[None] <= hi[:, None]).all(axis=2)
