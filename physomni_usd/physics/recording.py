@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..metrics.geometry import WorldMeshes, max_penetration
+from ..metrics.geometry import Penetrations, WorldMeshes
 from ..usd import layers
 from ..usd.author import PARTICLES, write_sim_layer
 from .cloth import soft_turn
@@ -177,22 +177,8 @@ def shot_checks(stage, frames: int) -> dict:
     meshes = WorldMeshes(stage)
     final = meshes.vertices(frames - 1)
     times = [0] if meshes.still() else range(frames)  # nothing moved: every frame is the first
+    depth = Penetrations(meshes)
     return {
         "final_lowest_z_m": {name: round(float(v[:, 2].min()), 5) for name, v in final.items()},
-        "max_penetration_m": round(max(_penetration(meshes, t) for t in times), 5),
+        "max_penetration_m": round(max(depth.at(t) for t in times), 5),
     }
-
-
-def _penetration(meshes: WorldMeshes, time: float) -> float:
-    """``max_penetration`` at ``time`` of the meshes whose boxes touch another's (the rest cannot overlap),
-    the boxes taken from plain arrays: most frames of a spread-out scene then cost no mesh at all."""
-    verts = meshes.vertices(time)
-    if len(verts) < 2:
-        return 0.0
-    names = list(verts)
-    lo = np.array([verts[n].min(axis=0) for n in names])  # (n, 3) m
-    hi = np.array([verts[n].max(axis=0) for n in names])
-    touch = (lo[:, None] <= hi[None]).all(axis=2) & (lo[None] <= hi[:, None]).all(axis=2)
-    np.fill_diagonal(touch, False)
-    close = {n for n, row in zip(names, touch) if row.any()}
-    return max_penetration(meshes.of(verts, close)) if close else 0.0
