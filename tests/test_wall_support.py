@@ -94,14 +94,15 @@ def test_an_object_hung_on_the_wall_is_held_against_it(with_photo):
     far = lifted[2].vertices.copy()
     done = raise_unseen(lifted, ["box", "box", "box"], {}, CAMERA, photo=_photo(True) if with_photo else None,
                         masks=masks)
-    if not with_photo:  # its size alone (it reads no larger than the others) leaves it on the floor behind
-        assert 2 not in done and np.array_equal(lifted[2].vertices, far)
+    error = np.abs(lifted[2].vertices.mean(0) - hung.vertices.mean(0)).max()
+    if not with_photo:  # its size alone brings it nearer, but not to where it hangs
+        assert "against_wall" not in done.get(2, {}) and error > 0.05, (done, error)
         return
     assert done[2].get("against_wall") and done[2].get("held"), done
     # where the photo shows it: the same outline, and within 5 cm of where it hangs, 1.7 m from the camera (the
     # line is read on a photo a hundred-odd rows tall, a row or two off)
     assert np.allclose(CAMERA.project(lifted[2].vertices)[0], CAMERA.project(far)[0], atol=1e-6)
-    assert np.abs(lifted[2].vertices.mean(0) - hung.vertices.mean(0)).max() <= 0.05
+    assert error <= 0.05
     # the objects on the floor stay where they stand
     for k in (0, 1):
         assert np.array_equal(lifted[k].vertices, near[k].vertices)
