@@ -311,20 +311,22 @@ def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0, pho
         # what holds others up stands on the ground (a stack on a shelf is left where the cues put it)
         if lifted[i].info.get("foot") or i in holders:
             continue
+        others = [j for j in range(n) if j != i and typical[j] is not None and j not in riders(i, supports)]
+        ratio = None
+        if typical[i] is not None and others:
+            # the scene's scale as the others' sizes read it: each is its typical size over its lifted one
+            ref = float(np.exp(np.median([np.log(typical[j] / max(longest[j], 1e-9)) for j in others])))
+            ratio = ref * longest[i] / typical[i]
         t = None
-        if wall is not None and i in wall[1]:
+        # its size must not deny it: one that already reads smaller than its label's typical size on the ground
+        # would be smaller still nearer (a shaded band across the floor read as the wall's foot, fruit behind it)
+        if wall is not None and i in wall[1] and (ratio is None or ratio >= WALL_MIN_RATIO):
             t = depth_against(lifted[i].vertices, wall[0], origin)
             t = t if t is not None and t < 1.0 else None
         entry = {"against_wall": True}
         if t is None:
-            if typical[i] is None:
+            if ratio is None:
                 continue
-            others = [j for j in range(n) if j != i and typical[j] is not None and j not in riders(i, supports)]
-            if not others:
-                continue
-            # the scene's scale as the others' sizes read it: each is its typical size over its lifted one
-            ref = float(np.exp(np.median([np.log(typical[j] / max(longest[j], 1e-9)) for j in others])))
-            ratio = ref * longest[i] / typical[i]
             ground = [j for j in free if j != i and j not in riders(i, supports)]
             behind = bool(ground) and reach(i)[0] > max(reach(j)[1] for j in ground)
             if ratio <= RAISE_RATIO or not behind:
@@ -349,6 +351,10 @@ def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0, pho
             t = (land[1] - origin[2]) / (base0 - origin[2])
         _hold(i, t, lifted, supports, origin, scale, out, entry, land)
     return out
+
+
+#: An object held against the wall reads at least this many times its typical size stood on the ground.
+WALL_MIN_RATIO = 1.0
 
 
 def _wall(photo, masks, camera, free, holders):
