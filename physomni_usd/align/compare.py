@@ -294,15 +294,27 @@ def search_view(evaluate, cue_pitch: float, cue_fov: float, lowest, highest: flo
 
 def search_pitch(evaluate, cue_pitch: float, lowest: float, highest: float,
                  coarse_step: float = COARSE_STEP_DEG, fine_step: float = FINE_STEP_DEG,
-                 gain_fraction: float = MIN_GAIN_FRACTION) -> PitchSearch:
+                 gain_fraction: float = MIN_GAIN_FRACTION, window_deg: float | None = None,
+                 trust_deg: float | None = None, anchor: float | None = None) -> PitchSearch:
     """The pitch (degrees) whose lifted scene scores best, from ``lowest`` to ``highest``.
 
     ``evaluate(pitch) -> SceneScore | None`` lifts and scores the scene under that pitch (None: no scene
     there). The cues' ``cue_pitch`` is scored first, then a coarse grid, then ``fine_step`` either side of
     the best twice halving. The cues' pitch stays unless a pitch beats it by :data:`MIN_GAIN` plus
     ``gain_fraction`` of its score; of the pitches that do and score within :data:`NEAR_BEST_FRACTION` (plus
-    :data:`NEAR_BEST_ABS`) of the best, the one nearest the cues' is taken."""
+    :data:`NEAR_BEST_ABS`) of the best, the one nearest the cues' is taken.
+
+    ``window_deg``: only pitches that near the cues' are taken (a strong reading is refined, not replaced).
+    ``trust_deg``: the whole range is scored all the same, and where its best lies more than ``trust_deg``
+    *below* the cues' pitch the reading loses and the best is taken: the silhouettes lean towards steep
+    views (from straight above any outline matches), so a shallower view they prefer against that lean
+    outweighs a light reading (a tabletop's printed lines read as verticals). ``anchor``: a reading too light
+    to move the cues' pitch (a steep horizon nothing confirms), scored too; the near-best pitches are taken
+    nearest to it instead of the cues'."""
     scores: dict[float, SceneScore | None] = {}
+    key_cue = round(float(min(max(cue_pitch, lowest), highest)), 3)
+    if window_deg is not None and trust_deg is None:  # nothing outside the window can be taken: not scored
+        lowest, highest = max(lowest, key_cue - window_deg), min(highest, key_cue + window_deg)
 
     def at(p: float):
         p = float(min(max(p, lowest), highest))
@@ -311,7 +323,14 @@ def search_pitch(evaluate, cue_pitch: float, lowest: float, highest: float,
             scores[key] = evaluate(p)
         return scores[key]
 
+    def inside(k: float) -> bool:
+        return window_deg is None or abs(k - key_cue) <= window_deg + 1e-9
+
     cue = at(cue_pitch)
+    key_anchor = None
+    if anchor is not None:
+        key_anchor = round(float(min(max(anchor, lowest), highest)), 3)
+        at(anchor)
     start = math.ceil(lowest / coarse_step) * coarse_step
     for p in np.arange(start, highest + 1e-9, coarse_step):
         at(p)
@@ -319,27 +338,32 @@ def search_pitch(evaluate, cue_pitch: float, lowest: float, highest: float,
         at(highest)
     step = fine_step
     for _ in range(2):
-        best = min((k for k, s in scores.items() if s is not None), key=lambda k: scores[k].total, default=None)
-        if best is None:
-            break
-        at(best - step)
-        at(best + step)
+        valid = [k for k, s in scores.items() if s is not None]
+        # refined about the best of the whole range and about the best the window allows
+        bests = {min(ks, key=lambda k: scores[k].total) for ks in (valid, [k for k in valid if inside(k)]) if ks}
+        for best in sorted(bests):
+            at(best - step)
+            at(best + step)
         step /= 2
     valid = {k: s for k, s in scores.items() if s is not None}
     tried = [(k, s.total) for k, s in valid.items()]
-    key_cue = round(float(min(max(cue_pitch, lowest), highest)), 3)
     if cue is None:
         if not valid:
             raise ValueError("no pitch gave a scene")
         best = min(valid, key=lambda k: valid[k].total)
         return PitchSearch(best, key_cue, valid[best], valid[best], tried)
+    overall = min(valid, key=lambda k: valid[k].total)
+    if trust_deg is not None and key_cue - overall > trust_deg:
+        return PitchSearch(overall, key_cue, valid[overall], cue, tried)
+    valid = {k: v for k, v in valid.items() if inside(k)}
     best = min(valid, key=lambda k: valid[k].total)
     beats = cue.total - MIN_GAIN - gain_fraction * cue.total
+    centre = key_anchor if key_anchor is not None and inside(key_anchor) else key_cue
     # where the scores are flat near the best (seen from above, any outline matches), the pitch nearest the
     # cues' among those about as good: the silhouettes move the cues' reading only as far as they need to
     near = [k for k, v in valid.items()
             if v.total <= min(beats, valid[best].total * (1.0 + NEAR_BEST_FRACTION) + NEAR_BEST_ABS)]
     if near:
-        pick = min(near, key=lambda k: (abs(k - key_cue), valid[k].total))
+        pick = min(near, key=lambda k: (abs(k - centre), valid[k].total))
         return PitchSearch(pick, key_cue, valid[pick], cue, tried)
     return PitchSearch(key_cue, key_cue, cue, cue, tried)

@@ -28,7 +28,7 @@ from ..geometry.camera import PinholeCamera, pick_pitch
 from ..geometry.mesh import longest_dimension
 from .compare import (MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, prior_terms, search_pitch, search_view,
                       score_scene)
-from .cues import ELLIPSE_IOU, MAX_PITCH_DEG, estimate_camera, mask_ellipse, min_pitch
+from .cues import ELLIPSE_IOU, FEET_WEIGHT, MAX_PITCH_DEG, estimate_camera, mask_ellipse, min_pitch, weighted_median
 from .place import footprint, make_room, separate
 from .scale import fit_scale
 from .support import TOP_BAND, find_supports, raise_unseen, reach_under, root_of, settle_on_supports, support_order
@@ -36,9 +36,14 @@ from .support import TOP_BAND, find_supports, raise_unseen, reach_under, root_of
 #: Scale-and-lift rounds: an object's height from its prior depends on the scale, the scale on the lifted sizes.
 SCALE_ROUNDS = 3
 #: A cue at least this heavy (``align.cues``) confines the pitch search to CUE_WINDOW_DEG either side of the
-#: cues' pitch.
+#: cues' pitch ...
 STRONG_CUE = 0.5
 CUE_WINDOW_DEG = 20.0
+#: ... and one lighter than this (a vanishing point on fewer than ten segments: a tabletop's printed lines can
+#: be five) is trusted only while the silhouettes prefer no pitch more than CUE_WINDOW_DEG shallower.
+TRUSTED_CUE = 1.0
+#: The pitch the objects' feet alone give (no reading of the photo).
+FEET_CUE = "objects' feet"
 #: ... while the pitch search weighs a pitch, each started from the scale of the nearest pitch weighed.
 SEARCH_SCALE_ROUNDS = 2
 #: ... on copies of the photo and masks whose longer side is at most this (pixels).
@@ -295,9 +300,16 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
         # a pitch a strong cue reads (a vanishing point, an ellipse) is searched about, not over the whole
         # range, and gives way only to a far better one: a lift seen from straight above matches any outline,
         # so the silhouettes alone favour it
-        strong = any(c.pitch_deg is not None and c.weight >= STRONG_CUE for c in est.cues)
+        readings = [c for c in est.cues if c.pitch_deg is not None and c.kind != FEET_CUE and c.weight > 0]
+        heaviest = max((c.weight for c in readings), default=0.0)
+        strong = heaviest >= STRONG_CUE
         window = CUE_WINDOW_DEG if strong else 90.0
         gain = STRONG_GAIN_FRACTION if strong else MIN_GAIN_FRACTION
+        # readings too light to move the weighted median (a steep horizon nothing confirms) still say which of
+        # the pitches the silhouettes find as good as the best to take
+        anchor = None
+        if readings and heaviest < FEET_WEIGHT:
+            anchor = weighted_median([c.pitch_deg for c in readings], [c.weight for c in readings])
         free_fov = settings.render_compare_fov and cam_cfg.fov_deg is None and est.fov_source.startswith("default")
         try:
             if free_fov:  # no cue reads the field of view: it is searched with the pitch (align.compare.search_view)
@@ -308,8 +320,10 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
                                        min(MAX_PITCH_DEG, pitch + window), gain_fraction=gain)
             else:
                 searched = search_pitch(lambda p: _scored(lift_at, p, small[1], labels, found), pitch,
-                                        max(est.min_pitch_deg, 0.0, pitch - window),
-                                        min(MAX_PITCH_DEG, pitch + window), gain_fraction=gain)
+                                        max(est.min_pitch_deg, 0.0), MAX_PITCH_DEG, gain_fraction=gain,
+                                        window_deg=window if strong else None,
+                                        trust_deg=CUE_WINDOW_DEG if strong and heaviest < TRUSTED_CUE else None,
+                                        anchor=anchor)
         except ValueError:  # no pitch lifted a scene the search could score: the cues' pitch, as without it
             searched = None
             camera_info["render_compare"] = {"chosen": "cues", "skipped": "no pitch tried gave a scene"}
