@@ -193,3 +193,24 @@ def test_a_reading_too_light_to_count_chooses_among_the_pitches_as_good_as_the_b
     flat = compare.search_pitch(lambda p: compare.SceneScore(0.3, {}), cue_pitch=10.0, lowest=0.0, highest=89.5,
                                 anchor=84.0)
     assert flat.pitch_deg == 10.0
+
+
+def test_the_field_of_view_is_weighed_along_the_row_a_vanishing_point_fixes():
+    from physomni_usd.align.cues import Cue, row_pitch
+    horizon = Cue("horizon vanishing points", 30.0, 1.5, detail={"row": -40.0})
+    # a wider view pitched more puts the horizon on the same row
+    assert row_pitch(horizon, 70.0, 240) > row_pitch(horizon, 50.0, 240) > row_pitch(horizon, 30.0, 240)
+    assert row_pitch(Cue("ellipse", 30.0, 1.0), 50.0, 240) is None
+
+    def scene(p, f):  # the scene explains the photo best under a 30° view
+        return compare.SceneScore(0.05 + abs(f - 30.0) / 100.0, {})
+    along = compare.search_row(scene, lambda f: row_pitch(horizon, f, 240), 50.0, lambda f: 0.0)
+    assert along.fov_deg == 30.0 and along.pitch_deg == pytest.approx(row_pitch(horizon, 30.0, 240), abs=1e-3)
+    assert along.cue_fov_deg == 50.0 and along.as_dict()["chosen"] == "silhouettes"
+    # a flat landscape keeps the default; a view under which a foot stands above the horizon is no camera
+    flat = compare.search_row(lambda p, f: compare.SceneScore(0.2, {}), lambda f: row_pitch(horizon, f, 240), 50.0,
+                              lambda f: 0.0)
+    assert flat.fov_deg == 50.0 and flat.as_dict()["chosen"] == "cues"
+    feet = compare.search_row(scene, lambda f: row_pitch(horizon, f, 240), 50.0,
+                              lambda f: 0.0 if f >= 45.0 else 90.0)
+    assert feet.fov_deg >= 45.0 and all(f >= 45.0 for _, f, _ in feet.tried)

@@ -50,6 +50,11 @@ NEAR_BEST_ABS = 0.01
 #: Fields of view (degrees, vertical) the view search (:func:`search_view`) grids, and its first step in them.
 FOV_GRID_DEG = (30.0, 40.0, 50.0, 60.0, 70.0)
 FOV_FINE_STEP_DEG = 5.0
+#: A field of view along a vanishing row replaces the default one when it beats it by MIN_GAIN plus this
+#: fraction of its score: half what a pitch needs, the default being no reading of the photo.
+ROW_GAIN_FRACTION = 0.2
+#: Fields of view (degrees, vertical) tried along a vanishing row (:func:`search_row`).
+ROW_FOVS_DEG = (25.0, 30.0, 35.0, 40.0, 45.0, 50.0, 55.0, 60.0, 65.0, 70.0, 75.0, 80.0)
 #: Silhouette IoU under which ``build`` warns, naming the object.
 WARN_IOU = 0.85
 #: Largest log-ratio one object adds to the size term (a failed lift counts, but does not swamp the rest).
@@ -244,7 +249,7 @@ def search_view(evaluate, cue_pitch: float, cue_fov: float, lowest, highest: flo
                 fovs=FOV_GRID_DEG, coarse_step: float = COARSE_STEP_DEG, fine_step: float = FINE_STEP_DEG,
                 fov_step: float = FOV_FINE_STEP_DEG, gain_fraction: float = MIN_GAIN_FRACTION) -> ViewSearch:
     """The pitch and field of view (degrees) whose lifted scene scores best, where no cue reads the field of
-    view: the two trade against each other (a wider view pitched less puts the horizon on the same row), so
+    view: the two trade against each other (a wider view pitched more puts the horizon on the same row), so
     they are searched together, not one after the other. ``evaluate(pitch, fov) -> SceneScore | None``;
     ``lowest(fov)`` the least pitch that stands every foot on the ground under ``fov``. A coarse grid (pitches
     ``coarse_step`` apart under each of ``fovs``), then a pattern search about the best (``fine_step`` in
@@ -367,3 +372,35 @@ def search_pitch(evaluate, cue_pitch: float, lowest: float, highest: float,
         pick = min(near, key=lambda k: (abs(k - centre), valid[k].total))
         return PitchSearch(pick, key_cue, valid[pick], cue, tried)
     return PitchSearch(key_cue, key_cue, cue, cue, tried)
+
+
+def search_row(evaluate, pitch_of, cue_fov: float, lowest, fovs=ROW_FOVS_DEG,
+               gain_fraction: float = ROW_GAIN_FRACTION) -> ViewSearch:
+    """The field of view (and the pitch it gives) along the curve a vanishing row fixes, where that row reads
+    the pitch and nothing reads the field of view: ``pitch_of(fov)`` the pitch the row means under ``fov``,
+    ``lowest(fov)`` the least that stands every foot on the ground (a field of view under which the row puts
+    a foot above the horizon is no camera of the photo). ``evaluate(pitch, fov) -> SceneScore | None``. The
+    cues' field of view stays unless another beats it as :func:`search_pitch`'s rule has it; of those about
+    as good as the best, the one nearest the cues' is taken."""
+    scored: dict[float, tuple[float, SceneScore | None]] = {}
+    for f in sorted({float(cue_fov), *map(float, fovs)}):
+        p = pitch_of(f)
+        if p is None or p < lowest(f) or p > 90.0:
+            continue
+        scored[round(f, 3)] = (round(float(p), 3), evaluate(round(float(p), 3), round(f, 3)))
+    valid = {f: (p, v) for f, (p, v) in scored.items() if v is not None}
+    tried = [(p, f, v.total) for f, (p, v) in valid.items()]
+    if not valid:
+        raise ValueError("no field of view gave a scene along the row")
+    best = min(valid, key=lambda f: valid[f][1].total)
+    key_cue = round(float(cue_fov), 3)
+    if key_cue not in valid:  # the cues' own camera puts a foot above its horizon: the row's best stands
+        p = pitch_of(cue_fov)
+        return ViewSearch(valid[best][0], best, valid[best][0] if p is None else round(float(p), 3), key_cue,
+                          valid[best][1], valid[best][1], tried)
+    cue_p, cue = valid[key_cue]
+    beats = cue.total - MIN_GAIN - gain_fraction * cue.total
+    near = [f for f, (_, v) in valid.items()
+            if v.total <= min(beats, valid[best][1].total * (1.0 + NEAR_BEST_FRACTION) + NEAR_BEST_ABS)]
+    pick = min(near, key=lambda f: (abs(f - key_cue), valid[f][1].total)) if near else key_cue
+    return ViewSearch(valid[pick][0], pick, cue_p, key_cue, valid[pick][1], cue, tried)

@@ -620,6 +620,19 @@ def vanishing_cues(photo: np.ndarray, fov_deg: float | None, fov_given: bool, ob
     return pitch_cues, fov_cues, v_h
 
 
+def row_pitch(cue: Cue, fov_deg: float, height: int) -> float | None:
+    """The pitch ``cue`` reads under another field of view: a vanishing row (the horizon's, or the
+    verticals' below the centre) is what the photo shows, the pitch it means depends on the focal length (a
+    wider view pitched more puts the horizon on the same row). None for a cue that reads no row."""
+    row = cue.detail.get("row")
+    if row is None or cue.kind not in ("horizon vanishing points", "horizon line", "vertical vanishing point"):
+        return None
+    f, cy = focal_px(fov_deg, height), 0.5 * height
+    if cue.kind == "vertical vanishing point":
+        return math.degrees(math.atan2(f, row - cy))
+    return math.degrees(math.atan2(cy - row, f))
+
+
 # identical objects --------------------------------------------------------------------------------
 
 def _hull(mask: np.ndarray) -> np.ndarray | None:

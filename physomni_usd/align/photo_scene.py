@@ -26,9 +26,10 @@ from ..settings import BuildSettings
 from ..errors import InputError
 from ..geometry.camera import PinholeCamera, pick_pitch
 from ..geometry.mesh import longest_dimension
-from .compare import (MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, prior_terms, search_pitch, search_view,
+from .compare import (MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, prior_terms, search_pitch, search_row, search_view,
                       score_scene)
-from .cues import ELLIPSE_IOU, FEET_WEIGHT, MAX_PITCH_DEG, estimate_camera, mask_ellipse, min_pitch, weighted_median
+from .cues import (ELLIPSE_IOU, FEET_WEIGHT, MAX_PITCH_DEG, estimate_camera, mask_ellipse, min_pitch, row_pitch,
+                   weighted_median)
 from .place import footprint, make_room, separate
 from .scale import fit_scale
 from .support import TOP_BAND, find_supports, raise_unseen, reach_under, root_of, settle_on_supports, support_order
@@ -311,6 +312,25 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
         if readings and heaviest < FEET_WEIGHT:
             anchor = weighted_median([c.pitch_deg for c in readings], [c.weight for c in readings])
         free_fov = settings.render_compare_fov and cam_cfg.fov_deg is None and est.fov_source.startswith("default")
+        lowest = est.min_pitch_deg
+        row_cue = max(readings, key=lambda c: c.weight, default=None)
+        if (not free_fov and cam_cfg.fov_deg is None and est.fov_source.startswith("default") and strong
+                and row_pitch(row_cue, fov, h) is not None):
+            # one vanishing row reads the pitch only under a field of view nothing reads: the fields of view
+            # along the curve it fixes are weighed by the silhouettes (and by the feet, which a wrong one can
+            # put above the horizon)
+            try:
+                along = search_row(lambda p, f: _scored(lambda q: lift_at(q, f), p, small[1], labels, found),
+                                   lambda f: row_pitch(row_cue, f, h), fov, lambda f: min_pitch(f, h, feet))
+            except ValueError:
+                along = None
+            if along is not None:
+                camera_info["row_search"] = along.as_dict()
+            if along is not None and along.fov_deg != round(fov, 3):
+                camera_info |= {"fov_deg": round(along.fov_deg, 3), "cue_fov_deg": round(fov, 3),
+                                "fov_source": f"render-and-compare along the row of the {row_cue.kind}"}
+                fov, pitch = along.fov_deg, along.pitch_deg
+                lowest = min_pitch(fov, h, feet)
         try:
             if free_fov:  # no cue reads the field of view: it is searched with the pitch (align.compare.search_view)
                 feet = _feet(small[1])
@@ -320,7 +340,7 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
                                        min(MAX_PITCH_DEG, pitch + window), gain_fraction=gain)
             else:
                 searched = search_pitch(lambda p: _scored(lift_at, p, small[1], labels, found), pitch,
-                                        max(est.min_pitch_deg, 0.0), MAX_PITCH_DEG, gain_fraction=gain,
+                                        max(lowest, 0.0), MAX_PITCH_DEG, gain_fraction=gain,
                                         window_deg=window if strong else None,
                                         trust_deg=CUE_WINDOW_DEG if strong and heaviest < TRUSTED_CUE else None,
                                         anchor=anchor)
