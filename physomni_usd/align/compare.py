@@ -9,7 +9,9 @@ over it), size priors (each label's typical size against the one scale of the sc
 solid object no thinner than a third of its outline's smaller side). :func:`search_pitch` scores the cues'
 pitch against a coarse grid of pitches, refined about the best, and keeps the cues' one unless another
 explains the whole scene clearly better, so a single cue contradicting every silhouette (a traced board read
-as a horizon) loses.
+as a horizon) loses; a light reading loses too where the silhouettes prefer a far shallower pitch.
+:func:`search_row` weighs the fields of view along the curve one vanishing row fixes, where nothing else
+reads the field of view.
 """
 
 from __future__ import annotations
