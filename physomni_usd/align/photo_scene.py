@@ -40,8 +40,9 @@ SCALE_ROUNDS = 3
 #: cues' pitch ...
 STRONG_CUE = 0.5
 CUE_WINDOW_DEG = 20.0
-#: ... and one lighter than this (a vanishing point on fewer than ten segments: a tabletop's printed lines can
-#: be five) is trusted only while the silhouettes prefer no pitch more than CUE_WINDOW_DEG shallower.
+#: ... and readings within CUE_WINDOW_DEG of it weighing less than this together (a vanishing point on fewer
+#: than ten segments: a tabletop's printed lines can be five) are trusted only while the silhouettes prefer no
+#: pitch more than CUE_WINDOW_DEG shallower.
 TRUSTED_CUE = 1.0
 #: The pitch the objects' feet alone give (no reading of the photo).
 FEET_CUE = "objects' feet"
@@ -305,6 +306,8 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
         heaviest = max((c.weight for c in readings), default=0.0)
         strong = heaviest >= STRONG_CUE
         window = CUE_WINDOW_DEG if strong else 90.0
+        # readings that agree add up (four ellipses of one tray of sweets, each light, all reading straight down)
+        agreeing = sum(c.weight for c in readings if abs(c.pitch_deg - pitch) <= CUE_WINDOW_DEG)
         gain = STRONG_GAIN_FRACTION if strong else MIN_GAIN_FRACTION
         # readings too light to move the weighted median (a steep horizon nothing confirms) still say which of
         # the pitches the silhouettes find as good as the best to take
@@ -342,7 +345,7 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
                 searched = search_pitch(lambda p: _scored(lift_at, p, small[1], labels, found), pitch,
                                         max(lowest, 0.0), MAX_PITCH_DEG, gain_fraction=gain,
                                         window_deg=window if strong else None,
-                                        trust_deg=CUE_WINDOW_DEG if strong and heaviest < TRUSTED_CUE else None,
+                                        trust_deg=CUE_WINDOW_DEG if strong and agreeing < TRUSTED_CUE else None,
                                         anchor=anchor)
         except ValueError:  # no pitch lifted a scene the search could score: the cues' pitch, as without it
             searched = None
