@@ -158,3 +158,59 @@ def test_the_size_term_measures_each_object_against_its_label():
     assert thin[0] == 0.0 and thin[1] > 0.4  # a cup is no disc: thinner than a third of its width
     # the scene's scale counts: the same box at twice the scale is log 2 off
     assert compare.prior_terms([box.vertices], ["box"], 2.0)[0][0] == pytest.approx(np.log(2.0), abs=1e-6)
+
+
+def _leaning(truth: float, lean: float = 0.0):
+    """A valley at ``truth`` whose far side falls again towards 89.5° by ``lean`` (a view from straight above
+    fits any outline)."""
+    def evaluate(p):
+        return compare.SceneScore(0.1 + min(abs(p - truth) / 30.0, 0.4) - lean * max(p - 60.0, 0.0) / 29.5, {})
+    return evaluate
+
+
+def test_a_light_reading_loses_to_a_far_shallower_pitch_but_a_steeper_one_does_not_move_it():
+    # a window about the cue alone never sees the shallow valley; the trust check scores the whole range
+    confined = compare.search_pitch(_leaning(5.0), 84.0, 0.0, 89.5, gain_fraction=0.7, window_deg=20.0)
+    assert confined.pitch_deg >= 64.0
+    found = compare.search_pitch(_leaning(5.0), 84.0, 0.0, 89.5, gain_fraction=0.7, window_deg=20.0,
+                                 trust_deg=20.0)
+    assert abs(found.pitch_deg - 5.0) <= 2.5 and found.as_dict()["chosen"] == "silhouettes"
+    assert any(p < 30.0 for p, _ in found.tried) and any(p > 85.0 for p, _ in found.tried)
+    # the silhouettes' lean to straight down is no reason to drop a reading read shallower than it
+    kept = compare.search_pitch(_leaning(20.0, lean=0.5), 20.0, 0.0, 89.5, gain_fraction=0.7, window_deg=20.0,
+                                trust_deg=20.0)
+    assert kept.pitch_deg == 20.0 and kept.as_dict()["chosen"] == "cues"
+
+
+def test_a_reading_too_light_to_count_chooses_among_the_pitches_as_good_as_the_best():
+    def plateau(p):  # 45° and up about equally good; the feet's 10° far worse
+        return compare.SceneScore(0.10 + 0.005 * abs(p - 50.0) / 40.0 if p >= 45.0 else 0.8, {})
+    plain = compare.search_pitch(plateau, cue_pitch=10.0, lowest=0.0, highest=89.5)
+    assert plain.pitch_deg == pytest.approx(45.0)
+    anchored = compare.search_pitch(plateau, cue_pitch=10.0, lowest=0.0, highest=89.5, anchor=84.0)
+    assert anchored.pitch_deg == pytest.approx(84.0) and anchored.cue_pitch_deg == 10.0
+    # where the anchor scores no better than the cue, the cue stays
+    flat = compare.search_pitch(lambda p: compare.SceneScore(0.3, {}), cue_pitch=10.0, lowest=0.0, highest=89.5,
+                                anchor=84.0)
+    assert flat.pitch_deg == 10.0
+
+
+def test_the_field_of_view_is_weighed_along_the_row_a_vanishing_point_fixes():
+    from physomni_usd.align.cues import Cue, row_pitch
+    horizon = Cue("horizon vanishing points", 30.0, 1.5, detail={"row": -40.0})
+    # a wider view pitched more puts the horizon on the same row
+    assert row_pitch(horizon, 70.0, 240) > row_pitch(horizon, 50.0, 240) > row_pitch(horizon, 30.0, 240)
+    assert row_pitch(Cue("ellipse", 30.0, 1.0), 50.0, 240) is None
+
+    def scene(p, f):  # the scene explains the photo best under a 30° view
+        return compare.SceneScore(0.05 + abs(f - 30.0) / 100.0, {})
+    along = compare.search_row(scene, lambda f: row_pitch(horizon, f, 240), 50.0, lambda f: 0.0)
+    assert along.fov_deg == 30.0 and along.pitch_deg == pytest.approx(row_pitch(horizon, 30.0, 240), abs=1e-3)
+    assert along.cue_fov_deg == 50.0 and along.as_dict()["chosen"] == "silhouettes"
+    # a flat landscape keeps the default; a view under which a foot stands above the horizon is no camera
+    flat = compare.search_row(lambda p, f: compare.SceneScore(0.2, {}), lambda f: row_pitch(horizon, f, 240), 50.0,
+                              lambda f: 0.0)
+    assert flat.fov_deg == 50.0 and flat.as_dict()["chosen"] == "cues"
+    feet = compare.search_row(scene, lambda f: row_pitch(horizon, f, 240), 50.0,
+                              lambda f: 0.0 if f >= 45.0 else 90.0)
+    assert feet.fov_deg >= 45.0 and all(f >= 45.0 for _, f, _ in feet.tried)

@@ -9,7 +9,9 @@ over it), size priors (each label's typical size against the one scale of the sc
 solid object no thinner than a third of its outline's smaller side). :func:`search_pitch` scores the cues'
 pitch against a coarse grid of pitches, refined about the best, and keeps the cues' one unless another
 explains the whole scene clearly better, so a single cue contradicting every silhouette (a traced board read
-as a horizon) loses.
+as a horizon) loses; a light reading loses too where the silhouettes prefer a far shallower pitch.
+:func:`search_row` weighs the fields of view along the curve one vanishing row fixes, where nothing else
+reads the field of view.
 """
 
 from __future__ import annotations
@@ -50,6 +52,11 @@ NEAR_BEST_ABS = 0.01
 #: Fields of view (degrees, vertical) the view search (:func:`search_view`) grids, and its first step in them.
 FOV_GRID_DEG = (30.0, 40.0, 50.0, 60.0, 70.0)
 FOV_FINE_STEP_DEG = 5.0
+#: A field of view along a vanishing row replaces the default one when it beats it by MIN_GAIN plus this
+#: fraction of its score: half what a pitch needs, the default being no reading of the photo.
+ROW_GAIN_FRACTION = 0.2
+#: Fields of view (degrees, vertical) tried along a vanishing row (:func:`search_row`).
+ROW_FOVS_DEG = (25.0, 30.0, 35.0, 40.0, 45.0, 50.0, 55.0, 60.0, 65.0, 70.0, 75.0, 80.0)
 #: Silhouette IoU under which ``build`` warns, naming the object.
 WARN_IOU = 0.85
 #: Largest log-ratio one object adds to the size term (a failed lift counts, but does not swamp the rest).
@@ -244,7 +251,7 @@ def search_view(evaluate, cue_pitch: float, cue_fov: float, lowest, highest: flo
                 fovs=FOV_GRID_DEG, coarse_step: float = COARSE_STEP_DEG, fine_step: float = FINE_STEP_DEG,
                 fov_step: float = FOV_FINE_STEP_DEG, gain_fraction: float = MIN_GAIN_FRACTION) -> ViewSearch:
     """The pitch and field of view (degrees) whose lifted scene scores best, where no cue reads the field of
-    view: the two trade against each other (a wider view pitched less puts the horizon on the same row), so
+    view: the two trade against each other (a wider view pitched more puts the horizon on the same row), so
     they are searched together, not one after the other. ``evaluate(pitch, fov) -> SceneScore | None``;
     ``lowest(fov)`` the least pitch that stands every foot on the ground under ``fov``. A coarse grid (pitches
     ``coarse_step`` apart under each of ``fovs``), then a pattern search about the best (``fine_step`` in
@@ -294,15 +301,27 @@ def search_view(evaluate, cue_pitch: float, cue_fov: float, lowest, highest: flo
 
 def search_pitch(evaluate, cue_pitch: float, lowest: float, highest: float,
                  coarse_step: float = COARSE_STEP_DEG, fine_step: float = FINE_STEP_DEG,
-                 gain_fraction: float = MIN_GAIN_FRACTION) -> PitchSearch:
+                 gain_fraction: float = MIN_GAIN_FRACTION, window_deg: float | None = None,
+                 trust_deg: float | None = None, anchor: float | None = None) -> PitchSearch:
     """The pitch (degrees) whose lifted scene scores best, from ``lowest`` to ``highest``.
 
     ``evaluate(pitch) -> SceneScore | None`` lifts and scores the scene under that pitch (None: no scene
     there). The cues' ``cue_pitch`` is scored first, then a coarse grid, then ``fine_step`` either side of
     the best twice halving. The cues' pitch stays unless a pitch beats it by :data:`MIN_GAIN` plus
     ``gain_fraction`` of its score; of the pitches that do and score within :data:`NEAR_BEST_FRACTION` (plus
-    :data:`NEAR_BEST_ABS`) of the best, the one nearest the cues' is taken."""
+    :data:`NEAR_BEST_ABS`) of the best, the one nearest the cues' is taken.
+
+    ``window_deg``: only pitches that near the cues' are taken (a strong reading is refined, not replaced).
+    ``trust_deg``: the whole range is scored all the same, and where its best lies more than ``trust_deg``
+    *below* the cues' pitch the reading loses and the best is taken: the silhouettes lean towards steep
+    views (from straight above any outline matches), so a shallower view they prefer against that lean
+    outweighs a light reading (a tabletop's printed lines read as verticals). ``anchor``: a reading too light
+    to move the cues' pitch (a steep horizon nothing confirms), scored too; the near-best pitches are taken
+    nearest to it instead of the cues'."""
     scores: dict[float, SceneScore | None] = {}
+    key_cue = round(float(min(max(cue_pitch, lowest), highest)), 3)
+    if window_deg is not None and trust_deg is None:  # nothing outside the window can be taken: not scored
+        lowest, highest = max(lowest, key_cue - window_deg), min(highest, key_cue + window_deg)
 
     def at(p: float):
         p = float(min(max(p, lowest), highest))
@@ -311,7 +330,14 @@ def search_pitch(evaluate, cue_pitch: float, lowest: float, highest: float,
             scores[key] = evaluate(p)
         return scores[key]
 
+    def inside(k: float) -> bool:
+        return window_deg is None or abs(k - key_cue) <= window_deg + 1e-9
+
     cue = at(cue_pitch)
+    key_anchor = None
+    if anchor is not None:
+        key_anchor = round(float(min(max(anchor, lowest), highest)), 3)
+        at(anchor)
     start = math.ceil(lowest / coarse_step) * coarse_step
     for p in np.arange(start, highest + 1e-9, coarse_step):
         at(p)
@@ -319,27 +345,64 @@ def search_pitch(evaluate, cue_pitch: float, lowest: float, highest: float,
         at(highest)
     step = fine_step
     for _ in range(2):
-        best = min((k for k, s in scores.items() if s is not None), key=lambda k: scores[k].total, default=None)
-        if best is None:
-            break
-        at(best - step)
-        at(best + step)
+        valid = [k for k, s in scores.items() if s is not None]
+        # refined about the best of the whole range and about the best the window allows
+        bests = {min(ks, key=lambda k: scores[k].total) for ks in (valid, [k for k in valid if inside(k)]) if ks}
+        for best in sorted(bests):
+            at(best - step)
+            at(best + step)
         step /= 2
     valid = {k: s for k, s in scores.items() if s is not None}
     tried = [(k, s.total) for k, s in valid.items()]
-    key_cue = round(float(min(max(cue_pitch, lowest), highest)), 3)
     if cue is None:
         if not valid:
             raise ValueError("no pitch gave a scene")
         best = min(valid, key=lambda k: valid[k].total)
         return PitchSearch(best, key_cue, valid[best], valid[best], tried)
+    overall = min(valid, key=lambda k: valid[k].total)
+    if trust_deg is not None and key_cue - overall > trust_deg:
+        return PitchSearch(overall, key_cue, valid[overall], cue, tried)
+    valid = {k: v for k, v in valid.items() if inside(k)}
     best = min(valid, key=lambda k: valid[k].total)
     beats = cue.total - MIN_GAIN - gain_fraction * cue.total
+    centre = key_anchor if key_anchor is not None and inside(key_anchor) else key_cue
     # where the scores are flat near the best (seen from above, any outline matches), the pitch nearest the
     # cues' among those about as good: the silhouettes move the cues' reading only as far as they need to
     near = [k for k, v in valid.items()
             if v.total <= min(beats, valid[best].total * (1.0 + NEAR_BEST_FRACTION) + NEAR_BEST_ABS)]
     if near:
-        pick = min(near, key=lambda k: (abs(k - key_cue), valid[k].total))
+        pick = min(near, key=lambda k: (abs(k - centre), valid[k].total))
         return PitchSearch(pick, key_cue, valid[pick], cue, tried)
     return PitchSearch(key_cue, key_cue, cue, cue, tried)
+
+
+def search_row(evaluate, pitch_of, cue_fov: float, lowest, fovs=ROW_FOVS_DEG,
+               gain_fraction: float = ROW_GAIN_FRACTION) -> ViewSearch:
+    """The field of view (and the pitch it gives) along the curve a vanishing row fixes, where that row reads
+    the pitch and nothing reads the field of view: ``pitch_of(fov)`` the pitch the row means under ``fov``,
+    ``lowest(fov)`` the least that stands every foot on the ground (a field of view under which the row puts
+    a foot above the horizon is no camera of the photo). ``evaluate(pitch, fov) -> SceneScore | None``. The
+    cues' field of view stays unless another beats it as :func:`search_pitch`'s rule has it; of those about
+    as good as the best, the one nearest the cues' is taken."""
+    scored: dict[float, tuple[float, SceneScore | None]] = {}
+    for f in sorted({float(cue_fov), *map(float, fovs)}):
+        p = pitch_of(f)
+        if p is None or p < lowest(f) or p > 90.0:
+            continue
+        scored[round(f, 3)] = (round(float(p), 3), evaluate(round(float(p), 3), round(f, 3)))
+    valid = {f: (p, v) for f, (p, v) in scored.items() if v is not None}
+    tried = [(p, f, v.total) for f, (p, v) in valid.items()]
+    if not valid:
+        raise ValueError("no field of view gave a scene along the row")
+    best = min(valid, key=lambda f: valid[f][1].total)
+    key_cue = round(float(cue_fov), 3)
+    if key_cue not in valid:  # the cues' own camera puts a foot above its horizon: the row's best stands
+        p = pitch_of(cue_fov)
+        return ViewSearch(valid[best][0], best, valid[best][0] if p is None else round(float(p), 3), key_cue,
+                          valid[best][1], valid[best][1], tried)
+    cue_p, cue = valid[key_cue]
+    beats = cue.total - MIN_GAIN - gain_fraction * cue.total
+    near = [f for f, (_, v) in valid.items()
+            if v.total <= min(beats, valid[best][1].total * (1.0 + NEAR_BEST_FRACTION) + NEAR_BEST_ABS)]
+    pick = min(near, key=lambda f: (abs(f - key_cue), valid[f][1].total)) if near else key_cue
+    return ViewSearch(valid[pick][0], pick, cue_p, key_cue, valid[pick][1], cue, tried)

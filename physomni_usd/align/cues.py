@@ -58,6 +58,9 @@ from ..lift.silhouette import FLAT_PRIOR_RATIO, fill_holes
 from ..geometry.camera import HORIZON_MARGIN_DEG, MIN_AUTO_PITCH_DEG, PinholeCamera
 
 DEFAULT_FOV_DEG = 50.0
+#: Weight of the objects' feet's pitch (the least tilt that stands them all on the ground): a reading lighter
+#: than it cannot move the weighted median.
+FEET_WEIGHT = 0.05
 MAX_PITCH_DEG = 89.5
 #: A mask is an ellipse when its IoU with the fitted ellipse reaches this.
 ELLIPSE_IOU = 0.9
@@ -617,6 +620,19 @@ def vanishing_cues(photo: np.ndarray, fov_deg: float | None, fov_given: bool, ob
     return pitch_cues, fov_cues, v_h
 
 
+def row_pitch(cue: Cue, fov_deg: float, height: int) -> float | None:
+    """The pitch ``cue`` reads under another field of view: a vanishing row (the horizon's, or the
+    verticals' below the centre) is what the photo shows, the pitch it means depends on the focal length (a
+    wider view pitched more puts the horizon on the same row). None for a cue that reads no row."""
+    row = cue.detail.get("row")
+    if row is None or cue.kind not in ("horizon vanishing points", "horizon line", "vertical vanishing point"):
+        return None
+    f, cy = focal_px(fov_deg, height), 0.5 * height
+    if cue.kind == "vertical vanishing point":
+        return math.degrees(math.atan2(f, row - cy))
+    return math.degrees(math.atan2(cy - row, f))
+
+
 # identical objects --------------------------------------------------------------------------------
 
 def _hull(mask: np.ndarray) -> np.ndarray | None:
@@ -784,7 +800,7 @@ def estimate_camera(photo: np.ndarray, masks, labels, foot_rows, fov_deg: float 
                 and o.kind in ("ellipse", "vertical vanishing point") for o in pitch_cues):
             c.weight, c.detail["uncorroborated"] = 0.03, True
     cues = fov_cues + pitch_cues
-    cues.append(Cue("objects' feet", max(MIN_AUTO_PITCH_DEG, lowest), 0.05,
+    cues.append(Cue("objects' feet", max(MIN_AUTO_PITCH_DEG, lowest), FEET_WEIGHT,
                     detail={"min_pitch_deg": round(lowest, 3)}))
     if pitch_deg is not None:
         return CameraEstimate(float(pitch_deg), fov, cues, "user", fov_source, lowest)

@@ -26,9 +26,10 @@ from ..settings import BuildSettings
 from ..errors import InputError
 from ..geometry.camera import PinholeCamera, pick_pitch
 from ..geometry.mesh import longest_dimension
-from .compare import (MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, prior_terms, search_pitch, search_view,
+from .compare import (MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, prior_terms, search_pitch, search_row, search_view,
                       score_scene)
-from .cues import ELLIPSE_IOU, MAX_PITCH_DEG, estimate_camera, mask_ellipse, min_pitch
+from .cues import (ELLIPSE_IOU, FEET_WEIGHT, MAX_PITCH_DEG, estimate_camera, mask_ellipse, min_pitch, row_pitch,
+                   weighted_median)
 from .place import footprint, make_room, separate
 from .scale import fit_scale
 from .support import TOP_BAND, find_supports, raise_unseen, reach_under, root_of, settle_on_supports, support_order
@@ -36,9 +37,15 @@ from .support import TOP_BAND, find_supports, raise_unseen, reach_under, root_of
 #: Scale-and-lift rounds: an object's height from its prior depends on the scale, the scale on the lifted sizes.
 SCALE_ROUNDS = 3
 #: A cue at least this heavy (``align.cues``) confines the pitch search to CUE_WINDOW_DEG either side of the
-#: cues' pitch.
+#: cues' pitch ...
 STRONG_CUE = 0.5
 CUE_WINDOW_DEG = 20.0
+#: ... and readings within CUE_WINDOW_DEG of it weighing less than this together (a vanishing point on fewer
+#: than ten segments: a tabletop's printed lines can be five) are trusted only while the silhouettes prefer no
+#: pitch more than CUE_WINDOW_DEG shallower.
+TRUSTED_CUE = 1.0
+#: The pitch the objects' feet alone give (no reading of the photo).
+FEET_CUE = "objects' feet"
 #: ... while the pitch search weighs a pitch, each started from the scale of the nearest pitch weighed.
 SEARCH_SCALE_ROUNDS = 2
 #: ... on copies of the photo and masks whose longer side is at most this (pixels).
@@ -295,10 +302,38 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
         # a pitch a strong cue reads (a vanishing point, an ellipse) is searched about, not over the whole
         # range, and gives way only to a far better one: a lift seen from straight above matches any outline,
         # so the silhouettes alone favour it
-        strong = any(c.pitch_deg is not None and c.weight >= STRONG_CUE for c in est.cues)
+        readings = [c for c in est.cues if c.pitch_deg is not None and c.kind != FEET_CUE and c.weight > 0]
+        heaviest = max((c.weight for c in readings), default=0.0)
+        strong = heaviest >= STRONG_CUE
         window = CUE_WINDOW_DEG if strong else 90.0
+        # readings that agree add up (four ellipses of one tray of sweets, each light, all reading straight down)
+        agreeing = sum(c.weight for c in readings if abs(c.pitch_deg - pitch) <= CUE_WINDOW_DEG)
         gain = STRONG_GAIN_FRACTION if strong else MIN_GAIN_FRACTION
+        # readings too light to move the weighted median (a steep horizon nothing confirms) still say which of
+        # the pitches the silhouettes find as good as the best to take
+        anchor = None
+        if readings and heaviest < FEET_WEIGHT:
+            anchor = weighted_median([c.pitch_deg for c in readings], [c.weight for c in readings])
         free_fov = settings.render_compare_fov and cam_cfg.fov_deg is None and est.fov_source.startswith("default")
+        lowest = est.min_pitch_deg
+        row_cue = max(readings, key=lambda c: c.weight, default=None)
+        if (not free_fov and cam_cfg.fov_deg is None and est.fov_source.startswith("default") and strong
+                and row_pitch(row_cue, fov, h) is not None):
+            # one vanishing row reads the pitch only under a field of view nothing reads: the fields of view
+            # along the curve it fixes are weighed by the silhouettes (and by the feet, which a wrong one can
+            # put above the horizon)
+            try:
+                along = search_row(lambda p, f: _scored(lambda q: lift_at(q, f), p, small[1], labels, found),
+                                   lambda f: row_pitch(row_cue, f, h), fov, lambda f: min_pitch(f, h, feet))
+            except ValueError:
+                along = None
+            if along is not None:
+                camera_info["row_search"] = along.as_dict()
+            if along is not None and along.fov_deg != round(fov, 3):
+                camera_info |= {"fov_deg": round(along.fov_deg, 3), "cue_fov_deg": round(fov, 3),
+                                "fov_source": f"render-and-compare along the row of the {row_cue.kind}"}
+                fov, pitch = along.fov_deg, along.pitch_deg
+                lowest = min_pitch(fov, h, feet)
         try:
             if free_fov:  # no cue reads the field of view: it is searched with the pitch (align.compare.search_view)
                 feet = _feet(small[1])
@@ -308,8 +343,10 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
                                        min(MAX_PITCH_DEG, pitch + window), gain_fraction=gain)
             else:
                 searched = search_pitch(lambda p: _scored(lift_at, p, small[1], labels, found), pitch,
-                                        max(est.min_pitch_deg, 0.0, pitch - window),
-                                        min(MAX_PITCH_DEG, pitch + window), gain_fraction=gain)
+                                        max(lowest, 0.0), MAX_PITCH_DEG, gain_fraction=gain,
+                                        window_deg=window if strong else None,
+                                        trust_deg=CUE_WINDOW_DEG if strong and agreeing < TRUSTED_CUE else None,
+                                        anchor=anchor)
         except ValueError:  # no pitch lifted a scene the search could score: the cues' pitch, as without it
             searched = None
             camera_info["render_compare"] = {"chosen": "cues", "skipped": "no pitch tried gave a scene"}
