@@ -110,6 +110,30 @@ def test_no_pixel_is_left_unfilled_where_shift_map_gives_up():
     assert blue(background_plate(photo, [hole], 0.0)) == 0
 
 
+def test_a_hole_on_a_lit_panel_is_filled_from_the_panel_not_the_dark_room_around_it():
+    """Five dark bars on a lit panel in a dark room: the hole covers most of the panel, and a window as wide as a
+    quarter of it takes in the room. The fill is the panel's colour, not a grey smear of the room (before the
+    copies' colours and the smooth fill were taken from the hole's border: error 94 levels, 7,784 of the 14,400
+    revealed pixels darker than 160; after, 3.8 and none)."""
+    rng = np.random.default_rng(3)
+    h, w = 200, 260
+    y, x = np.mgrid[:h, :w]
+    truth = np.full((h, w, 3), (14.0, 18.0, 15.0))
+    truth[(y // 9 + x // 13) % 5 == 0] = (40.0, 44.0, 40.0)
+    truth[(y >= 12) & (y < 188) & (x >= 20) & (x < 240)] = (222.0, 240.0, 226.0)
+    truth = np.clip(truth + rng.normal(0, 3, (h, w, 1)), 0, 255).astype(np.uint8)
+    photo, masks = truth.copy(), []
+    for k in range(5):
+        m = np.zeros((h, w), bool)
+        m[30 + 30 * k: 46 + 30 * k, 40:220] = True
+        photo[m] = (10, 12, 10)
+        masks.append(m)
+    plate = background_plate(photo, masks, 0.015)
+    revealed = np.any(masks, axis=0)
+    assert np.abs(plate.astype(np.float32) - truth)[revealed].mean() < 10.0
+    assert (plate[revealed].mean(-1) < 160).sum() == 0
+
+
 def test_the_distance_to_the_surroundings_counts_a_foreign_colour():
     img = np.full((60, 80, 3), 120, np.uint8)
     hole = np.zeros((60, 80), bool)
