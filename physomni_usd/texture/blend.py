@@ -144,20 +144,47 @@ def _blend_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float, bu
             valid = cv2.warpAffine(known.astype(np.uint8), shift, (w, h),
                                    flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT) > 0
         spread = blur(chose, sigma) * valid
-        if not spread[box].any():
+        reach = _reach(spread[box])
+        if reach is None:
             continue
-        low = cv2.GaussianBlur(copy * valid[..., None], (0, 0), LIKENESS_SIGMA)
-        low /= np.maximum(cv2.GaussianBlur(valid.astype(np.float32), (0, 0), LIKENESS_SIGMA), 1e-3)[..., None]
-        unlike = np.linalg.norm(low[box] - smooth_low[box], axis=-1) / likeness
-        wk = spread[box] * np.exp(-unlike ** 2) * np.clip(frequency(low[box]) / TYPICAL, 0.0, 1.0)
-        acc += copy[box] * wk[..., None]
-        weight += wk
+        # a copy weighs nothing where it has not spread: its likeness is read only where it has, on a part of the
+        # window wide enough that the low-pass there is the whole window's, to the bit (a 12 MP photo's working
+        # copy lays some thirty copies, each over a fraction of its hole)
+        (r0, r1, c0, c1), here = reach, (slice(y0 + reach[0], y0 + reach[1]), slice(x0 + reach[2], x0 + reach[3]))
+        low = _low_pass_over(copy, valid, here)
+        unlike = np.linalg.norm(low - smooth_low[here], axis=-1) / likeness[r0:r1, c0:c1]
+        wk = spread[here] * np.exp(-unlike ** 2) * np.clip(frequency(low) / TYPICAL, 0.0, 1.0)
+        acc[r0:r1, c0:c1] += copy[here] * wk[..., None]
+        weight[r0:r1, c0:c1] += wk
     out = img.copy()
     # the copies' share of the fill, beside the smooth fill's: their grain and structure, less their guesses
     laid = smooth[box] + COPY_SHARE * (acc / weight[..., None] - smooth[box])
     out[box] = np.where(hole[box][..., None], np.clip(laid + 0.5, 0, 255), img[box]).astype(np.uint8)
     out = match_shading(img, out, hole, max(3.0, SHADING_SIGMA * size), depth, SHADING_TRUST)
     return match_grain(img, out, hole)
+
+
+def _reach(spread: np.ndarray) -> tuple[int, int, int, int] | None:
+    """(row0, row1, col0, col1): the smallest box of ``spread`` (h, w) float32 holding every pixel above 0; None
+    when there is none."""
+    rows, cols = np.flatnonzero(spread.any(axis=1)), np.flatnonzero(spread.any(axis=0))
+    if rows.size == 0:
+        return None
+    return int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+
+
+def _low_pass_over(copy: np.ndarray, valid: np.ndarray, here: tuple[slice, slice]) -> np.ndarray:
+    """(h, w, 3) float32: the mean of ``copy`` (H, W, 3) float32 over its ``valid`` (H, W) bool pixels in a
+    Gaussian :data:`LIKENESS_SIGMA` wide, on the part ``here`` of the window alone. The blur is taken over that
+    part grown by the kernel's reach (or to the window's edge), so each value is the whole window's own."""
+    grow = (int(round(LIKENESS_SIGMA * 8 + 1)) | 1) // 2 + 1  # OpenCV's kernel for float images: 4 sigma a side
+    h, w = valid.shape
+    ys, xs = here
+    a0, a1, b0, b1 = max(0, ys.start - grow), min(h, ys.stop + grow), max(0, xs.start - grow), min(w, xs.stop + grow)
+    part = valid[a0:a1, b0:b1]
+    low = cv2.GaussianBlur(copy[a0:a1, b0:b1] * part[..., None], (0, 0), LIKENESS_SIGMA)
+    low /= np.maximum(cv2.GaussianBlur(part.astype(np.float32), (0, 0), LIKENESS_SIGMA), 1e-3)[..., None]
+    return low[ys.start - a0:ys.stop - a0, xs.start - b0:xs.stop - b0]
 
 
 def _colour_frequency(low: np.ndarray, ring: np.ndarray):
