@@ -129,7 +129,13 @@ def _blend_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float, bu
     # where no shift was read back, shift-map's own reduced result (upsampled) is laid like one more copy,
     # except where it left its pixels unfilled
     rest = ~found & ~unfilled[ys, xs]
-    layers = [(dy, dx, found & (d[:, 0] == dy) & (d[:, 1] == dx)) for dy, dx in np.unique(d[found], axis=0)]
+    # each shift as one integer (dy, then dx, in order) and each pixel's layer by it: np.unique over rows sorts
+    # structured records, ten times the time of a flat sort, and a pass over all pixels per shift is as many
+    code = (d[:, 0].astype(np.int64) << 32) + d[:, 1].astype(np.int64)
+    shifts, first, which = np.unique(np.where(found, code, np.iinfo(np.int64).max), return_index=True,
+                                     return_inverse=True)
+    which = which.reshape(-1)
+    layers = [(d[i, 0], d[i, 1], which == k) for k, i in enumerate(first) if found[i]]
     if rest.any():
         layers.append((None, None, rest))
     for dy, dx, pick in layers:
