@@ -37,6 +37,9 @@ SEAM_SIGMA = 0.03
 #: all, copies of the bottle beside the hole in tests/test_fill_truth.py came back (57 yellow pixels; 3 at 60).
 LIKENESS_SIGMA = 3.0
 LIKENESS = 60.0
+#: How far OpenCV's Gaussian of LIKENESS_SIGMA reaches on a float image (its kernel is 4 sigma a side), plus one:
+#: a part of the window grown by it blurs to the same bits as the whole window does.
+LOW_REACH = (int(round(LIKENESS_SIGMA * 8 + 1)) | 1) // 2 + 1
 #: ... growing with the depth into the hole: by LIKENESS more for each LIKENESS_DEPTH of the window's diagonal.
 LIKENESS_DEPTH = 0.05
 #: A copy's colour must be common around the hole: its share of the surroundings (the known pixels within
@@ -138,29 +141,36 @@ def _blend_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float, bu
     layers = [(d[i, 0], d[i, 1], which == k) for k, i in enumerate(first) if found[i]]
     if rest.any():
         layers.append((None, None, rest))
+    known8 = known.astype(np.uint8)
     for dy, dx, pick in layers:
         chose = np.zeros((h, w), np.float32)
         chose[ys[pick], xs[pick]] = 1.0
-        if dy is None:
-            copy, valid = coarse.astype(np.float32), hole.copy()
-        else:  # the copy laid over the whole window: each pixel takes the pixel (dy, dx) from it, where known
-            shift = np.float32([[1, 0, dx], [0, 1, dy]])
-            copy = cv2.warpAffine(src, shift, (w, h), flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
-                                  borderMode=cv2.BORDER_CONSTANT)
-            valid = cv2.warpAffine(known.astype(np.uint8), shift, (w, h),
-                                   flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT) > 0
-        spread = blur(chose, sigma) * valid
-        reach = _reach(spread[box])
+        near = blur(chose, sigma)
+        reach = _reach(near[box])
         if reach is None:
             continue
-        # a copy weighs nothing where it has not spread: its likeness is read only where it has, on a part of the
-        # window wide enough that the low-pass there is the whole window's, to the bit (a 12 MP photo's working
-        # copy lays some thirty copies, each over a fraction of its hole)
-        (r0, r1, c0, c1), here = reach, (slice(y0 + reach[0], y0 + reach[1]), slice(x0 + reach[2], x0 + reach[3]))
-        low = _low_pass_over(copy, valid, here)
-        unlike = np.linalg.norm(low - smooth_low[here], axis=-1) / likeness[r0:r1, c0:c1]
-        wk = spread[here] * np.exp(-unlike ** 2) * np.clip(frequency(low) / TYPICAL, 0.0, 1.0)
-        acc[r0:r1, c0:c1] += copy[here] * wk[..., None]
+        # a copy weighs nothing where it has not spread: it is laid, and its likeness read, only where it has, on a
+        # part of the window grown so that the low-pass there is the whole window's, to the bit (a 12 MP photo's
+        # working copy lays some thirty copies, each over a fraction of its hole)
+        r0, r1, c0, c1 = reach
+        a0, a1 = max(0, y0 + r0 - LOW_REACH), min(h, y0 + r1 + LOW_REACH)
+        b0, b1 = max(0, x0 + c0 - LOW_REACH), min(w, x0 + c1 + LOW_REACH)
+        inner = (slice(y0 + r0 - a0, y0 + r1 - a0), slice(x0 + c0 - b0, x0 + c1 - b0))
+        if dy is None:
+            copy, valid = coarse[a0:a1, b0:b1].astype(np.float32), hole[a0:a1, b0:b1].copy()
+        else:  # the copy laid over the part: each pixel takes the pixel (dy, dx) from it, where known
+            shift = np.float32([[1, 0, dx + b0], [0, 1, dy + a0]])
+            copy = cv2.warpAffine(src, shift, (b1 - b0, a1 - a0), flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
+                                  borderMode=cv2.BORDER_CONSTANT)
+            valid = cv2.warpAffine(known8, shift, (b1 - b0, a1 - a0), flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
+                                   borderMode=cv2.BORDER_CONSTANT) > 0
+        spread = near[y0 + r0:y0 + r1, x0 + c0:x0 + c1] * valid[inner]
+        low = cv2.GaussianBlur(copy * valid[..., None], (0, 0), LIKENESS_SIGMA)
+        low /= np.maximum(cv2.GaussianBlur(valid.astype(np.float32), (0, 0), LIKENESS_SIGMA), 1e-3)[..., None]
+        low = low[inner]
+        unlike = np.linalg.norm(low - smooth_low[y0 + r0:y0 + r1, x0 + c0:x0 + c1], axis=-1) / likeness[r0:r1, c0:c1]
+        wk = spread * np.exp(-unlike ** 2) * np.clip(frequency(low) / TYPICAL, 0.0, 1.0)
+        acc[r0:r1, c0:c1] += copy[inner] * wk[..., None]
         weight[r0:r1, c0:c1] += wk
     out = img.copy()
     # the copies' share of the fill, beside the smooth fill's: their grain and structure, less their guesses
@@ -177,20 +187,6 @@ def _reach(spread: np.ndarray) -> tuple[int, int, int, int] | None:
     if rows.size == 0:
         return None
     return int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
-
-
-def _low_pass_over(copy: np.ndarray, valid: np.ndarray, here: tuple[slice, slice]) -> np.ndarray:
-    """(h, w, 3) float32: the mean of ``copy`` (H, W, 3) float32 over its ``valid`` (H, W) bool pixels in a
-    Gaussian :data:`LIKENESS_SIGMA` wide, on the part ``here`` of the window alone. The blur is taken over that
-    part grown by the kernel's reach (or to the window's edge), so each value is the whole window's own."""
-    grow = (int(round(LIKENESS_SIGMA * 8 + 1)) | 1) // 2 + 1  # OpenCV's kernel for float images: 4 sigma a side
-    h, w = valid.shape
-    ys, xs = here
-    a0, a1, b0, b1 = max(0, ys.start - grow), min(h, ys.stop + grow), max(0, xs.start - grow), min(w, xs.stop + grow)
-    part = valid[a0:a1, b0:b1]
-    low = cv2.GaussianBlur(copy[a0:a1, b0:b1] * part[..., None], (0, 0), LIKENESS_SIGMA)
-    low /= np.maximum(cv2.GaussianBlur(part.astype(np.float32), (0, 0), LIKENESS_SIGMA), 1e-3)[..., None]
-    return low[ys.start - a0:ys.stop - a0, xs.start - b0:xs.stop - b0]
 
 
 def _colour_frequency(low: np.ndarray, ring: np.ndarray):
