@@ -150,7 +150,7 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
                                      **_lift_options(labels[i], scale, photo))
             out[i].info["foot"] = "reached down behind what hides it"
     # what rests on something the masks do not show (a shelf, a wall) stands where its size agrees with the others'
-    raise_unseen(out, labels, supports, camera, scale)
+    raise_unseen(out, labels, supports, camera, scale, photo=photo, masks=masks)
     return out
 
 

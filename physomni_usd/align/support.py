@@ -37,6 +37,7 @@ import cv2
 import numpy as np
 
 from ..lift.silhouette import fill_holes, foot_pixel
+from .wall import depth_against
 
 #: Fraction of A's lowest outline that must touch B (side view), or of the ring around A that must be B (above).
 CONTACT_FRACTION = 0.6
@@ -276,14 +277,18 @@ def riders(i: int, supports: dict) -> list[int]:
     return out
 
 
-def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0) -> dict[int, dict]:
+def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0, photo=None,
+                 masks=None) -> dict[int, dict]:
     """Objects stood on the ground that rest on something the masks do not show, brought to where their size
     agrees with the others' (see the module); ``lifted`` (``lift.silhouette.LiftedMesh``, under ``camera``) are
     changed in place, objects resting on a raised one move with it, and ``supports`` gains those that now stand
     on another object (how: 'size'). Returns {index: what was done} for the report; a raised object that stands
     on nothing has ``held`` True (``build`` holds it fixed where the photo shows it).
 
-    ``scale`` turns the camera's units into metres (the labels' typical sizes are metres)."""
+    ``scale`` turns the camera's units into metres (the labels' typical sizes are metres). With the ``photo``
+    and the ``masks`` lifted, a wall's line across the photo (``align.wall``) bounds the ground first: an
+    object whose foot is above it, while another's stands below it, is held in front of the wall, its back
+    against the wall's plane, whatever its size says."""
     from ..geometry.mesh import longest_dimension
     from ..sizes import size_prior
     from .place import footprint
@@ -301,21 +306,33 @@ def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0) -> 
         return float(d.min()), float(d.max())
 
     holders = {j for j, _ in supports.values()}
+    wall = _wall(photo, masks, camera, free, holders)
     for i in free:
         # what holds others up stands on the ground (a stack on a shelf is left where the cues put it)
-        if typical[i] is None or lifted[i].info.get("foot") or i in holders:
+        if lifted[i].info.get("foot") or i in holders:
             continue
         others = [j for j in range(n) if j != i and typical[j] is not None and j not in riders(i, supports)]
-        if not others:
-            continue
-        # the scene's scale as the others' sizes read it: each is its typical size over its lifted one
-        ref = float(np.exp(np.median([np.log(typical[j] / max(longest[j], 1e-9)) for j in others])))
-        ratio = ref * longest[i] / typical[i]
-        ground = [j for j in free if j != i and j not in riders(i, supports)]
-        behind = bool(ground) and reach(i)[0] > max(reach(j)[1] for j in ground)
-        if ratio <= RAISE_RATIO or not behind:
-            continue
-        t = RAISE_TO / ratio
+        ratio = None
+        if typical[i] is not None and others:
+            # the scene's scale as the others' sizes read it: each is its typical size over its lifted one
+            ref = float(np.exp(np.median([np.log(typical[j] / max(longest[j], 1e-9)) for j in others])))
+            ratio = ref * longest[i] / typical[i]
+        t = None
+        # its size must not deny it: one that already reads smaller than its label's typical size on the ground
+        # would be smaller still nearer (a shaded band across the floor read as the wall's foot, fruit behind it)
+        if wall is not None and i in wall[1] and (ratio is None or ratio >= WALL_MIN_RATIO):
+            t = depth_against(lifted[i].vertices, wall[0], origin)
+            t = t if t is not None and t < 1.0 else None
+        entry = {"against_wall": True}
+        if t is None:
+            if ratio is None:
+                continue
+            ground = [j for j in free if j != i and j not in riders(i, supports)]
+            behind = bool(ground) and reach(i)[0] > max(reach(j)[1] for j in ground)
+            if ratio <= RAISE_RATIO or not behind:
+                continue
+            t = RAISE_TO / ratio
+            entry = {"size_ratio": round(ratio, 3)}
         base0 = float(lifted[i].vertices[:, 2].min())
         z_base = origin[2] + t * (base0 - origin[2])
         moved = origin + t * (lifted[i].vertices - origin)
@@ -332,20 +349,51 @@ def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0) -> 
                 land = (j, top)
         if land is not None:  # on what is under it: the depth at which its base meets that top
             t = (land[1] - origin[2]) / (base0 - origin[2])
-        for k in riders(i, supports):
-            m = lifted[k]
-            m.vertices = origin + t * (m.vertices - origin)
-            m.contact = origin + t * (np.asarray(m.contact, float) - origin)
-        entry = {"size_ratio": round(ratio, 3), "nearer": round(1.0 - t, 4),
-                 "base_m": round(float(lifted[i].vertices[:, 2].min()) * scale, 4)}
-        if land is not None:
-            supports[i] = (land[0], "size")
-            entry["on"] = land[0]
-        else:
-            entry["held"] = True
-        lifted[i].info["raised"] = entry
-        out[i] = entry
+        _hold(i, t, lifted, supports, origin, scale, out, entry, land)
     return out
+
+
+#: An object held against the wall reads at least this many times its typical size stood on the ground.
+WALL_MIN_RATIO = 1.0
+
+
+def _wall(photo, masks, camera, free, holders):
+    """(the wall's plane, the objects held above the ground by it) where the photo shows a wall's line that
+    some object on the ground stands in front of (its foot below the line); None otherwise."""
+    from .wall import find_wall_line, foot_above, wall_plane
+
+    if photo is None or masks is None:
+        return None
+    line = find_wall_line(photo, masks)
+    if line is None:
+        return None
+    plane = wall_plane(line, camera)
+    if plane is None:
+        return None
+    h = np.asarray(masks[0]).shape[0]
+    feet = {i: foot_pixel(fill_holes(masks[i])) for i in free}
+    above = {i for i in free if i not in holders and foot_above(line, *feet[i], h)}
+    # a line above no object's foot is no wall's foot the scene stands in front of (a horizon, a print's edge)
+    if not above or len(above) == len(free):
+        return None
+    return plane, above
+
+
+def _hold(i, t, lifted, supports, origin, scale, out, entry, land=None):
+    """Object ``i`` and what rests on it scaled by ``t`` about the camera's ``origin`` (its outline kept);
+    it then stands on ``land`` (index, top) or is held where it is."""
+    for k in riders(i, supports):
+        m = lifted[k]
+        m.vertices = origin + t * (m.vertices - origin)
+        m.contact = origin + t * (np.asarray(m.contact, float) - origin)
+    entry = entry | {"nearer": round(1.0 - t, 4), "base_m": round(float(lifted[i].vertices[:, 2].min()) * scale, 4)}
+    if land is not None:
+        supports[i] = (land[0], "size")
+        entry["on"] = land[0]
+    else:
+        entry["held"] = True
+    lifted[i].info["raised"] = entry
+    out[i] = entry
 
 
 #: A supporter is deepened (:func:`reach_under`) to at most this many times its width.
