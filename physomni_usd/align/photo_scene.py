@@ -100,7 +100,7 @@ def behind_what_hides_it(lower, upper_mask: np.ndarray, camera: PinholeCamera) -
 
 
 def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scale: float, supports=None,
-             photo=None, hides=(), visible=None):
+             photo=None, hides=(), visible=None, wall: bool = True):
     """Each mask lifted under ``camera`` (unit height); ``scale`` turns a prior's metres into the camera's units.
 
     ``supports`` ({upper: (lower, how)}) stands each upper object on its lower one's surface where it
@@ -108,7 +108,10 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
     occlusion order, ``perceive.amodal.occlusion_order``): an upper object its lower one hides stands on
     the ground behind it where its foot lands there (:func:`behind_what_hides_it`); such supports are
     dropped from ``supports``. With ``visible`` (what the photo shows of each), an object on the ground whose
-    foot they hide reaches down behind them (:func:`foot_behind`).
+    foot they hide reaches down behind them (:func:`foot_behind`). With ``wall`` false, what rests on nothing
+    the masks show is read from its size alone, not held against the photo's wall line: the pitch search
+    passes false, since a wall line read under each candidate pitch moved the pitch it chose (a wall scene of
+    28° built at 10°).
     """
     supports = supports or {}
     hides = set(hides)
@@ -150,7 +153,8 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
                                      **_lift_options(labels[i], scale, photo))
             out[i].info["foot"] = "reached down behind what hides it"
     # what rests on something the masks do not show (a shelf, a wall) stands where its size agrees with the others'
-    raise_unseen(out, labels, supports, camera, scale, photo=photo, masks=masks)
+    raise_unseen(out, labels, supports, camera, scale, photo=photo if wall else None,
+                 masks=masks if wall else None)
     return out
 
 
@@ -292,7 +296,7 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
         # search (from 1), so that where the cues' pitch stands the scene is the one the cues alone build
         start = scales[min(scales, key=lambda q: abs(q - p))] if scales and searching else 1.0
         out = _lift_scaled(ms, labels, names, unit, settings, found, hides, ph, vs, user_sizes, start,
-                           SEARCH_SCALE_ROUNDS if searching else SCALE_ROUNDS)
+                           SEARCH_SCALE_ROUNDS if searching else SCALE_ROUNDS, wall=not searching)
         scales[p] = out[3]
         return (unit, *out)
 
@@ -392,7 +396,7 @@ def _search_copies(photo: np.ndarray, masks, visible):
 
 
 def _lift_scaled(masks, labels, names, unit: PinholeCamera, settings: BuildSettings, found, hides, photo, visible,
-                 user_sizes, scale: float = 1.0, rounds: int = SCALE_ROUNDS):
+                 user_sizes, scale: float = 1.0, rounds: int = SCALE_ROUNDS, wall: bool = True):
     """Every mask lifted under the unit-height camera ``unit`` at the scene's scale, the scale and the lift
     agreeing (:data:`SCALE_ROUNDS`, from ``scale``): (lifted at unit height, supports kept, the scale's fit,
     its factor)."""
@@ -402,7 +406,7 @@ def _lift_scaled(masks, labels, names, unit: PinholeCamera, settings: BuildSetti
         # off its saucer's back, and a support dropped then would stay dropped
         supports = dict(found)
         lifted = lift_all(masks, labels, unit, settings, scale, supports, photo=photo, hides=hides,
-                          visible=visible)
+                          visible=visible, wall=wall)
         longest = [longest_dimension(m.vertices) for m in lifted]
         fit = fit_scale(names, labels, longest, user_sizes, settings.camera.height_m)
         if abs(np.log(fit.factor / scale)) < 1e-3:
