@@ -58,8 +58,10 @@ from ..lift.silhouette import FLAT_PRIOR_RATIO, fill_holes
 from ..geometry.camera import HORIZON_MARGIN_DEG, MIN_AUTO_PITCH_DEG, PinholeCamera
 
 DEFAULT_FOV_DEG = 50.0
-#: Weight of the objects' feet's pitch (the least tilt that stands them all on the ground): a reading lighter
-#: than it cannot move the weighted median.
+#: Kind of the cue the objects' feet alone give (the least tilt that stands them all on the ground): no
+#: reading of the photo.
+FEET_CUE = "objects' feet"
+#: Weight of the objects' feet's pitch: a reading lighter than it cannot move the weighted median.
 FEET_WEIGHT = 0.05
 MAX_PITCH_DEG = 89.5
 #: A mask is an ellipse when its IoU with the fitted ellipse reaches this.
@@ -800,12 +802,12 @@ def estimate_camera(photo: np.ndarray, masks, labels, foot_rows, fov_deg: float 
                 and o.kind in ("ellipse", "vertical vanishing point") for o in pitch_cues):
             c.weight, c.detail["uncorroborated"] = 0.03, True
     cues = fov_cues + pitch_cues
-    cues.append(Cue("objects' feet", max(MIN_AUTO_PITCH_DEG, lowest), FEET_WEIGHT,
+    cues.append(Cue(FEET_CUE, max(MIN_AUTO_PITCH_DEG, lowest), FEET_WEIGHT,
                     detail={"min_pitch_deg": round(lowest, 3)}))
     if pitch_deg is not None:
         return CameraEstimate(float(pitch_deg), fov, cues, "user", fov_source, lowest)
     usable = [c for c in cues if c.pitch_deg is not None and c.weight > 0]
     pitch = weighted_median([c.pitch_deg for c in usable], [c.weight for c in usable])
-    kinds = sorted({c.kind for c in usable if c.weight >= 0.5}) or ["objects' feet"]
+    kinds = sorted({c.kind for c in usable if c.weight >= 0.5}) or [FEET_CUE]
     pitch = float(min(max(pitch, lowest), MAX_PITCH_DEG))
     return CameraEstimate(pitch, fov, cues, "weighted median of " + ", ".join(kinds), fov_source, lowest)

@@ -28,8 +28,8 @@ from ..geometry.camera import PinholeCamera, pick_pitch
 from ..geometry.mesh import longest_dimension
 from .compare import (MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, prior_terms, search_pitch, search_row, search_view,
                       score_scene)
-from .cues import (ELLIPSE_IOU, FEET_WEIGHT, MAX_PITCH_DEG, estimate_camera, mask_ellipse, min_pitch, row_pitch,
-                   weighted_median)
+from .cues import (ELLIPSE_IOU, FEET_CUE, FEET_WEIGHT, MAX_PITCH_DEG, estimate_camera, mask_ellipse, min_pitch,
+                   row_pitch, weighted_median)
 from .place import footprint, make_room, separate
 from .scale import fit_scale
 from .support import TOP_BAND, find_supports, raise_unseen, reach_under, root_of, settle_on_supports, support_order
@@ -44,8 +44,6 @@ CUE_WINDOW_DEG = 20.0
 #: than ten segments: a tabletop's printed lines can be five) are trusted only while the silhouettes prefer no
 #: pitch more than CUE_WINDOW_DEG shallower.
 TRUSTED_CUE = 1.0
-#: The pitch the objects' feet alone give (no reading of the photo).
-FEET_CUE = "objects' feet"
 #: ... while the pitch search weighs a pitch, each started from the scale of the nearest pitch weighed.
 SEARCH_SCALE_ROUNDS = 2
 #: ... on copies of the photo and masks whose longer side is at most this (pixels).
