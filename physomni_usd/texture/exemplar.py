@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from .grain import match_grain, odd_border
-from .pixels import INPAINT_RADIUS, blur, blur_over, dilate, within
+from .pixels import INPAINT_RADIUS, blur, blur_over, colour_code, dilate, within
 
 #: Pixels of the reduced window in which shift-map searches, and most pixels of all holes together at the
 #: reduced size. Below about 10000 the shifts read back are too coarse to carry a surface's grain (a
@@ -265,8 +265,8 @@ def recover_shifts(src: np.ndarray, dst: np.ndarray, hole: np.ndarray) -> np.nda
     if hy.size == 0:
         return shifts
     shifts[hy, hx] = NO_SHIFT
-    key = _pack(src)
-    dkey = _pack(dst)
+    key = colour_code(src)
+    dkey = colour_code(dst)
     ky, kx = np.nonzero(~hole)
     kk = key[ky, kx]
     order = np.argsort(kk, kind="stable")
@@ -309,9 +309,3 @@ def recover_shifts(src: np.ndarray, dst: np.ndarray, hole: np.ndarray) -> np.nda
     shifts[hy[found], hx[found], 0] = c // (2 * w + 1) - h
     shifts[hy[found], hx[found], 1] = c % (2 * w + 1) - w
     return shifts
-
-
-def _pack(img: np.ndarray) -> np.ndarray:
-    """(h, w) int64 key of each pixel's three 8-bit channels."""
-    a = img.astype(np.int64)
-    return (a[..., 0] << 16) | (a[..., 1] << 8) | a[..., 2]

@@ -56,14 +56,11 @@ def complete_texture(photo: np.ndarray, visible: np.ndarray, amodal: np.ndarray,
     source = visible & ~edge
     if not source.any():
         source, edge = visible, np.zeros_like(visible)
+    soft = _soft_fill_reduced(photo, source, amodal, r, step) if step > 1.0 else None
+    if soft is None:
+        soft = _soft_fill(photo, source, amodal.astype(np.float32), r)
     painted = hidden | edge
     out = photo.copy()
-    if step > 1.0:
-        soft = _soft_fill_reduced(photo, source, amodal, r, step)
-        if soft is not None:
-            out[painted] = np.clip(soft[painted] + 0.5, 0, 255).astype(np.uint8)
-            return out
-    soft = _soft_fill(photo, source, amodal.astype(np.float32), r)
     out[painted] = np.clip(soft[painted] + 0.5, 0, 255).astype(np.uint8)
     return out
 

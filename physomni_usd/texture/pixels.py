@@ -72,7 +72,7 @@ def nearest_surrounding(image: np.ndarray, hole: np.ndarray, reach: float | None
     dist = np.zeros((h, w), np.float32)
     # colours as one integer each: unique colours of a 12 MP photo's ring sort as a flat array in a fraction of
     # the time rows take, and each part's pixels are looked up once per colour, not once per pixel
-    code = _colour_code(image)
+    code = colour_code(image)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(hole.astype(np.uint8), connectivity=8)
     grow = int(np.ceil(reach)) + 1
     for k in range(1, n):
@@ -92,12 +92,13 @@ def nearest_surrounding(image: np.ndarray, hole: np.ndarray, reach: float | None
     return nearest, dist
 
 
-def _colour_code(image: np.ndarray) -> np.ndarray:
-    """(H, W) int32: each pixel's colour of ``image`` (H, W, 3) uint8 as one integer."""
+def colour_code(image: np.ndarray) -> np.ndarray:
+    """(H, W) int32: each pixel's colour of ``image`` (H, W, 3) uint8 as one integer (a key to sort, match or
+    count colours by; :func:`_colour_of` turns it back)."""
     c = image.astype(np.int32)
     return (c[..., 0] << 16) | (c[..., 1] << 8) | c[..., 2]
 
 
 def _colour_of(code: np.ndarray) -> np.ndarray:
-    """(n, 3) float32 colours of :func:`_colour_code`'s integers."""
+    """(n, 3) float32 colours of :func:`colour_code`'s integers."""
     return np.stack([(code >> 16) & 255, (code >> 8) & 255, code & 255], axis=-1).astype(np.float32)
