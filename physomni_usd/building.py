@@ -459,7 +459,8 @@ def _place(scene: Scene) -> None:
 
 
 def _silhouette_report(scene: Scene, camera, verts, faces, align_info: dict) -> None:
-    """Each placed mesh's visible silhouette through the photo's camera against what the photo shows of it
+    """Each placed object as the shot shows it through the photo's camera (its mesh cut out by its mask, as its
+    texture cuts it; hidden where a nearer one is opaque) against what the photo shows of it
     (``align.compare.visible_ious``), into ``align_info["silhouette_iou"]``, and a warning naming each object
     under ``align.compare.WARN_IOU``: the photo is the arbiter of the whole build, not of the pitch alone."""
     from .align.compare import WARN_IOU, visible_ious
