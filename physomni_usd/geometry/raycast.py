@@ -342,27 +342,26 @@ def cut_out_silhouettes(vertex_sets, faces, camera, cutouts, device: str | None 
     as opaque: its mask), so that a mesh hides what is behind it only where it is opaque.
 
     The lifted meshes span their outlines' concavities (the gap between a motorcycle's wheels) and their
-    textures cut those away; this is the renderer's own primary kernel over an atlas of the cut-outs, one band
-    per object, with each face's corners projected through ``camera`` into its object's band."""
+    textures cut those away. A texture projected from this camera gives every surface of an object on one of
+    its rays the same alpha, so a pixel shows the nearest object that is opaque there: each mesh is cast only
+    through the pixels of its cut-out, and the nearest first hit wins."""
     from .._warp import pick_device
 
     h, w = camera.height, camera.width
-    band = h + 2  # a transparent row each side: a corner projected past the frame reads nothing of the next band
-    atlas = np.zeros((band * len(vertex_sets), w), np.float32)
-    corners = []
-    for i, (v, f, cut) in enumerate(zip(vertex_sets, faces, cutouts)):
-        atlas[i * band + 1:i * band + 1 + h] = np.asarray(cut, bool)
-        uv, z = camera.project(np.asarray(v, float))
-        uv = np.where(z[:, None] > 0.0, uv, -1.0)  # behind the camera: off the frame
-        uv[:, 0] = np.clip(uv[:, 0], 0.0, w - 1e-3)
-        uv[:, 1] = np.clip(uv[:, 1], -1.0, h + 1.0 - 1e-3) + i * band + 1
-        corners.append(uv[np.asarray(f, np.int64).ravel()])
-    counts = np.cumsum([0] + [len(v) for v in vertex_sets[:-1]])
-    all_faces = np.concatenate([np.asarray(f, np.int64) + o for f, o in zip(faces, counts)])
-    face_object = np.concatenate([np.full(len(f), i, np.int32) for i, f in enumerate(faces)])
-    caster = RayCaster(np.vstack(vertex_sets), all_faces, np.concatenate(corners), atlas, pick_device(device))
     uu, vv = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
     rays = np.ascontiguousarray(camera.rays(uu, vv).astype(np.float32))
-    face, _ = caster.cast(camera.origin, rays, 1e6)
-    ids = np.where(face >= 0, face_object[np.maximum(face, 0)], -1)
+    nearest = np.full(h * w, np.inf)
+    ids = np.full(h * w, -1, np.int32)
+    device = pick_device(device)
+    for i, (v, f, cut) in enumerate(zip(vertex_sets, faces, cutouts)):
+        pixels = np.flatnonzero(np.asarray(cut, bool)).astype(np.int32)
+        if not len(pixels) or not len(f):
+            continue
+        caster = RayCaster(np.asarray(v, float), np.asarray(f, np.int64), np.zeros((3 * len(f), 2)),
+                           np.ones((1, 1)), device)
+        caster.cast(camera.origin, rays, 1e6, pixels)
+        depth = np.where(caster.mesh_face.ravel() >= 0, caster.mesh_depth.ravel(), np.inf)
+        nearer = depth < nearest
+        nearest[nearer], ids[nearer] = depth[nearer], i
+    ids = ids.reshape(h, w)
     return [ids == i for i in range(len(vertex_sets))]
