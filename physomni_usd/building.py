@@ -459,13 +459,19 @@ def _place(scene: Scene) -> None:
 
 
 def _silhouette_report(scene: Scene, camera, verts, faces, align_info: dict) -> None:
-    """Each placed mesh's visible silhouette through the photo's camera against what the photo shows of it
+    """Each placed object as the shot shows it through the photo's camera (its mesh cut out by its mask, as its
+    texture cuts it; hidden where a nearer one is opaque) against what the photo shows of it
     (``align.compare.visible_ious``), into ``align_info["silhouette_iou"]``, and a warning naming each object
     under ``align.compare.WARN_IOU``: the photo is the arbiter of the whole build, not of the pitch alone."""
-    from .align.compare import WARN_IOU, visible_ious
+    from .align.compare import WARN_IOU, mask_iou, silhouette, visible_ious
 
     ious = visible_ious(verts, faces, camera, scene.masks)
     align_info["silhouette_iou"] = {o.name: round(v, 4) for o, v in zip(scene.objects, ious)}
+    # what the cut-outs hide: the bare mesh, whole, against the outline completed behind what hides it (a
+    # mesh far wider than its outline collides where nothing is drawn; an outline's concavities lower it too)
+    align_info["whole_outline_iou"] = {
+        o.name: round(mask_iou(silhouette(v, f, camera), m if o.amodal is None else o.amodal), 4)
+        for o, v, f, m in zip(scene.objects, verts, faces, scene.masks)}
     low = [(o.name, v) for o, v in zip(scene.objects, ious) if v < WARN_IOU]
     if low:
         align_info["silhouette_warnings"] = [

@@ -1,4 +1,5 @@
-"""Every bundled example builds as its example.json says, and its frame 0, before encoding, is its photo."""
+"""Every bundled example builds as its example.json says, its frame 0, before encoding, is its photo, and the
+silhouette IoU report.json records of each object from the photo's camera is at least the warning's limit."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import pytest
 from pxr import Usd
 
 import physomni_usd as api
+from physomni_usd.align.compare import WARN_IOU
 from physomni_usd.metrics import ssim
 from physomni_usd.rendering.video import ShotRenderer
 
@@ -34,6 +36,8 @@ def test_frame_zero_is_the_photo(spec_path, tmp_path):
     masks = [str(folder / m) for m in spec.get("masks", [])]
     result = api.build(folder / spec["photo"], tmp_path / "shot", masks, spec.get("boxes", []),
                        sizes=spec.get("size", []))
+    ious = json.loads((result.folder / "report.json").read_text())["shot"]["alignment"]["silhouette_iou"]
+    assert len(ious) == len(masks) + len(spec.get("boxes", [])) and min(ious.values()) >= WARN_IOU, ious
     stage = Usd.Stage.Open(str(result.shot))
     frame0 = ShotRenderer(stage).frame(float(stage.GetStartTimeCode()))
     photo = cv2.cvtColor(cv2.imread(str(folder / spec["photo"])), cv2.COLOR_BGR2RGB)

@@ -139,11 +139,14 @@ def silhouette_ious(vertex_sets, faces, camera: PinholeCamera, masks) -> list[fl
 
 
 def visible_ious(vertex_sets, faces, camera: PinholeCamera, masks) -> list[float]:
-    """Per object, the IoU of the part of its mesh the others do not hide (a ray cast through ``camera``)
-    with what the photo shows of it (``masks``, its visible masks at the camera's size)."""
-    from .external import visible_silhouettes
+    """Per object, the IoU of what the shot shows of it through ``camera`` with what the photo shows of it
+    (``masks``, its visible masks at the camera's size): its mesh cut out by its mask, as its texture's alpha
+    cuts it, and hidden only where a nearer mesh is opaque (``geometry.raycast.cut_out_silhouettes``). The bare
+    meshes span their outlines' concavities, which the textures cut away: against them a motorcycle scores
+    its filled wheel gap and hides the bench behind that gap."""
+    from ..geometry.raycast import cut_out_silhouettes
 
-    seen = visible_silhouettes(list(vertex_sets), list(faces), camera)
+    seen = cut_out_silhouettes(list(vertex_sets), list(faces), camera, list(masks))
     return [mask_iou(s, m) for s, m in zip(seen, masks)]
 
 

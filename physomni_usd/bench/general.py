@@ -11,7 +11,9 @@ visible masks and from their bounding boxes — and measures each build:
 - invariants (per scene): the build exits 0, ``simulate`` does not refuse it, no two meshes start deeper in
   each other than 2 mm, and with nothing pushed no rigid object moves more than 1 cm or turns more than 5°
   in 2 s;
-- truth (per object): IoU of the built mesh's visible silhouette against the modal mask, of its whole
+- truth (per object): IoU of the built object as the shot shows it from the photo's camera (its mesh cut out
+  by the mask its texture carries, as ``report.json``'s silhouette IoU; the bare mesh's beside it, a
+  diagnostic) against the modal mask, of its whole
   silhouette against the amodal mask, and of its visible silhouette against the truth's from the camera
   orbited ±45° about the vertical through the objects' middle; position error over the true camera distance
   (after the one scale a photo cannot show, :func:`common_scale`, and before); the longest dimension over the
@@ -135,6 +137,22 @@ def _views_about(camera: PinholeCamera, meshes, centre) -> list[list[np.ndarray]
             for a in (0.0, -ORBIT_DEG, ORBIT_DEG)]
 
 
+def _shown(folder: pathlib.Path, names, meshes, camera: PinholeCamera) -> list[np.ndarray]:
+    """Each built object as the shot shows it through ``camera`` (the photo's): its mesh cut out by the mask
+    the build kept of it (``inputs/masks/NAME.png``), hidden where a nearer one is opaque."""
+    import cv2
+
+    from ..geometry.raycast import cut_out_silhouettes
+
+    cuts = []
+    for n in names:
+        m = cv2.imread(str(folder / "inputs" / "masks" / f"{n}.png"), cv2.IMREAD_GRAYSCALE)
+        if m.shape != (camera.height, camera.width):
+            m = cv2.resize(m, (camera.width, camera.height), interpolation=cv2.INTER_NEAREST)
+        cuts.append(m > 0)
+    return cut_out_silhouettes([m.vertices for m in meshes], [m.faces for m in meshes], camera, cuts)
+
+
 def build_row(folder, truth: dict, true_meshes: list, camera: PinholeCamera, mode: str,
               seconds: float = 2.0, materials: int = 0, camera_given: bool = False) -> dict:
     """One scene built from its masks or boxes (``mode``) into ``folder/mode``, simulated ``seconds`` with
@@ -202,6 +220,9 @@ def build_row(folder, truth: dict, true_meshes: list, camera: PinholeCamera, mod
     mapped = built_camera.origin + built_camera.world_from_camera @ (
         camera.world_from_camera.T @ (middle - camera.origin) / k)
     got = _views_about(built_camera, mine, mapped)
+    # from the photo's camera, what the shot shows: each mesh cut out by the mask its texture carries (the
+    # build's own, at the photo's size), the same measure as report.json's silhouette IoU
+    shown = _shown(result.folder, names, mine, built_camera)
     from ..metrics.geometry import thin_side  # issue 38: no solid thinner than its outline allows
 
     row["thin"] = [n for n, m, lab in zip(names, mine, labels) if thin_side(m.vertices, lab, built_camera.origin)]
@@ -216,7 +237,8 @@ def build_row(folder, truth: dict, true_meshes: list, camera: PinholeCamera, mod
         row["objects"].append({
             "name": name, "label": label, "place": truth["objects"][i]["place"],
             "on": on, "on_built": on_built, "support_ok": _support_ok(on, on_built, true_names, names),
-            "iou_photo": round(mask_iou(got[0][i], truth["modal"][i]), 4),
+            "iou_photo": round(mask_iou(shown[i], truth["modal"][i]), 4),
+            "iou_photo_mesh": round(mask_iou(got[0][i], truth["modal"][i]), 4),
             "iou_amodal": round(mask_iou(_silhouette_alone(mine[i], built_camera), truth["amodal"][i]), 4),
             "iou_left": round(mask_iou(got[1][i], want[1][i]), 4),
             "iou_right": round(mask_iou(got[2][i], want[2][i]), 4),
@@ -415,6 +437,7 @@ def summarise(rows: list[dict]) -> dict:
             s[key] = round(sum(o["passes"][key] for o in objs) / max(objects_n, 1), 3)
         med = lambda vals: round(float(np.median(vals)), 4) if vals else None  # noqa: E731
         s["median"] = {"iou_photo": med([o["iou_photo"] for o in objs]),
+                       "iou_photo_mesh": med([o["iou_photo_mesh"] for o in objs if "iou_photo_mesh" in o]),
                        "iou_amodal": med([o["iou_amodal"] for o in objs]),
                        "iou_novel": med([min(o["iou_left"], o["iou_right"]) for o in objs]),
                        "iou_shape_novel": med([o["iou_shape_novel"] for o in objs if "iou_shape_novel" in o]),
@@ -542,7 +565,9 @@ def markdown(numbers: dict) -> str:
             lines.append(f"| {name} | " + " | ".join("—" if key not in s[m] else f"{100 * s[m][key]:.0f} %"
                                                      for m in modes) + " |")
     lines.append("| scenes / objects | " + " | ".join(f"{s[m]['scenes']} / {s[m]['objects']}" for m in modes) + " |")
-    meds = {"iou_photo": "median IoU, visible mask", "iou_amodal": "median IoU, whole outline",
+    meds = {"iou_photo": "median IoU, visible mask",
+            "iou_photo_mesh": "median IoU, visible mask, the bare meshes (concavities filled, not cut out)",
+            "iou_amodal": "median IoU, whole outline",
             "iou_novel": "median IoU, worse of ±45°",
             "iou_shape_novel": "median IoU, worse of ±45°, alone, own position error taken out",
             "iou_novel_depth_placed": "median IoU, worse of ±45°, alone, own error along its ray taken out",

@@ -334,3 +334,34 @@ class SilhouetteRenderer:
         f = face.numpy()
         ids = np.where(f >= 0, self.face_object[np.maximum(f, 0)], -1)
         return ids.reshape(camera.height, camera.width)
+
+
+def cut_out_silhouettes(vertex_sets, faces, camera, cutouts, device: str | None = None) -> list[np.ndarray]:
+    """Visible masks (H, W) bool of meshes from ``camera`` as the shot shows them there: each mesh seen through
+    its cut-out ``cutouts[i]`` ((H, W) bool at the camera's size, what its texture projects from this camera
+    as opaque: its mask), so that a mesh hides what is behind it only where it is opaque.
+
+    The lifted meshes span their outlines' concavities (the gap between a motorcycle's wheels) and their
+    textures cut those away. A texture projected from this camera gives every surface of an object on one of
+    its rays the same alpha, so a pixel shows the nearest object that is opaque there: each mesh is cast only
+    through the pixels of its cut-out, and the nearest first hit wins."""
+    from .._warp import pick_device
+
+    h, w = camera.height, camera.width
+    uu, vv = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    rays = np.ascontiguousarray(camera.rays(uu, vv).astype(np.float32))
+    nearest = np.full(h * w, np.inf)
+    ids = np.full(h * w, -1, np.int32)
+    device = pick_device(device)
+    for i, (v, f, cut) in enumerate(zip(vertex_sets, faces, cutouts)):
+        pixels = np.flatnonzero(np.asarray(cut, bool)).astype(np.int32)
+        if not len(pixels) or not len(f):
+            continue
+        caster = RayCaster(np.asarray(v, float), np.asarray(f, np.int64), np.zeros((3 * len(f), 2)),
+                           np.ones((1, 1)), device)
+        caster.cast(camera.origin, rays, 1e6, pixels)
+        depth = np.where(caster.mesh_face.ravel() >= 0, caster.mesh_depth.ravel(), np.inf)
+        nearer = depth < nearest
+        nearest[nearer], ids[nearer] = depth[nearer], i
+    ids = ids.reshape(h, w)
+    return [ids == i for i in range(len(vertex_sets))]
