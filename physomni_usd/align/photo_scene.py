@@ -44,6 +44,10 @@ CUE_WINDOW_DEG = 20.0
 #: than ten segments: a tabletop's printed lines can be five) are trusted only while the silhouettes prefer no
 #: pitch more than CUE_WINDOW_DEG shallower.
 TRUSTED_CUE = 1.0
+#: ... and where no cue reads the pitch (the feet's least tilt alone, a default), another pitch replaces it
+#: when it beats it by MIN_GAIN plus this fraction of its score, not MIN_GAIN_FRACTION: a default has no
+#: reading of the photo to defend (as compare.ROW_GAIN_FRACTION has it for the field of view).
+NO_READING_GAIN_FRACTION = 0.2
 #: ... while the pitch search weighs a pitch, each started from the scale of the nearest pitch weighed.
 SEARCH_SCALE_ROUNDS = 2
 #: ... on copies of the photo and masks whose longer side is at most this (pixels).
@@ -310,7 +314,7 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
         window = CUE_WINDOW_DEG if strong else 90.0
         # readings that agree add up (four ellipses of one tray of sweets, each light, all reading straight down)
         agreeing = sum(c.weight for c in readings if abs(c.pitch_deg - pitch) <= CUE_WINDOW_DEG)
-        gain = STRONG_GAIN_FRACTION if strong else MIN_GAIN_FRACTION
+        gain = STRONG_GAIN_FRACTION if strong else MIN_GAIN_FRACTION if readings else NO_READING_GAIN_FRACTION
         # readings too light to move the weighted median (a steep horizon nothing confirms) still say which of
         # the pitches the silhouettes find as good as the best to take
         anchor = None
