@@ -181,23 +181,6 @@ def test_the_size_term_measures_each_object_against_its_label():
     assert compare.prior_terms([box.vertices], ["box"], 2.0)[0][0] == pytest.approx(np.log(2.0), abs=1e-6)
 
 
-def test_a_height_the_lift_did_not_read_from_the_photo_adds_no_proportion_term():
-    # an orange lifted as a ball from above, a book given its label's height: their height over length is the
-    # label's or the shape's by construction, the same under any pitch, so it cannot tell pitches apart; a
-    # standing lift's height is read from the outline and is held against the label
-    ball = trimesh.creation.icosphere(3, radius=0.04)
-    book = trimesh.creation.box((0.24, 0.17, 0.03))
-    read = [compare.height_read({"height_source": "the ball's outline (tangent cone)"}),
-            compare.height_read({"height_source": "typical size of the label (a flat thing)"})]
-    assert read == [False, False]
-    assert compare.height_read({"height_source": "silhouette"})
-    assert compare.height_read({"height_source": "visible sides (edge of the top)"})
-    unread, _ = compare.prior_terms([ball.vertices, book.vertices], ["orange", "book"], 1.0, read)
-    seen, _ = compare.prior_terms([ball.vertices, book.vertices], ["orange", "book"], 1.0)
-    assert len(seen) == 4 and len(unread) == 2
-    assert unread == [seen[0], seen[2]]  # the longest sides still count
-
-
 def _leaning(truth: float, lean: float = 0.0):
     """A valley at ``truth`` whose far side falls again towards 89.5° by ``lean`` (a view from straight above
     fits any outline)."""

@@ -61,11 +61,6 @@ ROW_FOVS_DEG = (25.0, 30.0, 35.0, 40.0, 45.0, 50.0, 55.0, 60.0, 65.0, 70.0, 75.0
 WARN_IOU = 0.85
 #: Largest log-ratio one object adds to the size term (a failed lift counts, but does not swamp the rest).
 SIZE_LOG_CAP = math.log(4.0)
-#: How a lift's ``height_source`` says the height was not read from the photo (taken from the label, fixed by
-#: the shape chosen, or a share of the footprint): its height over length then says nothing of the pitch.
-UNREAD_HEIGHT_SOURCES = ("typical size", "the ball's outline", "× the footprint")
-#: The log-ratio an object's height over length adds where the lift did not read its height (None: nothing).
-UNREAD_ASPECT_LOG = None
 
 
 def silhouette(vertices: np.ndarray, faces: np.ndarray, camera: PinholeCamera) -> np.ndarray:
@@ -152,13 +147,7 @@ def visible_ious(vertex_sets, faces, camera: PinholeCamera, masks) -> list[float
     return [mask_iou(s, m) for s, m in zip(seen, masks)]
 
 
-def height_read(info: dict) -> bool:
-    """Whether a lift (its ``info``) read the object's height from the photo, not from its label or shape."""
-    source = str(info.get("height_source") or "")
-    return not any(s in source for s in UNREAD_HEIGHT_SOURCES)
-
-
-def prior_terms(vertex_sets, labels, scale: float = 1.0, read=None) -> tuple[list[float], list[float]]:
+def prior_terms(vertex_sets, labels, scale: float = 1.0) -> tuple[list[float], list[float]]:
     """The size-prior and thickness terms of :func:`score_scene` for meshes ``vertex_sets`` (camera units,
     times ``scale`` for metres) labelled ``labels``: per object with a typical size, the log of its longest side
     over its label's and of its height over length over its label's (each at most :data:`SIZE_LOG_CAP`); per
@@ -172,16 +161,12 @@ def prior_terms(vertex_sets, labels, scale: float = 1.0, read=None) -> tuple[lis
     from ..sizes import size_prior
 
     size_logs, thin = [], []
-    read = [True] * len(labels) if read is None else list(read)
-    for v, label, seen in zip(vertex_sets, labels, read):
+    for v, label in zip(vertex_sets, labels):
         prior = size_prior(label)
         ext = np.sort(principal_extents(np.asarray(v, float) * scale))
         if prior is not None and prior.votes and ext[2] > 0:
             size_logs.append(min(abs(math.log(ext[2] / prior.longest_m)), SIZE_LOG_CAP))
-            if prior.height_m and not seen:
-                if UNREAD_ASPECT_LOG is not None:
-                    size_logs.append(UNREAD_ASPECT_LOG)
-            elif prior.height_m:  # its height over its length, as the label's: free of the scene's scale
+            if prior.height_m:  # its height over its length, as the label's: free of the scene's scale
                 h = float(np.ptp(np.asarray(v)[:, 2])) * scale
                 size_logs.append(min(abs(math.log(max(h, 1e-6) / ext[2] / (prior.height_m / prior.longest_m))),
                                      SIZE_LOG_CAP))

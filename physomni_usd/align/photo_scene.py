@@ -26,7 +26,7 @@ from ..settings import BuildSettings
 from ..errors import InputError
 from ..geometry.camera import PinholeCamera, pick_pitch
 from ..geometry.mesh import longest_dimension
-from .compare import (MIN_GAIN_FRACTION, height_read, STRONG_GAIN_FRACTION, prior_terms, search_pitch, search_row, search_view,
+from .compare import (MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, prior_terms, search_pitch, search_row, search_view,
                       score_scene)
 from .cues import (ELLIPSE_IOU, FEET_CUE, FEET_WEIGHT, MAX_PITCH_DEG, estimate_camera, mask_ellipse, min_pitch,
                    row_pitch, weighted_median)
@@ -426,7 +426,7 @@ def _scored(lift_at, pitch: float, masks, labels, found):
         unit, lifted, supports, fit, scale = lift_at(pitch)
     except (InputError, ValueError):
         return None
-    size_logs, thin = prior_terms([m.vertices for m in lifted], labels, scale, [height_read(m.info) for m in lifted])
+    size_logs, thin = prior_terms([m.vertices for m in lifted], labels, scale)
     # a foot on another's face is the weakest reading of a support: a pitch that cannot keep it is not worse
     shown = [i for i, (_, how) in found.items() if how != "foot"]
     lost = sum(i not in supports for i in shown) / len(shown) if shown else 0.0
