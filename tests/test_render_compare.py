@@ -133,6 +133,27 @@ def test_the_search_recovers_the_pitch_of_a_synthetic_scene_the_cues_miss(pitch)
     assert min(info["render_compare"]["score"]["silhouette_iou"]) > 0.8
 
 
+def test_where_no_cue_reads_the_pitch_the_feet_default_has_no_reading_to_defend(monkeypatch):
+    # a plain photo: only the feet's least tilt, a default; the silhouettes replace it on a smaller gain than
+    # a reading of the photo needs (a scene seen from 75° kept at the feet's 10° for want of 40 %)
+    from physomni_usd.align import photo_scene
+
+    masks, labels, photo = _synthetic(60.0)
+    asked = []
+    real = photo_scene.search_pitch
+
+    def spy(*args, **kwargs):
+        asked.append(kwargs["gain_fraction"])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(photo_scene, "search_pitch", spy)
+    names = [f"o{i}" for i in range(len(masks))]
+    lifted = lift_photo_scene(masks, labels, names, photo, BuildSettings(), {}, visible=masks)
+    cues = lifted.info["camera"]["cues"]
+    assert [c["cue"] for c in cues if c.get("pitch_deg") is not None] == ["objects' feet"]
+    assert asked == [photo_scene.NO_READING_GAIN_FRACTION] and asked[0] < compare.MIN_GAIN_FRACTION
+
+
 def test_the_view_search_finds_pitch_and_field_of_view_together_and_keeps_the_cues_where_flat():
     def bowl(p, f):  # the scene explained best by a 60° pitch under a 35° view; none under 20° of pitch
         if p < 20.0:
