@@ -33,7 +33,15 @@ def edge_band(visible: np.ndarray, hidden: np.ndarray, longer: int | None = None
     band = max(EDGE_BAND_MIN, int(round(EDGE_BAND * longer)))
     if not hidden.any():
         return np.zeros_like(visible)
-    return visible & (cv2.distanceTransform((~hidden).astype(np.uint8), cv2.DIST_L2, 5) <= band)
+    # found in the hidden part's box grown by the band only: a pixel beyond it is farther than the band (the
+    # distance is at least the chessboard one), and the nearest path to one inside stays inside
+    ys, xs = np.nonzero(hidden.any(1))[0], np.nonzero(hidden.any(0))[0]
+    h, w = hidden.shape
+    box = (slice(max(0, ys[0] - band - 1), min(h, ys[-1] + band + 2)),
+           slice(max(0, xs[0] - band - 1), min(w, xs[-1] + band + 2)))
+    out = np.zeros_like(visible)
+    out[box] = visible[box] & (cv2.distanceTransform((~hidden[box]).astype(np.uint8), cv2.DIST_L2, 5) <= band)
+    return out
 
 
 def complete_texture(photo: np.ndarray, visible: np.ndarray, amodal: np.ndarray,
