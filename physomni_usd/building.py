@@ -687,20 +687,21 @@ def _write(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, fields
     return shot, stale
 
 
-def _write_png(path: pathlib.Path, image: np.ndarray) -> None:
-    """Write an RGB(A) image as PNG through a temporary file and a rename."""
+def _png(path: pathlib.Path, image: np.ndarray) -> bytes:
+    """An RGB(A) (or one-channel) image encoded as PNG, for ``path``."""
     if image.shape[2] != 1:
         image = cv2.cvtColor(image, cv2.COLOR_RGBA2BGRA if image.shape[2] == 4 else cv2.COLOR_RGB2BGR)
     ok, data = cv2.imencode(".png", image)
     if not ok:
         raise OSError(f"cannot encode {path.name}")
-    write_bytes(path, data.tobytes())
+    return data.tobytes()
 
 
 class _PngWriter:
-    """:func:`_write_png` on a few threads (OpenCV encodes without the interpreter's lock): a 12 MP photo's
-    plate, textures and inputs took seconds one after another. Leaving the block waits for every file and
-    raises the first error."""
+    """PNG files written through a temporary file and a rename, encoded on a few threads (OpenCV encodes without the interpreter's lock; a
+    12 MP photo's plate, textures and inputs took seconds one after another). The files are written on
+    leaving the block, by the calling thread, in the order asked (the command's journal of its writes,
+    ``_files.all_or_nothing``, is its own); an error inside the block writes none of them."""
 
     THREADS = 4
 
@@ -712,13 +713,13 @@ class _PngWriter:
         return self
 
     def write(self, path: pathlib.Path, image: np.ndarray) -> None:
-        self._pending.append(self._pool.submit(_write_png, path, image))
+        self._pending.append((path, self._pool.submit(_png, path, image)))
 
-    def __exit__(self, *exc):
-        self._pool.shutdown(wait=True)
-        for f in self._pending:
-            if exc[0] is None:
-                f.result()
+    def __exit__(self, kind, *_):
+        self._pool.shutdown(wait=True, cancel_futures=kind is not None)
+        if kind is None:
+            for path, encoded in self._pending:
+                write_bytes(path, encoded.result())
         return False
 
 
