@@ -698,10 +698,11 @@ def _png(path: pathlib.Path, image: np.ndarray) -> bytes:
 
 
 class _PngWriter:
-    """PNG files written through a temporary file and a rename, encoded on a few threads (OpenCV encodes without the interpreter's lock; a
-    12 MP photo's plate, textures and inputs took seconds one after another). The files are written on
-    leaving the block, by the calling thread, in the order asked (the command's journal of its writes,
-    ``_files.all_or_nothing``, is its own); an error inside the block writes none of them."""
+    """PNG files written through a temporary file and a rename, encoded on a few threads (OpenCV encodes
+    without the interpreter's lock; a 12 MP photo's plate, textures and inputs took seconds one after
+    another). The files are written on leaving the block, by the calling thread, in the order asked (the
+    command's journal of its writes, ``_files.all_or_nothing``, is its own); an error inside the block writes
+    none of them."""
 
     THREADS = 4
 
