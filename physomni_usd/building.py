@@ -318,7 +318,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
                     + scene.align_info.get("silhouette_warnings", [])):
         echo(f"warning: {warning}")
     with timer.step("texture.objects"):
-        _texture(scene, out)
+        _texture(scene, out, photo_path)
     with timer.step("estimate"):
         _estimate(scene, push, fixed_names)
     with timer.step("write"):
@@ -579,8 +579,14 @@ def _photo_size(scene: Scene, o) -> tuple[np.ndarray, np.ndarray]:
     return at_photo_size(scene.work, o.mask.mask, o.amodal, o.full_mask)
 
 
-def _texture(scene: Scene, out: pathlib.Path) -> None:
-    """Each object's texture from the photo, the plate, the contact sheet and the inputs, into the shot."""
+def _texture(scene: Scene, out: pathlib.Path, photo_path=None) -> None:
+    """Each object's texture from the photo, the plate, the contact sheet and the inputs, into the shot (the
+    images encoded a few at a time, :class:`_PngWriter`)."""
+    with _PngWriter() as writer:
+        _texture_into(scene, out, photo_path, writer.write)
+
+
+def _texture_into(scene: Scene, out: pathlib.Path, photo_path, write_png) -> None:
     import trimesh
 
     photo, camera = scene.photo, scene.camera
@@ -598,7 +604,7 @@ def _texture(scene: Scene, out: pathlib.Path) -> None:
         tm = trimesh.Trimesh(v, f, process=False)
         origin = tm.center_mass if tm.is_volume else v.mean(0)
         rel = f"{TEXTURES}/{o.name}.png"
-        _write_png(out / rel, rgba)
+        write_png(out / rel, rgba)
         scene.scene_objects.append(SceneObject(o.name, o.label, o.index, v - origin, f,
                                                np.asarray(tm.vertex_normals), st, origin, f"./{rel}", so.shape,
                                                texture_origin=(x0, y0), st_per_corner=True))
@@ -612,18 +618,22 @@ def _texture(scene: Scene, out: pathlib.Path) -> None:
         if so.occluders:
             so.report["occluded_by"] = [scene.objects[k].name for k in so.occluders]
             so.report["completed"] = {"how": so.completion, "pixels": int(painted.sum())}
-    _write_png(out / TEXTURES / "plate.png", scene.plate)
-    _write_png(out / TEXTURES / WIDE_PLATE, scene.wide_plate)
+    write_png(out / TEXTURES / "plate.png", scene.plate)
+    write_png(out / TEXTURES / WIDE_PLATE, scene.wide_plate)
     # a check of the masks, not a picture: the working copy is enough for it
-    _write_png(out / MASKS_SHEET, contact_sheet(scene.photo, [o.mask for o in scene.objects],
+    write_png(out / MASKS_SHEET, contact_sheet(scene.photo, [o.mask for o in scene.objects],
                                                  completed=[o.amodal for o in scene.objects]))
     # the inputs, so that later stages (estimate's crops) work from the shot folder alone
     make_dirs(out / INPUTS / "masks")
-    _write_png(out / INPUTS / "photo.png", photo)
+    stream = None if photo_path is None else _plain_png(pathlib.Path(photo_path))
+    if stream is not None:  # the photo's own pixels already compressed: kept, not encoded again
+        write_bytes(out / INPUTS / "photo.png", stream)
+    else:
+        write_png(out / INPUTS / "photo.png", photo)
     for o in scene.objects:
         mask = _photo_size(scene, o)[0][..., None] * np.uint8(255)
         # a large photo's mask in one channel (a third of the encoding); readers take either
-        _write_png(out / INPUTS / "masks" / f"{o.name}.png", np.repeat(mask, 3, 2) if scene.work is None else mask)
+        write_png(out / INPUTS / "masks" / f"{o.name}.png", np.repeat(mask, 3, 2) if scene.work is None else mask)
 
 
 def _held(o) -> bool:
@@ -683,11 +693,67 @@ def _write(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, fields
     return shot, stale
 
 
-def _write_png(path: pathlib.Path, image: np.ndarray) -> None:
-    """Write an RGB(A) image as PNG through a temporary file and a rename."""
+def _png(path: pathlib.Path, image: np.ndarray) -> bytes:
+    """An RGB(A) (or one-channel) image encoded as PNG, for ``path``."""
     if image.shape[2] != 1:
         image = cv2.cvtColor(image, cv2.COLOR_RGBA2BGRA if image.shape[2] == 4 else cv2.COLOR_RGB2BGR)
     ok, data = cv2.imencode(".png", image)
     if not ok:
         raise OSError(f"cannot encode {path.name}")
-    write_bytes(path, data.tobytes())
+    return data.tobytes()
+
+
+class _PngWriter:
+    """PNG files written through a temporary file and a rename, encoded on a few threads (OpenCV encodes
+    without the interpreter's lock; a 12 MP photo's plate, textures and inputs took seconds one after
+    another). The files are written on leaving the block, by the calling thread, in the order asked (the
+    command's journal of its writes, ``_files.all_or_nothing``, is its own); an error inside the block writes
+    none of them."""
+
+    THREADS = 4
+
+    def __enter__(self):
+        from concurrent.futures import ThreadPoolExecutor
+
+        self._pool = ThreadPoolExecutor(max_workers=self.THREADS, thread_name_prefix="png")
+        self._pending = []
+        return self
+
+    def write(self, path: pathlib.Path, image: np.ndarray) -> None:
+        self._pending.append((path, self._pool.submit(_png, path, image)))
+
+    def __exit__(self, kind, *_):
+        self._pool.shutdown(wait=True, cancel_futures=kind is not None)
+        if kind is None:
+            for path, encoded in self._pending:
+                write_bytes(path, encoded.result())
+        return False
+
+
+#: PNG chunks a copy of the photo keeps: the image itself; its text, EXIF and the like are left out of the shot.
+_PNG_CRITICAL = (b"IHDR", b"PLTE", b"IDAT", b"IEND")
+
+
+def _plain_png(path: pathlib.Path) -> bytes | None:
+    """The photo file's own PNG stream with only its image chunks, where it is an 8-bit RGB PNG (what
+    ``read_photo`` decodes it to, pixel for pixel, is then what encoding it again would store); else None."""
+    import struct
+    import zlib
+
+    if path.suffix.lower() != ".png":
+        return None
+    data = path.read_bytes()
+    if data[:8] != b"\x89PNG\r\n\x1a\n" or data[12:16] != b"IHDR" or data[24:26] != bytes([8, 2]):
+        return None
+    out, at = [data[:8]], 8
+    while at + 12 <= len(data):
+        (n,) = struct.unpack(">I", data[at:at + 4])
+        kind, end = data[at + 4:at + 8], at + 12 + n
+        if end > len(data) or zlib.crc32(data[at + 4:end - 4]) != struct.unpack(">I", data[end - 4:end])[0]:
+            return None  # damaged: encoded again from the pixels that were read
+        if kind in _PNG_CRITICAL:
+            out.append(data[at:end])
+        at = end
+        if kind == b"IEND":
+            return b"".join(out)
+    return None

@@ -52,7 +52,8 @@ def texture_object(photo: np.ndarray, camera, visible: np.ndarray, amodal: np.nd
     rgba[..., 3][painted[crop]] = COMPLETED_ALPHA
     # its rim along what is painted is repainted too (complete_texture): not the photo's pixels of it either,
     # so that a frame shows it from the texture, not the photo's occluder edge, once the occluder has moved
-    rgba[..., 3][edge_band(visible, painted, max(photo.shape[:2]))[crop]] = COMPLETED_ALPHA
+    # (found on the crop alone: all that is painted lies in it, and so does every nearest path to it)
+    rgba[..., 3][edge_band(visible[crop], painted[crop], max(photo.shape[:2]))] = COMPLETED_ALPHA
     # texture coordinates: the photo projected from the camera onto the object where it was seen, and
     # a planar map for the sides it saw edge-on (sides.py)
     st = corner_st(projected, np.asarray(faces), camera, (rgba.shape[1], rgba.shape[0]), (x0, y0),
@@ -116,28 +117,43 @@ def extend_colours(rgb: np.ndarray, mask: np.ndarray, steps: int) -> np.ndarray:
     """Grow the colours inside ``mask`` outward by ``steps`` pixels (mean of known neighbours).
 
     Step k reaches the pixels k from the mask (chessboard distance), each the mean of its neighbours reached
-    before it; only those rings are worked on (a 12 MP photo's crop filtered whole at each step cost seconds)."""
+    before it. Only those rings are worked on, and only they are held as floats: a 12 MP photo's crop taken
+    whole to floats, or compared whole at each step, cost seconds; every other pixel is the photo's own."""
     known = mask.astype(bool)
-    out = rgb.astype(np.float32)
     if known.all() or not known.any():
-        return np.clip(out + 0.5, 0, 255).astype(np.uint8)
+        return rgb.copy()
     h, w = known.shape
     # the distance grown at, padded by one so that a pixel's eight neighbours are always addressable
     ring = np.full((h + 2, w + 2), np.inf, np.float32)
     ring[1:-1, 1:-1] = cv2.distanceTransform((~known).astype(np.uint8), cv2.DIST_C, 3)
-    padded = np.zeros((h + 2, w + 2, out.shape[2]), np.float32)
-    padded[1:-1, 1:-1] = out
+    ys, xs = np.nonzero((ring >= 1) & (ring <= steps))
+    k_of = ring[ys, xs]
+    order = np.argsort(k_of, kind="stable")
+    ys, xs, k_of = ys[order], xs[order], k_of[order]
+    # each grown pixel's float colour, found through its index; a neighbour not grown is the photo's own
+    values = np.zeros((len(ys), rgb.shape[2]), np.float32)
+    index = np.full((h + 2, w + 2), -1, np.int32)
+    index[ys, xs] = np.arange(len(ys), dtype=np.int32)
     offsets = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx]
+    bounds = np.searchsorted(k_of, np.arange(1, steps + 2), side="left")
     for k in range(1, steps + 1):
-        ys, xs = np.nonzero(ring == k)
-        if not len(ys):
+        lo, hi = bounds[k - 1], bounds[k]
+        if lo == hi:
             break
-        total = np.zeros((len(ys), out.shape[2]), np.float32)
-        count = np.zeros(len(ys), np.float32)
+        y, x = ys[lo:hi], xs[lo:hi]
+        total = np.zeros((hi - lo, rgb.shape[2]), np.float32)
+        count = np.zeros(hi - lo, np.float32)
         for dy, dx in offsets:
-            before = ring[ys + dy, xs + dx] < k
-            total += padded[ys + dy, xs + dx] * before[:, None]
+            ny, nx = y + dy, x + dx
+            before = ring[ny, nx] < k
+            at = index[ny, nx]
+            # a neighbour off the crop is never reached before (its distance is infinite): any pixel will do
+            colour = rgb[np.clip(ny - 1, 0, h - 1), np.clip(nx - 1, 0, w - 1)].astype(np.float32)
+            grown = at >= 0
+            colour[grown] = values[at[grown]]
+            total += colour * before[:, None]
             count += before
-        padded[ys, xs] = total / count[:, None]
-    out = padded[1:-1, 1:-1]
-    return np.clip(out + 0.5, 0, 255).astype(np.uint8)
+        values[lo:hi] = total / count[:, None]
+    out = rgb.copy()
+    out[ys - 1, xs - 1] = np.clip(values + 0.5, 0, 255).astype(np.uint8)
+    return out
