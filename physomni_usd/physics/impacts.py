@@ -3,12 +3,13 @@
 Newton's XPBD solves restitution after every substep's position solve, on the contacts of its contact buffer
 that came to overlap in it, each body pair's contacts together, then averages each body's changes over the
 pairs it is in; the outer passes repeat that averaging until a body pressed between several others has
-converged. Passes change nothing where no contact in the substep meets its pair closing or parting faster than
-the solver's resting threshold. A frame that may hold an impact therefore decides its passes substep by substep,
-on the device (a captured frame replays the choice; ``warp.capture_if``): the full passes where a contact of the
-buffer that can touch within the substep moves along its normal faster than ``stability.IMPACT_SPEED``, the
-solver's default elsewhere. The contacts are those the solver itself is handed, so a pair the last search did
-not hold is one the solver does not see either."""
+converged. Passes beyond the first change nothing in a substep where no contact fires (Newton skips a contact
+slower than its resting threshold, 2·g·dt), and little where every contact is slower than
+``stability.IMPACT_SPEED``, the speed below which a whole frame already gets Newton's default. A frame that may
+hold an impact therefore decides its passes substep by substep, on the device (a captured frame replays the
+choice; ``warp.capture_if``): the full passes where a contact of the buffer that can touch within the substep
+moves along its normal faster than ``IMPACT_SPEED``, the default elsewhere. The contacts are those the solver
+itself is handed, so a pair the last search did not hold is one the solver does not see either."""
 
 from __future__ import annotations
 
