@@ -63,7 +63,9 @@ ENERGY_TOLERANCE = 0.05
 #: position correction gave while pushing the overlap out, which the next substep keeps as a separation: a
 #: 5 mm steel spoon thrown at 3 m/s onto a saucer rose 12 mm above where it came to rest at restitution 0,
 #: and onto a 5 mm plate 4.3 cm of the 41 cm e²v²/2g at 0.9. At 16 passes: 2 mm (the frame it lands in)
-#: and 40 cm, as on a fixed saucer; 8 passes reached 32 cm.
+#: and 40 cm, as on a fixed saucer; 8 passes reached 32 cm. Within a frame that may hold an impact the full
+#: passes go only to the substeps where a contact meets its pair faster than ``IMPACT_SPEED`` (``impacts``):
+#: the rest of the frame keeps Newton's default, as a slow frame does.
 RESTITUTION_PASSES = (16, 2)
 #: m/s: a frame whose fastest body starts slower than this holds no impact worth the passes (objects at
 #: rest, a start overlap separating at up to ``depenetration.SEPARATION_SPEED``).

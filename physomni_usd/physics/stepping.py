@@ -125,6 +125,7 @@ class Stepper:
         if hasattr(self.solver, "enable_restitution"):
             self.solver.enable_restitution = plan.restitution
             self.solver.rigid_contact_restitution_iterations = plan.restitution_passes(speed)
+        by_substep = self._passes_by_substep(plan, speed)
         groups = plan.mpm_steps or 1
         per = plan.substeps // groups
         dt = plan.dt
@@ -152,7 +153,10 @@ class Stepper:
                         add_particle_forces(self.mpm, self.state)
                     if self.pipeline is not None and (step - step0) % collide_every == 0:
                         self.pipeline.collide(self.state, self.contacts)
-                    self.solver.step(self.state, self.state_next, self.control, self.contacts, dt)
+                    if by_substep:
+                        self._step_by_impact(plan, dt)
+                    else:
+                        self.solver.step(self.state, self.state_next, self.control, self.contacts, dt)
                     self.state, self.state_next = self.state_next, self.state
                     if self.damping is not None:
                         self.damping.apply(self.model, self.state, dt)
@@ -175,6 +179,50 @@ class Stepper:
                     after_mpm_step(t)
         if fields and self.count_work and read_work:
             add_work(self._read_work())
+
+    def _passes_by_substep(self, plan: StepPlan, speed: float) -> bool:
+        """Whether this frame chooses its restitution passes substep by substep (``impacts``): a frame that may
+        hold an impact, stepped by XPBD with restitution on against a contact buffer, on a device whose captured
+        frames can branch (every CPU; CUDA with conditional graph nodes)."""
+        import warp as wp
+
+        if not (plan.restitution and self.contacts is not None and self.pipeline is not None
+                and hasattr(self.solver, "rigid_contact_restitution_iterations") and self.model.body_count
+                and plan.restitution_passes(speed) != plan.restitution_passes(0.0)):
+            return False
+        device = self.model.device
+        return device.is_cpu or wp.is_conditional_graph_supported()
+
+    def _step_by_impact(self, plan: StepPlan, dt: float) -> None:
+        """One XPBD substep with the full restitution passes where a contact about to touch closes or parts
+        faster than ``IMPACT_SPEED`` (``impacts.impact_kernel``), the default passes elsewhere; decided on the
+        device, so a captured frame replays the choice."""
+        import warp as wp
+
+        from .impacts import impact_kernel
+        from .stability import IMPACT_SPEED
+
+        c, m = self.contacts, self.model
+        flag = self.__dict__.get("_impact_flag")
+        if flag is None:
+            flag = self._impact_flag = wp.zeros(1, dtype=wp.int32, device=m.device)
+        flag.zero_()
+        # within reach: a contact no further apart than the solver's own resting speed covers in the substep
+        wp.launch(impact_kernel(), dim=c.rigid_contact_max,
+                  inputs=[c.rigid_contact_count, c.rigid_contact_shape0, c.rigid_contact_shape1,
+                          c.rigid_contact_point0, c.rigid_contact_point1, c.rigid_contact_normal,
+                          c.rigid_contact_margin0, c.rigid_contact_margin1, m.shape_body, self.state.body_q,
+                          self.state.body_qd, m.body_com, dt, (IMPACT_SPEED + plan.acceleration * dt) * dt,
+                          IMPACT_SPEED],
+                  outputs=[flag], device=m.device)
+        full, rest = plan.restitution_passes(1e9), plan.restitution_passes(0.0)
+        solver, state, state_next = self.solver, self.state, self.state_next
+
+        def step(passes):
+            solver.rigid_contact_restitution_iterations = passes
+            solver.step(state, state_next, self.control, c, dt)
+
+        wp.capture_if(flag, on_true=lambda: step(full), on_false=lambda: step(rest))
 
     def take_work(self) -> float:
         """The fields' work (J) summed on the device since it was last read, and zero it."""
