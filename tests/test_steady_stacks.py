@@ -71,3 +71,26 @@ def test_only_what_stands_on_the_ground_gets_a_flat_foot():
     cut = {d["object"]: d["flat_foot_m"] for d in done if "flat_foot_m" in d}
     assert set(cut) == {0}, done
     assert np.allclose(verts[1], held.vertices - [0, 0, cut[0]], atol=1e-4)  # the report rounds the cut
+
+
+def test_a_stack_is_steadied_by_the_load_each_object_carries_not_by_its_own_centre():
+    # each alone is over the top under it by more than the margin, but the middle box with the tall one on
+    # it overhangs the bottom box's back edge: unpushed, the two fall off together
+    bottom = _box((0.2, 0.10, 0.03), (0, 0, 0.015))
+    middle = _box((0.2, 0.10, 0.03), (0, 0.035, 0.045))
+    top = _box((0.2, 0.06, 0.10), (0, 0.06, 0.11))
+    supports = {1: (0, "on"), 2: (1, "on")}
+    meshes = [bottom, middle, top]
+    region = _top_under(bottom.vertices, 0.03, 0.01)
+    assert _outside(region, middle.center_mass[:2]) < -0.01
+    assert _outside(_top_under(middle.vertices, 0.06, 0.01), top.center_mass[:2]) < -0.01
+    w = np.array([middle.volume, top.volume])
+    load = np.average([middle.center_mass, top.center_mass], axis=0, weights=w)
+    assert _outside(region, load[:2]) > 0  # the pair's centre beyond the bottom box's top
+    eye = np.array([0.0, -2.0, 0.1])  # level, from the front: the depth the photo hardly shows
+    verts, done = steady_stacks([m.vertices for m in meshes], [m.faces for m in meshes], supports, eye)
+    moved = [verts[k].mean(axis=0) - meshes[k].vertices.mean(axis=0) for k in range(3)]
+    assert np.allclose(moved[1], moved[2]), moved  # the top box goes with the one under it
+    assert _outside(region, (load + moved[1])[:2]) <= -0.009, done
+    assert abs(moved[1][2]) < 1e-9 and abs(moved[1][0]) < 0.25 * abs(moved[1][1])  # level, along the sight (a grid step across)
+    assert np.array_equal(verts[0], bottom.vertices)

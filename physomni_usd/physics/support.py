@@ -92,12 +92,23 @@ def add_hidden_support(builder, objects, path_body: dict, ground_z: float, newto
 STEADY_MARGIN = 0.01
 
 
-def _solid_com(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
+def _solid(points: np.ndarray, faces: np.ndarray):
     import trimesh
 
     mesh = trimesh.Trimesh(points, faces, process=False)
-    solid = mesh if mesh.is_watertight and mesh.volume > 0 else mesh.convex_hull
-    return np.asarray(solid.center_mass, float)
+    return mesh if mesh.is_watertight and mesh.volume > 0 else mesh.convex_hull
+
+
+def _solid_com(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    return np.asarray(_solid(points, faces).center_mass, float)
+
+
+def _load_com(group, vertex_sets, faces) -> np.ndarray:
+    """The centre of mass (3,) of the objects ``group`` (indices) together, each weighed by its volume: the
+    materials are not estimated yet when the build steadies a stack, and one density is the least guess."""
+    solids = [_solid(vertex_sets[k], faces[k]) for k in group]
+    w = np.array([max(float(abs(s.volume)), 1e-12) for s in solids])
+    return np.average([np.asarray(s.center_mass, float) for s in solids], axis=0, weights=w)
 
 
 def _top_under(supporter: np.ndarray, base_z: float, band: float) -> np.ndarray:
@@ -167,11 +178,12 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
     centre of mass over the supporter's top, and what was moved. A lifted object stands where its outline's
     foot is read, at a depth the photo hardly shows; a few centimetres too far forward of the box under it,
     its centre of mass overhangs that box's top and, with nothing pushing it, it tips off (a box on a stack of
-    three fell 51 cm). First the top under its foot is made flat at its base (:func:`raise_top`: hidden by
-    it); where its centre of mass still overhangs, it is shifted level, with whatever rests on it, by the shift
+    three fell 51 cm). What counts is the centre of mass of its load (:func:`_load_com`: it and all that rests
+    on it). First the top under its foot is made flat at its base (:func:`raise_top`: hidden by
+    it); where that centre still overhangs, it is shifted level, with whatever rests on it, by the shift
     into :data:`STEADY_MARGIN` inside that top that moves its image least (:func:`_cheapest_shift`): a few
     pixels, where a fall moves it off the frame. An object whose centre of mass overhangs its own foot is left
-    alone (no shift helps it), and so is one already steady. Lower objects first. Before all that, every
+    alone (no shift helps it), and so is one already steady. Higher objects first. Before all that, every
     object standing on a point on the ground gets a flat foot (:func:`flat_foot`), what rests on it lowered with
     it (not one held by another object: an orange in a bowl's mouth, rounded, rests on its rim; flattened, it fell
     24 cm)."""
@@ -187,14 +199,18 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
             for k in riders(i, supports)[1:]:
                 verts[k][:, 2] -= cut
             done.append({"object": i, "flat_foot_m": round(cut, 4)})
-    for i in sorted(supports, key=lambda k: float(verts[k][:, 2].min())):
+    # highest first: what an object carries is steady on it before the load of both is brought over the one
+    # under them; a shift moves an object with its riders, so it never undoes one made above it
+    for i in sorted(supports, key=lambda k: -float(verts[k][:, 2].min())):
         j = supports[i][0]
         pts = verts[i]
         low = float(pts[:, 2].min())
         band = max(CONTACT_BAND, CONTACT_BAND * float(np.ptp(pts[:, 2])))
-        com = _solid_com(pts, faces[i])
-        if overhang(pts, com) > OVERHANG:
+        if overhang(pts, _solid_com(pts, faces[i])) > OVERHANG:
             continue  # it cannot stand on its own foot: no shift helps
+        # what tips it off its supporter is its load, itself and all it carries: a book over the lower book's
+        # back edge by the one on it (each alone over the top under it) fell 16 cm with it
+        com = _load_com(riders(i, supports), verts, faces)
         region = _top_under(verts[j], low, band)
         if len(region) < 3:
             continue
