@@ -96,6 +96,39 @@ def test_an_object_that_would_topple_off_its_supporter_does_not_balance_on_it():
     assert not balances_on(box, peak, 0.3)  # a box on the crown of a crumpled bag
 
 
+def test_an_object_over_several_supporters_balances_on_them_together():
+    """A board bridging two boxes, a fruit in the hollow on top of three: no one supporter holds its centre,
+    the hull of its contacts with all of them does; a box beside it, or one under its end but far below, does
+    not."""
+    from types import SimpleNamespace
+
+    import trimesh
+
+    from physomni_usd.align.photo_scene import balances_on
+
+    left, right = _block((-0.3, 0.0), (0.2, 0.2, 0.15)), _block((0.3, 0.0), (0.2, 0.2, 0.15))
+    board = _block((0.0, 0.0), (0.45, 0.15, 0.02))
+    board.vertices[:, 2] += 0.3
+    assert not balances_on(board, left, 0.3) and not balances_on(board, right, 0.3)
+    assert balances_on(board, left, 0.3, [right])
+    far = _block((1.5, 0.0), (0.2, 0.2, 0.15))  # on the ground beside, under nothing
+    assert not balances_on(board, left, 0.3, [far])
+    low = _block((0.3, 0.0), (0.2, 0.2, 0.05))  # under the board's end but far below it: no contact
+    assert not balances_on(board, left, 0.3, [low])
+
+    def ball(x, y, z, r):
+        return SimpleNamespace(vertices=np.asarray(trimesh.creation.icosphere(3, r).vertices) + [x, y, z])
+
+    r = 0.04
+    d = 1.15 * r  # the three under it touch; it touches each of them, its lowest point in their hollow
+    pile = [ball(d * np.cos(a), d * np.sin(a), r, r) for a in np.radians([90.0, 210.0, 330.0])]
+    top = ball(0.0, 0.0, r + np.sqrt(4.0 * r * r - d * d), r)
+    base = float(top.vertices[:, 2].min())
+    for k, under in enumerate(pile):
+        assert not balances_on(top, under, base)
+        assert balances_on(top, under, base, [p for j, p in enumerate(pile) if j != k])
+
+
 def test_a_hidden_foot_reaches_down_behind_its_occluder_through_hidden_pixels_only():
     from physomni_usd.align.photo_scene import foot_behind
 
