@@ -144,6 +144,11 @@ def find_supports(masks, hides=()) -> dict[int, tuple[int, str]]:
                 break
             k = max(between, key=lambda k: found[(i, k)][0])
             best[i] = (found[(i, k)][0], k, found[(i, k)][1])
+    for i, a in enumerate(masks):
+        if i not in best:
+            together = rests_on_several(i, masks, hides, reach)
+            if together is not None:
+                best[i] = (together[1], together[0], "contact")
     out = {i: (j, how) for i, (_, j, how) in best.items()}
     # break cycles: in a cycle, the object lowest in the photo rests on nothing
     feet = [foot_pixel(fill_holes(m))[1] for m in masks]
@@ -156,6 +161,36 @@ def find_supports(masks, hides=()) -> dict[int, tuple[int, str]]:
             cycle = seen[seen.index(k):]
             out.pop(max(cycle, key=lambda n: feet[n]), None)
     return out
+
+
+def rests_on_several(i: int, masks, hides, reach: int) -> tuple[int, float] | None:
+    """(the one it touches most, the contact) where ``masks[i]``'s lowest outline rests on several objects
+    together, none of which alone reads as its support (a fruit in the hollow on top of a pile, a board over
+    two boxes): most of that outline touches one of them just below, and most of its columns lie within
+    theirs. None where it does not. An object that hides ``i`` stands in front of it, not under it; its
+    balance over all of them is judged once they are lifted (``align.photo_scene.balances_on``)."""
+    a = fill_holes(masks[i])
+    h = a.shape[0]
+    cols, rows = _lowest_outline(a)
+    if not len(cols):
+        return None
+    foot_a = foot_pixel(a)[1]
+    touch, within, each = np.zeros(len(cols), bool), np.zeros(len(cols), bool), {}
+    for j, m in enumerate(masks):
+        b = np.asarray(m, bool)
+        if j == i or (j, i) in set(hides) or not b.any() or not foot_a < foot_pixel(fill_holes(b))[1] - 1:
+            continue
+        t = np.array([b[min(r + 1, h - 1):min(r + 1 + reach, h), c].any() for c, r in zip(cols, rows)])
+        if not t.any():
+            continue
+        b_cols = np.nonzero(b.any(axis=0))[0]
+        touch |= t
+        within |= (cols >= b_cols.min() - reach) & (cols <= b_cols.max() + reach)
+        each[j] = float(t.mean())
+    if len(each) < 2 or touch.mean() < CONTACT_FRACTION or within.mean() < WITHIN_FRACTION:
+        return None
+    j = max(each, key=each.get)
+    return j, float(touch.mean())
 
 
 def support_order(n: int, supports: dict[int, tuple[int, str]]) -> list[int]:
