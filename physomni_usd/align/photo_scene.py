@@ -32,7 +32,8 @@ from .cues import (ELLIPSE_IOU, FEET_WEIGHT, MAX_PITCH_DEG, estimate_camera, mas
                    weighted_median)
 from .place import footprint, make_room, separate
 from .scale import fit_scale
-from .support import TOP_BAND, find_supports, raise_unseen, reach_under, root_of, settle_on_supports, support_order
+from .support import (TOP_BAND, find_supports, raise_unseen, reach_under, rests_on, root_of, settle_on_supports,
+                      support_order)
 
 #: Scale-and-lift rounds: an object's height from its prior depends on the scale, the scale on the lifted sizes.
 SCALE_ROUNDS = 3
@@ -148,10 +149,10 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
             # a fruit in the hollow on top of a pile, a board bridging two boxes: no one object under it holds
             # its centre, the ones it touches together may. What rests on it, through others, cannot hold it.
             for k in range(len(masks)):
-                if k != i and not _rests_on_chain(k, i, supports):
+                if k != i and not rests_on(k, i, supports):
                     place(k)
             others = [out[k] for k in range(len(masks))
-                      if k not in (i, supports[i][0]) and out[k] is not None and not _rests_on_chain(k, i, supports)]
+                      if k not in (i, supports[i][0]) and out[k] is not None and not rests_on(k, i, supports)]
             if not balances_on(out[i], out[supports[i][0]], base, others):
                 # standing on the lower one's surface it would topple off it (a box on the crown of a crumpled
                 # bag): the photo shows it as well standing on the ground, where it stays
@@ -245,17 +246,6 @@ def foot_behind(mask: np.ndarray, occluder_masks, occluders, camera: PinholeCame
             out[r, c] = True
             r += 1
     return out if foot_pixel(out)[1] > v + 1 else None
-
-
-def _rests_on_chain(k: int, i: int, supports: dict) -> bool:
-    """Whether ``k`` rests, directly or through others, on ``i``."""
-    seen = set()
-    while k in supports and k not in seen:
-        seen.add(k)
-        k = supports[k][0]
-        if k == i:
-            return True
-    return False
 
 
 def balances_on(upper, lower, base: float, others=()) -> bool:

@@ -273,13 +273,13 @@ def settle_on_supports(vertex_sets, faces, supports: dict[int, tuple[int, str]])
         if inside > SETTLE_TOLERANCE_M:
             up = np.array([0.0, 0.0, inside])
             for k in range(len(verts)):
-                if k == i or _rests_on(k, i, supports):
+                if k == i or rests_on(k, i, supports):
                     verts[k] = verts[k] + up
                     rise[k] += inside
     return verts, rise
 
 
-def _rests_on(k: int, i: int, supports: dict[int, tuple[int, str]]) -> bool:
+def rests_on(k: int, i: int, supports: dict[int, tuple[int, str]]) -> bool:
     """Whether ``k`` rests, directly or through others, on ``i``."""
     seen = set()
     while k in supports and k not in seen:
