@@ -148,11 +148,10 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
         if i in supports and not balances_on(out[i], out[supports[i][0]], base):
             # a fruit in the hollow on top of a pile, a board bridging two boxes: no one object under it holds
             # its centre, the ones it touches together may. What rests on it, through others, cannot hold it.
-            for k in range(len(masks)):
-                if k != i and not rests_on(k, i, supports):
-                    place(k)
-            others = [out[k] for k in range(len(masks))
-                      if k not in (i, supports[i][0]) and out[k] is not None and not rests_on(k, i, supports)]
+            beside = [k for k in range(len(masks)) if k not in (i, supports[i][0]) and not rests_on(k, i, supports)]
+            for k in beside:
+                place(k)
+            others = [out[k] for k in beside if out[k] is not None]
             if not balances_on(out[i], out[supports[i][0]], base, others):
                 # standing on the lower one's surface it would topple off it (a box on the crown of a crumpled
                 # bag): the photo shows it as well standing on the ground, where it stays
@@ -253,8 +252,8 @@ def balances_on(upper, lower, base: float, others=()) -> bool:
     it: seen from above, inside the convex hull of the part of ``lower`` that reaches up to ``base`` (its
     vertices no lower than ``TOP_BAND`` of its height below ``base``) together with where each of ``others``
     (lifted meshes beside it: the fruit of a pile, the second box under a board) reaches up under ``upper``
-    (their part between that band and ``upper``'s mid-height, cut to ``upper``'s footprint): the hull of
-    its contacts with all it rests on. Its vertices' mean stands for the centre of mass."""
+    (their part between that band and ``upper``'s mid-height, cut to ``upper``'s footprint; one that rises past
+    that middle within the footprint stands beside it): the hull of its contacts with all it rests on. Its vertices' mean stands for the centre of mass."""
     z = lower.vertices[:, 2]
     points = [lower.vertices[z >= base - TOP_BAND * max(float(np.ptp(z)), 1e-9), :2]]
     zu = upper.vertices[:, 2]
@@ -262,8 +261,15 @@ def balances_on(upper, lower, base: float, others=()) -> bool:
     over = footprint(upper.vertices)
     # OpenCV's polygon intersection loses small (metre-scale) polygons: cut them in a frame where upper is ~1000
     origin, unit = over.mean(0), 1e-3 * max(float(np.ptp(over, axis=0).max()), 1e-9)
+    edges = np.roll(over, -1, axis=0) - over
     for other in others:
         zo = other.vertices[:, 2]
+        rel = other.vertices[:, None, :2] - over[None]
+        under = (edges[None, :, 0] * rel[..., 1] - edges[None, :, 1] * rel[..., 0] >= 0).all(axis=1)
+        if (zo[under] > mid).any():
+            # it rises past upper's middle where it stands under it: beside it (a wedge a banana leans on,
+            # the object in front of it), not under it
+            continue
         band = other.vertices[(zo >= base - TOP_BAND * max(float(np.ptp(zo)), 1e-9)) & (zo <= mid)]
         if len(band) < 3:
             continue

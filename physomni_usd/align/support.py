@@ -163,31 +163,46 @@ def find_supports(masks, hides=()) -> dict[int, tuple[int, str]]:
     return out
 
 
-def rests_on_several(i: int, masks, hides, reach: int) -> tuple[int, float] | None:
-    """(the one it touches most, the contact) where ``masks[i]``'s lowest outline rests on several objects
-    together, none of which alone reads as its support (a fruit in the hollow on top of a pile, a board over
-    two boxes): most of that outline touches one of them just below, and most of its columns lie within
-    theirs. None where it does not. An object that hides ``i`` stands in front of it, not under it; its
-    balance over all of them is judged once they are lifted (``align.photo_scene.balances_on``)."""
+def touching_below(i: int, masks, hides, reach: int) -> dict[int, float]:
+    """``{j: share of masks[i]'s lowest outline that touches masks[j] just below it}`` for each object ``j``
+    whose foot is lower in the photo and that does not hide ``i`` (one in front of it is not under it)."""
     a = fill_holes(masks[i])
     h = a.shape[0]
     cols, rows = _lowest_outline(a)
+    out = {}
     if not len(cols):
-        return None
+        return out
     foot_a = foot_pixel(a)[1]
-    touch, within, each = np.zeros(len(cols), bool), np.zeros(len(cols), bool), {}
+    hides = set(hides)
     for j, m in enumerate(masks):
         b = np.asarray(m, bool)
-        if j == i or (j, i) in set(hides) or not b.any() or not foot_a < foot_pixel(fill_holes(b))[1] - 1:
+        if j == i or (j, i) in hides or not b.any() or not foot_a < foot_pixel(fill_holes(b))[1] - 1:
             continue
         t = np.array([b[min(r + 1, h - 1):min(r + 1 + reach, h), c].any() for c, r in zip(cols, rows)])
-        if not t.any():
-            continue
+        if t.any():
+            out[j] = float(t.mean())
+    return out
+
+
+def rests_on_several(i: int, masks, hides, reach: int) -> tuple[int, float] | None:
+    """(the one it touches most, the contact) where ``masks[i]``'s lowest outline rests on several objects
+    together, none of which alone reads as its support (a fruit in the hollow on top of a pile, a board over
+    two boxes): most of that outline touches one of them just below (:func:`touching_below`), and most of its
+    columns lie within theirs. None where it does not. Its balance over all of them is judged once they are
+    lifted (``align.photo_scene.balances_on``)."""
+    a = fill_holes(masks[i])
+    h = a.shape[0]
+    cols, rows = _lowest_outline(a)
+    each = touching_below(i, masks, hides, reach)
+    if len(each) < 2:
+        return None
+    touch, within = np.zeros(len(cols), bool), np.zeros(len(cols), bool)
+    for j in each:
+        b = np.asarray(masks[j], bool)
+        touch |= np.array([b[min(r + 1, h - 1):min(r + 1 + reach, h), c].any() for c, r in zip(cols, rows)])
         b_cols = np.nonzero(b.any(axis=0))[0]
-        touch |= t
         within |= (cols >= b_cols.min() - reach) & (cols <= b_cols.max() + reach)
-        each[j] = float(t.mean())
-    if len(each) < 2 or touch.mean() < CONTACT_FRACTION or within.mean() < WITHIN_FRACTION:
+    if touch.mean() < CONTACT_FRACTION or within.mean() < WITHIN_FRACTION:
         return None
     j = max(each, key=each.get)
     return j, float(touch.mean())
