@@ -144,6 +144,11 @@ def find_supports(masks, hides=()) -> dict[int, tuple[int, str]]:
                 break
             k = max(between, key=lambda k: found[(i, k)][0])
             best[i] = (found[(i, k)][0], k, found[(i, k)][1])
+    for i, a in enumerate(masks):
+        if i not in best:
+            together = rests_on_several(i, masks, hides, reach)
+            if together is not None:
+                best[i] = (together[1], together[0], "contact")
     out = {i: (j, how) for i, (_, j, how) in best.items()}
     # break cycles: in a cycle, the object lowest in the photo rests on nothing
     feet = [foot_pixel(fill_holes(m))[1] for m in masks]
@@ -156,6 +161,51 @@ def find_supports(masks, hides=()) -> dict[int, tuple[int, str]]:
             cycle = seen[seen.index(k):]
             out.pop(max(cycle, key=lambda n: feet[n]), None)
     return out
+
+
+def touching_below(i: int, masks, hides, reach: int) -> dict[int, float]:
+    """``{j: share of masks[i]'s lowest outline that touches masks[j] just below it}`` for each object ``j``
+    whose foot is lower in the photo and that does not hide ``i`` (one in front of it is not under it)."""
+    a = fill_holes(masks[i])
+    h = a.shape[0]
+    cols, rows = _lowest_outline(a)
+    out = {}
+    if not len(cols):
+        return out
+    foot_a = foot_pixel(a)[1]
+    hides = set(hides)
+    for j, m in enumerate(masks):
+        b = np.asarray(m, bool)
+        if j == i or (j, i) in hides or not b.any() or not foot_a < foot_pixel(fill_holes(b))[1] - 1:
+            continue
+        t = np.array([b[min(r + 1, h - 1):min(r + 1 + reach, h), c].any() for c, r in zip(cols, rows)])
+        if t.any():
+            out[j] = float(t.mean())
+    return out
+
+
+def rests_on_several(i: int, masks, hides, reach: int) -> tuple[int, float] | None:
+    """(the one it touches most, the contact) where ``masks[i]``'s lowest outline rests on several objects
+    together, none of which alone reads as its support (a fruit in the hollow on top of a pile, a board over
+    two boxes): most of that outline touches one of them just below (:func:`touching_below`), and most of its
+    columns lie within theirs. None where it does not. Its balance over all of them is judged once they are
+    lifted (``align.photo_scene.balances_on``)."""
+    a = fill_holes(masks[i])
+    h = a.shape[0]
+    cols, rows = _lowest_outline(a)
+    each = touching_below(i, masks, hides, reach)
+    if len(each) < 2:
+        return None
+    touch, within = np.zeros(len(cols), bool), np.zeros(len(cols), bool)
+    for j in each:
+        b = np.asarray(masks[j], bool)
+        touch |= np.array([b[min(r + 1, h - 1):min(r + 1 + reach, h), c].any() for c, r in zip(cols, rows)])
+        b_cols = np.nonzero(b.any(axis=0))[0]
+        within |= (cols >= b_cols.min() - reach) & (cols <= b_cols.max() + reach)
+    if touch.mean() < CONTACT_FRACTION or within.mean() < WITHIN_FRACTION:
+        return None
+    j = max(each, key=each.get)
+    return j, float(touch.mean())
 
 
 def support_order(n: int, supports: dict[int, tuple[int, str]]) -> list[int]:
@@ -238,13 +288,13 @@ def settle_on_supports(vertex_sets, faces, supports: dict[int, tuple[int, str]])
         if inside > SETTLE_TOLERANCE_M:
             up = np.array([0.0, 0.0, inside])
             for k in range(len(verts)):
-                if k == i or _rests_on(k, i, supports):
+                if k == i or rests_on(k, i, supports):
                     verts[k] = verts[k] + up
                     rise[k] += inside
     return verts, rise
 
 
-def _rests_on(k: int, i: int, supports: dict[int, tuple[int, str]]) -> bool:
+def rests_on(k: int, i: int, supports: dict[int, tuple[int, str]]) -> bool:
     """Whether ``k`` rests, directly or through others, on ``i``."""
     seen = set()
     while k in supports and k not in seen:
