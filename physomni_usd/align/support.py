@@ -557,8 +557,9 @@ def into_hollow(verts, faces, supports: dict, i: int, com: np.ndarray, eye=None,
             r, q = rows + dx, cols + dy
             gap = under[rows, cols] - tops[r, q]
             drop = float(gap.min())
-            # lower is better; a move across the line of sight costs what it moves the image
-            score = drop - c
+            # lower is better; a move across the line of sight costs what it moves the image, and of places
+            # as low, the nearest
+            score = drop - c - 0.01 * float(np.linalg.norm(s))
             if best is None or score > best[0] + 1e-9:
                 best = (score, dx, dy, drop)
     if best is None:
@@ -569,7 +570,7 @@ def into_hollow(verts, faces, supports: dict, i: int, com: np.ndarray, eye=None,
     r, q = rows + dx, cols + dy
     touch = under[rows, cols] - drop - tops[r, q] <= HOLLOW_CONTACT
     on = sorted({int(k) for k in owner[r[touch], q[touch]]})
-    if supports[i][0] not in on or drop < HOLLOW_CONTACT:
+    if supports[i][0] not in on:
         return None
     feet = lo + (np.column_stack([r[touch], q[touch]]) + 0.5) * HOLLOW_CELL
     c = np.asarray(com, float)[:2] + np.array([dx, dy]) * HOLLOW_CELL
