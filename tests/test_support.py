@@ -96,6 +96,39 @@ def test_an_object_that_would_topple_off_its_supporter_does_not_balance_on_it():
     assert not balances_on(box, peak, 0.3)  # a box on the crown of a crumpled bag
 
 
+def test_an_object_over_several_supporters_balances_on_them_together():
+    """A board bridging two boxes, a fruit in the hollow on top of three: no one supporter holds its centre,
+    the hull of its contacts with all of them does; a box beside it, or one under its end but far below, does
+    not."""
+    from types import SimpleNamespace
+
+    import trimesh
+
+    from physomni_usd.align.photo_scene import balances_on
+
+    left, right = _block((-0.3, 0.0), (0.2, 0.2, 0.15)), _block((0.3, 0.0), (0.2, 0.2, 0.15))
+    board = _block((0.0, 0.0), (0.45, 0.15, 0.02))
+    board.vertices[:, 2] += 0.3
+    assert not balances_on(board, left, 0.3) and not balances_on(board, right, 0.3)
+    assert balances_on(board, left, 0.3, [right])
+    far = _block((1.5, 0.0), (0.2, 0.2, 0.15))  # on the ground beside, under nothing
+    assert not balances_on(board, left, 0.3, [far])
+    low = _block((0.3, 0.0), (0.2, 0.2, 0.05))  # under the board's end but far below it: no contact
+    assert not balances_on(board, left, 0.3, [low])
+
+    def ball(x, y, z, r):
+        return SimpleNamespace(vertices=np.asarray(trimesh.creation.icosphere(3, r).vertices) + [x, y, z])
+
+    r = 0.04
+    d = 1.15 * r  # the three under it touch; it touches each of them, its lowest point in their hollow
+    pile = [ball(d * np.cos(a), d * np.sin(a), r, r) for a in np.radians([90.0, 210.0, 330.0])]
+    top = ball(0.0, 0.0, r + np.sqrt(4.0 * r * r - d * d), r)
+    base = float(top.vertices[:, 2].min())
+    for k, under in enumerate(pile):
+        assert not balances_on(top, under, base)
+        assert balances_on(top, under, base, [p for j, p in enumerate(pile) if j != k])
+
+
 def test_a_hidden_foot_reaches_down_behind_its_occluder_through_hidden_pixels_only():
     from physomni_usd.align.photo_scene import foot_behind
 
@@ -137,3 +170,36 @@ def test_an_object_is_not_read_as_resting_on_what_hides_it():
     assert find_supports(amodal)[back][0] == front  # the reading the order corrects
     found = find_supports(amodal, hides)
     assert all(found[i][0] == bowl for i, label in enumerate(scene.labels) if label == "ball"), found
+
+
+def test_a_board_over_two_boxes_rests_on_them_not_on_the_floor(tmp_path):
+    """Neither box alone holds the board's centre, nor touches most of its lowest outline: it rests on them
+    together, so it stands on their tops instead of reaching down to the floor behind them."""
+    import cv2
+    import trimesh
+
+    from physomni_usd.bench.synthetic import render_truth
+    from physomni_usd.building import build_shot
+    from physomni_usd.geometry.camera import PinholeCamera
+
+    def box(size, at):
+        b = trimesh.creation.box(size)
+        b.apply_translation([at[0], at[1], at[2] + size[2] / 2])
+        return b
+
+    camera = PinholeCamera(240, 180, 50.0, 30.0, (0.0, -0.55, 0.35))
+    truth = [box((0.10, 0.12, 0.08), (-0.09, 0.0, 0.0)), box((0.10, 0.12, 0.08), (0.09, 0.0, 0.0)),
+             box((0.26, 0.08, 0.03), (0.0, 0.0, 0.08))]
+    photo, masks = render_truth(camera, truth, np.random.default_rng(5))
+    cv2.imwrite(str(tmp_path / "photo.png"), cv2.cvtColor(photo, cv2.COLOR_RGB2BGR))
+    specs = []
+    for k, (m, label) in enumerate(zip(masks, ["box", "box", "board"])):
+        cv2.imwrite(str(tmp_path / f"m{k}.png"), m.astype(np.uint8) * 255)
+        specs.append(f"{tmp_path / f'm{k}.png'}:{label}")
+    assert find_supports([np.asarray(m, bool) for m in masks]).get(2, (None,))[0] in (0, 1)
+    build_shot(tmp_path / "photo.png", tmp_path / "shot", masks=specs)
+    starts = {o["name"]: o["start"] for o in json.loads((tmp_path / "shot" / "report.json").read_text())["objects"]}
+    assert starts["board_2"]["support"] in ("box_0", "box_1"), starts
+    meshes = world_meshes(layers.open_shot(tmp_path / "shot"), 0)
+    tops = [meshes[n].vertices[:, 2].max() for n in ("box_0", "box_1")]
+    assert meshes["board_2"].vertices[:, 2].min() >= min(tops) - 0.01

@@ -32,7 +32,8 @@ from .cues import (ELLIPSE_IOU, FEET_CUE, FEET_WEIGHT, MAX_PITCH_DEG, estimate_c
                    row_pitch, weighted_median)
 from .place import footprint, make_room, separate
 from .scale import fit_scale
-from .support import TOP_BAND, find_supports, raise_unseen, reach_under, root_of, settle_on_supports, support_order
+from .support import (TOP_BAND, find_supports, raise_unseen, reach_under, rests_on, root_of, settle_on_supports,
+                      support_order)
 
 #: Scale-and-lift rounds: an object's height from its prior depends on the scale, the scale on the lifted sizes.
 SCALE_ROUNDS = 3
@@ -120,7 +121,16 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
     supports = supports or {}
     hides = set(hides)
     out = [None] * len(masks)
-    for i in support_order(len(masks), supports):
+    started = set()
+
+    def place(i):
+        """Lifts ``i`` on what holds it; lifts, first, what it could rest on together with that (the
+        objects around it in a pile), so its balance is judged over all of them."""
+        if i in started:
+            return
+        started.add(i)
+        if i in supports:
+            place(supports[i][0])
         if i in supports and (supports[i][0], i) in hides and behind_what_hides_it(out[supports[i][0]], masks[i],
                                                                                       camera):
             supports.pop(i)
@@ -136,17 +146,29 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
             # takes in part of the other): the object stands on the ground instead of failing the build
             supports.pop(i)
             out[i] = lift_silhouette(masks[i], camera, settings.lift, base_z=0.0, **kwargs)
-            continue
+            return
         if i in supports and not balances_on(out[i], out[supports[i][0]], base):
             # the lower one may only be lifted too shallow: its top, which this one hides, shows no depth
             deeper = reach_under(out[supports[i][0]], out[i], camera, base)
             if deeper is not None:
                 out[supports[i][0]].vertices = deeper
         if i in supports and not balances_on(out[i], out[supports[i][0]], base):
-            # standing on the lower one's surface it would topple off it (a box on the crown of a crumpled
-            # bag): the photo shows it as well standing on the ground, where it stays
-            supports.pop(i)
-            out[i] = lift_silhouette(masks[i], camera, settings.lift, base_z=0.0, **kwargs)
+            # a fruit in the hollow on top of a pile, a board bridging two boxes: no one object under it holds
+            # its centre, the ones it touches together may. What rests on it, through others, cannot hold it.
+            beside = [k for k in range(len(masks)) if k not in (i, supports[i][0]) and not rests_on(k, i, supports)]
+            for k in beside:
+                place(k)
+            others = [out[k] for k in beside if out[k] is not None]
+            if not balances_on(out[i], out[supports[i][0]], base, others):
+                # standing on the lower one's surface it would topple off it (a box on the crown of a crumpled
+                # bag): the photo shows it as well standing on the ground, where it stays
+                supports.pop(i)
+                out[i] = lift_silhouette(masks[i], camera, settings.lift, base_z=0.0, **kwargs)
+            else:
+                out[i].info["held_by_several"] = True
+
+    for i in support_order(len(masks), supports):
+        place(i)
     for i in range(len(masks)) if visible is not None else ():
         if i in supports or any(j == i for j, _ in supports.values()):
             continue
@@ -233,15 +255,40 @@ def foot_behind(mask: np.ndarray, occluder_masks, occluders, camera: PinholeCame
     return out if foot_pixel(out)[1] > v + 1 else None
 
 
-def balances_on(upper, lower, base: float) -> bool:
-    """Whether ``upper`` (a lifted mesh standing at height ``base`` on ``lower``) has its centre over the part
-    of ``lower`` that reaches up to ``base``: seen from above, inside the convex hull of ``lower``'s vertices
-    no lower than ``TOP_BAND`` of its height below ``base``. Its vertices' mean stands for the centre of mass."""
+def balances_on(upper, lower, base: float, others=()) -> bool:
+    """Whether ``upper`` (a lifted mesh standing at height ``base`` on ``lower``) has its centre over what holds
+    it: seen from above, inside the convex hull of the part of ``lower`` that reaches up to ``base`` (its
+    vertices no lower than ``TOP_BAND`` of its height below ``base``) together with where each of ``others``
+    (lifted meshes beside it: the fruit of a pile, the second box under a board) reaches up under ``upper``
+    (their part between that band and ``upper``'s mid-height, cut to ``upper``'s footprint; one that rises past
+    that middle within the footprint stands beside it): the hull of its contacts with all it rests on. Its vertices' mean stands for the centre of mass."""
     z = lower.vertices[:, 2]
-    top = lower.vertices[z >= base - TOP_BAND * max(float(np.ptp(z)), 1e-9)]
-    if len(top) < 3:
+    points = [lower.vertices[z >= base - TOP_BAND * max(float(np.ptp(z)), 1e-9), :2]]
+    zu = upper.vertices[:, 2]
+    mid = 0.5 * (float(zu.min()) + float(zu.max()))
+    over = footprint(upper.vertices)
+    # OpenCV's polygon intersection loses small (metre-scale) polygons: cut them in a frame where upper is ~1000
+    origin, unit = over.mean(0), 1e-3 * max(float(np.ptp(over, axis=0).max()), 1e-9)
+    edges = np.roll(over, -1, axis=0) - over
+    for other in others:
+        zo = other.vertices[:, 2]
+        rel = other.vertices[:, None, :2] - over[None]
+        under = (edges[None, :, 0] * rel[..., 1] - edges[None, :, 1] * rel[..., 0] >= 0).all(axis=1)
+        if (zo[under] > mid).any():
+            # it rises past upper's middle where it stands under it: beside it (a wedge a banana leans on,
+            # the object in front of it), not under it
+            continue
+        band = other.vertices[(zo >= base - TOP_BAND * max(float(np.ptp(zo)), 1e-9)) & (zo <= mid)]
+        if len(band) < 3:
+            continue
+        area, met = cv2.intersectConvexConvex(((footprint(band) - origin) / unit).astype(np.float32),
+                                              ((over - origin) / unit).astype(np.float32))
+        if area > 0 and met is not None:
+            points.append(met.reshape(-1, 2).astype(float) * unit + origin)
+    points = np.concatenate(points)
+    if len(points) < 3:
         return False
-    hull = footprint(top).astype(np.float32).reshape(-1, 1, 2)
+    hull = footprint(points).astype(np.float32).reshape(-1, 1, 2)
     centre = upper.vertices[:, :2].mean(0)
     return cv2.pointPolygonTest(hull, (float(centre[0]), float(centre[1])), False) >= 0
 

@@ -129,6 +129,7 @@ def solve_places(camera, vertices, faces, masks, supports=None, labels=None, occ
 
     from ..metrics.geometry import max_penetration
     from .photo_scene import balances_on
+    from .support import rests_on
 
     supports = dict(supports or {})
     n = len(vertices)
@@ -251,7 +252,9 @@ def solve_places(camera, vertices, faces, masks, supports=None, labels=None, occ
     if reason is None:
         for i, (j, _) in supports.items():
             inside = [_base_inside(v[i], v[j]) for v in (before_v, after_v)]
-            if not balances_on(_Lifted(after_v[i]), _Lifted(after_v[j]), float(after_v[i][:, 2].min())) \
+            # over all it may rest on together (a fruit in a pile's hollow: photo_scene.lift_all)
+            beside = [_Lifted(after_v[k]) for k in range(n) if k not in (i, j) and not rests_on(k, i, supports)]
+            if not balances_on(_Lifted(after_v[i]), _Lifted(after_v[j]), float(after_v[i][:, 2].min()), beside) \
                     or inside[1] < inside[0] - 0.01:
                 reason = f"object {i} would leave the top of object {j}"
                 break

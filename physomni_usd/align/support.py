@@ -27,6 +27,9 @@ its base, or, with none, is held where it is by what the photo shows no mask of.
 then stands on its lower one's surface (``align.photo_scene.surface_under``)
 instead of on the ground, moves with it when objects are moved apart, and is
 raised out of it where it starts inside it (:func:`settle_on_supports`).
+An object that rests on several together (a fruit in a pile's hollow) and whose centre of mass is beyond
+the top of the one it was stood on is lowered into their hollow (:func:`into_hollow`, from the steadying pass):
+moved onto that one's top it balances on a dome and rolls off.
 :func:`start_contacts` says, for the report, what each object starts on and
 how far from it.
 """
@@ -144,6 +147,11 @@ def find_supports(masks, hides=()) -> dict[int, tuple[int, str]]:
                 break
             k = max(between, key=lambda k: found[(i, k)][0])
             best[i] = (found[(i, k)][0], k, found[(i, k)][1])
+    for i, a in enumerate(masks):
+        if i not in best:
+            together = rests_on_several(i, masks, hides, reach)
+            if together is not None:
+                best[i] = (together[1], together[0], "contact")
     out = {i: (j, how) for i, (_, j, how) in best.items()}
     # break cycles: in a cycle, the object lowest in the photo rests on nothing
     feet = [foot_pixel(fill_holes(m))[1] for m in masks]
@@ -156,6 +164,51 @@ def find_supports(masks, hides=()) -> dict[int, tuple[int, str]]:
             cycle = seen[seen.index(k):]
             out.pop(max(cycle, key=lambda n: feet[n]), None)
     return out
+
+
+def touching_below(i: int, masks, hides, reach: int) -> dict[int, float]:
+    """``{j: share of masks[i]'s lowest outline that touches masks[j] just below it}`` for each object ``j``
+    whose foot is lower in the photo and that does not hide ``i`` (one in front of it is not under it)."""
+    a = fill_holes(masks[i])
+    h = a.shape[0]
+    cols, rows = _lowest_outline(a)
+    out = {}
+    if not len(cols):
+        return out
+    foot_a = foot_pixel(a)[1]
+    hides = set(hides)
+    for j, m in enumerate(masks):
+        b = np.asarray(m, bool)
+        if j == i or (j, i) in hides or not b.any() or not foot_a < foot_pixel(fill_holes(b))[1] - 1:
+            continue
+        t = np.array([b[min(r + 1, h - 1):min(r + 1 + reach, h), c].any() for c, r in zip(cols, rows)])
+        if t.any():
+            out[j] = float(t.mean())
+    return out
+
+
+def rests_on_several(i: int, masks, hides, reach: int) -> tuple[int, float] | None:
+    """(the one it touches most, the contact) where ``masks[i]``'s lowest outline rests on several objects
+    together, none of which alone reads as its support (a fruit in the hollow on top of a pile, a board over
+    two boxes): most of that outline touches one of them just below (:func:`touching_below`), and most of its
+    columns lie within theirs. None where it does not. Its balance over all of them is judged once they are
+    lifted (``align.photo_scene.balances_on``)."""
+    a = fill_holes(masks[i])
+    h = a.shape[0]
+    cols, rows = _lowest_outline(a)
+    each = touching_below(i, masks, hides, reach)
+    if len(each) < 2:
+        return None
+    touch, within = np.zeros(len(cols), bool), np.zeros(len(cols), bool)
+    for j in each:
+        b = np.asarray(masks[j], bool)
+        touch |= np.array([b[min(r + 1, h - 1):min(r + 1 + reach, h), c].any() for c, r in zip(cols, rows)])
+        b_cols = np.nonzero(b.any(axis=0))[0]
+        within |= (cols >= b_cols.min() - reach) & (cols <= b_cols.max() + reach)
+    if touch.mean() < CONTACT_FRACTION or within.mean() < WITHIN_FRACTION:
+        return None
+    j = max(each, key=each.get)
+    return j, float(touch.mean())
 
 
 def support_order(n: int, supports: dict[int, tuple[int, str]]) -> list[int]:
@@ -238,13 +291,13 @@ def settle_on_supports(vertex_sets, faces, supports: dict[int, tuple[int, str]])
         if inside > SETTLE_TOLERANCE_M:
             up = np.array([0.0, 0.0, inside])
             for k in range(len(verts)):
-                if k == i or _rests_on(k, i, supports):
+                if k == i or rests_on(k, i, supports):
                     verts[k] = verts[k] + up
                     rise[k] += inside
     return verts, rise
 
 
-def _rests_on(k: int, i: int, supports: dict[int, tuple[int, str]]) -> bool:
+def rests_on(k: int, i: int, supports: dict[int, tuple[int, str]]) -> bool:
     """Whether ``k`` rests, directly or through others, on ``i``."""
     seen = set()
     while k in supports and k not in seen:
@@ -431,3 +484,103 @@ def reach_under(lower, upper, camera, base: float) -> np.ndarray | None:
         return None
     k = (target - front) / max(back - front, 1e-9)
     return v + np.outer((k - 1.0) * (along - front), fwd)
+
+
+#: The level grid (m) on which :func:`into_hollow` compares an upper object's underside with the tops of the rest.
+HOLLOW_CELL = 0.002
+#: How far an upper object may move level into a hollow: this fraction of its smaller level width along the
+#: line of sight (the photo hardly shows depth), :data:`HOLLOW_ACROSS` of it across (its image moves).
+HOLLOW_ALONG = 0.5
+HOLLOW_ACROSS = 0.1
+#: Surfaces this close (m) touch: what an object rests on is everything this near under its underside.
+HOLLOW_CONTACT = 0.003
+
+
+def _height_grid(points: np.ndarray, lo: np.ndarray, shape: tuple[int, int], top: bool) -> np.ndarray:
+    """The highest (``top``) or lowest of ``points`` (N, 3) in each cell of a level grid of
+    :data:`HOLLOW_CELL` cells from ``lo`` (2,), ``-inf`` / ``inf`` where none falls."""
+    cells = np.floor((points[:, :2] - lo) / HOLLOW_CELL).astype(int)
+    ok = (cells >= 0).all(1) & (cells[:, 0] < shape[0]) & (cells[:, 1] < shape[1])
+    grid = np.full(shape, -np.inf if top else np.inf)
+    (np.maximum if top else np.minimum).at(grid, (cells[ok, 0], cells[ok, 1]), points[ok, 2])
+    return grid
+
+
+def _surface_points(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """The vertices and enough points on the faces that every :data:`HOLLOW_CELL` cell of the surface has some."""
+    import trimesh
+
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    n = int(min(200_000, max(2_000, 8 * mesh.area / HOLLOW_CELL ** 2)))
+    return np.vstack([np.asarray(vertices, float), trimesh.sample.sample_surface(mesh, n, seed=0)[0]])
+
+
+def into_hollow(verts, faces, supports: dict, i: int, com: np.ndarray, eye=None,
+                margin: float = 0.0, ground_z: float = 0.0) -> tuple[np.ndarray, list[int]] | None:
+    """The shift (3,) that lowers object ``i`` (resting on ``supports[i]``) into the hollow of what lies around
+    it, and the objects it then rests on; None where none holds it. A fruit read as resting on one of a
+    pile's fruits stands, lifted, on that one's rounded side with its centre of mass beyond it: put on
+    that one's top it balances on a dome and rolls off into the hollow; dropped into the hollow it rests on all
+    of them together, as the photo shows. Of the level moves within :data:`HOLLOW_ALONG` of its width along
+    the line of sight from ``eye`` and :data:`HOLLOW_ACROSS` across, with its fall to the first touch of any
+    other object (or the ground at ``ground_z``) below, the lowest place is taken; it holds if its centre of
+    mass ``com`` lies ``margin`` inside the level hull of where it then touches, the supporter among them.
+    What rests on it moves with it."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    movers = riders(i, supports)
+    pts = _surface_points(verts[i], faces[i])
+    width = float(np.ptp(pts[:, :2], axis=0).min())
+    ray = np.asarray(com, float) - np.asarray(eye, float) if eye is not None else np.array([1.0, 0.0, 0.0])
+    along = ray[:2] / max(float(np.linalg.norm(ray[:2])), 1e-12) if np.linalg.norm(ray[:2]) > 1e-9 \
+        else np.array([1.0, 0.0])
+    reach = HOLLOW_ALONG * width
+    steps = int(np.ceil(reach / HOLLOW_CELL))
+    lo = pts[:, :2].min(0) - (steps + 1) * HOLLOW_CELL
+    shape = tuple(np.ceil((pts[:, :2].max(0) + (steps + 1) * HOLLOW_CELL - lo) / HOLLOW_CELL).astype(int) + 1)
+    under = _height_grid(pts, lo, shape, top=False)
+    tops, owner = np.full(shape, ground_z), np.full(shape, -1)
+    for k in range(len(verts)):
+        if k in movers:
+            continue
+        box_lo, box_hi = verts[k][:, :2].min(0), verts[k][:, :2].max(0)
+        if (box_hi < lo).any() or (box_lo > lo + np.array(shape) * HOLLOW_CELL).any():
+            continue
+        h = _height_grid(_surface_points(verts[k], faces[k]), lo, shape, top=True)
+        owner[h > tops] = k
+        tops = np.maximum(tops, h)
+    rows, cols = np.nonzero(np.isfinite(under))
+    best = None
+    for dx in range(-steps, steps + 1):
+        for dy in range(-steps, steps + 1):
+            s = np.array([dx, dy], float) * HOLLOW_CELL
+            a, c = float(s @ along), float(np.linalg.norm(s - (s @ along) * along))
+            if (a / reach) ** 2 + (c / (HOLLOW_ACROSS * width)) ** 2 > 1.0:
+                continue
+            r, q = rows + dx, cols + dy
+            gap = under[rows, cols] - tops[r, q]
+            drop = float(gap.min())
+            # lower is better; a move across the line of sight costs what it moves the image, and of places
+            # as low, the nearest
+            score = drop - c - 0.01 * float(np.linalg.norm(s))
+            if best is None or score > best[0] + 1e-9:
+                best = (score, dx, dy, drop)
+    if best is None:
+        return None
+    _, dx, dy, drop = best
+    if drop > 0.5 * float(np.ptp(pts[:, 2])):
+        return None  # not a hollow: a fall past half its height is off what holds it
+    r, q = rows + dx, cols + dy
+    touch = under[rows, cols] - drop - tops[r, q] <= HOLLOW_CONTACT
+    on = sorted({int(k) for k in owner[r[touch], q[touch]]})
+    if supports[i][0] not in on:
+        return None
+    feet = lo + (np.column_stack([r[touch], q[touch]]) + 0.5) * HOLLOW_CELL
+    c = np.asarray(com, float)[:2] + np.array([dx, dy]) * HOLLOW_CELL
+    try:
+        eq = ConvexHull(feet).equations
+    except (QhullError, ValueError):
+        return None
+    if float((eq[:, :2] @ c + eq[:, 2]).max()) > -margin:
+        return None
+    return np.array([dx * HOLLOW_CELL, dy * HOLLOW_CELL, -drop]), on

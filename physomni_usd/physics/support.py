@@ -187,7 +187,7 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
     object standing on a point on the ground gets a flat foot (:func:`flat_foot`), what rests on it lowered with
     it (not one held by another object: an orange in a bowl's mouth, rounded, rests on its rim; flattened, it fell
     24 cm)."""
-    from ..align.support import riders  # the build's; simulate, which imports this module, needs none of align
+    from ..align.support import into_hollow, riders  # the build's; simulate, which imports this module, needs none of align
 
     verts = [np.asarray(v, float).copy() for v in vertex_sets]
     done = []
@@ -218,6 +218,15 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
         margin = min(STEADY_MARGIN, 0.25 * float(np.ptp(foot, axis=0).min()) if len(foot) > 1 else STEADY_MARGIN)
         c = com[:2]
         if _outside(region, c) <= -margin:
+            continue
+        hollow = into_hollow(verts, faces, supports, i, com, eye, margin, min(float(v[:, 2].min()) for v in verts))
+        if hollow is not None:
+            # held by several together (a pile's hollow): on one's top alone it balances on a dome
+            move, on = hollow
+            for k in riders(i, supports):
+                verts[k] = verts[k] + move
+            done.append({"object": i, "on": j, "into_hollow_m": round(float(np.linalg.norm(move)), 4),
+                         "rests_on": on, "overhang_m": round(_outside(region, c), 4)})
             continue
         raised = raise_top(verts[j], foot, low)
         if not np.array_equal(raised, verts[j]):
