@@ -32,8 +32,8 @@ from .cues import (ELLIPSE_IOU, FEET_CUE, FEET_WEIGHT, MAX_PITCH_DEG, estimate_c
                    row_pitch, weighted_median)
 from .place import footprint, make_room, separate
 from .scale import fit_scale
-from .support import (TOP_BAND, find_supports, raise_unseen, reach_under, rests_on, root_of, settle_on_supports,
-                      support_order)
+from .support import (TOP_BAND, find_supports, into_hollow, raise_unseen, reach_under, rests_on, root_of,
+                      settle_on_supports, support_order)
 
 #: Scale-and-lift rounds: an object's height from its prior depends on the scale, the scale on the lifted sizes.
 SCALE_ROUNDS = 3
@@ -159,7 +159,8 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
             for k in beside:
                 place(k)
             others = [out[k] for k in beside if out[k] is not None]
-            if not balances_on(out[i], out[supports[i][0]], base, others):
+            if not balances_on(out[i], out[supports[i][0]], base, others) \
+                    or not held_in_hollow(out[i], out[supports[i][0]], others, camera, scale):
                 # standing on the lower one's surface it would topple off it (a box on the crown of a crumpled
                 # bag): the photo shows it as well standing on the ground, where it stays
                 supports.pop(i)
@@ -253,6 +254,25 @@ def foot_behind(mask: np.ndarray, occluder_masks, occluders, camera: PinholeCame
             out[r, c] = True
             r += 1
     return out if foot_pixel(out)[1] > v + 1 else None
+
+
+def held_in_hollow(upper, lower, others, camera: PinholeCamera, scale: float) -> bool:
+    """Whether ``upper``, stood on ``lower`` and held by none of them alone, finds a hollow among ``lower`` and
+    ``others`` (lifted at unit height; ``scale`` metres per unit) that holds it: the steadying pass lowers it
+    there (``align.support.into_hollow``). Where none does, that pass would move it onto ``lower``'s top alone,
+    a dome it rolls off (a lemon read as on an apple, another lemon taller than the apple under it: it fell
+    19 cm and pushed two fruit 11-13 cm)."""
+    from ..physics.support import CONTACT_BAND, STEADY_MARGIN, _solid_com
+
+    verts = [scale * np.asarray(m.vertices, float) for m in (upper, lower, *others)]
+    faces = [np.asarray(m.faces) for m in (upper, lower, *others)]
+    pts = verts[0]
+    low = float(pts[:, 2].min())
+    # the foot and margin the steadying pass (``physics.support.steady_stacks``) judges it by
+    foot = pts[pts[:, 2] <= low + max(CONTACT_BAND, CONTACT_BAND * float(np.ptp(pts[:, 2]))), :2]
+    margin = min(STEADY_MARGIN, 0.25 * float(np.ptp(foot, axis=0).min()) if len(foot) > 1 else STEADY_MARGIN)
+    eye = scale * np.asarray(camera.origin, float)
+    return into_hollow(verts, faces, {0: (1, "contact")}, 0, _solid_com(pts, faces[0]), eye, margin, 0.0) is not None
 
 
 def balances_on(upper, lower, base: float, others=()) -> bool:
