@@ -105,7 +105,7 @@ def behind_what_hides_it(lower, upper_mask: np.ndarray, camera: PinholeCamera) -
 
 
 def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scale: float, supports=None,
-             photo=None, hides=(), visible=None, wall: bool = True):
+             photo=None, hides=(), visible=None, wall: bool = True, hollows: bool = True):
     """Each mask lifted under ``camera`` (unit height); ``scale`` turns a prior's metres into the camera's units.
 
     ``supports`` ({upper: (lower, how)}) stands each upper object on its lower one's surface where it
@@ -116,7 +116,10 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
     foot they hide reaches down behind them (:func:`foot_behind`). With ``wall`` false, what rests on nothing
     the masks show is read from its size alone, not held against the photo's wall line: the pitch search
     passes false, since a wall line read under each candidate pitch moved the pitch it chose (a wall scene of
-    28° built at 10°).
+    28° built at 10°). With ``hollows`` false, an object held by none of several alone is judged by their
+    footprints only (:func:`balances_on`), not also by :func:`held_in_hollow`: the pitch search passes false,
+    since that 3D test on the search's coarse copies dropped supports and moved the pitch it chose (a pile
+    taken at 30° went back to 14°, where it fell).
     """
     supports = supports or {}
     hides = set(hides)
@@ -160,7 +163,7 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
                 place(k)
             others = [out[k] for k in beside if out[k] is not None]
             if not balances_on(out[i], out[supports[i][0]], base, others) \
-                    or not held_in_hollow(out[i], out[supports[i][0]], others, camera, scale):
+                    or hollows and not held_in_hollow(out[i], out[supports[i][0]], others, camera, scale):
                 # standing on the lower one's surface it would topple off it (a box on the crown of a crumpled
                 # bag): the photo shows it as well standing on the ground, where it stays
                 supports.pop(i)
@@ -367,7 +370,8 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
         # search (from 1), so that where the cues' pitch stands the scene is the one the cues alone build
         start = scales[min(scales, key=lambda q: abs(q - p))] if scales and searching else 1.0
         out = _lift_scaled(ms, labels, names, unit, settings, found, hides, ph, vs, user_sizes, start,
-                           SEARCH_SCALE_ROUNDS if searching else SCALE_ROUNDS, wall=not searching)
+                           SEARCH_SCALE_ROUNDS if searching else SCALE_ROUNDS, wall=not searching,
+                           hollows=not searching)
         scales[p] = out[3]
         return (unit, *out)
 
@@ -467,7 +471,8 @@ def _search_copies(photo: np.ndarray, masks, visible):
 
 
 def _lift_scaled(masks, labels, names, unit: PinholeCamera, settings: BuildSettings, found, hides, photo, visible,
-                 user_sizes, scale: float = 1.0, rounds: int = SCALE_ROUNDS, wall: bool = True):
+                 user_sizes, scale: float = 1.0, rounds: int = SCALE_ROUNDS, wall: bool = True,
+                 hollows: bool = True):
     """Every mask lifted under the unit-height camera ``unit`` at the scene's scale, the scale and the lift
     agreeing (:data:`SCALE_ROUNDS`, from ``scale``): (lifted at unit height, supports kept, the scale's fit,
     its factor)."""
@@ -477,7 +482,7 @@ def _lift_scaled(masks, labels, names, unit: PinholeCamera, settings: BuildSetti
         # off its saucer's back, and a support dropped then would stay dropped
         supports = dict(found)
         lifted = lift_all(masks, labels, unit, settings, scale, supports, photo=photo, hides=hides,
-                          visible=visible, wall=wall)
+                          visible=visible, wall=wall, hollows=hollows)
         longest = [longest_dimension(m.vertices) for m in lifted]
         fit = fit_scale(names, labels, longest, user_sizes, settings.camera.height_m)
         if abs(np.log(fit.factor / scale)) < 1e-3:
