@@ -260,11 +260,13 @@ def foot_behind(mask: np.ndarray, occluder_masks, occluders, camera: PinholeCame
 
 
 def held_in_hollow(upper, lower, others, camera: PinholeCamera, scale: float) -> bool:
-    """Whether ``upper``, stood on ``lower`` and held by none of them alone, finds a hollow among ``lower`` and
-    ``others`` (lifted at unit height; ``scale`` metres per unit) that holds it: the steadying pass lowers it
-    there (``align.support.into_hollow``). Where none does, that pass would move it onto ``lower``'s top alone,
-    a dome it rolls off (a lemon read as on an apple, another lemon taller than the apple under it: it fell
-    19 cm and pushed two fruit 11-13 cm)."""
+    """Whether ``upper``, stood on ``lower`` and held by none of them alone, is held among ``lower`` and
+    ``others`` (lifted at unit height; ``scale`` metres per unit) as the steadying pass will find it
+    (``align.support.into_hollow``): lowered into their hollow, or, where none holds it, at the lowest level
+    place within reach still touching ``lower`` (a board over two boxes lifted at two heights, which tips onto
+    both). Not where that place touches only others: a neighbour taller than ``lower`` stands under it, and the
+    steadying pass would move it onto ``lower``'s top alone, a dome it rolls off (a lemon read as on an apple,
+    over a taller lemon, fell 19 cm and pushed two fruit 11-13 cm)."""
     from ..physics.support import CONTACT_BAND, STEADY_MARGIN, _solid_com
 
     verts = [scale * np.asarray(m.vertices, float) for m in (upper, lower, *others)]
@@ -275,7 +277,9 @@ def held_in_hollow(upper, lower, others, camera: PinholeCamera, scale: float) ->
     foot = pts[pts[:, 2] <= low + max(CONTACT_BAND, CONTACT_BAND * float(np.ptp(pts[:, 2]))), :2]
     margin = min(STEADY_MARGIN, 0.25 * float(np.ptp(foot, axis=0).min()) if len(foot) > 1 else STEADY_MARGIN)
     eye = scale * np.asarray(camera.origin, float)
-    return into_hollow(verts, faces, {0: (1, "contact")}, 0, _solid_com(pts, faces[0]), eye, margin, 0.0) is not None
+    touched = []
+    held = into_hollow(verts, faces, {0: (1, "contact")}, 0, _solid_com(pts, faces[0]), eye, margin, 0.0, touched)
+    return held is not None or 1 in touched
 
 
 def balances_on(upper, lower, base: float, others=()) -> bool:
