@@ -259,15 +259,20 @@ def foot_behind(mask: np.ndarray, occluder_masks, occluders, camera: PinholeCame
     return out if foot_pixel(out)[1] > v + 1 else None
 
 
+#: A lifted object stands on a rounded foot where the part of it within ``physics.support.FOOT_CUT`` of its
+#: height above its lowest point covers, seen from above, less than this fraction of its footprint (a sphere:
+#: a fifth; a box's or a board's flat bottom: all of it).
+ROUNDED_FOOT = 0.25
+
+
 def held_in_hollow(upper, lower, others, camera: PinholeCamera, scale: float) -> bool:
     """Whether ``upper``, stood on ``lower`` and held by none of them alone, is held among ``lower`` and
-    ``others`` (lifted at unit height; ``scale`` metres per unit) as the steadying pass will find it
-    (``align.support.into_hollow``): lowered into their hollow, or, where none holds it, at the lowest level
-    place within reach still touching ``lower`` (a board over two boxes lifted at two heights, which tips onto
-    both). Not where that place touches only others: a neighbour taller than ``lower`` stands under it, and the
-    steadying pass would move it onto ``lower``'s top alone, a dome it rolls off (a lemon read as on an apple,
-    over a taller lemon, fell 19 cm and pushed two fruit 11-13 cm)."""
-    from ..physics.support import CONTACT_BAND, STEADY_MARGIN, _solid_com
+    ``others`` (lifted at unit height; ``scale`` metres per unit) as the steadying pass will find it: on a
+    rounded foot (:data:`ROUNDED_FOOT`), only where that pass lowers it into their hollow
+    (``align.support.into_hollow``); where none holds it, that pass moves it onto ``lower``'s top alone, a dome
+    it rolls off (a lemon read as on an apple, beside a taller lemon, fell 19 cm and pushed two fruit 11-13 cm).
+    A flat foot (a board over two boxes lifted at two heights) tips onto all of them: held."""
+    from ..physics.support import CONTACT_BAND, FOOT_CUT, STEADY_MARGIN, _solid_com
 
     verts = [scale * np.asarray(m.vertices, float) for m in (upper, lower, *others)]
     faces = [np.asarray(m.faces) for m in (upper, lower, *others)]
@@ -275,11 +280,13 @@ def held_in_hollow(upper, lower, others, camera: PinholeCamera, scale: float) ->
     low = float(pts[:, 2].min())
     # the foot and margin the steadying pass (``physics.support.steady_stacks``) judges it by
     foot = pts[pts[:, 2] <= low + max(CONTACT_BAND, CONTACT_BAND * float(np.ptp(pts[:, 2]))), :2]
+    sole = pts[pts[:, 2] <= low + FOOT_CUT * float(np.ptp(pts[:, 2])), :2]
+    if len(sole) >= 3 and cv2.contourArea(footprint(sole).astype(np.float32)) \
+            >= ROUNDED_FOOT * cv2.contourArea(footprint(pts).astype(np.float32)):
+        return True
     margin = min(STEADY_MARGIN, 0.25 * float(np.ptp(foot, axis=0).min()) if len(foot) > 1 else STEADY_MARGIN)
     eye = scale * np.asarray(camera.origin, float)
-    touched = []
-    held = into_hollow(verts, faces, {0: (1, "contact")}, 0, _solid_com(pts, faces[0]), eye, margin, 0.0, touched)
-    return held is not None or 1 in touched
+    return into_hollow(verts, faces, {0: (1, "contact")}, 0, _solid_com(pts, faces[0]), eye, margin, 0.0) is not None
 
 
 def balances_on(upper, lower, base: float, others=()) -> bool:

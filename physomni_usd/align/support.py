@@ -516,8 +516,7 @@ def _surface_points(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 def into_hollow(verts, faces, supports: dict, i: int, com: np.ndarray, eye=None,
-                margin: float = 0.0, ground_z: float = 0.0, touched: list | None = None
-                ) -> tuple[np.ndarray, list[int]] | None:
+                margin: float = 0.0, ground_z: float = 0.0) -> tuple[np.ndarray, list[int]] | None:
     """The shift (3,) that lowers object ``i`` (resting on ``supports[i]``) into the hollow of what lies around
     it, and the objects it then rests on; None where none holds it. A fruit read as resting on one of a
     pile's fruits stands, lifted, on that one's rounded side with its centre of mass beyond it: put on
@@ -526,7 +525,7 @@ def into_hollow(verts, faces, supports: dict, i: int, com: np.ndarray, eye=None,
     the line of sight from ``eye`` and :data:`HOLLOW_ACROSS` across, with its fall to the first touch of any
     other object (or the ground at ``ground_z``) below, the lowest place is taken; it holds if its centre of
     mass ``com`` lies ``margin`` inside the level hull of where it then touches, the supporter among them.
-    What rests on it moves with it. ``touched``, a list, is set to what it touches at that lowest place."""
+    What rests on it moves with it."""
     from scipy.spatial import ConvexHull, QhullError
 
     movers = riders(i, supports)
@@ -574,8 +573,6 @@ def into_hollow(verts, faces, supports: dict, i: int, com: np.ndarray, eye=None,
     r, q = rows + dx, cols + dy
     touch = under[rows, cols] - drop - tops[r, q] <= HOLLOW_CONTACT
     on = sorted({int(k) for k in owner[r[touch], q[touch]]})
-    if touched is not None:
-        touched[:] = on
     if supports[i][0] not in on:
         return None
     feet = lo + (np.column_stack([r[touch], q[touch]]) + 0.5) * HOLLOW_CELL
