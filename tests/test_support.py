@@ -203,3 +203,37 @@ def test_a_board_over_two_boxes_rests_on_them_not_on_the_floor(tmp_path):
     meshes = world_meshes(layers.open_shot(tmp_path / "shot"), 0)
     tops = [meshes[n].vertices[:, 2].max() for n in ("box_0", "box_1")]
     assert meshes["board_2"].vertices[:, 2].min() >= min(tops) - 0.01
+
+
+def test_a_fruit_over_several_stands_on_them_only_where_a_hollow_among_them_holds_it():
+    """The footprints' balance over several (``balances_on`` with others) reads no heights: a neighbour taller
+    than the supporter's top, under the fruit, counts as holding it, where in fact the fruit would sit on that
+    neighbour alone. ``held_in_hollow`` asks the steadying pass's own question (``into_hollow``): where no
+    hollow holds it, the build stands it on the ground (a lemon stood on an apple beside a taller lemon was
+    shifted onto the apple's dome and fell 19 cm)."""
+    from types import SimpleNamespace
+
+    import trimesh
+
+    from physomni_usd.align.photo_scene import balances_on, held_in_hollow
+
+    def ball(x, y, z, r, tall=1.0):
+        m = trimesh.creation.icosphere(3, r)
+        v = np.asarray(m.vertices) * [1.0, 1.0, tall] + [x, y, z]
+        return SimpleNamespace(vertices=v, faces=np.asarray(m.faces))
+
+    eye = SimpleNamespace(origin=np.array([0.0, -1.0, 0.5]))
+    r = 0.04
+    d = 1.15 * r
+    pile = [ball(d * np.cos(a), d * np.sin(a), r, r) for a in np.radians([90.0, 210.0, 330.0])]
+    top = ball(0.0, 0.0, r + np.sqrt(4.0 * r * r - d * d), r)
+    assert balances_on(top, pile[0], float(top.vertices[:, 2].min()), pile[1:])
+    assert held_in_hollow(top, pile[0], pile[1:], eye, 1.0)
+
+    under = ball(0.0, 0.0, r, r)  # the one it was read as on
+    taller = ball(0.06, 0.0, 1.25 * r, r, tall=1.25)  # its top 1 cm above the other's, under the fruit's side
+    fruit = ball(0.035, 0.0, 2 * r + r, r)  # stood on ``under``'s top, its centre beyond it
+    base = float(fruit.vertices[:, 2].min())
+    assert not balances_on(fruit, under, base)
+    assert balances_on(fruit, under, base, [taller])  # the footprints say held
+    assert not held_in_hollow(fruit, under, [taller], eye, 1.0)  # it would rest on the taller one alone

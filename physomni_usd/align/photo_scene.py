@@ -32,8 +32,8 @@ from .cues import (ELLIPSE_IOU, FEET_CUE, FEET_WEIGHT, MAX_PITCH_DEG, estimate_c
                    row_pitch, weighted_median)
 from .place import footprint, make_room, separate
 from .scale import fit_scale
-from .support import (TOP_BAND, find_supports, raise_unseen, reach_under, rests_on, root_of, settle_on_supports,
-                      support_order)
+from .support import (TOP_BAND, find_supports, into_hollow, raise_unseen, reach_under, rests_on, root_of,
+                      settle_on_supports, support_order)
 
 #: Scale-and-lift rounds: an object's height from its prior depends on the scale, the scale on the lifted sizes.
 SCALE_ROUNDS = 3
@@ -105,7 +105,7 @@ def behind_what_hides_it(lower, upper_mask: np.ndarray, camera: PinholeCamera) -
 
 
 def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scale: float, supports=None,
-             photo=None, hides=(), visible=None, wall: bool = True):
+             photo=None, hides=(), visible=None, wall: bool = True, hollows: bool = True):
     """Each mask lifted under ``camera`` (unit height); ``scale`` turns a prior's metres into the camera's units.
 
     ``supports`` ({upper: (lower, how)}) stands each upper object on its lower one's surface where it
@@ -116,7 +116,10 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
     foot they hide reaches down behind them (:func:`foot_behind`). With ``wall`` false, what rests on nothing
     the masks show is read from its size alone, not held against the photo's wall line: the pitch search
     passes false, since a wall line read under each candidate pitch moved the pitch it chose (a wall scene of
-    28° built at 10°).
+    28° built at 10°). With ``hollows`` false, an object held by none of several alone is judged by their
+    footprints only (:func:`balances_on`), not also by :func:`held_in_hollow`: the pitch search passes false,
+    since that 3D test on the search's coarse copies dropped supports and moved the pitch it chose (a pile
+    taken at 30° went back to 14°, where it fell).
     """
     supports = supports or {}
     hides = set(hides)
@@ -159,7 +162,8 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
             for k in beside:
                 place(k)
             others = [out[k] for k in beside if out[k] is not None]
-            if not balances_on(out[i], out[supports[i][0]], base, others):
+            if not balances_on(out[i], out[supports[i][0]], base, others) \
+                    or hollows and not held_in_hollow(out[i], out[supports[i][0]], others, camera, scale):
                 # standing on the lower one's surface it would topple off it (a box on the crown of a crumpled
                 # bag): the photo shows it as well standing on the ground, where it stays
                 supports.pop(i)
@@ -255,6 +259,36 @@ def foot_behind(mask: np.ndarray, occluder_masks, occluders, camera: PinholeCame
     return out if foot_pixel(out)[1] > v + 1 else None
 
 
+#: A lifted object stands on a rounded foot where the part of it within ``physics.support.FOOT_CUT`` of its
+#: height above its lowest point covers, seen from above, less than this fraction of its footprint (a sphere:
+#: a fifth; a box's or a board's flat bottom: all of it).
+ROUNDED_FOOT = 0.25
+
+
+def held_in_hollow(upper, lower, others, camera: PinholeCamera, scale: float) -> bool:
+    """Whether ``upper``, stood on ``lower`` and held by none of them alone, is held among ``lower`` and
+    ``others`` (lifted at unit height; ``scale`` metres per unit) as the steadying pass will find it: on a
+    rounded foot (:data:`ROUNDED_FOOT`), only where that pass lowers it into their hollow
+    (``align.support.into_hollow``); where none holds it, that pass moves it onto ``lower``'s top alone, a dome
+    it rolls off (a lemon read as on an apple, beside a taller lemon, fell 19 cm and pushed two fruit 11-13 cm).
+    A flat foot (a board over two boxes lifted at two heights) tips onto all of them: held."""
+    from ..physics.support import CONTACT_BAND, FOOT_CUT, STEADY_MARGIN, _solid_com
+
+    verts = [scale * np.asarray(m.vertices, float) for m in (upper, lower, *others)]
+    faces = [np.asarray(m.faces) for m in (upper, lower, *others)]
+    pts = verts[0]
+    low = float(pts[:, 2].min())
+    # the foot and margin the steadying pass (``physics.support.steady_stacks``) judges it by
+    foot = pts[pts[:, 2] <= low + max(CONTACT_BAND, CONTACT_BAND * float(np.ptp(pts[:, 2]))), :2]
+    sole = pts[pts[:, 2] <= low + FOOT_CUT * float(np.ptp(pts[:, 2])), :2]
+    if len(sole) >= 3 and cv2.contourArea(footprint(sole).astype(np.float32)) \
+            >= ROUNDED_FOOT * cv2.contourArea(footprint(pts).astype(np.float32)):
+        return True
+    margin = min(STEADY_MARGIN, 0.25 * float(np.ptp(foot, axis=0).min()) if len(foot) > 1 else STEADY_MARGIN)
+    eye = scale * np.asarray(camera.origin, float)
+    return into_hollow(verts, faces, {0: (1, "contact")}, 0, _solid_com(pts, faces[0]), eye, margin, 0.0) is not None
+
+
 def balances_on(upper, lower, base: float, others=()) -> bool:
     """Whether ``upper`` (a lifted mesh standing at height ``base`` on ``lower``) has its centre over what holds
     it: seen from above, inside the convex hull of the part of ``lower`` that reaches up to ``base`` (its
@@ -347,7 +381,8 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
         # search (from 1), so that where the cues' pitch stands the scene is the one the cues alone build
         start = scales[min(scales, key=lambda q: abs(q - p))] if scales and searching else 1.0
         out = _lift_scaled(ms, labels, names, unit, settings, found, hides, ph, vs, user_sizes, start,
-                           SEARCH_SCALE_ROUNDS if searching else SCALE_ROUNDS, wall=not searching)
+                           SEARCH_SCALE_ROUNDS if searching else SCALE_ROUNDS, wall=not searching,
+                           hollows=not searching)
         scales[p] = out[3]
         return (unit, *out)
 
@@ -447,7 +482,8 @@ def _search_copies(photo: np.ndarray, masks, visible):
 
 
 def _lift_scaled(masks, labels, names, unit: PinholeCamera, settings: BuildSettings, found, hides, photo, visible,
-                 user_sizes, scale: float = 1.0, rounds: int = SCALE_ROUNDS, wall: bool = True):
+                 user_sizes, scale: float = 1.0, rounds: int = SCALE_ROUNDS, wall: bool = True,
+                 hollows: bool = True):
     """Every mask lifted under the unit-height camera ``unit`` at the scene's scale, the scale and the lift
     agreeing (:data:`SCALE_ROUNDS`, from ``scale``): (lifted at unit height, supports kept, the scale's fit,
     its factor)."""
@@ -457,7 +493,7 @@ def _lift_scaled(masks, labels, names, unit: PinholeCamera, settings: BuildSetti
         # off its saucer's back, and a support dropped then would stay dropped
         supports = dict(found)
         lifted = lift_all(masks, labels, unit, settings, scale, supports, photo=photo, hides=hides,
-                          visible=visible, wall=wall)
+                          visible=visible, wall=wall, hollows=hollows)
         longest = [longest_dimension(m.vertices) for m in lifted]
         fit = fit_scale(names, labels, longest, user_sizes, settings.camera.height_m)
         if abs(np.log(fit.factor / scale)) < 1e-3:
