@@ -26,6 +26,7 @@ from ..settings import BuildSettings
 from ..errors import InputError
 from ..geometry.camera import PinholeCamera, pick_pitch
 from ..geometry.mesh import longest_dimension
+from ..geometry.resting import CONTACT_BAND, FOOT_CUT, STEADY_MARGIN, solid_com
 from .compare import (MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, prior_terms, search_pitch, search_row, search_view,
                       score_scene)
 from .cues import (ELLIPSE_IOU, FEET_CUE, FEET_WEIGHT, MAX_PITCH_DEG, estimate_camera, mask_ellipse, min_pitch,
@@ -259,7 +260,7 @@ def foot_behind(mask: np.ndarray, occluder_masks, occluders, camera: PinholeCame
     return out if foot_pixel(out)[1] > v + 1 else None
 
 
-#: A lifted object stands on a rounded foot where the part of it within ``physics.support.FOOT_CUT`` of its
+#: A lifted object stands on a rounded foot where the part of it within ``geometry.resting.FOOT_CUT`` of its
 #: height above its lowest point covers, seen from above, less than this fraction of its footprint (a sphere:
 #: a fifth; a box's or a board's flat bottom: all of it).
 ROUNDED_FOOT = 0.25
@@ -272,8 +273,6 @@ def held_in_hollow(upper, lower, others, camera: PinholeCamera, scale: float) ->
     (``align.support.into_hollow``); where none holds it, that pass moves it onto ``lower``'s top alone, a dome
     it rolls off (a lemon read as on an apple, beside a taller lemon, fell 19 cm and pushed two fruit 11-13 cm).
     A flat foot (a board over two boxes lifted at two heights) tips onto all of them: held."""
-    from ..physics.support import CONTACT_BAND, FOOT_CUT, STEADY_MARGIN, _solid_com
-
     verts = [scale * np.asarray(m.vertices, float) for m in (upper, lower, *others)]
     faces = [np.asarray(m.faces) for m in (upper, lower, *others)]
     pts = verts[0]
@@ -286,7 +285,7 @@ def held_in_hollow(upper, lower, others, camera: PinholeCamera, scale: float) ->
         return True
     margin = min(STEADY_MARGIN, 0.25 * float(np.ptp(foot, axis=0).min()) if len(foot) > 1 else STEADY_MARGIN)
     eye = scale * np.asarray(camera.origin, float)
-    return into_hollow(verts, faces, {0: (1, "contact")}, 0, _solid_com(pts, faces[0]), eye, margin, 0.0) is not None
+    return into_hollow(verts, faces, {0: (1, "contact")}, 0, solid_com(pts, faces[0]), eye, margin, 0.0) is not None
 
 
 def balances_on(upper, lower, base: float, others=()) -> bool:

@@ -12,11 +12,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry.resting import CONTACT_BAND, FOOT_CUT, STEADY_MARGIN, solid as _solid, solid_com as _solid_com
+
 #: An object whose lowest point is within this of the ground (m, or this fraction of its size if larger)
 #: stands on it.
 ON_GROUND = 0.01
-#: Points within this of the lowest (m, or this fraction of its height if larger) are its contact.
-CONTACT_BAND = 0.01
 #: The centre of mass may be this far (m) outside the contact and still count as over it (a ball's
 #: single contact point, a lying cylinder's contact line).
 OVERHANG = 0.005
@@ -87,20 +87,6 @@ def add_hidden_support(builder, objects, path_body: dict, ground_z: float, newto
     return out
 
 
-#: A stacked object's centre of mass is brought this far (m, or this fraction of its footprint's smaller side
-#: if less) inside the top of what holds it: on the edge, the solver's rocking tips it.
-STEADY_MARGIN = 0.01
-
-
-def _solid(points: np.ndarray, faces: np.ndarray):
-    import trimesh
-
-    mesh = trimesh.Trimesh(points, faces, process=False)
-    return mesh if mesh.is_watertight and mesh.volume > 0 else mesh.convex_hull
-
-
-def _solid_com(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    return np.asarray(_solid(points, faces).center_mass, float)
 
 
 def _load_com(group, vertex_sets, faces) -> np.ndarray:
@@ -249,8 +235,6 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
 #: across (radius): a lifted fruit touches the ground at one vertex and any neighbour's touch rolls it away,
 #: where the real one rests on the patch its weight flattens.
 FOOT_FRACTION = 0.3
-#: The flattened cap is at most this fraction of the object's height (an orange: 2-3 mm).
-FOOT_CUT = 0.05
 
 
 def flat_foot(points: np.ndarray) -> tuple[np.ndarray, float]:

@@ -1,0 +1,29 @@
+"""How a lifted rigid object rests on what is under it, in the terms both the build's placement
+(``align``: whether a pile's hollow holds a fruit) and the simulator's steadying (``physics.support``) judge
+it by: its contact band, the margin its centre of mass keeps inside a top, the cap a rounded foot loses, and
+the centre of mass of its solid. Metres; points (N, 3), world, z up."""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Points within this of the lowest (m, or this fraction of its height if larger) are its contact.
+CONTACT_BAND = 0.01
+#: A stacked object's centre of mass is brought this far (m, or this fraction of its footprint's smaller side
+#: if less) inside the top of what holds it: on the edge, the solver's rocking tips it.
+STEADY_MARGIN = 0.01
+#: The flattened cap of a rounded foot is at most this fraction of the object's height (an orange: 2-3 mm).
+FOOT_CUT = 0.05
+
+
+def solid(points: np.ndarray, faces: np.ndarray):
+    """The object as a trimesh solid: its own mesh where watertight with volume, else its convex hull."""
+    import trimesh
+
+    mesh = trimesh.Trimesh(points, faces, process=False)
+    return mesh if mesh.is_watertight and mesh.volume > 0 else mesh.convex_hull
+
+
+def solid_com(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """The centre of mass (3,) of :func:`solid` at one density."""
+    return np.asarray(solid(points, faces).center_mass, float)
