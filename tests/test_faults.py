@@ -114,6 +114,7 @@ from physomni_usd._files import all_or_nothing, write_bytes
 from physomni_usd.errors import Interrupted
 
 target = pathlib.Path(sys.argv[1])
+signal.signal(signal.SIGHUP, signal.SIG_DFL)  # as from a terminal: under nohup it is inherited ignored, and kept so
 stop_on_signals()
 try:
     with all_or_nothing():
@@ -227,6 +228,7 @@ from physomni_usd.cli.shell import stop_on_signals
 from physomni_usd._files import all_or_nothing, write_bytes
 
 target = pathlib.Path(sys.argv[1])
+signal.signal(signal.SIGHUP, signal.SIG_DFL)  # as from a terminal: under nohup it is inherited ignored, and kept so
 stop_on_signals()
 try:
     os.kill(os.getpid(), signal.SIGTERM)

@@ -31,7 +31,11 @@ from .hostile_folders import (case_huge_label, case_planted_journal, case_previe
 def signal_when(args, marker: str, signum: int, timeout: float = 600) -> tuple[int, str]:
     """Start ``physomni-usd ARGS``, send ``signum`` once a stderr line starts with ``marker``; returns the
     exit code and stderr."""
-    proc = subprocess.Popen(command(*args), stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
+    # a SIGHUP the parent inherited ignored (a suite started under nohup) the command rightly keeps ignored:
+    # the trial is of a terminal's hang-up, so its child starts with the default
+    hangup = (lambda: signal.signal(signal.SIGHUP, signal.SIG_DFL)) if signum == signal.SIGHUP else None
+    proc = subprocess.Popen(command(*args), stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
+                            preexec_fn=hangup)
     seen, sent = [], False
     deadline = time.monotonic() + timeout
     for line in proc.stderr:
