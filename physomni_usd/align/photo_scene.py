@@ -26,7 +26,7 @@ from ..settings import BuildSettings
 from ..errors import InputError
 from ..geometry.camera import PinholeCamera, pick_pitch
 from ..geometry.mesh import longest_dimension
-from ..geometry.resting import CONTACT_BAND, FOOT_CUT, STEADY_MARGIN, solid_com
+from ..geometry.resting import FOOT_CUT, contact_band, solid_com, steady_margin
 from .compare import (MIN_GAIN_FRACTION, STRONG_GAIN_FRACTION, prior_terms, search_pitch, search_row, search_view,
                       score_scene)
 from .cues import (ELLIPSE_IOU, FEET_CUE, FEET_WEIGHT, MAX_PITCH_DEG, estimate_camera, mask_ellipse, min_pitch,
@@ -278,12 +278,12 @@ def held_in_hollow(upper, lower, others, camera: PinholeCamera, scale: float) ->
     pts = verts[0]
     low = float(pts[:, 2].min())
     # the foot and margin the steadying pass (``physics.support.steady_stacks``) judges it by
-    foot = pts[pts[:, 2] <= low + max(CONTACT_BAND, CONTACT_BAND * float(np.ptp(pts[:, 2]))), :2]
+    foot = pts[pts[:, 2] <= low + contact_band(pts), :2]
     sole = pts[pts[:, 2] <= low + FOOT_CUT * float(np.ptp(pts[:, 2])), :2]
     if len(sole) >= 3 and cv2.contourArea(footprint(sole).astype(np.float32)) \
             >= ROUNDED_FOOT * cv2.contourArea(footprint(pts).astype(np.float32)):
         return True
-    margin = min(STEADY_MARGIN, 0.25 * float(np.ptp(foot, axis=0).min()) if len(foot) > 1 else STEADY_MARGIN)
+    margin = steady_margin(foot)
     eye = scale * np.asarray(camera.origin, float)
     return into_hollow(verts, faces, {0: (1, "contact")}, 0, solid_com(pts, faces[0]), eye, margin, 0.0) is not None
 

@@ -16,6 +16,18 @@ STEADY_MARGIN = 0.01
 FOOT_CUT = 0.05
 
 
+def contact_band(points: np.ndarray) -> float:
+    """How far above its lowest point (m) a point of ``points`` (N, 3) is still in its contact:
+    :data:`CONTACT_BAND`, or that fraction of its height where larger."""
+    return max(CONTACT_BAND, CONTACT_BAND * float(np.ptp(points[:, 2])))
+
+
+def steady_margin(foot: np.ndarray) -> float:
+    """How far (m) inside a top a centre of mass over ``foot`` (M, 2, its contact's points seen from above) is
+    kept: :data:`STEADY_MARGIN`, or a quarter of the foot's smaller side where less."""
+    return min(STEADY_MARGIN, 0.25 * float(np.ptp(foot, axis=0).min()) if len(foot) > 1 else STEADY_MARGIN)
+
+
 def solid(points: np.ndarray, faces: np.ndarray):
     """The object as a trimesh solid: its own mesh where watertight with volume, else its convex hull."""
     import trimesh

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.resting import CONTACT_BAND, FOOT_CUT, STEADY_MARGIN, solid as _solid, solid_com as _solid_com
+from ..geometry.resting import FOOT_CUT, contact_band, solid as _solid, solid_com as _solid_com, steady_margin
 
 #: An object whose lowest point is within this of the ground (m, or this fraction of its size if larger)
 #: stands on it.
@@ -28,7 +28,7 @@ def overhang(points: np.ndarray, com: np.ndarray) -> float:
     from scipy.spatial import ConvexHull, QhullError
 
     low = points[:, 2].min()
-    band = max(CONTACT_BAND, CONTACT_BAND * float(np.ptp(points[:, 2])))
+    band = contact_band(points)
     feet = np.unique(np.round(points[points[:, 2] <= low + band, :2], 6), axis=0)
     c = np.asarray(com, float)[:2]
     if len(feet) >= 3:
@@ -167,7 +167,7 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
     three fell 51 cm). What counts is the centre of mass of its load (:func:`_load_com`: it and all that rests
     on it). First the top under its foot is made flat at its base (:func:`raise_top`: hidden by
     it); where that centre still overhangs, it is shifted level, with whatever rests on it, by the shift
-    into :data:`STEADY_MARGIN` inside that top that moves its image least (:func:`_cheapest_shift`): a few
+    into ``geometry.resting.STEADY_MARGIN`` inside that top that moves its image least (:func:`_cheapest_shift`): a few
     pixels, where a fall moves it off the frame. An object whose centre of mass overhangs its own foot is left
     alone (no shift helps it), and so is one already steady. Higher objects first. Before all that, every
     object standing on a point on the ground gets a flat foot (:func:`flat_foot`), what rests on it lowered with
@@ -191,7 +191,7 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
         j = supports[i][0]
         pts = verts[i]
         low = float(pts[:, 2].min())
-        band = max(CONTACT_BAND, CONTACT_BAND * float(np.ptp(pts[:, 2])))
+        band = contact_band(pts)
         if overhang(pts, _solid_com(pts, faces[i])) > OVERHANG:
             continue  # it cannot stand on its own foot: no shift helps
         # what tips it off its supporter is its load, itself and all it carries: a book over the lower book's
@@ -201,7 +201,7 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
         if len(region) < 3:
             continue
         foot = pts[pts[:, 2] <= low + band, :2]
-        margin = min(STEADY_MARGIN, 0.25 * float(np.ptp(foot, axis=0).min()) if len(foot) > 1 else STEADY_MARGIN)
+        margin = steady_margin(foot)
         c = com[:2]
         if _outside(region, c) <= -margin:
             continue
