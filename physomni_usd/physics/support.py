@@ -206,6 +206,17 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
         margin = steady_margin(foot)
         c = com[:2]
         if _outside(region, c) <= -margin:
+            if _rounded_pair(verts[i], verts[j]):
+                # balanced dome on dome: a pile's hollow beside it holds it as the photo shows it, else its crown
+                hollow = into_hollow(verts, faces, supports, i, com, eye, margin,
+                                     min(float(v[:, 2].min()) for v in verts))
+                if hollow is not None:
+                    move, on = hollow
+                    for k in riders(i, supports):
+                        verts[k] = verts[k] + move
+                    done.append({"object": i, "on": j, "into_hollow_m": round(float(np.linalg.norm(move)), 4),
+                                 "rests_on": on, "overhang_m": round(_outside(region, c), 4)})
+                    continue
             _dome_on_dome(verts, faces, supports, i, j, eye, done)
             continue
         hollow = into_hollow(verts, faces, supports, i, com, eye, margin, min(float(v[:, 2].min()) for v in verts))
@@ -239,6 +250,12 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
 #: A rounded object on a rounded top is brought over that top's crown by at most this fraction of its own
 #: smaller level width: farther, the photo shows it elsewhere, and it is left as it was.
 CROWN_REACH = 0.5
+
+
+def _rounded_pair(upper: np.ndarray, lower: np.ndarray) -> bool:
+    """Whether ``upper`` (N, 3) stands on a rounded foot and ``lower`` (M, 3) has a rounded top (both as
+    :func:`flat_foot` judges a foot)."""
+    return flat_foot(upper)[1] > 0 and flat_foot(lower * np.array([1.0, 1.0, -1.0]))[1] > 0
 
 
 def _dome_on_dome(verts, faces, supports: dict, i: int, j: int, eye, done: list) -> bool:
