@@ -178,7 +178,7 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
     verts = [np.asarray(v, float).copy() for v in vertex_sets]
     done = []
     for i in sorted(range(len(verts)), key=lambda k: float(verts[k][:, 2].min())):
-        if i in supports:
+        if i in supports and not on_level_face(verts[i], verts[supports[i][0]], faces[supports[i][0]]):
             continue  # on another object (an orange in a bowl's mouth): what holds it is not flat
         verts[i], cut = flat_foot(verts[i])
         if cut > 0:
@@ -245,6 +245,30 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
         done.append({"object": i, "on": j, "shift_m": round(float(np.linalg.norm(shift)), 4),
                      "overhang_m": round(_outside(region, c), 4)})
     return verts, done
+
+
+#: Of a stacked object, the supporter's surface under the disc its flat foot would cover is level and meets its
+#: lowest point within this (m): it stands on a face of it as on the ground (a lemon on a bowl's inner floor).
+LEVEL_FACE = 0.002
+
+
+def on_level_face(upper: np.ndarray, lower: np.ndarray, lower_faces: np.ndarray) -> bool:
+    """Whether ``upper`` (N, 3) rests on a level face of ``lower`` (M, 3 with triangle ``lower_faces``): straight
+    under its lowest point and around it, as wide as :func:`flat_foot` makes a foot, ``lower``'s surface is
+    within :data:`LEVEL_FACE` of that point's height (not a rim it hangs on, nor a dome it balances on)."""
+    import trimesh
+
+    low = upper[np.argmin(upper[:, 2])]
+    r = FOOT_FRACTION * 0.5 * float(np.ptp(upper[:, :2], axis=0).min())
+    ring = [(0.0, 0.0)] + [(r * np.cos(a), r * np.sin(a)) for a in np.linspace(0, 2 * np.pi, 8, endpoint=False)]
+    origins = np.array([[low[0] + dx, low[1] + dy, low[2] + 0.05] for dx, dy in ring])
+    mesh = trimesh.Trimesh(lower, lower_faces, process=False)
+    hits, ray, _ = mesh.ray.intersects_location(origins, np.tile([0.0, 0.0, -1.0], (len(origins), 1)))
+    if len(hits) == 0:
+        return False
+    top = np.full(len(origins), -np.inf)
+    np.maximum.at(top, ray, hits[:, 2])
+    return bool(np.all(np.abs(top - low[2]) <= LEVEL_FACE))
 
 
 #: A rounded object on a rounded top is brought over that top's crown by at most this fraction of its own
