@@ -58,19 +58,49 @@ def test_a_stepped_top_is_made_flat_under_the_foot_only():
     assert overhang(np.column_stack([foot, np.full(4, 0.2)]), np.array([0.0, 0.0, 0.3])) <= 0
 
 
-def test_only_what_stands_on_the_ground_gets_a_flat_foot():
-    """A ball on the ground is flattened where it rests; a ball held by it (as an orange in a bowl's mouth rests
-    on the rim by its roundness) is not, and goes down with it."""
-    def ball(z):
-        b = trimesh.creation.icosphere(subdivisions=3, radius=0.035)
-        b.apply_translation([0, 0, z])
-        return b
+def _ball(z, x=0.0):
+    b = trimesh.creation.icosphere(subdivisions=3, radius=0.035)
+    b.apply_translation([x, 0, z])
+    return b
 
-    below, held = ball(0.035), ball(0.105)
+
+def test_a_ball_on_a_ball_stands_over_its_crown_on_flat_faces_of_both():
+    """A pile read as a column: balanced dome on dome, the solver's first tremor rolls the upper one off. It is
+    brought over the lower one's crown, both are cut flat where they meet, and it rests on that face."""
+    below, held = _ball(0.035), _ball(0.105, x=0.006)
     verts, done = steady_stacks([below.vertices, held.vertices], [below.faces, held.faces], {1: (0, "on")}, None)
+    crowned = [d for d in done if "crown_cut_m" in d]
+    assert [d["object"] for d in crowned] == [1], done
+    top, foot = float(verts[0][:, 2].max()), float(verts[1][:, 2].min())
+    assert abs(foot - top) < 1e-9  # resting on the face, neither floating nor sunk
+    assert top < float(below.vertices[:, 2].max()) - 1e-3  # the lower one's crown was cut
+    r = np.ptp(verts[1][:, :2], axis=0).min() / 2
+    sole = verts[1][verts[1][:, 2] <= foot + 1e-9, :2]
+    crown = verts[0][verts[0][:, 2] >= top - 1e-9, :2]
+    assert np.ptp(sole, axis=0).min() > 0.3 * r and np.ptp(crown, axis=0).min() > 0.3 * r  # faces, not points
+    com = trimesh.Trimesh(verts[1], held.faces).center_mass
+    assert np.linalg.norm(com[:2] - crown.mean(axis=0)) < 2e-3, com  # over the crown, not 6 mm off it
+
+
+def test_a_ball_on_a_rim_keeps_its_round_foot():
+    """An orange in a bowl's mouth rests on the rim by its roundness: flattened there, it fell 24 cm."""
+    ring = trimesh.creation.annulus(r_min=0.03, r_max=0.036, height=0.05)
+    ring.apply_translation([0, 0, 0.025])
+    held = _ball(0.05 + np.sqrt(0.035 ** 2 - 0.033 ** 2))
+    verts, done = steady_stacks([ring.vertices, held.vertices], [ring.faces, held.faces], {1: (0, "on")}, None)
+    assert not [d for d in done if d["object"] == 1], done
+    assert np.array_equal(verts[1], held.vertices)
+
+
+def test_a_ball_on_a_level_face_gets_the_flat_foot_it_gets_on_the_ground():
+    """A lemon on a bowl's inner floor rolled 3 cm and turned 23° on its round foot; on the ground it stands."""
+    floor = trimesh.creation.box(extents=(0.2, 0.2, 0.01))
+    floor.apply_translation([0, 0, 0.005])
+    held = _ball(0.045)
+    verts, done = steady_stacks([floor.vertices, held.vertices], [floor.faces, held.faces], {1: (0, "on")}, None)
     cut = {d["object"]: d["flat_foot_m"] for d in done if "flat_foot_m" in d}
-    assert set(cut) == {0}, done
-    assert np.allclose(verts[1], held.vertices - [0, 0, cut[0]], atol=1e-4)  # the report rounds the cut
+    assert set(cut) == {1}, done
+    assert abs(float(verts[1][:, 2].min()) - 0.01) < 1e-9 and np.array_equal(verts[0], floor.vertices)
 
 
 def test_a_stack_is_steadied_by_the_load_each_object_carries_not_by_its_own_centre():
