@@ -124,3 +124,22 @@ def test_a_stack_is_steadied_by_the_load_each_object_carries_not_by_its_own_cent
     assert _outside(region, (load + moved[1])[:2]) <= -0.009, done
     assert abs(moved[1][2]) < 1e-9 and abs(moved[1][0]) < 0.25 * abs(moved[1][1])  # level, along the sight (a grid step across)
     assert np.array_equal(verts[0], bottom.vertices)
+
+
+def test_a_slanted_sole_is_made_level_where_it_holds_the_centre_of_mass():
+    """A lifted box whose foot follows a slanted outline edge stands on one end with its centre of mass beyond
+    it and tips until the other end touches; its sole, flattened the least height that holds that centre, stands."""
+    box = trimesh.creation.box(extents=(0.2, 0.05, 0.12))
+    box = box.subdivide().subdivide()
+    v = box.vertices + [0, 0, 0.06]
+    bottom = v[:, 2] < 1e-9
+    v[bottom, 2] = 0.008 * (v[bottom, 0] + 0.1) / 0.2  # 8 mm higher at the right end
+    com = trimesh.Trimesh(v, box.faces).center_mass
+    assert overhang(v[v[:, 2] <= 1e-3], com) > 0  # on its left end only
+    verts, done = steady_stacks([v], [box.faces], {}, None)
+    levelled = [d for d in done if "level_sole_m" in d]
+    assert levelled and 0 < levelled[0]["level_sole_m"] <= 0.008, done
+    sole = verts[0][verts[0][:, 2] <= 1e-9]
+    assert overhang(sole, com) < -0.005 and float(verts[0][:, 2].min()) == 0.0
+    moved = verts[0][~bottom] - v[~bottom]  # the rest only as its foot's cut lowered the whole (flat_foot)
+    assert np.allclose(moved[:, :2], 0) and np.ptp(moved[:, 2]) < 1e-9

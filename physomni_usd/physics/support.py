@@ -185,6 +185,9 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
             for k in riders(i, supports)[1:]:
                 verts[k][:, 2] -= cut
             done.append({"object": i, "flat_foot_m": round(cut, 4)})
+        verts[i], level = level_sole(verts[i], faces[i])  # a foot cut round its lowest point may not hold it
+        if level > 0:
+            done.append({"object": i, "level_sole_m": round(level, 4)})
     # highest first: what an object carries is steady on it before the load of both is brought over the one
     # under them; a shift moves an object with its riders, so it never undoes one made above it
     for i in sorted(supports, key=lambda k: -float(verts[k][:, 2].min())):
@@ -322,6 +325,37 @@ def _dome_on_dome(verts, faces, supports: dict, i: int, j: int, eye, done: list)
     done.append({"object": i, "on": j, "crown_shift_m": round(float(np.linalg.norm(shift)), 4),
                  "foot_cut_m": round(cut_i, 4), "crown_cut_m": round(cut_j, 4)})
     return True
+
+
+def level_sole(points: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, float]:
+    """``points`` (N, 3) of an object standing on a flat sole with the part of its underside the least height
+    ``h`` above its lowest point that, flattened to that point's level, has its centre of mass
+    :func:`~physomni_usd.geometry.resting.steady_margin` inside it, flattened so; returns them and ``h`` (0
+    where its lowest points hold it already, or none within its contact band does). A lifted box's foot follows
+    its outline's lower edge, slanted a few millimetres: it stands on one end, its centre of mass beyond that,
+    and tips until the other end touches (a box of two turned 3.8° and moved 23 mm). Its contact band judges it
+    standing; flat, it stands as judged."""
+    pts = np.array(points, float)
+    z = pts[:, 2]
+    low = float(z.min())
+    com = _solid_com(pts, faces)
+
+    def holds(h: float) -> bool:
+        sole = pts[z <= low + h, :2]
+        if len(sole) < 3:
+            return False
+        probe = np.column_stack([sole, np.full(len(sole), low)])
+        return overhang(probe, com) <= -steady_margin(sole)
+
+    band = contact_band(pts)
+    if holds(1e-4) or not holds(band):
+        return pts, 0.0
+    lo, hi = 1e-4, band
+    for _ in range(20):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if holds(mid) else (mid, hi)
+    pts[z <= low + hi, 2] = low
+    return pts, hi
 
 
 #: A rounded object standing on a point gets a flat contact this fraction of its smaller level half-width
