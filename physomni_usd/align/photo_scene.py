@@ -91,6 +91,26 @@ def surface_under(lower, upper_mask: np.ndarray, camera: PinholeCamera) -> float
     return float(down[:, 2].max()) if len(down) else top
 
 
+def on_rim(lower, upper_mask: np.ndarray, camera: PinholeCamera, settings: BuildSettings):
+    """The object of ``upper_mask`` lifted resting on the rim of ``lower`` where ``lower`` is a vessel, its foot
+    shows in the vessel's mouth (``lift.vessel.foot_in_mouth``) and it is wider than the mouth (``lift.vessel.rests_on_rim``: a plant's foliage over
+    its pot); None otherwise. Stood on the surface its foot's ray meets inside the mouth (the back wall), and as
+    deep as the outline alone makes it, such a thing came out a slab standing on the pot's back rim, and fell."""
+    from ..lift.silhouette import LiftedMesh
+    from ..lift.vessel import foot_in_mouth, rests_on_rim
+
+    if lower.shape != "vessel" or settings.lift.shape != "auto" \
+            or not foot_in_mouth(lower.vertices, upper_mask, camera):
+        return None
+    found = rests_on_rim(lower.vertices, upper_mask, camera, settings.lift.rows, settings.lift.sections)
+    if found is None:
+        return None
+    verts, faces, contact = found
+    return LiftedMesh(verts, faces, "round", contact, foot_pixel(fill_holes(upper_mask))[1],
+                      {"mode": "standing", "shape": "round", "height_source": "silhouette",
+                       "rests_on": "the rim of the vessel under it, round about its axis"})
+
+
 def behind_what_hides_it(lower, upper_mask: np.ndarray, camera: PinholeCamera) -> bool:
     """Whether the object of ``upper_mask``, whose lower part ``lower`` (a lifted mesh) hides, stands on the
     ground behind it rather than on it: its foot (completed behind ``lower``) cast onto the ground lands
@@ -140,6 +160,9 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
             supports.pop(i)
         base = surface_under(out[supports[i][0]], masks[i], camera) if i in supports else 0.0
         kwargs = _lift_options(labels[i], scale, photo)
+        if i in supports and (seated := on_rim(out[supports[i][0]], masks[i], camera, settings)) is not None:
+            out[i] = seated
+            return
         try:
             out[i] = lift_silhouette(masks[i], camera, settings.lift, base_z=base, **kwargs)
         except ValueError:
