@@ -21,8 +21,7 @@ import numpy as np
 
 from ..sizes import size_prior
 from ..perceive.amodal import occlusion_order
-from ..lift.silhouette import FLAT_PRIOR_RATIO, fill_holes, foot_pixel, plane_points
-from ..lift.silhouette import lift_silhouette as lift_one
+from ..lift.silhouette import FLAT_PRIOR_RATIO, fill_holes, foot_pixel, lift_silhouette, plane_points
 from ..settings import BuildSettings
 from ..errors import InputError
 from ..geometry.camera import PinholeCamera, pick_pitch
@@ -90,42 +89,6 @@ def surface_under(lower, upper_mask: np.ndarray, camera: PinholeCamera) -> float
     above = np.array([[first[0], first[1], top + 1.0]])
     down, _, _ = mesh.ray.intersects_location(above, np.array([[0.0, 0.0, -1.0]]))
     return float(down[:, 2].max()) if len(down) else top
-
-
-#: A footprint lift (an object read as seen from above) whose silhouette through the camera covers its outline
-#: with an IoU under this is weighed against the object lifted standing ...
-FOOTPRINT_CHECK_IOU = 0.85
-#: ... which replaces it where its own IoU is higher by at least this.
-STANDING_GAIN_IOU = 0.1
-
-
-def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings, **kwargs):
-    """``lift.silhouette.lift_silhouette``, with the photo as the arbiter between reading the outline as a
-    footprint seen from above and as an object standing: where the footprint's mesh, seen through the camera,
-    reproduces the outline poorly (IoU under :data:`FOOTPRINT_CHECK_IOU`) and the standing lift reproduces it
-    clearly better (:data:`STANDING_GAIN_IOU`), the standing one is taken. The steepness of the rays alone
-    (``lift.silhouette.lift_mode``) read a cup at 37° as a 2.5 cm wide pencil of its label's height and the
-    upright boxes of a heap as slivers (IoU 0.45, 0.59)."""
-    from .compare import mask_iou, silhouette
-
-    lifted = lift_one(mask, camera, settings, **kwargs)
-    if lifted.info.get("mode") != "footprint" or settings.shape != "auto":
-        return lifted
-    solid = fill_holes(mask)
-    seen = mask_iou(silhouette(lifted.vertices, lifted.faces, camera), solid)
-    if seen >= FOOTPRINT_CHECK_IOU:
-        return lifted
-    try:
-        upright = lift_one(mask, camera, settings, mode="standing", **kwargs)
-    except ValueError:  # its foot above the horizon: it cannot stand where the photo shows it
-        return lifted
-    if upright is None:
-        return lifted
-    other = mask_iou(silhouette(upright.vertices, upright.faces, camera), solid)
-    if other < seen + STANDING_GAIN_IOU:
-        return lifted
-    upright.info["chosen_over_footprint"] = {"footprint_iou": round(seen, 4), "standing_iou": round(other, 4)}
-    return upright
 
 
 def on_rim(lower, upper_mask: np.ndarray, camera: PinholeCamera, settings: BuildSettings):

@@ -248,7 +248,7 @@ def plane_points(camera: PinholeCamera, u, v, z: float = 0.0) -> np.ndarray:
 def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSettings = LiftSettings(),
                     height_hint: float | None = None, prior_shape: str | None = None,
                     base_z: float = 0.0, flat: bool = False, photo: np.ndarray | None = None,
-                    label: str | None = None, mode: str | None = None) -> LiftedMesh:
+                    label: str | None = None) -> LiftedMesh:
     """Closed mesh of the object whose silhouette is ``mask`` (H, W) bool, standing on z = ``base_z``.
 
     ``height_hint`` (the camera's units) and ``prior_shape`` come from the
@@ -259,12 +259,11 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
     ``label`` chooses the body (``sizes.body_kind``): inflated for organic
     things, a cuboid for boxy ones, from above a hollow vessel for open containers (``vessel.py``).
     Where the body the label asks for cannot be made (an inflated body with no patch of itself to stand on),
-    the outline alone decides, as for an unknown label. ``mode`` ('footprint' or 'standing') overrides
-    :func:`lift_mode` (the photo has judged the other one: ``align.photo_scene``).
+    the outline alone decides, as for an unknown label.
     """
     solid = fill_holes(mask)
-    seen = Silhouette(solid, mode or lift_mode(solid, camera, settings, flat), camera, settings, height_hint,
-                      prior_shape, base_z, flat, photo)
+    seen = Silhouette(solid, lift_mode(solid, camera, settings, flat), camera, settings, height_hint, prior_shape,
+                      base_z, flat, photo)
     kind = body_kind(label) if label else None
     lifted = None
     for body in dict.fromkeys((kind, None)):  # the label's body, then the outline alone
