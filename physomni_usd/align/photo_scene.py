@@ -102,11 +102,15 @@ def on_rim(lower, upper_mask: np.ndarray, camera: PinholeCamera, settings: Build
     if lower.shape != "vessel" or settings.lift.shape != "auto" \
             or not foot_in_mouth(lower.vertices, upper_mask, camera):
         return None
-    found = rests_on_rim(lower.vertices, upper_mask, camera, settings.lift.rows, settings.lift.sections)
+    from .compare import mask_iou, silhouette
+
+    solid = fill_holes(upper_mask)
+    found = rests_on_rim(lower.vertices, upper_mask, camera, settings.lift.rows, settings.lift.sections,
+                         fits=lambda v, f: mask_iou(silhouette(v, f, camera), solid))
     if found is None:
         return None
     verts, faces, contact = found
-    return LiftedMesh(verts, faces, "round", contact, foot_pixel(fill_holes(upper_mask))[1],
+    return LiftedMesh(verts, faces, "round", contact, foot_pixel(solid)[1],
                       {"mode": "standing", "shape": "round", "height_source": "silhouette",
                        "rests_on": "the rim of the vessel under it, round about its axis"})
 

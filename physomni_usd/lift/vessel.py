@@ -178,7 +178,7 @@ def foot_in_mouth(vertices: np.ndarray, mask: np.ndarray, camera) -> bool:
     return float(np.linalg.norm(at[:2] - f["centre"])) <= f["outer"]
 
 
-def rests_on_rim(vertices: np.ndarray, mask: np.ndarray, camera, rows: int, sections: int):
+def rests_on_rim(vertices: np.ndarray, mask: np.ndarray, camera, rows: int, sections: int, fits=None):
     """(vertices, faces, contact (3,)) of the object of ``mask`` (H, W) bool that rests on the rim of the vessel
     ``vertices`` (n, 3), or None where it is no wider than the vessel's mouth (it would fall in).
 
@@ -187,7 +187,8 @@ def rests_on_rim(vertices: np.ndarray, mask: np.ndarray, camera, rows: int, sect
     facing the camera is a circle about the axis. What shows below the rim, inside the mouth, is narrowed to the
     mouth, clear of the wall by :data:`RIM_CLEARANCE` of it; a ring at the rim's height spans the mouth onto the
     rim's top, and the body is raised until its convex hull (what physics collides) clears the rim's inner edge,
-    so it rests there; what rises above the rim is lowered where that matches the outline better (the rings' backs rise above it)."""
+    so it rests there; what rises above the rim is lowered where that matches the outline better (the rings'
+    backs rise above it): ``fits(vertices, faces)`` says how well a body matches it (higher is better)."""
     from .sections import loft, round_rings
     from .silhouette import fill_holes, row_spans
 
@@ -241,15 +242,13 @@ def rests_on_rim(vertices: np.ndarray, mask: np.ndarray, camera, rows: int, sect
     # each row was cast where the axis crosses it, but a circle's back stands higher in the photo than its
     # middle: what rises above the rim is lowered as far as makes its silhouette match the outline best
     above = z > f["rim_z"]
-    if above.any():
-        from ..align.compare import mask_iou, silhouette
-
+    if above.any() and fits is not None:
         def body(k):
             zz = np.where(above, f["rim_z"] + k * (z - f["rim_z"]), z)
             centres = np.c_[np.broadcast_to(f["centre"], (len(z), 2)), zz]
             return loft(round_rings(centres, radius, np.r_[side, 0.0], normal, sections))
 
-        best = max(RIM_HEIGHT_FACTORS, key=lambda k: mask_iou(silhouette(*body(k), camera), solid))
+        best = max(RIM_HEIGHT_FACTORS, key=lambda k: fits(*body(k)))
         z = np.where(above, f["rim_z"] + best * (z - f["rim_z"]), z)
     centres = np.c_[np.broadcast_to(f["centre"], (len(z), 2)), z]
     verts, faces = loft(round_rings(centres, radius, np.r_[side, 0.0], normal, sections))
