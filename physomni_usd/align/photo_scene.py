@@ -6,7 +6,8 @@ lifter): the camera is estimated from the photo (``align/cues.py``) under a
 unit camera height, objects resting on others are found (``align/support.py``)
 and read against the occlusion order (``perceive/amodal.py``: what an
 occluder hides is no contact, and a hidden foot reaches down behind it),
-every object is lifted (``lift/silhouette.py``) and the scene's scale is fixed
+every object is lifted (``lift/silhouette.py``; what is wider than the mouth of the vessel it stands in rests
+on its rim, ``lift/vessel.py``) and the scene's scale is fixed
 from the objects' typical sizes (``align/scale.py``). :func:`place_on_ground`:
 objects resting on others move with them, the rest are kept apart
 (``align/place.py``).

@@ -19,6 +19,10 @@ centre (:func:`vessel_mesh`): its interior is open, so what lies in it rests
 on its inner floor and the camera sees into it. Walls and floor are
 ``WALL_RATIO`` of the rim's diameter thick (a 24 cm bowl has ~1 cm walls).
 Physics collides it as convex pieces, not its hull (``physics.assembly``).
+
+What stands in a vessel's mouth and is wider than it (a plant's foliage over
+its pot) rests on its rim: round about the vessel's axis, narrowed inside the
+mouth, its convex hull on the rim's inner edge (:func:`rests_on_rim`).
 """
 
 from __future__ import annotations
