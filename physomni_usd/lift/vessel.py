@@ -223,7 +223,7 @@ def rests_on_rim(vertices: np.ndarray, mask: np.ndarray, camera, rows: int, sect
     keep = z >= f["floor_z"] + clear
     z, radius = z[keep], radius[keep]
     inside = z < f["rim_z"]
-    wall_at = f["inner"] * np.cos(np.pi / 48) - f["slope"] * (f["rim_z"] - z)  # the revolved wall's flat sides
+    wall_at = f["inner"] * np.cos(np.pi / SECTIONS) - f["slope"] * (f["rim_z"] - z)  # the revolved wall's flat sides
     radius[inside] = np.minimum(radius[inside], (wall_at[inside] - clear) / corner)
     radius = np.maximum(radius, 1e-4)
     # the ring that spans the mouth onto the rim's top
