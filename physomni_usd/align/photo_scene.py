@@ -6,7 +6,8 @@ lifter): the camera is estimated from the photo (``align/cues.py``) under a
 unit camera height, objects resting on others are found (``align/support.py``)
 and read against the occlusion order (``perceive/amodal.py``: what an
 occluder hides is no contact, and a hidden foot reaches down behind it),
-every object is lifted (``lift/silhouette.py``) and the scene's scale is fixed
+every object is lifted (``lift/silhouette.py``; what is wider than the mouth of the vessel it stands in rests
+on its rim, ``lift/vessel.py``) and the scene's scale is fixed
 from the objects' typical sizes (``align/scale.py``). :func:`place_on_ground`:
 objects resting on others move with them, the rest are kept apart
 (``align/place.py``).
@@ -91,6 +92,30 @@ def surface_under(lower, upper_mask: np.ndarray, camera: PinholeCamera) -> float
     return float(down[:, 2].max()) if len(down) else top
 
 
+def on_rim(lower, upper_mask: np.ndarray, camera: PinholeCamera, settings: BuildSettings):
+    """The object of ``upper_mask`` lifted resting on the rim of ``lower`` where ``lower`` is a vessel, its foot
+    shows in the vessel's mouth (``lift.vessel.foot_in_mouth``) and it is wider than the mouth (``lift.vessel.rests_on_rim``: a plant's foliage over
+    its pot); None otherwise. Stood on the surface its foot's ray meets inside the mouth (the back wall), and as
+    deep as the outline alone makes it, such a thing came out a slab standing on the pot's back rim, and fell."""
+    from ..lift.silhouette import LiftedMesh
+    from ..lift.vessel import foot_in_mouth, rests_on_rim
+
+    if lower.shape != "vessel" or settings.lift.shape != "auto" \
+            or not foot_in_mouth(lower.vertices, upper_mask, camera):
+        return None
+    from .compare import mask_iou, silhouette
+
+    solid = fill_holes(upper_mask)
+    found = rests_on_rim(lower.vertices, upper_mask, camera, settings.lift.rows, settings.lift.sections,
+                         fits=lambda v, f: mask_iou(silhouette(v, f, camera), solid))
+    if found is None:
+        return None
+    verts, faces, contact = found
+    return LiftedMesh(verts, faces, "round", contact, foot_pixel(solid)[1],
+                      {"mode": "standing", "shape": "round", "height_source": "silhouette",
+                       "rests_on": "the rim of the vessel under it, round about its axis"})
+
+
 def behind_what_hides_it(lower, upper_mask: np.ndarray, camera: PinholeCamera) -> bool:
     """Whether the object of ``upper_mask``, whose lower part ``lower`` (a lifted mesh) hides, stands on the
     ground behind it rather than on it: its foot (completed behind ``lower``) cast onto the ground lands
@@ -140,6 +165,9 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
             supports.pop(i)
         base = surface_under(out[supports[i][0]], masks[i], camera) if i in supports else 0.0
         kwargs = _lift_options(labels[i], scale, photo)
+        if i in supports and (seated := on_rim(out[supports[i][0]], masks[i], camera, settings)) is not None:
+            out[i] = seated
+            return
         try:
             out[i] = lift_silhouette(masks[i], camera, settings.lift, base_z=base, **kwargs)
         except ValueError:
