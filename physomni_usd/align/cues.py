@@ -84,13 +84,13 @@ TOP_RIM_RMS_PX = 1.0
 SPHEROID_ABOVE = 0.3
 #: Line segments shorter than this fraction of the image diagonal are ignored.
 MIN_SEGMENT = 0.025
-#: The line-segment detector reads the photo at this many pixels on its long side at least (a smaller photo
-#: is enlarged) and at most LSD_MAX_SIDE_PX (a larger one is shrunk). At a few hundred pixels a tile's or a
-#: board's edge is a ramp a pixel or two wide that the detector's gradient grouping breaks into pieces
-#: shorter than MIN_SEGMENT: of 30 generated scenes at 320 × 240 (bench general seed 577351, scenes 0-29),
-#: vanishing points read the field of view on 10 as read, 13 with the photo doubled; tripled (1000 px) the
-#: interpolation's soft ramps lose as many as it finds.
-LSD_MIN_SIDE_PX = 640
+#: The line-segment detector reads a photo of at most LSD_SMALL_PX on its long side doubled, and a photo over
+#: LSD_MAX_SIDE_PX shrunk to that. At a few hundred pixels a tile's or a board's edge is a ramp a pixel or two
+#: wide that the detector's gradient grouping breaks into pieces shorter than MIN_SEGMENT: of 30 generated
+#: scenes at 320 × 240 (bench general seed 577351, scenes 0-29) vanishing points read the field of view on 10
+#: as read, 13 doubled, 12 at 1.5× and 9 at 3.1×. A 480 × 360 photo is read as it is: enlarged (1.33× or 2×)
+#: the near-parallel lines of a board seen from 85° (``bench.photos.make_known_scene``) met 3-5° off.
+LSD_SMALL_PX = 400
 LSD_MAX_SIDE_PX = 1000
 #: A segment belongs to a vanishing point when its direction is within this angle of the point (degrees).
 VP_ANGLE_DEG = 1.5
@@ -462,9 +462,9 @@ def ellipse_horizon_fov(outlines: list[RoundOutline], horizon_row: float, width:
 
 def line_segments(photo: np.ndarray) -> np.ndarray:
     """(N, 4) segments x0, y0, x1, y1 (the photo's pixels) of OpenCV's line-segment detector, run on the photo
-    resized to between :data:`LSD_MIN_SIDE_PX` and :data:`LSD_MAX_SIDE_PX` on the long side."""
+    doubled when small (:data:`LSD_SMALL_PX`), at most :data:`LSD_MAX_SIDE_PX` on the long side."""
     gray = cv2.cvtColor(photo, cv2.COLOR_RGB2GRAY) if photo.ndim == 3 else photo
-    k = min(max(1.0, LSD_MIN_SIDE_PX / max(gray.shape)), LSD_MAX_SIDE_PX / max(gray.shape))
+    k = 2.0 if max(gray.shape) <= LSD_SMALL_PX else min(1.0, LSD_MAX_SIDE_PX / max(gray.shape))
     small = gray if k == 1 else cv2.resize(gray, None, fx=k, fy=k,
                                            interpolation=cv2.INTER_AREA if k < 1 else cv2.INTER_CUBIC)
     found = cv2.createLineSegmentDetector().detect(small)[0]
