@@ -81,9 +81,11 @@ class GuardedRun:
     def rollbacks(self) -> list[dict]:
         return [e for e in self.log if e["remedy"].startswith("halved")]
 
-    def _checkpoint(self):
-        return (self.stepper.checkpoint(), self.frame, self.t, self.step, self.speed, self.guard.work,
-                self.separation_j)
+    def _checkpoint(self, replacing=None):
+        """The state now, to roll back to; ``replacing``, the checkpoint this one takes the place of, lends
+        its arrays."""
+        snap = self.stepper.checkpoint(replacing[0] if replacing is not None else None)
+        return snap, self.frame, self.t, self.step, self.speed, self.guard.work, self.separation_j
 
     def _back(self, saved) -> None:
         snap, self.frame, self.t, self.step, self.speed, self.guard.work, self.separation_j = saved
@@ -123,14 +125,14 @@ class GuardedRun:
             self._name_fields(energy)
             self.speed = speed
             self.max_speed = max(self.max_speed, speed)
-            self._saved = self._checkpoint()
+            self._saved = self._checkpoint(self._saved)
             self._retry_frame = None
             return True
         failed = self.frame
         field_work = self.guard.work - self._saved[5]
         if len(self.rollbacks) >= MAX_RETRIES or time.perf_counter() - self._t_frame > FRAME_WALL_BUDGET_S:
             if not self.give_up:
-                self._saved = self._checkpoint()  # stepping on, as the preview does, from here
+                self._saved = self._checkpoint(self._saved)  # stepping on, as the preview does, from here
                 return True
             what = (f"simulation diverged at frame {failed}: {why}, even at {self.plan.substeps} substeps per frame"
                     if len(self.rollbacks) >= MAX_RETRIES else
