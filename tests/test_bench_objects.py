@@ -17,6 +17,9 @@ def test_the_object_axis_times_each_count_and_fits_the_growth():
     s0, s1 = (r["step_s"] for r in out["rows"])
     assert math.isfinite(out["exponent"])
     assert abs(out["exponent"] - math.log(s1 / s0) / math.log(3.0)) < 1e-2
+    # the solver's contacts counted at the guard's checks: boxes on the ground hold more as there are more boxes
+    assert 0 < out["rows"][0]["contacts"] < out["rows"][1]["contacts"]
+    assert math.isfinite(out["exponent_cpu_by_contacts"])
     c0, c1 = (r["step_cpu_s"] for r in out["rows"])
     assert abs(out["exponent_cpu"] - math.log(c1 / c0) / math.log(3.0)) < 1e-2
     assert any("stepping grows as boxes^" in line and "in CPU seconds" in line for line in lines)

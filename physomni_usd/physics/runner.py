@@ -58,6 +58,7 @@ class GuardedRun:
             self.depenetration = stepper.depenetration
             self._start = stepper.checkpoint()
         self.log: list[dict] = []  # every roll-back and every growth counted, with cause and remedy
+        self.contacts: list[int] = []  # the rigid contacts the solver held at each check passed
         self._restart()
 
     def _restart(self) -> None:
@@ -123,6 +124,8 @@ class GuardedRun:
                 why = self.guard.check(energy, speed, finite)
         if why is None:
             self._name_fields(energy)
+            if self.stepper.contacts is not None:
+                self.contacts.append(int(self.stepper.contacts.rigid_contact_count.numpy()[0]))
             self.speed = speed
             self.max_speed = max(self.max_speed, speed)
             self._saved = self._checkpoint(self._saved)
@@ -205,7 +208,10 @@ class GuardedRun:
         g = self.guard
         return {"energy_initial_j": g.initial, "energy_final_j": g.last_energy, "work_j": g.work,
                 "separation_work_j": self.separation_j, "tolerance": g.tolerance, "check_every_frames": self.check_every,
-                "rollbacks": self.rollbacks, "diagnoses": self.log, "depenetration": self.depenetration.as_dict()}
+                "rollbacks": self.rollbacks, "diagnoses": self.log, "depenetration": self.depenetration.as_dict(),
+                # what the stepping's cost grows with: bench scale fits it against these
+                "rigid_contacts": ({"mean": round(float(np.mean(self.contacts)), 1), "max": max(self.contacts),
+                                   "checks": len(self.contacts)} if self.contacts else None)}
 
 
 @dataclass
