@@ -156,7 +156,10 @@ def bench_objects(counts=COUNTS, seconds: float = 2.0, echo=print) -> dict:
     """``simulate`` (each a fresh process) on ``counts`` dropped boxes for ``seconds``: the command's wall and
     CPU seconds and peak memory, and its stepping's seconds (the report's ``seconds.step``), as ratios to the
     fewest; ``exponent``: the slope of log(stepping seconds) over log(boxes), least squares (1: the stepping
-    grows as the boxes and their contacts do)."""
+    grows as the boxes and their contacts do), in wall seconds and in the stepping's CPU seconds
+    (``seconds.step_cpu``: what a shared machine's load, which swings the wall's between counts, does not
+    inflate); ``exponent_cpu_by_contacts``: the CPU seconds' slope over the rigid contacts the solver held (the
+    mean over the guard's checks, ``guard.rigid_contacts``), the growth the stepping should not outrun."""
     from ..errors import InputError
     from .scenes import falling_boxes, write_bench_shot
 
@@ -173,21 +176,40 @@ def bench_objects(counts=COUNTS, seconds: float = 2.0, echo=print) -> dict:
             row = _timed([sys.executable, "-m", "physomni_usd.cli", "simulate", str(shot), "--seconds",
                           str(seconds), "-q"], env)
             report = json.loads((folder / "report.json").read_text())
-            row["step_s"] = float(report["stages"]["simulate"]["seconds"]["step"])
+            times = report["stages"]["simulate"]["seconds"]
+            row["step_s"], row["step_cpu_s"] = float(times["step"]), float(times["step_cpu"])
+            contacts = report["stages"]["simulate"]["guard"].get("rigid_contacts") or {}
+            row["contacts"] = contacts.get("mean")
             row["objects"] = n
             rows.append(row)
             echo(f"objects: {n} boxes: simulate {row['wall_s']:.1f} s wall / {row['cpu_s']:.1f} s cpu / "
-                 f"{row['peak_mb']:.0f} MB, stepping {row['step_s']:.2f} s (load {row['load']:.1f})")
+                 f"{row['peak_mb']:.0f} MB, stepping {row['step_s']:.2f} s wall / {row['step_cpu_s']:.2f} s cpu "
+                 f"(load {row['load']:.1f})")
     base = rows[0]
     for row in rows:
-        row["ratio_to_fewest"] = {k: round(row[k] / max(base[k], 1e-9), 2) for k in ("wall_s", "cpu_s", "step_s")}
+        row["ratio_to_fewest"] = {k: round(row[k] / max(base[k], 1e-9), 2)
+                                  for k in ("wall_s", "cpu_s", "step_s", "step_cpu_s")}
     x = np.log([r["objects"] for r in rows])
-    y = np.log([max(r["step_s"], 1e-9) for r in rows])
-    exponent = float(np.polyfit(x, y, 1)[0]) if len(rows) > 1 else float("nan")
-    table = [f"{'boxes':>6} {'wall s':>8} {'cpu s':>8} {'step s':>8} {'peak MB':>8} {'× step':>7} {'load':>5}"]
+
+    def slope(key: str) -> float:
+        y = np.log([max(r[key], 1e-9) for r in rows])
+        return float(np.polyfit(x, y, 1)[0]) if len(rows) > 1 else float("nan")
+
+    exponent, exponent_cpu = slope("step_s"), slope("step_cpu_s")
+    # against the contacts the solver held (their mean over the guard's checks), not the boxes assumed to make them
+    counted = len(rows) > 1 and all(r["contacts"] for r in rows)
+    by_contacts = (float(np.polyfit(np.log([r["contacts"] for r in rows]),
+                                    np.log([max(r["step_cpu_s"], 1e-9) for r in rows]), 1)[0])
+                   if counted else float("nan"))
+    table = [f"{'boxes':>6} {'contacts':>8} {'wall s':>8} {'cpu s':>8} {'step s':>8} {'step cpu':>8} {'peak MB':>8} "
+             f"{'× step':>7} {'× cpu':>6} {'load':>5}"]
     for r in rows:
-        table.append(f"{r['objects']:>6} {r['wall_s']:8.1f} {r['cpu_s']:8.1f} {r['step_s']:8.2f} {r['peak_mb']:8.0f} "
-                     f"{r['ratio_to_fewest']['step_s']:7.2f} {r['load']:5.1f}")
-    table.append(f"stepping grows as boxes^{exponent:.2f} (least squares over {len(rows)} counts; contacts ∝ boxes)")
+        table.append(f"{r['objects']:>6} {r['contacts'] or 0:8.0f} {r['wall_s']:8.1f} {r['cpu_s']:8.1f} "
+                     f"{r['step_s']:8.2f} {r['step_cpu_s']:8.2f} {r['peak_mb']:8.0f} "
+                     f"{r['ratio_to_fewest']['step_s']:7.2f} {r['ratio_to_fewest']['step_cpu_s']:6.2f} {r['load']:5.1f}")
+    table.append(f"stepping grows as boxes^{exponent:.2f} in wall seconds, boxes^{exponent_cpu:.2f} in CPU seconds "
+                 f"(least squares over {len(rows)} counts); against the rigid contacts, contacts^{by_contacts:.2f} "
+                 "in CPU seconds")
     echo("\n".join(table))
-    return {"seconds": seconds, "rows": rows, "exponent": round(exponent, 3)}
+    return {"seconds": seconds, "rows": rows, "exponent": round(exponent, 3), "exponent_cpu": round(exponent_cpu, 3),
+            "exponent_cpu_by_contacts": round(by_contacts, 3)}

@@ -47,6 +47,9 @@ class Recorder:
         self.surfaces = {o.path: np.zeros((frames, len(o.points), 3)) for o in models.objects
                          if o.family in ("cloth", "soft") or (mpm and o.family == "mpm" and o.kind in SURFACE_TYPES)}
         self.mpm_points = np.zeros((frames, mpm.model.particle_count, 3), np.float32) if mpm else None
+        # read once: a prim's path is a USD call, and a pile's twenty bodies asked for theirs every frame
+        self._surfaced = [(o, o.path) for o in models.objects if o.path in self.surfaces]
+        self._bound = bool(mpm and any(o.binding is not None for o in mpm.objects))
 
     def record(self, f: int) -> None:
         m = self.models
@@ -55,30 +58,27 @@ class Recorder:
             self.body_q[f] = state.body_q.numpy()
         x = state.particle_q.numpy() if m.model.particle_count else None
         # deformation gradients only move surfaces bound to particles (elastic kinds); sand and liquid have none
-        bound = m.mpm and any(o.binding is not None for o in m.mpm.objects)
-        grads = particle_gradients(m.mpm) if bound else None
+        grads = particle_gradients(m.mpm) if self._bound else None
         if m.mpm:
             self.mpm_points[f] = m.mpm.state.particle_q.numpy()
-        for o in m.objects:
-            if o.path not in self.surfaces:
-                continue
+        for o, path in self._surfaced:
             if o.family == "cloth":
-                start, count = m.ranges[o.path]
-                sheet = m.cloth_sheets[o.path]
+                start, count = m.ranges[path]
+                sheet = m.cloth_sheets[path]
                 # each surface vertex at its rest offset from its particle: add_cloth starts the particles lifted
                 # clear of the ground for contact, and the offsets take that lift off, so that frame 0 is the
                 # surface as built (the photo) and the cloth rests on what it touches
                 world = x[start:start + count].astype(np.float64)[sheet.index] + sheet.offset
             elif o.family == "soft":
-                start, count = m.ranges[o.path]
+                start, count = m.ranges[path]
                 now = x[start:start + count].astype(np.float64)
-                world = deform_surface(m.soft_bindings[o.path], now, soft_turn(m.soft_rest[o.path], now))
+                world = deform_surface(m.soft_bindings[path], now, soft_turn(m.soft_rest[path], now))
             else:
-                mo = m.mpm_objects[o.path]
+                mo = m.mpm_objects[path]
                 pts = self.mpm_points[f, mo.start:mo.start + mo.count].astype(np.float64)
                 g = grads[mo.start:mo.start + mo.count] if grads is not None else None
                 world = deform_surface(mo.binding, pts, g)
-            self.surfaces[o.path][f] = o.to_local(world)
+            self.surfaces[path][f] = o.to_local(world)
 
 
     def still(self, f0: int, f1: int, bound: float = STILL_METRES) -> bool:

@@ -58,6 +58,7 @@ class GuardedRun:
             self.depenetration = stepper.depenetration
             self._start = stepper.checkpoint()
         self.log: list[dict] = []  # every roll-back and every growth counted, with cause and remedy
+        self.contacts: list[int] = []  # the rigid contacts the solver held at each check passed
         self._restart()
 
     def _restart(self) -> None:
@@ -81,9 +82,11 @@ class GuardedRun:
     def rollbacks(self) -> list[dict]:
         return [e for e in self.log if e["remedy"].startswith("halved")]
 
-    def _checkpoint(self):
-        return (self.stepper.checkpoint(), self.frame, self.t, self.step, self.speed, self.guard.work,
-                self.separation_j)
+    def _checkpoint(self, replacing=None):
+        """The state now, to roll back to; ``replacing``, the checkpoint this one takes the place of, lends
+        its arrays."""
+        snap = self.stepper.checkpoint(replacing[0] if replacing is not None else None)
+        return snap, self.frame, self.t, self.step, self.speed, self.guard.work, self.separation_j
 
     def _back(self, saved) -> None:
         snap, self.frame, self.t, self.step, self.speed, self.guard.work, self.separation_j = saved
@@ -121,16 +124,18 @@ class GuardedRun:
                 why = self.guard.check(energy, speed, finite)
         if why is None:
             self._name_fields(energy)
+            if self.stepper.contacts is not None:
+                self.contacts.append(int(self.stepper.contacts.rigid_contact_count.numpy()[0]))
             self.speed = speed
             self.max_speed = max(self.max_speed, speed)
-            self._saved = self._checkpoint()
+            self._saved = self._checkpoint(self._saved)
             self._retry_frame = None
             return True
         failed = self.frame
         field_work = self.guard.work - self._saved[5]
         if len(self.rollbacks) >= MAX_RETRIES or time.perf_counter() - self._t_frame > FRAME_WALL_BUDGET_S:
             if not self.give_up:
-                self._saved = self._checkpoint()  # stepping on, as the preview does, from here
+                self._saved = self._checkpoint(self._saved)  # stepping on, as the preview does, from here
                 return True
             what = (f"simulation diverged at frame {failed}: {why}, even at {self.plan.substeps} substeps per frame"
                     if len(self.rollbacks) >= MAX_RETRIES else
@@ -203,7 +208,10 @@ class GuardedRun:
         g = self.guard
         return {"energy_initial_j": g.initial, "energy_final_j": g.last_energy, "work_j": g.work,
                 "separation_work_j": self.separation_j, "tolerance": g.tolerance, "check_every_frames": self.check_every,
-                "rollbacks": self.rollbacks, "diagnoses": self.log, "depenetration": self.depenetration.as_dict()}
+                "rollbacks": self.rollbacks, "diagnoses": self.log, "depenetration": self.depenetration.as_dict(),
+                # what the stepping's cost grows with: bench scale fits it against these
+                "rigid_contacts": ({"mean": round(float(np.mean(self.contacts)), 1), "max": max(self.contacts),
+                                   "checks": len(self.contacts)} if self.contacts else None)}
 
 
 @dataclass

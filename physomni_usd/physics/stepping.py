@@ -81,13 +81,20 @@ class Stepper:
         #: clipped), or None for every particle
         self.separating_particles = None
 
-    def checkpoint(self):
-        """Copies of the state (the MPM scene's included) and the pending pushes, for :meth:`restore`."""
+    def checkpoint(self, into=None):
+        """Copies of the state (the MPM scene's included) and the pending pushes, for :meth:`restore`;
+        ``into``, an earlier checkpoint no longer needed, is written over rather than new arrays allocated."""
         import warp as wp
 
-        snaps = [snapshot(self.state)]
+        old = into[0] if into is not None else []
+        snaps = [snapshot(self.state, old[0] if old else None)]
         if self.mpm:
-            snaps += [snapshot(self.mpm.state), {"": wp.clone(self.mpm.body_force)}]
+            force = old[2][""] if len(old) > 2 else None
+            if force is None or force.shape != self.mpm.body_force.shape:
+                force = wp.clone(self.mpm.body_force)
+            else:
+                wp.copy(force, self.mpm.body_force)
+            snaps += [snapshot(self.mpm.state, old[1] if len(old) > 1 else None), {"": force}]
         return snaps, list(self.pending)
 
     def restore(self, saved) -> None:
