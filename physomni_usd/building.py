@@ -335,11 +335,14 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         checks = [f.as_dict() for f in scene_findings(stage)]
     for c in checks:
         echo(f"check: {c['severity']}: {c['message']}")
-    overlap = next((c for c in checks if c["severity"] == "error" and c["check"] == "penetration"), None)
-    if overlap is not None:  # the separation pass measures as the check does: this is a bug, not the photo
+    refused = next((c for c in checks if c["severity"] == "error"), None)
+    if refused is not None:  # simulate refuses what these name: a built shot it cannot run is not a build
         from .errors import PhysOmniError
 
-        raise PhysOmniError(f"{overlap['message']} after the separation pass: simulate would refuse the scene")
+        if refused["check"] == "penetration":  # the separation pass measures as the check does: a bug, not the photo
+            raise PhysOmniError(f"{refused['message']} after the separation pass: simulate would refuse the scene")
+        raise PhysOmniError(f"{refused['message']}: simulate would refuse the scene (give the object's size with "
+                            "--size NAME=METRES, or correct its label)")
     old = read_report(out) or {}
     for key in ("simulate", "render", "run"):  # they described the old shot
         old.get("stages", {}).pop(key, None)
