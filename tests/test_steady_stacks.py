@@ -143,3 +143,19 @@ def test_a_slanted_sole_is_made_level_where_it_holds_the_centre_of_mass():
     assert overhang(sole, com) < -0.005 and float(verts[0][:, 2].min()) == 0.0
     moved = verts[0][~bottom] - v[~bottom]  # the rest only as its foot's cut lowered the whole (flat_foot)
     assert np.allclose(moved[:, :2], 0) and np.ptp(moved[:, 2]) < 1e-9
+
+
+def test_a_cut_that_leaves_a_round_thing_thinner_than_round_is_told_from_one_that_does_not():
+    import trimesh
+
+    from physomni_usd.physics.support import _thinned
+
+    ball = trimesh.creation.icosphere(subdivisions=3, radius=0.04).vertices
+    shaved = ball.copy()
+    shaved[:, 2] = np.maximum(shaved[:, 2], -0.04 + 0.003)  # a 3 mm sole: still round
+    flattened = ball.copy()
+    flattened[:, 2] = np.maximum(flattened[:, 2], -0.04 + 0.02)  # a quarter of its depth gone
+    assert not _thinned(ball, shaved)
+    assert _thinned(ball, flattened)
+    slab = ball * np.array([1.0, 1.0, 0.5])  # thin to start with: a cut does not make it so
+    assert not _thinned(slab, np.maximum(slab, -0.015))

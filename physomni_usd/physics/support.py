@@ -185,8 +185,9 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
             for k in riders(i, supports)[1:]:
                 verts[k][:, 2] -= cut
             done.append({"object": i, "flat_foot_m": round(cut, 4)})
-        verts[i], level = level_sole(verts[i], faces[i])  # a foot cut round its lowest point may not hold it
-        if level > 0:
+        soled, level = level_sole(verts[i], faces[i])  # a foot cut round its lowest point may not hold it
+        if level > 0 and not _thinned(verts[i], soled):
+            verts[i] = soled
             done.append({"object": i, "level_sole_m": round(level, 4)})
     # highest first: what an object carries is steady on it before the load of both is brought over the one
     # under them; a shift moves an object with its riders, so it never undoes one made above it
@@ -325,6 +326,25 @@ def _dome_on_dome(verts, faces, supports: dict, i: int, j: int, eye, done: list)
     done.append({"object": i, "on": j, "crown_shift_m": round(float(np.linalg.norm(shift)), 4),
                  "foot_cut_m": round(cut_i, 4), "crown_cut_m": round(cut_j, 4)})
     return True
+
+
+def _thinned(before: np.ndarray, after: np.ndarray) -> bool:
+    """Whether cutting ``before`` (N, 3) to ``after`` took its thinnest side (of its oriented box) below
+    :data:`~physomni_usd.metrics.geometry.ROUND_FRACTION` of its middle one where it was not below before: the
+    build deepened every round object to that depth (``building``), and flattening its sole must not undo it."""
+    import trimesh
+
+    from ..metrics.geometry import ROUND_FRACTION
+
+    def ratio(points):
+        try:
+            extents = np.sort(trimesh.bounds.oriented_bounds(points, angle_digits=2)[1])
+        except Exception:  # noqa: BLE001 — a degenerate set: judged by its axes
+            extents = np.sort(np.ptp(points, axis=0))
+        return float(extents[0] / max(extents[1], 1e-12))
+
+    limit = ROUND_FRACTION * 0.98
+    return ratio(after) < limit <= ratio(before)
 
 
 def level_sole(points: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, float]:
