@@ -96,9 +96,10 @@ class ShotModels:
                                  ignore_paths=[re.escape(p) + "(/.*)?$" for p in not_rigid + [o.path for o in hollow]]
                                  or None)
         self.path_body = {p: b for p, b in result["path_body_map"].items() if p.startswith(OBJECTS + "/")}
-        self.path_body.update(add_decomposed(builder, hollow, newton, wp))
-        self.path_body.update(_add_stand_ins(builder, [o for o in objects if o.family == "rigid"
-                                                       and not o.is_body], newton, wp))
+        own = add_decomposed(builder, hollow, newton, wp)
+        own.update(_add_stand_ins(builder, [o for o in objects if o.family == "rigid" and not o.is_body], newton, wp))
+        self.path_body.update(own)
+        self.own_bodies = set(own)  # bodies Newton's importer did not build, so did not give their velocity
         # feet for objects whose visible geometry cannot stand where the photo shows them standing
         self.supported = add_hidden_support(builder, objects, self.path_body, _ground_height(stage), newton, wp)
 
@@ -123,7 +124,7 @@ class ShotModels:
 
     def _add_controls(self, builder) -> list:
         """Fixed bodies made kinematic; returns the pushes of bodies and particles (MPM's come later)."""
-        fixed, pushes = read_controls(self.stage, self.path_body)
+        fixed, pushes = read_controls(self.stage, self.path_body, self.own_bodies)
         pushes += particle_pushes(self.stage, self.ranges)
         for b in fixed:
             # a kinematic body with no velocity stays put and still collides with everything else

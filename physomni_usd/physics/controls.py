@@ -21,15 +21,18 @@ class Push:
     mpm: bool = False
 
 
-def read_controls(stage: Usd.Stage, path_body: dict) -> tuple[set, list[Push]]:
-    """Fixed bodies, and the velocities ``physomni:initialVelocity`` / ``initialAngularVelocity`` give them."""
+def read_controls(stage: Usd.Stage, path_body: dict, own: set | frozenset = frozenset()) -> tuple[set, list[Push]]:
+    """Fixed bodies, and the velocities ``physomni:initialVelocity`` / ``initialAngularVelocity`` give them.
+    The bodies at the paths in ``own`` were built here, not by Newton's USD importer (a hollow body cut into
+    convex pieces, a stand-in): the importer gives a body its UsdPhysics ``physics:velocity`` (what ``run
+    --push`` at 0 s writes), so these take it as a push at 0 s; without it a pushed pot stood still."""
     fixed, pushes = set(), []
     for path, b in path_body.items():
         prim = stage.GetPrimAtPath(path)
         if prim.GetAttribute("physomni:fixed").Get():
             fixed.add(b)
             continue
-        push = _initial_velocity(prim)
+        push = _initial_velocity(prim) or (_rigid_body_velocity(prim) if path in own else None)
         if push is not None:
             push.body = b
             pushes.append(push)
