@@ -341,8 +341,8 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
 
         if refused["check"] == "penetration":  # the separation pass measures as the check does: a bug, not the photo
             raise PhysOmniError(f"{refused['message']} after the separation pass: simulate would refuse the scene")
-        raise PhysOmniError(f"{refused['message']}: simulate would refuse the scene (give the object's size with "
-                            "--size NAME=METRES, or correct its label)")
+        hint = " (give its size with --size LABEL=METRES, or correct its label)" if refused["check"] == "size" else ""
+        raise PhysOmniError(f"{refused['message']}: simulate would refuse the scene{hint}")
     old = read_report(out) or {}
     for key in ("simulate", "render", "run"):  # they described the old shot
         old.get("stages", {}).pop(key, None)

@@ -212,4 +212,4 @@ def bench_objects(counts=COUNTS, seconds: float = 2.0, echo=print) -> dict:
                  "in CPU seconds")
     echo("\n".join(table))
     return {"seconds": seconds, "rows": rows, "exponent": round(exponent, 3), "exponent_cpu": round(exponent_cpu, 3),
-            "exponent_cpu_by_contacts": round(by_contacts, 3)}
+            "exponent_cpu_by_contacts": round(by_contacts, 3) if np.isfinite(by_contacts) else None}

@@ -58,13 +58,13 @@ class GuardedRun:
             self.depenetration = stepper.depenetration
             self._start = stepper.checkpoint()
         self.log: list[dict] = []  # every roll-back and every growth counted, with cause and remedy
-        self.contacts: list[int] = []  # the rigid contacts the solver held at each check passed
         self._restart()
 
     def _restart(self) -> None:
         self.t, self.step, self.frame = 0.0, 0, 0
         self.guard = Guard(self.tolerance)
         self.separation_j = 0.0  # energy the solver added separating start overlaps
+        self.contacts: list[int] = []  # the rigid contacts the solver held at each check passed, this take
         energy, speed, finite = _energy(self.stepper)
         self.guard.check(energy, speed, finite)
         self.speed = self.max_speed = speed
