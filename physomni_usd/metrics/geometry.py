@@ -259,6 +259,9 @@ def rest_turn(stage: Usd.Stage, names=None) -> dict[str, float]:
 #: fraction of its width instead.
 THIN_FRACTION = 1.0 / 3.0
 ROUND_FRACTION = 0.8
+#: The share of the least thickness a solid must reach to pass: one deepened to exactly that thickness
+#: measures a little under it once its oriented box is fitted again.
+THIN_SLACK = 0.98
 #: A label whose typical resting height is under this fraction of its longest side says the thing is flat
 #: (a coin, a card, a book, a plate): it may be as thin as it is.
 FLAT_LABEL_RATIO = 1.0 / 3.0
@@ -300,7 +303,7 @@ def thin_side(vertices: np.ndarray, label: str, camera_origin) -> dict | None:
     order = np.argsort(extents)
     thickness, side = float(extents[order[0]]), float(extents[order[1]])
     need = (ROUND_FRACTION if says == "round" else THIN_FRACTION) * side
-    if thickness >= need * 0.98 or side <= 0:
+    if thickness >= need * THIN_SLACK or side <= 0:
         return None
     world = np.linalg.inv(to_origin)
     axis, centre = world[:3, order[0]], world[:3, 3]

@@ -334,7 +334,7 @@ def _thinned(before: np.ndarray, after: np.ndarray) -> bool:
     build deepened every round object to that depth (``building``), and flattening its sole must not undo it."""
     import trimesh
 
-    from ..metrics.geometry import ROUND_FRACTION
+    from ..metrics.geometry import ROUND_FRACTION, THIN_SLACK
 
     def ratio(points):
         try:
@@ -343,7 +343,7 @@ def _thinned(before: np.ndarray, after: np.ndarray) -> bool:
             extents = np.sort(np.ptp(points, axis=0))
         return float(extents[0] / max(extents[1], 1e-12))
 
-    limit = ROUND_FRACTION * 0.98
+    limit = ROUND_FRACTION * THIN_SLACK
     return ratio(after) < limit <= ratio(before)
 
 
