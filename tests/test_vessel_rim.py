@@ -1,11 +1,12 @@
-"""What rests on a vessel's rim (lift.vessel.rests_on_rim): a plant's foliage wider than its pot's mouth."""
+"""What rests on a vessel's rim (lift.rim.rests_on_rim): a plant's foliage wider than its pot's mouth."""
 
 import numpy as np
 import trimesh
 
 from physomni_usd.align.compare import silhouette
 from physomni_usd.geometry.camera import PinholeCamera
-from physomni_usd.lift.vessel import foot_in_mouth, rests_on_rim, vessel_frame, vessel_mesh
+from physomni_usd.lift.rim import foot_in_mouth, rests_on_rim, vessel_frame
+from physomni_usd.lift.vessel import vessel_mesh
 
 CAMERA = PinholeCamera(320, 240, 50.0, 30.0, (0.0, 0.0, 1.0))
 

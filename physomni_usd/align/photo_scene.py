@@ -7,7 +7,7 @@ unit camera height, objects resting on others are found (``align/support.py``)
 and read against the occlusion order (``perceive/amodal.py``: what an
 occluder hides is no contact, and a hidden foot reaches down behind it),
 every object is lifted (``lift/silhouette.py``; what is wider than the mouth of the vessel it stands in rests
-on its rim, ``lift/vessel.py``) and the scene's scale is fixed
+on its rim, ``lift/rim.py``) and the scene's scale is fixed
 from the objects' typical sizes (``align/scale.py``). :func:`place_on_ground`:
 objects resting on others move with them, the rest are kept apart
 (``align/place.py``).
@@ -94,11 +94,11 @@ def surface_under(lower, upper_mask: np.ndarray, camera: PinholeCamera) -> float
 
 def on_rim(lower, upper_mask: np.ndarray, camera: PinholeCamera, settings: BuildSettings):
     """The object of ``upper_mask`` lifted resting on the rim of ``lower`` where ``lower`` is a vessel, its foot
-    shows in the vessel's mouth (``lift.vessel.foot_in_mouth``) and it is wider than the mouth (``lift.vessel.rests_on_rim``: a plant's foliage over
+    shows in the vessel's mouth (``lift.rim.foot_in_mouth``) and it is wider than the mouth (``lift.rim.rests_on_rim``: a plant's foliage over
     its pot); None otherwise. Stood on the surface its foot's ray meets inside the mouth (the back wall), and as
     deep as the outline alone makes it, such a thing came out a slab standing on the pot's back rim, and fell."""
     from ..lift.silhouette import LiftedMesh
-    from ..lift.vessel import foot_in_mouth, rests_on_rim
+    from ..lift.rim import foot_in_mouth, rests_on_rim
 
     if lower.shape != "vessel" or settings.lift.shape != "auto" \
             or not foot_in_mouth(lower.vertices, upper_mask, camera):

@@ -168,12 +168,14 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
     on it). First the top under its foot is made flat at its base (:func:`raise_top`: hidden by
     it); where that centre still overhangs, it is shifted level, with whatever rests on it, by the shift
     into ``geometry.resting.STEADY_MARGIN`` inside that top that moves its image least (:func:`_cheapest_shift`): a few
-    pixels, where a fall moves it off the frame. An object whose centre of mass overhangs its own foot is left
-    alone (no shift helps it), and so is one already steady. Higher objects first. Before all that, every
-    object standing on a point on the ground gets a flat foot (:func:`flat_foot`), what rests on it lowered with
-    it (not one held by another object: an orange in a bowl's mouth, rounded, rests on its rim; flattened, it fell
-    24 cm)."""
-    from ..align.support import into_hollow, riders  # the build's; simulate, which imports this module, needs none of align
+    pixels, where a fall moves it off the frame. A rounded object on another's rounded top (no shift holds a dome
+    on a dome) goes into a pile's hollow beside it where one holds it, else over the lower one's crown on flat
+    faces of both (:func:`_dome_on_dome`); so does one whose centre of mass overhangs its own foot. Higher
+    objects first. Before all that, every object standing on a point on the ground or on another's level face
+    (a lemon on a bowl's inner floor) gets a flat foot (:func:`flat_foot`), what rests on it lowered with it (not
+    one on a rim or dome: an orange in a bowl's mouth, rounded, rests on its rim; flattened, it fell 24 cm), and
+    a sole that its centre of mass overhangs is levelled (:func:`level_sole`)."""
+    from ..align.support import riders  # the build's; simulate, which imports this module, needs none of align
 
     verts = [np.asarray(v, float).copy() for v in vertex_sets]
     done = []
@@ -210,27 +212,13 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
         margin = steady_margin(foot)
         c = com[:2]
         if _outside(region, c) <= -margin:
-            if _rounded_pair(verts[i], verts[j]):
-                # balanced dome on dome: a pile's hollow beside it holds it as the photo shows it, else its crown
-                hollow = into_hollow(verts, faces, supports, i, com, eye, margin,
-                                     min(float(v[:, 2].min()) for v in verts))
-                if hollow is not None:
-                    move, on = hollow
-                    for k in riders(i, supports):
-                        verts[k] = verts[k] + move
-                    done.append({"object": i, "on": j, "into_hollow_m": round(float(np.linalg.norm(move)), 4),
-                                 "rests_on": on, "overhang_m": round(_outside(region, c), 4)})
-                    continue
-            _dome_on_dome(verts, faces, supports, i, j, eye, done)
+            # balanced dome on dome: a pile's hollow beside it holds it as the photo shows it, else its crown
+            if not (_rounded_pair(verts[i], verts[j])
+                    and _into_hollow(verts, faces, supports, i, j, com, eye, margin, _outside(region, c), done)):
+                _dome_on_dome(verts, faces, supports, i, j, eye, done)
             continue
-        hollow = into_hollow(verts, faces, supports, i, com, eye, margin, min(float(v[:, 2].min()) for v in verts))
-        if hollow is not None:
-            # held by several together (a pile's hollow): on one's top alone it balances on a dome
-            move, on = hollow
-            for k in riders(i, supports):
-                verts[k] = verts[k] + move
-            done.append({"object": i, "on": j, "into_hollow_m": round(float(np.linalg.norm(move)), 4),
-                         "rests_on": on, "overhang_m": round(_outside(region, c), 4)})
+        # held by several together (a pile's hollow): on one's top alone it balances on a dome
+        if _into_hollow(verts, faces, supports, i, j, com, eye, margin, _outside(region, c), done):
             continue
         if _dome_on_dome(verts, faces, supports, i, j, eye, done):
             continue
@@ -278,6 +266,23 @@ def on_level_face(upper: np.ndarray, lower: np.ndarray, lower_faces: np.ndarray)
 #: A rounded object on a rounded top is brought over that top's crown by at most this fraction of its own
 #: smaller level width: farther, the photo shows it elsewhere, and it is left as it was.
 CROWN_REACH = 0.5
+
+
+def _into_hollow(verts, faces, supports: dict, i: int, j: int, com, eye, margin: float, overhang: float,
+                 done: list) -> bool:
+    """Object ``i`` (on ``j``) and what it carries moved into the hollow :func:`into_hollow` finds for it, if
+    one holds it; records it in ``done`` and returns whether it did."""
+    from ..align.support import into_hollow, riders
+
+    hollow = into_hollow(verts, faces, supports, i, com, eye, margin, min(float(v[:, 2].min()) for v in verts))
+    if hollow is None:
+        return False
+    move, on = hollow
+    for k in riders(i, supports):
+        verts[k] = verts[k] + move
+    done.append({"object": i, "on": j, "into_hollow_m": round(float(np.linalg.norm(move)), 4),
+                 "rests_on": on, "overhang_m": round(overhang, 4)})
+    return True
 
 
 def _rounded_pair(upper: np.ndarray, lower: np.ndarray) -> bool:
