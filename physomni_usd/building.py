@@ -335,14 +335,11 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         checks = [f.as_dict() for f in scene_findings(stage)]
     for c in checks:
         echo(f"check: {c['severity']}: {c['message']}")
-    refused = next((c for c in checks if c["severity"] == "error"), None)
-    if refused is not None:  # simulate refuses what these name: a built shot it cannot run is not a build
+    overlap = next((c for c in checks if c["severity"] == "error" and c["check"] == "penetration"), None)
+    if overlap is not None:  # the separation pass measures as the check does: this is a bug, not the photo
         from .errors import PhysOmniError
 
-        if refused["check"] == "penetration":  # the separation pass measures as the check does: a bug, not the photo
-            raise PhysOmniError(f"{refused['message']} after the separation pass: simulate would refuse the scene")
-        hint = " (give its size with --size LABEL=METRES, or correct its label)" if refused["check"] == "size" else ""
-        raise PhysOmniError(f"{refused['message']}: simulate would refuse the scene{hint}")
+        raise PhysOmniError(f"{overlap['message']} after the separation pass: simulate would refuse the scene")
     old = read_report(out) or {}
     for key in ("simulate", "render", "run"):  # they described the old shot
         old.get("stages", {}).pop(key, None)

@@ -101,14 +101,3 @@ def test_a_label_made_in_every_size_votes_only_where_no_narrower_one_does():
     # ... unless the narrower one is off them by more than the disagreement factor (a failed lift): all vote
     odd = fit_scale(["card_0", "box_1", "box_2"], ["card", "box", "box"], [1.8, 0.5, 0.4])
     assert odd.factor > 2 * 0.086 / 1.8 and "broad" not in odd.votes[1]  # not the card's 0.048 alone
-
-
-def test_a_build_simulate_would_refuse_ends_in_one_line_and_leaves_no_shot(tmp_path, photo):
-    # a cup said to be 200 m makes the box beside it, the same size in the photo, hundreds of times its label's
-    # size: the checks call that an error and simulate refuses it, so build must not write it and exit 0
-    masks = ["--mask", f"{photo['cup']}:cup", "--mask", f"{photo['box']}:box"]
-    proc = cli("build", photo["photo"], "-o", tmp_path / "d", "-q", *masks, "--size", "cup=200")
-    assert proc.returncode == 1, proc.stderr
-    lines = [line for line in proc.stderr.splitlines() if line.startswith("error")]
-    assert len(lines) == 1 and "box_1" in lines[0] and "simulate would refuse" in lines[0], proc.stderr
-    assert not (tmp_path / "d" / "shot.usda").exists()

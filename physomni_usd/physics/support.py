@@ -171,17 +171,20 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
     pixels, where a fall moves it off the frame. A rounded object on another's rounded top (no shift holds a dome
     on a dome) goes into a pile's hollow beside it where one holds it, else over the lower one's crown on flat
     faces of both (:func:`_dome_on_dome`); so does one whose centre of mass overhangs its own foot. Higher
-    objects first. Before all that, every object standing on a point on the ground or on another's level face
-    (a lemon on a bowl's inner floor) gets a flat foot (:func:`flat_foot`), what rests on it lowered with it (not
-    one on a rim or dome: an orange in a bowl's mouth, rounded, rests on its rim; flattened, it fell 24 cm), and
-    a sole that its centre of mass overhangs is levelled (:func:`level_sole`)."""
+    objects first. Before all that, every object standing on a point on the ground gets a flat foot
+    (:func:`flat_foot`), what rests on it lowered with it (not one held by another object: an orange in a bowl's
+    mouth, rounded, rests on its rim; flattened, it fell 24 cm), and a sole that its centre of mass overhangs is
+    levelled (:func:`level_sole`)."""
     from ..align.support import riders  # the build's; simulate, which imports this module, needs none of align
 
     verts = [np.asarray(v, float).copy() for v in vertex_sets]
     done = []
     for i in sorted(range(len(verts)), key=lambda k: float(verts[k][:, 2].min())):
-        if i in supports and not on_level_face(verts[i], verts[supports[i][0]], faces[supports[i][0]]):
-            continue  # on another object (an orange in a bowl's mouth): what holds it is not flat
+        # on another object (an orange in a bowl's mouth): what holds it is not flat. A foot on another's level
+        # face (on_level_face: a lemon on a bowl's inner floor) held a lemon still, but a pushed ball read as
+        # standing on a crate's top then slid 6 mm where it rolled (tests/test_studio_pushes.py): not done yet
+        if i in supports:
+            continue
         verts[i], cut = flat_foot(verts[i])
         if cut > 0:
             for k in riders(i, supports)[1:]:
