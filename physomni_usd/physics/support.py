@@ -181,8 +181,8 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
     done = []
     for i in sorted(range(len(verts)), key=lambda k: float(verts[k][:, 2].min())):
         # on another object (an orange in a bowl's mouth): what holds it is not flat. A foot on another's level
-        # face (on_level_face: a lemon on a bowl's inner floor) held a lemon still, but a pushed ball read as
-        # standing on a crate's top then slid 6 mm where it rolled (tests/test_studio_pushes.py): not done yet
+        # face held a lemon on a bowl's inner floor still, but a pushed ball read as standing on a crate's top
+        # then slid 6 mm where it rolled (tests/test_studio_pushes.py): not done yet
         if i in supports:
             continue
         verts[i], cut = flat_foot(verts[i])
@@ -202,8 +202,7 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
         low = float(pts[:, 2].min())
         band = contact_band(pts)
         if overhang(pts, _solid_com(pts, faces[i])) > OVERHANG:
-            if _dome_on_dome(verts, faces, supports, i, j, eye, done):
-                continue
+            _dome_on_dome(verts, faces, supports, i, j, eye, done)
             continue  # it cannot stand on its own foot: no shift helps
         # what tips it off its supporter is its load, itself and all it carries: a book over the lower book's
         # back edge by the one on it (each alone over the top under it) fell 16 cm with it
@@ -214,14 +213,15 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
         foot = pts[pts[:, 2] <= low + band, :2]
         margin = steady_margin(foot)
         c = com[:2]
-        if _outside(region, c) <= -margin:
+        out = _outside(region, c)
+        if out <= -margin:
             # balanced dome on dome: a pile's hollow beside it holds it as the photo shows it, else its crown
             if not (_rounded_pair(verts[i], verts[j])
-                    and _into_hollow(verts, faces, supports, i, j, com, eye, margin, _outside(region, c), done)):
+                    and _into_hollow(verts, faces, supports, i, j, com, eye, margin, out, done)):
                 _dome_on_dome(verts, faces, supports, i, j, eye, done)
             continue
         # held by several together (a pile's hollow): on one's top alone it balances on a dome
-        if _into_hollow(verts, faces, supports, i, j, com, eye, margin, _outside(region, c), done):
+        if _into_hollow(verts, faces, supports, i, j, com, eye, margin, out, done):
             continue
         if _dome_on_dome(verts, faces, supports, i, j, eye, done):
             continue
@@ -240,30 +240,6 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
         done.append({"object": i, "on": j, "shift_m": round(float(np.linalg.norm(shift)), 4),
                      "overhang_m": round(_outside(region, c), 4)})
     return verts, done
-
-
-#: Of a stacked object, the supporter's surface under the disc its flat foot would cover is level and meets its
-#: lowest point within this (m): it stands on a face of it as on the ground (a lemon on a bowl's inner floor).
-LEVEL_FACE = 0.002
-
-
-def on_level_face(upper: np.ndarray, lower: np.ndarray, lower_faces: np.ndarray) -> bool:
-    """Whether ``upper`` (N, 3) rests on a level face of ``lower`` (M, 3 with triangle ``lower_faces``): straight
-    under its lowest point and around it, as wide as :func:`flat_foot` makes a foot, ``lower``'s surface is
-    within :data:`LEVEL_FACE` of that point's height (not a rim it hangs on, nor a dome it balances on)."""
-    import trimesh
-
-    low = upper[np.argmin(upper[:, 2])]
-    r = FOOT_FRACTION * 0.5 * float(np.ptp(upper[:, :2], axis=0).min())
-    ring = [(0.0, 0.0)] + [(r * np.cos(a), r * np.sin(a)) for a in np.linspace(0, 2 * np.pi, 8, endpoint=False)]
-    origins = np.array([[low[0] + dx, low[1] + dy, low[2] + 0.05] for dx, dy in ring])
-    mesh = trimesh.Trimesh(lower, lower_faces, process=False)
-    hits, ray, _ = mesh.ray.intersects_location(origins, np.tile([0.0, 0.0, -1.0], (len(origins), 1)))
-    if len(hits) == 0:
-        return False
-    top = np.full(len(origins), -np.inf)
-    np.maximum.at(top, ray, hits[:, 2])
-    return bool(np.all(np.abs(top - low[2]) <= LEVEL_FACE))
 
 
 #: A rounded object on a rounded top is brought over that top's crown by at most this fraction of its own
