@@ -94,8 +94,8 @@ def surface_under(lower, upper_mask: np.ndarray, camera: PinholeCamera) -> float
 
 def on_rim(lower, upper_mask: np.ndarray, camera: PinholeCamera, settings: BuildSettings):
     """The object of ``upper_mask`` lifted resting on the rim of ``lower`` where ``lower`` is a vessel, its foot
-    shows in the vessel's mouth (``lift.rim.foot_in_mouth``) and it is wider than the mouth (``lift.rim.rests_on_rim``: a plant's foliage over
-    its pot); None otherwise. Stood on the surface its foot's ray meets inside the mouth (the back wall), and as
+    shows in the vessel's mouth (``lift.rim.foot_in_mouth``) and it is wider than the mouth
+    (``lift.rim.rests_on_rim``: a plant's foliage over its pot); None otherwise. Stood on the surface its foot's ray meets inside the mouth (the back wall), and as
     deep as the outline alone makes it, such a thing came out a slab standing on the pot's back rim, and fell."""
     from ..lift.silhouette import LiftedMesh
     from ..lift.rim import foot_in_mouth, rests_on_rim
