@@ -81,7 +81,7 @@ def fill_blend(photo: np.ndarray, hole: np.ndarray, fade: float = 0.0) -> np.nda
     h, w = hole.shape
     out = photo.copy()
     for (x0, y0, x1, y1), win_hole, own, size, budget in hole_windows(hole):
-        filled = _blend_window(photo[y0:y1, x0:x1], win_hole, size, SHADING_DEPTH * np.hypot(h, w), budget)
+        filled = _blend_window(photo[y0:y1, x0:x1], win_hole, size, SHADING_DEPTH * np.hypot(h, w), budget, own)
         if fade > 0:  # the copies' detail faded, the surface's grain (not theirs) laid back where it went flat
             filled = match_grain(photo[y0:y1, x0:x1],
                                  fade_with_depth(filled, win_hole, fade, FADE_MAX * float(np.hypot(h, w))), win_hole)
@@ -113,10 +113,11 @@ def fade_with_depth(filled: np.ndarray, hole: np.ndarray, fade: float, most: flo
     return np.where(hole[..., None], np.clip(out + 0.5, 0, 255), filled).astype(np.uint8)
 
 
-def _blend_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float, budget: float) -> np.ndarray:
-    """The blend fill of ``hole`` in the window ``img`` (h, w, 3) RGB; ``size``, ``depth`` and ``budget`` as the
-    exemplar's window takes them."""
-    coarse, offsets, unfilled = shift_map(img, hole, budget)
+def _blend_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float, budget: float,
+                  own: np.ndarray | None = None) -> np.ndarray:
+    """The blend fill of ``hole`` in the window ``img`` (h, w, 3) RGB; ``size``, ``depth``, ``budget`` and ``own``
+    as the exemplar's window takes them."""
+    coarse, offsets, unfilled = shift_map(img, hole, budget, own)
     src = img.astype(np.float32)
     known = ~hole
     src_low = cv2.GaussianBlur(src, (0, 0), LIKENESS_SIGMA)

@@ -22,10 +22,12 @@ import numpy as np
 from .grain import match_grain, odd_border
 from .pixels import INPAINT_RADIUS, blur, blur_over, colour_code, dilate, within
 
-#: Pixels of the reduced window in which shift-map searches, and most pixels of all holes together at the
-#: reduced size. Below about 10000 the shifts read back are too coarse to carry a surface's grain (a
+#: Pixels of the reduced window in which shift-map searches, and most pixels of each connected part of the hole
+#: at the reduced size. Below about 10000 the shifts read back are too coarse to carry a surface's grain (a
 #: desk's wood came out as a flat disc where a ball stood); 12000 fills the motorcycle's 196000-pixel
-#: hole in about 2 s on one core.
+#: hole in about 2 s on one core. Each part has the whole of it, whatever the other parts: shared among them by
+#: their size, a change anywhere in the hole changed every part's reduction and so its copies (29 pixels less
+#: hole by the motorcycle's mirror changed 23,993 pixels of the plate elsewhere by more than 20 levels).
 EXEMPLAR_PIXELS = 150 * 150
 EXEMPLAR_HOLE_PIXELS = 12000
 #: Context kept around each hole for the exemplar search, as a fraction of the hole's larger side.
@@ -78,10 +80,10 @@ def hole_windows(hole: np.ndarray):
     """Each connected part of ``hole`` (H, W) bool with the window of surface around it
     (:data:`EXEMPLAR_CONTEXT` of its size, the whole photo where that window is all hole): yields the
     window ``(x0, y0, x1, y1)``, the hole in it, the part's own pixels in it, the part's narrower side in
-    pixels and its share of :data:`EXEMPLAR_HOLE_PIXELS` (in proportion to its pixels)."""
+    pixels and its budget at the reduced size (:data:`EXEMPLAR_HOLE_PIXELS`, its own: no other part changes how
+    this one is filled)."""
     h, w = hole.shape
     n, labels, stats, _ = cv2.connectedComponentsWithStats(hole.astype(np.uint8), connectivity=8)
-    total = max(1, int(hole.sum()))
     for k in range(1, n):
         x, y, bw, bh = stats[k, :4]
         m = int(round(EXEMPLAR_CONTEXT * max(bw, bh))) + 8
@@ -90,8 +92,7 @@ def hole_windows(hole: np.ndarray):
         if win_hole.all():
             win_hole = hole  # no surface around this part: use the whole photo
             x0, y0, x1, y1 = 0, 0, w, h
-        yield ((x0, y0, x1, y1), win_hole, labels[y0:y1, x0:x1] == k, min(bw, bh),
-               EXEMPLAR_HOLE_PIXELS * float(stats[k, 4]) / total)
+        yield (x0, y0, x1, y1), win_hole, labels[y0:y1, x0:x1] == k, min(bw, bh), float(EXEMPLAR_HOLE_PIXELS)
 
 
 def fill_exemplar(photo: np.ndarray, hole: np.ndarray, sources: np.ndarray | None = None) -> np.ndarray:
@@ -102,7 +103,7 @@ def fill_exemplar(photo: np.ndarray, hole: np.ndarray, sources: np.ndarray | Non
     for (x0, y0, x1, y1), win_hole, own, size, budget in hole_windows(hole):
         copied = None if sources is None else np.full((y1 - y0, x1 - x0, 2), -1, np.int32)
         filled = _exemplar_window(photo[y0:y1, x0:x1], win_hole, size, SHADING_DEPTH * np.hypot(h, w), budget,
-                                  copied)
+                                  copied, own)
         out[y0:y1, x0:x1][own] = filled[own]
         if sources is not None:
             found = own & (copied[..., 0] >= 0)
@@ -111,12 +112,13 @@ def fill_exemplar(photo: np.ndarray, hole: np.ndarray, sources: np.ndarray | Non
 
 
 def _exemplar_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float, budget: float,
-                     sources: np.ndarray | None = None) -> np.ndarray:
-    """Fill ``hole`` of the window ``img`` (h, w, 3) RGB: shift-map on a copy reduced until the hole has
-    at most ``budget`` pixels (and the window :data:`EXEMPLAR_PIXELS`), its shifts applied at full resolution;
-    ``size`` (pixels, the hole's narrower side) sets the shading match's low-pass (:data:`SHADING_SIGMA`)."""
+                     sources: np.ndarray | None = None, own: np.ndarray | None = None) -> np.ndarray:
+    """Fill ``hole`` of the window ``img`` (h, w, 3) RGB: shift-map on a copy reduced until the window's part
+    ``own`` of the hole (default all of it) has at most ``budget`` pixels (and the window
+    :data:`EXEMPLAR_PIXELS`), its shifts applied at full resolution; ``size`` (pixels, the hole's narrower side)
+    sets the shading match's low-pass (:data:`SHADING_SIGMA`)."""
     h, w = hole.shape
-    out, offsets, _ = shift_map(img, hole, budget)
+    out, offsets, _ = shift_map(img, hole, budget, own)
     ys, xs = np.nonzero(hole)
     d = offsets[ys, xs]
     qy, qx = ys + d[:, 0], xs + d[:, 1]
@@ -129,21 +131,26 @@ def _exemplar_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float,
     return match_grain(img, out, hole)
 
 
-def shift_map(img: np.ndarray, hole: np.ndarray, budget: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Shift-map of ``hole`` in the window ``img`` (h, w, 3) RGB, on a copy reduced until the hole has at most
-    ``budget`` pixels (and the window :data:`EXEMPLAR_PIXELS`): the window (h, w, 3) uint8 with the hole's pixels
+def shift_map(img: np.ndarray, hole: np.ndarray, budget: float,
+              own: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Shift-map of ``hole`` in the window ``img`` (h, w, 3) RGB, on a copy reduced until the part ``own`` of the
+    hole that the window is for (default all of it; other parts that reach into the window count for nothing, so
+    that they change no part's reduction) has at most ``budget`` pixels (and the window :data:`EXEMPLAR_PIXELS`):
+    the window (h, w, 3) uint8 with the hole's pixels
     the reduced result upsampled, and (h, w, 2) int64, for each pixel of the hole the offset (dy, dx) at full
     resolution of the pixel its reduced pixel copied (:func:`recover_shifts`; :data:`NO_SHIFT` where none was
     read back), 0 elsewhere; and (h, w) bool, the pixels of the hole whose reduced pixel shift-map left unfilled
     (zero in CIELAB: a pure blue in the window's result)."""
     h, w = hole.shape
-    f = max(1.0, float(np.sqrt(h * w / EXEMPLAR_PIXELS)), float(np.sqrt(hole.sum() / max(budget, 64.0))))
+    own = hole if own is None else own
+    f = max(1.0, float(np.sqrt(h * w / EXEMPLAR_PIXELS)), float(np.sqrt(own.sum() / max(budget, 64.0))))
     for _ in range(4):
         sw, sh = max(8, round(w / f)), max(8, round(h / f))
         small_hole = _reduced_hole(hole, sw, sh) if f > 1 else hole
-        if small_hole.sum() <= max(budget, 64.0) * 1.1:
+        small_own = _reduced_hole(own, sw, sh) if f > 1 else own
+        if small_own.sum() <= max(budget, 64.0) * 1.1:
             break
-        f *= float(np.sqrt(small_hole.sum() / max(budget, 64.0)))
+        f *= float(np.sqrt(small_own.sum() / max(budget, 64.0)))
     fx, fy = w / sw, h / sh
     small = cv2.resize(img, (sw, sh), interpolation=cv2.INTER_AREA) if f > 1 else img
     if small_hole.all():
