@@ -35,7 +35,7 @@ from .geometry.depth import ground_pitch
 from .materials.defaults import GROUND_MATERIAL
 from .materials.report import material_report
 from .perceive.amodal import complete
-from .perceive.masks import check_labels, check_photo_size, contact_sheet, read_photo
+from .perceive.masks import check_labels, check_photo_size, contact_sheet, qualify_among, read_photo
 from .perceive.working import working
 from .physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
 from .report import REPORT, Timer, read_report, set_aside_damaged, update_report
@@ -272,6 +272,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
                        if masks or boxes or finding is None else [])
         if finding is not None:
             objects += find_objects(photo, find, finding, len(objects), echo)
+        qualify_among(photo, objects)  # a mask's warning that the objects in front of it explain is not given
         depth_info = {}
         if chosen["depth"] is not None:  # the ground the depth model sees gives the pitch, unless --pitch did
             found = ground_pitch(chosen["depth"].depth(photo), settings.camera.fov_deg or DEFAULT_FOV_DEG,

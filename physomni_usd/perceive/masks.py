@@ -53,6 +53,10 @@ DARKEST_CHROMA = 45.0
 #: its hull has holes or bites: a ball's dark panels left out.
 ROUND_CIRCULARITY = 0.85
 ROUND_MISSING = 0.06
+#: Pixels within this many of another object's mask are that object's side of a shared outline (masks of
+#: neighbours drawn or rendered apart leave a pixel or two between them): neither background around this
+#: object, nor its own outline, nor a part of it left out (:func:`qualify_among`).
+OCCLUDER_REACH = 2
 
 
 @dataclass
@@ -450,11 +454,17 @@ def segment_box(photo: np.ndarray, box: tuple[int, int, int, int], label: str | 
     if limbed:
         quality["ground_like"] = round(float(_ground_like(photo, box, candidates[best]).sum())
                                        / max(1, int(candidates[best].sum())), 4)
-        if quality["warning"] is None and quality["ground_like"] > BACKGROUND_LIKE:
-            quality["warning"] = (f"{quality['ground_like']:.0%} of the mask has the colour of the ground around "
-                                  "its box, in light or shade (between legs or arms?): click off it there "
-                                  "(-X,Y after the --box) or pass a --mask PNG")
+        if quality["warning"] is None:
+            quality["warning"] = _ground_warning(quality)
     return candidates[best], quality
+
+
+def _ground_warning(q: dict) -> str | None:
+    """The warning of a limbed thing's mask that holds the ground between its legs (``ground_like``), or None."""
+    if (q.get("ground_like") or 0.0) <= BACKGROUND_LIKE:
+        return None
+    return (f"{q['ground_like']:.0%} of the mask has the colour of the ground around its box, in light or shade "
+            "(between legs or arms?): click off it there (-X,Y after the --box) or pass a --mask PNG")
 
 
 def is_limbed(label: str | None) -> bool:
@@ -549,9 +559,11 @@ def _ring(shape, box, width: int) -> np.ndarray:
     return out
 
 
-def _background_colours(lab: np.ndarray, box, mask: np.ndarray | None = None) -> np.ndarray:
+def _background_colours(lab: np.ndarray, box, mask: np.ndarray | None = None,
+                        others: np.ndarray | None = None) -> np.ndarray:
     """(K, 3) float32: colours (CIELab) of the background of ``box``: the band around it and, given the
-    object's ``mask``, the part of the box away from it; empty when there is none."""
+    object's ``mask``, the part of the box away from it, less ``others`` (H, W) bool (other objects); empty when
+    there is none."""
     x0, y0, x1, y1 = box
     width = max(4, int(0.15 * max(x1 - x0, y1 - y0)))
     region = _ring(lab.shape[:2], box, width)
@@ -559,6 +571,8 @@ def _background_colours(lab: np.ndarray, box, mask: np.ndarray | None = None) ->
         rest = np.zeros_like(region)
         rest[y0:y1, x0:x1] = True
         region |= rest & ~cv2.dilate(mask.astype(np.uint8), np.ones((7, 7), np.uint8)).astype(bool)
+    if others is not None:
+        region &= ~others
     pixels = lab[region].astype(np.float32)
     if len(pixels) < 8:
         return np.zeros((0, 3), np.float32)
@@ -593,19 +607,23 @@ def _colour_model(photo: np.ndarray, box) -> np.ndarray:
     return largest_component(out) if out.any() else out
 
 
-def mask_quality(photo: np.ndarray, mask: np.ndarray, box=None) -> dict:
+def mask_quality(photo: np.ndarray, mask: np.ndarray, box=None, others: np.ndarray | None = None) -> dict:
     """How far ``mask`` (H, W) bool can be trusted, measured against the photo (H, W, 3) uint8 RGB.
 
-    box_fraction: the mask's share of its box (``box`` (x0, y0, x1, y1), default its bounding box);
-    edge_agreement: the share of its outline within 2 pixels of an edge of the photo (Canny), beyond the
-    share expected by chance from the density of edges around it (0 for an outline that ignores them);
-    background_like: the share of its pixels whose colour is one of those around the box.
-    ``warning`` says what looks wrong, or is None.
+    box_fraction: the mask's share of its box (``box`` (x0, y0, x1, y1), default its bounding box, kept as
+    ``box``); edge_agreement: the share of its outline within 2 pixels of an edge of the photo (Canny), beyond
+    the share expected by chance from the density of edges around it (0 for an outline that ignores them);
+    background_like: the share of its pixels whose colour is one of those around the box; round_missing: see
+    :func:`_round_missing`. ``others`` (H, W) bool, the other objects' masks where they are known: their pixels
+    are not background, the outline along them is theirs, and what of a round outline they cover they hide
+    (:data:`OCCLUDER_REACH`). ``warning`` says what looks wrong, or is None.
     """
     ys, xs = np.nonzero(mask)
     if box is None:
         box = (int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1)
     x0, y0, x1, y1 = box
+    near = None if others is None or not others.any() else cv2.dilate(
+        others.astype(np.uint8), np.ones((2 * OCCLUDER_REACH + 1,) * 2, np.uint8)).astype(bool) & ~mask
     grey = cv2.GaussianBlur(cv2.cvtColor(photo, cv2.COLOR_RGB2GRAY), (3, 3), 0)
     # Canny thresholds from the photo's own gradients, so that faint and strong photos compare alike
     mag = np.hypot(cv2.Sobel(grey, cv2.CV_32F, 1, 0), cv2.Sobel(grey, cv2.CV_32F, 0, 1))
@@ -616,25 +634,29 @@ def mask_quality(photo: np.ndarray, mask: np.ndarray, box=None) -> dict:
     # the image border is not an edge of the object
     outline[[0, -1], :] = False
     outline[:, [0, -1]] = False
+    if near is not None and (outline & ~near).sum() >= MIN_MASK_PIXELS:
+        outline &= ~near  # along another object the edge is that object's, or none where the two look alike
     # beyond chance: on a textured surface any outline crosses some edges
     ring = _ring(mask.shape, box, max(4, int(0.15 * max(x1 - x0, y1 - y0))))
     density = float(edges[ring].mean()) if ring.any() else 0.0
     edge = float(edges[outline].mean()) if outline.any() else 0.0
     edge = max(0.0, (edge - density) / max(1e-6, 1.0 - density)) if density < 1.0 else 0.0
     lab = cv2.cvtColor(photo, cv2.COLOR_RGB2Lab)
-    colours = _background_colours(lab, box, mask)
+    colours = _background_colours(lab, box, mask, near)
     sample = lab[ys, xs][:: max(1, len(ys) // 5000)]
     like = float(_background_like(lab, sample, colours).mean()) if len(sample) else 1.0
     area = max(1, (x1 - x0) * (y1 - y0))
     out = {"box_fraction": round(float(mask[y0:y1, x0:x1].sum()) / area, 4), "edge_agreement": round(edge, 4),
-           "background_like": round(like, 4), "round_missing": _round_missing(mask)}
+           "background_like": round(like, 4), "round_missing": _round_missing(mask, near),
+           "box": [int(v) for v in box]}
     out["warning"] = _warning(out)
     return out
 
 
-def _round_missing(mask: np.ndarray) -> float | None:
+def _round_missing(mask: np.ndarray, hidden: np.ndarray | None = None) -> float | None:
     """For a round outline (its convex hull's circularity at least :data:`ROUND_CIRCULARITY`), the share of
-    the hull the mask leaves out (holes, bites); None for any other outline."""
+    the hull the mask leaves out (holes, bites) where ``hidden`` (H, W) bool (what other objects cover) does not
+    explain it; None for any other outline."""
     points = cv2.findNonZero(mask.astype(np.uint8))
     if points is None or len(points) < MIN_MASK_PIXELS:
         return None
@@ -644,7 +666,10 @@ def _round_missing(mask: np.ndarray) -> float | None:
     area, perimeter = float(filled.sum()), cv2.arcLength(hull, True)
     if perimeter <= 0 or 4 * np.pi * area / perimeter ** 2 < ROUND_CIRCULARITY:
         return None
-    return round(float((filled.astype(bool) & ~mask).sum()) / area, 4)
+    missing = filled.astype(bool) & ~mask
+    if hidden is not None:
+        missing &= ~hidden
+    return round(float(missing.sum()) / area, 4)
 
 
 def _looks_like_background(q: dict) -> bool:
@@ -663,6 +688,28 @@ def _warning(q: dict) -> str | None:
                 "e.g. a ball's dark panels): click on the missing parts (+X,Y after the --box) or pass a "
                 "--mask PNG")
     return None
+
+
+def qualify_among(photo: np.ndarray, objects) -> None:
+    """Each object's :func:`mask_quality` warning measured again with the other ``objects``' masks known
+    (their union as ``others``), in place: the warnings are for a box or clicks that took in background or
+    missed a part, and a mask hidden in part by an object in front of it (a box behind a box, a ball behind a
+    cup) has a bite, a box with another object in it and an outline along that object's that no such mistake
+    made. A warning the others do not explain stays."""
+    for o in objects:
+        q = o.quality
+        if not q or not q.get("warning") or "background_like" not in q or q["warning"] != _warning(q):
+            continue  # no warning, or one mask_quality did not give (the ground between legs)
+        others = np.zeros(o.mask.shape, bool)
+        for other in objects:
+            if other is not o and other.mask.shape == o.mask.shape:
+                others |= other.mask
+        if not others.any():
+            continue
+        again = mask_quality(photo, o.mask, q.get("box"), others)
+        o.quality = dict(q, **again)
+        if o.quality["warning"] is None:
+            o.quality["warning"] = _ground_warning(o.quality)
 
 
 def contact_sheet(photo: np.ndarray, objects, completed=None) -> np.ndarray:
