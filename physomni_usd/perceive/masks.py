@@ -622,8 +622,9 @@ def mask_quality(photo: np.ndarray, mask: np.ndarray, box=None, others: np.ndarr
     if box is None:
         box = (int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1)
     x0, y0, x1, y1 = box
-    near = None if others is None or not others.any() else cv2.dilate(
-        others.astype(np.uint8), np.ones((2 * OCCLUDER_REACH + 1,) * 2, np.uint8)).astype(bool) & ~mask
+    along = None if others is None or not others.any() else cv2.dilate(
+        others.astype(np.uint8), np.ones((2 * OCCLUDER_REACH + 1,) * 2, np.uint8)).astype(bool)
+    near = None if along is None else along & ~mask
     grey = cv2.GaussianBlur(cv2.cvtColor(photo, cv2.COLOR_RGB2GRAY), (3, 3), 0)
     # Canny thresholds from the photo's own gradients, so that faint and strong photos compare alike
     mag = np.hypot(cv2.Sobel(grey, cv2.CV_32F, 1, 0), cv2.Sobel(grey, cv2.CV_32F, 0, 1))
@@ -634,8 +635,8 @@ def mask_quality(photo: np.ndarray, mask: np.ndarray, box=None, others: np.ndarr
     # the image border is not an edge of the object
     outline[[0, -1], :] = False
     outline[:, [0, -1]] = False
-    if near is not None and (outline & ~near).sum() >= MIN_MASK_PIXELS:
-        outline &= ~near  # along another object the edge is that object's, or none where the two look alike
+    if along is not None and (outline & ~along).sum() >= MIN_MASK_PIXELS:
+        outline &= ~along  # along another object the edge is that object's, or none where the two look alike
     # beyond chance: on a textured surface any outline crosses some edges
     ring = _ring(mask.shape, box, max(4, int(0.15 * max(x1 - x0, y1 - y0))))
     density = float(edges[ring].mean()) if ring.any() else 0.0
