@@ -219,7 +219,7 @@ FLAT_FOOTPRINT_MIN_DEG = 8.0
 def lift_mode(solid: np.ndarray, camera: PinholeCamera, settings: LiftSettings, flat: bool = False) -> str:
     """'footprint' where every ray through the silhouette looks down steeply (or, for a thing that lies
     ``flat``, somewhat; or the foot steeply and the top somewhat), else 'standing'. ``--shape round|extrude``
-    always lifts standing."""
+    lifts standing wherever the view can show the object standing (:meth:`StandingRows.holds`)."""
     if settings.shape != "auto":
         return "standing"
     ys, xs = np.nonzero(solid)
