@@ -287,6 +287,13 @@ class Silhouette:
     base_z: float
     flat: bool
     photo: np.ndarray | None
+    _rows: "StandingRows | None" = field(default=None, repr=False)
+
+    def rows(self) -> "StandingRows":
+        """The silhouette's rows cast as standing (:meth:`StandingRows.cast`), once."""
+        if self._rows is None:
+            self._rows = StandingRows.cast(self.solid, self.camera, self.settings, self.base_z, self.photo)
+        return self._rows
 
 
 def vessel_from_above(seen: Silhouette, kind: str | None) -> LiftedMesh | None:
@@ -323,23 +330,32 @@ def footprint_from_above(seen: Silhouette, kind: str | None) -> LiftedMesh | Non
 def standing(seen: Silhouette, kind: str | None) -> LiftedMesh | None:
     """The silhouette standing on the ground, lifted as the shape :func:`standing_shape` picks from :data:`SHAPES`;
     None where the view cannot show it standing (:meth:`StandingRows.holds`)."""
-    rows = StandingRows.cast(seen.solid, seen.camera, seen.settings, seen.base_z, seen.photo)
+    rows = seen.rows()
     if not rows.holds():
         return None
     return SHAPES[standing_shape(seen.solid, seen.settings, kind, seen.photo)](rows)
 
 
+def from_above_where_it_cannot_stand(seen: Silhouette, kind: str | None) -> LiftedMesh | None:
+    """The footprint (:func:`footprint_from_above`) of a silhouette the view cannot show standing, even one seen
+    from the side or with ``--shape`` given; None where it can (its standing lift is the one to have)."""
+    return None if seen.rows().holds() else footprint_from_above(seen, kind)
+
+
 def standing_as_cast(seen: Silhouette, kind: str | None) -> LiftedMesh | None:
-    """The silhouette standing however the view casts it: the last resort where nothing else lifts it."""
-    rows = StandingRows.cast(seen.solid, seen.camera, seen.settings, seen.base_z, seen.photo)
+    """The silhouette standing however the view casts it, where the view cannot show it standing and nothing else
+    lifts it: the last resort."""
+    rows = seen.rows()
+    if rows.holds():
+        return None  # :func:`standing` made it, or the shape refused the photo
     return SHAPES[standing_shape(seen.solid, seen.settings, kind, seen.photo)](rows)
 
 
 #: How each mode of :func:`lift_mode` lifts a silhouette: lifters ``(Silhouette, body kind) → mesh or None``,
 #: tried in turn until one makes a mesh (seen from above, what cannot be a footprint stands; seen too steeply
-#: to stand, even with ``--shape`` given, it is a footprint).
+#: to stand, even with ``--shape`` given or from the side, it is a footprint where it can be).
 LIFTS = {"footprint": (vessel_from_above, footprint_from_above, standing, standing_as_cast),
-         "standing": (standing, footprint_from_above, standing_as_cast)}
+         "standing": (standing, from_above_where_it_cannot_stand, standing_as_cast)}
 
 
 def standing_shape(solid: np.ndarray, settings: LiftSettings, kind: str | None, photo: np.ndarray | None) -> str:
