@@ -334,13 +334,10 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         from .physics.diagnose import scene_findings
 
         checks = [f.as_dict() for f in scene_findings(stage)]
-    for c in checks:
-        echo(f"check: {c['severity']}: {c['message']}")
-    overlap = next((c for c in checks if c["severity"] == "error" and c["check"] == "penetration"), None)
-    if overlap is not None:  # the separation pass measures as the check does: this is a bug, not the photo
-        from .errors import PhysOmniError
-
-        raise PhysOmniError(f"{overlap['message']} after the separation pass: simulate would refuse the scene")
+        for c in checks:
+            if c["severity"] != "error":
+                echo(f"check: {c['severity']}: {c['message']}")
+        _refuse_what_simulate_refuses(out)
     old = read_report(out) or {}
     for key in ("simulate", "render", "run"):  # they described the old shot
         old.get("stages", {}).pop(key, None)
@@ -362,6 +359,27 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
                          **({"occlusion": occlusion} if occlusion else {}),
                          **depth_info})
     return BuildResult(out, shot, report_objects, timer.seconds)
+
+
+def _refuse_what_simulate_refuses(out: pathlib.Path) -> None:
+    """End the build (exit 1, one line naming the object or pair and why; the folder put back as it was) where
+    ``simulate`` would refuse the shot just written: the very checks it makes before it starts
+    (``physics.prepare.refuse_unsimulatable``), on the stage as it composes it."""
+    from .errors import PhysOmniError
+    from .physics.diagnose import SceneRefused
+    from .physics.prepare import refuse_unsimulatable
+
+    try:
+        refuse_unsimulatable(layers.open_shot(out, mute_sim=True), name=str(out / layers.SHOT))
+    except SceneRefused as exc:
+        found = exc.finding
+        # the separation pass measures as the check does: an overlap left is a bug, not the photo
+        why = {"penetration": " after the separation pass",
+               "size": " (give its size with --size LABEL=METRES, or correct its label)"}.get(found.check, "")
+        why = "" if "--size gave" in found.message else why
+        raise PhysOmniError(f"{found.message}{why}: simulate would refuse the scene") from None
+    except PhysOmniError as exc:
+        raise PhysOmniError(f"{exc}: simulate would refuse the scene") from None
 
 
 def _plate(scene: Scene) -> None:

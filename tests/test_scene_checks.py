@@ -86,9 +86,29 @@ def test_an_absurd_size_in_edits_fails_validate_and_simulate(built, tmp_path):
     assert (shot / "sim.usdc").read_bytes() == before
 
 
-def test_kilometre_sized_objects_do_not_pass_validate(tmp_path, photo):
+def test_kilometre_sized_objects_do_not_pass_validate_nor_build(built, tmp_path, photo):
+    # build refuses what simulate would refuse: one line naming the object, exit 1, nothing written
     out = tmp_path / "km"
-    cli("build", photo["photo"], "-o", out, "-q", "--mask", f"{photo['cup']}:gizmo", "--size", "gizmo=5000",
-        check=True)
-    proc = cli("validate", out / "shot.usda")
-    assert proc.returncode == 1 and "gizmo_0 is 5 km" in proc.stdout, proc.stdout
+    proc = cli("build", photo["photo"], "-o", out, "-q", "--mask", f"{photo['cup']}:gizmo", "--size", "gizmo=5000")
+    lines = [line for line in proc.stderr.splitlines() if line.startswith("error")]
+    assert proc.returncode == 1 and len(lines) == 1 and "gizmo_0 is 5 km" in lines[0], proc.stderr
+    assert "simulate would refuse" in lines[0] and not out.exists()
+    # a layer that makes an object kilometres large fails validate
+    body = ('            uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:orient", "xformOp:scale"]\n'
+            "            float3 xformOp:scale = (50000, 50000, 50000)")
+    shot = _copy_with_edits(built, tmp_path, "cup_0", body)
+    proc = cli("validate", shot / "shot.usda")
+    assert proc.returncode == 1 and "kilometres" in proc.stdout, proc.stdout
+
+
+def test_a_build_whose_mass_simulate_refuses_ends_in_one_line_and_leaves_the_folder_as_it_was(tmp_path, photo):
+    # a cup said to be 300 m is the size the user gave (no size finding), but it weighs more than anything a
+    # photo of objects holds: simulate refuses that mass, so build must not write it and exit 0
+    out = tmp_path / "heavy"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    proc = cli("build", photo["photo"], "-o", out, "-q", "--mask", f"{photo['cup']}:cup", "--size", "cup=300")
+    lines = [line for line in proc.stderr.splitlines() if line.startswith("error")]
+    assert proc.returncode == 1 and len(lines) == 1, proc.stderr
+    assert "cup_0 weighs" in lines[0] and "simulate would refuse" in lines[0], proc.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["notes.txt"]

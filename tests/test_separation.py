@@ -95,6 +95,22 @@ def test_a_pair_no_pass_separates_ends_the_build_in_one_line_naming_it(stack, su
     assert not (tmp_path / "shot").exists()
 
 
+def test_an_overlap_the_pass_left_ends_the_build_on_simulates_own_refusal(stack, sunk, tmp_path, monkeypatch):
+    """Should the separation pass ever leave a pair inside each other (here it is skipped), the build's last check,
+    the very refusal ``simulate`` makes (``physics.prepare.refuse_unsimulatable``), ends it: one line naming the
+    pair, exit 1, no folder."""
+    folder, specs = stack
+    sunk["deep"] = True
+    monkeypatch.setattr(build_module, "_separated", lambda scene, camera, verts, *args, **kwargs: verts)
+    with pytest.raises(PhysOmniError) as caught:
+        build_shot(folder / "photo.png", tmp_path / "shot", masks=specs)
+    said = str(caught.value)
+    assert caught.value.exit_code == 1 and "\n" not in said
+    assert "starts" in said and "inside block_" in said and "after the separation pass" in said, said
+    assert "simulate would refuse" in said
+    assert not (tmp_path / "shot").exists()
+
+
 def test_the_pass_leaves_separate_objects_alone():
     a, b = _box((0.1, 0.1, 0.1), (0, 0, 0)), _box((0.1, 0.1, 0.1), (0.2, 0, 0))
     verts, done = separate.separate_pairs([a.vertices, b.vertices], [a.faces, b.faces], [False, False], {}, CAMERA,

@@ -219,7 +219,7 @@ FLAT_FOOTPRINT_MIN_DEG = 8.0
 def lift_mode(solid: np.ndarray, camera: PinholeCamera, settings: LiftSettings, flat: bool = False) -> str:
     """'footprint' where every ray through the silhouette looks down steeply (or, for a thing that lies
     ``flat``, somewhat; or the foot steeply and the top somewhat), else 'standing'. ``--shape round|extrude``
-    always lifts standing."""
+    lifts standing wherever the view can show the object standing (:meth:`StandingRows.holds`)."""
     if settings.shape != "auto":
         return "standing"
     ys, xs = np.nonzero(solid)
@@ -287,6 +287,13 @@ class Silhouette:
     base_z: float
     flat: bool
     photo: np.ndarray | None
+    _rows: "StandingRows | None" = field(default=None, repr=False)
+
+    def rows(self) -> "StandingRows":
+        """The silhouette's rows cast as standing (:meth:`StandingRows.cast`), once."""
+        if self._rows is None:
+            self._rows = StandingRows.cast(self.solid, self.camera, self.settings, self.base_z, self.photo)
+        return self._rows
 
 
 def vessel_from_above(seen: Silhouette, kind: str | None) -> LiftedMesh | None:
@@ -321,14 +328,34 @@ def footprint_from_above(seen: Silhouette, kind: str | None) -> LiftedMesh | Non
 
 
 def standing(seen: Silhouette, kind: str | None) -> LiftedMesh | None:
-    """The silhouette standing on the ground, lifted as the shape :func:`standing_shape` picks from :data:`SHAPES`."""
-    rows = StandingRows.cast(seen.solid, seen.camera, seen.settings, seen.base_z, seen.photo)
+    """The silhouette standing on the ground, lifted as the shape :func:`standing_shape` picks from :data:`SHAPES`;
+    None where the view cannot show it standing (:meth:`StandingRows.holds`)."""
+    rows = seen.rows()
+    if not rows.holds():
+        return None
+    return SHAPES[standing_shape(seen.solid, seen.settings, kind, seen.photo)](rows)
+
+
+def from_above_where_it_cannot_stand(seen: Silhouette, kind: str | None) -> LiftedMesh | None:
+    """The footprint (:func:`footprint_from_above`) of a silhouette the view cannot show standing, even one seen
+    from the side or with ``--shape`` given; None where it can (its standing lift is the one to have)."""
+    return None if seen.rows().holds() else footprint_from_above(seen, kind)
+
+
+def standing_as_cast(seen: Silhouette, kind: str | None) -> LiftedMesh | None:
+    """The silhouette standing however the view casts it, where the view cannot show it standing and nothing else
+    lifts it: the last resort."""
+    rows = seen.rows()
+    if rows.holds():
+        return None  # :func:`standing` made it, or the shape refused the photo
     return SHAPES[standing_shape(seen.solid, seen.settings, kind, seen.photo)](rows)
 
 
 #: How each mode of :func:`lift_mode` lifts a silhouette: lifters ``(Silhouette, body kind) → mesh or None``,
-#: tried in turn until one makes a mesh (seen from above, what cannot be a footprint stands).
-LIFTS = {"footprint": (vessel_from_above, footprint_from_above, standing), "standing": (standing,)}
+#: tried in turn until one makes a mesh (seen from above, what cannot be a footprint stands; seen too steeply
+#: to stand, even with ``--shape`` given or from the side, it is a footprint where it can be).
+LIFTS = {"footprint": (vessel_from_above, footprint_from_above, standing, standing_as_cast),
+         "standing": (standing, from_above_where_it_cannot_stand, standing_as_cast)}
 
 
 def standing_shape(solid: np.ndarray, settings: LiftSettings, kind: str | None, photo: np.ndarray | None) -> str:
@@ -339,6 +366,12 @@ def standing_shape(solid: np.ndarray, settings: LiftSettings, kind: str | None, 
         return settings.shape
     shape = "round" if mirror_iou(solid) >= settings.symmetry_iou and not flat_bottom(solid) else "extrude"
     return BODY_SHAPES.get(kind, {}).get(shape, shape)
+
+
+#: A standing silhouette's rows meet the plane through its foot at most this many times as far along their rays as
+#: the foot's own ray (a level camera before a thing three times its height: 1.6×); farther, the rays run along the
+#: plane and the cast is no measure (:meth:`StandingRows.holds`).
+STANDING_REACH = 4.0
 
 
 @dataclass
@@ -394,6 +427,22 @@ class StandingRows:
         z = _on_plane(camera, normal, 0.5 * spans.sum(axis=1), edges, contact)[:, 2]
         return cls(solid, camera, settings, photo, base_z, contact, v_foot, ys, edges, spans, normal, tangent,
                    left, right, z)
+
+    def holds(self) -> bool:
+        """Whether the view can show the silhouette standing on the vertical plane through its foot: every row
+        climbs the plane from the foot (none lands below the base) and meets it no farther along its ray than
+        :data:`STANDING_REACH` times the foot's ray. From steeply above, the rows' rays run nearly along the
+        plane and meet it metres away, above the camera or under the ground (a top-down desk's coin cast 25 m
+        across); such a cast measures nothing."""
+        origin, d = self.camera.origin, self.camera.rays(0.5 * self.spans.sum(axis=1), self.edges)
+        along = d @ self.normal
+        reach = ((self.contact - origin) @ self.normal) / np.where(np.abs(along) > 1e-12, along, np.nan)
+        foot = float(np.linalg.norm(self.contact - origin))
+        lengths = reach * np.linalg.norm(d, axis=-1)
+        slack = 1e-6 * max(foot, 1e-9)
+        return bool(np.all(np.isfinite(lengths)) and np.all(lengths > 0)
+                    and lengths.max() <= STANDING_REACH * foot
+                    and self.z.min() >= self.base_z - slack and np.all(np.diff(self.z) <= slack))
 
     def on_plane(self, u, v, point):
         """Where the rays through pixels (u, v) meet the vertical plane through ``point`` facing the camera."""

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from pxr import Usd, UsdGeom, UsdPhysics, UsdShade
 
+from ..errors import PhysOmniError
 from ..sizes import SizePrior, size_prior
 from ..metrics.geometry import world_meshes
 from ..geometry.mesh import longest_dimension
@@ -185,14 +186,21 @@ def likely_cause(stage: Usd.Stage) -> str | None:
     return findings[0].message if findings else None
 
 
-def refuse_broken_scene(stage: Usd.Stage) -> None:
-    """Raise (exit 1) on the worst error-level finding, before any step is taken."""
-    from ..errors import PhysOmniError
+class SceneRefused(PhysOmniError):
+    """The scene has an error-level finding (``finding``): ``simulate`` does not start on it, and ``build`` does
+    not write it (exit 1)."""
 
+    def __init__(self, finding: SceneFinding):
+        super().__init__(f"{finding.message}: the scene cannot be simulated as it stands "
+                         "(fix it in edits.usda or build again; `physomni-usd validate` lists every finding)")
+        self.finding = finding
+
+
+def refuse_broken_scene(stage: Usd.Stage) -> None:
+    """Raise :class:`SceneRefused` (exit 1) on the worst error-level finding, before any step is taken."""
     err = first_error(scene_findings(stage))
     if err is not None:
-        raise PhysOmniError(f"{err.message}: the scene cannot be simulated as it stands "
-                            "(fix it in edits.usda or build again; `physomni-usd validate` lists every finding)")
+        raise SceneRefused(err)
 
 
 def failure_line(stage: Usd.Stage, what: str) -> str:

@@ -87,6 +87,28 @@ class Prepared:
     compiled_before: float | None = None
 
 
+def refuse_unsimulatable(stage: Usd.Stage, settings: SimulateSettings = SimulateSettings(), *, name: str = "",
+                         own_seconds: float | None = None,
+                         checked: bool = False) -> tuple[SceneConfig, SimulateSettings, list[SimObject]]:
+    """Every refusal ``simulate`` makes of the composed ``stage`` before it builds a model, in its order: the
+    solver and rates (:func:`scene_settings`), the step cap (:meth:`SimulateSettings.for_shot`), every authored
+    value (``checks.check_inputs``, InputError), no objects (InputError), and an error-level finding of the
+    scene (``diagnose.refuse_broken_scene``, :class:`~.diagnose.SceneRefused`). ``build`` ends on the same call,
+    so that it never writes what this refuses. ``checked``: the stage's values and findings already passed
+    (the same composed stage simulated again). Returns the solver and rates, the resolved settings and the
+    objects."""
+    cfg = scene_settings(stage, settings)
+    settings = settings.for_shot(own_seconds, cfg.fps)
+    if not checked:
+        check_inputs(stage)
+    objects = scene_objects(stage)
+    if not objects:
+        raise InputError(f"{name or stage.GetRootLayer().identifier}: no objects to simulate under {OBJECTS}")
+    if not checked:
+        refuse_broken_scene(stage)
+    return cfg, settings, objects
+
+
 #: The composed stage whose input checks last passed in this process: the checks are a function of the
 #: composed stage alone, so the same stage simulated again (a bench, a batch's retries) is not checked again.
 _CHECKED: dict = {}
@@ -103,23 +125,16 @@ def prepare_simulation(stage: Usd.Stage, settings: SimulateSettings = SimulateSe
     (:meth:`SimulateSettings.for_shot`, which also refuses too many solver steps); the settings so
     resolved are the returned ``settings``. What the solvers will ignore, and a first compile of the
     kernels, are said through ``echo``."""
-    cfg = scene_settings(stage, settings)
-    settings = settings.for_shot(own_seconds, cfg.fps)
     digest = layers.content_digest(stage)
     checked = _CHECKED.get("digest") == digest
-    if not checked:
-        check_inputs(stage)
-    objects = scene_objects(stage)
-    if not objects:
-        raise InputError(f"{name or stage.GetRootLayer().identifier}: no objects to simulate under {OBJECTS}")
+    cfg, settings, objects = refuse_unsimulatable(stage, settings, name=name, own_seconds=own_seconds,
+                                                  checked=checked)
+    _CHECKED["digest"] = digest
     shared = particle_values(objects)
     ignored = ignored_parameters(objects, shared)
     for kind, items in ignored.items():
         if authored(items):
             echo(f"simulate: {describe(kind, authored(items))}")
-    if not checked:
-        refuse_broken_scene(stage)
-        _CHECKED["digest"] = digest
     marker = kernels_first_use()
     if marker is not None:
         echo("simulate: compiling physics kernels, once per machine (a minute or two) ...")
