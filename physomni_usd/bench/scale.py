@@ -5,7 +5,9 @@ One example (the motorcycle by default) is scaled to each size asked for (photo 
 by their pixels' majority), and ``build``, ``simulate`` and ``render`` run on it each in a fresh process, the
 sizes alternating within each repeat so that they share the machine's load. Per stage: wall seconds, CPU
 seconds (user + system, of the process and its children: what the load does not inflate) and peak resident
-memory (the process's own, from ``wait4``), and the load average over the run.
+memory (the process's own, from ``wait4``), and the load average over the run. Each size's whole ``run`` is
+also put over the first size's of the same repeat (:func:`_paired`), so that a load that swings between
+repeats weighs on both sides of each ratio.
 """
 
 from __future__ import annotations
@@ -120,6 +122,7 @@ def bench_scale(example: pathlib.Path = EXAMPLE, sizes=SIZES_MP, repeats: int = 
                     f"(load {v['load']:.1f})" for k, v in row.items()))
     rows = []
     base = None
+    first = sizes[0] if sizes else None
     for s in sizes:
         w, h = pixels[s]
         med = {k: {m: float(np.median([run[k][m] for run in runs[s]])) for m in ("wall_s", "cpu_s", "peak_mb",
@@ -133,7 +136,7 @@ def bench_scale(example: pathlib.Path = EXAMPLE, sizes=SIZES_MP, repeats: int = 
         ratios = {k: {m: round(med[k][m] / max(base[k][m], 1e-9), 2) for m in ("wall_s", "cpu_s", "peak_mb")}
                   for k in med}
         rows.append({"megapixels": round(w * h / 1e6, 2), "width": w, "height": h, "median": med,
-                     "ratio_to_smallest": ratios, "runs": runs[s]})
+                     "ratio_to_smallest": ratios, "runs": runs[s], "run_by_repeat": _paired(runs[s], runs[first])})
     table = [f"{'photo':>14} {'stage':>9} {'wall s':>8} {'cpu s':>8} {'peak MB':>8} {'× wall':>7} {'× cpu':>7} "
              f"{'× peak':>7} {'load':>5}"]
     for row in rows:
@@ -142,8 +145,30 @@ def bench_scale(example: pathlib.Path = EXAMPLE, sizes=SIZES_MP, repeats: int = 
             table.append(f"{row['width']}×{row['height']:<7} {k:>9} {v['wall_s']:8.1f} {v['cpu_s']:8.1f} "
                          f"{v['peak_mb']:8.0f} {q['wall_s']:7.2f} {q['cpu_s']:7.2f} {q['peak_mb']:7.2f} "
                          f"{v['load']:5.1f}")
+    for row in rows[1:]:
+        paired = row["run_by_repeat"]
+        w0, h0 = rows[0]["width"], rows[0]["height"]
+        echo(f"{row['width']}×{row['height']} run against {w0}×{h0}, repeat by repeat (each pair at one round's "
+             f"load): CPU ×{', '.join(f'{q:.2f}' for q in paired['cpu_s'])} (min {paired['min']['cpu_s']:.2f}, "
+             f"median {paired['median']['cpu_s']:.2f}); wall ×{', '.join(f'{q:.2f}' for q in paired['wall_s'])} "
+             f"(min {paired['min']['wall_s']:.2f}, median {paired['median']['wall_s']:.2f}); load "
+             f"{', '.join(f'{x:.1f}' for x in paired['load'])}")
     echo("\n".join(table))
     return {"example": str(example), "repeats": repeats, "seconds": seconds, "max_size": max_size, "rows": rows}
+
+
+def _paired(runs: list[dict], base: list[dict]) -> dict:
+    """Each repeat's whole ``run`` (its stages' sum) over the first size's in the same repeat: the two ran one
+    after the other, so a shared machine's load, which swings between repeats, weighs on both alike. The
+    ratios per repeat, their min and median, and each pair's mean load."""
+    def total(run: dict, m: str) -> float:
+        return sum(v[m] for v in run.values())
+
+    out = {m: [round(total(a, m) / max(total(b, m), 1e-9), 3) for a, b in zip(runs, base)] for m in ("wall_s", "cpu_s")}
+    out["load"] = [round(float(np.mean([v["load"] for v in (*a.values(), *b.values())])), 2) for a, b in zip(runs, base)]
+    out["min"] = {m: min(out[m]) for m in ("wall_s", "cpu_s")}
+    out["median"] = {m: float(np.median(out[m])) for m in ("wall_s", "cpu_s")}
+    return out
 
 
 #: Object counts of the second axis: boxes dropped onto the ground five to a row (``bench physics``' ten objects'

@@ -19,7 +19,7 @@ from ..errors import PhysOmniError
 from .depenetration import Depenetration
 from .diagnose import FRAME_WALL_BUDGET_S, failure_line
 from .recording import Recorder, Take
-from .stability import ENERGY_TOLERANCE, Guard, StepPlan
+from .stability import ENERGY_TOLERANCE, ContactTally, Guard, StepPlan
 from .stepping import FrameGraphs
 
 #: Whether frames of rigid XPBD scenes are captured as warp graphs and replayed (False: launch by launch).
@@ -64,7 +64,7 @@ class GuardedRun:
         self.t, self.step, self.frame = 0.0, 0, 0
         self.guard = Guard(self.tolerance)
         self.separation_j = 0.0  # energy the solver added separating start overlaps
-        self.contacts: list[int] = []  # the rigid contacts the solver held at each check passed, this take
+        self.contacts = ContactTally()  # the rigid contacts the solver held at each check passed, this take
         energy, speed, finite = _energy(self.stepper)
         self.guard.check(energy, speed, finite)
         self.speed = self.max_speed = speed
@@ -125,7 +125,7 @@ class GuardedRun:
         if why is None:
             self._name_fields(energy)
             if self.stepper.contacts is not None:
-                self.contacts.append(int(self.stepper.contacts.rigid_contact_count.numpy()[0]))
+                self.contacts.add(self.stepper.contacts.rigid_contact_count)
             self.speed = speed
             self.max_speed = max(self.max_speed, speed)
             self._saved = self._checkpoint(self._saved)
@@ -210,8 +210,7 @@ class GuardedRun:
                 "separation_work_j": self.separation_j, "tolerance": g.tolerance, "check_every_frames": self.check_every,
                 "rollbacks": self.rollbacks, "diagnoses": self.log, "depenetration": self.depenetration.as_dict(),
                 # what the stepping's cost grows with: bench scale fits it against these
-                "rigid_contacts": ({"mean": round(float(np.mean(self.contacts)), 1), "max": max(self.contacts),
-                                   "checks": len(self.contacts)} if self.contacts else None)}
+                "rigid_contacts": self.contacts.summary()}
 
 
 @dataclass

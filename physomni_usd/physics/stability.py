@@ -363,6 +363,39 @@ class Guard:
         return None
 
 
+class ContactTally:
+    """The rigid contacts the solver held at each of the guard's checks passed, kept on the solver's device:
+    a check copies the count there into a log beside it (an asynchronous copy, where reading it back would
+    wait for a GPU's queue to drain at every check) and the log is read once, when the take is reported."""
+
+    def __init__(self):
+        self._log = None  # device array of counts, grown by doubling
+        self.checks = 0
+
+    def add(self, count) -> None:
+        """Log ``count`` (the solver's one-element ``rigid_contact_count``) without reading it back."""
+        import warp as wp
+
+        if self._log is None or self.checks == self._log.shape[0]:
+            grown = wp.empty(max(64, 2 * self.checks), dtype=count.dtype, device=count.device)
+            if self.checks:
+                wp.copy(grown, self._log, count=self.checks)
+            self._log = grown
+        wp.copy(self._log, count, dest_offset=self.checks, count=1)
+        self.checks += 1
+
+    def counts(self) -> np.ndarray:
+        """The counts logged, in order: the one read-back."""
+        return self._log.numpy()[:self.checks].copy() if self.checks else np.zeros(0, dtype=np.int32)
+
+    def summary(self) -> dict | None:
+        """The report's ``guard.rigid_contacts``: mean (0.1), max and how many checks; None where none."""
+        c = self.counts()
+        if not len(c):
+            return None
+        return {"mean": round(float(np.mean(c)), 1), "max": int(c.max()), "checks": int(len(c))}
+
+
 def body_energy(model, state) -> tuple[float, float]:
     """Kinetic + gravitational energy (J, z = 0 the ground) of the rigid bodies, and their top speed."""
     if not model.body_count:
