@@ -9,7 +9,8 @@ up. Each rigid object's motion is then judged (:func:`judge`):
 
 - still (every point within ``runner.REST_METRES``, turned under :data:`STILL_DEG`): nothing changes;
 - settled a little (within :data:`KEEP_M` and :data:`KEEP_DEG`), its outline from the photo's camera still
-  the photo's (IoU down by at most :data:`KEEP_IOU_DROP`): the settled pose is its rest pose;
+  the photo's (IoU down by at most :data:`KEEP_IOU_DROP`, or still at least ``align.compare.WARN_IOU``, the
+  build's own bar for a match): the settled pose is its rest pose;
 - gone farther (it falls, rolls away, slides off): not kept, reported by name, left where the photo shows it.
 
 No object is made fixed to hold it: what the settle cannot keep still is said, not hidden."""
@@ -92,7 +93,9 @@ def settle_shot(stage, seconds: float) -> Settled:
     if models.fields.fields:
         return Settled(skipped="force fields act on the shot", seconds=time.perf_counter() - t0)
     stepper = models.stepper
-    stepper.pending = []  # nothing pushed
+    stepper.pending = []  # nothing pushed: no push to come, and no start velocity (a push at 0 s is one)
+    if stepper.state.body_qd is not None and stepper.state.body_qd.shape[0]:
+        stepper.state.body_qd.zero_()
     free = {o.path: o for o in prep.objects if not o.fixed and o.path in models.path_body}
     start = stepper.state.body_q.numpy().copy()
     run = run_guarded(models, prep.plan, seconds, rest_seconds=STILL_WINDOW_S)
@@ -114,7 +117,7 @@ def judge(settled: Settled, names, vertex_sets, faces, camera, masks) -> tuple[d
     """Which settled poses to keep (name → :class:`Motion`) and which objects went too far (name → why), for
     the objects ``names`` with their placed ``vertex_sets`` and ``faces``, seen by ``camera`` against
     ``masks`` (their visible masks, as ``align.compare.visible_ious`` takes them)."""
-    from ..align.compare import visible_ious
+    from ..align.compare import WARN_IOU, visible_ious
 
     moving = {n: m for n, m in settled.motions.items() if not m.still}
     far = {n: f"moved {m.moved_m * 100:.1f} cm and turned {m.turned_deg:.0f}° with nothing pushing it"
@@ -129,7 +132,7 @@ def judge(settled: Settled, names, vertex_sets, faces, camera, masks) -> tuple[d
     for n, b, a in zip(names, before, after):
         if n not in near:
             continue
-        if b - a <= KEEP_IOU_DROP:
+        if b - a <= KEEP_IOU_DROP or a >= WARN_IOU:  # a small object's IoU drops a tenth for a pixel's shift
             keep[n] = near[n]
         else:
             far[n] = (f"settles {near[n].moved_m * 100:.1f} cm, turned {near[n].turned_deg:.0f}°, to where its "
