@@ -328,6 +328,9 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
     if stale:
         echo("build: removed what the previous build made for the old shot: "
              + ", ".join(str(p.relative_to(out)) for p in stale))
+    if settings.settle_s > 0:
+        with timer.step("settle"):
+            _settle(scene, out, photo_path, user_sizes, fields, files, echo)
     stage = layers.open_shot(out)
     layers.warn_orphan_overs(stage, out, echo)
     with timer.step("check"):
@@ -558,6 +561,71 @@ def _separated(scene: Scene, camera, verts, faces, shapes, supports, align_info:
     if done:
         align_info["separated"] = done
     return verts
+
+
+def _settle(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, fields, files: set[str], echo) -> None:
+    """The written shot settled with nothing pushed (``physics.settle``): where an object settles a little and
+    its outline still matches the photo's, that pose is its rest pose and the shot is written again (and
+    settled again, up to ``SETTLE_ROUNDS`` times: what came to rest in a hollow may still rock there); where
+    one falls or rolls away, a warning names it and ``report.json`` keeps what it did (``alignment.settle``)."""
+    from .errors import PhysOmniError
+    from .physics.settle import SETTLE_ROUNDS, judge, settle_shot
+
+    names = [o.name for o in scene.objects]
+    info: dict = {"rounds": []}
+    far: dict[str, str] = {}
+    scene.align_info["settle"] = info
+    for _ in range(SETTLE_ROUNDS):
+        try:
+            settled = settle_shot(layers.open_shot(out, mute_sim=True), scene.settings.settle_s)
+        except PhysOmniError as exc:  # what simulate refuses, the check after this says; the settle stands aside
+            info["skipped"] = str(exc)
+            break
+        if settled.skipped:
+            info["skipped"] = settled.skipped
+            break
+        keep, gone = judge(settled, names, [o.vertices for o in scene.objects], [o.faces for o in scene.objects],
+                           scene.camera, scene.masks)
+        far.update(gone)
+        info["rounds"].append({
+            "simulated_s": round(settled.simulated_s, 3), "at_rest": settled.at_rest,
+            "seconds": round(settled.seconds, 3),
+            "motions": {n: {"moved_m": round(m.moved_m, 4), "turned_deg": round(m.turned_deg, 2)}
+                        for n, m in settled.motions.items() if not m.still},
+            **({"kept": sorted(keep)} if keep else {})})
+        if not keep:
+            break
+        echo("build: settled " + ", ".join(f"{n} ({keep[n].moved_m * 1000:.0f} mm)" for n in sorted(keep))
+             + " where it came to rest; written again")
+        _rewrite_settled(scene, keep, out, photo_path, user_sizes, fields, files)
+    if far:
+        info["not_kept"] = far
+        for n, why in far.items():
+            echo(f"warning: {n} does not stay where the photo shows it: it {why}; give its mask again, --size "
+                 f"or --pitch, or hold it with --fixed")
+
+
+def _rewrite_settled(scene: Scene, keep: dict, out: pathlib.Path, photo_path, user_sizes: dict, fields,
+                     files: set[str]) -> None:
+    """The shot written again with the settled poses ``keep`` (name → ``physics.settle.Motion``): the objects'
+    supports, silhouettes, textures and layers as the placement writes them."""
+    names = [o.name for o in scene.objects]
+    carried = [{k: o.report[k] for k in ("push", "fixed", "held") if k in o.report} for o in scene.objects]
+    for o in scene.objects:
+        if o.name in keep:
+            o.vertices = keep[o.name].apply(o.vertices)
+    verts, faces = [o.vertices for o in scene.objects], [o.faces for o in scene.objects]
+    supports = {i: o.lifted.ground.support for i, o in enumerate(scene.objects)
+                if getattr(o.lifted, "ground", None) is not None and o.lifted.ground.support}
+    for o, r in zip(scene.objects, start_contacts(verts, faces, supports, names,
+                                                 held={i for i, o in enumerate(scene.objects) if _held(o)})):
+        o.rest = r
+    _silhouette_report(scene, scene.camera, verts, faces, scene.align_info)
+    scene.scene_objects, scene.kept = [], {}
+    _texture(scene, out, photo_path)
+    for o, extra in zip(scene.objects, carried):
+        o.report.update(extra)
+    _write(scene, out, photo_path, user_sizes, fields, files)
 
 
 def _occlusion_report(scene: Scene) -> list[dict]:

@@ -1,0 +1,140 @@
+"""The built scene settled before it is written for good: the rest pose each rigid object reaches under
+gravity alone, found by the same solver, settings and guard ``simulate`` uses, and what of it the build keeps.
+
+Placement is geometry: a fruit put in a bowl's hollow, a plant on its pot's rim, a cup on a book each stand
+where the photo shows them, on supports the geometric passes judged steady. Whether they stay is the
+simulator's to say, so ``build`` asks it (:func:`settle_shot`): the shot as written, nothing pushed and no
+force field acting, is stepped until everything is still (``runner.at_rest``) or the settle's seconds are
+up. Each rigid object's motion is then judged (:func:`judge`):
+
+- still (every point within ``runner.REST_METRES``, turned under :data:`STILL_DEG`): nothing changes;
+- settled a little (within :data:`KEEP_M` and :data:`KEEP_DEG`), its outline from the photo's camera still
+  the photo's (IoU down by at most :data:`KEEP_IOU_DROP`, or still at least ``align.compare.WARN_IOU``, the
+  build's own bar for a match): the settled pose is its rest pose;
+- gone farther (it falls, rolls away, slides off): not kept, reported by name, left where the photo shows it.
+
+No object is made fixed to hold it: what the settle cannot keep still is said, not hidden."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from .runner import REST_METRES
+
+#: An object that turns less than this (degrees) and moves less than ``REST_METRES`` is still.
+STILL_DEG = 1.0
+#: The most a settled pose may move (m, any point of the object) and turn (degrees) from where the photo
+#: shows it and still be kept: a fruit finding the bottom of a bowl's hollow, a box seating on a lid; more
+#: is a fall, which the photo does not show.
+KEEP_M = 0.03
+KEEP_DEG = 10.0
+#: How much the object's silhouette IoU against its mask (from the photo's camera) may drop for the settled
+#: pose to be kept: the photo is the arbiter of where it is.
+KEEP_IOU_DROP = 0.05
+#: Settles one build runs at most: a pose kept is written and settled again, for what still rocks where it
+#: came to rest (a fruit in a hollow); each round costs a model and at least :data:`STILL_WINDOW_S` of stepping.
+SETTLE_ROUNDS = 2
+#: Still for this long (s) ends the settle early: most scenes stand still from the start and pay this much.
+STILL_WINDOW_S = 0.2
+
+
+@dataclass
+class Motion:
+    """One rigid object's motion over the settle: its points ``x`` go to ``x @ rotation.T + translation``."""
+
+    name: str
+    rotation: np.ndarray  # (3, 3)
+    translation: np.ndarray  # (3,)
+    moved_m: float  # farthest any of its points went
+    turned_deg: float
+
+    def apply(self, points: np.ndarray) -> np.ndarray:
+        return points @ self.rotation.T + self.translation
+
+    @property
+    def still(self) -> bool:
+        return self.moved_m <= REST_METRES and self.turned_deg <= STILL_DEG
+
+
+@dataclass
+class Settled:
+    """What the settle simulated: each rigid object's :class:`Motion` (name → it), the seconds simulated,
+    whether it ended with everything still, why it was skipped (None where it ran), and its wall time."""
+
+    motions: dict[str, Motion] = field(default_factory=dict)
+    simulated_s: float = 0.0
+    at_rest: bool = False
+    skipped: str | None = None
+    seconds: float = 0.0
+
+
+def settle_shot(stage, seconds: float) -> Settled:
+    """Simulate the composed ``stage`` (a built shot, its sim layer muted) for at most ``seconds`` with nothing
+    pushed, as ``simulate`` would (``physics.prepare``, ``runner.run_guarded``), and return each rigid
+    object's motion from its start to the end. A scene with a non-rigid object or a force field is not
+    settled (``skipped`` says why): their motion under gravity is the shot's, not a placement's error."""
+    from ..settings import SimulateSettings
+    from .objects import scene_objects
+    from .prepare import prepare_simulation
+    from .runner import run_guarded
+
+    t0 = time.perf_counter()
+    objects = scene_objects(stage)
+    soft = [o.name for o in objects if o.family != "rigid"]
+    if soft:
+        return Settled(skipped=f"not rigid: {', '.join(soft)}", seconds=time.perf_counter() - t0)
+    # a model of its own (reuse False): simulate's cached one keeps its pushes and its plan
+    prep = prepare_simulation(stage, SimulateSettings(seconds=seconds, rest_seconds=STILL_WINDOW_S), reuse=False)
+    models = prep.models
+    if models.fields.fields:
+        return Settled(skipped="force fields act on the shot", seconds=time.perf_counter() - t0)
+    stepper = models.stepper
+    stepper.pending = []  # nothing pushed: no push to come, and no start velocity (a push at 0 s is one)
+    if stepper.state.body_qd is not None and stepper.state.body_qd.shape[0]:
+        stepper.state.body_qd.zero_()
+    free = {o.path: o for o in prep.objects if not o.fixed and o.path in models.path_body}
+    start = stepper.state.body_q.numpy().copy()
+    run = run_guarded(models, prep.plan, seconds, rest_seconds=STILL_WINDOW_S)
+    end = stepper.state.body_q.numpy()
+    out = Settled(simulated_s=float(run.take.seconds), at_rest=run.rest is not None)
+    for path, o in free.items():
+        b = models.path_body[path]
+        r0, r1 = Rotation.from_quat(start[b, 3:7]), Rotation.from_quat(end[b, 3:7])
+        rot = (r1 * r0.inv()).as_matrix()
+        trans = end[b, :3] - start[b, :3] @ rot.T
+        moved = float(np.linalg.norm(o.points @ rot.T + trans - o.points, axis=1).max())
+        turned = float(np.degrees((r1 * r0.inv()).magnitude()))
+        out.motions[o.name] = Motion(o.name, rot, trans, moved, turned)
+    out.seconds = time.perf_counter() - t0
+    return out
+
+
+def judge(settled: Settled, names, vertex_sets, faces, camera, masks) -> tuple[dict[str, Motion], dict[str, str]]:
+    """Which settled poses to keep (name → :class:`Motion`) and which objects went too far (name → why), for
+    the objects ``names`` with their placed ``vertex_sets`` and ``faces``, seen by ``camera`` against
+    ``masks`` (their visible masks, as ``align.compare.visible_ious`` takes them)."""
+    from ..align.compare import WARN_IOU, visible_ious
+
+    moving = {n: m for n, m in settled.motions.items() if not m.still}
+    far = {n: f"moved {m.moved_m * 100:.1f} cm and turned {m.turned_deg:.0f}° with nothing pushing it"
+           for n, m in moving.items() if m.moved_m > KEEP_M or m.turned_deg > KEEP_DEG}
+    near = {n: m for n, m in moving.items() if n not in far}
+    if not near:
+        return {}, far
+    before = visible_ious(vertex_sets, faces, camera, masks)
+    after_sets = [near[n].apply(v) if n in near else v for n, v in zip(names, vertex_sets)]
+    after = visible_ious(after_sets, faces, camera, masks)
+    keep = {}
+    for n, b, a in zip(names, before, after):
+        if n not in near:
+            continue
+        if b - a <= KEEP_IOU_DROP or a >= WARN_IOU:  # a small object's IoU drops a tenth for a pixel's shift
+            keep[n] = near[n]
+        else:
+            far[n] = (f"settles {near[n].moved_m * 100:.1f} cm, turned {near[n].turned_deg:.0f}°, to where its "
+                      f"outline no longer matches the photo's (silhouette IoU {b:.2f} → {a:.2f})")
+    return keep, far
