@@ -65,3 +65,37 @@ def test_a_settling_that_leaves_the_outline_is_not_kept(tmp_path):
     assert sideways.moved_m < KEEP_M
     keep, far = judge(settled, names, verts, faces, near, masks)
     assert not keep and "no longer matches" in far["above"]
+
+
+def test_build_settles_only_when_asked(tmp_path):
+    """``--settle`` is off by default (a settle costs what a simulate does); asked for, the build settles the
+    written shot and says what each round found in ``report.json`` (``shot.alignment.settle``)."""
+    import json
+
+    import cv2
+    import trimesh
+
+    from physomni_usd.bench.synthetic import render_truth
+    from physomni_usd.building import build_shot
+    from physomni_usd.settings import BuildSettings
+
+    camera = PinholeCamera(240, 180, 50.0, 30.0, (0.0, -0.55, 0.35))
+    truth = []
+    for size, at in (((0.30, 0.20, 0.10), (0, 0, 0)), ((0.07, 0.07, 0.07), (0.25, -0.05, 0.0))):
+        b = trimesh.creation.box(size)
+        b.apply_translation([at[0], at[1], at[2] + size[2] / 2])
+        truth.append(b)
+    photo, masks = render_truth(camera, truth, np.random.default_rng(5))
+    cv2.imwrite(str(tmp_path / "photo.png"), cv2.cvtColor(photo, cv2.COLOR_RGB2BGR))
+    specs = []
+    for k, m in enumerate(masks):
+        cv2.imwrite(str(tmp_path / f"block{k}.png"), m.astype(np.uint8) * 255)
+        specs.append(f"{tmp_path / f'block{k}.png'}:block")
+    assert BuildSettings().settle_s == 0.0
+    build_shot(tmp_path / "photo.png", tmp_path / "plain", masks=specs)
+    plain = json.loads((tmp_path / "plain" / "report.json").read_text())
+    assert "settle" not in plain["shot"]["alignment"]
+    build_shot(tmp_path / "photo.png", tmp_path / "settled", masks=specs, settings=BuildSettings(settle_s=1.0))
+    settled = json.loads((tmp_path / "settled" / "report.json").read_text())["shot"]["alignment"]["settle"]
+    assert settled["rounds"] and settled["rounds"][0]["simulated_s"] > 0.0, settled
+    assert "skipped" not in settled, settled
