@@ -536,11 +536,18 @@ def _scored(lift_at, pitch: float, masks, labels, found):
         unit, lifted, supports, fit, scale = lift_at(pitch)
     except (InputError, ValueError):
         return None
-    size_logs, thin = prior_terms([m.vertices for m in lifted], labels, scale)
+    size_logs, thin = prior_terms([m.vertices for m in lifted], labels, scale, [_height_read(m) for m in lifted])
     # a foot on another's face is the weakest reading of a support: a pitch that cannot keep it is not worse
     shown = [i for i, (_, how) in found.items() if how != "foot"]
     lost = sum(i not in supports for i in shown) / len(shown) if shown else 0.0
     return score_scene([m.vertices for m in lifted], [m.faces for m in lifted], unit, masks, size_logs, thin, lost)
+
+
+def _height_read(lifted) -> bool:
+    """Whether the lift read ``lifted``'s height from the photo, not from its label's typical size or its
+    footprint's width (``lift.footprint``): only a height read can tell one pitch from another."""
+    source = str(lifted.info.get("height_source") or "")
+    return not (source.startswith("typical size") or "footprint's width" in source)
 
 
 def place_on_ground(lifted, names, gap_m: float) -> PhotoScene:
