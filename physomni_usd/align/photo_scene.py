@@ -463,7 +463,7 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
                                         max(lowest, 0.0), MAX_PITCH_DEG, gain_fraction=gain,
                                         window_deg=window if strong else None,
                                         trust_deg=CUE_WINDOW_DEG if strong and agreeing < TRUSTED_CUE else None,
-                                        anchor=anchor)
+                                        anchor=anchor, pick="nearest" if readings else "best")
         except ValueError:  # no pitch lifted a scene the search could score: the cues' pitch, as without it
             searched = None
             camera_info["render_compare"] = {"chosen": "cues", "skipped": "no pitch tried gave a scene"}
