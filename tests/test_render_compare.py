@@ -92,7 +92,8 @@ def test_on_a_plateau_of_good_pitches_the_one_nearest_the_cues_is_taken():
     def plateau(p):  # every pitch from 45° up explains the scene about as well (a view from above fits any outline)
         return compare.SceneScore(0.10 - 0.01 * (p - 45.0) / 45.0 if p >= 45.0 else 0.8, {})
     found = compare.search_pitch(plateau, cue_pitch=10.0, lowest=0.0, highest=89.5)
-    assert found.as_dict()["chosen"] == "silhouettes" and found.pitch_deg == pytest.approx(45.0)
+    # the plateau's near edge, as finely as the grid finds it
+    assert found.as_dict()["chosen"] == "silhouettes" and 45.0 <= found.pitch_deg < 45.0 + compare.COARSE_STEP_DEG
     # a strong cue asks for a far better scene: a third better is not enough
     def third_better(p):
         return compare.SceneScore(0.2 if p >= 30.0 else 0.3, {})
@@ -179,6 +180,35 @@ def test_the_size_term_measures_each_object_against_its_label():
     assert thin[0] == 0.0 and thin[1] > 0.4  # a cup is no disc: thinner than a third of its width
     # the scene's scale counts: the same box at twice the scale is log 2 off
     assert compare.prior_terms([box.vertices], ["box"], 2.0)[0][0] == pytest.approx(np.log(2.0), abs=1e-6)
+
+
+def test_a_side_the_photo_did_not_give_counts_the_same_at_every_pitch():
+    # a book lifted from above: its height copied from the label (0.03 m) agrees with it by construction; only its
+    # footprint, three times the label's longest, is held to the label, and its proportions count as unread
+    book = trimesh.creation.box((0.72, 0.4, 0.03))
+    read = compare.prior_terms([book.vertices], ["book"], heights_read=[True])[0]
+    copied = compare.prior_terms([book.vertices], ["book"], heights_read=[False])[0]
+    assert read[0] == pytest.approx(np.log(3.0), abs=1e-6) and read[1] > 0.9
+    assert copied == pytest.approx([np.log(3.0), compare.UNREAD_LOG], abs=1e-6)
+    # a bottle (as tall as long) seen from above shows no side of its label's: both count as unread, whatever
+    # the size the lift gave it
+    for radius in (0.04, 0.2):
+        bottle = trimesh.creation.cylinder(radius, 0.25)
+        assert compare.prior_terms([bottle.vertices], ["bottle"], heights_read=[False])[0] == pytest.approx(
+            [compare.UNREAD_LOG] * 2)
+    # a copied height is no thinness: a cup three times wider than tall is thin only where its height was read
+    cup = trimesh.creation.cylinder(0.15, 0.05)
+    assert compare.prior_terms([cup.vertices], ["cup"], heights_read=[True])[1][0] > 0.4
+    assert compare.prior_terms([cup.vertices], ["cup"], heights_read=[False])[1][0] == 0.0
+
+
+def test_with_no_reading_to_keep_the_best_scoring_of_the_near_best_pitches_is_taken():
+    def flat(p):  # about as good from 20 to 40 degrees, best at 33; the feet's default 10 far worse
+        return compare.SceneScore(0.10 + 0.0004 * abs(p - 33.0) if 20.0 <= p <= 40.0 else 0.5, {})
+    nearest = compare.search_pitch(flat, cue_pitch=10.0, lowest=0.0, highest=89.5, gain_fraction=0.0)
+    best = compare.search_pitch(flat, cue_pitch=10.0, lowest=0.0, highest=89.5, gain_fraction=0.0, pick="best")
+    assert nearest.pitch_deg == pytest.approx(20.0)
+    assert abs(best.pitch_deg - 33.0) <= 2.5 and best.cue_pitch_deg == 10.0
 
 
 def _leaning(truth: float, lean: float = 0.0):

@@ -51,7 +51,8 @@ TRUSTED_CUE = 1.0
 #: when it beats it by MIN_GAIN plus this fraction of its score, not MIN_GAIN_FRACTION: a default has no
 #: reading of the photo to defend. Of 32 tuning scenes (bench general seeds 880417, 263429, 771904, 504846),
 #: 26 were within 10° under MIN_GAIN_FRACTION and 28 under 0: three seen from 76°, 24° and 26° and kept near
-#: the feet's 10° were set right, one seen from 13° went to 84° (from above every outline fits).
+#: the feet's 10° were set right, one seen from 13° went to 84° (from above every outline fits). Of the pitches
+#: then about as good as the best, the best-scoring is taken, not the one nearest the default.
 NO_READING_GAIN_FRACTION = 0.0
 #: ... while the pitch search weighs a pitch, each started from the scale of the nearest pitch weighed.
 SEARCH_SCALE_ROUNDS = 2
@@ -463,7 +464,7 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
                                         max(lowest, 0.0), MAX_PITCH_DEG, gain_fraction=gain,
                                         window_deg=window if strong else None,
                                         trust_deg=CUE_WINDOW_DEG if strong and agreeing < TRUSTED_CUE else None,
-                                        anchor=anchor)
+                                        anchor=anchor, pick="nearest" if readings else "best")
         except ValueError:  # no pitch lifted a scene the search could score: the cues' pitch, as without it
             searched = None
             camera_info["render_compare"] = {"chosen": "cues", "skipped": "no pitch tried gave a scene"}
@@ -536,11 +537,18 @@ def _scored(lift_at, pitch: float, masks, labels, found):
         unit, lifted, supports, fit, scale = lift_at(pitch)
     except (InputError, ValueError):
         return None
-    size_logs, thin = prior_terms([m.vertices for m in lifted], labels, scale)
+    size_logs, thin = prior_terms([m.vertices for m in lifted], labels, scale, [_height_read(m) for m in lifted])
     # a foot on another's face is the weakest reading of a support: a pitch that cannot keep it is not worse
     shown = [i for i, (_, how) in found.items() if how != "foot"]
     lost = sum(i not in supports for i in shown) / len(shown) if shown else 0.0
     return score_scene([m.vertices for m in lifted], [m.faces for m in lifted], unit, masks, size_logs, thin, lost)
+
+
+def _height_read(lifted) -> bool:
+    """Whether the lift read ``lifted``'s height from the photo, not from its label's typical size or its
+    footprint's width (``lift.footprint``): only a height read can tell one pitch from another."""
+    source = str(lifted.info.get("height_source") or "")
+    return not (source.startswith("typical size") or "footprint's width" in source)
 
 
 def place_on_ground(lifted, names, gap_m: float) -> PhotoScene:
