@@ -24,6 +24,9 @@ RIM_CLEARANCE = 0.5
 #: ... and what of it rises above the rim is lowered by the one of these factors whose silhouette matches its
 #: outline best (:func:`rests_on_rim`).
 RIM_HEIGHT_FACTORS = (1.0, 0.85, 0.7, 0.55, 0.4)
+#: A foot this many pixels outside the rim, on the rim's plane, is still in the mouth: the outline's lowest
+#: pixel row is drawn where the rim's front crosses it.
+MOUTH_MARGIN_PX = 1.0
 
 
 def vessel_frame(vertices: np.ndarray) -> dict:
@@ -44,9 +47,14 @@ def vessel_frame(vertices: np.ndarray) -> dict:
 
 
 def foot_in_mouth(vertices: np.ndarray, mask: np.ndarray, camera) -> bool:
-    """Whether the ray through the foot of the object of ``mask`` (H, W) bool crosses the rim's height within the
-    rim of the vessel ``vertices``: its foot shows in the vessel's mouth (or the front rim hides it there), not
-    beside the vessel."""
+    """Whether the object of ``mask`` (H, W) bool has its foot in the mouth of the vessel ``vertices``: the ray
+    through its foot crosses the rim's height within the rim (give or take :data:`MOUTH_MARGIN_PX`), or meets
+    the vessel's outer wall in front below it.
+
+    The second is foliage hanging over a pot's front: its lowest pixel shows over the pot's wall, so it is in
+    front of that wall and above the ground there (the ground under that pixel lies behind the wall's foot);
+    nothing but the pot can hold it. A foot hidden by the vessel (a thing on the ground behind it) shows at
+    the rim's back, never over its wall."""
 
     u, v = foot_pixel(fill_holes(mask))
     f = vessel_frame(vertices)
@@ -54,7 +62,16 @@ def foot_in_mouth(vertices: np.ndarray, mask: np.ndarray, camera) -> bool:
     if d[2] >= -1e-9 or camera.origin[2] <= f["rim_z"]:
         return False
     at = camera.origin + (f["rim_z"] - camera.origin[2]) / d[2] * d
-    return float(np.linalg.norm(at[:2] - f["centre"])) <= f["outer"]
+    # a pixel's width on the rim's plane at that distance: a foot drawn just in front of the rim is in it
+    margin = MOUTH_MARGIN_PX * float(np.linalg.norm(at - camera.origin)) / camera.focal_px
+    if float(np.linalg.norm(at[:2] - f["centre"])) <= f["outer"] + margin:
+        return True
+    # down the ray from the rim's height to the base's: inside the revolved outer wall anywhere?
+    low = f["floor_z"] - f["wall"]
+    z = np.linspace(f["rim_z"], low, 64)
+    points = camera.origin + ((z - camera.origin[2]) / d[2])[:, None] * d
+    reach = f["outer"] - f["slope"] * (f["rim_z"] - z)
+    return bool((np.linalg.norm(points[:, :2] - f["centre"], axis=1) <= reach).any())
 
 
 def rests_on_rim(vertices: np.ndarray, mask: np.ndarray, camera, rows: int, sections: int, fits=None):
