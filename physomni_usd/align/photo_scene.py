@@ -114,6 +114,18 @@ def on_rim(lower, upper_mask: np.ndarray, camera: PinholeCamera, settings: Build
     if found is None:
         return None
     verts, faces, contact = found
+    # what rests on the rim reaches into the mouth: the vessel is filled up to it (a pot's soil), which holds
+    # it from below and weighs the vessel down; empty, a pot a tenth of its plant's mass sank its thin floor
+    # into the ground under it, and the plant its thin rim
+    from ..lift.footprint import fine_faces
+    from ..lift.rim import filled, soil_level
+
+    foot = float(verts[:, 2].min())
+    level = soil_level(lower.vertices, foot)
+    verts = verts + [0.0, 0.0, max(0.0, level - foot)]
+    contact = contact + [0.0, 0.0, max(0.0, level - foot)]
+    lower.vertices, lower.faces = fine_faces(*filled(lower.vertices, level), camera)
+    lower.info["filled_to"] = round(level, 5)
     return LiftedMesh(verts, faces, "round", contact, foot_pixel(solid)[1],
                       {"mode": "standing", "shape": "round", "height_source": "silhouette",
                        "rests_on": "the rim of the vessel under it, round about its axis"})
