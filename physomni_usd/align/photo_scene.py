@@ -93,11 +93,14 @@ def surface_under(lower, upper_mask: np.ndarray, camera: PinholeCamera) -> float
     return float(down[:, 2].max()) if len(down) else top
 
 
-def on_rim(lower, upper_mask: np.ndarray, camera: PinholeCamera, settings: BuildSettings):
+def on_rim(lower, upper_mask: np.ndarray, camera: PinholeCamera, settings: BuildSettings, fit: bool = True):
     """The object of ``upper_mask`` lifted resting on the rim of ``lower`` where ``lower`` is a vessel, its foot
     shows in the vessel's mouth (``lift.rim.foot_in_mouth``) and it is wider than the mouth
-    (``lift.rim.rests_on_rim``: a plant's foliage over its pot); None otherwise. Stood on the surface its foot's ray meets inside the mouth (the back wall), and as
-    deep as the outline alone makes it, such a thing came out a slab standing on the pot's back rim, and fell."""
+    (``lift.rim.rests_on_rim``: a plant's foliage over its pot); None otherwise. Stood on the surface its
+    foot's ray meets inside the mouth (the back wall), and as deep as the outline alone makes it, such a thing
+    came out a slab standing on the pot's back rim, and fell.
+    With ``fit`` false what rises above the rim keeps the height its rows were cast at, not the one whose
+    silhouette matches best: the pitch search passes false (five renders per plant, per pitch and scale round)."""
     from ..lift.silhouette import LiftedMesh
     from ..lift.rim import foot_in_mouth, rests_on_rim
 
@@ -108,10 +111,22 @@ def on_rim(lower, upper_mask: np.ndarray, camera: PinholeCamera, settings: Build
 
     solid = fill_holes(upper_mask)
     found = rests_on_rim(lower.vertices, upper_mask, camera, settings.lift.rows, settings.lift.sections,
-                         fits=lambda v, f: mask_iou(silhouette(v, f, camera), solid))
+                         fits=(lambda v, f: mask_iou(silhouette(v, f, camera), solid)) if fit else None)
     if found is None:
         return None
     verts, faces, contact = found
+    # what rests on the rim reaches into the mouth: the vessel is filled up to it (a pot's soil), which holds
+    # it from below and weighs the vessel down; empty, a pot a tenth of its plant's mass sank its thin floor
+    # into the ground under it, and the plant its thin rim
+    from ..lift.footprint import fine_faces
+    from ..lift.rim import filled, soil_level
+
+    foot = float(verts[:, 2].min())
+    level = soil_level(lower.vertices, foot)
+    verts = verts + [0.0, 0.0, max(0.0, level - foot)]
+    contact = contact + [0.0, 0.0, max(0.0, level - foot)]
+    lower.vertices, lower.faces = fine_faces(*filled(lower.vertices, level), camera)
+    lower.info["filled_to"] = round(level, 5)
     return LiftedMesh(verts, faces, "round", contact, foot_pixel(solid)[1],
                       {"mode": "standing", "shape": "round", "height_source": "silhouette",
                        "rests_on": "the rim of the vessel under it, round about its axis"})
@@ -132,7 +147,7 @@ def behind_what_hides_it(lower, upper_mask: np.ndarray, camera: PinholeCamera) -
 
 
 def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scale: float, supports=None,
-             photo=None, hides=(), visible=None, wall: bool = True, hollows: bool = True):
+             photo=None, hides=(), visible=None, wall: bool = True, hollows: bool = True, rims: bool = True):
     """Each mask lifted under ``camera`` (unit height); ``scale`` turns a prior's metres into the camera's units.
 
     ``supports`` ({upper: (lower, how)}) stands each upper object on its lower one's surface where it
@@ -146,7 +161,8 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
     28° built at 10°). With ``hollows`` false, an object held by none of several alone is judged by their
     footprints only (:func:`balances_on`), not also by :func:`held_in_hollow`: the pitch search passes false,
     since that 3D test on the search's coarse copies dropped supports and moved the pitch it chose (a pile
-    taken at 30° went back to 14°, where it fell).
+    taken at 30° went back to 14°, where it fell). With ``rims`` false, what rests on a vessel's rim is not
+    fitted to its outline by rendering (:func:`on_rim`'s ``fit``): the pitch search passes false, for its cost.
     """
     supports = supports or {}
     hides = set(hides)
@@ -166,7 +182,7 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
             supports.pop(i)
         base = surface_under(out[supports[i][0]], masks[i], camera) if i in supports else 0.0
         kwargs = _lift_options(labels[i], scale, photo)
-        if i in supports and (seated := on_rim(out[supports[i][0]], masks[i], camera, settings)) is not None:
+        if i in supports and (seated := on_rim(out[supports[i][0]], masks[i], camera, settings, rims)) is not None:
             out[i] = seated
             return
         try:
@@ -410,7 +426,7 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
         start = scales[min(scales, key=lambda q: abs(q - p))] if scales and searching else 1.0
         out = _lift_scaled(ms, labels, names, unit, settings, found, hides, ph, vs, user_sizes, start,
                            SEARCH_SCALE_ROUNDS if searching else SCALE_ROUNDS, wall=not searching,
-                           hollows=not searching)
+                           hollows=not searching, rims=not searching)
         scales[p] = out[3]
         return (unit, *out)
 
@@ -511,7 +527,7 @@ def _search_copies(photo: np.ndarray, masks, visible):
 
 def _lift_scaled(masks, labels, names, unit: PinholeCamera, settings: BuildSettings, found, hides, photo, visible,
                  user_sizes, scale: float = 1.0, rounds: int = SCALE_ROUNDS, wall: bool = True,
-                 hollows: bool = True):
+                 hollows: bool = True, rims: bool = True):
     """Every mask lifted under the unit-height camera ``unit`` at the scene's scale, the scale and the lift
     agreeing (:data:`SCALE_ROUNDS`, from ``scale``): (lifted at unit height, supports kept, the scale's fit,
     its factor)."""
@@ -521,7 +537,7 @@ def _lift_scaled(masks, labels, names, unit: PinholeCamera, settings: BuildSetti
         # off its saucer's back, and a support dropped then would stay dropped
         supports = dict(found)
         lifted = lift_all(masks, labels, unit, settings, scale, supports, photo=photo, hides=hides,
-                          visible=visible, wall=wall, hollows=hollows)
+                          visible=visible, wall=wall, hollows=hollows, rims=rims)
         longest = [longest_dimension(m.vertices) for m in lifted]
         fit = fit_scale(names, labels, longest, user_sizes, settings.camera.height_m)
         if abs(np.log(fit.factor / scale)) < 1e-3:

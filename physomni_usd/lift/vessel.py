@@ -57,8 +57,10 @@ def _frame(camera) -> tuple[np.ndarray, np.ndarray]:
 #: The base's radius as a fraction of the rim's (a bowl's foot, a pot's bottom): the photo shows the base's front
 #: but not its sides, so this ratio stands for them.
 BASE_RATIO = 0.75
-#: A vessel is between these fractions of its rim's diameter tall.
-HEIGHT_RANGE = (0.1, 1.2)
+#: A vessel is between these fractions of its rim's diameter tall. A flowerpot is about as tall as it is wide,
+#: and a pitch read a few degrees too steep makes it up to a third taller: at 1.2 such a pot under its plant
+#: came out a solid cylinder, with nothing for the plant to stand in.
+HEIGHT_RANGE = (0.1, 1.5)
 
 
 def rim_at(poly_uv, camera, z: float):
@@ -113,16 +115,19 @@ def rim_from_outline(mask: np.ndarray, poly_uv: np.ndarray, camera, base_z: floa
 
 
 def vessel_mesh(centre: np.ndarray, base_radius_m: float, rim_radius: float, height: float,
-                base_z: float = 0.0, wall: float | None = None, sections: int = SECTIONS) -> trimesh.Trimesh:
+                base_z: float = 0.0, wall: float | None = None, sections: int = SECTIONS,
+                fill: float | None = None) -> trimesh.Trimesh:
     """The watertight hollow vessel: a floor of radius ``base_radius_m`` on z = ``base_z``, a straight wall
     out to the rim (``rim_radius``, ``height`` above the floor's underside), open at the top; walls and floor
-    ``wall`` thick (default ``WALL_RATIO`` of the rim's diameter). ``centre`` (2,) the axis; metres."""
+    ``wall`` thick (default ``WALL_RATIO`` of the rim's diameter). ``centre`` (2,) the axis; metres.
+    ``fill``: the inside is solid up to this height above the floor's underside (a pot's soil), not ``wall``."""
     t = WALL_RATIO * 2 * rim_radius if wall is None else wall
     t = min(t, 0.4 * height, 0.4 * base_radius_m)
     slope = (rim_radius - base_radius_m) / height  # outward run per unit rise
-    inner_base = base_radius_m + slope * t - t
+    floor = t if fill is None else float(np.clip(fill, t, height - 0.1 * t))
+    inner_floor = base_radius_m + slope * floor - t  # the inner wall's radius at the floor's top
     profile = np.array([[0.0, 0.0], [base_radius_m, 0.0], [rim_radius, height], [rim_radius - t, height],
-                        [inner_base, t], [0.0, t]])
+                        [inner_floor, floor], [0.0, floor]])
     mesh = trimesh.creation.revolve(profile, sections=sections)
     mesh.apply_translation([centre[0], centre[1], base_z])
     return mesh
