@@ -268,13 +268,17 @@ def start_contacts(vertex_sets, faces, supports: dict[int, tuple[int, str]], nam
 SETTLE_TOLERANCE_M = 0.0005
 
 
-def settle_on_supports(vertex_sets, faces, supports: dict[int, tuple[int, str]]) -> tuple[list[np.ndarray], list[float]]:
+def settle_on_supports(vertex_sets, faces, supports: dict[int, tuple[int, str]], vessels=(),
+                       eye=None) -> tuple[list[np.ndarray], list[float]]:
     """Vertex sets with every object that starts inside what holds it raised until it rests on it, and each
-    object's rise (metres). Objects resting on a raised one rise with it; lower objects first.
+    object's rise (metres; < 0 for one lowered into a vessel). Objects resting on a moved one move with it;
+    lower objects first.
 
     Standing on the supporter's surface where the foot's ray meets it (``align.photo_scene.surface_under``)
     can leave the rest of an object's base inside a supporter that is higher elsewhere (a cup's back over a
-    saucer's rim); a simulation would push it out with energy it never had.
+    saucer's rim); a simulation would push it out with energy it never had. An object held over an open
+    vessel's mouth (``vessels``: a flag per object, ``lift.vessel``) goes down into it first
+    (:func:`into_vessel`, along the rays from the camera at ``eye``).
     """
     import trimesh
 
@@ -284,6 +288,14 @@ def settle_on_supports(vertex_sets, faces, supports: dict[int, tuple[int, str]])
         if i not in supports:
             continue
         j = supports[i][0]
+        if eye is not None and j < len(vessels) and vessels[j]:
+            t = into_vessel(verts[i], verts[j], eye)
+            if t is not None:
+                o = np.asarray(eye, float)
+                low = float(verts[i][:, 2].min())
+                for k in riders(i, supports):
+                    verts[k] = o + t * (verts[k] - o)
+                rise[i] += float(verts[i][:, 2].min()) - low
         z = verts[i][:, 2]
         low = verts[i][z <= z.min() + 0.2 * max(float(np.ptp(z)), 1e-9)]
         inside = float(trimesh.proximity.signed_distance(trimesh.Trimesh(verts[j], faces[j], process=False),
@@ -295,6 +307,68 @@ def settle_on_supports(vertex_sets, faces, supports: dict[int, tuple[int, str]])
                     verts[k] = verts[k] + up
                     rise[k] += inside
     return verts, rise
+
+
+#: An object lowered into a vessel (:func:`into_vessel`) is scaled about the camera by at most this factor: farther,
+#: the photo shows it elsewhere than in that vessel.
+VESSEL_REACH = 1.6
+
+
+def into_vessel(points: np.ndarray, vessel: np.ndarray, eye) -> float | None:
+    """The factor about the camera at ``eye`` (3,) that brings the object ``points`` (N, 3), held over the mouth
+    of the open vessel ``vessel`` (its vertices, ``lift.vessel.vessel_mesh`` moved whole), down into it until it
+    touches the vessel's inner floor or wall; None where it is wider than the mouth (foliage over a pot rests on
+    the rim, ``lift.rim``), or where no factor up to :data:`VESSEL_REACH` puts it in the hollow (its centre
+    within the inner rim, below the rim, clear of the wall and the floor).
+
+    A fruit in a bowl, seen from above the rim, shows its foot in the bowl's mouth: stood where that ray meets
+    the rim, a ball rests on the rim's edge, drops in and rolls up the far wall and out (an apple in a bowl
+    rolled 18 cm). Scaled about the camera, its outline in the photo stays exactly as it was; it moves down the
+    rays into the bowl and grows by the factor, which the tangent cone of a ball resting on the inner floor
+    also gives (``lift.footprint.sphere_from_outline``)."""
+    from ..lift.rim import vessel_frame
+    from ..lift.vessel import SECTIONS
+
+    f = vessel_frame(vessel)
+    pts = np.asarray(points, float)
+    o = np.asarray(eye, float)
+    axis = np.asarray(f["centre"], float)
+    half = 0.5 * float(np.ptp(pts[:, :2], axis=0).max())
+    if half >= f["inner"]:
+        return None
+    flat = np.cos(np.pi / SECTIONS)  # the revolved wall's flat sides lie this far in of its corners
+
+    def clear(t: float) -> bool:  # no point of it inside the vessel's wall or floor
+        p = o + t * (pts - o)
+        low = p[p[:, 2] < f["rim_z"]]
+        if not len(low):
+            return True
+        wall = flat * (f["inner"] - f["slope"] * (f["rim_z"] - low[:, 2]))
+        return bool((low[:, 2] >= f["floor_z"]).all() and (np.linalg.norm(low[:, :2] - axis, axis=1) <= wall).all())
+
+    if not clear(1.0):
+        return None  # already in the wall: raised out of it as any
+
+    def inside(t: float) -> bool:  # below the rim, within the mouth, and clear of the vessel
+        p = o + t * (pts - o)
+        return float(p[:, 2].min()) < f["rim_z"] and float(np.linalg.norm(p[:, :2].mean(0) - axis)) <= f["inner"] \
+            and clear(t)
+
+    # a placement, not a motion: the path down the rays may pass through the front rim (the vessel is lifted
+    # from its outline, a few millimetres either way); what counts is where it ends, in the hollow on what holds it
+    step = 0.002
+    ts = np.arange(1.0, VESSEL_REACH, step)
+    ok = np.array([inside(t) for t in ts])
+    if not ok.any():
+        return None
+    k = int(np.nonzero(ok)[0].max())  # the last stretch in the hollow ends on its floor or far wall
+    if k + 1 >= len(ts):
+        return None
+    lo, hi = float(ts[k]), float(ts[k + 1])
+    for _ in range(20):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if clear(mid) else (lo, mid)
+    return lo if lo > 1.0 + 1e-6 else None
 
 
 def rests_on(k: int, i: int, supports: dict[int, tuple[int, str]]) -> bool:

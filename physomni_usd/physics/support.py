@@ -180,10 +180,11 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
     verts = [np.asarray(v, float).copy() for v in vertex_sets]
     done = []
     for i in sorted(range(len(verts)), key=lambda k: float(verts[k][:, 2].min())):
-        # on another object (an orange in a bowl's mouth): what holds it is not flat. A foot on another's level
-        # face held a lemon on a bowl's inner floor still, but a pushed ball read as standing on a crate's top
-        # then slid 6 mm where it rolled (tests/test_studio_pushes.py): not done yet
-        if i in supports:
+        # on another object (an orange on a bowl's rim): what holds it is not flat. A foot on any level face of
+        # another stopped a pushed ball read as standing on a crate's top (6 mm where it rolled,
+        # tests/test_studio_pushes.py); in a hollow (a fruit on a bowl's inner floor) a ball on the flat floor
+        # wanders 5 cm with nothing pushing it, where the walls around it stop a pushed one anyway
+        if i in supports and not walled_in(verts[i], verts[supports[i][0]]):
             continue
         verts[i], cut = flat_foot(verts[i])
         if cut > 0:
@@ -240,6 +241,22 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
         done.append({"object": i, "on": j, "shift_m": round(float(np.linalg.norm(shift)), 4),
                      "overhang_m": round(_outside(region, c), 4)})
     return verts, done
+
+
+#: What holds an object walls it in where it rises this fraction of the object's height above its lowest point
+#: all around it (:func:`walled_in`).
+WALL_RISE = 0.25
+
+
+def walled_in(upper: np.ndarray, lower: np.ndarray) -> bool:
+    """Whether ``lower`` (M, 3) rises around the lowest point of ``upper`` (N, 3) resting in it: seen from above,
+    that point lies inside the convex hull of ``lower``'s points :data:`WALL_RISE` of ``upper``'s height above it
+    (a fruit on a bowl's inner floor, the rim around it; not a crate's top, nor the side of a fruit under it)."""
+    low = upper[np.argmin(upper[:, 2])]
+    high = lower[lower[:, 2] >= low[2] + WALL_RISE * float(np.ptp(upper[:, 2])), :2]
+    if len(high) < 3:
+        return False
+    return _outside(high, low[:2]) < 0.0
 
 
 #: A rounded object on a rounded top is brought over that top's crown by at most this fraction of its own
