@@ -570,22 +570,32 @@ HOLLOW_ACROSS = 0.1
 HOLLOW_CONTACT = 0.003
 
 
-def _height_grid(points: np.ndarray, lo: np.ndarray, shape: tuple[int, int], top: bool) -> np.ndarray:
-    """The highest (``top``) or lowest of ``points`` (N, 3) in each cell of a level grid of
-    :data:`HOLLOW_CELL` cells from ``lo`` (2,), ``-inf`` / ``inf`` where none falls."""
-    cells = np.floor((points[:, :2] - lo) / HOLLOW_CELL).astype(int)
+def _height_grid(points: np.ndarray, lo: np.ndarray, shape: tuple[int, int], top: bool,
+                 cell: float = HOLLOW_CELL) -> np.ndarray:
+    """The highest (``top``) or lowest of ``points`` (N, 3) in each cell of a level grid of ``cell`` cells from
+    ``lo`` (2,), ``-inf`` / ``inf`` where none falls."""
+    cells = np.floor((points[:, :2] - lo) / cell).astype(int)
     ok = (cells >= 0).all(1) & (cells[:, 0] < shape[0]) & (cells[:, 1] < shape[1])
     grid = np.full(shape, -np.inf if top else np.inf)
     (np.maximum if top else np.minimum).at(grid, (cells[ok, 0], cells[ok, 1]), points[ok, 2])
     return grid
 
 
-def _surface_points(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """The vertices and enough points on the faces that every :data:`HOLLOW_CELL` cell of the surface has some."""
+def _surface_points(vertices: np.ndarray, faces: np.ndarray, cell: float = HOLLOW_CELL, keep=None,
+                    per_cell: float = 8.0) -> np.ndarray:
+    """The vertices and enough points on the faces (those of ``keep``, a mask, where given) that every ``cell``
+    cell of the surface has some (``per_cell`` of them on average)."""
     import trimesh
 
+    if keep is not None:
+        faces = np.asarray(faces)[keep]
+        if not len(faces):
+            return np.asarray(vertices, float)[:0]
+        vertices = np.asarray(vertices, float)
+        used = np.unique(faces)
+        vertices, faces = vertices[used], np.searchsorted(used, faces)
     mesh = trimesh.Trimesh(vertices, faces, process=False)
-    n = int(min(200_000, max(2_000, 8 * mesh.area / HOLLOW_CELL ** 2)))
+    n = int(min(400_000, max(2_000, per_cell * mesh.area / cell ** 2)))
     return np.vstack([np.asarray(vertices, float), trimesh.sample.sample_surface(mesh, n, seed=0)[0]])
 
 
@@ -657,4 +667,56 @@ def into_hollow(verts, faces, supports: dict, i: int, com: np.ndarray, eye=None,
         return None
     if float((eq[:, :2] @ c + eq[:, 2]).max()) > -margin:
         return None
-    return np.array([dx * HOLLOW_CELL, dy * HOLLOW_CELL, -drop]), on
+    # each cell's highest and lowest points stop the fall a slope's rise across a cell early (a fruit left 3 mm
+    # over the hollow fell into it and rolled 5°): the place is found again on a finer grid around this one
+    shift = _finer(verts, faces, movers, i, np.array([dx, dy]) * HOLLOW_CELL, along, reach, width, ground_z)
+    return (shift if shift is not None else np.array([dx * HOLLOW_CELL, dy * HOLLOW_CELL, -drop])), on
+
+
+#: The finer grid of :func:`_finer`: this fraction of :data:`HOLLOW_CELL`, searched this many coarse cells around.
+HOLLOW_FINE = 0.25
+HOLLOW_AROUND = 2
+#: ... with this many surface points a cell on average (a few cells left empty cost less than the sampling).
+HOLLOW_FINE_SAMPLES = 2.0
+
+
+def _finer(verts, faces, movers, i: int, start: np.ndarray, along: np.ndarray, reach: float, width: float,
+           ground_z: float) -> np.ndarray | None:
+    """The move (3,) of object ``i`` into the lowest place within :data:`HOLLOW_AROUND` coarse cells of the level
+    shift ``start`` (2,), as :func:`into_hollow` finds it, on a grid :data:`HOLLOW_FINE` as fine; None where
+    none lies within its reach."""
+    cell = HOLLOW_FINE * HOLLOW_CELL
+    v, f = np.asarray(verts[i], float), np.asarray(faces[i])
+    middle = 0.5 * (float(v[:, 2].min()) + float(v[:, 2].max()))
+    pts = _surface_points(v, f, cell, (v[f, 2] <= middle).any(axis=1), HOLLOW_FINE_SAMPLES)  # its underside meets what is under it
+    steps = int(round(HOLLOW_AROUND / HOLLOW_FINE))
+    pad = np.abs(start) + (steps + 1) * cell
+    lo = pts[:, :2].min(0) - pad
+    hi = pts[:, :2].max(0) + pad
+    shape = tuple(np.ceil((hi - lo) / cell).astype(int) + 1)
+    under = _height_grid(pts, lo, shape, False, cell)
+    tops = np.full(shape, ground_z)
+    for k in range(len(verts)):
+        if k in movers:
+            continue
+        w, g = np.asarray(verts[k], float), np.asarray(faces[k])
+        corner = w[g]  # (M, 3, 3): only faces over the window and as high as its underside matter
+        keep = ((corner[:, :, :2].max(1) >= lo).all(1) & (corner[:, :, :2].min(1) <= hi).all(1)
+                & (corner[:, :, 2].max(1) >= float(pts[:, 2].min()) - 0.5 * (middle - float(v[:, 2].min()))))
+        if keep.any():
+            tops = np.maximum(tops, _height_grid(_surface_points(w, g, cell, keep, HOLLOW_FINE_SAMPLES), lo, shape,
+                                                 True, cell))
+    rows, cols = np.nonzero(np.isfinite(under))
+    base = np.round(start / cell).astype(int)
+    best = None
+    for dx in range(base[0] - steps, base[0] + steps + 1):
+        for dy in range(base[1] - steps, base[1] + steps + 1):
+            s = np.array([dx, dy], float) * cell
+            a, c = float(s @ along), float(np.linalg.norm(s - (s @ along) * along))
+            if (a / reach) ** 2 + (c / (HOLLOW_ACROSS * width)) ** 2 > 1.0:
+                continue
+            drop = float((under[rows, cols] - tops[rows + dx, cols + dy]).min())
+            score = drop - c - 0.01 * float(np.linalg.norm(s))
+            if best is None or score > best[0] + 1e-12:
+                best = (score, s, drop)
+    return None if best is None else np.r_[best[1], -best[2]]
