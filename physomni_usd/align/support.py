@@ -26,7 +26,8 @@ outline exactly) to the depth at which its size agrees with the others'; there i
 its base, or, with none, is held where it is by what the photo shows no mask of. Each upper object
 then stands on its lower one's surface (``align.photo_scene.surface_under``)
 instead of on the ground, moves with it when objects are moved apart, and is
-raised out of it where it starts inside it (:func:`settle_on_supports`).
+raised out of it where it starts inside it (:func:`settle_on_supports`); one held over an open vessel's mouth
+goes down the camera's rays into its hollow first (:func:`into_vessel`), its outline kept.
 An object that rests on several together (a fruit in a pile's hollow) and whose centre of mass is beyond
 the top of the one it was stood on is lowered into their hollow (:func:`into_hollow`, from the steadying pass):
 moved onto that one's top it balances on a dome and rolls off.

@@ -173,8 +173,8 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
     faces of both (:func:`_dome_on_dome`); so does one whose centre of mass overhangs its own foot. Higher
     objects first. Before all that, every object standing on a point on the ground gets a flat foot
     (:func:`flat_foot`), what rests on it lowered with it (not one held by another object: an orange in a bowl's
-    mouth, rounded, rests on its rim; flattened, it fell 24 cm), and a sole that its centre of mass overhangs is
-    levelled (:func:`level_sole`)."""
+    mouth, rounded, rests on its rim; flattened, it fell 24 cm; but one on a floor walled in by what holds it,
+    :func:`walled_in`), and a sole that its centre of mass overhangs is levelled (:func:`level_sole`)."""
     from ..align.support import riders  # the build's; simulate, which imports this module, needs none of align
 
     verts = [np.asarray(v, float).copy() for v in vertex_sets]
