@@ -689,7 +689,8 @@ def _finer(verts, faces, movers, i: int, start: np.ndarray, along: np.ndarray, r
     cell = HOLLOW_FINE * HOLLOW_CELL
     v, f = np.asarray(verts[i], float), np.asarray(faces[i])
     middle = 0.5 * (float(v[:, 2].min()) + float(v[:, 2].max()))
-    pts = _surface_points(v, f, cell, (v[f, 2] <= middle).any(axis=1), HOLLOW_FINE_SAMPLES)  # its underside meets what is under it
+    # its underside: what meets what is under it
+    pts = _surface_points(v, f, cell, (v[f, 2] <= middle).any(axis=1), HOLLOW_FINE_SAMPLES)
     steps = int(round(HOLLOW_AROUND / HOLLOW_FINE))
     pad = np.abs(start) + (steps + 1) * cell
     lo = pts[:, :2].min(0) - pad
