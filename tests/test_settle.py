@@ -37,3 +37,47 @@ def test_an_object_resting_on_its_support_is_left_where_it_is():
     verts, rise = settle_on_supports([crate.vertices, book.vertices], [crate.faces, book.faces],
                                      {1: (0, "contact")})
     assert rise == [0.0, 0.0] and np.array_equal(verts[1], book.vertices)
+
+
+def _bowl_and_apple():
+    """A 16 cm bowl 5.7 cm tall and, as the lift stood it, an apple on its front rim's edge, its centre over the
+    mouth, seen from a camera in front and above."""
+    from physomni_usd.lift.vessel import vessel_mesh
+
+    bowl = vessel_mesh(np.array([0.0, 0.0]), 0.063, 0.084, 0.057)
+    apple = trimesh.creation.icosphere(subdivisions=3, radius=0.034)
+    apple.apply_translation([0.0, -0.066, 0.057 + 0.034])  # its lowest point at the rim's height
+    eye = np.array([0.0, -0.45, 0.40])
+    return bowl, apple, eye
+
+
+def test_an_apple_held_over_a_bowl_s_mouth_goes_down_the_camera_s_rays_onto_its_inner_floor():
+    from physomni_usd.lift.rim import vessel_frame
+
+    bowl, apple, eye = _bowl_and_apple()
+    verts, rise = settle_on_supports([bowl.vertices, apple.vertices], [bowl.faces, apple.faces],
+                                     {1: (0, "contact")}, [True, False], eye)
+    f = vessel_frame(bowl.vertices)
+    assert abs(float(verts[1][:, 2].min()) - f["floor_z"]) < 1e-3  # on the inner floor, not the rim
+    assert rise[1] < -0.04 and rise[0] == 0.0
+    assert np.array_equal(verts[0], bowl.vertices)
+    inside = trimesh.proximity.signed_distance(trimesh.Trimesh(verts[0], bowl.faces), verts[1])
+    assert float(inside.max()) <= 5e-4  # clear of the wall it passed
+    # its outline in the photo is kept: every vertex on the same ray from the camera
+    a = (apple.vertices - eye) / np.linalg.norm(apple.vertices - eye, axis=1, keepdims=True)
+    b = (verts[1] - eye) / np.linalg.norm(verts[1] - eye, axis=1, keepdims=True)
+    assert float(np.abs(a - b).max()) < 1e-9
+    # without the vessel flag or the camera it is left where it is (a plant on a pot's rim goes by lift.rim)
+    for vessels, where in (([False, False], eye), ([True, False], None)):
+        kept, _ = settle_on_supports([bowl.vertices, apple.vertices], [bowl.faces, apple.faces],
+                                     {1: (0, "contact")}, vessels, where)
+        assert np.array_equal(kept[1], apple.vertices)
+
+
+def test_what_is_wider_than_a_vessel_s_mouth_is_not_put_into_it():
+    from physomni_usd.align.support import into_vessel
+
+    bowl, _, eye = _bowl_and_apple()
+    melon = trimesh.creation.icosphere(subdivisions=3, radius=0.09)
+    melon.apply_translation([0.0, 0.0, 0.057 + 0.09])
+    assert into_vessel(melon.vertices, bowl.vertices, eye) is None

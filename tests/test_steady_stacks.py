@@ -150,3 +150,40 @@ def test_a_cut_that_leaves_a_round_thing_thinner_than_round_is_told_from_one_tha
     cut = slab.copy()
     cut[:, 2] = np.maximum(cut[:, 2], -0.015)
     assert not _thinned(slab, cut)
+
+
+def test_a_ball_on_a_bowl_s_inner_floor_gets_a_flat_foot_and_one_on_a_crate_s_top_does_not():
+    """On a bowl's flat inner floor a ball wanders with nothing pushing it (5 cm in 2 s), and the walls stop a
+    pushed one anyway: walled in, it gets the foot it gets on the ground. On a crate's open top it keeps its
+    round foot, so that a pushed ball rolls (tests/test_studio_pushes.py)."""
+    from physomni_usd.lift.rim import vessel_frame
+    from physomni_usd.lift.vessel import vessel_mesh
+
+    bowl = vessel_mesh(np.array([0.0, 0.0]), 0.063, 0.084, 0.057)
+    floor = vessel_frame(bowl.vertices)["floor_z"]
+    in_bowl = _ball(floor + 0.035, x=0.01)
+    verts, done = steady_stacks([bowl.vertices, in_bowl.vertices], [bowl.faces, in_bowl.faces], {1: (0, "on")}, None)
+    assert [d["object"] for d in done if "flat_foot_m" in d] == [1], done
+    sole = verts[1][verts[1][:, 2] <= verts[1][:, 2].min() + 1e-9, :2]
+    assert np.ptp(sole, axis=0).min() > FOOT_FRACTION * 0.035  # a face, not a point
+    assert abs(float(verts[1][:, 2].min()) - floor) < 1e-9  # where it stood
+    crate = _box((0.3, 0.3, 0.2), (0, 0, 0.1))
+    on_top = _ball(0.2 + 0.035)
+    verts, done = steady_stacks([crate.vertices, on_top.vertices], [crate.faces, on_top.faces], {1: (0, "on")}, None)
+    assert not [d for d in done if d["object"] == 1], done
+
+
+def test_a_crown_under_a_small_ball_is_cut_as_wide_as_that_ball_s_foot():
+    """A lemon on a 40 cm ball: the crown's face is as wide as the lemon's foot, not as the big ball's own foot."""
+    held = _ball(0.0, x=0.004)
+    big = trimesh.creation.icosphere(subdivisions=4, radius=0.2)
+    big.apply_translation([0, 0, 0.2])
+    held.apply_translation([0, 0, 0.4 + 0.035])
+    verts, done = steady_stacks([big.vertices, held.vertices], [big.faces, held.faces], {1: (0, "on")}, None)
+    crowned = [d for d in done if "crown_cut_m" in d]
+    assert crowned, done
+    top = float(verts[0][:, 2].max())
+    face = verts[0][verts[0][:, 2] >= top - 1e-9, :2]
+    foot = FOOT_FRACTION * 0.035
+    assert np.ptp(face, axis=0).max() < 3 * 2 * foot  # about the lemon's foot across, not the ball's (6 cm)
+    assert crowned[0]["crown_cut_m"] < 0.002

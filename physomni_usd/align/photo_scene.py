@@ -594,11 +594,14 @@ def place_on_ground(lifted, names, gap_m: float) -> PhotoScene:
                 projected[i], depth_scales[i] = room_on[k], scales_on[k]
     for i in supports:
         moves[i] = moves[root_of(i, supports)]
-    verts, rise = settle_on_supports([v + d for v, d in zip(projected, moves)], [o.faces for o in lifted], supports)
+    verts, rise = settle_on_supports([v + d for v, d in zip(projected, moves)], [o.faces for o in lifted], supports,
+                                     [o.shape == "vessel" for o in lifted], camera.origin)
     info = {"variant": "silhouette", "depth_scales": [round(k, 4) for k in depth_scales],
             "moved_apart_m": [round(float(np.linalg.norm(d)), 4) for d in moves],
             **({"raised_onto_support_m": {names[i]: round(r, 4) for i, r in enumerate(rise) if r > 0}}
-               if any(rise) else {}),
+               if any(r > 0 for r in rise) else {}),
+            **({"lowered_into_vessel_m": {names[i]: round(-r, 4) for i, r in enumerate(rise) if r < 0}}
+               if any(r < 0 for r in rise) else {}),
             **lifted[0].ground.scene,
             "lift": [o.ground.info for o in lifted],
             "supports": {names[i]: {"on": names[j], "seen": how} for i, (j, how) in supports.items()}}

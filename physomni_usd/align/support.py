@@ -26,7 +26,8 @@ outline exactly) to the depth at which its size agrees with the others'; there i
 its base, or, with none, is held where it is by what the photo shows no mask of. Each upper object
 then stands on its lower one's surface (``align.photo_scene.surface_under``)
 instead of on the ground, moves with it when objects are moved apart, and is
-raised out of it where it starts inside it (:func:`settle_on_supports`).
+raised out of it where it starts inside it (:func:`settle_on_supports`); one held over an open vessel's mouth
+goes down the camera's rays into its hollow first (:func:`into_vessel`), its outline kept.
 An object that rests on several together (a fruit in a pile's hollow) and whose centre of mass is beyond
 the top of the one it was stood on is lowered into their hollow (:func:`into_hollow`, from the steadying pass):
 moved onto that one's top it balances on a dome and rolls off.
@@ -268,13 +269,17 @@ def start_contacts(vertex_sets, faces, supports: dict[int, tuple[int, str]], nam
 SETTLE_TOLERANCE_M = 0.0005
 
 
-def settle_on_supports(vertex_sets, faces, supports: dict[int, tuple[int, str]]) -> tuple[list[np.ndarray], list[float]]:
+def settle_on_supports(vertex_sets, faces, supports: dict[int, tuple[int, str]], vessels=(),
+                       eye=None) -> tuple[list[np.ndarray], list[float]]:
     """Vertex sets with every object that starts inside what holds it raised until it rests on it, and each
-    object's rise (metres). Objects resting on a raised one rise with it; lower objects first.
+    object's rise (metres; < 0 for one lowered into a vessel). Objects resting on a moved one move with it;
+    lower objects first.
 
     Standing on the supporter's surface where the foot's ray meets it (``align.photo_scene.surface_under``)
     can leave the rest of an object's base inside a supporter that is higher elsewhere (a cup's back over a
-    saucer's rim); a simulation would push it out with energy it never had.
+    saucer's rim); a simulation would push it out with energy it never had. An object held over an open
+    vessel's mouth (``vessels``: a flag per object, ``lift.vessel``) goes down into it first
+    (:func:`into_vessel`, along the rays from the camera at ``eye``).
     """
     import trimesh
 
@@ -284,6 +289,14 @@ def settle_on_supports(vertex_sets, faces, supports: dict[int, tuple[int, str]])
         if i not in supports:
             continue
         j = supports[i][0]
+        if eye is not None and j < len(vessels) and vessels[j]:
+            t = into_vessel(verts[i], verts[j], eye)
+            if t is not None:
+                o = np.asarray(eye, float)
+                low = float(verts[i][:, 2].min())
+                for k in riders(i, supports):
+                    verts[k] = o + t * (verts[k] - o)
+                rise[i] += float(verts[i][:, 2].min()) - low
         z = verts[i][:, 2]
         low = verts[i][z <= z.min() + 0.2 * max(float(np.ptp(z)), 1e-9)]
         inside = float(trimesh.proximity.signed_distance(trimesh.Trimesh(verts[j], faces[j], process=False),
@@ -295,6 +308,68 @@ def settle_on_supports(vertex_sets, faces, supports: dict[int, tuple[int, str]])
                     verts[k] = verts[k] + up
                     rise[k] += inside
     return verts, rise
+
+
+#: An object lowered into a vessel (:func:`into_vessel`) is scaled about the camera by at most this factor: farther,
+#: the photo shows it elsewhere than in that vessel.
+VESSEL_REACH = 1.6
+
+
+def into_vessel(points: np.ndarray, vessel: np.ndarray, eye) -> float | None:
+    """The factor about the camera at ``eye`` (3,) that brings the object ``points`` (N, 3), held over the mouth
+    of the open vessel ``vessel`` (its vertices, ``lift.vessel.vessel_mesh`` moved whole), down into it until it
+    touches the vessel's inner floor or wall; None where it is wider than the mouth (foliage over a pot rests on
+    the rim, ``lift.rim``), or where no factor up to :data:`VESSEL_REACH` puts it in the hollow (its centre
+    within the inner rim, below the rim, clear of the wall and the floor).
+
+    A fruit in a bowl, seen from above the rim, shows its foot in the bowl's mouth: stood where that ray meets
+    the rim, a ball rests on the rim's edge, drops in and rolls up the far wall and out (an apple in a bowl
+    rolled 18 cm). Scaled about the camera, its outline in the photo stays exactly as it was; it moves down the
+    rays into the bowl and grows by the factor, which the tangent cone of a ball resting on the inner floor
+    also gives (``lift.footprint.sphere_from_outline``)."""
+    from ..lift.rim import vessel_frame
+    from ..lift.vessel import SECTIONS
+
+    f = vessel_frame(vessel)
+    pts = np.asarray(points, float)
+    o = np.asarray(eye, float)
+    axis = np.asarray(f["centre"], float)
+    half = 0.5 * float(np.ptp(pts[:, :2], axis=0).max())
+    if half >= f["inner"]:
+        return None
+    flat = np.cos(np.pi / SECTIONS)  # the revolved wall's flat sides lie this far in of its corners
+
+    def clear(t: float) -> bool:  # no point of it inside the vessel's wall or floor
+        p = o + t * (pts - o)
+        low = p[p[:, 2] < f["rim_z"]]
+        if not len(low):
+            return True
+        wall = flat * (f["inner"] - f["slope"] * (f["rim_z"] - low[:, 2]))
+        return bool((low[:, 2] >= f["floor_z"]).all() and (np.linalg.norm(low[:, :2] - axis, axis=1) <= wall).all())
+
+    if not clear(1.0):
+        return None  # already in the wall: raised out of it as any
+
+    def inside(t: float) -> bool:  # below the rim, within the mouth, and clear of the vessel
+        p = o + t * (pts - o)
+        return float(p[:, 2].min()) < f["rim_z"] and float(np.linalg.norm(p[:, :2].mean(0) - axis)) <= f["inner"] \
+            and clear(t)
+
+    # a placement, not a motion: the path down the rays may pass through the front rim (the vessel is lifted
+    # from its outline, a few millimetres either way); what counts is where it ends, in the hollow on what holds it
+    step = 0.002
+    ts = np.arange(1.0, VESSEL_REACH, step)
+    ok = np.array([inside(t) for t in ts])
+    if not ok.any():
+        return None
+    k = int(np.nonzero(ok)[0].max())  # the last stretch in the hollow ends on its floor or far wall
+    if k + 1 >= len(ts):
+        return None
+    lo, hi = float(ts[k]), float(ts[k + 1])
+    for _ in range(20):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if clear(mid) else (lo, mid)
+    return lo if lo > 1.0 + 1e-6 else None
 
 
 def rests_on(k: int, i: int, supports: dict[int, tuple[int, str]]) -> bool:
@@ -496,22 +571,32 @@ HOLLOW_ACROSS = 0.1
 HOLLOW_CONTACT = 0.003
 
 
-def _height_grid(points: np.ndarray, lo: np.ndarray, shape: tuple[int, int], top: bool) -> np.ndarray:
-    """The highest (``top``) or lowest of ``points`` (N, 3) in each cell of a level grid of
-    :data:`HOLLOW_CELL` cells from ``lo`` (2,), ``-inf`` / ``inf`` where none falls."""
-    cells = np.floor((points[:, :2] - lo) / HOLLOW_CELL).astype(int)
+def _height_grid(points: np.ndarray, lo: np.ndarray, shape: tuple[int, int], top: bool,
+                 cell: float = HOLLOW_CELL) -> np.ndarray:
+    """The highest (``top``) or lowest of ``points`` (N, 3) in each cell of a level grid of ``cell`` cells from
+    ``lo`` (2,), ``-inf`` / ``inf`` where none falls."""
+    cells = np.floor((points[:, :2] - lo) / cell).astype(int)
     ok = (cells >= 0).all(1) & (cells[:, 0] < shape[0]) & (cells[:, 1] < shape[1])
     grid = np.full(shape, -np.inf if top else np.inf)
     (np.maximum if top else np.minimum).at(grid, (cells[ok, 0], cells[ok, 1]), points[ok, 2])
     return grid
 
 
-def _surface_points(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """The vertices and enough points on the faces that every :data:`HOLLOW_CELL` cell of the surface has some."""
+def _surface_points(vertices: np.ndarray, faces: np.ndarray, cell: float = HOLLOW_CELL, keep=None,
+                    per_cell: float = 8.0) -> np.ndarray:
+    """The vertices and enough points on the faces (those of ``keep``, a mask, where given) that every ``cell``
+    cell of the surface has some (``per_cell`` of them on average)."""
     import trimesh
 
+    if keep is not None:
+        faces = np.asarray(faces)[keep]
+        if not len(faces):
+            return np.asarray(vertices, float)[:0]
+        vertices = np.asarray(vertices, float)
+        used = np.unique(faces)
+        vertices, faces = vertices[used], np.searchsorted(used, faces)
     mesh = trimesh.Trimesh(vertices, faces, process=False)
-    n = int(min(200_000, max(2_000, 8 * mesh.area / HOLLOW_CELL ** 2)))
+    n = int(min(400_000, max(2_000, per_cell * mesh.area / cell ** 2)))
     return np.vstack([np.asarray(vertices, float), trimesh.sample.sample_surface(mesh, n, seed=0)[0]])
 
 
@@ -583,4 +668,57 @@ def into_hollow(verts, faces, supports: dict, i: int, com: np.ndarray, eye=None,
         return None
     if float((eq[:, :2] @ c + eq[:, 2]).max()) > -margin:
         return None
-    return np.array([dx * HOLLOW_CELL, dy * HOLLOW_CELL, -drop]), on
+    # each cell's highest and lowest points stop the fall a slope's rise across a cell early (a fruit left 3 mm
+    # over the hollow fell into it and rolled 5°): the place is found again on a finer grid around this one
+    shift = _finer(verts, faces, movers, i, np.array([dx, dy]) * HOLLOW_CELL, along, reach, width, ground_z)
+    return (shift if shift is not None else np.array([dx * HOLLOW_CELL, dy * HOLLOW_CELL, -drop])), on
+
+
+#: The finer grid of :func:`_finer`: this fraction of :data:`HOLLOW_CELL`, searched this many coarse cells around.
+HOLLOW_FINE = 0.25
+HOLLOW_AROUND = 2
+#: ... with this many surface points a cell on average (a few cells left empty cost less than the sampling).
+HOLLOW_FINE_SAMPLES = 2.0
+
+
+def _finer(verts, faces, movers, i: int, start: np.ndarray, along: np.ndarray, reach: float, width: float,
+           ground_z: float) -> np.ndarray | None:
+    """The move (3,) of object ``i`` into the lowest place within :data:`HOLLOW_AROUND` coarse cells of the level
+    shift ``start`` (2,), as :func:`into_hollow` finds it, on a grid :data:`HOLLOW_FINE` as fine; None where
+    none lies within its reach."""
+    cell = HOLLOW_FINE * HOLLOW_CELL
+    v, f = np.asarray(verts[i], float), np.asarray(faces[i])
+    middle = 0.5 * (float(v[:, 2].min()) + float(v[:, 2].max()))
+    # its underside: what meets what is under it
+    pts = _surface_points(v, f, cell, (v[f, 2] <= middle).any(axis=1), HOLLOW_FINE_SAMPLES)
+    steps = int(round(HOLLOW_AROUND / HOLLOW_FINE))
+    pad = np.abs(start) + (steps + 1) * cell
+    lo = pts[:, :2].min(0) - pad
+    hi = pts[:, :2].max(0) + pad
+    shape = tuple(np.ceil((hi - lo) / cell).astype(int) + 1)
+    under = _height_grid(pts, lo, shape, False, cell)
+    tops = np.full(shape, ground_z)
+    for k in range(len(verts)):
+        if k in movers:
+            continue
+        w, g = np.asarray(verts[k], float), np.asarray(faces[k])
+        corner = w[g]  # (M, 3, 3): only faces over the window and as high as its underside matter
+        keep = ((corner[:, :, :2].max(1) >= lo).all(1) & (corner[:, :, :2].min(1) <= hi).all(1)
+                & (corner[:, :, 2].max(1) >= float(pts[:, 2].min()) - 0.5 * (middle - float(v[:, 2].min()))))
+        if keep.any():
+            tops = np.maximum(tops, _height_grid(_surface_points(w, g, cell, keep, HOLLOW_FINE_SAMPLES), lo, shape,
+                                                 True, cell))
+    rows, cols = np.nonzero(np.isfinite(under))
+    base = np.round(start / cell).astype(int)
+    best = None
+    for dx in range(base[0] - steps, base[0] + steps + 1):
+        for dy in range(base[1] - steps, base[1] + steps + 1):
+            s = np.array([dx, dy], float) * cell
+            a, c = float(s @ along), float(np.linalg.norm(s - (s @ along) * along))
+            if (a / reach) ** 2 + (c / (HOLLOW_ACROSS * width)) ** 2 > 1.0:
+                continue
+            drop = float((under[rows, cols] - tops[rows + dx, cols + dy]).min())
+            score = drop - c - 0.01 * float(np.linalg.norm(s))
+            if best is None or score > best[0] + 1e-12:
+                best = (score, s, drop)
+    return None if best is None else np.r_[best[1], -best[2]]

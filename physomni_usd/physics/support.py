@@ -173,20 +173,24 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
     faces of both (:func:`_dome_on_dome`); so does one whose centre of mass overhangs its own foot. Higher
     objects first. Before all that, every object standing on a point on the ground gets a flat foot
     (:func:`flat_foot`), what rests on it lowered with it (not one held by another object: an orange in a bowl's
-    mouth, rounded, rests on its rim; flattened, it fell 24 cm), and a sole that its centre of mass overhangs is
-    levelled (:func:`level_sole`)."""
+    mouth, rounded, rests on its rim; flattened, it fell 24 cm; but one on a floor walled in by what holds it,
+    :func:`walled_in`), and a sole that its centre of mass overhangs is levelled (:func:`level_sole`)."""
     from ..align.support import riders  # the build's; simulate, which imports this module, needs none of align
 
     verts = [np.asarray(v, float).copy() for v in vertex_sets]
     done = []
     for i in sorted(range(len(verts)), key=lambda k: float(verts[k][:, 2].min())):
-        # on another object (an orange in a bowl's mouth): what holds it is not flat. A foot on another's level
-        # face held a lemon on a bowl's inner floor still, but a pushed ball read as standing on a crate's top
-        # then slid 6 mm where it rolled (tests/test_studio_pushes.py): not done yet
-        if i in supports:
+        # on another object (an orange on a bowl's rim): what holds it is not flat. A foot on any level face of
+        # another stopped a pushed ball read as standing on a crate's top (6 mm where it rolled,
+        # tests/test_studio_pushes.py); in a hollow (a fruit on a bowl's inner floor) a ball on the flat floor
+        # wanders 5 cm with nothing pushing it, where the walls around it stop a pushed one anyway
+        if i in supports and not walled_in(verts[i], verts[supports[i][0]], faces[supports[i][0]]):
             continue
-        verts[i], cut = flat_foot(verts[i])
+        footed, cut = flat_foot(verts[i])
+        if cut > 0 and _thinned(verts[i], footed):
+            cut = 0.0  # as level_sole's: a round thing is not cut thinner than the build made it
         if cut > 0:
+            verts[i] = footed
             for k in riders(i, supports)[1:]:
                 verts[k][:, 2] -= cut
             done.append({"object": i, "flat_foot_m": round(cut, 4)})
@@ -242,6 +246,31 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
     return verts, done
 
 
+#: What holds an object walls it in where it rises this fraction of the object's height above its lowest point
+#: all around it (:func:`walled_in`) ...
+WALL_RISE = 0.25
+#: ... and its surface lies within this (m) straight under that point: it stands on a floor there.
+ON_FLOOR = 0.002
+
+
+def walled_in(upper: np.ndarray, lower: np.ndarray, lower_faces: np.ndarray) -> bool:
+    """Whether ``upper`` (N, 3) stands on a floor of ``lower`` (M, 3, triangle ``lower_faces``) that rises round
+    it: ``lower``'s surface is within :data:`ON_FLOOR` straight under ``upper``'s lowest point, and seen from
+    above that point lies inside the convex hull of ``lower``'s points :data:`WALL_RISE` of ``upper``'s height
+    above it (a fruit on a bowl's inner floor; not one on a crate's top, on a ring's edge, or on the side of a
+    fruit under it)."""
+    import trimesh
+
+    low = upper[np.argmin(upper[:, 2])]
+    high = lower[lower[:, 2] >= low[2] + WALL_RISE * float(np.ptp(upper[:, 2])), :2]
+    if len(high) < 3 or _outside(high, low[:2]) >= 0.0:
+        return False
+    mesh = trimesh.Trimesh(lower, lower_faces, process=False)
+    hits, _, _ = mesh.ray.intersects_location(np.array([[low[0], low[1], low[2] + ON_FLOOR]]),
+                                              np.array([[0.0, 0.0, -1.0]]))
+    return bool(len(hits)) and float(hits[:, 2].max()) >= low[2] - ON_FLOOR
+
+
 #: A rounded object on a rounded top is brought over that top's crown by at most this fraction of its own
 #: smaller level width: farther, the photo shows it elsewhere, and it is left as it was.
 CROWN_REACH = 0.5
@@ -285,9 +314,11 @@ def _dome_on_dome(verts, faces, supports: dict, i: int, j: int, eye, done: list)
     if flat_foot(pts)[1] <= 0:
         return False  # a flat foot stands on a flat face of the crown raise_top makes
     mirrored = verts[j] * np.array([1.0, 1.0, -1.0])
-    topped, cut_j = flat_foot(mirrored)
-    if cut_j <= 0:
+    if flat_foot(mirrored)[1] <= 0:
         return False  # a flat top: steadied as any
+    # the crown is cut as wide as the foot that stands on it, not as the lower one's own foot would be: a lemon
+    # on a 40 cm ball needs a lemon's foot there, not a centimetre off the ball's top
+    topped, cut_j = flat_foot(mirrored, FOOT_FRACTION * 0.5 * float(np.ptp(pts[:, :2], axis=0).min()))
     top = float(verts[j][:, 2].max())
     crown_pts = verts[j][verts[j][:, 2] >= top - cut_j - 1e-9, :2]
     crown = crown_pts.mean(axis=0)
@@ -299,6 +330,10 @@ def _dome_on_dome(verts, faces, supports: dict, i: int, j: int, eye, done: list)
     for k in movers:
         verts[k][:, :2] += shift
     footed, cut_i = flat_foot(verts[i])
+    if _thinned(verts[i], footed) or _thinned(verts[j], topped):
+        for k in movers:
+            verts[k][:, :2] -= shift
+        return False  # a cut may not make a round thing thinner than the build made it (as level_sole's)
     footed[:, 2] += cut_i  # flat_foot lowers it by its cut; the drop onto the crown below says how far
     topped[:, 2] += cut_j  # flat_foot lowers what it cuts by the cut: j stays where it stands
     verts[j] = topped * np.array([1.0, 1.0, -1.0])
@@ -368,18 +403,18 @@ def level_sole(points: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, float
 FOOT_FRACTION = 0.3
 
 
-def flat_foot(points: np.ndarray) -> tuple[np.ndarray, float]:
+def flat_foot(points: np.ndarray, want: float | None = None) -> tuple[np.ndarray, float]:
     """``points`` (N, 3) of an object resting on its lowest point with the cap under the height where its
-    contact is :data:`FOOT_FRACTION` of its half-width across made flat, and lowered by that height so that it
-    rests where it did; returns them and the cut (m, 0 when its foot was wide enough). A rounded base (a
-    fruit, a ball, a bottle's rim) then stands; a flat one is left as it is."""
+    contact is :data:`FOOT_FRACTION` of its half-width across (radius; ``want`` m where given) made flat, and
+    lowered by that height so that it rests where it did; returns them and the cut (m, 0 when its foot was wide
+    enough). A rounded base (a fruit, a ball, a bottle's rim) then stands; a flat one is left as it is."""
     from scipy.spatial import ConvexHull, QhullError
 
     pts = np.array(points, float)
     z = pts[:, 2]
     low, height = float(z.min()), float(np.ptp(z))
-    half = 0.5 * float(np.ptp(pts[:, :2], axis=0).min())
-    want = FOOT_FRACTION * half
+    if want is None:
+        want = FOOT_FRACTION * 0.5 * float(np.ptp(pts[:, :2], axis=0).min())
 
     def radius(h: float) -> float:
         foot = pts[z <= low + h, :2]
