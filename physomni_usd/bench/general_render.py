@@ -190,6 +190,22 @@ def _turned(mesh: trimesh.Trimesh, yaw: float, at) -> trimesh.Trimesh:
     return m
 
 
+def _drop(mesh: trimesh.Trimesh, below: list[trimesh.Trimesh], clearance: float = 0.0005) -> float:
+    """How far ``mesh`` can fall straight down before it meets any of ``below`` (metres), less ``clearance``:
+    the smallest vertical gap between its vertices and the surfaces under them, and between theirs and its
+    surface over them, so that a piled object rests on what holds it as the photo's truth says it does."""
+    down, up = np.array([0.0, 0.0, -1.0]), np.array([0.0, 0.0, 1.0])
+    gaps = [np.inf]
+    for other in below:
+        for source, target, direction in ((mesh, other, down), (other, mesh, up)):
+            rays = np.repeat(direction[None], len(source.vertices), axis=0)
+            hits, ray_ids, _ = target.ray.intersects_location(source.vertices, rays, multiple_hits=False)
+            if len(hits):
+                gaps.append(float(np.abs(hits[:, 2] - source.vertices[ray_ids, 2]).min()))
+    gap = min(gaps)
+    return max(0.0, gap - clearance) if np.isfinite(gap) else 0.0
+
+
 def _group(rng) -> list[dict]:
     """One arrangement, its objects' meshes placed about the group's own origin (on the support, z = 0):
     a single object, a stack, a pile of fruit, a bowl of fruit, a coin on a card, a plant in its pot."""
@@ -232,6 +248,8 @@ def _group(rng) -> list[dict]:
                 at = [0, 0, 1.633 * r * 1.04 + 0.004]
                 o["on_k"] = [0, 1, 2]  # in the hollow of the three: on each of them
             o["mesh"] = _turned(o["mesh"], u(0, 2 * np.pi), at)
+            if k == 3:  # the sphere formula's height leaves a bumpy blob floating mm over the hollow: drop it in
+                o["mesh"].apply_translation([0, 0, -_drop(o["mesh"], [p["mesh"] for p in out])])
             out.append(o)
     elif pick == "bowl":  # a bowl with a fruit lying on its floor
         bowl = make_object("bowl", rng)
