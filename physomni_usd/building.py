@@ -495,6 +495,7 @@ def _silhouette_report(scene: Scene, camera, verts, faces, align_info: dict) -> 
         o.name: round(mask_iou(silhouette(v, f, camera), m if o.amodal is None else o.amodal), 4)
         for o, v, f, m in zip(scene.objects, verts, faces, scene.masks)}
     low = [(o.name, v) for o, v in zip(scene.objects, ious) if v < WARN_IOU]
+    align_info.pop("silhouette_warnings", None)  # a settled pose is judged again: no warning of the one before
     if low:
         align_info["silhouette_warnings"] = [
             "the built scene does not match the photo's outline of " + ", ".join(
@@ -575,17 +576,20 @@ def _settle(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, field
     info: dict = {"rounds": []}
     far: dict[str, str] = {}
     scene.align_info["settle"] = info
+    # every round is judged from where the photo shows each object, not from the round before
+    placed = [o.vertices.copy() for o in scene.objects]
+    total: dict = {}
     for _ in range(SETTLE_ROUNDS):
         try:
-            settled = settle_shot(layers.open_shot(out, mute_sim=True), scene.settings.settle_s)
+            settled = settle_shot(layers.open_shot(out, mute_sim=True), scene.settings.settle_s, echo)
         except PhysOmniError as exc:  # what simulate refuses, the check after this says; the settle stands aside
             info["skipped"] = str(exc)
             break
         if settled.skipped:
             info["skipped"] = settled.skipped
             break
-        keep, gone = judge(settled, names, [o.vertices for o in scene.objects], [o.faces for o in scene.objects],
-                           scene.camera, scene.masks)
+        settled.motions = {n: m.after(total.get(n), placed[names.index(n)]) for n, m in settled.motions.items()}
+        keep, gone = judge(settled, names, placed, [o.faces for o in scene.objects], scene.camera, scene.masks)
         far.update(gone)
         info["rounds"].append({
             "simulated_s": round(settled.simulated_s, 3), "at_rest": settled.at_rest,
@@ -597,7 +601,10 @@ def _settle(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, field
             break
         echo("build: settled " + ", ".join(f"{n} ({keep[n].moved_m * 1000:.0f} mm)" for n in sorted(keep))
              + " where it came to rest; written again")
-        _rewrite_settled(scene, keep, out, photo_path, user_sizes, fields, files)
+        total.update(keep)
+        for o, v in zip(scene.objects, placed):
+            o.vertices = v.copy()  # the kept motions are in all, from where the photo shows it
+        _rewrite_settled(scene, total, out, photo_path, user_sizes, fields, files)
     if far:
         info["not_kept"] = far
         for n, why in far.items():

@@ -407,8 +407,6 @@ def search_pitch(evaluate, cue_pitch: float, lowest: float, highest: float,
     if near:
         if pick == "best":
             chosen = min(near, key=lambda k: valid[k].total)
-        elif pick == "mid":
-            chosen = sorted(near)[len(near) // 2]
         else:
             chosen = min(near, key=lambda k: (abs(k - centre), valid[k].total))
         return PitchSearch(chosen, key_cue, valid[chosen], cue, tried)

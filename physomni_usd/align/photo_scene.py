@@ -52,7 +52,8 @@ TRUSTED_CUE = 1.0
 #: reading of the photo to defend. Of 32 tuning scenes (bench general seeds 880417, 263429, 771904, 504846),
 #: 26 were within 10° under MIN_GAIN_FRACTION and 28 under 0: three seen from 76°, 24° and 26° and kept near
 #: the feet's 10° were set right, one seen from 13° went to 84° (from above every outline fits). Of the pitches
-#: then about as good as the best, the best-scoring is taken, not the one nearest the default.
+#: then about as good as the best, the best-scoring is taken, not the one nearest the default (search_pitch; the
+#: pitch and view search, off by default, still takes the nearest).
 NO_READING_GAIN_FRACTION = 0.0
 #: ... while the pitch search weighs a pitch, each started from the scale of the nearest pitch weighed.
 SEARCH_SCALE_ROUNDS = 2

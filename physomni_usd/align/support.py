@@ -596,7 +596,8 @@ def _surface_points(vertices: np.ndarray, faces: np.ndarray, cell: float = HOLLO
         used = np.unique(faces)
         vertices, faces = vertices[used], np.searchsorted(used, faces)
     mesh = trimesh.Trimesh(vertices, faces, process=False)
-    n = int(min(400_000, max(2_000, per_cell * mesh.area / cell ** 2)))
+    # the coarse grid's sampling as it was; the finer one samples only underside and window, so may take more
+    n = int(min(200_000 if cell >= HOLLOW_CELL else 400_000, max(2_000, per_cell * mesh.area / cell ** 2)))
     return np.vstack([np.asarray(vertices, float), trimesh.sample.sample_surface(mesh, n, seed=0)[0]])
 
 
@@ -674,9 +675,10 @@ def into_hollow(verts, faces, supports: dict, i: int, com: np.ndarray, eye=None,
     return (shift if shift is not None else np.array([dx * HOLLOW_CELL, dy * HOLLOW_CELL, -drop])), on
 
 
-#: The finer grid of :func:`_finer`: this fraction of :data:`HOLLOW_CELL`, searched this many coarse cells around.
+#: The finer grid of :func:`_finer`: this fraction of :data:`HOLLOW_CELL`, searched this many coarse cells around
+#: (one: the coarse grid's own error; farther, the coarse place's checks of touch and balance no longer hold).
 HOLLOW_FINE = 0.25
-HOLLOW_AROUND = 2
+HOLLOW_AROUND = 1
 #: ... with this many surface points a cell on average (a few cells left empty cost less than the sampling).
 HOLLOW_FINE_SAMPLES = 2.0
 

@@ -55,6 +55,17 @@ class Motion:
     def apply(self, points: np.ndarray) -> np.ndarray:
         return points @ self.rotation.T + self.translation
 
+    def after(self, first: "Motion | None", points: np.ndarray) -> "Motion":
+        """This motion made after ``first`` (None: nothing before it), measured on ``points`` (N, 3), the
+        object where the photo shows it: a later round is judged by how far it has gone in all."""
+        if first is None:
+            return self
+        rot = self.rotation @ first.rotation
+        trans = first.translation @ self.rotation.T + self.translation
+        moved = float(np.linalg.norm(points @ rot.T + trans - points, axis=1).max())
+        turned = float(np.degrees(Rotation.from_matrix(rot).magnitude()))
+        return Motion(self.name, rot, trans, moved, turned)
+
     @property
     def still(self) -> bool:
         return self.moved_m <= REST_METRES and self.turned_deg <= STILL_DEG
@@ -72,7 +83,7 @@ class Settled:
     seconds: float = 0.0
 
 
-def settle_shot(stage, seconds: float) -> Settled:
+def settle_shot(stage, seconds: float, echo=lambda m: None) -> Settled:
     """Simulate the composed ``stage`` (a built shot, its sim layer muted) for at most ``seconds`` with nothing
     pushed, as ``simulate`` would (``physics.prepare``, ``runner.run_guarded``), and return each rigid
     object's motion from its start to the end. A scene with a non-rigid object or a force field is not
@@ -88,7 +99,8 @@ def settle_shot(stage, seconds: float) -> Settled:
     if soft:
         return Settled(skipped=f"not rigid: {', '.join(soft)}", seconds=time.perf_counter() - t0)
     # a model of its own (reuse False): simulate's cached one keeps its pushes and its plan
-    prep = prepare_simulation(stage, SimulateSettings(seconds=seconds, rest_seconds=STILL_WINDOW_S), reuse=False)
+    prep = prepare_simulation(stage, SimulateSettings(seconds=seconds, rest_seconds=STILL_WINDOW_S), reuse=False,
+                              echo=echo)  # a first settle compiles the solver's kernels: say so
     models = prep.models
     if models.fields.fields:
         return Settled(skipped="force fields act on the shot", seconds=time.perf_counter() - t0)
