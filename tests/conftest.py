@@ -41,6 +41,20 @@ def synthetic_photo(folder: pathlib.Path) -> dict:
     return paths
 
 
+def rendered_blocks(folder: pathlib.Path, camera, truth, label: str = "block") -> list[str]:
+    """Render the ``truth`` meshes through ``camera`` (``bench.synthetic.render_truth``, seed 5), write the photo
+    and each object's mask (``block{k}.png``) into ``folder``; returns the ``--mask`` specs, labelled ``label``."""
+    from physomni_usd.bench.synthetic import render_truth
+
+    photo, masks = render_truth(camera, truth, np.random.default_rng(5))
+    cv2.imwrite(str(folder / "photo.png"), cv2.cvtColor(photo, cv2.COLOR_RGB2BGR))
+    specs = []
+    for k, m in enumerate(masks):
+        cv2.imwrite(str(folder / f"block{k}.png"), m.astype(np.uint8) * 255)
+        specs.append(f"{folder / f'block{k}.png'}:{label}")
+    return specs
+
+
 def cli(*args, check=False, env=None) -> subprocess.CompletedProcess:
     """Run ``physomni-usd ARGS`` in a fresh interpreter; returns the completed process."""
     code = ("import sys\nfrom physomni_usd.cli import main\n"

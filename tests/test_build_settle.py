@@ -11,6 +11,8 @@ from physomni_usd.geometry.camera import PinholeCamera
 from physomni_usd.physics.settle import KEEP_M, Motion, Settled, judge, settle_shot
 from physomni_usd.usd import layers
 
+from .conftest import rendered_blocks
+
 #: a camera nearer than write_bench_shot's (4 m back), so that the boxes' masks are 30 pixels wide, not 15
 CAMERA = PinholeCamera(320, 240, 50.0, 10.0, (0.0, -1.6, 0.5))
 
@@ -72,10 +74,8 @@ def test_build_settles_only_when_asked(tmp_path):
     written shot and says what each round found in ``report.json`` (``shot.alignment.settle``)."""
     import json
 
-    import cv2
     import trimesh
 
-    from physomni_usd.bench.synthetic import render_truth
     from physomni_usd.building import build_shot
     from physomni_usd.settings import BuildSettings
 
@@ -85,12 +85,7 @@ def test_build_settles_only_when_asked(tmp_path):
         b = trimesh.creation.box(size)
         b.apply_translation([at[0], at[1], at[2] + size[2] / 2])
         truth.append(b)
-    photo, masks = render_truth(camera, truth, np.random.default_rng(5))
-    cv2.imwrite(str(tmp_path / "photo.png"), cv2.cvtColor(photo, cv2.COLOR_RGB2BGR))
-    specs = []
-    for k, m in enumerate(masks):
-        cv2.imwrite(str(tmp_path / f"block{k}.png"), m.astype(np.uint8) * 255)
-        specs.append(f"{tmp_path / f'block{k}.png'}:block")
+    specs = rendered_blocks(tmp_path, camera, truth)
     assert BuildSettings().settle_s == 0.0
     build_shot(tmp_path / "photo.png", tmp_path / "plain", masks=specs)
     plain = json.loads((tmp_path / "plain" / "report.json").read_text())

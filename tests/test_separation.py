@@ -7,20 +7,20 @@ from __future__ import annotations
 
 import json
 
-import cv2
 import numpy as np
 import pytest
 import trimesh
 from pxr import Usd
 
 from physomni_usd.align import separate
-from physomni_usd.bench.synthetic import render_truth
 from physomni_usd import building as build_module
 from physomni_usd.building import build_shot
 from physomni_usd.errors import PhysOmniError
 from physomni_usd.geometry.camera import PinholeCamera
 from physomni_usd.metrics.geometry import max_penetration, world_meshes
 from physomni_usd.physics.diagnose import first_error, scene_findings
+
+from .conftest import rendered_blocks
 
 CAMERA = PinholeCamera(240, 180, 50.0, 30.0, (0.0, -0.55, 0.35))
 SUNK_M = 0.01
@@ -38,13 +38,7 @@ def stack(tmp_path_factory):
     folder = tmp_path_factory.mktemp("stack")
     truth = [_box((0.30, 0.20, 0.10), (0, 0, 0)), _box((0.08, 0.08, 0.08), (-0.06, 0.02, 0.10)),
              _box((0.07, 0.07, 0.07), (0.25, -0.05, 0.0))]
-    photo, masks = render_truth(CAMERA, truth, np.random.default_rng(5))
-    cv2.imwrite(str(folder / "photo.png"), cv2.cvtColor(photo, cv2.COLOR_RGB2BGR))
-    specs = []
-    for k, m in enumerate(masks):
-        cv2.imwrite(str(folder / f"block{k}.png"), m.astype(np.uint8) * 255)
-        specs.append(f"{folder / f'block{k}.png'}:block")
-    return folder, specs
+    return folder, rendered_blocks(folder, CAMERA, truth)
 
 
 @pytest.fixture
