@@ -265,3 +265,36 @@ def test_the_field_of_view_is_weighed_along_the_row_a_vanishing_point_fixes():
     feet = compare.search_row(scene, lambda f: row_pitch(horizon, f, 240), 50.0,
                               lambda f: 0.0 if f >= 45.0 else 90.0)
     assert feet.fov_deg >= 45.0 and all(f >= 45.0 for _, f, _ in feet.tried)
+
+
+def test_where_the_row_search_moves_the_field_of_view_the_report_gives_the_pitch_built(monkeypatch):
+    # along a vanishing row the pitch moves with the field of view: the report's pitch is the camera's, not the
+    # one the row meant under the default view (a scene built at 27° was reported at 42°)
+    from dataclasses import replace
+
+    from physomni_usd.align import photo_scene
+    from physomni_usd.align.cues import Cue, focal_px, row_pitch
+
+    masks, labels, photo = _synthetic(30.0)
+    h = photo.shape[0]
+    horizon = Cue("horizon vanishing points", 30.0, 1.5,
+                  detail={"row": 0.5 * h - focal_px(50.0, h) * np.tan(np.radians(30.0))})
+    real_estimate = photo_scene.estimate_camera
+
+    def estimate(*args, **kwargs):  # the plain photo given a strong vanishing row, read under the default view
+        est = real_estimate(*args, **kwargs)
+        return replace(est, pitch_deg=30.0, cues=[horizon, *est.cues], pitch_source="horizon vanishing points")
+
+    def along(evaluate, pitch_of, cue_fov, lowest, *args, **kwargs):  # the silhouettes prefer a 35° view
+        p = round(float(pitch_of(35.0)), 3)
+        score = evaluate(p, 35.0)
+        return compare.ViewSearch(p, 35.0, round(float(pitch_of(cue_fov)), 3), cue_fov, score, score, [])
+
+    monkeypatch.setattr(photo_scene, "estimate_camera", estimate)
+    monkeypatch.setattr(photo_scene, "search_row", along)
+    names = [f"o{i}" for i in range(len(masks))]
+    lifted = lift_photo_scene(masks, labels, names, photo, BuildSettings(), {}, visible=masks)
+    info = lifted.info["camera"]
+    assert info["fov_deg"] == pytest.approx(35.0) and lifted.camera.fov_deg == pytest.approx(35.0)
+    assert row_pitch(horizon, 35.0, h) < 25.0  # the row means a shallower pitch under the narrower view
+    assert info["pitch_deg"] == pytest.approx(lifted.camera.pitch_deg, abs=1e-3)
