@@ -357,7 +357,8 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
                         "camera_height_m": round(float(camera.origin[2]), 4),
                         "scale": align_info.get("scale"),
                         "fps": settings.fps},
-                  build={"seconds": timer.seconds, "total_seconds": timer.total, "files": sorted(files),
+                  build={"seconds": timer.seconds, "cpu_seconds": timer.cpu_seconds,
+                         "total_seconds": timer.total, "files": sorted(files),
                          "checks": checks, "masks_sheet": MASKS_SHEET, "backends": backend_steps.report(chosen),
                          **({"occlusion": occlusion} if occlusion else {}),
                          **depth_info})
