@@ -40,7 +40,7 @@ from .perceive.working import working
 from .physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
 from .report import REPORT, Timer, read_report, set_aside_damaged, update_report
 from .settings import BuildSettings
-from .texture.carry import carry_plate
+from .texture.carry import FILL_PIXELS, carry_plate
 from .texture.hidden import believed, occlusion_kept, painted_part
 from .texture.objects import at_photo_size, texture_object
 from .usd import layers
@@ -235,7 +235,8 @@ class Scene:
     physics_objects: list = field(default_factory=list)  # usd.author.PhysicsObject, by the estimate stage
     kept: dict = field(default_factory=dict)  # (object, occluder) indices → occlusion_kept, once placed
     # a photo above the working resolution (perceive.working): ``photo`` is its working copy, ``full_photo``
-    # the photo itself (what the plate, the textures and frame 0 show), ``small_plate`` the plate of ``photo``
+    # the photo itself (what the plate, the textures and frame 0 show); ``small_plate``: for a photo above
+    # texture.carry.FILL_PIXELS, the plate of its copy reduced to that size (what ``plate`` was carried from)
     work: object = None
     full_photo: np.ndarray | None = None
     small_plate: np.ndarray | None = None
@@ -387,22 +388,28 @@ def _refuse_what_simulate_refuses(out: pathlib.Path) -> None:
 
 
 def _plate(scene: Scene) -> None:
-    """The background plate behind the objects; for a photo above the working resolution, filled on its working
-    copy and carried to the photo's size (``texture.carry.carry_plate``)."""
-    if scene.work is None:
+    """The background plate behind the objects; for a photo above :data:`~.texture.carry.FILL_PIXELS`, filled on a
+    copy reduced to that size and carried to the photo's size (``texture.carry.carry_plate``)."""
+    photo = scene.photo if scene.full_photo is None else scene.full_photo
+    fill = working(photo.shape, FILL_PIXELS)
+    if fill is None:
         scene.plate = backend_steps.make_plate(scene.photo, scene.masks, scene.settings.plate_dilation,
                                                scene.backends["inpainter"])
         return
-    sources = np.full(scene.photo.shape[:2] + (2,), -1, np.int32)
-    scene.small_plate = backend_steps.make_plate(scene.photo, scene.masks, scene.settings.plate_dilation,
+    # the masks, at the working size, taken to the fill's (a fill pixel is the object's where most of it is)
+    masks = [cv2.resize(m.astype(np.uint8) * 255, (fill.work[1], fill.work[0]), interpolation=cv2.INTER_AREA) >= 128
+             for m in scene.masks]
+    small = fill.down(photo)
+    sources = np.full(small.shape[:2] + (2,), -1, np.int32)
+    scene.small_plate = backend_steps.make_plate(small, masks, scene.settings.plate_dilation,
                                                  scene.backends["inpainter"], sources)
-    scene.plate = carry_plate(scene.full_photo, scene.work, scene.photo, scene.small_plate,
+    scene.plate = carry_plate(photo, fill, small, scene.small_plate,
                               sources if (sources[..., 0] >= 0).any() else None)
 
 
 def _outpaint(scene: Scene) -> None:
-    """The plate widened for camera moves: at the working resolution for a larger photo (seen only as the
-    camera moves, at the render's size; its margins alone are 3× the photo's pixels)."""
+    """The plate widened for camera moves: at the fill's reduced size for a larger photo (seen only as the camera
+    moves, at the render's size; its margins alone are 3× the photo's pixels)."""
     plate = scene.plate if scene.small_plate is None else scene.small_plate
     scene.wide_plate, scene.margins = backend_steps.make_wide_plate(plate, scene.backends["outpainter"])
 

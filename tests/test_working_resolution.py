@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from physomni_usd.building import build_shot
-from physomni_usd.texture.carry import carry_plate
+from physomni_usd.texture.carry import FILL_PIXELS, carry_plate
 from physomni_usd.perceive.working import Working, working
 from physomni_usd.settings import BuildSettings
 
@@ -96,7 +96,11 @@ def test_the_large_photos_shot_keeps_its_pixels(builds):
     assert report["shot"]["working_size"] == [w, h]
     for name in ("textures/plate.png", "inputs/photo.png"):
         assert cv2.imread(str(big.folder / name)).shape[:2] == (2 * h, 2 * w), name
-    assert cv2.imread(str(big.folder / "textures" / "plate_wide.png")).shape[:2] == (2 * h, 2 * w)  # the working plate and its margins
+    # the wide plate is the plate filled on the reduced copy (texture.carry.FILL_PIXELS) and its margins
+    fill = working((2 * h, 2 * w), FILL_PIXELS)
+    assert fill is not None and fill.work[0] * fill.work[1] <= FILL_PIXELS < 4 * w * h
+    assert cv2.imread(str(big.folder / "textures" / "plate_wide.png")).shape[:2] == (2 * fill.work[0],
+                                                                                     2 * fill.work[1])
 
 
 def test_a_full_size_mask_keeps_its_own_edge(builds):
