@@ -42,8 +42,8 @@ SCALE = Limits(
                    whole=True),  # render's own default, and render checks it
     objects=Limit("--objects", "Boxes dropped in one run of the object axis", 1, 1000, None, whole=True,
                   default_text="none"),
-    side=Limit("--whole-box", "Each side of the whole-box photo, pixels", 16, 8192, None, whole=True,
-               default_text="none"),
+    whole_box=Limit("--whole-box", "Each side of the whole-box photo, pixels", 16, 8192, None, whole=True,
+                    default_text="none"),
 )
 LOOK = Limits(
     size=Limit("--size", "Longer side of the rendered frames, pixels.", 64, 4096, 880, whole=True),

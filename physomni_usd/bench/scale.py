@@ -108,8 +108,15 @@ def bench_whole_box(example: pathlib.Path = EXAMPLE, size: tuple[int, int] = WHO
     """``build`` (a fresh process each repeat) of :func:`whole_box_example` at ``size``: wall seconds, CPU
     seconds, peak memory and build's own per-stage wall and CPU seconds (report.json's ``build.seconds`` and
     ``build.cpu_seconds``), each repeat's and their medians."""
-    SCALE.check(repeats=repeats, side=tuple(size))
     from ..errors import InputError
+
+    SCALE.check(repeats=repeats)
+    try:
+        SCALE.check(whole_box=tuple(size))
+    except InputError:  # the option as typed, not the one side
+        limit = SCALE["whole_box"]
+        raise InputError(f"{limit.flag} {'x'.join(map(str, size))}: must be WxH with each side a whole number, "
+                         f"{limit.span()}") from None
 
     if not (pathlib.Path(example) / "example.json").is_file():
         raise InputError(f"--example {example!r}: no example.json in {example}")

@@ -149,8 +149,8 @@ def bench_plate_command(quick, json_path):
               help="Instead of the sizes: build alone, --repeats fresh processes, on the example stretched to W×H "
                    f"(e.g. {'x'.join(map(str, limits.WHOLE_BOX['size']))}) with ONE box over the whole frame and "
                    f"{limits.WHOLE_BOX['on']} clicks on its masks, {limits.WHOLE_BOX['off']} off them (seed "
-                   f"{limits.WHOLE_BOX['seed']}); wall, CPU, peak memory and build's per-stage seconds. Each side: "
-                   f"{limits.SCALE['side'].span()}.")
+                   f"{limits.WHOLE_BOX['seed']}); wall, CPU, peak memory and build's per-stage seconds. Each side is "
+                   f"a whole number of pixels. Range: {limits.SCALE['whole_box'].span()}.")
 @json_option("numbers")
 def bench_scale_command(example, sizes, repeats, stages, seconds, max_size, objects, whole_box, json_path):
     """Each stage's wall time, CPU time and peak memory on one example scaled to each photo size, as ratios to
