@@ -391,8 +391,9 @@ def _plate(scene: Scene) -> None:
     """The background plate behind the objects; for a photo above :data:`~.texture.carry.FILL_PIXELS`, filled on a
     copy reduced to that size and carried to the photo's size (``texture.carry.carry_plate``)."""
     photo = scene.photo if scene.full_photo is None else scene.full_photo
-    fill = working(photo.shape, FILL_PIXELS)
-    if fill is None:
+    # never finer than the working copy: a photo at or under FILL_PIXELS is still carried up from it
+    fill = working(photo.shape, min(FILL_PIXELS, scene.settings.working_pixels))
+    if fill is None:  # the photo is at or under the working size: scene.photo is the photo
         scene.plate = backend_steps.make_plate(scene.photo, scene.masks, scene.settings.plate_dilation,
                                                scene.backends["inpainter"])
         return

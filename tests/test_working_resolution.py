@@ -96,11 +96,20 @@ def test_the_large_photos_shot_keeps_its_pixels(builds):
     assert report["shot"]["working_size"] == [w, h]
     for name in ("textures/plate.png", "inputs/photo.png"):
         assert cv2.imread(str(big.folder / name)).shape[:2] == (2 * h, 2 * w), name
-    # the wide plate is the plate filled on the reduced copy (texture.carry.FILL_PIXELS) and its margins
-    fill = working((2 * h, 2 * w), FILL_PIXELS)
-    assert fill is not None and fill.work[0] * fill.work[1] <= FILL_PIXELS < 4 * w * h
-    assert cv2.imread(str(big.folder / "textures" / "plate_wide.png")).shape[:2] == (2 * fill.work[0],
-                                                                                     2 * fill.work[1])
+    # the wide plate is the plate filled on the working copy (under texture.carry.FILL_PIXELS: never a finer
+    # fill than the working size) and its margins
+    assert w * h < FILL_PIXELS
+    assert cv2.imread(str(big.folder / "textures" / "plate_wide.png")).shape[:2] == (2 * h, 2 * w)
+
+
+def test_a_photo_under_the_fill_size_but_above_the_working_size_keeps_its_pixels(tmp_path):
+    spec = json.loads((EXAMPLE / "example.json").read_text())
+    photo = cv2.imread(str(EXAMPLE / spec["photo"]))
+    assert 65_536 < photo.shape[0] * photo.shape[1] <= FILL_PIXELS
+    shot = build_shot(EXAMPLE / spec["photo"], tmp_path / "shot", masks=[str(EXAMPLE / m) for m in spec["masks"]],
+                      pushes=spec["push"], settings=BuildSettings(working_pixels=65_536))
+    plate = cv2.imread(str(shot.folder / "textures" / "plate.png"))
+    assert plate.shape == photo.shape  # filled on the working copy and carried up, not the working copy's size
 
 
 def test_a_full_size_mask_keeps_its_own_edge(builds):
