@@ -68,3 +68,24 @@ def test_bench_scale_whole_box_reports_the_build_and_its_stages(tmp_path):
     assert "texture.plate" in proc.stdout
     bad = cli("bench", "scale", "--whole-box", "240")
     assert bad.returncode != 0 and "--whole-box" in bad.stderr.strip().splitlines()[-2]
+
+
+def test_the_whole_box_case_refuses_a_mask_too_small_to_click_inside_or_too_large_to_click_off(tmp_path):
+    import json
+
+    import cv2
+    import numpy as np
+    import pytest
+
+    from physomni_usd.bench.scale import whole_box_example
+    from physomni_usd.errors import InputError
+
+    cv2.imwrite(str(tmp_path / "photo.png"), np.full((200, 300, 3), 120, np.uint8))
+    (tmp_path / "example.json").write_text(json.dumps({"photo": "photo.png", "masks": ["thing.png:thing"]}))
+    thin = np.zeros((200, 300), np.uint8)
+    thin[90:110, 140:146] = 255  # 6 px wide: no pixel of it 6 px inside
+    everywhere = np.full((200, 300), 255, np.uint8)  # nothing 30 px off it
+    for mask, why in ((thin, "no pixel 6 px inside"), (everywhere, "fewer than the 8 clicks")):
+        cv2.imwrite(str(tmp_path / "thing.png"), mask)
+        with pytest.raises(InputError, match=rf"^--whole-box 300x200: .*{why}"):
+            whole_box_example(tmp_path, (300, 200), tmp_path / "out")

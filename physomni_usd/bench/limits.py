@@ -42,7 +42,7 @@ SCALE = Limits(
                    whole=True),  # render's own default, and render checks it
     objects=Limit("--objects", "Boxes dropped in one run of the object axis", 1, 1000, None, whole=True,
                   default_text="none"),
-    whole_box=Limit("--whole-box", "Each side of the whole-box photo, pixels", 16, 8192, None, whole=True,
+    whole_box=Limit("--whole-box", "Each side of the whole-box photo, pixels", 128, 8192, None, whole=True,
                     default_text="none"),
 )
 LOOK = Limits(

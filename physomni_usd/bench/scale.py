@@ -73,10 +73,10 @@ def whole_box_example(folder: pathlib.Path, size: tuple[int, int], out: pathlib.
     given as ONE box over the whole frame labelled as the first mask, with ``on`` clicks on the masks (shared
     among them in turn, each at least 6 px inside one) and ``off`` clicks at least 30 px from every mask, drawn
     from ``seed``: the case of a user who boxes the whole photo and clicks."""
+    from ..errors import InputError
+
     spec = json.loads((folder / "example.json").read_text())
     if not spec.get("masks"):
-        from ..errors import InputError
-
         raise InputError(f"--example {folder}: its example.json names no masks to draw the clicks from")
     w, h = size
     photo = cv2.imread(str(folder / spec["photo"]), cv2.IMREAD_COLOR)
@@ -93,12 +93,19 @@ def whole_box_example(folder: pathlib.Path, size: tuple[int, int], out: pathlib.
     rng = np.random.default_rng(seed)
     clicks = []
     inside = [np.nonzero(cv2.distanceTransform(m.astype(np.uint8), cv2.DIST_L2, 5) > 6) for m in masks]
+    for (ys, _), label in zip(inside, labels):
+        if not len(ys):
+            raise InputError(f"--whole-box {w}x{h}: the mask of {label!r} has no pixel 6 px inside it to click on "
+                             f"at this size; give a larger size")
     for k in range(on):  # the masks in turn: 12 on three masks is 4 on each
         ys, xs = inside[k % len(masks)]
         i = int(rng.integers(len(ys)))
         clicks.append((int(xs[i]), int(ys[i]), True))
     anywhere = np.any(masks, axis=0).astype(np.uint8)
     ys, xs = np.nonzero(cv2.distanceTransform(1 - anywhere, cv2.DIST_L2, 5) > 30)
+    if len(ys) < off:
+        raise InputError(f"--whole-box {w}x{h}: {len(ys)} pixels lie 30 px off every mask, fewer than the {off} "
+                         f"clicks to draw there; give a larger size")
     clicks += [(int(xs[i]), int(ys[i]), False) for i in rng.choice(len(ys), off, replace=False)]
     return [str(name), "--box", box_spec((0, 0, w, h), labels[0], clicks)]
 
