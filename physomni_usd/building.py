@@ -28,7 +28,7 @@ from .align.scale import parse_sizes
 from .align.solve import solve_places
 from .align.support import start_contacts
 from .backends import steps as backend_steps
-from .backends.builtin import MeshFolderLifter
+from .backends.builtin import BuiltinInpainter, MeshFolderLifter
 from .errors import InputError
 from .fields import parse_force_options
 from .geometry.depth import ground_pitch
@@ -388,11 +388,15 @@ def _refuse_what_simulate_refuses(out: pathlib.Path) -> None:
 
 
 def _plate(scene: Scene) -> None:
-    """The background plate behind the objects; for a photo above :data:`~.texture.carry.FILL_PIXELS`, filled on a
-    copy reduced to that size and carried to the photo's size (``texture.carry.carry_plate``)."""
+    """The background plate behind the objects; the built-in inpainter's, for a photo above
+    :data:`~.texture.carry.FILL_PIXELS` (or the working size), filled on a copy reduced to that size and carried
+    to the photo's size (``texture.carry.carry_plate``); a plugin's, on the working copy as the objects were."""
     photo = scene.photo if scene.full_photo is None else scene.full_photo
-    # never finer than the working copy: a photo at or under FILL_PIXELS is still carried up from it
-    fill = working(photo.shape, min(FILL_PIXELS, scene.settings.working_pixels))
+    if isinstance(scene.backends["inpainter"], BuiltinInpainter):
+        # never finer than the working copy: a photo at or under FILL_PIXELS is still carried up from it
+        fill = working(photo.shape, min(FILL_PIXELS, scene.settings.working_pixels))
+    else:  # a plugin gives no sources: carried up from a reduced copy its fill would be an upsampled blur
+        fill = scene.work
     if fill is None:  # the photo is at or under the working size: scene.photo is the photo
         scene.plate = backend_steps.make_plate(scene.photo, scene.masks, scene.settings.plate_dilation,
                                                scene.backends["inpainter"])

@@ -52,6 +52,33 @@ def test_the_carried_plate_keeps_the_photo_outside_and_the_copied_detail_inside(
     assert np.median(np.abs(blur.astype(int) - photo[left].astype(int))) > 20  # what detail transfer adds
 
 
+def test_a_plugin_inpainter_fills_the_photo_itself_above_the_fill_size():
+    """The reduced fill copy is the built-in's (whose exemplar search it pays for); a plugin's fill carried up
+    from it would be an upsampled blur, since a plugin says nothing of where it copied from."""
+    from types import SimpleNamespace
+
+    from physomni_usd.building import _plate
+
+    seen = []
+
+    class Grey:
+        kind, name = "inpainter", "grey"
+
+        def inpaint(self, photo, hole):
+            seen.append(photo.shape)
+            return np.full_like(photo, 128)
+
+    photo = np.random.default_rng(0).integers(0, 255, (640, 960, 3)).astype(np.uint8)
+    assert working(photo.shape, FILL_PIXELS) is not None and working(photo.shape) is None
+    mask = np.zeros(photo.shape[:2], bool)
+    mask[200:400, 300:500] = True
+    scene = SimpleNamespace(photo=photo, full_photo=photo, work=None, masks=[mask], small_plate=None,
+                            settings=BuildSettings(plate_dilation=0.0), backends={"inpainter": Grey()})
+    _plate(scene)
+    assert seen == [photo.shape] and scene.small_plate is None
+    assert (scene.plate[mask] == 128).all() and np.array_equal(scene.plate[~mask], photo[~mask])
+
+
 @pytest.fixture(scope="module")
 def builds(tmp_path_factory):
     """The cloth example as it is, and at twice its size with a notch one photo pixel wide cut into the crate's
