@@ -401,8 +401,9 @@ def _plate(scene: Scene) -> None:
         scene.plate = backend_steps.make_plate(scene.photo, scene.masks, scene.settings.plate_dilation,
                                                scene.backends["inpainter"])
         return
-    # the masks, at the working size, taken to the fill's (a fill pixel is the object's where most of it is)
-    masks = [cv2.resize(m.astype(np.uint8) * 255, (fill.work[1], fill.work[0]), interpolation=cv2.INTER_AREA) >= 128
+    # the masks taken to the fill's size; a fill pixel is in the hole where any of it is an object's, so a part
+    # narrower than a fill pixel (a wire) is still filled, not left in the plate
+    masks = [cv2.resize(m.astype(np.uint8) * 255, (fill.work[1], fill.work[0]), interpolation=cv2.INTER_AREA) > 0
              for m in scene.masks]
     small = fill.down(photo)
     sources = np.full(small.shape[:2] + (2,), -1, np.int32)

@@ -79,6 +79,28 @@ def test_a_plugin_inpainter_fills_the_photo_itself_above_the_fill_size():
     assert (scene.plate[mask] == 128).all() and np.array_equal(scene.plate[~mask], photo[~mask])
 
 
+def test_a_part_narrower_than_a_fill_pixel_is_filled():
+    """A wire one photo pixel wide is under half a pixel of the reduced fill copy: it is still in the hole."""
+    from types import SimpleNamespace
+
+    from physomni_usd.backends.builtin import BuiltinInpainter
+    from physomni_usd.building import _plate
+
+    rng = np.random.default_rng(0)
+    photo = (120 + rng.integers(-6, 7, (640, 960, 3))).astype(np.uint8)
+    mask = np.zeros(photo.shape[:2], bool)
+    mask[322, 200:760] = True  # a row split between two rows of the fill copy: under half of either
+    photo[mask] = (40, 40, 230)
+    assert not working(photo.shape, FILL_PIXELS).down_mask(mask).any()  # what a majority rule would keep
+    scene = SimpleNamespace(photo=photo, full_photo=photo, work=None, masks=[mask], small_plate=None,
+                            settings=BuildSettings(plate_dilation=0.0), backends={"inpainter": BuiltinInpainter()})
+    _plate(scene)
+    assert scene.plate.shape == photo.shape
+    # the wire's colour is 110 levels off the grey (left as it was, before); the carry brings back a share of
+    # the photo's own detail where the fill equals the photo around it, the flat grey's case
+    assert np.median(np.abs(scene.plate[mask].astype(int) - 120).max(axis=1)) <= 40
+
+
 @pytest.fixture(scope="module")
 def builds(tmp_path_factory):
     """The cloth example as it is, and at twice its size with a notch one photo pixel wide cut into the crate's
