@@ -185,3 +185,35 @@ def test_run_takes_the_render_size(tmp_path):
     args = [str(photo), "-o", str(tmp_path / "shot"), "--mask", str(photo.parent / "bin.png")]
     assert run_arguments(args)["render_settings"].max_size == 1280
     assert run_arguments(args + ["--max-size", "640"])["render_settings"].max_size == 640
+
+
+def test_a_photo_above_the_fill_size_is_filled_small_and_keeps_its_pixels_outside_the_hole(tmp_path):
+    """A 0.6 MP photo (the tests' tiny synthetic scene, upscaled) is worked on as it is but filled on a 0.4 MP
+    copy (texture.carry.FILL_PIXELS): its plate has the photo's size and is the photo, pixel for pixel, wherever
+    the fill copy's hole does not reach."""
+    from physomni_usd.texture.fill import plate_hole
+
+    from .conftest import synthetic_photo
+
+    tiny = synthetic_photo(tmp_path / "tiny")
+    size = (900, 675)
+    photo = cv2.resize(cv2.imread(str(tiny["photo"])), size, interpolation=cv2.INTER_CUBIC)
+    assert working(photo.shape) is None and working(photo.shape, FILL_PIXELS) is not None
+    cv2.imwrite(str(tmp_path / "photo.png"), photo)
+    masks = []
+    for label in ("cup", "box"):
+        mask = cv2.resize(cv2.imread(str(tiny[label]), cv2.IMREAD_GRAYSCALE), size, interpolation=cv2.INTER_NEAREST)
+        cv2.imwrite(str(tmp_path / f"{label}.png"), mask)
+        masks.append(mask > 0)
+    shot = build_shot(tmp_path / "photo.png", tmp_path / "shot",
+                      masks=[f"{tmp_path / label}.png:{label}" for label in ("cup", "box")])
+    plate = cv2.imread(str(shot.folder / "textures" / "plate.png"))
+    assert plate.shape == photo.shape
+    fill = working(photo.shape, FILL_PIXELS)
+    hole = plate_hole(fill.down(cv2.cvtColor(photo, cv2.COLOR_BGR2RGB)),
+                      [fill.down(m.astype(np.uint8) * 255) > 0 for m in masks], BuildSettings().plate_dilation)
+    outside = fill.up(hole.astype(np.uint8) * 255, cv2.INTER_LINEAR) == 0
+    assert 0.5 < outside.mean() < 0.95
+    assert np.array_equal(plate[outside], photo[outside])
+    gone = np.any(plate != photo, axis=2)
+    assert all(gone[m].mean() > 0.9 for m in masks)  # the objects are filled over
