@@ -235,8 +235,8 @@ class Scene:
     physics_objects: list = field(default_factory=list)  # usd.author.PhysicsObject, by the estimate stage
     kept: dict = field(default_factory=dict)  # (object, occluder) indices → occlusion_kept, once placed
     # a photo above the working resolution (perceive.working): ``photo`` is its working copy, ``full_photo``
-    # the photo itself (what the plate, the textures and frame 0 show); ``small_plate``: for a photo above
-    # texture.carry.FILL_PIXELS, the plate of its copy reduced to that size (what ``plate`` was carried from)
+    # the photo itself (what the plate, the textures and frame 0 show); ``small_plate``: the plate of the reduced
+    # copy ``plate`` was carried up from (see _plate), None where the photo itself was filled
     work: object = None
     full_photo: np.ndarray | None = None
     small_plate: np.ndarray | None = None
