@@ -89,3 +89,17 @@ def test_the_whole_box_case_refuses_a_mask_too_small_to_click_inside_or_too_larg
         cv2.imwrite(str(tmp_path / "thing.png"), mask)
         with pytest.raises(InputError, match=rf"^--whole-box 300x200: .*{why}"):
             whole_box_example(tmp_path, (300, 200), tmp_path / "out")
+
+
+def test_whole_box_takes_the_sign_the_help_prints_and_refuses_the_options_it_does_not_use():
+    from click.testing import CliRunner
+
+    from physomni_usd.cli import main
+
+    typed = CliRunner().invoke(main, ["bench", "scale", "--whole-box", "100×9000"])
+    assert typed.exit_code == 2
+    assert typed.output.strip().splitlines()[-1].startswith("error: --whole-box 100x9000: must be")
+    for extra in (["--sizes", "1"], ["--stages", "build"], ["--objects", "3"], ["--seconds", "2"],
+                  ["--max-size", "640"]):
+        both = CliRunner().invoke(main, ["bench", "scale", "--whole-box", "300x200", *extra])
+        assert both.exit_code == 2 and f"{extra[0]} cannot go with it" in both.output, both.output

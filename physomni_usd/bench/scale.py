@@ -126,7 +126,7 @@ def bench_whole_box(example: pathlib.Path = EXAMPLE, size: tuple[int, int] = WHO
                          f"{limit.span()}") from None
 
     if not (pathlib.Path(example) / "example.json").is_file():
-        raise InputError(f"--example {example!r}: no example.json in {example}")
+        raise InputError(f"--example {example}: no example.json in it")
     w, h = size
     cli = [sys.executable, "-m", "physomni_usd.cli"]
     runs = []
@@ -181,7 +181,7 @@ def bench_scale(example: pathlib.Path = EXAMPLE, sizes=SIZES_MP, repeats: int = 
     from ..errors import InputError
 
     if not (pathlib.Path(example) / "example.json").is_file():
-        raise InputError(f"--example {example!r}: no example.json in {example}")
+        raise InputError(f"--example {example}: no example.json in it")
     env = dict(os.environ)
     cli = [sys.executable, "-m", "physomni_usd.cli"]
     runs: dict[float, list[dict]] = {s: [] for s in sizes}
