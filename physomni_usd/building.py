@@ -28,7 +28,7 @@ from .align.scale import parse_sizes
 from .align.solve import solve_places
 from .align.support import start_contacts
 from .backends import steps as backend_steps
-from .backends.builtin import MeshFolderLifter
+from .backends.builtin import BuiltinInpainter, MeshFolderLifter
 from .errors import InputError
 from .fields import parse_force_options
 from .geometry.depth import ground_pitch
@@ -40,7 +40,7 @@ from .perceive.working import working
 from .physics.stability import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS
 from .report import REPORT, Timer, read_report, set_aside_damaged, update_report
 from .settings import BuildSettings
-from .texture.carry import carry_plate
+from .texture.carry import FILL_PIXELS, carry_plate
 from .texture.hidden import believed, occlusion_kept, painted_part
 from .texture.objects import at_photo_size, texture_object
 from .usd import layers
@@ -235,7 +235,8 @@ class Scene:
     physics_objects: list = field(default_factory=list)  # usd.author.PhysicsObject, by the estimate stage
     kept: dict = field(default_factory=dict)  # (object, occluder) indices → occlusion_kept, once placed
     # a photo above the working resolution (perceive.working): ``photo`` is its working copy, ``full_photo``
-    # the photo itself (what the plate, the textures and frame 0 show), ``small_plate`` the plate of ``photo``
+    # the photo itself (what the plate, the textures and frame 0 show); ``small_plate``: the plate of the reduced
+    # copy ``plate`` was carried up from (see _plate), None where the photo itself was filled
     work: object = None
     full_photo: np.ndarray | None = None
     small_plate: np.ndarray | None = None
@@ -357,7 +358,8 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
                         "camera_height_m": round(float(camera.origin[2]), 4),
                         "scale": align_info.get("scale"),
                         "fps": settings.fps},
-                  build={"seconds": timer.seconds, "total_seconds": timer.total, "files": sorted(files),
+                  build={"seconds": timer.seconds, "cpu_seconds": timer.cpu_seconds,
+                         "total_seconds": timer.total, "files": sorted(files),
                          "checks": checks, "masks_sheet": MASKS_SHEET, "backends": backend_steps.report(chosen),
                          **({"occlusion": occlusion} if occlusion else {}),
                          **depth_info})
@@ -386,22 +388,34 @@ def _refuse_what_simulate_refuses(out: pathlib.Path) -> None:
 
 
 def _plate(scene: Scene) -> None:
-    """The background plate behind the objects; for a photo above the working resolution, filled on its working
-    copy and carried to the photo's size (``texture.carry.carry_plate``)."""
-    if scene.work is None:
+    """The background plate behind the objects; the built-in inpainter's, for a photo above
+    :data:`~.texture.carry.FILL_PIXELS` (or the working size), filled on a copy reduced to that size and carried
+    to the photo's size (``texture.carry.carry_plate``); a plugin's, on the working copy as the objects were."""
+    photo = scene.photo if scene.full_photo is None else scene.full_photo
+    if isinstance(scene.backends["inpainter"], BuiltinInpainter):
+        # never finer than the working copy: a photo at or under FILL_PIXELS is still carried up from it
+        fill = working(photo.shape, min(FILL_PIXELS, scene.settings.working_pixels))
+    else:  # a plugin gives no sources: carried up from a reduced copy its fill would be an upsampled blur
+        fill = scene.work
+    if fill is None:  # the photo is at or under the working size: scene.photo is the photo
         scene.plate = backend_steps.make_plate(scene.photo, scene.masks, scene.settings.plate_dilation,
                                                scene.backends["inpainter"])
         return
-    sources = np.full(scene.photo.shape[:2] + (2,), -1, np.int32)
-    scene.small_plate = backend_steps.make_plate(scene.photo, scene.masks, scene.settings.plate_dilation,
+    # the masks taken to the fill's size; a fill pixel is in the hole where any of it is an object's, so a part
+    # narrower than a fill pixel (a wire) is still filled, not left in the plate
+    masks = [cv2.resize(m.astype(np.uint8) * 255, (fill.work[1], fill.work[0]), interpolation=cv2.INTER_AREA) > 0
+             for m in scene.masks]
+    small = fill.down(photo)
+    sources = np.full(small.shape[:2] + (2,), -1, np.int32)
+    scene.small_plate = backend_steps.make_plate(small, masks, scene.settings.plate_dilation,
                                                  scene.backends["inpainter"], sources)
-    scene.plate = carry_plate(scene.full_photo, scene.work, scene.photo, scene.small_plate,
+    scene.plate = carry_plate(photo, fill, small, scene.small_plate,
                               sources if (sources[..., 0] >= 0).any() else None)
 
 
 def _outpaint(scene: Scene) -> None:
-    """The plate widened for camera moves: at the working resolution for a larger photo (seen only as the
-    camera moves, at the render's size; its margins alone are 3× the photo's pixels)."""
+    """The plate widened for camera moves: at the fill's reduced size for a larger photo (seen only as the camera
+    moves, at the render's size; its margins alone are 3× the photo's pixels)."""
     plate = scene.plate if scene.small_plate is None else scene.small_plate
     scene.wide_plate, scene.margins = backend_steps.make_wide_plate(plate, scene.backends["outpainter"])
 

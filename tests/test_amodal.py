@@ -54,3 +54,21 @@ def test_the_hidden_part_takes_the_saucers_colour_not_the_cups():
     hidden = done[0].amodal & ~saucer
     assert np.abs(painted[hidden].astype(int) - (230, 230, 210)).max() <= 2
     assert (painted[~hidden] == photo[~hidden]).all()
+
+
+def test_the_hulls_points_give_the_hull_of_every_pixel():
+    """The convex hull is taken over the mask's outer contours' corners (fast), not its every pixel: same hull,
+    scattered parts, holes and single pixels included."""
+    import cv2
+
+    from physomni_usd.perceive.amodal import hull_points
+
+    rng = np.random.default_rng(1)
+    for _ in range(50):
+        m = cv2.GaussianBlur(rng.random((60, 80)).astype(np.float32), (0, 0), 2) > 0.52
+        m[rng.integers(60), rng.integers(80)] = True  # a lone pixel, wherever it falls
+        every, corners = np.zeros(m.shape, np.uint8), np.zeros(m.shape, np.uint8)
+        cv2.fillConvexPoly(every, cv2.convexHull(cv2.findNonZero(m.astype(np.uint8))), 1)
+        cv2.fillConvexPoly(corners, cv2.convexHull(hull_points(m)), 1)
+        assert np.array_equal(every, corners)
+    assert hull_points(np.zeros((5, 5), bool)) is None

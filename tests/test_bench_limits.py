@@ -16,7 +16,7 @@ from physomni_usd.bench.peer import bench_peer
 from physomni_usd.bench.pipeline import bench_pipeline
 from physomni_usd.bench.real_photos import bench_both_halves
 from physomni_usd.bench.render import bench_render
-from physomni_usd.bench.scale import bench_scale
+from physomni_usd.bench.scale import bench_scale, bench_whole_box
 from physomni_usd.cli import main
 from physomni_usd.errors import InputError
 from physomni_usd.preview import limits as pages
@@ -33,6 +33,7 @@ CASES = [
     ("batch", lambda: bench_batch("examples/motorcycle", size=32), ["--size", "32"]),
     ("batch", lambda: bench_batch("examples/motorcycle", fps=500.0), ["--fps", "500"]),
     ("scale", lambda: bench_scale("examples/motorcycle", repeats=0), ["--repeats", "0"]),
+    ("scale", lambda: bench_whole_box("examples/motorcycle", (40, 9000)), ["--whole-box", "40x9000"]),
     ("look", lambda: bench_look([], "out/never", seconds=31.0), ["--seconds", "31"]),
     ("photos", lambda: bench_both_halves(pitches=(30.0, 90.0)), ["--pitch", "30", "--pitch", "90"]),
     ("general", lambda: bench_general(0), ["--n", "0"]),

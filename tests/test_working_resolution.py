@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from physomni_usd.building import build_shot
-from physomni_usd.texture.carry import carry_plate
+from physomni_usd.texture.carry import FILL_PIXELS, carry_plate
 from physomni_usd.perceive.working import Working, working
 from physomni_usd.settings import BuildSettings
 
@@ -50,6 +50,55 @@ def test_the_carried_plate_keeps_the_photo_outside_and_the_copied_detail_inside(
     assert np.median(err) <= 1
     blur = work.up(plate)[inner]
     assert np.median(np.abs(blur.astype(int) - photo[left].astype(int))) > 20  # what detail transfer adds
+
+
+def test_a_plugin_inpainter_fills_the_photo_itself_above_the_fill_size():
+    """The reduced fill copy is the built-in's (whose exemplar search it pays for); a plugin's fill carried up
+    from it would be an upsampled blur, since a plugin says nothing of where it copied from."""
+    from types import SimpleNamespace
+
+    from physomni_usd.building import _plate
+
+    seen = []
+
+    class Grey:
+        kind, name = "inpainter", "grey"
+
+        def inpaint(self, photo, hole):
+            seen.append(photo.shape)
+            return np.full_like(photo, 128)
+
+    photo = np.random.default_rng(0).integers(0, 255, (640, 960, 3)).astype(np.uint8)
+    assert working(photo.shape, FILL_PIXELS) is not None and working(photo.shape) is None
+    mask = np.zeros(photo.shape[:2], bool)
+    mask[200:400, 300:500] = True
+    scene = SimpleNamespace(photo=photo, full_photo=photo, work=None, masks=[mask], small_plate=None,
+                            settings=BuildSettings(plate_dilation=0.0), backends={"inpainter": Grey()})
+    _plate(scene)
+    assert seen == [photo.shape] and scene.small_plate is None
+    assert (scene.plate[mask] == 128).all() and np.array_equal(scene.plate[~mask], photo[~mask])
+
+
+def test_a_part_narrower_than_a_fill_pixel_is_filled():
+    """A wire one photo pixel wide is under half a pixel of the reduced fill copy: it is still in the hole."""
+    from types import SimpleNamespace
+
+    from physomni_usd.backends.builtin import BuiltinInpainter
+    from physomni_usd.building import _plate
+
+    rng = np.random.default_rng(0)
+    photo = (120 + rng.integers(-6, 7, (640, 960, 3))).astype(np.uint8)
+    mask = np.zeros(photo.shape[:2], bool)
+    mask[322, 200:760] = True  # a row split between two rows of the fill copy: under half of either
+    photo[mask] = (40, 40, 230)
+    assert not working(photo.shape, FILL_PIXELS).down_mask(mask).any()  # what a majority rule would keep
+    scene = SimpleNamespace(photo=photo, full_photo=photo, work=None, masks=[mask], small_plate=None,
+                            settings=BuildSettings(plate_dilation=0.0), backends={"inpainter": BuiltinInpainter()})
+    _plate(scene)
+    assert scene.plate.shape == photo.shape
+    # the wire's colour is 110 levels off the grey (left as it was, before); the carry brings back a share of
+    # the photo's own detail where the fill equals the photo around it, the flat grey's case
+    assert np.median(np.abs(scene.plate[mask].astype(int) - 120).max(axis=1)) <= 40
 
 
 @pytest.fixture(scope="module")
@@ -96,7 +145,20 @@ def test_the_large_photos_shot_keeps_its_pixels(builds):
     assert report["shot"]["working_size"] == [w, h]
     for name in ("textures/plate.png", "inputs/photo.png"):
         assert cv2.imread(str(big.folder / name)).shape[:2] == (2 * h, 2 * w), name
-    assert cv2.imread(str(big.folder / "textures" / "plate_wide.png")).shape[:2] == (2 * h, 2 * w)  # the working plate and its margins
+    # the wide plate is the plate filled on the working copy (under texture.carry.FILL_PIXELS: never a finer
+    # fill than the working size) and its margins
+    assert w * h < FILL_PIXELS
+    assert cv2.imread(str(big.folder / "textures" / "plate_wide.png")).shape[:2] == (2 * h, 2 * w)
+
+
+def test_a_photo_under_the_fill_size_but_above_the_working_size_keeps_its_pixels(tmp_path):
+    spec = json.loads((EXAMPLE / "example.json").read_text())
+    photo = cv2.imread(str(EXAMPLE / spec["photo"]))
+    assert 65_536 < photo.shape[0] * photo.shape[1] <= FILL_PIXELS
+    shot = build_shot(EXAMPLE / spec["photo"], tmp_path / "shot", masks=[str(EXAMPLE / m) for m in spec["masks"]],
+                      pushes=spec["push"], settings=BuildSettings(working_pixels=65_536))
+    plate = cv2.imread(str(shot.folder / "textures" / "plate.png"))
+    assert plate.shape == photo.shape  # filled on the working copy and carried up, not the working copy's size
 
 
 def test_a_full_size_mask_keeps_its_own_edge(builds):
@@ -123,3 +185,35 @@ def test_run_takes_the_render_size(tmp_path):
     args = [str(photo), "-o", str(tmp_path / "shot"), "--mask", str(photo.parent / "bin.png")]
     assert run_arguments(args)["render_settings"].max_size == 1280
     assert run_arguments(args + ["--max-size", "640"])["render_settings"].max_size == 640
+
+
+def test_a_photo_above_the_fill_size_is_filled_small_and_keeps_its_pixels_outside_the_hole(tmp_path):
+    """A 0.6 MP photo (the tests' tiny synthetic scene, upscaled) is worked on as it is but filled on a 0.4 MP
+    copy (texture.carry.FILL_PIXELS): its plate has the photo's size and is the photo, pixel for pixel, wherever
+    the fill copy's hole does not reach."""
+    from physomni_usd.texture.fill import plate_hole
+
+    from .conftest import synthetic_photo
+
+    tiny = synthetic_photo(tmp_path / "tiny")
+    size = (900, 675)
+    photo = cv2.resize(cv2.imread(str(tiny["photo"])), size, interpolation=cv2.INTER_CUBIC)
+    assert working(photo.shape) is None and working(photo.shape, FILL_PIXELS) is not None
+    cv2.imwrite(str(tmp_path / "photo.png"), photo)
+    masks = []
+    for label in ("cup", "box"):
+        mask = cv2.resize(cv2.imread(str(tiny[label]), cv2.IMREAD_GRAYSCALE), size, interpolation=cv2.INTER_NEAREST)
+        cv2.imwrite(str(tmp_path / f"{label}.png"), mask)
+        masks.append(mask > 0)
+    shot = build_shot(tmp_path / "photo.png", tmp_path / "shot",
+                      masks=[f"{tmp_path / label}.png:{label}" for label in ("cup", "box")])
+    plate = cv2.imread(str(shot.folder / "textures" / "plate.png"))
+    assert plate.shape == photo.shape
+    fill = working(photo.shape, FILL_PIXELS)
+    hole = plate_hole(fill.down(cv2.cvtColor(photo, cv2.COLOR_BGR2RGB)),
+                      [fill.down(m.astype(np.uint8) * 255) > 0 for m in masks], BuildSettings().plate_dilation)
+    outside = fill.up(hole.astype(np.uint8) * 255, cv2.INTER_LINEAR) == 0
+    assert 0.5 < outside.mean() < 0.95
+    assert np.array_equal(plate[outside], photo[outside])
+    gone = np.any(plate != photo, axis=2)
+    assert all(gone[m].mean() > 0.9 for m in masks)  # the objects are filled over

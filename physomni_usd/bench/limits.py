@@ -16,6 +16,9 @@ EXAMPLE = pathlib.Path("examples/motorcycle")
 BATCH_COUNTS = (1, 2, 4, 8)
 SCALE_SIZES_MP = (0.3, 1.0, 4.0, 12.0, 40.0)
 SCALE_STAGES = ("build", "simulate", "render")
+#: ``bench scale --whole-box``: the photo's size (W, H: the 1.4 MP of issue 42's box over a whole frame) and
+#: the clicks on and off the example's objects, drawn from one seed.
+WHOLE_BOX = {"size": (1282, 1105), "on": 12, "off": 8, "seed": 0}
 
 _SIZE = "Longer side of the photo, pixels."
 PIPELINE = Limits(
@@ -39,6 +42,8 @@ SCALE = Limits(
                    whole=True),  # render's own default, and render checks it
     objects=Limit("--objects", "Boxes dropped in one run of the object axis", 1, 1000, None, whole=True,
                   default_text="none"),
+    whole_box=Limit("--whole-box", "Each side of the whole-box photo, pixels", 128, 8192, None, whole=True,
+                    default_text="none"),
 )
 LOOK = Limits(
     size=Limit("--size", "Longer side of the rendered frames, pixels.", 64, 4096, 880, whole=True),

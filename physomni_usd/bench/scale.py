@@ -23,8 +23,8 @@ import time
 import cv2
 import numpy as np
 
-from ..perceive.masks import photo_size
-from .limits import EXAMPLE, SCALE, SCALE_SIZES_MP, SCALE_STAGES
+from ..perceive.masks import box_spec, photo_size
+from .limits import EXAMPLE, SCALE, SCALE_SIZES_MP, SCALE_STAGES, WHOLE_BOX
 
 #: Megapixels of the photos and the stages by default (``bench.limits``, where the command reads them too).
 SIZES_MP = SCALE_SIZES_MP
@@ -67,6 +67,94 @@ def scaled_example(folder: pathlib.Path, megapixels: float | None, out: pathlib.
     return args
 
 
+def whole_box_example(folder: pathlib.Path, size: tuple[int, int], out: pathlib.Path, on: int = WHOLE_BOX["on"],
+                      off: int = WHOLE_BOX["off"], seed: int = WHOLE_BOX["seed"]) -> list[str]:
+    """``build``'s arguments for the example of ``folder`` stretched to ``size`` (W, H) in ``out``, its objects
+    given as ONE box over the whole frame labelled as the first mask, with ``on`` clicks on the masks (shared
+    among them in turn, each at least 6 px inside one) and ``off`` clicks at least 30 px from every mask, drawn
+    from ``seed``: the case of a user who boxes the whole photo and clicks."""
+    from ..errors import InputError
+
+    spec = json.loads((folder / "example.json").read_text())
+    if not spec.get("masks"):
+        raise InputError(f"--example {folder}: its example.json names no masks to draw the clicks from")
+    w, h = size
+    photo = cv2.imread(str(folder / spec["photo"]), cv2.IMREAD_COLOR)
+    grow = w * h > photo.shape[0] * photo.shape[1]
+    out.mkdir(parents=True, exist_ok=True)
+    name = out / "photo.png"
+    cv2.imwrite(str(name), cv2.resize(photo, (w, h), interpolation=cv2.INTER_CUBIC if grow else cv2.INTER_AREA))
+    masks, labels = [], []
+    for m in spec["masks"]:
+        path, _, label = m.partition(":")
+        mask = cv2.imread(str(folder / path), cv2.IMREAD_GRAYSCALE)
+        masks.append(cv2.resize((mask > 0).astype(np.uint8) * 255, (w, h), interpolation=cv2.INTER_LINEAR) >= 128)
+        labels.append(label or pathlib.Path(path).stem)
+    rng = np.random.default_rng(seed)
+    clicks = []
+    inside = [np.nonzero(cv2.distanceTransform(m.astype(np.uint8), cv2.DIST_L2, 5) > 6) for m in masks]
+    for (ys, _), label in zip(inside, labels):
+        if not len(ys):
+            raise InputError(f"--whole-box {w}x{h}: the mask of {label!r} has no pixel 6 px inside it to click on "
+                             f"at this size; give a larger size")
+    for k in range(on):  # the masks in turn: 12 on three masks is 4 on each
+        ys, xs = inside[k % len(masks)]
+        i = int(rng.integers(len(ys)))
+        clicks.append((int(xs[i]), int(ys[i]), True))
+    anywhere = np.any(masks, axis=0).astype(np.uint8)
+    ys, xs = np.nonzero(cv2.distanceTransform(1 - anywhere, cv2.DIST_L2, 5) > 30)
+    if len(ys) < off:
+        raise InputError(f"--whole-box {w}x{h}: {len(ys)} pixels lie 30 px off every mask, fewer than the {off} "
+                         f"clicks to draw there; give a larger size")
+    clicks += [(int(xs[i]), int(ys[i]), False) for i in rng.choice(len(ys), off, replace=False)]
+    return [str(name), "--box", box_spec((0, 0, w, h), labels[0], clicks)]
+
+
+def bench_whole_box(example: pathlib.Path = EXAMPLE, size: tuple[int, int] = WHOLE_BOX["size"],
+                    repeats: int = SCALE["repeats"].default, echo=print) -> dict:
+    """``build`` (a fresh process each repeat) of :func:`whole_box_example` at ``size``: wall seconds, CPU
+    seconds, peak memory and build's own per-stage wall and CPU seconds (report.json's ``build.seconds`` and
+    ``build.cpu_seconds``), each repeat's and their medians."""
+    from ..errors import InputError
+
+    SCALE.check(repeats=repeats)
+    try:
+        SCALE.check(whole_box=tuple(size))
+    except InputError:  # the option as typed, not the one side
+        limit = SCALE["whole_box"]
+        raise InputError(f"{limit.flag} {'x'.join(map(str, size))}: must be WxH with each side a whole number, "
+                         f"{limit.span()}") from None
+
+    if not (pathlib.Path(example) / "example.json").is_file():
+        raise InputError(f"--example {example}: no example.json in it")
+    w, h = size
+    cli = [sys.executable, "-m", "physomni_usd.cli"]
+    runs = []
+    with tempfile.TemporaryDirectory(prefix="physomni-wholebox-") as tmp:
+        root = pathlib.Path(tmp)
+        args = whole_box_example(pathlib.Path(example), (w, h), root / "in")
+        for r in range(repeats):
+            shot = root / f"shot-{r}"
+            row = _timed(cli + ["build", *args, "-o", str(shot), "-q"], dict(os.environ))
+            built = json.loads((shot / "report.json").read_text())["stages"]["build"]
+            row["stages_wall_s"] = built["seconds"]
+            row["stages_cpu_s"] = built.get("cpu_seconds", {})
+            runs.append(row)
+            echo(f"whole box: {w}×{h}, repeat {r + 1}: build {row['wall_s']:.1f} s wall / {row['cpu_s']:.1f} s cpu / "
+                 f"{row['peak_mb']:.0f} MB (load {row['load']:.1f})")
+    median = {m: float(np.median([run[m] for run in runs])) for m in ("wall_s", "cpu_s", "peak_mb", "load")}
+    stages = {k: {"wall_s": round(float(np.median([run["stages_wall_s"].get(k, 0.0) for run in runs])), 2),
+                  "cpu_s": round(float(np.median([run["stages_cpu_s"].get(k, 0.0) for run in runs])), 2)}
+              for k in runs[0]["stages_wall_s"]}
+    table = [f"{'stage':>18} {'wall s':>8} {'cpu s':>8}"]
+    table += [f"{k:>18} {v['wall_s']:8.2f} {v['cpu_s']:8.2f}" for k, v in stages.items()]
+    table.append(f"{'build (process)':>18} {median['wall_s']:8.2f} {median['cpu_s']:8.2f}   peak "
+                 f"{median['peak_mb']:.0f} MB, load {median['load']:.1f} (medians of {repeats})")
+    echo("\n".join(table))
+    return {"example": str(example), "width": w, "height": h, "box": args[2], "repeats": repeats,
+            "median": median, "stages": stages, "runs": runs}
+
+
 def _timed(cmd: list[str], env: dict) -> dict:
     """Run ``cmd``; its wall seconds, CPU seconds (user + system) and peak resident memory (MB)."""
     load = os.getloadavg()[0]
@@ -93,7 +181,7 @@ def bench_scale(example: pathlib.Path = EXAMPLE, sizes=SIZES_MP, repeats: int = 
     from ..errors import InputError
 
     if not (pathlib.Path(example) / "example.json").is_file():
-        raise InputError(f"--example {example!r}: no example.json in {example}")
+        raise InputError(f"--example {example}: no example.json in it")
     env = dict(os.environ)
     cli = [sys.executable, "-m", "physomni_usd.cli"]
     runs: dict[float, list[dict]] = {s: [] for s in sizes}

@@ -132,6 +132,9 @@ def bench_plate_command(quick, json_path):
         write_numbers(numbers, json_path)
 
 
+_WHOLE_BOX_EXAMPLE = "x".join(map(str, limits.WHOLE_BOX["size"]))
+
+
 @bench.command("scale")
 @example_option("Example folder (with example.json) to scale.")
 @click.option("--sizes", default=",".join(f"{x:g}" for x in limits.SCALE_SIZES_MP), show_default=True, metavar="MP,MP,...",
@@ -145,18 +148,42 @@ def bench_plate_command(quick, json_path):
                    "3,10,30,100): simulate's stepping seconds against the number of objects, and the exponent "
                    "of that growth. With --sizes '' only this axis runs. Range: "
                    f"{limits.SCALE['objects'].span()}.")
+@click.option("--whole-box", default=None, metavar="WxH",
+              help="Instead of the sizes: build alone, --repeats fresh processes, on the example stretched to W×H "
+                   f"(e.g. {_WHOLE_BOX_EXAMPLE}) with ONE box over the whole frame and "
+                   f"{limits.WHOLE_BOX['on']} clicks on its masks, {limits.WHOLE_BOX['off']} off them (seed "
+                   f"{limits.WHOLE_BOX['seed']}); wall, CPU, peak memory and build's per-stage seconds. Each side is "
+                   f"a whole number of pixels. Range: {limits.SCALE['whole_box'].span()}.")
 @json_option("numbers")
-def bench_scale_command(example, sizes, repeats, stages, seconds, max_size, objects, json_path):
+def bench_scale_command(example, sizes, repeats, stages, seconds, max_size, objects, whole_box, json_path):
     """Each stage's wall time, CPU time and peak memory on one example scaled to each photo size, as ratios to
     the smallest; each stage a fresh process, the sizes alternating so that they share the load.
 
     \b
-    Example:
+    Examples:
       physomni-usd bench scale --sizes 0,12 --repeats 3 --json out/scale.json
+      physomni-usd bench scale --whole-box 1282x1105 --repeats 3
     """
     with errors():
         from ..bench.scale import bench_scale
         from ..errors import InputError
+
+        if whole_box is not None:
+            from click.core import ParameterSource
+
+            from ..bench.scale import bench_whole_box
+
+            given = [f"--{n.replace('_', '-')}" for n in ("sizes", "stages", "objects", "seconds", "max_size")
+                     if click.get_current_context().get_parameter_source(n) is not ParameterSource.DEFAULT]
+            if given:
+                raise InputError(f"--whole-box: {', '.join(given)} cannot go with it (it builds only, at its size)")
+            try:
+                w, h = (int(x) for x in whole_box.lower().replace("×", "x").split("x"))
+            except ValueError:
+                raise InputError(f"--whole-box {whole_box!r}: expected WIDTHxHEIGHT in pixels, e.g. "
+                                 f"{_WHOLE_BOX_EXAMPLE}") from None
+            write_numbers(bench_whole_box(example, (w, h), repeats, echo=click.echo), json_path)
+            return
 
         try:
             mps = tuple(float(x) for x in sizes.split(",") if x.strip())

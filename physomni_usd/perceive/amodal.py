@@ -40,9 +40,17 @@ class Completion:
         return int((self.amodal & ~visible).sum())
 
 
+def hull_points(mask: np.ndarray) -> np.ndarray | None:
+    """(N, 1, 2) int32 points whose convex hull is that of the pixels of ``mask`` (H, W), None for an empty mask:
+    the corners of its outer contours, which hold every extreme pixel. A megapixel mask's own pixels made
+    cv2.convexHull take 0.12 s each time, its contours' corners 2 ms, for the same hull."""
+    contours, _ = cv2.findContours(np.asarray(mask, np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    return np.concatenate(contours) if contours else None
+
+
 def _hull(mask: np.ndarray) -> np.ndarray:
     """The filled convex hull (H, W) bool of ``mask``."""
-    pts = cv2.findNonZero(mask.astype(np.uint8))
+    pts = hull_points(mask > 0)
     out = np.zeros(mask.shape, np.uint8)
     if pts is not None:
         cv2.fillConvexPoly(out, cv2.convexHull(pts), 1)

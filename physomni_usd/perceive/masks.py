@@ -12,6 +12,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..errors import InputError
+from .amodal import hull_points
 
 #: Fewest pixels a mask may have and still describe an object.
 MIN_MASK_PIXELS = 16
@@ -658,10 +659,9 @@ def _round_missing(mask: np.ndarray, hidden: np.ndarray | None = None) -> float 
     """For a round outline (its convex hull's circularity at least :data:`ROUND_CIRCULARITY`), the share of
     the hull the mask leaves out (holes, bites) where ``hidden`` (H, W) bool (what other objects cover) does not
     explain it; None for any other outline."""
-    points = cv2.findNonZero(mask.astype(np.uint8))
-    if points is None or len(points) < MIN_MASK_PIXELS:
+    if int(np.count_nonzero(mask)) < MIN_MASK_PIXELS:
         return None
-    hull = cv2.convexHull(points)
+    hull = cv2.convexHull(hull_points(mask))
     filled = np.zeros(mask.shape, np.uint8)
     cv2.fillPoly(filled, [hull], 1)
     area, perimeter = float(filled.sum()), cv2.arcLength(hull, True)

@@ -141,7 +141,8 @@ class ShotRenderer:
     def _read_wide_plate(self, stage: Usd.Stage, scale: float, size: tuple[int, int]) -> None:
         """The plate beyond the frame at the frame's scale, and where the plate sits in it (x, y); shots built
         without one extend the plate's border pixels outward. ``size``: the plate's own (w, h); a photo above
-        the working resolution has its wide plate at that resolution (``build``), scaled here by its own ratio."""
+        0.4 MP (``texture.carry.FILL_PIXELS``) has its wide plate at the fill's reduced size (``build``), scaled
+        here by its own ratio."""
         wide = read_wide_plate(stage)
         if wide is None:
             self.wide_plate, self.wide_offset = self.plate, (0.0, 0.0)

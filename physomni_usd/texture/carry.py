@@ -1,5 +1,5 @@
-"""The plate of a photo above the working resolution: filled on the working copy and carried to the photo's
-size, its detail taken from where the exemplar copied each patch (:func:`carry_plate`)."""
+"""The plate of a photo above :data:`FILL_PIXELS`: filled on a reduced copy and carried to the photo's size, its
+detail taken from where the exemplar copied each patch (:func:`carry_plate`)."""
 
 from __future__ import annotations
 
@@ -8,13 +8,20 @@ import numpy as np
 
 from .fill import feather_px
 
+#: Pixels of the copy a larger photo's plate is filled on (by the built-in inpainter; never finer than the working
+#: copy). The fill lays and weighs its copies over every pixel of its window, once per copy, so its cost follows
+#: the window's pixels (what it saved, and its error against the truth: docs/reference.md, "A large photo: the
+#: working resolution"). The fill's shading is smooth and faded with the depth into the hole, and the carry
+#: brings the copied pixels' own detail back at the photo's size, so the filled surface keeps its grain.
+FILL_PIXELS = 400_000
 #: Rows of the photo :func:`carry_plate` works on at once: its float copies are of a strip, not of the photo.
 CARRY_ROWS = 256
 
 
 def carry_plate(photo: np.ndarray, work, small_photo: np.ndarray, small_plate: np.ndarray,
                 sources: np.ndarray | None = None) -> np.ndarray:
-    """The plate at the photo's size, (H, W, 3) uint8, from the plate filled at the working resolution.
+    """The plate at the photo's size, (H, W, 3) uint8, from the plate filled on a reduced copy (at
+    :data:`FILL_PIXELS`, or the working size where that is smaller).
 
     ``work`` is the :class:`~physomni_usd.perceive.working.Working` that took ``photo`` to ``small_photo``;
     ``small_plate`` is the plate of ``small_photo`` (the photo wherever it is not filled); ``sources`` what its
