@@ -72,6 +72,8 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
+from ..settings import BuildSettings
+from ..texture.fill import contact_shadow, feather_px, kept_edge_px
 from ..texture.sides import copy_sources
 from .limits import LOOK
 
@@ -126,6 +128,64 @@ def plate_holes(renderer, masks: list[np.ndarray | None]) -> list[np.ndarray | N
         touching = np.unique(labels[(cv2.dilate(m.astype(np.uint8), _disk(2)) > 0) & (labels > 0)])
         out.append(m | (np.isin(labels, touching) & (owner == k)))
     return out
+
+
+#: A pixel "differs from frame 0" where a channel changed by more than this many levels (issue "what a person
+#: sees": outside what moved, where it stood and its shadow, no pixel may).
+STILL_LEVELS = 30
+#: Width in frame pixels of the edge kept beside each moved object's silhouette now: its anti-aliased rim.
+STILL_EDGE = 2
+
+
+def still_changes(renderer, t: float, levels: float = STILL_LEVELS,
+                  dilation: float = BuildSettings().plate_dilation) -> tuple[int, np.ndarray, list[str]]:
+    """Where frame ``t`` of ``renderer`` (a ShotRenderer through the photo's camera) differs from its first frame
+    by more than ``levels`` (any channel) although nothing there moved: the count, those pixels ((H, W) bool)
+    and the paths of the objects that moved.
+
+    Changes are allowed over each moved object's silhouette now (the faces its pixels see) and an edge of
+    :data:`STILL_EDGE` pixels around it; where it stood (its part of the photo, :func:`photo_masks`) with the
+    contact shadow the photo shows under it there (``texture.fill.contact_shadow``, as the plate finds it
+    beside the masks widened by ``dilation``), and the edge and seam around those over which the plate
+    replaces the object's rim and fades into the photo (``texture.fill.kept_edge_px`` + ``feather_px``); and
+    wherever its contact shadow darkens the frame now (the frame rendered again without contact shadows tells
+    where). Every other pixel is of an object in place or of the world behind, and should be frame 0's,
+    however the plate was filled."""
+    reuse = renderer.reuse_still
+    renderer.reuse_still = False  # every frame drawn in full: its state holds the faces each pixel sees
+    try:
+        start = float(renderer.stage.GetStartTimeCode())
+        first = renderer.render(start)[0]
+        image, state = renderer.render(t)
+        settings = renderer.settings
+        renderer.settings = settings.model_copy(update={"shadow_strength": 0.0})
+        try:
+            unshaded = renderer.render(t)[0]
+        finally:
+            renderer.settings = settings
+    finally:
+        renderer.reuse_still = reuse
+    moved = renderer._moved_since_start(state.camera, state.points, [])[0] if state.points is not None else []
+    moved_k = [k for k in range(len(renderer.objects)) if moved[k] > 0]
+    h, w = image.shape[:2]
+    rim = kept_edge_px((h, w)) + feather_px((h, w))
+    allowed = np.abs(image.astype(np.int16) - unshaded.astype(np.int16)).max(-1) > 0
+    masks = photo_masks(renderer)
+    lum = cv2.cvtColor(first, cv2.COLOR_RGB2Lab)[..., 0].astype(np.float32)
+    # the shadows are sought beside the masks widened as the plate widens them (BuildSettings.plate_dilation)
+    placed = [m for m in masks if m is not None]
+    widened = (cv2.dilate(np.any(placed, axis=0).astype(np.uint8), _disk(round(dilation * np.hypot(h, w)))) > 0
+               if placed else None)
+    obj = (np.where(state.mesh_face >= 0, renderer.face_object[np.maximum(state.mesh_face, 0)], -1)
+           if state.mesh_face is not None else np.full((h, w), -1))
+    for k in moved_k:
+        allowed |= cv2.dilate((obj == k).astype(np.uint8), _disk(STILL_EDGE)) > 0
+        if masks[k] is not None:
+            stood = masks[k] | contact_shadow(lum, masks[k], widened)
+            allowed |= cv2.dilate(stood.astype(np.uint8), _disk(rim)) > 0
+    changed = np.abs(image.astype(np.int16) - first.astype(np.int16)).max(-1) > levels
+    where = changed & ~allowed
+    return int(where.sum()), where, [renderer.objects[k].path for k in moved_k]
 
 
 def ring_colour_near(image: np.ndarray, area: np.ndarray, ring: np.ndarray, width: float,

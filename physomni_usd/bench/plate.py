@@ -3,9 +3,10 @@
 Surfaces are real photos shipped with scikit-image (``skimage.data``: brick,
 grass, gravel, and the wooden table and the garage floor beside the coffee cup
 and the motorcycle). Object-shaped holes (a cup, a saucer seen from above, a
-pencil lying diagonally, a bottle, a chair) are cut in each, the plate is made
-exactly as ``build`` makes it (:func:`~physomni_usd.texture.fill.background_plate`,
-default dilation, with and without the shift-map exemplar fill), and the fill
+pencil lying diagonally, a bottle, a chair) are cut in each, the hole is filled
+exactly as ``build`` fills it (:func:`~physomni_usd.texture.fill.plate_hole` and
+``fill_hole``, default dilation, with and without the shift-map exemplar fill; not
+the plate's photo put back beyond the masks' edge, which here would be the truth), and the fill
 is compared with the photo inside the hole:
 
 - gradient ratio: mean gradient magnitude inside the hole over that in a ring
@@ -24,7 +25,7 @@ import cv2
 import numpy as np
 
 from ..metrics.image import ssim
-from ..texture.fill import background_plate, plate_hole
+from ..texture.fill import feather_px, fill_hole, plate_hole
 from ..settings import BuildSettings
 
 #: Ring around a hole in which the surface's own gradient is measured, pixels.
@@ -96,7 +97,9 @@ def measure(photo: np.ndarray, mask: np.ndarray, method: str, dilation: float) -
     """Fill one hole as ``build`` would and compare the fill with the photo."""
     hole = plate_hole(photo, [mask], dilation)
     t0 = time.perf_counter()
-    plate = background_plate(photo, [mask], dilation, method=method)
+    # the fill of the whole hole, without the plate's photo put back where it looks like the surface around
+    # (texture.fill._world_back): here the photo under the hole is the truth, and that would show it
+    plate = fill_hole(photo, hole, method, feather_px(photo.shape))
     seconds = time.perf_counter() - t0
     a, b = plate.astype(np.float32), photo.astype(np.float32)
     pixel = np.abs(a - b)[hole].mean()

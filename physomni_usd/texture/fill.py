@@ -8,7 +8,8 @@ where they meet, kept only where they look like the surface, a smooth fill elsew
 (``exemplar.py``: patches of the surface around the hole copied into it, with hard seams) or OpenCV's Telea
 diffusion (kept as ``method="telea"`` for comparison). Across the seam the fill fades into the photo; the faded
 fill and the blend then keep no colour the surroundings lack (:func:`~.blend.cap_colours`, after the seam);
-outside the hole the plate is the photo, pixel for pixel.
+outside the hole the plate is the photo, pixel for pixel, and so is the hole's widening beyond the masks' edge
+(:data:`KEPT_EDGE`) wherever the photo there looks like the surface around it (:func:`_world_back`).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import numpy as np
 
 from .blend import cap_colours, fill_blend
 from .exemplar import fill_exemplar
-from .pixels import INPAINT_RADIUS, blur, dilate, gradient, within
+from .pixels import INPAINT_RADIUS, blur, blur_over, dilate, gradient, within
 
 #: Longest side at which large holes are inpainted by Telea; the fill is then upsampled.
 INPAINT_MAX_SIDE = 480
@@ -58,6 +59,21 @@ KNOWN_SHARE_UNDER = 0.01
 #: and 5 pixels did not hide them; from 0.009 to 0.012 its border is 1.21× to 0.95× (0.010: 1.08×; the
 #: motorcycle's 1.06×, the desk's 0.94×).
 FEATHER = 0.010
+
+#: The plate fills the hole (its sources then hold none of an object's soft edge) but shows the fill only over
+#: the masks widened by this fraction of the image diagonal (at least KEPT_EDGE_MIN pixels) and the contact
+#: shadows, fading back into the photo across the seam (:data:`FEATHER`) beyond them: the rest of the hole's
+#: widening is the world, and filled it changed once its object moved although nothing there did. The pushed
+#: motorcycle's last frame (``bench.look.still_changes``): 3,206 pixels more than 30 levels off frame 0 where
+#: nothing moved with the whole widening filled (the shelves round its mirrors and handlebar, blurred), 227 now.
+KEPT_EDGE = 0.004
+KEPT_EDGE_MIN = 2
+#: Beyond that edge a pixel of the photo is the world where it lies off the fill by at most WORLD_LIKE[0] times
+#: the spread of the photo's colours around the hole (plus WORLD_NOISE levels), and something the mask missed
+#: from WORLD_LIKE[1] times: on a plain floor the bike's dark rims lie many spreads off, on busy shelves the
+#: shelves' own pixels lie within one or two.
+WORLD_LIKE = (1.5, 3.0)
+WORLD_NOISE = 4.0
 
 #: The faded fill (:func:`fill_faded`): how wide its copies are averaged for each pixel of depth into the hole
 #: (Gaussian sigma, pixels per pixel; :func:`~.blend.fade_with_depth`), and the share of its low frequencies
@@ -100,13 +116,44 @@ def background_plate(photo: np.ndarray, masks, dilation: float, method: str = DE
     hole it copied, the (y, x) of the photo's pixel it copied from (:func:`~.carry.carry_plate` takes the fill's
     detail from there).
     """
-    hole = plate_hole(photo, masks, dilation, shadows)
-    return fill_hole(photo, hole, method, feather_px(photo.shape), sources)
+    hole, kept = _plate_parts(photo, masks, dilation, shadows)
+    feather = feather_px(photo.shape)
+    filled = fill_hole(photo, hole, method, feather, sources)
+    if kept is None:
+        return filled
+    return _world_back(photo, filled, hole, kept, feather)
+
+
+def _world_back(photo: np.ndarray, filled: np.ndarray, hole: np.ndarray, kept: np.ndarray, feather: int) -> np.ndarray:
+    """``filled`` with the photo back in the part of ``hole`` beyond ``kept`` wherever the photo there is like
+    the surface around the hole (within :data:`WORLD_LIKE` of its local spread of the fill): there it is the
+    world, and filled it changes once its object moves although nothing there did. A pixel far off the
+    surface's spread there (an object's dark rim the mask missed, its shade) stays filled."""
+    p = photo.astype(np.float32)
+    f = filled.astype(np.float32)
+    known = (~hole).astype(np.float32)
+    sigma = float(max(2 * feather, 4))
+    mean = blur_over(p, known, sigma)
+    spread = np.sqrt(np.maximum(blur_over(p * p, known, sigma) - mean * mean, 0.0)).max(-1)
+    off = np.abs(p - f).max(-1) / (spread + WORLD_NOISE)
+    # smoothed, so that the choice follows the surface's patches rather than single pixels
+    world = blur(np.clip((WORLD_LIKE[1] - off) / (WORLD_LIKE[1] - WORLD_LIKE[0]), 0.0, 1.0), 1.5)
+    away = cv2.distanceTransform((~kept).astype(np.uint8), cv2.DIST_L2, 5)
+    a = np.clip(1.0 - away / (feather + 1.0), 0.0, 1.0)
+    a = np.maximum(a, 1.0 - world)[..., None]
+    out = p + a * (f - p)
+    return np.where(hole[..., None], np.clip(out + 0.5, 0, 255), photo).astype(np.uint8)
 
 
 def feather_px(shape) -> int:
     """Width in pixels of the seam :func:`plate_hole` adds around the hole of an image of ``shape`` (H, W, ...)."""
     return max(4, int(round(FEATHER * np.hypot(shape[0], shape[1]))))
+
+
+def kept_edge_px(shape) -> int:
+    """How far in pixels beyond its masks the plate of an image of ``shape`` (H, W, ...) shows the fill whatever
+    the photo there (:data:`KEPT_EDGE`); the seam into the photo (:func:`feather_px`) lies beyond it."""
+    return max(KEPT_EDGE_MIN, int(round(KEPT_EDGE * np.hypot(shape[0], shape[1]))))
 
 
 def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = DEFAULT_METHOD, feather: int = 0,
@@ -163,19 +210,31 @@ def fill_faded(photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
 
 
 def plate_hole(photo: np.ndarray, masks, dilation: float, shadows: bool = True) -> np.ndarray:
-    """(H, W) bool: the pixels the plate replaces, every mask dilated by ``dilation`` × the diagonal,
+    """(H, W) bool: the pixels the plate fills, every mask dilated by ``dilation`` × the diagonal,
     plus (with ``shadows``) the contact shadow found under each object (:func:`contact_shadow`), and the
     seam (:data:`FEATHER`) around all of it, over which the fill fades into the photo."""
+    return _plate_parts(photo, masks, dilation, shadows)[0]
+
+
+def _plate_parts(photo: np.ndarray, masks, dilation: float, shadows: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    """:func:`plate_hole`, and the part of it the plate shows filled (the masks widened by :data:`KEPT_EDGE`
+    and the shadows; the photo returns across a seam beyond it), None where that is the whole hole."""
     h, w = photo.shape[:2]
     union = np.zeros((h, w), bool)
     for m in masks:
         union |= np.asarray(m, bool)
-    hole = dilate(union, int(round(dilation * np.hypot(h, w))))
+    r = int(round(dilation * np.hypot(h, w)))
+    edge = kept_edge_px(photo.shape)
+    hole = dilate(union, r)
+    kept = dilate(union, edge) if r > edge else None
     if shadows:
         lum = cv2.cvtColor(photo, cv2.COLOR_RGB2Lab)[..., 0].astype(np.float32)
         for m in masks:
-            hole |= contact_shadow(lum, np.asarray(m, bool), hole)
-    return dilate(hole, feather_px(photo.shape)) if hole.any() else hole
+            shadow = contact_shadow(lum, np.asarray(m, bool), hole)
+            hole |= shadow
+            if kept is not None:
+                kept |= shadow
+    return (dilate(hole, feather_px(photo.shape)) if hole.any() else hole), kept
 
 
 def contact_shadow(lum: np.ndarray, mask: np.ndarray, hole: np.ndarray) -> np.ndarray:
