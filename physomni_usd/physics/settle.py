@@ -8,11 +8,12 @@ force field acting, is stepped until everything is still (``runner.at_rest``) or
 up. Each rigid object's motion is then judged (:func:`judge`):
 
 - still (every point within ``runner.REST_METRES``, turned under :data:`STILL_DEG`): nothing changes;
-- settled a little (within :data:`KEEP_M` and :data:`KEEP_DEG`) and come to rest (the whole scene still at the
-  settle's end), its outline from the photo's camera still
-  the photo's (IoU down by at most :data:`KEEP_IOU_DROP`, or still at least ``align.compare.WARN_IOU``, the
-  build's own bar for a match): the settled pose is its rest pose;
-- gone farther (it falls, rolls away, slides off) or still moving: not kept, reported by name, left where the photo shows it.
+- settled a little (within :data:`KEEP_M` and :data:`KEEP_DEG`) and come to rest (still over the settle's last
+  :data:`STILL_WINDOW_S`), its outline from the photo's camera still the photo's (IoU down by at most
+  :data:`KEEP_IOU_DROP`, or still at least ``align.compare.WARN_IOU``, the build's own bar for a match): the
+  settled pose is its rest pose;
+- gone farther (it falls, rolls away, slides off) or still moving: not kept, reported by name, left where the
+  photo shows it.
 
 No object is made fixed to hold it: what the settle cannot keep still is said, not hidden."""
 
