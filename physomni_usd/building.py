@@ -602,8 +602,11 @@ def _settle(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, field
         if settled.skipped:
             info["skipped"] = settled.skipped
             break
+        # a pose kept before and still since is kept already: written again it costs a texturing and a settle
+        again = {n for n, m in settled.motions.items() if m.still and n in total}
         settled.motions = {n: m.after(total.get(n), placed[names.index(n)]) for n, m in settled.motions.items()}
         keep, gone = judge(settled, names, placed, [o.faces for o in scene.objects], scene.camera, scene.masks)
+        keep = {n: m for n, m in keep.items() if n not in again}
         far.update(gone)
         info["rounds"].append({
             "simulated_s": round(settled.simulated_s, 3), "at_rest": settled.at_rest,

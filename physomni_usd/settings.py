@@ -95,9 +95,9 @@ class BuildSettings(_Settings):
     camera_search_evals: int = Field(300, ge=1, le=100000, description="Cap on renders of the camera search.")
     settle_s: Annotated[float, Option(
         "--settle", "Seconds the built scene is simulated with nothing pushed, to keep where each object "
-        "settles (a few mm into a bowl's hollow) as its rest pose and to name what falls; 0 writes the "
-        "scene as placed (the default: a settle costs about what simulate does, often more than the build).")] = Field(
-        0.0, ge=0.0, le=5.0, description="Seconds of the settle (physics.settle): the built scene simulated "
+        "settles (a few mm into a bowl's hollow) as its rest pose and to name what falls; it ends early once "
+        "everything is still; 0 writes the scene as placed.")] = Field(
+        2.0, ge=0.0, le=5.0, description="Seconds of the settle (physics.settle): the built scene simulated "
                                          "with nothing pushed, small settling kept, falls reported; 0: none.")
     gap_m: float = Field(0.002, ge=0.0, le=1.0, description="Clearance left between objects' footprints, metres.")
     # 40 MP covers a full-frame camera's photo; what a build needs grows with the pixels (gigabytes at 48 MP)

@@ -41,15 +41,44 @@ def test_the_settle_moves_what_gravity_moves_and_nothing_pushes(tmp_path):
     assert abs(dropped[:, 2].min()) < 0.004
 
 
+def test_a_slow_tip_is_settled_to_its_end(tmp_path):
+    """A tall box on one edge with its centre of mass 0.15° past it tips slowly at first (its top moves about
+    a millimetre in 0.2 s): the settle runs on until it has fallen, not until a first still-looking moment."""
+    import trimesh
+
+    w, h = 0.05, 0.3
+    mesh = trimesh.creation.box((w, w, h))
+    mesh.apply_transform(trimesh.transformations.rotation_matrix(np.arctan2(w, h) + np.radians(0.15), (1, 0, 0)))
+    mesh.apply_translation((0.0, 0.0, -mesh.bounds[0, 2]))
+    shot = write_bench_shot(tmp_path, [BenchObject("tipping", mesh, "rigid", {"density": 500.0})])
+    settled = settle_shot(layers.open_shot(shot, mute_sim=True), 2.0)
+    assert settled.motions["tipping"].turned_deg > 45.0, settled.motions["tipping"]
+
+
 def test_a_small_settling_that_keeps_the_outline_is_kept_and_a_fall_is_named(tmp_path):
     shot, objects = _scene(tmp_path)
-    settled = settle_shot(layers.open_shot(shot, mute_sim=True), 1.0)
+    settled = settle_shot(layers.open_shot(shot, mute_sim=True), 2.0)
     names = [o.name for o in objects]
     verts, faces = [o.mesh.vertices for o in objects], [o.mesh.faces for o in objects]
     masks = [silhouette(v, f, CAMERA) for v, f in zip(verts, faces)]
     keep, far = judge(settled, names, verts, faces, CAMERA, masks)
     assert set(keep) == {"above"}
     assert set(far) == {"high"} and "nothing pushing it" in far["high"]
+
+
+def test_what_is_still_moving_at_the_end_is_not_kept(tmp_path):
+    """A pose the settle reached while the object still rolled is no rest pose: kept, the shot would start
+    mid-roll."""
+    shot, objects = _scene(tmp_path)
+    names = [o.name for o in objects]
+    verts, faces = [o.mesh.vertices for o in objects], [o.mesh.faces for o in objects]
+    masks = [silhouette(v, f, CAMERA) for v, f in zip(verts, faces)]
+    rolling = Motion("above", np.eye(3), np.array([0.0, 0.0, -0.01]), 0.01, 0.0, resting=False)
+    keep, far = judge(Settled(motions={"above": rolling}, simulated_s=2.0), names, verts, faces, CAMERA, masks)
+    assert not keep and "still moving" in far["above"]
+    rolling.resting = True
+    keep, far = judge(Settled(motions={"above": rolling}, simulated_s=2.0), names, verts, faces, CAMERA, masks)
+    assert set(keep) == {"above"} and not far
 
 
 def test_a_settling_that_leaves_the_outline_is_not_kept(tmp_path):
@@ -69,9 +98,9 @@ def test_a_settling_that_leaves_the_outline_is_not_kept(tmp_path):
     assert not keep and "no longer matches" in far["above"]
 
 
-def test_build_settles_only_when_asked(tmp_path):
-    """``--settle`` is off by default (a settle costs what a simulate does); asked for, the build settles the
-    written shot and says what each round found in ``report.json`` (``shot.alignment.settle``)."""
+def test_build_settles_unless_told_not_to(tmp_path):
+    """The build settles the written shot by default and says what each round found in ``report.json``
+    (``shot.alignment.settle``); ``--settle 0`` writes it as placed."""
     import json
 
     import trimesh
@@ -86,11 +115,13 @@ def test_build_settles_only_when_asked(tmp_path):
         b.apply_translation([at[0], at[1], at[2] + size[2] / 2])
         truth.append(b)
     specs = rendered_blocks(tmp_path, camera, truth)
-    assert BuildSettings().settle_s == 0.0
-    build_shot(tmp_path / "photo.png", tmp_path / "plain", masks=specs)
+    build_shot(tmp_path / "photo.png", tmp_path / "plain", masks=specs, settings=BuildSettings(settle_s=0.0))
     plain = json.loads((tmp_path / "plain" / "report.json").read_text())
     assert "settle" not in plain["shot"]["alignment"]
-    build_shot(tmp_path / "photo.png", tmp_path / "settled", masks=specs, settings=BuildSettings(settle_s=1.0))
+    build_shot(tmp_path / "photo.png", tmp_path / "settled", masks=specs)
     settled = json.loads((tmp_path / "settled" / "report.json").read_text())["shot"]["alignment"]["settle"]
     assert settled["rounds"] and settled["rounds"][0]["simulated_s"] > 0.0, settled
     assert "skipped" not in settled, settled
+    # two boxes standing on the ground: still, so the settle ends once they have been still a while
+    assert settled["rounds"][0]["at_rest"] and settled["rounds"][0]["simulated_s"] < 2.0, settled
+    assert len(settled["rounds"]) == 1, settled
