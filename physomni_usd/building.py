@@ -387,14 +387,17 @@ def _refuse_what_simulate_refuses(out: pathlib.Path) -> None:
 
 def _plate(scene: Scene) -> None:
     """The background plate behind the objects; for a photo above the working resolution, filled on its working
-    copy and carried to the photo's size (``texture.carry.carry_plate``)."""
+    copy and carried to the photo's size (``texture.carry.carry_plate``). Where the lifter measured the ground,
+    its camera goes with the photo: the floor's part of the hole is filled top-down (``texture.floor``)."""
+    ground = scene.objects[0].lifted.ground if scene.objects and scene.objects[0].lifted is not None else None
+    camera = ground.camera if ground is not None else None
     if scene.work is None:
         scene.plate = backend_steps.make_plate(scene.photo, scene.masks, scene.settings.plate_dilation,
-                                               scene.backends["inpainter"])
+                                               scene.backends["inpainter"], camera=camera)
         return
     sources = np.full(scene.photo.shape[:2] + (2,), -1, np.int32)
     scene.small_plate = backend_steps.make_plate(scene.photo, scene.masks, scene.settings.plate_dilation,
-                                                 scene.backends["inpainter"], sources)
+                                                 scene.backends["inpainter"], sources, camera)
     scene.plate = carry_plate(scene.full_photo, scene.work, scene.photo, scene.small_plate,
                               sources if (sources[..., 0] >= 0).any() else None)
 

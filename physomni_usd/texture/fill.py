@@ -8,7 +8,8 @@ where they meet, kept only where they look like the surface, a smooth fill elsew
 (``exemplar.py``: patches of the surface around the hole copied into it, with hard seams) or OpenCV's Telea
 diffusion (kept as ``method="telea"`` for comparison). Across the seam the fill fades into the photo; the faded
 fill and the blend then keep no colour the surroundings lack (:func:`~.blend.cap_colours`, after the seam);
-outside the hole the plate is the photo, pixel for pixel.
+outside the hole the plate is the photo, pixel for pixel. Given the ground's camera, the faded fill fills the hole's
+part on the floor in a top-down view of the floor (``floor.py``), where a pattern seen in perspective is regular.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import numpy as np
 
 from .blend import cap_colours, fill_blend
 from .exemplar import fill_exemplar
+from .floor import fill_on_ground
 from .pixels import INPAINT_RADIUS, blur, dilate, gradient, within
 
 #: Longest side at which large holes are inpainted by Telea; the fill is then upsampled.
@@ -89,17 +91,18 @@ DEFAULT_METHOD = "faded"
 
 
 def background_plate(photo: np.ndarray, masks, dilation: float, method: str = DEFAULT_METHOD,
-                     shadows: bool = True, sources: np.ndarray | None = None) -> np.ndarray:
+                     shadows: bool = True, sources: np.ndarray | None = None, camera=None) -> np.ndarray:
     """The photo with every object (and, with ``shadows``, its contact shadow) filled in, (H, W, 3) uint8.
 
     ``dilation`` widens each mask by that fraction of the image diagonal, so that soft edges go too.
     Outside the hole (:func:`plate_hole`) the plate is the photo, pixel for pixel. ``sources``: (H, W, 2)
     int32, filled with -1 by the caller; the exemplar fill (not the blend) writes there, for each pixel of the
     hole it copied, the (y, x) of the photo's pixel it copied from (:func:`~.carry.carry_plate` takes the fill's
-    detail from there).
+    detail from there). ``camera``: the :class:`~physomni_usd.geometry.camera.PinholeCamera` over the ground
+    plane, when known; the faded fill then fills the hole's part on the floor top-down (``floor.py``).
     """
     hole = plate_hole(photo, masks, dilation, shadows)
-    return fill_hole(photo, hole, method, feather_px(photo.shape), sources)
+    return fill_hole(photo, hole, method, feather_px(photo.shape), sources, camera)
 
 
 def feather_px(shape) -> int:
@@ -108,11 +111,11 @@ def feather_px(shape) -> int:
 
 
 def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = DEFAULT_METHOD, feather: int = 0,
-              sources: np.ndarray | None = None) -> np.ndarray:
+              sources: np.ndarray | None = None, camera=None) -> np.ndarray:
     """``photo`` (H, W, 3) uint8 RGB with the pixels of ``hole`` (H, W) bool filled by ``method``; with
     ``feather`` > 0 the hole's outer ``feather`` pixels blend from the photo (at its edge) to the fill.
-    ``sources``: as :func:`background_plate` takes it."""
-    filled = _fill_hole(photo, hole, method, sources)
+    ``sources``, ``camera``: as :func:`background_plate` takes them."""
+    filled = _fill_hole(photo, hole, method, sources, camera)
     if feather <= 0 or not np.any(hole) or np.all(hole):
         return filled
     inside = cv2.distanceTransform(np.asarray(hole, np.uint8), cv2.DIST_L2, 5)
@@ -124,7 +127,8 @@ def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = DEFAULT_METHOD,
     return cap_colours(photo, out, hole) if method in ("faded", "blend") else out
 
 
-def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str, sources: np.ndarray | None = None) -> np.ndarray:
+def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str, sources: np.ndarray | None = None,
+               camera=None) -> np.ndarray:
     if method not in METHODS:
         raise ValueError(f"unknown fill method {method!r} (known: {', '.join(METHODS)})")
     hole = np.asarray(hole, bool)
@@ -137,7 +141,8 @@ def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str, sources: np.nda
     if method == "blend":
         return fill_blend(photo, hole)
     if method == "faded":
-        return fill_faded(photo, hole)
+        filled = fill_faded(photo, hole)
+        return filled if camera is None else fill_on_ground(photo, hole, camera, fill_faded, filled)
     return fill_exemplar(photo, hole, sources)
 
 
