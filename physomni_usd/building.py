@@ -390,7 +390,11 @@ def _refuse_what_simulate_refuses(out: pathlib.Path) -> None:
 def _plate(scene: Scene) -> None:
     """The background plate behind the objects; the built-in inpainter's, for a photo above
     :data:`~.texture.carry.FILL_PIXELS` (or the working size), filled on a copy reduced to that size and carried
-    to the photo's size (``texture.carry.carry_plate``); a plugin's, on the working copy as the objects were."""
+    to the photo's size (``texture.carry.carry_plate``); a plugin's, on the working copy as the objects were.
+    Where the lifter measured the ground, its camera goes with the photo: the floor's part of the hole is filled
+    top-down (``texture.floor``, which scales the camera to the size it is given)."""
+    ground = scene.objects[0].lifted.ground if scene.objects and scene.objects[0].lifted is not None else None
+    camera = ground.camera if ground is not None else None
     photo = scene.photo if scene.full_photo is None else scene.full_photo
     if isinstance(scene.backends["inpainter"], BuiltinInpainter):
         # never finer than the working copy: a photo at or under FILL_PIXELS is still carried up from it
@@ -399,7 +403,7 @@ def _plate(scene: Scene) -> None:
         fill = scene.work
     if fill is None:  # the photo is at or under the working size: scene.photo is the photo
         scene.plate = backend_steps.make_plate(scene.photo, scene.masks, scene.settings.plate_dilation,
-                                               scene.backends["inpainter"])
+                                               scene.backends["inpainter"], camera=camera)
         return
     # the masks taken to the fill's size; a fill pixel is in the hole where any of it is an object's, so a part
     # narrower than a fill pixel (a wire) is still filled, not left in the plate
@@ -408,7 +412,7 @@ def _plate(scene: Scene) -> None:
     small = fill.down(photo)
     sources = np.full(small.shape[:2] + (2,), -1, np.int32)
     scene.small_plate = backend_steps.make_plate(small, masks, scene.settings.plate_dilation,
-                                                 scene.backends["inpainter"], sources)
+                                                 scene.backends["inpainter"], sources, camera)
     scene.plate = carry_plate(photo, fill, small, scene.small_plate,
                               sources if (sources[..., 0] >= 0).any() else None)
 

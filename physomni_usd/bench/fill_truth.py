@@ -35,7 +35,8 @@ import numpy as np
 from ..texture.pixels import SURROUND, nearest_surrounding
 
 #: The fills compared: the plate's default (``texture/fill.py``), OpenCV's Telea, the blend (``texture/blend.py``,
-#: the default before it) and the exemplar alone.
+#: the default before it) and the exemplar alone; ``floor`` (run only when named) is the default given the
+#: scene's true camera, which fills the hole's part on the floor top-down (``texture/floor.py``).
 METHODS = ("faded", "telea", "blend", "exemplar")
 #: The fill the bench holds to the others: its error at most the better of these, and no revealed pixel farther
 #: than :data:`FAR_LEVELS` from every colour of its surroundings.
@@ -69,9 +70,9 @@ def score(plate: np.ndarray, truth: np.ndarray, revealed: np.ndarray, hole: np.n
 
 
 def fill_rows(photo: np.ndarray, truth: np.ndarray, masks: list[np.ndarray], dilation: float,
-              methods=METHODS) -> dict:
+              methods=METHODS, camera=None) -> dict:
     """Each of ``methods`` filling the objects ``masks`` (visible, (H, W) bool each) out of ``photo``, scored
-    against ``truth``; also the hole's size and the renders' ``floor``."""
+    against ``truth``; also the hole's size and the renders' ``floor``. ``camera``: the scene's, for ``floor``."""
     from ..texture.fill import background_plate, plate_hole
 
     hole = plate_hole(photo, masks, dilation)
@@ -82,7 +83,10 @@ def fill_rows(photo: np.ndarray, truth: np.ndarray, masks: list[np.ndarray], dil
            "floor": round(float(floor.mean()) if floor.size else 0.0, 2), "methods": {}, "plates": {}}
     for method in methods:
         t0 = time.perf_counter()
-        plate = background_plate(photo, masks, dilation, method=method)
+        if method == "floor":
+            plate = background_plate(photo, masks, dilation, method="faded", camera=camera)
+        else:
+            plate = background_plate(photo, masks, dilation, method=method)
         seconds = time.perf_counter() - t0
         row["methods"][method] = score(plate, truth, revealed, hole) | {"seconds": round(seconds, 2)}
         row["plates"][method] = plate
@@ -116,6 +120,7 @@ def bench_fill_truth(n: int = 4, seed: int = 1, out_dir=None, methods=METHODS, e
     each filled by every one of ``methods`` and scored; renders and plates go to ``out_dir`` (a temporary
     folder when None). Returns the rows and, per method, the means and in how many scenes its error is at
     most the better of the others'."""
+    from ..geometry.camera import PinholeCamera
     from ..settings import BuildSettings
 
     dilation = BuildSettings().plate_dilation
@@ -130,7 +135,10 @@ def bench_fill_truth(n: int = 4, seed: int = 1, out_dir=None, methods=METHODS, e
             if photo is None:
                 echo(f"scene {scene_seed}: nothing visible was drawn; skipped")
                 continue
-            row = fill_rows(photo, truth, masks, dilation, methods)
+            cam = info["camera"]
+            camera = PinholeCamera.from_pose(cam["width"], cam["height"], cam["fov_deg"], cam["position_m"],
+                                             cam["world_from_camera"])
+            row = fill_rows(photo, truth, masks, dilation, methods, camera)
             for m, plate in row.pop("plates").items():
                 cv2.imwrite(str(root / f"scene_{i:03d}" / f"plate_{m}.png"), cv2.cvtColor(plate, cv2.COLOR_RGB2BGR))
             row |= {"seed": scene_seed, "index": i, "layout": info["layout"], "objects_n": len(masks)}

@@ -9,7 +9,9 @@ where they meet, kept only where they look like the surface, a smooth fill elsew
 diffusion (kept as ``method="telea"`` for comparison). Across the seam the fill fades into the photo; the faded
 fill and the blend then keep no colour the surroundings lack (:func:`~.blend.cap_colours`, after the seam);
 outside the hole the plate is the photo, pixel for pixel, and so is the hole's widening beyond the masks' edge
-(:data:`KEPT_EDGE`) wherever the photo there looks like the surface around it (:func:`_world_back`).
+(:data:`KEPT_EDGE`) wherever the photo there looks like the surface around it (:func:`_world_back`). Given the
+ground's camera, the faded fill fills the hole's part on the floor in a top-down view of the floor (``floor.py``),
+where a pattern seen in perspective is regular.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import numpy as np
 
 from .blend import cap_colours, fill_blend
 from .exemplar import fill_exemplar
+from .floor import fill_on_ground
 from .pixels import INPAINT_RADIUS, blur, blur_over, dilate, gradient, within
 
 #: Longest side at which large holes are inpainted by Telea; the fill is then upsampled.
@@ -107,18 +110,19 @@ DEFAULT_METHOD = "faded"
 
 
 def background_plate(photo: np.ndarray, masks, dilation: float, method: str = DEFAULT_METHOD,
-                     shadows: bool = True, sources: np.ndarray | None = None) -> np.ndarray:
+                     shadows: bool = True, sources: np.ndarray | None = None, camera=None) -> np.ndarray:
     """The photo with every object (and, with ``shadows``, its contact shadow) filled in, (H, W, 3) uint8.
 
     ``dilation`` widens each mask by that fraction of the image diagonal, so that soft edges go too.
     Outside the hole (:func:`plate_hole`) the plate is the photo, pixel for pixel. ``sources``: (H, W, 2)
     int32, filled with -1 by the caller; the exemplar fill (not the blend) writes there, for each pixel of the
     hole it copied, the (y, x) of the photo's pixel it copied from (:func:`~.carry.carry_plate` takes the fill's
-    detail from there).
+    detail from there). ``camera``: the :class:`~physomni_usd.geometry.camera.PinholeCamera` over the ground
+    plane, when known; the faded fill then fills the hole's part on the floor top-down (``floor.py``).
     """
     hole, kept = _plate_parts(photo, masks, dilation, shadows)
     feather = feather_px(photo.shape)
-    filled = fill_hole(photo, hole, method, feather, sources)
+    filled = fill_hole(photo, hole, method, feather, sources, camera)
     if kept is None:
         return filled
     return _world_back(photo, filled, hole, kept, feather)
@@ -157,11 +161,11 @@ def kept_edge_px(shape) -> int:
 
 
 def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = DEFAULT_METHOD, feather: int = 0,
-              sources: np.ndarray | None = None) -> np.ndarray:
+              sources: np.ndarray | None = None, camera=None) -> np.ndarray:
     """``photo`` (H, W, 3) uint8 RGB with the pixels of ``hole`` (H, W) bool filled by ``method``; with
     ``feather`` > 0 the hole's outer ``feather`` pixels blend from the photo (at its edge) to the fill.
-    ``sources``: as :func:`background_plate` takes it."""
-    filled = _fill_hole(photo, hole, method, sources)
+    ``sources``, ``camera``: as :func:`background_plate` takes them."""
+    filled = _fill_hole(photo, hole, method, sources, camera)
     if feather <= 0 or not np.any(hole) or np.all(hole):
         return filled
     inside = cv2.distanceTransform(np.asarray(hole, np.uint8), cv2.DIST_L2, 5)
@@ -173,7 +177,8 @@ def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = DEFAULT_METHOD,
     return cap_colours(photo, out, hole) if method in ("faded", "blend") else out
 
 
-def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str, sources: np.ndarray | None = None) -> np.ndarray:
+def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str, sources: np.ndarray | None = None,
+               camera=None) -> np.ndarray:
     if method not in METHODS:
         raise ValueError(f"unknown fill method {method!r} (known: {', '.join(METHODS)})")
     hole = np.asarray(hole, bool)
@@ -186,7 +191,8 @@ def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str, sources: np.nda
     if method == "blend":
         return fill_blend(photo, hole)
     if method == "faded":
-        return fill_faded(photo, hole)
+        filled = fill_faded(photo, hole)
+        return filled if camera is None else fill_on_ground(photo, hole, camera, fill_faded, filled)
     return fill_exemplar(photo, hole, sources)
 
 
