@@ -72,7 +72,7 @@ def test_a_plugin_inpainter_fills_the_photo_itself_above_the_fill_size():
     assert working(photo.shape, FILL_PIXELS) is not None and working(photo.shape) is None
     mask = np.zeros(photo.shape[:2], bool)
     mask[200:400, 300:500] = True
-    scene = SimpleNamespace(photo=photo, full_photo=photo, work=None, masks=[mask], small_plate=None,
+    scene = SimpleNamespace(photo=photo, full_photo=photo, work=None, masks=[mask], small_plate=None, objects=[],
                             settings=BuildSettings(plate_dilation=0.0), backends={"inpainter": Grey()})
     _plate(scene)
     assert seen == [photo.shape] and scene.small_plate is None
@@ -92,7 +92,7 @@ def test_a_part_narrower_than_a_fill_pixel_is_filled():
     mask[322, 200:760] = True  # a row split between two rows of the fill copy: under half of either
     photo[mask] = (40, 40, 230)
     assert not working(photo.shape, FILL_PIXELS).down_mask(mask).any()  # what a majority rule would keep
-    scene = SimpleNamespace(photo=photo, full_photo=photo, work=None, masks=[mask], small_plate=None,
+    scene = SimpleNamespace(photo=photo, full_photo=photo, work=None, masks=[mask], small_plate=None, objects=[],
                             settings=BuildSettings(plate_dilation=0.0), backends={"inpainter": BuiltinInpainter()})
     _plate(scene)
     assert scene.plate.shape == photo.shape
