@@ -298,3 +298,5 @@ def test_where_the_row_search_moves_the_field_of_view_the_report_gives_the_pitch
     assert info["fov_deg"] == pytest.approx(35.0) and lifted.camera.fov_deg == pytest.approx(35.0)
     assert row_pitch(horizon, 35.0, h) < 25.0  # the row means a shallower pitch under the narrower view
     assert info["pitch_deg"] == pytest.approx(lifted.camera.pitch_deg, abs=1e-3)
+    # and the least pitch that stands every foot on the ground is the built view's too
+    assert info["min_pitch_deg"] == pytest.approx(photo_scene.min_pitch(35.0, h, photo_scene._feet(masks)), abs=1e-3)

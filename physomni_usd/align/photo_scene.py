@@ -467,11 +467,11 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
             if along is not None and along.fov_deg != round(fov, 3):
                 # the pitch moves with the field of view along the row: left at the default view's, the report
                 # said 42° for a camera built at 27° (bench general seed 235726, scene 11)
+                lowest = min_pitch(along.fov_deg, h, feet)
                 camera_info |= {"fov_deg": round(along.fov_deg, 3), "cue_fov_deg": round(fov, 3),
                                 "fov_source": f"render-and-compare along the row of the {row_cue.kind}",
-                                "pitch_deg": round(along.pitch_deg, 3)}
+                                "pitch_deg": round(along.pitch_deg, 3), "min_pitch_deg": round(lowest, 3)}
                 fov, pitch = along.fov_deg, along.pitch_deg
-                lowest = min_pitch(fov, h, feet)
         try:
             if free_fov:  # no cue reads the field of view: it is searched with the pitch (align.compare.search_view)
                 feet = _feet(small[1])
