@@ -138,7 +138,7 @@ STILL_EDGE = 2
 
 
 def still_changes(renderer, t: float, levels: float = STILL_LEVELS,
-                  dilation: float = BuildSettings().plate_dilation) -> tuple[int, np.ndarray, list[str]]:
+                  dilation: float | None = None) -> tuple[int, np.ndarray, list[str]]:
     """Where frame ``t`` of ``renderer`` (a ShotRenderer through the photo's camera) differs from its first frame
     by more than ``levels`` (any channel) although nothing there moved: the count, those pixels ((H, W) bool)
     and the paths of the objects that moved.
@@ -146,11 +146,12 @@ def still_changes(renderer, t: float, levels: float = STILL_LEVELS,
     Changes are allowed over each moved object's silhouette now (the faces its pixels see) and an edge of
     :data:`STILL_EDGE` pixels around it; where it stood (its part of the photo, :func:`photo_masks`) with the
     contact shadow the photo shows under it there (``texture.fill.contact_shadow``, as the plate finds it
-    beside the masks widened by ``dilation``), and the edge and seam around those over which the plate
+    beside the masks widened by ``dilation``, the build's default when None), and the edge and seam around those over which the plate
     replaces the object's rim and fades into the photo (``texture.fill.kept_edge_px`` + ``feather_px``); and
     wherever its contact shadow darkens the frame now (the frame rendered again without contact shadows tells
     where). Every other pixel is of an object in place or of the world behind, and should be frame 0's,
     however the plate was filled."""
+    dilation = BuildSettings().plate_dilation if dilation is None else dilation
     reuse = renderer.reuse_still
     renderer.reuse_still = False  # every frame drawn in full: its state holds the faces each pixel sees
     try:
