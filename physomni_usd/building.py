@@ -586,46 +586,84 @@ def _settle(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, field
     """The written shot settled with nothing pushed (``physics.settle``): where an object settles a little and
     its outline still matches the photo's, that pose is its rest pose and the shot is written again (and
     settled again, up to ``SETTLE_ROUNDS`` times: what came to rest in a hollow may still rock there); where
-    one falls or rolls away, a warning names it and ``report.json`` keeps what it did (``alignment.settle``)."""
+    one falls or rolls away, a warning names it and ``report.json`` keeps what it did (``alignment.settle``).
+
+    Each round is judged from where the photo shows each object. A kept pose that starts inside another
+    object as it will be written (one not kept goes back to the photo's pose) is dropped, until none does; one
+    kept before that a later round finds gone too far goes back to the photo's pose. A round the simulator
+    refuses puts the shot back to the last write it accepted, with a warning: the settle never makes a build
+    fail that would pass without it. It settles the build's own layers (the artist's edits muted)."""
     from .errors import PhysOmniError
     from .physics.settle import SETTLE_ROUNDS, judge, settle_shot
 
-    names = [o.name for o in scene.objects]
     info: dict = {"rounds": []}
-    far: dict[str, str] = {}
     scene.align_info["settle"] = info
-    # every round is judged from where the photo shows each object, not from the round before
+    if fields:  # the shot's own motion under its fields is no placement's error: nothing to build a model for
+        info["skipped"] = "force fields act on the shot"
+        return
+    names = [o.name for o in scene.objects]
+    far: dict[str, str] = {}
     placed = [o.vertices.copy() for o in scene.objects]
     total: dict = {}
+    verified: dict = {}  # the poses of the last write the simulator accepted (empty: the photo's)
+    written = True  # the shot on disk is the one ``verified`` describes
     for _ in range(SETTLE_ROUNDS):
         try:
-            settled = settle_shot(layers.open_shot(out, mute_sim=True), scene.settings.settle_s, echo)
-        except PhysOmniError as exc:  # what simulate refuses, the check after this says; the settle stands aside
-            info["skipped"] = str(exc)
+            settled = settle_shot(layers.open_shot(out, mute_sim=True, mute_edits=True), scene.settings.settle_s,
+                                  echo)
+        except PhysOmniError as exc:
+            if _same(total, verified):  # the shot as placed: what simulate refuses, the check after this says
+                info["skipped"] = str(exc)
+            else:
+                _settle_back(scene, verified, placed, out, photo_path, user_sizes, fields, files, info, exc, echo)
+                total, written = dict(verified), True
             break
         if settled.skipped:
             info["skipped"] = settled.skipped
             break
+        verified, written = dict(total), True
         # a pose kept before and still since is kept already: written again it costs a texturing and a settle
         again = {n for n, m in settled.motions.items() if m.still and n in total}
         settled.motions = {n: m.after(total.get(n), placed[names.index(n)]) for n, m in settled.motions.items()}
         keep, gone = judge(settled, names, placed, [o.faces for o in scene.objects], scene.camera, scene.masks)
         keep = {n: m for n, m in keep.items() if n not in again}
         far.update(gone)
+        undone = sorted(n for n in gone if n in total)  # kept before, gone too far since: back to the photo's
+        for n in undone:
+            total.pop(n)
+        overlapping = _settled_overlaps(scene, {**total, **keep}, placed, out)
+        for n in overlapping:
+            far[n] = "settles to where it starts inside another object as written"
+            keep.pop(n, None)
+            total.pop(n, None)
         info["rounds"].append({
             "simulated_s": round(settled.simulated_s, 3), "at_rest": settled.at_rest,
             "seconds": round(settled.seconds, 3),
             "motions": {n: {"moved_m": round(m.moved_m, 4), "turned_deg": round(m.turned_deg, 2)}
                         for n, m in settled.motions.items() if not m.still},
-            **({"kept": sorted(keep)} if keep else {})})
-        if not keep:
+            **({"kept": sorted(keep)} if keep else {}), **({"undone": undone} if undone else {}),
+            **({"overlapping": overlapping} if overlapping else {})})
+        if not keep and not undone and not overlapping:
             break
-        echo("build: settled " + ", ".join(f"{n} ({keep[n].moved_m * 1000:.0f} mm)" for n in sorted(keep))
-             + " where it came to rest; written again")
+        if keep:
+            echo("build: settled " + ", ".join(f"{n} ({keep[n].moved_m * 1000:.0f} mm)" for n in sorted(keep))
+                 + " where it came to rest; written again")
         total.update(keep)
-        for o, v in zip(scene.objects, placed):
-            o.vertices = v.copy()  # the kept motions are in all, from where the photo shows it
-        _rewrite_settled(scene, total, out, photo_path, user_sizes, fields, files)
+        if _same(total, verified):  # only new poses dropped again: the shot on disk is the settled one
+            break
+        _rewrite_settled(scene, total, placed, out, photo_path, user_sizes, fields, files)
+        written = False
+    if not written:  # the last write was settled by no round: it must pass what simulate checks before it starts
+        from .physics.prepare import refuse_unsimulatable
+
+        try:
+            refuse_unsimulatable(layers.open_shot(out, mute_sim=True, mute_edits=True), name=str(out / layers.SHOT))
+        except PhysOmniError as exc:
+            _settle_back(scene, verified, placed, out, photo_path, user_sizes, fields, files, info, exc, echo)
+            total = dict(verified)
+    info["kept"] = sorted(total)
+    for n in total:
+        far.pop(n, None)
     if far:
         info["not_kept"] = far
         for n, why in far.items():
@@ -633,15 +671,69 @@ def _settle(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, field
                  f"or --pitch, or hold it with --fixed")
 
 
-def _rewrite_settled(scene: Scene, keep: dict, out: pathlib.Path, photo_path, user_sizes: dict, fields,
-                     files: set[str]) -> None:
-    """The shot written again with the settled poses ``keep`` (name → ``physics.settle.Motion``): the objects'
-    supports, silhouettes, textures and layers as the placement writes them."""
+def _same(a: dict, b: dict) -> bool:
+    """The same settled poses (name → the same Motion)."""
+    return a.keys() == b.keys() and all(a[n] is b[n] for n in a)
+
+
+def _settle_back(scene: Scene, verified: dict, placed: list, out: pathlib.Path, photo_path, user_sizes: dict, fields,
+                 files: set[str], info: dict, exc: Exception, echo) -> None:
+    """The shot written again at the poses of the last write the simulator accepted (``verified``), after a
+    settled write it refuses (``exc``): said, not skipped silently."""
+    info["refused"] = str(exc)
+    echo(f"warning: the settled shot would be refused ({exc}); the settle goes back to "
+         + (f"its earlier poses of {', '.join(sorted(verified))}" if verified else "the photo's poses"))
+    _rewrite_settled(scene, verified, placed, out, photo_path, user_sizes, fields, files)
+
+
+def _settled_overlaps(scene: Scene, poses: dict, placed: list, out: pathlib.Path) -> list[str]:
+    """Which of the settled ``poses`` (name → Motion) start inside another object as the shot would be written
+    (the others at the photo's pose, ``placed``), by the check ``simulate`` refuses a shot on
+    (``diagnose.penetration`` at 'error'): dropped one at a time, the deepest first, until none does."""
+    import trimesh
+
+    from .physics.diagnose import penetration
+    from .physics.pieces import is_decomposed
+    from .usd.author import OBJECTS
+
+    if not poses:
+        return []
+    stage = layers.open_shot(out, mute_sim=True, mute_edits=True)
+    names = [o.name for o in scene.objects]
+    pieces = [is_decomposed(stage.GetPrimAtPath(f"{OBJECTS}/{n}")) for n in names]
+    poses, dropped = dict(poses), []
+    while poses:
+        meshes = [trimesh.Trimesh(poses[n].apply(v) if n in poses else v, o.faces, process=False)
+                  for n, v, o in zip(names, placed, scene.objects)]
+        worst = None
+        for i, a in enumerate(names):
+            for j in range(i + 1, len(names)):
+                b = names[j]
+                if a not in poses and b not in poses:
+                    continue  # the photo's poses: the build's own check judges those
+                found = penetration(a, meshes[i], b, meshes[j], (pieces[i], pieces[j]))
+                if found is None or found.severity != "error":
+                    continue
+                moved = [n for n in (a, b) if n in poses]
+                culprit = found.name if found.name in moved else moved[0]
+                if worst is None or found.badness > worst[0]:
+                    worst = (found.badness, culprit)
+        if worst is None:
+            break
+        dropped.append(worst[1])
+        poses.pop(worst[1])
+    return dropped
+
+
+def _rewrite_settled(scene: Scene, keep: dict, placed: list, out: pathlib.Path, photo_path, user_sizes: dict,
+                     fields, files: set[str]) -> None:
+    """The shot written again with the settled poses ``keep`` (name → ``physics.settle.Motion``) and every other
+    object where the photo shows it (``placed``): the objects' supports, silhouettes, textures and layers as the
+    placement writes them."""
     names = [o.name for o in scene.objects]
     carried = [{k: o.report[k] for k in ("push", "fixed", "held") if k in o.report} for o in scene.objects]
-    for o in scene.objects:
-        if o.name in keep:
-            o.vertices = keep[o.name].apply(o.vertices)
+    for o, v in zip(scene.objects, placed):
+        o.vertices = keep[o.name].apply(v) if o.name in keep else v.copy()
     verts, faces = [o.vertices for o in scene.objects], [o.faces for o in scene.objects]
     supports = {i: o.lifted.ground.support for i, o in enumerate(scene.objects)
                 if getattr(o.lifted, "ground", None) is not None and o.lifted.ground.support}

@@ -125,3 +125,114 @@ def test_build_settles_unless_told_not_to(tmp_path):
     # two boxes standing on the ground: still, so the settle ends once they have been still a while
     assert settled["rounds"][0]["at_rest"] and settled["rounds"][0]["simulated_s"] < 2.0, settled
     assert len(settled["rounds"]) == 1, settled
+
+
+def _fake_scene(objects):
+    from types import SimpleNamespace
+
+    from physomni_usd.settings import BuildSettings
+
+    return SimpleNamespace(objects=[SimpleNamespace(name=o.name, vertices=np.asarray(o.mesh.vertices, float).copy(),
+                                                    faces=np.asarray(o.mesh.faces)) for o in objects],
+                           settings=BuildSettings(), camera=None, masks=None, align_info={})
+
+
+def test_a_kept_pose_that_starts_inside_one_not_kept_is_dropped(tmp_path):
+    """A settles into where B was; B slid and was not kept, so it is written back where the photo shows it:
+    kept, A would start inside B and simulate would refuse the shot."""
+    from physomni_usd.building import _settled_overlaps
+
+    a, b = box("a", (0.0, 0.0, BOX / 2)), box("b", (BOX, 0.0, BOX / 2))
+    shot = write_bench_shot(tmp_path, [a, b])
+    scene = _fake_scene([a, b])
+    placed = [o.vertices.copy() for o in scene.objects]
+    # a corner of A 6 cm deep in B (the check measures vertices inside: sliding face to face has none)
+    step = np.array([0.6, 0.3, -0.3]) * BOX
+    into_b = Motion("a", np.eye(3), step, float(np.linalg.norm(step)), 0.0)
+    assert _settled_overlaps(scene, {"a": into_b}, placed, shot.parent) == ["a"]
+    # B moved on by as much: no overlap, A's pose stands
+    away = Motion("b", np.eye(3), step, float(np.linalg.norm(step)), 0.0)
+    assert _settled_overlaps(scene, {"a": into_b, "b": away}, placed, shot.parent) == []
+
+
+def test_a_pose_kept_then_judged_too_far_goes_back_to_the_photos(tmp_path, monkeypatch):
+    """Round 1 keeps A's settled pose; round 2 finds it went on too far: the shot is written with A where
+    the photo shows it, and the report says it is not kept — report and shot agree."""
+    from physomni_usd import building
+    from physomni_usd.physics import prepare, settle
+
+    a = box("a", (0.0, 0.0, BOX / 2))
+    scene = _fake_scene([a])
+    small = Motion("a", np.eye(3), np.array([0.0, 0.0, -0.005]), 0.005, 0.0)
+    rounds = iter([({"a": small}, {}), ({}, {"a": "moved 5.0 cm"})])
+    monkeypatch.setattr(settle, "settle_shot", lambda *_: Settled(motions={"a": small}, simulated_s=2.0))
+    monkeypatch.setattr(settle, "judge", lambda *_: next(rounds))
+    monkeypatch.setattr(building.layers, "open_shot", lambda *a, **k: None)
+    monkeypatch.setattr(building, "_settled_overlaps", lambda *_: [])
+    monkeypatch.setattr(prepare, "refuse_unsimulatable", lambda *a, **k: None)
+    writes = []
+    monkeypatch.setattr(building, "_rewrite_settled", lambda s, keep, *_: writes.append(sorted(keep)))
+    building._settle(scene, tmp_path, None, {}, None, set(), lambda m: None)
+    info = scene.align_info["settle"]
+    assert writes == [["a"], []], writes
+    assert info["kept"] == [] and "a" in info["not_kept"], info
+
+
+def test_a_settled_write_the_simulator_refuses_goes_back_with_a_warning(tmp_path, monkeypatch):
+    from physomni_usd import building
+    from physomni_usd.errors import PhysOmniError
+    from physomni_usd.physics import settle
+
+    a = box("a", (0.0, 0.0, BOX / 2))
+    scene = _fake_scene([a])
+    small = Motion("a", np.eye(3), np.array([0.0, 0.0, -0.005]), 0.005, 0.0)
+    calls = []
+
+    def settle_once(*_):
+        calls.append(1)
+        if len(calls) > 1:
+            raise PhysOmniError("a starts 2 cm inside b")
+        return Settled(motions={"a": small}, simulated_s=2.0)
+
+    monkeypatch.setattr(settle, "settle_shot", settle_once)
+    monkeypatch.setattr(settle, "judge", lambda *_: ({"a": small}, {}))
+    monkeypatch.setattr(building.layers, "open_shot", lambda *a, **k: None)
+    monkeypatch.setattr(building, "_settled_overlaps", lambda *_: [])
+    writes, said = [], []
+    monkeypatch.setattr(building, "_rewrite_settled", lambda s, keep, *_: writes.append(sorted(keep)))
+    building._settle(scene, tmp_path, None, {}, None, set(), said.append)
+    info = scene.align_info["settle"]
+    assert writes == [["a"], []], writes
+    assert "skipped" not in info and "inside b" in info["refused"] and info["kept"] == [], info
+    assert any(m.startswith("warning:") and "photo's poses" in m for m in said), said
+
+
+def test_the_settle_skips_a_shot_with_force_fields_before_building_a_model(tmp_path, monkeypatch):
+    from physomni_usd import building
+    from physomni_usd.physics import settle
+
+    scene = _fake_scene([box("a", (0.0, 0.0, BOX / 2))])
+    monkeypatch.setattr(settle, "settle_shot", lambda *_: (_ for _ in ()).throw(AssertionError("built a model")))
+    building._settle(scene, tmp_path, None, {}, [object()], set(), lambda m: None)
+    assert scene.align_info["settle"]["skipped"] == "force fields act on the shot"
+
+
+def test_the_settle_reads_the_builds_own_layers_not_the_artists_edits(tmp_path):
+    """An artist's transform override in edits.usda is not what the settle measures (its motion is applied to
+    the build's vertices)."""
+    from pxr import Sdf, UsdGeom
+
+    from physomni_usd.usd.author import OBJECTS
+
+    shot = write_bench_shot(tmp_path, [box("a", (0.0, 0.0, BOX / 2))])
+    edits = Sdf.Layer.FindOrOpen(str(shot.parent / layers.EDITS))
+    stage = layers.open_shot(shot, mute_sim=True)
+    stage.SetEditTarget(edits)
+    xf = UsdGeom.Xformable(stage.GetPrimAtPath(f"{OBJECTS}/a"))
+    xf.ClearXformOpOrder()
+    xf.AddTranslateOp().Set((0.0, 0.0, 1.0))
+    edits.Save()
+    z = lambda s: UsdGeom.Xformable(s.GetPrimAtPath(f"{OBJECTS}/a")).ComputeLocalToWorldTransform(0)[3][2]
+    assert z(layers.open_shot(shot, mute_sim=True)) > 0.5  # the edit composes in the shot
+    assert z(layers.open_shot(shot, mute_sim=True, mute_edits=True)) < 0.5
+    assert "xformOp:translate" in (shot.parent / layers.EDITS).read_text()  # muted, not changed

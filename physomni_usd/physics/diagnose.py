@@ -143,15 +143,10 @@ def scene_findings(stage: Usd.Stage, time: float = 0.0) -> list[SceneFinding]:
             out.append(SceneFinding("warning", name, "ground", f"{name} floats {length(low)} above the ground", 0.5))
     for i, a in enumerate(names):
         for b in names[i + 1:]:
-            depth = overlap_depth(meshes[a], meshes[b], tuple(
+            found = penetration(a, meshes[a], b, meshes[b], tuple(
                 is_decomposed(stage.GetPrimAtPath(f"{OBJECTS}/{n}")) for n in (a, b)))
-            if depth <= PENETRATION_WARN_M:
-                continue
-            small = min(float(np.ptp(meshes[a].vertices, axis=0).min()), float(np.ptp(meshes[b].vertices, axis=0).min()))
-            deep = depth > PENETRATION_ERROR_M and depth > PENETRATION_ERROR_FRACTION * small
-            inner, outer = (a, b) if meshes[a].volume <= meshes[b].volume else (b, a)
-            out.append(SceneFinding("error" if deep else "warning", inner, "penetration",
-                                    f"{inner} starts {length(depth)} inside {outer}", 10.0 * depth / max(small, 1e-9)))
+            if found is not None:
+                out.append(found)
     cam = stage.GetPrimAtPath("/World/Camera")
     if cam:
         eye = np.array(UsdGeom.Xformable(cam).ComputeLocalToWorldTransform(Usd.TimeCode(time)))[3, :3]
@@ -163,6 +158,20 @@ def scene_findings(stage: Usd.Stage, time: float = 0.0) -> list[SceneFinding]:
             out.append(SceneFinding("warning", "Camera", "camera", "the camera is at or below the ground", 2.0))
     out.sort(key=_rank)
     return out
+
+
+def penetration(a: str, mesh_a, b: str, mesh_b, decomposed: tuple[bool, bool]) -> SceneFinding | None:
+    """The penetration finding of objects ``a`` and ``b`` (trimesh meshes in world space; ``decomposed``: each
+    simulated as convex pieces), None where they overlap by no more than ``PENETRATION_WARN_M``; severity
+    'error' is what ``simulate`` refuses."""
+    depth = overlap_depth(mesh_a, mesh_b, decomposed)
+    if depth <= PENETRATION_WARN_M:
+        return None
+    small = min(float(np.ptp(mesh_a.vertices, axis=0).min()), float(np.ptp(mesh_b.vertices, axis=0).min()))
+    deep = depth > PENETRATION_ERROR_M and depth > PENETRATION_ERROR_FRACTION * small
+    inner, outer = (a, b) if mesh_a.volume <= mesh_b.volume else (b, a)
+    return SceneFinding("error" if deep else "warning", inner, "penetration",
+                        f"{inner} starts {length(depth)} inside {outer}", 10.0 * depth / max(small, 1e-9))
 
 
 #: An absurd size explains overlaps and masses, so it is named first.

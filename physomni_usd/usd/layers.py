@@ -243,9 +243,10 @@ def check_shot_layers(shot_path: os.PathLike | str, *, skip_sim: bool = False) -
     return p
 
 
-def open_shot(shot_path: os.PathLike | str, *, mute_sim: bool = False) -> Usd.Stage:
+def open_shot(shot_path: os.PathLike | str, *, mute_sim: bool = False, mute_edits: bool = False) -> Usd.Stage:
     """Open a shot's composed stage; with ``mute_sim`` the old simulation layer is left out (and may be
-    missing or damaged).
+    missing or damaged); with ``mute_edits`` the artist's edits layer is muted too (the build's own layers
+    alone, as the build's settle measures them).
 
     Raises :class:`InputError` with one line when the root or a sublayer is missing or is no readable
     USD layer; USD's own diagnostics about it are kept off the terminal.
@@ -287,6 +288,11 @@ def open_shot(shot_path: os.PathLike | str, *, mute_sim: bool = False) -> Usd.St
     if mute_sim:
         for layer in stage.GetLayerStack(includeSessionLayers=False):
             if layer.realPath and str(pathlib.Path(layer.realPath).resolve()) == sim:
+                stage.MuteLayer(layer.identifier)
+    if mute_edits:
+        edits = str((p.parent / EDITS).resolve())
+        for layer in stage.GetLayerStack(includeSessionLayers=False):
+            if layer.realPath and str(pathlib.Path(layer.realPath).resolve()) == edits:
                 stage.MuteLayer(layer.identifier)
     if not stage.GetPrimAtPath("/World"):
         raise InputError(f"{p} has no /World prim: it is not a physomni-usd shot")
