@@ -411,10 +411,12 @@ def _plate(scene: Scene) -> None:
              for m in scene.masks]
     small = fill.down(photo)
     sources = np.full(small.shape[:2] + (2,), -1, np.int32)
+    weight = np.full(small.shape[:2], -1.0, np.float32)  # stays -1 where the inpainter does not write it
     scene.small_plate = backend_steps.make_plate(small, masks, scene.settings.plate_dilation,
-                                                 scene.backends["inpainter"], sources, camera)
+                                                 scene.backends["inpainter"], sources, camera, weight)
     scene.plate = carry_plate(photo, fill, small, scene.small_plate,
-                              sources if (sources[..., 0] >= 0).any() else None)
+                              sources if (sources[..., 0] >= 0).any() else None,
+                              weight if (weight >= 0).all() else None)
 
 
 def _outpaint(scene: Scene) -> None:

@@ -52,6 +52,39 @@ def test_the_carried_plate_keeps_the_photo_outside_and_the_copied_detail_inside(
     assert np.median(np.abs(blur.astype(int) - photo[left].astype(int))) > 20  # what detail transfer adds
 
 
+
+def test_the_carry_keeps_filled_the_rim_the_small_plate_kept_filled():
+    """The built-in plate takes the photo back around an object's edge where it looks like the floor, but keeps
+    filled a dark rim the mask missed (``texture.fill._world_back``), so the photo's pixels it left lie beside
+    ones it filled. Carried up by the plate's own share of the fill, the rim stays filled at the photo's size
+    (measured max 13 levels off the floor); read from the distance to the pixels left as they were, the carry
+    took the rim for the seam and brought the photo's edge back (48)."""
+    from physomni_usd.texture.fill import background_plate
+
+    rng = np.random.default_rng(5)
+    h, w = 600, 800
+    floor = np.clip(150 + rng.normal(0, 3, (h, w, 1)) * np.ones(3), 0, 255)
+    mask, body, outer = (np.zeros((h, w), np.uint8) for _ in range(3))
+    cv2.circle(mask, (400, 260), 100, 1, -1)
+    cv2.circle(body, (400, 260), 109, 1, -1)  # the mask lies 9 px inside the object
+    cv2.circle(outer, (400, 260), 112, 1, -1)
+    dark = (outer > 0) & ~(body > 0)
+    photo = floor.copy()
+    photo[body > 0] = 156
+    photo[dark] = 60
+    photo = photo.astype(np.uint8)
+    work = Working((h, w), (300, 400))
+    small = work.down(photo)
+    small_mask = cv2.resize(mask * 255, (400, 300), interpolation=cv2.INTER_AREA) > 0
+    sources = np.full((300, 400, 2), -1, np.int32)
+    weight = np.full((300, 400), -1.0, np.float32)
+    plate = background_plate(small, [small_mask], 0.015, shadows=False, sources=sources, weight=weight)
+    assert (weight >= 0).all() and (weight[small_mask] == 1).all()
+    out = carry_plate(photo, work, small, plate, sources if (sources[..., 0] >= 0).any() else None, weight)
+    assert np.abs(out[dark].astype(float) - floor[dark]).max() < 30
+    far = ~work.up_mask(cv2.dilate((weight > 0).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool))
+    assert np.array_equal(out[far], photo[far])
+
 def test_a_plugin_inpainter_fills_the_photo_itself_above_the_fill_size():
     """The reduced fill copy is the built-in's (whose exemplar search it pays for); a plugin's fill carried up
     from it would be an upsampled blur, since a plugin says nothing of where it copied from."""

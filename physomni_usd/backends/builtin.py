@@ -47,13 +47,13 @@ class BuiltinInpainter(_Builtin):
         return background_plate(photo, [hole], 0.0)
 
     def plate(self, photo: np.ndarray, masks: list[np.ndarray], dilation: float,
-              sources: np.ndarray | None = None, camera=None) -> np.ndarray:
-        """The whole plate as ``build`` has always made it (dilation included); ``sources`` and ``camera`` (the
-        ground's, when measured: the floor's part of the hole is then filled top-down) as
+              sources: np.ndarray | None = None, camera=None, weight: np.ndarray | None = None) -> np.ndarray:
+        """The whole plate as ``build`` has always made it (dilation included); ``sources``, ``weight`` and
+        ``camera`` (the ground's, when measured: the floor's part of the hole is then filled top-down) as
         ``texture.fill.background_plate`` takes them."""
         from ..texture.fill import background_plate
 
-        return background_plate(photo, masks, dilation, sources=sources, camera=camera)
+        return background_plate(photo, masks, dilation, sources=sources, camera=camera, weight=weight)
 
 
 class MirrorOutpainter(_Builtin):

@@ -133,15 +133,18 @@ def make_wide_plate(plate: np.ndarray, outpainter) -> tuple[np.ndarray, tuple[in
     return wide, margins
 
 
-def make_plate(photo: np.ndarray, masks, dilation: float, inpainter, sources=None, camera=None) -> np.ndarray:
+def make_plate(photo: np.ndarray, masks, dilation: float, inpainter, sources=None, camera=None,
+               weight=None) -> np.ndarray:
     """The background plate: the built-in's own, or the photo with the inpainter's fill in the hole only.
     ``sources``: where the built-in's exemplar fill copied each pixel from (``texture.fill.background_plate``),
     if it is the built-in; a plugin's fill says nothing of the kind. ``camera``: the ground's camera, when the
-    lifter measured one, for a fill that takes it (the built-in fills the floor top-down)."""
+    lifter measured one, for a fill that takes it (the built-in fills the floor top-down). ``weight``: where the
+    built-in writes each pixel's share of its fill, if it is the built-in."""
     if hasattr(inpainter, "plate"):
         takes = inspect.signature(inpainter.plate).parameters
         extra = ({"sources": sources} if sources is not None and "sources" in takes else {}) | (
-            {"camera": camera} if camera is not None and "camera" in takes else {})
+            {"camera": camera} if camera is not None and "camera" in takes else {}) | (
+            {"weight": weight} if weight is not None and "weight" in takes else {})
         return inpainter.plate(photo, masks, dilation, **extra)
     where = hole(masks, photo.shape[:2], dilation)
     filled = np.asarray(inpainter.inpaint(photo, where))

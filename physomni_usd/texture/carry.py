@@ -19,7 +19,7 @@ CARRY_ROWS = 256
 
 
 def carry_plate(photo: np.ndarray, work, small_photo: np.ndarray, small_plate: np.ndarray,
-                sources: np.ndarray | None = None) -> np.ndarray:
+                sources: np.ndarray | None = None, weight: np.ndarray | None = None) -> np.ndarray:
     """The plate at the photo's size, (H, W, 3) uint8, from the plate filled on a reduced copy (at
     :data:`FILL_PIXELS`, or the working size where that is smaller).
 
@@ -31,17 +31,25 @@ def carry_plate(photo: np.ndarray, work, small_photo: np.ndarray, small_plate: n
     own pixels: from where the exemplar copied each patch (the offset scaled up), blended across the seam
     (:data:`~.fill.FEATHER`) into the
     photo's own detail where the working fill blends into the photo. So the fill keeps the surface's grain at
-    full size for the cost of a few passes over the hole, not a search at full size.
+    full size for the cost of a few passes over the hole, not a search at full size. ``weight``: each working
+    pixel's share of the fill, as the built-in plate gives it (``background_plate``); without it, read from the
+    distance to the pixels the small plate left as they were, which is the seam's own blend only where nothing
+    inside the hole was left as the photo: beside the photo the plate takes back around an object's edge, it
+    brought the photo's own detail (the edge) back where the fill was kept.
     """
     changed = np.any(small_plate != small_photo, axis=2)
+    if weight is not None:
+        changed &= weight > 0
     out = photo.copy()
     if not changed.any():
         return out
     H, W = photo.shape[:2]
     fx, fy = work.fx, work.fy
-    # how far each working pixel of the hole is the fill rather than the photo: the seam's own blend
-    feather = feather_px(small_photo.shape)
-    blend = np.clip(cv2.distanceTransform(changed.astype(np.uint8), cv2.DIST_L2, 5) / (feather + 1.0), 0.0, 1.0)
+    if weight is not None:
+        blend = np.clip(weight, 0.0, 1.0).astype(np.float32)
+    else:  # how far each working pixel of the hole is the fill rather than the photo: the seam's own blend
+        feather = feather_px(small_photo.shape)
+        blend = np.clip(cv2.distanceTransform(changed.astype(np.uint8), cv2.DIST_L2, 5) / (feather + 1.0), 0.0, 1.0)
     ys, xs = np.nonzero(changed)
     x0, x1 = max(0, int((xs.min() - 1) * fx)), min(W, int(np.ceil((xs.max() + 2) * fx)))
     y0, y1 = max(0, int((ys.min() - 1) * fy)), min(H, int(np.ceil((ys.max() + 2) * fy)))
