@@ -190,9 +190,14 @@ class Studio:
                 dropped = f"the kept take ({self.take['frames']} frames) was dropped: a Build makes a new shot"
                 self.echo(f"studio: {dropped}")
                 self.take = None
+            # the build's settle steps the scene: on a first use it is the build that compiles the kernels
+            from .._warp import compiled_seconds
+
+            first_use = self._say_compiling()
+            before = compiled_seconds()
             result = session.build(state, echo=self.echo)
             self.state = state
-            self._start_preview(result.shot)
+            self._start_preview(result.shot, first_use, before)
         return {"preview": self._preview_url(), "objects": result.objects, "dropped": dropped, "take": None,
                 "command": session.command_text(state), "length": self._length(state)}
 
@@ -248,15 +253,23 @@ class Studio:
         shown = f"[{name}]" if ":" in name else name
         return f"http://{shown}:{self.preview_port}/" + (f"?{self.preview_query}" if self.preview_query else "")
 
-    def _start_preview(self, shot) -> None:
-        from .._warp import compiled_seconds
+    def _say_compiling(self):
+        """The kernels' first-use marker (``physics.prepare.kernels_first_use``), said on the page when the
+        kernels are about to compile; None when they are compiled already."""
         from ..physics.prepare import kernels_first_use
-        from ..preview.app import Options as PreviewOptions, Preview
 
         first_use = kernels_first_use()
         if first_use is not None:
             self.echo("studio: compiling physics kernels, once per machine (a minute or two) ...")
-        before = compiled_seconds()
+        return first_use
+
+    def _start_preview(self, shot, first_use=None, before=None) -> None:
+        from .._warp import compiled_seconds
+        from ..preview.app import Options as PreviewOptions, Preview
+
+        if first_use is None:
+            first_use = self._say_compiling()
+            before = compiled_seconds()
         # paused on frame 0, the photo, as `physomni-usd preview` opens: Play (or a drag) starts it
         self.preview = Preview(shot, PreviewOptions(host=self.options.host, port=self.preview_port,
                                                     open_browser=False, play=False,

@@ -21,7 +21,7 @@ import numpy as np
 
 from .blend import cap_colours, fill_blend
 from .exemplar import fill_exemplar
-from .floor import fill_on_ground
+from .floor import TOP_DOWN_DEG, fill_on_ground
 from .pixels import INPAINT_RADIUS, blur, blur_over, dilate, gradient, within
 
 #: Longest side at which large holes are inpainted by Telea; the fill is then upsampled.
@@ -217,7 +217,9 @@ def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str, sources: np.nda
         return fill_blend(photo, hole)
     if method == "faded":
         filled = fill_faded(photo, hole)
-        return filled if camera is None else fill_on_ground(photo, hole, camera, fill_faded, filled)
+        if camera is None or camera.pitch_deg >= TOP_DOWN_DEG:
+            return filled
+        return fill_on_ground(photo, hole, camera, fill_faded, filled)
     return fill_exemplar(photo, hole, sources)
 
 
