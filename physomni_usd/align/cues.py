@@ -31,7 +31,10 @@ The camera is a level pinhole (no roll) looking down by ``pitch``. Cues:
   the ground; the pitch is the one under which their outlines, cast onto the
   ground, have the same area. Seen straight down they show the same image
   size wherever they lie in the frame, and only a camera looking straight
-  down (the support seen face-on) agrees.
+  down (the support seen face-on) agrees. Two alone read steeper than
+  STEEP_DEG only with another cue's agreement: any two outlines of one
+  image size read straight down, a card on a table and its twin on the
+  wall behind included.
 - **where the objects stand**: every foot must lie below the horizon, which
   bounds the pitch from below; with no other cue, the smallest tilt ≥ 10°
   that does so (the previous default), weakly.
@@ -806,11 +809,18 @@ def estimate_camera(photo: np.ndarray, masks, labels, foot_rows, fov_deg: float 
         fov, fov_source = DEFAULT_FOV_DEG, f"default {DEFAULT_FOV_DEG:g}° (a phone's main camera)"
     pitch_cues += ellipse_cues(outlines, w, h, fov)
     same = identical_cue(masks, labels, w, h, fov)
+    if same is not None and same.detail["objects"] == 2 and same.pitch_deg > STEEP_DEG and not any(
+            c.detail.get("face_on") or (c.pitch_deg is not None and abs(c.pitch_deg - same.pitch_deg) <= 10.0)
+            for c in pitch_cues):
+        # two outlines' ground areas are one equation in the pitch, met somewhere by almost any pair; near
+        # straight down it is met by any two of one image size, such as a card on the table and its twin on
+        # the wall behind (nothing says both lie on the ground): a steep pair needs another cue's agreement
+        same.weight, same.detail["uncorroborated"] = 0.03, True
     if same is not None:
         pitch_cues.append(same)
         # lines parallel both ways are a level camera's verticals or a support seen face-on: identical objects
         # of one size across the frame say which
-        for c in pitch_cues:
+        for c in pitch_cues if not same.detail.get("uncorroborated") else ():
             if c.detail.get("face_on") and abs(c.pitch_deg - same.pitch_deg) > 10.0:
                 c.weight, c.detail["outvoted_by"] = min(c.weight, 0.1), same.kind
     lowest = min_pitch(fov, h, foot_rows)
