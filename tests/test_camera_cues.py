@@ -86,3 +86,43 @@ def test_a_mask_with_no_elliptic_top_gives_no_rim():
         half = (r - 20) // 2
         tri[r, 80 - half:80 + half + 1] = True
     assert top_rim(tri) is None
+
+
+def _room(pitch: float, fov: float = 50.0, lift_px: int = 0):
+    """A 320×240 photo of floor lines running away from a level camera and posts standing on the floor, drawn
+    under ``pitch`` (the floor lines ``lift_px`` higher: a horizon read that far off); one small box as the
+    object."""
+    import cv2
+    import numpy as np
+
+    from physomni_usd.geometry.camera import PinholeCamera
+
+    cam = PinholeCamera(320, 240, fov, pitch, (0.0, 0.0, 1.0))
+    img = np.full((240, 320, 3), 215, np.uint8)
+    lines = [((x, 1.5, 0.0), (x, 12.0, 0.0)) for x in np.arange(-3.0, 3.01, 0.5)]
+    lines += [((x, y, 0.0), (x, y, 2.5)) for x in (-1.6, -1.1, 1.1, 1.6) for y in (2.5, 4.0)]
+    for a, b in lines:
+        uv, z = cam.project(np.array([a, b]))
+        uv[:, 1] -= lift_px if a[2] == b[2] else 0
+        if (z > 0).all():
+            cv2.line(img, tuple(int(round(c)) for c in uv[0]), tuple(int(round(c)) for c in uv[1]), (40, 40, 40), 2)
+    mask = np.zeros((240, 320), bool)
+    u, v = cam.project(np.array([[0.0, 2.5, 0.0]]))[0][0]
+    mask[int(v) - 12:int(v), int(u) - 10:int(u) + 10] = True
+    img[mask] = (180, 60, 60)
+    return img, mask
+
+
+def test_a_nearly_level_horizon_reads_the_pitch_but_not_the_field_of_view():
+    # f² = (v_vertical − cy)(cy − v_horizon): at 2.5° the horizon lies 11 px above the centre, and the floor
+    # lines drawn 4 px off move f by about 15 % (2 % at 25°); seed 235726's scene 30, its horizon read 34 px
+    # off, got 118° for 74°, and the feet then forced 35° for 15°. The pitches each row gives still stand.
+    for pitch, fov_read in ((2.5, False), (25.0, True)):
+        img, mask = _room(pitch, lift_px=4)
+        est = estimate_camera(img, [mask], ["box"], [foot_pixel(mask)[1]])
+        assert est.fov_source.startswith("default") != fov_read, (pitch, est.fov_source)
+        if fov_read:
+            assert est.fov_deg == pytest.approx(50.0, rel=0.10)
+        vertical = next(c for c in est.cues if c.kind == "vertical vanishing point")
+        horizon = next(c for c in est.cues if c.kind == "horizon vanishing points")
+        assert horizon.pitch_deg == pytest.approx(pitch, abs=2.0) and vertical.pitch_deg == pytest.approx(pitch, abs=2.0)

@@ -15,8 +15,10 @@ The camera is a level pinhole (no roll) looking down by ``pitch``. Cues:
   then sequential RANSAC): world verticals meet below the image centre at
   ``cy + f·cot(pitch)``, ground-parallel lines on the horizon at
   ``cy − f·tan(pitch)``. Both together give the focal length
-  ``f² = (v_vertical − cy)(cy − v_horizon)`` and so the field of view; either
-  alone gives the pitch under the field of view in use. Two points on the
+  ``f² = (v_vertical − cy)(cy − v_horizon)`` and so the field of view (not
+  where a row a few pixels off would move f far: a nearly level camera's
+  horizon near the centre); either alone gives the pitch under the field of
+  view in use. Two points on the
   horizon, either side of the centre (a board's, tiles' or a book's two
   directions at right angles), give it too: ``(p1 − c)·(p2 − c) = −f²``
   (the vertical and horizon relation is that identity's special case), and
@@ -112,6 +114,11 @@ FOV_RANGE = (15.0, 120.0)
 #: this many segments and the line through them is within PAIR_ROW_DEG of level.
 PAIR_MIN_SEGMENTS = 10
 PAIR_ROW_DEG = 2.0
+#: The vertical point and the horizon read the field of view (f² = (v_vertical − c)(c − v_horizon)) only when
+#: an error of ROW_ERROR_FRAC of the photo's height in either row moves f by at most FOCAL_ERROR_FRAC: a nearly
+#: level camera's horizon lies a few pixels from the centre, and a few pixels there double f.
+ROW_ERROR_FRAC = 0.02
+FOCAL_ERROR_FRAC = 0.15
 #: Outlines match when OpenCV's Hu-moment distance (``CONTOURS_MATCH_I1``) between them is at most this.
 SAME_OUTLINE = 0.15
 #: ... or when, turned to their principal axes at one area, their IoU (the best of the four mirrorings) is at
@@ -617,7 +624,11 @@ def _vanishing_cues(seg: np.ndarray, shape, fov_deg: float | None, fov_given: bo
     if vertical is not None and v_h is not None and math.isfinite(vertical["v"]):
         f = math.sqrt((vertical["v"] - cy) * (cy - v_h))
         fov = math.degrees(2 * math.atan(0.5 * h / f))
-        if FOV_RANGE[0] <= fov <= FOV_RANGE[1]:
+        # d(ln f) = (dv / (v_vertical − c) + dv / (c − v_horizon)) / 2
+        shaky = 0.5 * ROW_ERROR_FRAC * h * (1 / (vertical["v"] - cy) + 1 / (cy - v_h)) > FOCAL_ERROR_FRAC
+        if shaky:
+            pass  # the two rows' pitches still stand; the field of view is left to other readings
+        elif FOV_RANGE[0] <= fov <= FOV_RANGE[1]:
             # a reading from two points is as good as the weaker: the verticals often rest on a few tapering
             # sides (a pot, a bottle), where the horizon rests on a whole board's lines
             fov_cues.append(Cue("vanishing points", None, min(_support(vertical), _support(*horizon)), fov,
