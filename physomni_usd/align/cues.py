@@ -106,8 +106,10 @@ VP_ANGLE_DEG = 1.5
 #: ground circle's.
 ROUND_ENOUGH = 0.97
 MAX_AXIS_TURN_DEG = 20.0
-#: A horizon this steep (pitch, degrees) needs a second cue's agreement.
+#: A horizon this steep (pitch, degrees) needs a second cue's agreement, as does a pair of identical objects;
+#: without it such a reading weighs UNCORROBORATED_WEIGHT.
 STEEP_DEG = 45.0
+UNCORROBORATED_WEIGHT = 0.03
 #: Fields of view a vanishing-point pair may give (degrees); outside, the pair is not trusted.
 FOV_RANGE = (15.0, 120.0)
 #: Two horizon vanishing points read the field of view (:func:`_orthogonal_pair`) when each rests on at least
@@ -116,7 +118,7 @@ PAIR_MIN_SEGMENTS = 10
 PAIR_ROW_DEG = 2.0
 #: The vertical point and the horizon read the field of view (f² = (v_vertical − c)(c − v_horizon)) only when
 #: an error of ROW_ERROR_FRAC of the photo's height in either row moves f by at most FOCAL_ERROR_FRAC: a nearly
-#: level camera's horizon lies a few pixels from the centre, and a few pixels there double f.
+#: level camera's horizon lies a few pixels from the centre, where a few pixels move f by tens of per cent.
 ROW_ERROR_FRAC = 0.02
 FOCAL_ERROR_FRAC = 0.15
 #: Outlines match when OpenCV's Hu-moment distance (``CONTOURS_MATCH_I1``) between them is at most this.
@@ -625,15 +627,14 @@ def _vanishing_cues(seg: np.ndarray, shape, fov_deg: float | None, fov_given: bo
         f = math.sqrt((vertical["v"] - cy) * (cy - v_h))
         fov = math.degrees(2 * math.atan(0.5 * h / f))
         # d(ln f) = (dv / (v_vertical − c) + dv / (c − v_horizon)) / 2
+        # a shaky reading gives no field of view, and says nothing against either row's pitch either
         shaky = 0.5 * ROW_ERROR_FRAC * h * (1 / (vertical["v"] - cy) + 1 / (cy - v_h)) > FOCAL_ERROR_FRAC
-        if shaky:
-            pass  # the two rows' pitches still stand; the field of view is left to other readings
-        elif FOV_RANGE[0] <= fov <= FOV_RANGE[1]:
+        if not shaky and FOV_RANGE[0] <= fov <= FOV_RANGE[1]:
             # a reading from two points is as good as the weaker: the verticals often rest on a few tapering
             # sides (a pot, a bottle), where the horizon rests on a whole board's lines
             fov_cues.append(Cue("vanishing points", None, min(_support(vertical), _support(*horizon)), fov,
                                 {"vertical_row": round(vertical["v"], 1), "horizon_row": round(v_h, 1)}))
-        else:  # the two cannot both be right; the horizon rests on more segments as a rule
+        elif not shaky:  # the two cannot both be right; the horizon rests on more segments as a rule
             vertical = None
     f_use = focal_px(fov_cues[0].fov_deg if fov_cues and not fov_given else fov_deg, h)
     if vertical is not None:
@@ -826,7 +827,7 @@ def estimate_camera(photo: np.ndarray, masks, labels, foot_rows, fov_deg: float 
         # two outlines' ground areas are one equation in the pitch, met somewhere by almost any pair; near
         # straight down it is met by any two of one image size, such as a card on the table and its twin on
         # the wall behind (nothing says both lie on the ground): a steep pair needs another cue's agreement
-        same.weight, same.detail["uncorroborated"] = 0.03, True
+        same.weight, same.detail["uncorroborated"] = UNCORROBORATED_WEIGHT, True
     if same is not None:
         pitch_cues.append(same)
         # lines parallel both ways are a level camera's verticals or a support seen face-on: identical objects
@@ -843,7 +844,7 @@ def estimate_camera(photo: np.ndarray, masks, labels, foot_rows, fov_deg: float 
         if c.kind == "horizon vanishing points" and c.pitch_deg > STEEP_DEG and not paired and not any(
                 o is not c and o.pitch_deg is not None and abs(o.pitch_deg - c.pitch_deg) <= 10.0
                 and o.kind in ("ellipse", "vertical vanishing point") for o in pitch_cues):
-            c.weight, c.detail["uncorroborated"] = 0.03, True
+            c.weight, c.detail["uncorroborated"] = UNCORROBORATED_WEIGHT, True
     cues = fov_cues + pitch_cues
     cues.append(Cue(FEET_CUE, max(MIN_AUTO_PITCH_DEG, lowest), FEET_WEIGHT,
                     detail={"min_pitch_deg": round(lowest, 3)}))
