@@ -104,29 +104,31 @@ class Penetrations:
         hi = np.array([verts[n].max(axis=0) for n in names])
         touch = (lo[:, None] <= hi[None]).all(axis=2) & (lo[None] <= hi[:, None]).all(axis=2)
         out = {}
+        planes = {}  # a mesh's hull planes at this time, shared by every pair it is in
         for i, j in zip(*np.nonzero(np.triu(touch, 1))):
-            depth = max(self._deepest(verts[names[x]], names[y], verts[names[y]], lo[y], hi[y])
+            depth = max(self._deepest(verts[names[x]], names[y], verts[names[y]], lo[y], hi[y], planes)
                         for x, y in ((i, j), (j, i)))
             if depth > 0:
                 out[(names[i], names[j])] = depth
         return out
 
-    def _deepest(self, points: np.ndarray, name: str, verts: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
+    def _deepest(self, points: np.ndarray, name: str, verts: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                 planes: dict | None = None) -> float:
+        """Deepest of ``points`` inside mesh ``name`` (world vertices ``verts``, bounds ``lo``..``hi``);
+        ``planes`` holds each mesh's hull planes at this time once found (a mesh in a pile meets several)."""
         pts = points[np.all((points >= lo) & (points <= hi), axis=1)]
         if not len(pts):
             return 0.0
         shape = self._shape(name, verts)
         if shape is None:  # no solid hull (a flat or degenerate mesh): the exact computation as it stands
             return _deepest_inside(pts, trimesh.Trimesh(verts, self.meshes.faces(name), process=False))
-        simplices, convex = shape
-        tri = verts[simplices]  # (k, 3, 3)
-        normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        length = np.linalg.norm(normal, axis=1)
-        keep = length > 0
-        normal, tri = normal[keep] / length[keep, None], tri[keep]
-        # outward: away from the vertices' mean, which lies inside a solid hull whatever the winding
-        normal[np.einsum("ij,ij->i", normal, verts.mean(axis=0) - tri[:, 0]) > 0] *= -1
-        offset = np.einsum("ij,ij->i", normal, tri[:, 0])
+        convex = shape[1]
+        found = planes.get(name) if planes is not None else None
+        if found is None:
+            found = _hull_planes(verts, shape[0])
+            if planes is not None:
+                planes[name] = found
+        normal, offset = found
         step = max(1, self.BLOCK // len(normal))
         # depth below the nearest plane: > 0 strictly inside the hull
         depth = np.concatenate([(offset - pts[k:k + step] @ normal.T).min(axis=1) for k in range(0, len(pts), step)])
@@ -172,6 +174,18 @@ def max_penetration(meshes: dict[str, trimesh.Trimesh]) -> float:
             for x, y in ((a, b), (b, a)):
                 worst = max(worst, _deepest_inside(meshes[x].vertices, meshes[y]))
     return worst
+
+
+def _hull_planes(verts: np.ndarray, simplices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The outward unit normals (k, 3) and offsets (k,) of a hull's triangles ``simplices`` over ``verts``."""
+    tri = verts[simplices]  # (k, 3, 3)
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.linalg.norm(normal, axis=1)
+    keep = length > 0
+    normal, tri = normal[keep] / length[keep, None], tri[keep]
+    # outward: away from the vertices' mean, which lies inside a solid hull whatever the winding
+    normal[np.einsum("ij,ij->i", normal, verts.mean(axis=0) - tri[:, 0]) > 0] *= -1
+    return normal, np.einsum("ij,ij->i", normal, tri[:, 0])
 
 
 def _deepest_inside(points: np.ndarray, mesh: trimesh.Trimesh) -> float:
