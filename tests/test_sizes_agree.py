@@ -148,3 +148,33 @@ def test_two_alike_outlines_alone_do_not_make_the_camera_look_straight_down():
     est = estimate_camera(img, quad, ["card"] * 4, [foot_pixel(fill_holes(m))[1] for m in quad])
     four = next(c for c in est.cues if c.kind == "identical objects")
     assert four.detail["objects"] == 4 and not four.detail.get("uncorroborated") and four.weight >= 1.0
+
+
+def test_a_steep_pair_counts_with_an_agreeing_cue_and_a_cut_pair_leaves_a_larger_group(monkeypatch):
+    # the rule's other side: an ellipse that reads the pair's pitch lets it keep its weight, while a weak or
+    # steep horizon that itself needs agreement does not vouch for it
+    from physomni_usd.align import cues as cue_mod
+
+    rng = np.random.default_rng(3)
+    img = np.clip(np.full((240, 320, 3), 180.0) + rng.normal(0, 3, (240, 320, 1)), 0, 255).astype(np.uint8)
+    masks = []
+    for x, y in ((60, 30), (200, 180)):
+        m = np.zeros((240, 320), np.uint8)
+        cv2.rectangle(m, (x, y), (x + 34, y + 22), 1, -1)
+        masks.append(m > 0)
+    feet = [foot_pixel(fill_holes(m))[1] for m in masks]
+    pair = cue_mod.identical_cues(masks, ["card", "card"], 320, 240, 50.0)[0]
+    assert pair.pitch_deg > 80.0
+    for kind, agrees in (("ellipse", True), ("horizon line", False)):
+        extra = cue_mod.Cue(kind, pair.pitch_deg - 3.0, 0.5 if agrees else cue_mod.UNCORROBORATED_WEIGHT)
+        monkeypatch.setattr(cue_mod, "ellipse_cues", lambda *a, _c=extra: [_c])
+        est = estimate_camera(img, masks, ["card", "card"], feet)
+        same = next(c for c in est.cues if c.kind == "identical objects")
+        assert bool(same.detail.get("uncorroborated")) != agrees, kind
+    monkeypatch.setattr(cue_mod, "ellipse_cues", lambda *a: [])
+    # a steep pair heavier than a flatter triple: once the pair is cut down, the triple is the cue
+    triple = cue_mod.Cue("identical objects", 30.0, 0.4, detail={"objects": 3, "label": "coin"})
+    monkeypatch.setattr(cue_mod, "identical_cues", lambda *a: [pair, triple])
+    est = estimate_camera(img, masks, ["card", "card"], feet)
+    same = next(c for c in est.cues if c.kind == "identical objects")
+    assert same is triple

@@ -17,7 +17,7 @@ The camera is a level pinhole (no roll) looking down by ``pitch``. Cues:
   ``cy − f·tan(pitch)``. Both together give the focal length
   ``f² = (v_vertical − cy)(cy − v_horizon)`` and so the field of view (not
   where a row a few pixels off would move f far: a nearly level camera's
-  horizon near the centre); either alone gives the pitch under the field of
+  horizon or a nearly top-down one's vertical point near the centre); either alone gives the pitch under the field of
   view in use. Two points on the
   horizon, either side of the centre (a board's, tiles' or a book's two
   directions at right angles), give it too: ``(p1 − c)·(p2 − c) = −f²``
@@ -110,6 +110,8 @@ MAX_AXIS_TURN_DEG = 20.0
 #: without it such a reading weighs UNCORROBORATED_WEIGHT.
 STEEP_DEG = 45.0
 UNCORROBORATED_WEIGHT = 0.03
+#: Two pitch readings within this many degrees agree.
+AGREE_DEG = 10.0
 #: Fields of view a vanishing-point pair may give (degrees); outside, the pair is not trusted.
 FOV_RANGE = (15.0, 120.0)
 #: Two horizon vanishing points read the field of view (:func:`_orthogonal_pair`) when each rests on at least
@@ -117,8 +119,9 @@ FOV_RANGE = (15.0, 120.0)
 PAIR_MIN_SEGMENTS = 10
 PAIR_ROW_DEG = 2.0
 #: The vertical point and the horizon read the field of view (f² = (v_vertical − c)(c − v_horizon)) only when
-#: an error of ROW_ERROR_FRAC of the photo's height in either row moves f by at most FOCAL_ERROR_FRAC: a nearly
-#: level camera's horizon lies a few pixels from the centre, where a few pixels move f by tens of per cent.
+#: an error of ROW_ERROR_FRAC of the photo's height in both rows moves f by at most FOCAL_ERROR_FRAC: a nearly
+#: level camera's horizon (or a nearly top-down one's vertical point) lies a few pixels from the centre, where
+#: a few pixels move f by tens of per cent.
 ROW_ERROR_FRAC = 0.02
 FOCAL_ERROR_FRAC = 0.15
 #: Outlines match when OpenCV's Hu-moment distance (``CONTOURS_MATCH_I1``) between them is at most this.
@@ -627,14 +630,16 @@ def _vanishing_cues(seg: np.ndarray, shape, fov_deg: float | None, fov_given: bo
         f = math.sqrt((vertical["v"] - cy) * (cy - v_h))
         fov = math.degrees(2 * math.atan(0.5 * h / f))
         # d(ln f) = (dv / (v_vertical − c) + dv / (c − v_horizon)) / 2
-        # a shaky reading gives no field of view, and says nothing against either row's pitch either
+        # a shaky reading gives no field of view, but still says nothing against either row's pitch
         shaky = 0.5 * ROW_ERROR_FRAC * h * (1 / (vertical["v"] - cy) + 1 / (cy - v_h)) > FOCAL_ERROR_FRAC
-        if not shaky and FOV_RANGE[0] <= fov <= FOV_RANGE[1]:
+        in_range = FOV_RANGE[0] <= fov <= FOV_RANGE[1]
+        if in_range and not shaky:
             # a reading from two points is as good as the weaker: the verticals often rest on a few tapering
             # sides (a pot, a bottle), where the horizon rests on a whole board's lines
             fov_cues.append(Cue("vanishing points", None, min(_support(vertical), _support(*horizon)), fov,
                                 {"vertical_row": round(vertical["v"], 1), "horizon_row": round(v_h, 1)}))
-        elif not shaky:  # the two cannot both be right; the horizon rests on more segments as a rule
+        elif not in_range:  # the two cannot both be right (no row error gives that); the horizon rests on
+            # more segments as a rule
             vertical = None
     f_use = focal_px(fov_cues[0].fov_deg if fov_cues and not fov_given else fov_deg, h)
     if vertical is not None:
@@ -750,9 +755,10 @@ def _log_spread(x) -> float:
     return float(np.ptp(x))
 
 
-def identical_cue(masks, labels, width: int, height: int, fov_deg: float) -> Cue | None:
-    """The pitch under which identical flat objects cast onto the ground come out one size (see the module)."""
-    best = None
+def identical_cues(masks, labels, width: int, height: int, fov_deg: float) -> list[Cue]:
+    """Per group of identical flat objects, the pitch under which they cast onto the ground come out one size
+    (see the module)."""
+    found = []
     for group in identical_groups(masks, labels):
         hulls = [_hull(masks[i]) for i in group]
         if any(h is None or len(h) < 3 for h in hulls):
@@ -778,11 +784,10 @@ def identical_cue(masks, labels, width: int, height: int, fov_deg: float) -> Cue
         if low > IDENTICAL_SPREAD or high < IDENTICAL_CONTRAST * max(low, 0.02):
             continue
         weight = min(2.0, 0.5 * len(group)) * min(1.0, (high / max(low, 0.02)) / 10.0)
-        if best is None or weight > best.weight:
-            best = Cue("identical objects", pitch, weight,
-                       detail={"objects": len(group), "label": labels[group[0]],
-                               "ground_size_spread": round(math.exp(0.5 * low), 4)})
-    return best
+        found.append(Cue("identical objects", pitch, weight,
+                         detail={"objects": len(group), "label": labels[group[0]],
+                                 "ground_size_spread": round(math.exp(0.5 * low), 4)}))
+    return found
 
 # combined -----------------------------------------------------------------------------------------
 
@@ -820,20 +825,24 @@ def estimate_camera(photo: np.ndarray, masks, labels, foot_rows, fov_deg: float 
     else:
         fov, fov_source = DEFAULT_FOV_DEG, f"default {DEFAULT_FOV_DEG:g}° (a phone's main camera)"
     pitch_cues += ellipse_cues(outlines, w, h, fov)
-    same = identical_cue(masks, labels, w, h, fov)
-    if same is not None and same.detail["objects"] == 2 and same.pitch_deg > STEEP_DEG and not any(
-            c.detail.get("face_on") or (c.pitch_deg is not None and abs(c.pitch_deg - same.pitch_deg) <= 10.0)
-            for c in pitch_cues):
-        # two outlines' ground areas are one equation in the pitch, met somewhere by almost any pair; near
-        # straight down it is met by any two of one image size, such as a card on the table and its twin on
-        # the wall behind (nothing says both lie on the ground): a steep pair needs another cue's agreement
-        same.weight, same.detail["uncorroborated"] = UNCORROBORATED_WEIGHT, True
+    groups = identical_cues(masks, labels, w, h, fov)
+    for same in groups:
+        if same.detail["objects"] == 2 and same.pitch_deg > STEEP_DEG and not any(
+                c.detail.get("face_on") or (c.kind in ("ellipse", "vertical vanishing point")
+                                            and abs(c.pitch_deg - same.pitch_deg) <= AGREE_DEG)
+                for c in pitch_cues):
+            # near straight down two outlines' ground areas agree for any two of one image size, such as a
+            # card on the table and its twin on the wall behind (nothing says both lie on the ground): a steep
+            # pair needs the agreement of a cue that stands by itself (a weak or steep horizon does not)
+            same.weight, same.detail["uncorroborated"] = UNCORROBORATED_WEIGHT, True
+    # chosen after that check, so that a steep pair cut down does not hide a larger group
+    same = max(groups, key=lambda c: c.weight, default=None)
     if same is not None:
         pitch_cues.append(same)
         # lines parallel both ways are a level camera's verticals or a support seen face-on: identical objects
         # of one size across the frame say which
-        for c in pitch_cues if not same.detail.get("uncorroborated") else ():
-            if c.detail.get("face_on") and abs(c.pitch_deg - same.pitch_deg) > 10.0:
+        for c in pitch_cues if not same.detail.get("uncorroborated") else ():  # a cut-down pair outvotes nothing
+            if c.detail.get("face_on") and abs(c.pitch_deg - same.pitch_deg) > AGREE_DEG:
                 c.weight, c.detail["outvoted_by"] = min(c.weight, 0.1), same.kind
     lowest = min_pitch(fov, h, foot_rows)
     # Lines meeting far above the image are ground lines seen from above, or the verticals of a camera tilted
@@ -842,7 +851,7 @@ def estimate_camera(photo: np.ndarray, masks, labels, foot_rows, fov_deg: float 
     paired = any(c.kind == "orthogonal vanishing points" for c in fov_cues)
     for c in pitch_cues:
         if c.kind == "horizon vanishing points" and c.pitch_deg > STEEP_DEG and not paired and not any(
-                o is not c and o.pitch_deg is not None and abs(o.pitch_deg - c.pitch_deg) <= 10.0
+                o is not c and o.pitch_deg is not None and abs(o.pitch_deg - c.pitch_deg) <= AGREE_DEG
                 and o.kind in ("ellipse", "vertical vanishing point") for o in pitch_cues):
             c.weight, c.detail["uncorroborated"] = UNCORROBORATED_WEIGHT, True
     cues = fov_cues + pitch_cues
