@@ -1,13 +1,13 @@
 """The fill on the ground plane: the part of the plate's hole that lies on the floor, filled in a top-down view.
 
-Owns :func:`fill_on_ground`, and where the floor ends (:func:`off_floor`, :func:`fill_wall_part`). The image-plane fills copy patches as the photo shows them; on a patterned floor
-seen in perspective (checks, tiles, boards) the pattern shrinks with the distance and a copy taken beside the
-hole lands out of step. Where the camera is known (a pinhole over the ground plane z = 0), the floor around the
-hole is warped to a top-down image by the plane's homography, where the pattern is regular and equal-sized,
-filled there by the same fill, and warped back; the hole's pixels off the floor keep the image-plane fill. The
-floor ends where a wall stands on it (:func:`off_floor`): above the wall's line the photo shows the wall, which
-the plane's homography would take for floor far behind it and stretch into the fill; the hole's part there is
-filled from the wall alone.
+Owns :func:`fill_on_ground`, and where the floor ends (:func:`off_floor`, :func:`fill_wall_part`). The image-plane
+fills copy patches as the photo shows them; on a patterned floor seen in perspective (checks, tiles, boards) the
+pattern shrinks with the distance and a copy taken beside the hole lands out of step. Where the camera is known (a
+pinhole over the ground plane z = 0), the floor around the hole is warped to a top-down image by the plane's
+homography, where the pattern is regular and equal-sized, filled there by the same fill, and warped back; the
+hole's pixels off the floor keep the image-plane fill. The floor ends where a wall stands on it
+(:func:`off_floor`): above the wall's line the photo shows the wall, which the plane's homography would take for
+floor far behind it and stretch into the fill; the hole's part there is filled from the wall alone.
 """
 
 from __future__ import annotations
