@@ -11,7 +11,7 @@ fill and the blend then keep no colour the surroundings lack (:func:`~.blend.cap
 outside the hole the plate is the photo, pixel for pixel, and so is the hole's widening beyond the masks' edge
 (:data:`KEPT_EDGE`) wherever the photo there looks like the surface around it (:func:`_world_back`). Given the
 ground's camera, the faded fill fills the hole's part on the floor in a top-down view of the floor (``floor.py``),
-where a pattern seen in perspective is regular, and its part above a wall's foot from the wall alone.
+where a pattern seen in perspective is regular, up to a wall's foot.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import numpy as np
 
 from .blend import cap_colours, fill_blend
 from .exemplar import fill_exemplar
-from .floor import TOP_DOWN_DEG, fill_on_ground, fill_wall_part, off_floor
+from .floor import TOP_DOWN_DEG, fill_on_ground, off_floor
 from .pixels import INPAINT_RADIUS, blur, blur_over, dilate, gradient, within
 
 #: Longest side at which large holes are inpainted by Telea; the fill is then upsampled.
@@ -192,7 +192,7 @@ def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = DEFAULT_METHOD,
     """``photo`` (H, W, 3) uint8 RGB with the pixels of ``hole`` (H, W) bool filled by ``method``; with
     ``feather`` > 0 the hole's outer ``feather`` pixels blend from the photo (at its edge) to the fill.
     ``sources``, ``camera``: as :func:`background_plate` takes them; ``wall``: the pixels above a wall's foot
-    (``floor.off_floor``), which the faded fill fills from the wall alone and the floor's fill leaves alone."""
+    (``floor.off_floor``), which the floor's top-down fill leaves to the image-plane fill."""
     filled = _fill_hole(photo, hole, method, sources, camera, wall)
     if feather <= 0 or not np.any(hole) or np.all(hole):
         return filled
@@ -219,8 +219,6 @@ def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str, sources: np.nda
         return fill_blend(photo, hole)
     if method == "faded":
         filled = fill_faded(photo, hole)
-        if wall is not None:
-            filled = fill_wall_part(photo, hole, wall, fill_faded, filled)
         if camera is None or camera.pitch_deg >= TOP_DOWN_DEG:
             return filled
         return fill_on_ground(photo, hole, camera, fill_faded, filled, wall)

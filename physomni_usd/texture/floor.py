@@ -1,13 +1,13 @@
 """The fill on the ground plane: the part of the plate's hole that lies on the floor, filled in a top-down view.
 
-Owns :func:`fill_on_ground`, and where the floor ends (:func:`off_floor`, :func:`fill_wall_part`). The image-plane
+Owns :func:`fill_on_ground`, and where the floor ends (:func:`off_floor`). The image-plane
 fills copy patches as the photo shows them; on a patterned floor seen in perspective (checks, tiles, boards) the
 pattern shrinks with the distance and a copy taken beside the hole lands out of step. Where the camera is known (a
 pinhole over the ground plane z = 0), the floor around the hole is warped to a top-down image by the plane's
 homography, where the pattern is regular and equal-sized, filled there by the same fill, and warped back; the
 hole's pixels off the floor keep the image-plane fill. The floor ends where a wall stands on it
 (:func:`off_floor`): above the wall's line the photo shows the wall, which the plane's homography would take for
-floor far behind it and stretch into the fill; the hole's part there is filled from the wall alone.
+floor far behind it and stretch into the fill.
 """
 
 from __future__ import annotations
@@ -64,26 +64,6 @@ def off_floor(photo: np.ndarray, masks) -> np.ndarray | None:
     if not any(v >= float(line.row(u)) + ABOVE_FRACTION * h for u, v in feet):
         return None
     return np.arange(h)[:, None] < line.row(np.arange(w) + 0.5)[None, :]
-
-
-def fill_wall_part(photo: np.ndarray, hole: np.ndarray, wall: np.ndarray, fill, filled: np.ndarray) -> np.ndarray:
-    """``filled`` with the part of ``hole`` on the ``wall`` (:func:`off_floor`) filled again by
-    ``fill(image, hole)`` from the wall alone: the image-plane fill copies from the floor too and carried the
-    floor's checks up the wall (generated scene 52005). The wall around that part (:data:`FLOOR_MARGIN` of the
-    photo's diagonal) is what it is filled from; the floor there joins the hole."""
-    part = hole & wall
-    if not part.any() or not (wall & ~hole).any():
-        return filled
-    h, w = hole.shape
-    m = int(FLOOR_MARGIN * np.hypot(h, w))
-    ys, xs = np.nonzero(part)
-    box = (slice(max(0, ys.min() - m), min(h, ys.max() + m + 1)), slice(max(0, xs.min() - m), min(w, xs.max() + m + 1)))
-    apart = (hole | ~wall)[box]
-    if apart.all():
-        return filled
-    out = filled.copy()
-    out[box][part[box]] = fill(photo[box], apart)[part[box]]
-    return out
 
 
 def fill_on_ground(photo: np.ndarray, hole: np.ndarray, camera: PinholeCamera, fill, filled: np.ndarray,
