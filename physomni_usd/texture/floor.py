@@ -115,16 +115,7 @@ def fill_on_ground(photo: np.ndarray, hole: np.ndarray, camera: PinholeCamera, f
     # than the floor, 8.60 levels off the truth where the image-plane fill erred 3.31; with its colour, 3.43
     sigma = COLOUR_SIGMA * float(np.hypot(h, w))
     low = lambda img: cv2.GaussianBlur(img.astype(np.float32), (0, 0), sigma)  # noqa: E731
-    # and its detail no stronger than the image-plane fill's: where the floor's grain does not repeat in step
-    # (sand's ripples, a plain floor's noise) the image-plane fill fades its copies with the depth into the hole,
-    # and the top-down fill's unfaded copies, as far off the true grain, erred more (52003: 4.94 levels against
-    # 4.42; 52007, a plain floor under a low camera, 3.43 against 3.31); where it repeats (checks), the
-    # image-plane copies are as strong, only out of step
-    b = np.where(use[..., None], back, filled).astype(np.float32)
-    detail = b - low(b)
-    own = filled.astype(np.float32) - low(filled)
-    gain = np.sqrt(low((own * own).sum(-1)) / np.maximum(low((detail * detail).sum(-1)), 1e-6))
-    mixed = np.clip(low(filled) + np.minimum(gain, 1.0)[..., None] * detail + 0.5, 0, 255)
+    mixed = np.clip(back.astype(np.float32) + low(filled) - low(np.where(use[..., None], back, filled)) + 0.5, 0, 255)
     out = filled.copy()
     out[use] = mixed.astype(np.uint8)[use]
     return out
