@@ -39,3 +39,56 @@ def test_checks_in_perspective_filled_top_down_stay_in_step():
         raise AssertionError("a hole off the floor was filled top-down")
 
     assert np.array_equal(fill_on_ground(photo, sky, camera, never, plane), plane)
+
+
+#: A chequered wall of other colours than the floor's stands across the floor WALL_Y metres ahead.
+WALL_Y = 0.5
+
+
+def _floor_and_wall(camera):
+    """The photo of a checked floor meeting a chequered wall of other colours at y = WALL_Y, and (H, W) bool
+    where the photo shows the wall."""
+    v, u = np.mgrid[0:camera.height, 0:camera.width] + 0.5
+    d = camera.rays(u, v)
+    o = camera.origin
+    t_floor = np.where(d[..., 2] < -1e-9, -o[2] / np.minimum(d[..., 2], -1e-9), np.inf)
+    t_wall = np.where(d[..., 1] > 1e-9, (WALL_Y - o[1]) / np.maximum(d[..., 1], 1e-9), np.inf)
+    on_wall = t_wall < t_floor
+    p = o + np.where(np.isfinite(np.minimum(t_floor, t_wall)), np.minimum(t_floor, t_wall), 1e3)[..., None] * d
+    floor = (np.floor(p[..., 0] / 0.1) + np.floor(p[..., 1] / 0.1)) % 2
+    wall = (np.floor(p[..., 0] / 0.15) + np.floor(p[..., 2] / 0.15)) % 2
+    img = np.where(floor[..., None] > 0, np.array([190, 150, 110]), np.array([150, 110, 80]))
+    img = np.where((on_wall & (wall > 0))[..., None], np.array([90, 140, 170]), img)
+    img = np.where((on_wall & (wall == 0))[..., None], np.array([200, 200, 190]), img)
+    return np.clip(img + np.random.default_rng(0).normal(0, 4, img.shape), 0, 255).astype(np.uint8), on_wall
+
+
+def test_the_floor_fill_stops_at_the_wall():
+    """A hole across the line where a wall meets the floor: seen through the floor's homography the wall is floor
+    far behind it, and filled top-down it took the floor's checks up the wall (generated scene 52005). Bounded by
+    the wall's line, the wall's part keeps the image-plane fill, pixel for pixel, and the floor's is still filled
+    top-down, in step."""
+    from physomni_usd.texture.fill import fill_faded
+    from physomni_usd.texture.floor import off_floor
+
+    camera = PinholeCamera(320, 240, 50.0, 20.0, (0.0, -1.2, 0.6))
+    photo, on_wall = _floor_and_wall(camera)
+    v, u = np.mgrid[0:240, 0:320]
+    foot_row = np.nonzero(on_wall[:, 160])[0].max()  # the wall's foot in the middle column
+    hole = (u - 160) ** 2 + (v - foot_row) ** 2 < 30 ** 2  # an object standing on the floor before the wall
+    wall = off_floor(photo, [hole])
+    assert wall is not None
+    assert (wall == on_wall).mean() > 0.97, (wall == on_wall).mean()
+    up = hole & wall
+    assert up.sum() > 800
+    filled = fill_faded(photo, hole)
+    bounded = fill_on_ground(photo, hole, camera, fill_faded, filled, wall)
+    assert np.array_equal(bounded[up], filled[up])
+    assert not np.array_equal(fill_on_ground(photo, hole, camera, fill_faded, filled)[up], filled[up])
+    down = hole & ~on_wall
+    error = lambda img: float(np.abs(img.astype(float) - photo.astype(float)).mean(-1)[down].mean())  # noqa: E731
+    # measured 10.4 levels on the floor's part against the image-plane fill's 22.9
+    assert error(bounded) < 0.75 * error(filled), (error(bounded), error(filled))
+    # a line every object stands above is no wall's foot the scene stands before (a shade across the floor)
+    on_the_wall = (u - 160) ** 2 + (v - (foot_row - 60)) ** 2 < 15 ** 2
+    assert off_floor(photo, [on_the_wall]) is None

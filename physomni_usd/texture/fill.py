@@ -11,7 +11,7 @@ fill and the blend then keep no colour the surroundings lack (:func:`~.blend.cap
 outside the hole the plate is the photo, pixel for pixel, and so is the hole's widening beyond the masks' edge
 (:data:`KEPT_EDGE`) wherever the photo there looks like the surface around it (:func:`_world_back`). Given the
 ground's camera, the faded fill fills the hole's part on the floor in a top-down view of the floor (``floor.py``),
-where a pattern seen in perspective is regular.
+where a pattern seen in perspective is regular, up to a wall's foot.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import numpy as np
 
 from .blend import cap_colours, fill_blend
 from .exemplar import fill_exemplar
-from .floor import TOP_DOWN_DEG, fill_on_ground
+from .floor import TOP_DOWN_DEG, fill_on_ground, off_floor
 from .pixels import INPAINT_RADIUS, blur, blur_over, dilate, gradient, within
 
 #: Longest side at which large holes are inpainted by Telea; the fill is then upsampled.
@@ -126,7 +126,8 @@ def background_plate(photo: np.ndarray, masks, dilation: float, method: str = DE
     """
     hole, kept = _plate_parts(photo, masks, dilation, shadows)
     feather = feather_px(photo.shape)
-    filled = fill_hole(photo, hole, method, feather, sources, camera)
+    wall = off_floor(photo, masks) if camera is not None and method == "faded" else None
+    filled = fill_hole(photo, hole, method, feather, sources, camera, wall)
     share = fill_share(hole, feather)
     if kept is not None:
         filled, back = _world_back(photo, filled, hole, kept, feather)
@@ -187,11 +188,12 @@ def kept_edge_px(shape) -> int:
 
 
 def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = DEFAULT_METHOD, feather: int = 0,
-              sources: np.ndarray | None = None, camera=None) -> np.ndarray:
+              sources: np.ndarray | None = None, camera=None, wall: np.ndarray | None = None) -> np.ndarray:
     """``photo`` (H, W, 3) uint8 RGB with the pixels of ``hole`` (H, W) bool filled by ``method``; with
     ``feather`` > 0 the hole's outer ``feather`` pixels blend from the photo (at its edge) to the fill.
-    ``sources``, ``camera``: as :func:`background_plate` takes them."""
-    filled = _fill_hole(photo, hole, method, sources, camera)
+    ``sources``, ``camera``: as :func:`background_plate` takes them; ``wall``: the pixels above a wall's foot
+    (``floor.off_floor``), which the floor's top-down fill leaves to the image-plane fill."""
+    filled = _fill_hole(photo, hole, method, sources, camera, wall)
     if feather <= 0 or not np.any(hole) or np.all(hole):
         return filled
     a = fill_share(hole, feather)[..., None]
@@ -203,7 +205,7 @@ def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = DEFAULT_METHOD,
 
 
 def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str, sources: np.ndarray | None = None,
-               camera=None) -> np.ndarray:
+               camera=None, wall: np.ndarray | None = None) -> np.ndarray:
     if method not in METHODS:
         raise ValueError(f"unknown fill method {method!r} (known: {', '.join(METHODS)})")
     hole = np.asarray(hole, bool)
@@ -219,7 +221,7 @@ def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str, sources: np.nda
         filled = fill_faded(photo, hole)
         if camera is None or camera.pitch_deg >= TOP_DOWN_DEG:
             return filled
-        return fill_on_ground(photo, hole, camera, fill_faded, filled)
+        return fill_on_ground(photo, hole, camera, fill_faded, filled, wall)
     return fill_exemplar(photo, hole, sources)
 
 

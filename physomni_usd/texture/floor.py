@@ -1,10 +1,13 @@
 """The fill on the ground plane: the part of the plate's hole that lies on the floor, filled in a top-down view.
 
-Owns :func:`fill_on_ground`. The image-plane fills copy patches as the photo shows them; on a patterned floor
-seen in perspective (checks, tiles, boards) the pattern shrinks with the distance and a copy taken beside the
-hole lands out of step. Where the camera is known (a pinhole over the ground plane z = 0), the floor around the
-hole is warped to a top-down image by the plane's homography, where the pattern is regular and equal-sized,
-filled there by the same fill, and warped back; the hole's pixels off the floor keep the image-plane fill.
+Owns :func:`fill_on_ground`, and where the floor ends (:func:`off_floor`). The image-plane
+fills copy patches as the photo shows them; on a patterned floor seen in perspective (checks, tiles, boards) the
+pattern shrinks with the distance and a copy taken beside the hole lands out of step. Where the camera is known (a
+pinhole over the ground plane z = 0), the floor around the hole is warped to a top-down image by the plane's
+homography, where the pattern is regular and equal-sized, filled there by the same fill, and warped back; the
+hole's pixels off the floor keep the image-plane fill. The floor ends where a wall stands on it
+(:func:`off_floor`): above the wall's line the photo shows the wall, which the plane's homography would take for
+floor far behind it and stretch into the fill.
 """
 
 from __future__ import annotations
@@ -13,6 +16,8 @@ import cv2
 import numpy as np
 
 from ..geometry.camera import PinholeCamera
+from ..lift.silhouette import fill_holes, foot_pixel
+from ..perceive.wall import ABOVE_FRACTION, find_wall_line
 from .pixels import dilate
 
 #: A camera pitched at least this steeply sees the floor nearly top-down already: the warp would only resample
@@ -45,9 +50,27 @@ def image_from_ground(camera: PinholeCamera, width: int) -> np.ndarray:
     return k @ np.column_stack([cam_from_world[:, 0], cam_from_world[:, 1], -cam_from_world @ camera.origin])
 
 
-def fill_on_ground(photo: np.ndarray, hole: np.ndarray, camera: PinholeCamera, fill, filled: np.ndarray) -> np.ndarray:
+def off_floor(photo: np.ndarray, masks) -> np.ndarray | None:
+    """(H, W) bool: the pixels of ``photo`` above the line where a wall (or a backdrop) meets the floor
+    (``perceive.wall.find_wall_line``, the objects' ``masks`` left out), or None where the photo shows no such
+    line that an object stands in front of: its foot below the line by at least ``ABOVE_FRACTION`` of the photo.
+    A line with every object's foot above it is no wall's foot (a shade across the floor beyond them)."""
+    masks = [np.asarray(m, bool) for m in masks if np.any(m)]
+    line = find_wall_line(photo, masks) if masks else None
+    if line is None:
+        return None
+    h, w = photo.shape[:2]
+    feet = [foot_pixel(fill_holes(m)) for m in masks]
+    if not any(v >= float(line.row(u)) + ABOVE_FRACTION * h for u, v in feet):
+        return None
+    return np.arange(h)[:, None] < line.row(np.arange(w) + 0.5)[None, :]
+
+
+def fill_on_ground(photo: np.ndarray, hole: np.ndarray, camera: PinholeCamera, fill, filled: np.ndarray,
+                   wall: np.ndarray | None = None) -> np.ndarray:
     """``filled`` (the image-plane fill of ``hole`` in ``photo``, (H, W, 3) uint8) with the hole's pixels on
-    the floor replaced by ``fill(image, hole)`` run on the floor warped top-down under ``camera``."""
+    the floor replaced by ``fill(image, hole)`` run on the floor warped top-down under ``camera``. ``wall``:
+    (H, W) bool, the pixels that are not floor however the plane sees them (:func:`off_floor`)."""
     h, w = hole.shape
     h_ig = image_from_ground(camera, w)
     vv, uu = np.mgrid[0:h, 0:w].astype(np.float64)
@@ -60,6 +83,8 @@ def fill_on_ground(photo: np.ndarray, hole: np.ndarray, camera: PinholeCamera, f
                 - forward[2] * camera.origin[2]) > 0
     reach = GROUND_REACH * max(float(camera.origin[2]), 1e-6)
     ground = in_front & (np.hypot(gx - camera.origin[0], gy - camera.origin[1]) < reach)
+    if wall is not None:
+        ground &= ~wall
     use = hole & ground
     if not use.any() or camera.origin[2] <= 0:
         return filled
