@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..lift.silhouette import plane_points
-from ..perceive.wall import WallLine, find_wall_line, foot_above  # noqa: F401 (read there)
+from ..perceive.wall import WallLine, find_wall_line, foot_above  # noqa: F401 (re-exported for align.support)
 
 
 def wall_plane(line: WallLine, camera) -> tuple[np.ndarray, np.ndarray] | None:

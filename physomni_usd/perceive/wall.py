@@ -29,8 +29,9 @@ PALETTE = 8
 MIN_CONTRAST = 0.25
 #: ... nor one whose bands this fraction of the photo's width does not show (the rest hidden by objects).
 MIN_SEEN_FRACTION = 0.4
-#: An object's foot this fraction of the photo's height above the line is held above the ground (nearer, the line
-#: may be a soft shade across the ground rather than the wall's foot).
+#: Within this fraction of the photo's height of an object's foot the line may be a soft shade across the ground
+#: rather than the wall's foot: a foot this far above it is held above the ground (align), and a line counts as
+#: the floor's end only with a foot this far below it (texture.floor).
 ABOVE_FRACTION = 0.05
 
 
