@@ -127,9 +127,8 @@ def test_a_whale_among_toys_on_a_desk_warns_once_and_stays_table_top(tmp_path):
     assert report["shot"]["scale"]["warnings"] == [said[0].split("warning: ", 1)[1]]
 
 
-def test_two_alike_outlines_alone_do_not_make_the_camera_look_straight_down():
-    # a card on the table and its twin pinned to the wall behind show one image size at two heights: their
-    # ground areas agree straight down, but a pair meets that one equation at some pitch almost whatever it is
+def _two_cards():
+    """A 320×240 photo of two alike cards at two heights of the frame, and their masks."""
     rng = np.random.default_rng(3)
     img = np.clip(np.full((240, 320, 3), 180.0) + rng.normal(0, 3, (240, 320, 1)), 0, 255).astype(np.uint8)
     masks = []
@@ -138,13 +137,20 @@ def test_two_alike_outlines_alone_do_not_make_the_camera_look_straight_down():
         cv2.rectangle(m, (x, y), (x + 34, y + 22), 1, -1)
         img[m > 0] = (90, 120, 200)
         masks.append(m > 0)
+    return img, masks
+
+
+def test_two_alike_outlines_alone_do_not_make_the_camera_look_straight_down():
+    # a card on the table and its twin pinned to the wall behind show one image size at two heights: their
+    # ground areas agree straight down, but a pair meets that one equation at some pitch almost whatever it is
+    img, masks = _two_cards()
     est = estimate_camera(img, masks, ["card", "card"], [foot_pixel(fill_holes(m))[1] for m in masks])
     same = next(c for c in est.cues if c.kind == "identical objects")
     assert same.pitch_deg > 80.0 and same.detail["objects"] == 2  # the reading itself is still made ...
     assert same.detail.get("uncorroborated") and same.weight <= 0.05  # ... but weighs next to nothing
     assert est.pitch_deg < 80.0 and "identical objects" not in est.pitch_source
     # four such parts, as on the lightbox, still read straight down by themselves
-    quad = [np.roll(np.roll(m, dx, 1), 0, 0) for m in masks for dx in (0, 60)]
+    quad = [np.roll(m, dx, 1) for m in masks for dx in (0, 60)]
     est = estimate_camera(img, quad, ["card"] * 4, [foot_pixel(fill_holes(m))[1] for m in quad])
     four = next(c for c in est.cues if c.kind == "identical objects")
     assert four.detail["objects"] == 4 and not four.detail.get("uncorroborated") and four.weight >= 1.0
@@ -155,13 +161,7 @@ def test_a_steep_pair_counts_with_an_agreeing_cue_and_a_cut_pair_leaves_a_larger
     # steep horizon that itself needs agreement does not vouch for it
     from physomni_usd.align import cues as cue_mod
 
-    rng = np.random.default_rng(3)
-    img = np.clip(np.full((240, 320, 3), 180.0) + rng.normal(0, 3, (240, 320, 1)), 0, 255).astype(np.uint8)
-    masks = []
-    for x, y in ((60, 30), (200, 180)):
-        m = np.zeros((240, 320), np.uint8)
-        cv2.rectangle(m, (x, y), (x + 34, y + 22), 1, -1)
-        masks.append(m > 0)
+    img, masks = _two_cards()
     feet = [foot_pixel(fill_holes(m))[1] for m in masks]
     pair = cue_mod.identical_cues(masks, ["card", "card"], 320, 240, 50.0)[0]
     assert pair.pitch_deg > 80.0
