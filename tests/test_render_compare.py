@@ -182,6 +182,13 @@ def test_the_size_term_measures_each_object_against_its_label():
     assert compare.prior_terms([box.vertices], ["box"], 2.0)[0][0] == pytest.approx(np.log(2.0), abs=1e-6)
 
 
+def test_a_degenerate_lift_of_two_vertices_is_scored_not_crashed_on():
+    # a lift that came out as two points under one candidate pitch (generated scene 733619048 at 37.5°) had two
+    # principal extents, and the size term indexed a third: the pitch search ended the build
+    assert compare.principal_extents(np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]])) == pytest.approx([0.1, 0.0, 0.0])
+    logs, thin = compare.prior_terms([np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]])], ["box"])
+    assert all(np.isfinite(logs)) and len(thin) == 1
+
 def test_a_side_the_photo_did_not_give_counts_the_same_at_every_pitch():
     # a book lifted from above: its height copied from the label (0.03 m) agrees with it by construction; only its
     # footprint, three times the label's longest, is held to the label, and its proportions count as unread

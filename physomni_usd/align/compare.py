@@ -214,7 +214,9 @@ def principal_extents(vertices: np.ndarray) -> np.ndarray:
         _, _, axes = np.linalg.svd(v, full_matrices=False)
     except np.linalg.LinAlgError:
         return np.ptp(vertices, axis=0)
-    return np.ptp(v @ axes.T, axis=0)
+    # fewer than three vertices span fewer than three axes; the ones they lack have no extent
+    ext = np.ptp(v @ axes.T, axis=0)
+    return np.pad(ext, (0, 3 - len(ext)))
 
 
 @dataclass
