@@ -71,7 +71,7 @@ def studio(photo, tmp_path, monkeypatch):
 
     monkeypatch.setattr(session, "build", fake_build)
     monkeypatch.setattr(session, "render", fake_render)
-    monkeypatch.setattr(Studio, "_start_preview", lambda self, shot: None)
+    monkeypatch.setattr(Studio, "_start_preview", lambda self, shot, *first_use: None)
     started = []
 
     def start(wide: bool = False):

@@ -125,7 +125,7 @@ def test_the_server_renders_a_kept_take_until_changed_pushes_or_a_build_drop_it(
     monkeypatch.setattr(session, "build", fake_build)
     monkeypatch.setattr(session, "render", fake_render)
     monkeypatch.setattr(session, "take_on_disk", lambda state, take: None)  # sim.usdc as the preview wrote it
-    monkeypatch.setattr(Studio, "_start_preview", lambda self, shot: None)
+    monkeypatch.setattr(Studio, "_start_preview", lambda self, shot, *first_use: None)
     said: list[str] = []
     s = Studio(photo["photo"], out, Options(port=free_port(), preview_port=free_port(), open_browser=False,
                                             echo=said.append))
