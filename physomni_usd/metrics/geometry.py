@@ -113,7 +113,7 @@ class Penetrations:
         return out
 
     def _deepest(self, points: np.ndarray, name: str, verts: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-                 planes: dict | None = None) -> float:
+                 planes: dict) -> float:
         """Deepest of ``points`` inside mesh ``name`` (world vertices ``verts``, bounds ``lo``..``hi``);
         ``planes`` holds each mesh's hull planes at this time once found (a mesh in a pile meets several)."""
         pts = points[np.all((points >= lo) & (points <= hi), axis=1)]
@@ -123,12 +123,9 @@ class Penetrations:
         if shape is None:  # no solid hull (a flat or degenerate mesh): the exact computation as it stands
             return _deepest_inside(pts, trimesh.Trimesh(verts, self.meshes.faces(name), process=False))
         convex = shape[1]
-        found = planes.get(name) if planes is not None else None
-        if found is None:
-            found = _hull_planes(verts, shape[0])
-            if planes is not None:
-                planes[name] = found
-        normal, offset = found
+        if name not in planes:
+            planes[name] = _hull_planes(verts, shape[0])
+        normal, offset = planes[name]
         step = max(1, self.BLOCK // len(normal))
         # depth below the nearest plane: > 0 strictly inside the hull
         depth = np.concatenate([(offset - pts[k:k + step] @ normal.T).min(axis=1) for k in range(0, len(pts), step)])
