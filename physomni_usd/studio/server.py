@@ -263,13 +263,12 @@ class Studio:
             self.echo("studio: compiling physics kernels, once per machine (a minute or two) ...")
         return first_use
 
-    def _start_preview(self, shot, first_use=None, before=None) -> None:
+    def _start_preview(self, shot, first_use, before) -> None:
+        """The preview of ``shot``; ``first_use`` and ``before`` as :meth:`_say_compiling` and
+        ``compiled_seconds`` gave them before the build, which may have compiled the kernels itself."""
         from .._warp import compiled_seconds
         from ..preview.app import Options as PreviewOptions, Preview
 
-        if first_use is None:
-            first_use = self._say_compiling()
-            before = compiled_seconds()
         # paused on frame 0, the photo, as `physomni-usd preview` opens: Play (or a drag) starts it
         self.preview = Preview(shot, PreviewOptions(host=self.options.host, port=self.preview_port,
                                                     open_browser=False, play=False,
