@@ -126,7 +126,7 @@ def background_plate(photo: np.ndarray, masks, dilation: float, method: str = DE
     """
     hole, kept = _plate_parts(photo, masks, dilation, shadows)
     feather = feather_px(photo.shape)
-    wall = off_floor(photo, masks) if camera is not None and method == "faded" else None
+    wall = off_floor(photo, masks) if _top_down(method, camera) else None
     filled = fill_hole(photo, hole, method, feather, sources, camera, wall)
     share = fill_share(hole, feather)
     if kept is not None:
@@ -204,6 +204,12 @@ def fill_hole(photo: np.ndarray, hole: np.ndarray, method: str = DEFAULT_METHOD,
     return cap_colours(photo, out, hole) if method in ("faded", "blend") else out
 
 
+def _top_down(method: str, camera) -> bool:
+    """Whether ``method`` fills the floor's part of a hole top-down under ``camera`` (``floor.py``): the faded
+    fill, under a known camera pitched less than ``TOP_DOWN_DEG``."""
+    return method == "faded" and camera is not None and camera.pitch_deg < TOP_DOWN_DEG
+
+
 def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str, sources: np.ndarray | None = None,
                camera=None, wall: np.ndarray | None = None) -> np.ndarray:
     if method not in METHODS:
@@ -219,9 +225,7 @@ def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str, sources: np.nda
         return fill_blend(photo, hole)
     if method == "faded":
         filled = fill_faded(photo, hole)
-        if camera is None or camera.pitch_deg >= TOP_DOWN_DEG:
-            return filled
-        return fill_on_ground(photo, hole, camera, fill_faded, filled, wall)
+        return fill_on_ground(photo, hole, camera, fill_faded, filled, wall) if _top_down(method, camera) else filled
     return fill_exemplar(photo, hole, sources)
 
 
