@@ -1,4 +1,5 @@
-"""Shared fixtures: a tiny synthetic photo with known objects, and a shot built from it once per session."""
+"""Shared fixtures: a tiny synthetic photo with known objects, a shot built from it once per session, and each
+bundled example and bench photo built once per session as a user would build it."""
 
 from __future__ import annotations
 
@@ -93,3 +94,67 @@ def first_frames(shot_dir: pathlib.Path, dest: pathlib.Path, frames: int) -> pat
     stage.SetEndTimeCode(stage.GetStartTimeCode() + frames - 1)
     stage.GetRootLayer().Save()
     return dest
+
+
+EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
+
+
+def build_case(case: str, folder: pathlib.Path):
+    """(build result, lines the build echoed) of ``case`` ('example:NAME': the example's masks, boxes and sizes
+    as its example.json gives them; 'photo:NAME': the bench photo's records), built as a user would build it:
+    no pushes, no forces, no settings."""
+    import json
+
+    import physomni_usd as api
+    from physomni_usd.bench.real_photos import load_photo, load_truth, write_inputs
+
+    kind, name = case.split(":", 1)
+    said = []
+    if kind == "example":
+        spec_path = EXAMPLES / name / "example.json"
+        spec = json.loads(spec_path.read_text())
+        masks = [str(spec_path.parent / m) for m in spec.get("masks", [])]
+        return api.build(spec_path.parent / spec["photo"], folder / "shot", masks, spec.get("boxes", []),
+                         sizes=spec.get("size", []), echo=said.append), said
+    record = load_truth()[name]
+    if record["photo"].startswith("skimage:"):
+        pytest.importorskip("skimage")
+    path, masks, boxes = write_inputs(record, load_photo(record), folder / "input")
+    return api.build(path, folder / "shot", masks, boxes, echo=said.append), said
+
+
+@pytest.fixture(scope="session")
+def built_case(tmp_path_factory):
+    """case → (build result, echoed lines) of :func:`build_case`, each case built once per session.
+
+    The same builds are checked by several modules (frame 0 in tests/test_examples_frame0.py and
+    tests/test_frame0_gallery.py, rest and sizes in tests/test_gallery_rest.py, the slabs' texture, the
+    estimate's rules, an orbit): a build of an example takes 10-80 s on a loaded 2-core machine, so building
+    each once saves minutes. The shot is shared: a test that changes it (simulates it, writes into its folder)
+    works on :func:`copy_of` it."""
+    cache = {}
+
+    def get(case):
+        if case not in cache:
+            cache[case] = build_case(case, tmp_path_factory.mktemp(case.replace(":", "-")))
+        return cache[case]
+    return get
+
+
+def copy_of(result, dest: pathlib.Path):
+    """A build result like ``result`` for a copy of its folder at ``dest`` (the shared build left as built)."""
+    import dataclasses
+    import shutil
+
+    shutil.copytree(result.folder, dest)
+    return dataclasses.replace(result, folder=dest, shot=dest / result.shot.relative_to(result.folder))
+
+
+@pytest.fixture(scope="session")
+def motorcycle_run(tmp_path_factory) -> tuple[subprocess.CompletedProcess, pathlib.Path]:
+    """(the finished process, its output folder) of ``bash examples/motorcycle/run.sh OUT``, run once per
+    session: its video and its shot are read (never changed) by tests/test_motion.py and
+    tests/test_still_world.py, and the run (build, simulate, render) takes a minute on a loaded 2-core machine."""
+    out = tmp_path_factory.mktemp("motorcycle-run") / "moto"
+    proc = subprocess.run(["bash", str(EXAMPLES / "motorcycle" / "run.sh"), str(out)], capture_output=True, text=True)
+    return proc, out

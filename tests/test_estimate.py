@@ -14,9 +14,7 @@ from pxr import Sdf, Usd
 
 from physomni_usd.validate import validate_stage
 
-from .conftest import cli
-
-ROOT = __import__("pathlib").Path(__file__).resolve().parents[1]
+from .conftest import cli, copy_of
 
 
 def _report(folder):
@@ -24,12 +22,11 @@ def _report(folder):
 
 
 @pytest.mark.parametrize("example", ["motorcycle", "rocket"])
-def test_rules_give_the_bundled_examples_plausible_materials(tmp_path, example):
-    spec = json.loads((ROOT / "examples" / example / "example.json").read_text())
-    masks = [a for m in spec["masks"] for a in ("--mask", str(ROOT / "examples" / example / m))]
-    cli("build", ROOT / "examples" / example / spec["photo"], "-o", tmp_path, "-q", *masks, check=True)
-    cli("estimate", tmp_path / "shot.usda", "-q", check=True)
-    materials = _report(tmp_path)["stages"]["estimate"]["objects"]
+def test_rules_give_the_bundled_examples_plausible_materials(tmp_path, example, built_case):
+    """The example built from its masks (a copy of the session's build, tests/conftest.py), then estimated."""
+    result = copy_of(built_case(f"example:{example}")[0], tmp_path / "shot")
+    cli("estimate", result.shot, "-q", check=True)
+    materials = _report(result.folder)["stages"]["estimate"]["objects"]
     assert len(materials) == 3
     for name, m in materials.items():
         assert m["material"] == "rigid", name  # vehicles, furniture, bins, towers: solid things

@@ -1,5 +1,6 @@
 """Every bundled example builds as its example.json says, its frame 0, before encoding, is its photo, and the
-silhouette IoU report.json records of each object from the photo's camera is at least the warning's limit."""
+silhouette IoU report.json records of each object from the photo's camera is at least the warning's limit.
+The builds are the session's (``built_case``): tests/test_gallery_rest.py checks the same builds at rest."""
 
 from __future__ import annotations
 
@@ -10,7 +11,6 @@ import cv2
 import pytest
 from pxr import Usd
 
-import physomni_usd as api
 from physomni_usd.align.compare import WARN_IOU
 from physomni_usd.metrics import ssim
 from physomni_usd.rendering.video import ShotRenderer
@@ -30,12 +30,11 @@ SLOW = {"desk", "motorcycle", "sweets", "rocket"}
 
 @pytest.mark.parametrize("spec_path", [pytest.param(p, marks=[pytest.mark.slow] if p.parent.name in SLOW else [])
                                        for p in SPECS], ids=[p.parent.name for p in SPECS])
-def test_frame_zero_is_the_photo(spec_path, tmp_path):
+def test_frame_zero_is_the_photo(spec_path, built_case):
     folder = spec_path.parent
     spec = json.loads(spec_path.read_text())
     masks = [str(folder / m) for m in spec.get("masks", [])]
-    result = api.build(folder / spec["photo"], tmp_path / "shot", masks, spec.get("boxes", []),
-                       sizes=spec.get("size", []))
+    result, _ = built_case(f"example:{folder.name}")  # as example.json says (tests/conftest.py's build_case)
     ious = json.loads((result.folder / "report.json").read_text())["shot"]["alignment"]["silhouette_iou"]
     assert len(ious) == len(masks) + len(spec.get("boxes", [])) and min(ious.values()) >= WARN_IOU, ious
     stage = Usd.Stage.Open(str(result.shot))

@@ -4,7 +4,8 @@ rendered by Blender (built from its masks, and again with a lift wrong on purpos
 with a lift that is wrong on purpose (a near-level camera for a photo taken from 52° above, and slabs for round
 things). ``bench general`` reports the same figure for every scene it builds (tests/test_bench_general.py).
 
-Each shot is built as a user would build it (its masks or boxes) and its frame 0 rendered before encoding
+Each shot is built as a user would build it (its masks or boxes; a gallery photo's build is the session's,
+``built_case``, which tests/test_gallery_rest.py checks at rest) and its frame 0 rendered before encoding
 (``ShotRenderer``): PSNR against the photo at least 40 dB. (The bundled examples are checked in
 tests/test_examples_frame0.py, the top-down desk with slabs in tests/test_frame0_photo.py.)"""
 
@@ -46,9 +47,9 @@ def _inputs(name: str, folder: pathlib.Path):
 
 
 @pytest.mark.parametrize("name", [pytest.param(n, marks=[] if n in QUICK else [pytest.mark.slow]) for n in PHOTOS])
-def test_frame_zero_of_every_gallery_photo_is_the_photo(name, tmp_path):
-    photo, path, masks, boxes = _inputs(name, tmp_path / "input")
-    result = api.build(path, tmp_path / "shot", masks, boxes)
+def test_frame_zero_of_every_gallery_photo_is_the_photo(name, built_case):
+    result, _ = built_case(f"photo:{name}")  # its masks or boxes (tests/conftest.py's build_case)
+    photo = load_photo(PHOTOS[name])
     frame0, _, _ = _frame0(result.shot)
     assert frame0.shape == photo.shape, name
     print(f"{name}: frame 0 against the photo {cv2.PSNR(frame0, photo):.1f} dB")  # the figure, under -s

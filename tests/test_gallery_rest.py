@@ -1,8 +1,9 @@
 """The regression net of a holistic scene: every bundled example and every real bench photo, nothing pushed, stays
 where the photo put it.
 
-Each case is built as a user would build it (the example's masks, boxes and sizes, or the photo's records in
-``bench/real/photos.json``; no pushes, no forces) and simulated for 2 s at the shot's frame rate through
+Each case is built once per session (the ``built_case`` fixture of tests/conftest.py, which other modules'
+frame-0 checks share) as a user would build it (the example's masks, boxes and sizes, or the photo's records in
+``bench/real/photos.json``; no pushes, no forces) and a copy of it simulated for 2 s at the shot's frame rate through
 ``physomni_usd.simulate``, the function ``simulate`` runs (an exception here is a non-zero exit there). Then:
 
 - the simulation finished;
@@ -34,6 +35,8 @@ import physomni_usd as api
 from physomni_usd.bench.real_photos import (REST_DRIFT_M, REST_SECONDS, START_OVERLAP_M, load_photo, load_truth,
                                             rest_check, write_inputs)
 
+from .conftest import copy_of
+
 #: Issue 38: nothing unpushed turns more than this in the take, degrees.
 REST_TURN_DEG = 5.0
 
@@ -61,35 +64,6 @@ def _cases():
     return out
 
 
-def _build(case: str, folder: pathlib.Path):
-    """(build result, lines the build echoed) of one case, as a user would build it."""
-    kind, name = case.split(":", 1)
-    said = []
-    if kind == "example":
-        spec_path = SPECS[name]
-        spec = json.loads(spec_path.read_text())
-        masks = [str(spec_path.parent / m) for m in spec.get("masks", [])]
-        return api.build(spec_path.parent / spec["photo"], folder / "shot", masks, spec.get("boxes", []),
-                         sizes=spec.get("size", []), echo=said.append), said
-    record = PHOTOS[name]
-    if record["photo"].startswith("skimage:"):
-        pytest.importorskip("skimage")
-    path, masks, boxes = write_inputs(record, load_photo(record), folder / "input")
-    return api.build(path, folder / "shot", masks, boxes, echo=said.append), said
-
-
-@pytest.fixture(scope="session")
-def built(tmp_path_factory):
-    """case → (build result, echoed lines), each case built once per session (the size tests reuse them)."""
-    cache = {}
-
-    def get(case):
-        if case not in cache:
-            cache[case] = _build(case, tmp_path_factory.mktemp(case.replace(":", "-")))
-        return cache[case]
-    return get
-
-
 def _has_rigid(shot) -> bool:
     from physomni_usd.physics.objects import scene_objects
     from physomni_usd.usd import layers
@@ -98,8 +72,8 @@ def _has_rigid(shot) -> bool:
 
 
 @pytest.mark.parametrize("case", _cases())
-def test_nothing_pushed_nothing_moves(case, built):
-    result, _ = built(case)
+def test_nothing_pushed_nothing_moves(case, built_case, tmp_path):
+    result, _ = built_case(case)
     name = case.split(":", 1)[1]
     if not _has_rigid(result.shot):  # the sand: nothing is meant to stay; only its start is checked
         from physomni_usd.metrics.geometry import max_penetration, world_meshes
@@ -110,6 +84,7 @@ def test_nothing_pushed_nothing_moves(case, built):
         assert deepest <= START_OVERLAP_M, f"{case}: meshes start {deepest} m in each other"
         return
     spacing = PARTICLE_SPACING_M if case.startswith("example:") and name in DEFORMABLE else None
+    result = copy_of(result, tmp_path / "shot")  # simulated here: the session's build stays as built
     rest = rest_check(result.shot, seconds=REST_SECONDS, particle_spacing=spacing)
     print(f"{case}: worst drift {1000 * rest['max_drift_m']:.1f} mm, turn {rest['max_turn_deg']:.1f}° of "
           f"{len(rest['rigid'])} rigid, worst start overlap {1000 * rest['max_overlap_m']:.1f} mm")  # under -s
@@ -122,14 +97,14 @@ def test_nothing_pushed_nothing_moves(case, built):
 
 
 @pytest.mark.parametrize("case", [p.values[0] for p in _cases()])  # KNOWN marks the rest, not this
-def test_no_solid_is_thinner_than_its_outline_allows(case, built):
+def test_no_solid_is_thinner_than_its_outline_allows(case, built_case):
     """Issue 38: a third of the outline's smaller side at least (a ball-shaped label round in depth), unless
     the label or the outline says flat; on the shot as built (its start)."""
     from physomni_usd.bench.alignment import _built_camera
     from physomni_usd.metrics.geometry import thin_side, world_meshes
     from physomni_usd.usd import layers
 
-    result, _ = built(case)
+    result, _ = built_case(case)
     report = json.loads((result.folder / "report.json").read_text())
     stage = layers.open_shot(result.shot)
     shot = report["shot"]
@@ -168,15 +143,15 @@ def _mark(key):
 
 
 @pytest.mark.parametrize("name", [pytest.param(n, marks=_mark(("identical", n)), id=n) for n in IDENTICAL])
-def test_identical_objects_come_out_alike(name, built):
-    result, _ = built(f"photo:{name}")
+def test_identical_objects_come_out_alike(name, built_case):
+    result, _ = built_case(f"photo:{name}")
     sizes = [m for _, m in _sizes(result).values()]
     assert max(sizes) <= 1.3 * min(sizes), f"{name}: {min(sizes):.3f}-{max(sizes):.3f} m"
 
 
 @pytest.mark.parametrize("name", [pytest.param(n, marks=_mark(("table", n)), id=n) for n in TABLE_TOP])
-def test_nothing_on_a_table_top_is_larger_than_a_metre(name, built):
-    result, _ = built(f"photo:{name}")
+def test_nothing_on_a_table_top_is_larger_than_a_metre(name, built_case):
+    result, _ = built_case(f"photo:{name}")
     big = {k: round(m, 2) for k, (_, m) in _sizes(result).items() if m > 1.0}
     assert not big, f"{name}: {big} m"
 
@@ -197,8 +172,8 @@ def test_disagreeing_size_priors_are_named_in_one_warning(labels, tmp_path):
 
 
 @pytest.mark.parametrize("name", [pytest.param("parts", marks=_mark(("pitch", "parts")))])
-def test_flat_parts_from_above_are_seen_from_above(name, built):
-    result, _ = built(f"photo:{name}")
+def test_flat_parts_from_above_are_seen_from_above(name, built_case):
+    result, _ = built_case(f"photo:{name}")
     pitch = json.loads((result.folder / "report.json").read_text())["shot"]["pitch_deg"]
     assert pitch >= 70.0, f"{name}: pitch {pitch:.1f}°"
 
@@ -215,10 +190,10 @@ def test_a_given_pitch_builds_the_parts(pitch, tmp_path):
     assert not big, f"--pitch {pitch:g}: {big} m"
 
 
-def test_the_lime_behind_the_lemon_is_placed_behind_it_and_resting(built):
+def test_the_lime_behind_the_lemon_is_placed_behind_it_and_resting(built_case):
     """The fruit pile: the lemon hides the lime's lower part, so the lime stands behind the lemon (the placed
     meshes keep the photo's occlusion where it shows) and rests on what holds it, not in the air."""
-    result, _ = built("photo:fruits")
+    result, _ = built_case("photo:fruits")
     report = json.loads((result.folder / "report.json").read_text())
     order = {(o["front"], o["behind"]): o["kept"] for o in report["stages"]["build"]["occlusion"]}
     names = {o["label"]: o["name"] for o in report["objects"]}
@@ -227,8 +202,8 @@ def test_the_lime_behind_the_lemon_is_placed_behind_it_and_resting(built):
     assert abs(lime["start"]["clearance_m"]) <= 0.002, lime["start"]
 
 
-def test_the_book_leaning_behind_the_boxes_comes_out_its_size(built):
+def test_the_book_leaning_behind_the_boxes_comes_out_its_size(built_case):
     """The heap: two boxes hide the book's lower half; it must come out near its 24 cm, not metres tall."""
-    result, _ = built("photo:heap")
+    result, _ = built_case("photo:heap")
     book = [m for label, m in _sizes(result).values() if label == "book"]
     assert len(book) == 1 and 0.24 / 1.5 <= book[0] <= 0.24 * 1.5, book

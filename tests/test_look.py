@@ -358,19 +358,19 @@ def test_orbit_walls_find_a_photo_column_smeared_across_the_frame_and_nothing_in
     assert one[0]["repeated_px"] > 6500 and one[0]["wall_fraction"] > 0.85, one
 
 
-def test_under_an_orbit_the_motorcycle_example_shows_no_wall_of_stretched_pixels(tmp_path):
+def test_under_an_orbit_the_motorcycle_example_shows_no_wall_of_stretched_pixels(tmp_path, built_case):
     """The bundled motorcycle (its bench top and its own extruded sides were walls of stretched pixels 5.7 %
     and 9 % of the frame wide) orbited left for a few frames: at the orbit's end no object shows a wall
-    wider than 2 % of the frame."""
+    wider than 2 % of the frame. (Built from its masks: a copy of the session's build, simulated here.)"""
     import physomni_usd as api
     from physomni_usd.bench.look import MAX_WALL, orbit_walls
     from physomni_usd.rendering.video import ShotRenderer, write_camera_move
     from physomni_usd.settings import RenderSettings, SimulateSettings
     from physomni_usd.usd import layers
 
-    folder = EXAMPLES / "motorcycle"
-    spec = json.loads((folder / "example.json").read_text())
-    result = api.build(folder / spec["photo"], tmp_path / "shot", [str(folder / m) for m in spec["masks"]], ())
+    from .conftest import copy_of
+
+    result = copy_of(built_case("example:motorcycle")[0], tmp_path / "shot")
     api.simulate(result.shot, SimulateSettings(seconds=0.2))
     stage = layers.open_shot(result.shot)
     write_camera_move(tmp_path / "shot", stage, "orbit-left", 1.0)

@@ -13,7 +13,6 @@ import pytest
 
 from physomni_usd.metrics.motion import CHANGE_LEVELS, changed_shares, frames_with_motion, video_motion
 
-from .conftest import cli
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
 
@@ -61,16 +60,12 @@ def test_the_command_counts_a_videos_frames_and_names_a_bad_file(tmp_path):
 
 
 @pytest.mark.slow  # builds, simulates and renders the motorcycle example: about a minute on a 2-core machine
-def test_the_motorcycle_examples_video_moves_for_at_least_half_its_frames(tmp_path):
-    """Run as examples/motorcycle/run.sh runs it (its example.json: masks and push, no --seconds)."""
-    folder = EXAMPLES / "motorcycle"
-    spec = json.loads((folder / "example.json").read_text())
-    args = [folder / spec["photo"], "-o", tmp_path / "shot", "-q"]
-    for mask in spec["masks"]:
-        args += ["--mask", str(folder / mask)]
-    for push in spec["push"]:
-        args += ["--push", push]
+def test_the_motorcycle_examples_video_moves_for_at_least_half_its_frames(motorcycle_run):
+    """Run by examples/motorcycle/run.sh (its example.json: masks and push, no --seconds; the session's run,
+    tests/conftest.py, which tests/test_still_world.py reads too)."""
+    spec = json.loads((EXAMPLES / "motorcycle" / "example.json").read_text())
     assert "seconds" not in spec  # the take ends a second after the last motion: the still tail counts too
-    cli("run", *args, check=True)
-    result = video_motion(tmp_path / "shot" / "video.mp4")
+    proc, out = motorcycle_run
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    result = video_motion(out / "video.mp4")
     assert result["with_motion"] >= result["frames"] / 2, result

@@ -5,28 +5,23 @@ drawn out when it turns, and no floor shadow of it left in the plate."""
 from __future__ import annotations
 
 import json
-import pathlib
 
 import cv2
 import numpy as np
 import pytest
 from pxr import Gf, Usd, UsdGeom
 
-import physomni_usd as api
 from physomni_usd.bench.look import MAX_WALL, orbit_walls, photo_masks
 from physomni_usd.rendering.video import ShotRenderer
 from physomni_usd.settings import RenderSettings
 
-EXAMPLE = pathlib.Path(__file__).resolve().parents[1] / "examples" / "motorcycle"
-
 
 @pytest.fixture(scope="module")
-def motorcycle(tmp_path_factory):
-    spec = json.loads((EXAMPLE / "example.json").read_text())
-    out = tmp_path_factory.mktemp("motorcycle") / "shot"
-    result = api.build(EXAMPLE / spec["photo"], out, [str(EXAMPLE / m) for m in spec["masks"]])
+def motorcycle(built_case):
+    """The motorcycle example built from its masks: the session's build (tests/conftest.py), read only."""
+    result, _ = built_case("example:motorcycle")
     stage = Usd.Stage.Open(str(result.shot))
-    return json.loads((out / "report.json").read_text()), ShotRenderer(stage)
+    return json.loads((result.folder / "report.json").read_text()), ShotRenderer(stage)
 
 
 def test_nothing_is_painted_behind_what_the_placed_meshes_put_behind(motorcycle):

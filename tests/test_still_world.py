@@ -5,8 +5,6 @@ past the object's edge shows at once."""
 
 from __future__ import annotations
 
-import pathlib
-import subprocess
 
 import cv2
 import numpy as np
@@ -69,14 +67,14 @@ MOTORCYCLE_STILL_PX = 400
 
 
 @pytest.mark.slow
-def test_the_pushed_motorcycle_leaves_the_world_as_the_photo_shows_it(tmp_path):
+def test_the_pushed_motorcycle_leaves_the_world_as_the_photo_shows_it(motorcycle_run):
+    """examples/motorcycle/run.sh as a user runs it (the session's run, tests/conftest.py)."""
     from physomni_usd.metrics.motion import video_motion
-    example = pathlib.Path(__file__).resolve().parents[1] / "examples" / "motorcycle"
-    proc = subprocess.run(["bash", str(example / "run.sh"), str(tmp_path / "moto")], capture_output=True, text=True)
+    proc, out = motorcycle_run
     assert proc.returncode == 0, proc.stderr[-2000:]
-    stage = Usd.Stage.Open(str(tmp_path / "moto" / "shot.usda"))
+    stage = Usd.Stage.Open(str(out / "shot.usda"))
     count, where, moved = still_changes(ShotRenderer(stage), float(stage.GetEndTimeCode()))
     assert "/World/Objects/motorcycle_0" in moved
     assert count <= MOTORCYCLE_STILL_PX, np.argwhere(where)[:10]
-    motion = video_motion(tmp_path / "moto" / "video.mp4")
+    motion = video_motion(out / "video.mp4")
     assert motion["with_motion"] >= motion["frames"] / 2, {k: motion[k] for k in ("frames", "with_motion")}
