@@ -236,3 +236,23 @@ def test_the_settle_reads_the_builds_own_layers_not_the_artists_edits(tmp_path):
     assert z(layers.open_shot(shot, mute_sim=True)) > 0.5  # the edit composes in the shot
     assert z(layers.open_shot(shot, mute_sim=True, mute_edits=True)) < 0.5
     assert "xformOp:translate" in (shot.parent / layers.EDITS).read_text()  # muted, not changed
+
+
+
+def test_a_settle_goes_on_while_what_moves_could_still_be_kept_and_no_longer(tmp_path, monkeypatch):
+    """A settle not at rest after its seconds runs on while something still moving has gone no farther than a
+    kept pose may (a fruit finding the bottom of a hollow comes to rest after the settle's seconds), and ends
+    once what still moves has gone farther (a fall): it does not wait for that to come to rest. Here the
+    settle's seconds end while the box 1 cm up is still dropping (no rest pose yet) and the one 30 cm up falls
+    on after the first has come to rest."""
+    from physomni_usd.physics import settle
+
+    monkeypatch.setattr(settle, "SETTLE_LONGER", 10.0)  # the mechanism, not the build's bound, on a short settle
+    shot, objects = _scene(tmp_path)
+    seconds = 0.1
+    settled = settle_shot(layers.open_shot(shot, mute_sim=True), seconds)
+    m = settled.motions
+    fall_s = np.sqrt(2 * 0.3 / 9.81)  # when the high box reaches the ground
+    assert seconds < settled.simulated_s < fall_s and not settled.at_rest, settled
+    assert m["above"].resting and 0.006 < m["above"].moved_m < 0.014, m["above"]
+    assert m["high"].moved_m > KEEP_M and not m["high"].resting, m["high"]
