@@ -178,6 +178,33 @@ def test_a_pose_kept_then_judged_too_far_goes_back_to_the_photos(tmp_path, monke
     assert info["kept"] == [] and "a" in info["not_kept"], info
 
 
+
+def test_what_rests_on_another_and_what_holds_it_are_kept_together_or_not_at_all(tmp_path, monkeypatch):
+    """Round 1 keeps a pot's and its plant's settled poses; round 2 finds the plant gone too far and the pot
+    settled a little more. The plant goes back where the photo shows it, so the pot must too: kept alone, it
+    would stand moved under a plant placed on where its rim was. A box beside them, kept, stays kept."""
+    from physomni_usd import building
+    from physomni_usd.physics import prepare, settle
+
+    pot, plant, side = box("pot", (0.0, 0.0, BOX / 2)), box("plant", (0.0, 0.0, 1.5 * BOX)), box("side", (1, 0, 0.1))
+    scene = _fake_scene([pot, plant, side])
+    scene.align_info["supports"] = {"plant": {"on": "pot", "seen": "foot"}}
+    small = Motion("x", np.eye(3), np.array([0.0, 0.0, -0.005]), 0.005, 0.0)
+    both = {"pot": small, "plant": small, "side": small}
+    rounds = iter([(dict(both), {}), ({"pot": small}, {"plant": "moved 5.0 cm"})])
+    monkeypatch.setattr(settle, "settle_shot", lambda *_: Settled(motions=dict(both), simulated_s=2.0))
+    monkeypatch.setattr(settle, "judge", lambda *_: next(rounds))
+    monkeypatch.setattr(building.layers, "open_shot", lambda *a, **k: None)
+    monkeypatch.setattr(building, "_settled_overlaps", lambda *_: [])
+    monkeypatch.setattr(prepare, "refuse_unsimulatable", lambda *a, **k: None)
+    writes = []
+    monkeypatch.setattr(building, "_rewrite_settled", lambda s, keep, *_: writes.append(sorted(keep)))
+    building._settle(scene, tmp_path, None, {}, None, set(), lambda m: None)
+    info = scene.align_info["settle"]
+    assert writes == [["plant", "pot", "side"], ["side"]], writes
+    assert info["kept"] == ["side"] and {"pot", "plant"} <= set(info["not_kept"]), info
+
+
 def test_a_settled_write_the_simulator_refuses_goes_back_with_a_warning(tmp_path, monkeypatch):
     from physomni_usd import building
     from physomni_usd.errors import PhysOmniError
