@@ -604,6 +604,7 @@ def _settle(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, field
         info["skipped"] = "force fields act on the shot"
         return
     names = [o.name for o in scene.objects]
+    supports = {n: s["on"] for n, s in (scene.align_info.get("supports") or {}).items()}
     far: dict[str, str] = {}
     placed = [o.vertices.copy() for o in scene.objects]
     total: dict = {}
@@ -629,6 +630,11 @@ def _settle(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, field
         settled.motions = {n: m.after(total.get(n), placed[names.index(n)]) for n, m in settled.motions.items()}
         keep, gone = judge(settled, names, placed, [o.faces for o in scene.objects], scene.camera, scene.masks)
         keep = {n: m for n, m in keep.items() if n not in again}
+        # what rests on another and what holds it are kept together or not at all: a pot kept where it settled
+        # under a plant put back where the photo shows it left the plant off its rim (511503/013: 1.0 → 4.0 cm)
+        tied = {n for n in names if _tie(n, supports) & set(gone)} - set(gone)
+        gone.update({n: "rests on, or holds, what was not kept" for n in tied if n in keep or n in total})
+        keep = {n: m for n, m in keep.items() if n not in gone}
         far.update(gone)
         undone = sorted(n for n in gone if n in total)  # kept before, gone too far since: back to the photo's
         for n in undone:
@@ -676,6 +682,19 @@ def _settle(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, field
 def _same(a: dict, b: dict) -> bool:
     """The same settled poses (name → the same Motion)."""
     return a.keys() == b.keys() and all(a[n] is b[n] for n in a)
+
+
+def _tie(name: str, supports: dict) -> set[str]:
+    """``name`` and every object that rests on it or holds it, directly or through others (``supports``: upper's
+    name → the name of what it rests on)."""
+    out, grew = {name}, True
+    while grew:
+        grew = False
+        for upper, lower in supports.items():
+            if (upper in out) != (lower in out):
+                out |= {upper, lower}
+                grew = True
+    return out
 
 
 def _settle_back(scene: Scene, verified: dict, placed: list, out: pathlib.Path, photo_path, user_sizes: dict, fields,

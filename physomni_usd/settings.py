@@ -96,7 +96,8 @@ class BuildSettings(_Settings):
     settle_s: Annotated[float, Option(
         "--settle", "Seconds the built scene is simulated with nothing pushed, to keep where each object "
         "settles (a few mm into a bowl's hollow) as its rest pose and to name what falls; it ends early once "
-        "everything is still; 0 writes the scene as placed.")] = Field(
+        "everything is still, and goes on to twice as long while what still moves could yet be kept; 0 writes "
+        "the scene as placed.")] = Field(
         2.0, ge=0.0, le=5.0, description="Seconds of the settle (physics.settle): the built scene simulated "
                                          "with nothing pushed, small settling kept, falls reported; 0: none.")
     gap_m: float = Field(0.002, ge=0.0, le=1.0, description="Clearance left between objects' footprints, metres.")

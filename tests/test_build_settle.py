@@ -178,6 +178,33 @@ def test_a_pose_kept_then_judged_too_far_goes_back_to_the_photos(tmp_path, monke
     assert info["kept"] == [] and "a" in info["not_kept"], info
 
 
+
+def test_what_rests_on_another_and_what_holds_it_are_kept_together_or_not_at_all(tmp_path, monkeypatch):
+    """Round 1 keeps a pot's and its plant's settled poses; round 2 finds the plant gone too far and the pot
+    settled a little more. The plant goes back where the photo shows it, so the pot must too: kept alone, it
+    would stand moved under a plant placed on where its rim was. A box beside them, kept, stays kept."""
+    from physomni_usd import building
+    from physomni_usd.physics import prepare, settle
+
+    pot, plant, side = box("pot", (0.0, 0.0, BOX / 2)), box("plant", (0.0, 0.0, 1.5 * BOX)), box("side", (1, 0, 0.1))
+    scene = _fake_scene([pot, plant, side])
+    scene.align_info["supports"] = {"plant": {"on": "pot", "seen": "foot"}}
+    small = Motion("x", np.eye(3), np.array([0.0, 0.0, -0.005]), 0.005, 0.0)
+    both = {"pot": small, "plant": small, "side": small}
+    rounds = iter([(dict(both), {}), ({"pot": small}, {"plant": "moved 5.0 cm"})])
+    monkeypatch.setattr(settle, "settle_shot", lambda *_: Settled(motions=dict(both), simulated_s=2.0))
+    monkeypatch.setattr(settle, "judge", lambda *_: next(rounds))
+    monkeypatch.setattr(building.layers, "open_shot", lambda *a, **k: None)
+    monkeypatch.setattr(building, "_settled_overlaps", lambda *_: [])
+    monkeypatch.setattr(prepare, "refuse_unsimulatable", lambda *a, **k: None)
+    writes = []
+    monkeypatch.setattr(building, "_rewrite_settled", lambda s, keep, *_: writes.append(sorted(keep)))
+    building._settle(scene, tmp_path, None, {}, None, set(), lambda m: None)
+    info = scene.align_info["settle"]
+    assert writes == [["plant", "pot", "side"], ["side"]], writes
+    assert info["kept"] == ["side"] and {"pot", "plant"} <= set(info["not_kept"]), info
+
+
 def test_a_settled_write_the_simulator_refuses_goes_back_with_a_warning(tmp_path, monkeypatch):
     from physomni_usd import building
     from physomni_usd.errors import PhysOmniError
@@ -236,3 +263,23 @@ def test_the_settle_reads_the_builds_own_layers_not_the_artists_edits(tmp_path):
     assert z(layers.open_shot(shot, mute_sim=True)) > 0.5  # the edit composes in the shot
     assert z(layers.open_shot(shot, mute_sim=True, mute_edits=True)) < 0.5
     assert "xformOp:translate" in (shot.parent / layers.EDITS).read_text()  # muted, not changed
+
+
+
+def test_a_settle_goes_on_while_what_moves_could_still_be_kept_and_no_longer(tmp_path, monkeypatch):
+    """A settle not at rest after its seconds runs on while something still moving has gone no farther than a
+    kept pose may (a fruit finding the bottom of a hollow comes to rest after the settle's seconds), and ends
+    once what still moves has gone farther (a fall): it does not wait for that to come to rest. Here the
+    settle's seconds end while the box 1 cm up is still dropping (no rest pose yet) and the one 30 cm up falls
+    on after the first has come to rest."""
+    from physomni_usd.physics import settle
+
+    monkeypatch.setattr(settle, "SETTLE_LONGER", 10.0)  # the mechanism, not the build's bound, on a short settle
+    shot, objects = _scene(tmp_path)
+    seconds = 0.1
+    settled = settle_shot(layers.open_shot(shot, mute_sim=True), seconds)
+    m = settled.motions
+    fall_s = np.sqrt(2 * 0.3 / 9.81)  # when the high box reaches the ground
+    assert seconds < settled.simulated_s < fall_s and not settled.at_rest, settled
+    assert m["above"].resting and 0.006 < m["above"].moved_m < 0.014, m["above"]
+    assert m["high"].moved_m > KEEP_M and not m["high"].resting, m["high"]

@@ -230,11 +230,12 @@ class GuardedTake:
 
 
 def run_guarded(models, plan: StepPlan, seconds: float, progress=None, echo=lambda m: None,
-                rest_seconds: float | None = None) -> GuardedTake:
+                rest_seconds: float | None = None, stop=None) -> GuardedTake:
     """Step ``seconds`` of ``models`` (a :class:`~.assembly.ShotModels`), one recorded frame per video frame
     from t = 0, under the guard; with ``rest_seconds``, end early once nothing has moved for that long and
     nothing is left to move it (:func:`at_rest`), keeping that still stretch (the take then simulates
-    until then). The take's plan is the last one stepped (a roll-back refines it)."""
+    until then); with ``stop`` (bodies' recorded poses (F, B, 7) up to a frame → bool), end early where it
+    says so. The take's plan is the last one stepped (a roll-back refines it)."""
     frames = int(round(seconds * plan.fps)) + 1
     run = GuardedRun(models.stepper, plan, capture=CAPTURE, stage=models.stage, echo=echo,
                      graphs=models.frame_graphs(CAPTURE))
@@ -244,7 +245,7 @@ def run_guarded(models, plan: StepPlan, seconds: float, progress=None, echo=lamb
     t1, c1 = time.perf_counter(), time.process_time()
     last = frames - 1
     window = max(1, round(rest_seconds * plan.fps)) if rest_seconds else None
-    rest = None
+    rest, ended = None, seconds
     while run.frame < last:
         ok = run.advance()
         if not ok:
@@ -257,14 +258,20 @@ def run_guarded(models, plan: StepPlan, seconds: float, progress=None, echo=lamb
             progress(run.frame, last)
         if window and run.frame < last and at_rest(rec, run.frame, window, models.stepper, run.t):
             rest = {"still_from_s": round((run.frame - window) / plan.fps, 4), "ended_s": round(run.t, 4)}
+            ended = rest["ended_s"]
+            break
+        if stop is not None and stop(rec.body_q[:run.frame + 1]):
+            if run.frame % run.check_every and not run._check():  # checked, as the last frame always is
+                continue
+            ended = round(run.t, 4)
             break
     t_step, cpu_step = time.perf_counter() - t1, time.process_time() - c1
     graphs = run.graphs
-    if rest is not None:
+    if run.frame < last:
         rec.truncate(run.frame + 1)
     capture = {"enabled": graphs.enabled, "frames_replayed": graphs.captured_frames - replayed,
                "graphs": graphs.captures - captures, "graphs_kept": len(graphs.graphs), "error": graphs.error}
-    take = rec.take(run.plan, seconds if rest is None else rest["ended_s"])
+    take = rec.take(run.plan, ended)
     return GuardedTake(take, rest, t_step, capture, round(run.max_speed, 4), sorted(set(models.notes)), run.report(),
                         cpu_step)
 
