@@ -17,7 +17,11 @@ given the full passes stop early that way, most after 2 to 6."""
 
 from __future__ import annotations
 
+import threading
 from functools import lru_cache
+
+#: held while a gate stands in for the solver module's ``warp``: a preview and a build may step on two threads
+_SWAP = threading.RLock()
 
 
 @lru_cache(maxsize=1)
@@ -108,7 +112,7 @@ class PassGate:
         self.usable = (self.module is not None and getattr(self.module, "wp", None) is wp
                        and self.solve is not None and self.apply is not None)
         self.flag = wp.zeros(1, dtype=wp.int32, device=solver.model.device) if self.usable else None
-        self._pending = None
+        self._pending = self._owner = None
 
     def __getattr__(self, name):
         return getattr(self._wp, name)
@@ -118,15 +122,18 @@ class PassGate:
         if not self.usable:
             solver.step(*args)
             return
-        self._pending = None
-        self.module.wp = self
-        try:
-            solver.step(*args)
-        finally:
-            self.module.wp = self._wp
+        with _SWAP:
+            self._pending, self._owner = None, threading.get_ident()
+            self.module.wp = self
+            try:
+                solver.step(*args)
+            finally:
+                self.module.wp, self._owner = self._wp, None
 
     def launch(self, kernel=None, *args, **kwargs):
         wp = self._wp
+        if threading.get_ident() != self._owner:  # an unguarded solver stepping on another thread meanwhile
+            return wp.launch(kernel, *args, **kwargs)
         if kernel is self.solve and not args and "inputs" in kwargs and "outputs" in kwargs:
             self._pending = kwargs
             return None
