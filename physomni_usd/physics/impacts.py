@@ -142,8 +142,11 @@ class PassGate:
             if pending is not None:
                 wp.launch(self.solve, **pending)
             return wp.launch(kernel, *args, **kwargs)
-        first = pending["inputs"][-1] == 0  # Newton's outer_iteration, its last input
-        counts = pending["outputs"][1]
+        outer, counts = pending["inputs"][-1], pending["outputs"][-1]  # Newton's pass index, fired pairs per body
+        if not (isinstance(outer, int) and getattr(counts, "dtype", None) is wp.float32):
+            wp.launch(self.solve, **pending)  # a Newton that lays the pass out otherwise: its loop as it is
+            return wp.launch(kernel, **kwargs)
+        first = outer == 0
 
         def one_pass():
             wp.launch(self.solve, **pending)
