@@ -24,11 +24,23 @@ from functools import lru_cache
 _SWAP = threading.RLock()
 
 
-@lru_cache(maxsize=1)
 def impact_kernel():
     """A kernel setting ``flag[0]`` to 1 where a contact that can touch within ``dt`` seconds (its gap at most
     what its approach closes meanwhile, plus ``reach``) has its two surface points moving apart or together along
     its normal faster than ``speed`` m/s."""
+    return _kernels()[0]
+
+
+def fired_kernel():
+    """A kernel setting ``flag[0]`` to 1 where a restitution pass changed some body (its count of pairs that
+    fired above zero)."""
+    return _kernels()[1]
+
+
+@lru_cache(maxsize=1)
+def _kernels():
+    # both defined before either is launched: a warp module whose kernels are added after it loaded is
+    # compiled again (a second build of this module on a cold cache)
     import warp as wp
 
     @wp.func
@@ -71,22 +83,12 @@ def impact_kernel():
         if gap <= wp.max(closing, 0.0) * dt + reach and wp.abs(closing) > speed:
             flag[0] = 1
 
-    return impact
-
-
-@lru_cache(maxsize=1)
-def fired_kernel():
-    """A kernel setting ``flag[0]`` to 1 where a restitution pass changed some body (its count of pairs that
-    fired above zero)."""
-    import warp as wp
-
     @wp.kernel
     def fired(count: wp.array(dtype=float), flag: wp.array(dtype=wp.int32)):
         if count[wp.tid()] > 0.0:
             flag[0] = 1
 
-    return fired
-
+    return impact, fired
 
 class PassGate:
     """Newton's restitution passes, each after the first run only where the pass before it changed a body.
@@ -109,12 +111,21 @@ class PassGate:
         self.module = inspect.getmodule(type(solver).step)
         self.solve = getattr(self.module, "solve_manifold_restitution", None)
         self.apply = getattr(self.module, "apply_restitution_deltas", None)
-        self.usable = (self.module is not None and getattr(self.module, "wp", None) is wp
-                       and self.solve is not None and self.apply is not None)
+        # the pass index and the fired pairs per body, found by name: a Newton that renamed or reordered them
+        # is stepped as it is rather than gated on the wrong argument
+        names = [a.label for a in getattr(getattr(self.solve, "adj", None), "args", ())]
+        self._outer_at = names.index("outer_iteration") if "outer_iteration" in names else None
+        self._count_at = names.index("body_manifold_count") if "body_manifold_count" in names else None
+        with _SWAP:  # another thread's gate may hold the module swapped meanwhile
+            plain = getattr(self.module, "wp", None) is wp
+        self.usable = (self.module is not None and plain and self.apply is not None
+                       and self._outer_at is not None and self._count_at is not None)
         self.flag = wp.zeros(1, dtype=wp.int32, device=solver.model.device) if self.usable else None
         self._pending = self._owner = None
 
     def __getattr__(self, name):
+        if name.startswith("_"):  # never through to warp: an instance not yet initialised (a copy) has no _wp
+            raise AttributeError(name)
         return getattr(self._wp, name)
 
     def step(self, solver, *args) -> None:
@@ -127,14 +138,21 @@ class PassGate:
             self.module.wp = self
             try:
                 solver.step(*args)
+                self._flush()  # a solve no apply followed (not Newton's loop today): run it, never drop it
             finally:
                 self.module.wp, self._owner = self._wp, None
+
+    def _flush(self) -> None:
+        pending, self._pending = self._pending, None
+        if pending is not None:
+            self._wp.launch(self.solve, **pending)
 
     def launch(self, kernel=None, *args, **kwargs):
         wp = self._wp
         if threading.get_ident() != self._owner:  # an unguarded solver stepping on another thread meanwhile
             return wp.launch(kernel, *args, **kwargs)
         if kernel is self.solve and not args and "inputs" in kwargs and "outputs" in kwargs:
+            self._flush()
             self._pending = kwargs
             return None
         pending, self._pending = self._pending, None
@@ -142,11 +160,15 @@ class PassGate:
             if pending is not None:
                 wp.launch(self.solve, **pending)
             return wp.launch(kernel, *args, **kwargs)
-        outer, counts = pending["inputs"][-1], pending["outputs"][-1]  # Newton's pass index, fired pairs per body
+        given = list(pending["inputs"]) + list(pending["outputs"])
+        outer = given[self._outer_at] if self._outer_at < len(given) else None
+        counts = given[self._count_at] if self._count_at < len(given) else None
         if not (isinstance(outer, int) and getattr(counts, "dtype", None) is wp.float32):
             wp.launch(self.solve, **pending)  # a Newton that lays the pass out otherwise: its loop as it is
             return wp.launch(kernel, **kwargs)
-        first = outer == 0
+        device = wp.get_device(counts.device)
+        # on a GPU outside a capture the branch would copy the flag to the host and wait, once per pass
+        always = outer == 0 or not (device.is_cpu or device.is_capturing)
 
         def one_pass():
             wp.launch(self.solve, **pending)
@@ -155,7 +177,7 @@ class PassGate:
                       device=counts.device)
             wp.launch(kernel, **kwargs)
 
-        if first:
+        if always:
             one_pass()
         else:
             wp.capture_if(self.flag, on_true=one_pass)
