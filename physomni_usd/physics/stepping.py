@@ -163,7 +163,7 @@ class Stepper:
                     if by_substep:
                         self._step_by_impact(plan, dt)
                     else:
-                        self.solver.step(self.state, self.state_next, self.control, self.contacts, dt)
+                        self._solver_step(dt)
                     self.state, self.state_next = self.state_next, self.state
                     if self.damping is not None:
                         self.damping.apply(self.model, self.state, dt)
@@ -223,13 +223,38 @@ class Stepper:
                           IMPACT_SPEED],
                   outputs=[flag], device=m.device)
         full, rest = plan.restitution_passes(1e9), plan.restitution_passes(0.0)
-        solver, state, state_next = self.solver, self.state, self.state_next
+        solver = self.solver
 
         def step(passes):
             solver.rigid_contact_restitution_iterations = passes
-            solver.step(state, state_next, self.control, c, dt)
+            self._solver_step(dt)
 
         wp.capture_if(flag, on_true=lambda: step(full), on_false=lambda: step(rest))
+
+    def _solver_step(self, dt: float) -> None:
+        """One substep of the solver; XPBD's restitution passes after one that changed nothing are skipped
+        (``impacts.PassGate``: the same result) where the device can branch within a captured frame."""
+        args = (self.state, self.state_next, self.control, self.contacts, dt)
+        gate = self.__dict__.get("_pass_gate")
+        if gate is None:
+            gate = self._pass_gate = self._make_gate()
+        if gate is False:
+            self.solver.step(*args)
+        else:
+            gate.step(self.solver, *args)
+
+    def _make_gate(self):
+        import warp as wp
+
+        from .impacts import PassGate
+
+        if not (self.contacts is not None and self.model.body_count
+                and hasattr(self.solver, "rigid_contact_restitution_iterations")):
+            return False
+        if not (self.model.device.is_cpu or wp.is_conditional_graph_supported()):
+            return False
+        gate = PassGate(self.solver)
+        return gate if gate.usable else False
 
     def take_work(self) -> float:
         """The fields' work (J) summed on the device since it was last read, and zero it."""
