@@ -592,7 +592,8 @@ def _settle(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, field
 
     Each round is judged from where the photo shows each object. A kept pose that starts inside another
     object as it will be written (one not kept goes back to the photo's pose) is dropped, until none does; one
-    kept before that a later round finds gone too far goes back to the photo's pose. A round the simulator
+    kept before that a later round finds gone too far goes back to the photo's pose, and what rests on or holds
+    one going back, at a settled pose, goes back with it (:func:`_tie`). A round the simulator
     refuses puts the shot back to the last write it accepted, with a warning: the settle never makes a build
     fail that would pass without it. It settles the build's own layers (the artist's edits muted)."""
     from .errors import PhysOmniError
@@ -630,20 +631,30 @@ def _settle(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, field
         settled.motions = {n: m.after(total.get(n), placed[names.index(n)]) for n, m in settled.motions.items()}
         keep, gone = judge(settled, names, placed, [o.faces for o in scene.objects], scene.camera, scene.masks)
         keep = {n: m for n, m in keep.items() if n not in again}
-        # what rests on another and what holds it are kept together or not at all: a pot kept where it settled
-        # under a plant put back where the photo shows it left the plant off its rim (511503/013: 1.0 → 4.0 cm)
-        tied = {n for n in names if _tie(n, supports) & set(gone)} - set(gone)
-        gone.update({n: "rests on, or holds, what was not kept" for n in tied if n in keep or n in total})
+        # what rests on another and what holds it go back to the photo's pose together: a pot kept where it
+        # settled under a plant put back where the photo shows it left the plant off its rim (511503/013: 1.0 →
+        # 4.0 cm)
+        tied = _tie(set(gone), (set(keep) | set(total)) - set(gone), supports)
+        gone.update({n: TIED for n in tied})
         keep = {n: m for n, m in keep.items() if n not in gone}
         far.update(gone)
         undone = sorted(n for n in gone if n in total)  # kept before, gone too far since: back to the photo's
         for n in undone:
             total.pop(n)
-        overlapping = _settled_overlaps(scene, {**total, **keep}, placed, out)
-        for n in overlapping:
-            far[n] = "settles to where it starts inside another object as written"
-            keep.pop(n, None)
-            total.pop(n, None)
+        overlapping: list[str] = []
+        while True:  # a pose dropped for starting inside another takes what it holds or rests on with it
+            dropped = _settled_overlaps(scene, {**total, **keep}, placed, out)
+            for n in dropped:
+                far[n] = "settles to where it starts inside another object as written"
+            tied = _tie(set(dropped), (set(keep) | set(total)) - set(dropped), supports)
+            for n in tied:
+                far[n] = TIED
+            for n in (*dropped, *sorted(tied)):
+                keep.pop(n, None)
+                total.pop(n, None)
+            overlapping += dropped + sorted(tied)
+            if not tied:
+                break
         info["rounds"].append({
             "simulated_s": round(settled.simulated_s, 3), "at_rest": settled.at_rest,
             "seconds": round(settled.seconds, 3),
@@ -684,17 +695,25 @@ def _same(a: dict, b: dict) -> bool:
     return a.keys() == b.keys() and all(a[n] is b[n] for n in a)
 
 
-def _tie(name: str, supports: dict) -> set[str]:
-    """``name`` and every object that rests on it or holds it, directly or through others (``supports``: upper's
-    name → the name of what it rests on)."""
-    out, grew = {name}, True
+#: why an object's settled pose was not kept though it settled little: its neighbour's went back
+TIED = "rests on, or holds, what was not kept"
+
+
+def _tie(back: set[str], moved: set[str], supports: dict) -> set[str]:
+    """The objects of ``moved`` (written at a settled pose) that rest on or hold one going back to the photo's
+    pose (``back``), directly or through others so tied (``supports``: upper's name → the name of what it rests
+    on). The tie runs only through objects that would move back: two fruits in a bowl that stays where the photo
+    shows it are not tied to each other through it."""
+    back, tied, grew = set(back), set(), True
     while grew:
         grew = False
         for upper, lower in supports.items():
-            if (upper in out) != (lower in out):
-                out |= {upper, lower}
-                grew = True
-    return out
+            for a, b in ((upper, lower), (lower, upper)):
+                if a in back and b in moved and b not in back:
+                    back.add(b)
+                    tied.add(b)
+                    grew = True
+    return tied
 
 
 def _settle_back(scene: Scene, verified: dict, placed: list, out: pathlib.Path, photo_path, user_sizes: dict, fields,

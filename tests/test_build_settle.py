@@ -205,6 +205,43 @@ def test_what_rests_on_another_and_what_holds_it_are_kept_together_or_not_at_all
     assert info["kept"] == ["side"] and {"pot", "plant"} <= set(info["not_kept"]), info
 
 
+def test_the_tie_runs_only_through_what_goes_back(tmp_path, monkeypatch):
+    """Two fruits in a bowl that stays where the photo shows it: one rolls away, the other settles a little and
+    is kept (the bowl, not moving, ties nothing). And a kept pot dropped for starting inside another object takes
+    its kept plant back with it, as a pot gone too far does."""
+    from physomni_usd import building
+    from physomni_usd.physics import prepare, settle
+
+    bowl, a, b = box("bowl", (0.0, 0.0, BOX / 2)), box("a", (0.0, 0.0, 1.5 * BOX)), box("b", (0.2, 0.0, 1.5 * BOX))
+    small = Motion("x", np.eye(3), np.array([0.0, 0.0, -0.005]), 0.005, 0.0)
+    monkeypatch.setattr(building.layers, "open_shot", lambda *a, **k: None)
+    monkeypatch.setattr(prepare, "refuse_unsimulatable", lambda *a, **k: None)
+    writes = []
+    monkeypatch.setattr(building, "_rewrite_settled", lambda s, keep, *_: writes.append(sorted(keep)))
+
+    def settle_with(objects, supports, rounds, overlaps):
+        scene = _fake_scene(objects)
+        scene.align_info["supports"] = {n: {"on": on, "seen": "foot"} for n, on in supports.items()}
+        judged, dropped = iter(rounds), iter(overlaps)
+        moving = {o.name: small for o in objects}
+        monkeypatch.setattr(settle, "settle_shot", lambda *_: Settled(motions=dict(moving), simulated_s=2.0))
+        monkeypatch.setattr(settle, "judge", lambda *_: next(judged))
+        monkeypatch.setattr(building, "_settled_overlaps", lambda *_: next(dropped, []))
+        writes.clear()
+        building._settle(scene, tmp_path, None, {}, None, set(), lambda m: None)
+        return scene.align_info["settle"]
+
+    info = settle_with([bowl, a, b], {"a": "bowl", "b": "bowl"}, [({"b": small}, {"a": "moved 5.0 cm"})] * 2, [])
+    assert writes == [["b"]] and info["kept"] == ["b"], (writes, info)
+    assert info["not_kept"] == {"a": "moved 5.0 cm"}, info
+
+    pot, plant = box("pot", (0.0, 0.0, BOX / 2)), box("plant", (0.0, 0.0, 1.5 * BOX))
+    both = {"pot": small, "plant": small}
+    info = settle_with([pot, plant], {"plant": "pot"}, [(dict(both), {}), ({}, {})], [["pot"]])
+    assert info["kept"] == [] and info["not_kept"]["plant"] == building.TIED, info
+    assert info["rounds"][0]["overlapping"] == ["pot", "plant"], info
+
+
 def test_a_settled_write_the_simulator_refuses_goes_back_with_a_warning(tmp_path, monkeypatch):
     from physomni_usd import building
     from physomni_usd.errors import PhysOmniError

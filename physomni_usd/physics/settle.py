@@ -49,8 +49,9 @@ SETTLE_ROUNDS = 2
 STILL_WINDOW_S = 1.0
 #: A settle not at rest after its seconds goes on, up to this many times as long, while an object still moving
 #: has gone no farther than a settled pose may (:data:`KEEP_M`, :data:`KEEP_DEG`): a fruit finding the bottom of
-#: a bowl's hollow (235726/020) came to rest 7.7 mm and 5° from where the photo shows it after 3.4 s, where a
-#: 2 s settle called it still moving, kept nothing, and the shot started it rolling. Where nothing moving can
+#: a bowl's hollow (235726/020) was still at 2.6 s, 7.0 mm and 4.5° from where the photo shows it (7.7 mm and
+#: 5° after the second round), where a 2 s settle called it still moving, kept nothing, and the shot started it
+#: rolling. Where nothing moving can
 #: be kept (still, or gone too far) it ends at its seconds, as before.
 SETTLE_LONGER = 2.0
 
