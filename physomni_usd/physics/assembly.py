@@ -113,7 +113,7 @@ class ShotModels:
         self.soft_dt = None
         for o in self.objects:
             if o.family == "cloth":
-                start, count, self.cloth_sheets[o.path] = add_cloth(builder, o, wp)
+                start, count, self.cloth_sheets[o.path] = add_cloth(builder, o, wp, self.cfg.fps)
                 self.ranges[o.path] = (start, count)
             elif o.family == "soft":
                 start, count, rest, dt_soft = add_soft_body(builder, o, wp)

@@ -300,9 +300,9 @@ def plan_steps(inputs: PlanInputs) -> StepPlan:
         m = float(np.min(cloth_masses[cloth_masses > 0])) if (cloth_masses > 0).any() else 1.0
         dt_cloth = CLOTH_FACTOR * math.sqrt(m / cloth_stiffness)
         wanted = math.ceil(frame / dt_cloth)
-        # what the rule read, and whether MAX_SUBSTEPS bit: the desk example's coin made cloth (0.15 g in
-        # 194 particles, its springs at the stiffness clamp) asks 4,718 substeps, and every rigid body and
-        # contact search of the scene then runs at the cap
+        # what the rule read, and whether MAX_SUBSTEPS bit (a cloth stepped beyond the rule; ``cloth.add_cloth``
+        # softens a light cloth's springs until the cap resolves them); every rigid body and contact search of
+        # the scene runs at the cloth's substeps
         reasons["cloth"] = {"dt": dt_cloth, "substeps": wanted, "lightest_particle_kg": m,
                             "stiffness_n_m": cloth_stiffness, "capped": wanted > MAX_SUBSTEPS}
         need = max(need, wanted)
