@@ -10,8 +10,8 @@ import numpy as np
 
 from physomni_usd.bench import deformable, markdown, rigid, selection
 from physomni_usd.bench.stability import run_matrix
-from physomni_usd.physics.stability import (CLOTH_FACTOR, MPM_STEPS, RIGID_SUBSTEPS, PlanInputs, StepPlan, plan_steps,
-                                            scene_kinds)
+from physomni_usd.physics.stability import (CLOTH_FACTOR, MAX_SUBSTEPS, MPM_STEPS, RIGID_SUBSTEPS, PlanInputs, StepPlan,
+                                            plan_steps, scene_kinds)
 
 from .conftest import cli
 
@@ -137,6 +137,29 @@ def test_mpm_steps_follow_the_material_the_bench_measured():
     assert plan(["mpm_elastic"], wave_speed=0.5).mpm_steps == 4  # CFL asks for 4 only
     p = plan(["mpm_elastic"])
     assert p.substeps % p.mpm_steps == 0 and p.reasons["mpm_cfl"]["capped"]
+
+
+def test_cloth_rule_reads_the_quickest_particle_and_says_when_the_cap_bit():
+    """dt ≤ CLOTH_FACTOR·√(m/k) on the moving particle (a pinned one, mass 0, is left out) of the shortest
+    √(m/k); beyond MAX_SUBSTEPS the plan takes the cap and the report says the rule asked more."""
+    def plan(masses, k=100.0):
+        return plan_steps(PlanInputs([], 30.0, 8, cloth_masses=np.asarray(masses, float), cloth_stiffness=k))
+
+    p = plan([0.0, 1e-3, 4e-3])
+    want = math.ceil((1 / 30) / (CLOTH_FACTOR * math.sqrt(1e-3 / 100.0)))
+    assert p.substeps == want and p.reasons["cloth"]["substeps"] == want
+    assert p.reasons["cloth"]["particle_kg"] == 1e-3 and not p.reasons["cloth"]["capped"]
+    light = plan([5e-7, 7.5e-7])  # the desk's coin made cloth
+    assert light.substeps == MAX_SUBSTEPS and light.reasons["cloth"]["substeps"] > MAX_SUBSTEPS
+    assert light.reasons["cloth"]["capped"] and light.reasons["cloth"]["stiffness_n_m"] == 100.0
+    # per particle: a light cloth softened to 4.5 N/m beside a heavy one at 100 pairs neither's mass with the
+    # other's springs; the shortest √(m/k) is the light one's
+    both = plan_steps(PlanInputs([], 30.0, 8, cloth_masses=np.array([5e-7, 5e-3]),
+                                 cloth_stiffness=np.array([4.5, 100.0])))
+    assert both.reasons["cloth"]["particle_kg"] == 5e-7 and both.reasons["cloth"]["stiffness_n_m"] == 4.5
+    stiff = plan_steps(PlanInputs([], 30.0, 8, cloth_masses=np.array([1e-3, 2e-3, 0.0]),
+                                  cloth_stiffness=np.array([1.0, 100.0, 100.0])))
+    assert stiff.reasons["cloth"]["particle_kg"] == 2e-3 and stiff.reasons["cloth"]["stiffness_n_m"] == 100.0
 
 
 def test_markdown_table_is_dated_and_names_the_machine():

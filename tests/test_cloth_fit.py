@@ -5,6 +5,7 @@ thickness, and a thin object welded into one sheet keeps one layer of triangles 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import trimesh
 from pxr import Sdf, Usd
 
@@ -73,3 +74,38 @@ def test_a_solid_made_cloth_weighs_what_the_solid_did():
     assert abs(areal_density(obj, sheet) * area - 200.0 * box.volume) < 1e-9
     obj.volume_density = None  # a cloth's own density is kg/m² as authored
     assert areal_density(obj, sheet) == 200.0
+
+
+def test_a_light_cloth_is_no_stiffer_than_the_step_cap_resolves():
+    """A 3 cm disc as cloth (4 mm thick, 200 kg/m³ as a solid: 0.6 g) asks, at the stiffness clamp, more substeps
+    than the plan's cap and was stepped beyond the cloth rule; its springs and bending are softened alike until
+    the rule asks no more than the cap. A 1 m sheet of the catalog's cloth keeps the clamp's stiffness."""
+    from types import SimpleNamespace
+
+    from physomni_usd._warp import load_newton, load_warp
+    from physomni_usd.physics.cloth import CLOTH_BEND_KE, CLOTH_SPRING_KE, add_cloth
+    from physomni_usd.physics.stability import MAX_SUBSTEPS, PlanInputs, plan_steps
+
+    wp, newton = load_warp(), load_newton()
+    prim = SimpleNamespace(GetAttribute=lambda name: SimpleNamespace(Get=lambda: None))
+
+    def cloth(mesh, volume_density, fps=30.0):
+        obj = SimpleNamespace(points=np.asarray(mesh.vertices), faces=np.asarray(mesh.faces), params={},
+                              fixed=False, path="/World/Objects/c", volume_density=volume_density, prim=prim,
+                              trimesh=lambda: mesh)
+        builder = newton.ModelBuilder(up_axis=newton.Axis.Z)
+        start, count, _ = add_cloth(builder, obj, wp, fps)
+        masses = np.asarray(builder.particle_mass[start:start + count])
+        plan = plan_steps(PlanInputs([], fps, 8, cloth_masses=masses, cloth_stiffness=max(builder.spring_stiffness)))
+        bend = max(p[0] for p in builder.edge_bending_properties)
+        return plan, max(builder.spring_stiffness), bend
+
+    coin = trimesh.creation.cylinder(radius=0.015, height=0.004, sections=32)
+    for fps in (30.0, 60.0):
+        plan, stretch, bend = cloth(coin, 200.0, fps)
+        assert stretch < CLOTH_SPRING_KE[1] and not plan.reasons["cloth"]["capped"], plan.reasons
+        assert plan.reasons["cloth"]["substeps"] == MAX_SUBSTEPS
+        assert bend / CLOTH_BEND_KE[1] == pytest.approx(stretch / CLOTH_SPRING_KE[1], rel=1e-6)
+    sheet = trimesh.creation.box((1.0, 1.0, 0.002))
+    plan, stretch, bend = cloth(sheet, None)
+    assert stretch == CLOTH_SPRING_KE[1] and bend == CLOTH_BEND_KE[1] and plan.substeps < MAX_SUBSTEPS

@@ -69,7 +69,14 @@ class ShotModels:
         masses = model.particle_mass.numpy() if model.particle_count else np.zeros(0)
         cloth_idx = [np.arange(s, s + n) for p, (s, n) in self.ranges.items()]
         self.cloth_masses = masses[np.concatenate(cloth_idx)] if cloth_idx else None
-        self.cloth_stiffness = max((float(model.spring_stiffness.numpy().max()) if model.spring_count else 0.0), 0.0)
+        # the stiffest spring on each cloth particle
+        stiffest = np.zeros(len(masses))
+        if model.spring_count:
+            ends = model.spring_indices.numpy().reshape(-1, 2)
+            k = model.spring_stiffness.numpy()
+            np.maximum.at(stiffest, ends[:, 0], k)
+            np.maximum.at(stiffest, ends[:, 1], k)
+        self.cloth_stiffness = stiffest[np.concatenate(cloth_idx)] if cloth_idx else 0.0
         self.t_model = time.perf_counter() - t0
         self.t_built = time.perf_counter()
         with wp.ScopedDevice(self.device):
@@ -113,7 +120,7 @@ class ShotModels:
         self.soft_dt = None
         for o in self.objects:
             if o.family == "cloth":
-                start, count, self.cloth_sheets[o.path] = add_cloth(builder, o, wp)
+                start, count, self.cloth_sheets[o.path] = add_cloth(builder, o, wp, self.cfg.fps)
                 self.ranges[o.path] = (start, count)
             elif o.family == "soft":
                 start, count, rest, dt_soft = add_soft_body(builder, o, wp)

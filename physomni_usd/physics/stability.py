@@ -240,7 +240,7 @@ class PlanInputs:
     mpm_steps: int | None = None  # MPM steps per frame given by the user, None: chosen here
     mpm: object = None  # the MPM scene (``mpm.MPMScene``), or None
     cloth_masses: np.ndarray | None = None  # (P,) kg, the cloths' particle masses
-    cloth_stiffness: float = 0.0  # N/m, the stiffest cloth spring
+    cloth_stiffness: float | np.ndarray = 0.0  # N/m, the stiffest cloth spring, or (P,) the stiffest on each particle
     soft_dt: float | None = None  # s, the largest step the soft bodies allow
     acceleration: float = 0.0  # m/s², the largest a force field gives
     field_kinds: tuple = ()  # the force fields' kinds
@@ -296,11 +296,26 @@ def plan_steps(inputs: PlanInputs) -> StepPlan:
     if piled:
         iterations = max(iterations, PILE_ITERATIONS)
         reasons["pile"] = {"held_by_several": piled, "iterations": iterations}
-    if cloth_masses is not None and len(cloth_masses) and cloth_stiffness > 0:
-        m = float(np.min(cloth_masses[cloth_masses > 0])) if (cloth_masses > 0).any() else 1.0
+    stiff = np.broadcast_to(np.asarray(cloth_stiffness, float), np.shape(cloth_masses)) \
+        if cloth_masses is not None else np.zeros(0)
+    if cloth_masses is not None and len(cloth_masses) and (stiff > 0).any():
+        # the particle of the shortest time scale √(m/k): a light cloth softened to the cap beside a heavier one
+        # at the clamp pairs neither's mass with the other's springs
+        moving = (cloth_masses > 0) & (stiff > 0)
+        if moving.any():
+            ratio = cloth_masses[moving] / stiff[moving]
+            i = int(np.argmin(ratio))
+            m, cloth_stiffness = float(cloth_masses[moving][i]), float(stiff[moving][i])
+        else:
+            m, cloth_stiffness = 1.0, float(stiff.max())
         dt_cloth = CLOTH_FACTOR * math.sqrt(m / cloth_stiffness)
-        reasons["cloth"] = {"dt": dt_cloth, "substeps": math.ceil(frame / dt_cloth)}
-        need = max(need, math.ceil(frame / dt_cloth))
+        wanted = math.ceil(frame / dt_cloth)
+        # what the rule read, and whether MAX_SUBSTEPS bit (a cloth stepped beyond the rule; ``cloth.add_cloth``
+        # softens a light cloth's springs until the cap resolves them); every rigid body and contact search of
+        # the scene runs at the cloth's substeps
+        reasons["cloth"] = {"dt": dt_cloth, "substeps": wanted, "particle_kg": m,
+                            "stiffness_n_m": cloth_stiffness, "capped": wanted > MAX_SUBSTEPS}
+        need = max(need, wanted)
     if soft_dt:
         reasons["soft_body"] = {"dt": soft_dt, "substeps": math.ceil(frame / soft_dt)}
         need = max(need, math.ceil(frame / soft_dt))
