@@ -155,25 +155,34 @@ def test_a_kept_pose_that_starts_inside_one_not_kept_is_dropped(tmp_path):
     assert _settled_overlaps(scene, {"a": into_b, "b": away}, placed, shot.parent) == []
 
 
-def test_a_pose_kept_then_judged_too_far_goes_back_to_the_photos(tmp_path, monkeypatch):
-    """Round 1 keeps A's settled pose; round 2 finds it went on too far: the shot is written with A where
-    the photo shows it, and the report says it is not kept — report and shot agree."""
+def _settle_with(monkeypatch, tmp_path, objects, rounds, motions, supports=None, overlaps=()):
+    """``building._settle`` on a stand-in scene of ``objects`` whose settle gives ``motions`` every round,
+    judged as ``rounds`` (keep, gone) say, with ``overlaps`` the poses each round's overlap check drops:
+    returns (the kept names of each write, ``alignment.settle``)."""
     from physomni_usd import building
     from physomni_usd.physics import prepare, settle
 
-    a = box("a", (0.0, 0.0, BOX / 2))
-    scene = _fake_scene([a])
-    small = Motion("a", np.eye(3), np.array([0.0, 0.0, -0.005]), 0.005, 0.0)
-    rounds = iter([({"a": small}, {}), ({}, {"a": "moved 5.0 cm"})])
-    monkeypatch.setattr(settle, "settle_shot", lambda *_: Settled(motions={"a": small}, simulated_s=2.0))
-    monkeypatch.setattr(settle, "judge", lambda *_: next(rounds))
+    scene = _fake_scene(objects)
+    scene.align_info["supports"] = {n: {"on": on, "seen": "foot"} for n, on in (supports or {}).items()}
+    judged, dropped = iter(rounds), iter(overlaps)
+    monkeypatch.setattr(settle, "settle_shot", lambda *_: Settled(motions=dict(motions), simulated_s=2.0))
+    monkeypatch.setattr(settle, "judge", lambda *_: next(judged))
     monkeypatch.setattr(building.layers, "open_shot", lambda *a, **k: None)
-    monkeypatch.setattr(building, "_settled_overlaps", lambda *_: [])
+    monkeypatch.setattr(building, "_settled_overlaps", lambda *_: next(dropped, []))
     monkeypatch.setattr(prepare, "refuse_unsimulatable", lambda *a, **k: None)
     writes = []
     monkeypatch.setattr(building, "_rewrite_settled", lambda s, keep, *_: writes.append(sorted(keep)))
     building._settle(scene, tmp_path, None, {}, None, set(), lambda m: None)
-    info = scene.align_info["settle"]
+    return writes, scene.align_info["settle"]
+
+
+def test_a_pose_kept_then_judged_too_far_goes_back_to_the_photos(tmp_path, monkeypatch):
+    """Round 1 keeps A's settled pose; round 2 finds it went on too far: the shot is written with A where
+    the photo shows it, and the report says it is not kept — report and shot agree."""
+    a = box("a", (0.0, 0.0, BOX / 2))
+    small = Motion("a", np.eye(3), np.array([0.0, 0.0, -0.005]), 0.005, 0.0)
+    writes, info = _settle_with(monkeypatch, tmp_path, [a], [({"a": small}, {}), ({}, {"a": "moved 5.0 cm"})],
+                                {"a": small})
     assert writes == [["a"], []], writes
     assert info["kept"] == [] and "a" in info["not_kept"], info
 
@@ -183,24 +192,12 @@ def test_what_rests_on_another_and_what_holds_it_are_kept_together_or_not_at_all
     """Round 1 keeps a pot's and its plant's settled poses; round 2 finds the plant gone too far and the pot
     settled a little more. The plant goes back where the photo shows it, so the pot must too: kept alone, it
     would stand moved under a plant placed on where its rim was. A box beside them, kept, stays kept."""
-    from physomni_usd import building
-    from physomni_usd.physics import prepare, settle
-
     pot, plant, side = box("pot", (0.0, 0.0, BOX / 2)), box("plant", (0.0, 0.0, 1.5 * BOX)), box("side", (1, 0, 0.1))
-    scene = _fake_scene([pot, plant, side])
-    scene.align_info["supports"] = {"plant": {"on": "pot", "seen": "foot"}}
     small = Motion("x", np.eye(3), np.array([0.0, 0.0, -0.005]), 0.005, 0.0)
     both = {"pot": small, "plant": small, "side": small}
-    rounds = iter([(dict(both), {}), ({"pot": small}, {"plant": "moved 5.0 cm"})])
-    monkeypatch.setattr(settle, "settle_shot", lambda *_: Settled(motions=dict(both), simulated_s=2.0))
-    monkeypatch.setattr(settle, "judge", lambda *_: next(rounds))
-    monkeypatch.setattr(building.layers, "open_shot", lambda *a, **k: None)
-    monkeypatch.setattr(building, "_settled_overlaps", lambda *_: [])
-    monkeypatch.setattr(prepare, "refuse_unsimulatable", lambda *a, **k: None)
-    writes = []
-    monkeypatch.setattr(building, "_rewrite_settled", lambda s, keep, *_: writes.append(sorted(keep)))
-    building._settle(scene, tmp_path, None, {}, None, set(), lambda m: None)
-    info = scene.align_info["settle"]
+    writes, info = _settle_with(monkeypatch, tmp_path, [pot, plant, side],
+                                [(dict(both), {}), ({"pot": small}, {"plant": "moved 5.0 cm"})], both,
+                                supports={"plant": "pot"})
     assert writes == [["plant", "pot", "side"], ["side"]], writes
     assert info["kept"] == ["side"] and {"pot", "plant"} <= set(info["not_kept"]), info
 
@@ -210,34 +207,19 @@ def test_the_tie_runs_only_through_what_goes_back(tmp_path, monkeypatch):
     is kept (the bowl, not moving, ties nothing). And a kept pot dropped for starting inside another object takes
     its kept plant back with it, as a pot gone too far does."""
     from physomni_usd import building
-    from physomni_usd.physics import prepare, settle
 
     bowl, a, b = box("bowl", (0.0, 0.0, BOX / 2)), box("a", (0.0, 0.0, 1.5 * BOX)), box("b", (0.2, 0.0, 1.5 * BOX))
     small = Motion("x", np.eye(3), np.array([0.0, 0.0, -0.005]), 0.005, 0.0)
-    monkeypatch.setattr(building.layers, "open_shot", lambda *a, **k: None)
-    monkeypatch.setattr(prepare, "refuse_unsimulatable", lambda *a, **k: None)
-    writes = []
-    monkeypatch.setattr(building, "_rewrite_settled", lambda s, keep, *_: writes.append(sorted(keep)))
-
-    def settle_with(objects, supports, rounds, overlaps):
-        scene = _fake_scene(objects)
-        scene.align_info["supports"] = {n: {"on": on, "seen": "foot"} for n, on in supports.items()}
-        judged, dropped = iter(rounds), iter(overlaps)
-        moving = {o.name: small for o in objects}
-        monkeypatch.setattr(settle, "settle_shot", lambda *_: Settled(motions=dict(moving), simulated_s=2.0))
-        monkeypatch.setattr(settle, "judge", lambda *_: next(judged))
-        monkeypatch.setattr(building, "_settled_overlaps", lambda *_: next(dropped, []))
-        writes.clear()
-        building._settle(scene, tmp_path, None, {}, None, set(), lambda m: None)
-        return scene.align_info["settle"]
-
-    info = settle_with([bowl, a, b], {"a": "bowl", "b": "bowl"}, [({"b": small}, {"a": "moved 5.0 cm"})] * 2, [])
+    three = {n: small for n in ("bowl", "a", "b")}
+    writes, info = _settle_with(monkeypatch, tmp_path, [bowl, a, b], [({"b": small}, {"a": "moved 5.0 cm"})] * 2,
+                                three, supports={"a": "bowl", "b": "bowl"})
     assert writes == [["b"]] and info["kept"] == ["b"], (writes, info)
     assert info["not_kept"] == {"a": "moved 5.0 cm"}, info
 
     pot, plant = box("pot", (0.0, 0.0, BOX / 2)), box("plant", (0.0, 0.0, 1.5 * BOX))
     both = {"pot": small, "plant": small}
-    info = settle_with([pot, plant], {"plant": "pot"}, [(dict(both), {}), ({}, {})], [["pot"]])
+    _, info = _settle_with(monkeypatch, tmp_path, [pot, plant], [(dict(both), {}), ({}, {})], both,
+                           supports={"plant": "pot"}, overlaps=[["pot"]])
     assert info["kept"] == [] and info["not_kept"]["plant"] == building.TIED, info
     assert info["rounds"][0]["overlapping"] == ["pot", "plant"], info
 
