@@ -94,11 +94,16 @@ def test_a_light_cloth_is_no_stiffer_than_the_step_cap_resolves():
                               fixed=False, path="/World/Objects/c", volume_density=volume_density, prim=prim,
                               trimesh=lambda: mesh)
         builder = newton.ModelBuilder(up_axis=newton.Axis.Z)
-        start, count, _ = add_cloth(builder, obj, wp, fps)
+        start, count, made = add_cloth(builder, obj, wp, fps)
         masses = np.asarray(builder.particle_mass[start:start + count])
         plan = plan_steps(PlanInputs([], fps, 8, cloth_masses=masses, cloth_stiffness=max(builder.spring_stiffness)))
         bend = max(p[0] for p in builder.edge_bending_properties)
+        # what report.json says of it: the stiffness simulated, and what it was softened from, if it was
+        assert made.spring_n_m == pytest.approx(max(builder.spring_stiffness), rel=1e-6)
+        softened.append(made.softened_from_n_m)
         return plan, max(builder.spring_stiffness), bend
+
+    softened = []
 
     coin = trimesh.creation.cylinder(radius=0.015, height=0.004, sections=32)
     for fps in (30.0, 60.0):
@@ -109,3 +114,26 @@ def test_a_light_cloth_is_no_stiffer_than_the_step_cap_resolves():
     sheet = trimesh.creation.box((1.0, 1.0, 0.002))
     plan, stretch, bend = cloth(sheet, None)
     assert stretch == CLOTH_SPRING_KE[1] and bend == CLOTH_BEND_KE[1] and plan.substeps < MAX_SUBSTEPS
+    assert softened == [CLOTH_SPRING_KE[1], CLOTH_SPRING_KE[1], None], softened
+
+
+def test_a_softened_cloth_is_said_and_reported(tmp_path):
+    """A light coin made cloth is simulated with softer springs than its material asks: ``simulate`` says so in
+    one line and report.json's cloth entry gives both stiffnesses; a cloth left as asked says nothing."""
+    from physomni_usd.bench.scenes import BenchObject, write_bench_shot
+    from physomni_usd.physics.simulate import simulate_shot
+    from physomni_usd.settings import SimulateSettings
+
+    def run(density):
+        coin = trimesh.creation.cylinder(radius=0.015, height=0.004, sections=32)
+        coin.apply_translation((0.0, 0.0, 0.01))
+        shot = write_bench_shot(tmp_path / str(density), [BenchObject("coin", coin, "pbd_cloth", {"density": density})])
+        said = []
+        section = simulate_shot(shot, SimulateSettings(seconds=0.05), echo=said.append)
+        return [line for line in said if "softened" in line], section["cloths"]["coin"]
+
+    lines, entry = run(0.1)
+    assert len(lines) == 1 and "coin" in lines[0] and "fps" in lines[0], lines
+    assert entry["softened_from_n_m"] == 100.0 and 0 < entry["spring_n_m"] < 100.0, entry
+    lines, entry = run(200.0)
+    assert lines == [] and "softened_from_n_m" not in entry and entry["spring_n_m"] == 100.0, entry

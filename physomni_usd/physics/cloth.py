@@ -80,6 +80,8 @@ class ClothSheet:
     triangles: np.ndarray  # (T, 3) indices into particles
     index: np.ndarray  # (V,) the particle each surface vertex follows
     offset: np.ndarray  # (V, 3) the surface vertex's offset from that particle at rest
+    softened_from_n_m: float | None = None  # its springs' stiffness before ``add_cloth`` softened them, if it did
+    spring_n_m: float | None = None  # N/m, its springs' stiffness as simulated
 
 
 def cloth_sheet(points: np.ndarray, faces: np.ndarray) -> ClothSheet:
@@ -254,6 +256,8 @@ def add_cloth(builder, obj, wp, fps: float = 30.0) -> tuple[int, int, ClothSheet
             for e in range(first_edge, len(builder.edge_bending_properties)):
                 ke, kd_e = builder.edge_bending_properties[e]
                 builder.edge_bending_properties[e] = (ke * soften, kd_e)
+            sheet.softened_from_n_m = float(stretch / soften)
+        sheet.spring_n_m = float(stretch)
         bound = CLOTH_DAMPING_SHARE * np.sqrt(light * stretch) / (per_particle * CLOTH_FACTOR)
         kd = min(CLOTH_SPRING_KD, float(bound))
         builder.spring_damping[first_spring:] = [kd] * (len(builder.spring_damping) - first_spring)

@@ -43,6 +43,12 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     if sim.supported:
         echo(f"simulate: {', '.join(sim.supported)} cannot stand on what the photo shows of "
              f"{'it' if len(sim.supported) == 1 else 'them'}: standing on {'its' if len(sim.supported) == 1 else 'their'} footprint")
+    for o in objects:
+        sheet = sim.cloth_sheets.get(o.path) if o.family == "cloth" else None
+        if sheet is not None and sheet.softened_from_n_m:
+            echo(f"simulate: {o.name}'s cloth springs softened from {sheet.softened_from_n_m:.3g} to "
+                 f"{sheet.spring_n_m:.3g} N/m (its bending alike): stiffer, its light particles would need more "
+                 f"substeps than a frame allows at {cfg.fps:g} fps (a higher --fps steps finer)")
     run = run_guarded(sim, plan, settings.seconds, progress, echo, rest_seconds=settings.rest_seconds)
     take = run.take
     if run.rest is not None:
@@ -67,7 +73,7 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
         "ended_at_rest": run.rest,
         "bodies": len(sim.path_body), "moving_prims": moved,
         "objects": {o.name: {"material": o.kind, "solver": o.family} for o in objects},
-        "cloths": {o.name: {"particles": sim.ranges[o.path][1]} for o in objects if o.family == "cloth"},
+        "cloths": {o.name: _cloth_entry(sim, o) for o in objects if o.family == "cloth"},
         "soft_bodies": {o.name: {"particles": sim.ranges[o.path][1]} for o in objects if o.family == "soft"},
         "mpm": ({"particles": sim.mpm.model.particle_count, "spacing_m": sim.mpm.spacing,
                  "voxel_m": sim.mpm.solver.voxel_size,
@@ -85,3 +91,15 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
     }
     update_report(folder, simulate=section)
     return section
+
+
+def _cloth_entry(sim, o) -> dict:
+    """report.json's entry for a cloth: its particles, its springs' stiffness as simulated, and what they were
+    softened from where ``cloth.add_cloth`` softened them."""
+    sheet = sim.cloth_sheets[o.path]
+    entry = {"particles": sim.ranges[o.path][1]}
+    if sheet.spring_n_m is not None:
+        entry["spring_n_m"] = round(sheet.spring_n_m, 4)
+    if sheet.softened_from_n_m:
+        entry["softened_from_n_m"] = round(sheet.softened_from_n_m, 4)
+    return entry
