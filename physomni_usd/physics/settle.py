@@ -5,7 +5,8 @@ Placement is geometry: a fruit put in a bowl's hollow, a plant on its pot's rim,
 where the photo shows them, on supports the geometric passes judged steady. Whether they stay is the
 simulator's to say, so ``build`` asks it (:func:`settle_shot`): the shot as written, nothing pushed and no
 force field acting, is stepped until everything is still (``runner.at_rest``) or the settle's seconds are
-up (longer, :data:`SETTLE_LONGER`, while what still moves could yet come to rest near where it stood). Each rigid object's motion is then judged (:func:`judge`):
+up (longer, :data:`SETTLE_LONGER`, while what still moves could yet come to rest near where it stood). Each
+rigid object's motion is then judged (:func:`judge`):
 
 - still (every point within ``runner.REST_METRES``, turned under :data:`STILL_DEG`): nothing changes;
 - settled a little (within :data:`KEEP_M` and :data:`KEEP_DEG`) and come to rest (still over the settle's last
@@ -51,8 +52,7 @@ STILL_WINDOW_S = 1.0
 #: has gone no farther than a settled pose may (:data:`KEEP_M`, :data:`KEEP_DEG`): a fruit finding the bottom of
 #: a bowl's hollow (235726/020) was still at 2.6 s, 7.0 mm and 4.5° from where the photo shows it (7.7 mm and
 #: 5° after the second round), where a 2 s settle called it still moving, kept nothing, and the shot started it
-#: rolling. Where nothing moving can
-#: be kept (still, or gone too far) it ends at its seconds, as before.
+#: rolling. Where nothing moving can be kept (still, or gone too far) it ends at its seconds, as before.
 SETTLE_LONGER = 2.0
 
 
@@ -101,7 +101,8 @@ class Settled:
 
 def settle_shot(stage, seconds: float, echo=lambda m: None) -> Settled:
     """Simulate the composed ``stage`` (a built shot, its sim layer muted) for ``seconds`` with nothing pushed
-    (longer while what moves could still be kept: :data:`SETTLE_LONGER`; shorter once all is still), as ``simulate`` would (``physics.prepare``, ``runner.run_guarded``), and return each rigid
+    (longer while what moves could still be kept: :data:`SETTLE_LONGER`; shorter once all is still), as
+    ``simulate`` would (``physics.prepare``, ``runner.run_guarded``), and return each rigid
     object's motion from its start to the end. A scene with a non-rigid object or a force field is not
     settled (``skipped`` says why): their motion under gravity is the shot's, not a placement's error."""
     from ..settings import SimulateSettings
@@ -118,8 +119,8 @@ def settle_shot(stage, seconds: float, echo=lambda m: None) -> Settled:
     # a model of its own (reuse False), not simulate's cached one: a rewound model does not step exactly as a new
     # one (235726/004 simulated twice in one process: a bowl moved 12.2 mm, then 7.8 mm), so a simulate after a
     # settle that kept nothing runs as it would have without one; reused, it saved 0.45 s of 0.6 s at load 15
-    prep = prepare_simulation(stage, SimulateSettings(seconds=SETTLE_LONGER * seconds, rest_seconds=window), reuse=False,
-                              echo=echo)  # a first settle compiles the solver's kernels: say so
+    prep = prepare_simulation(stage, SimulateSettings(seconds=SETTLE_LONGER * seconds, rest_seconds=window),
+                              reuse=False, echo=echo)  # a first settle compiles the solver's kernels: say so
     models = prep.models
     if models.fields.fields:
         return Settled(skipped="force fields act on the shot", seconds=time.perf_counter() - t0)
@@ -138,10 +139,8 @@ def settle_shot(stage, seconds: float, echo=lambda m: None) -> Settled:
             return False
         for o in free.values():
             b = models.path_body[o.path]
-            turned = np.degrees((Rotation.from_quat(q[f, b, 3:7]) * Rotation.from_quat(start[b, 3:7]).inv())
-                                .magnitude())
-            if (_moved(o.points, start[b], q[f - steps, b], q[f, b]) > REST_METRES and turned <= KEEP_DEG
-                    and _moved(o.points, start[b], start[b], q[f, b]) <= KEEP_M):
+            if (_turned(start[b], q[f, b]) <= KEEP_DEG and _moved(o.points, start[b], start[b], q[f, b]) <= KEEP_M
+                    and _moved(o.points, start[b], q[f - steps, b], q[f, b]) > REST_METRES):
                 return False
         return True
 
@@ -156,11 +155,15 @@ def settle_shot(stage, seconds: float, echo=lambda m: None) -> Settled:
         rot = (r1 * r0.inv()).as_matrix()
         trans = end[b, :3] - start[b, :3] @ rot.T
         moved = float(np.linalg.norm(o.points @ rot.T + trans - o.points, axis=1).max())
-        turned = float(np.degrees((r1 * r0.inv()).magnitude()))
-        out.motions[o.name] = Motion(o.name, rot, trans, moved, turned,
+        out.motions[o.name] = Motion(o.name, rot, trans, moved, _turned(start[b], end[b]),
                                      _moved(o.points, start[b], last[b], end[b]) <= REST_METRES)
     out.seconds = time.perf_counter() - t0
     return out
+
+
+def _turned(a: np.ndarray, b: np.ndarray) -> float:
+    """Degrees a body turned between its poses ``a`` and ``b`` (x y z qx qy qz qw)."""
+    return float(np.degrees((Rotation.from_quat(b[3:7]) * Rotation.from_quat(a[3:7]).inv()).magnitude()))
 
 
 def _moved(points: np.ndarray, start: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:

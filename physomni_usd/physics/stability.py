@@ -298,14 +298,13 @@ def plan_steps(inputs: PlanInputs) -> StepPlan:
         reasons["pile"] = {"held_by_several": piled, "iterations": iterations}
     stiff = np.broadcast_to(np.asarray(cloth_stiffness, float), np.shape(cloth_masses)) \
         if cloth_masses is not None else np.zeros(0)
-    if cloth_masses is not None and len(cloth_masses) and (stiff > 0).any():
+    if len(stiff) and (stiff > 0).any():
         # the particle of the shortest time scale √(m/k): a light cloth softened to the cap beside a heavier one
         # at the clamp pairs neither's mass with the other's springs
-        moving = (cloth_masses > 0) & (stiff > 0)
-        if moving.any():
-            ratio = cloth_masses[moving] / stiff[moving]
-            i = int(np.argmin(ratio))
-            m, cloth_stiffness = float(cloth_masses[moving][i]), float(stiff[moving][i])
+        sprung = (cloth_masses > 0) & (stiff > 0)
+        if sprung.any():
+            i = int(np.argmin(cloth_masses[sprung] / stiff[sprung]))
+            m, cloth_stiffness = float(cloth_masses[sprung][i]), float(stiff[sprung][i])
         else:
             m, cloth_stiffness = 1.0, float(stiff.max())
         dt_cloth = CLOTH_FACTOR * math.sqrt(m / cloth_stiffness)
