@@ -51,7 +51,7 @@ def _drop_onto_box(tmp_path, monkeypatch, gated: bool, capture: bool):
 
     monkeypatch.setattr(runner, "CAPTURE", capture)
     if not gated:
-        monkeypatch.setattr(Stepper, "_make_gate", lambda self: False)
+        monkeypatch.setattr(Stepper, "_make_gate", lambda self: None)
     passes = collections.Counter()
     launch = wp.launch
 

@@ -6,7 +6,7 @@ force fields applied, pushes given. ``simulate``, ``bench physics`` and the test
 from __future__ import annotations
 
 import time
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 
@@ -235,13 +235,15 @@ class Stepper:
         """One substep of the solver; XPBD's restitution passes after one that changed nothing are skipped
         (``impacts.PassGate``: the same result) where the device can branch within a captured frame."""
         args = (self.state, self.state_next, self.control, self.contacts, dt)
-        gate = self.__dict__.get("_pass_gate")
-        if gate is None:
-            gate = self._pass_gate = self._make_gate()
-        if gate is False:
+        if self._pass_gate is None:
             self.solver.step(*args)
         else:
-            gate.step(self.solver, *args)
+            self._pass_gate.step(self.solver, *args)
+
+    @cached_property
+    def _pass_gate(self):
+        """The :class:`~.impacts.PassGate` for this solver, or None where it cannot act; made on first use."""
+        return self._make_gate()
 
     def _make_gate(self):
         import warp as wp
@@ -250,11 +252,11 @@ class Stepper:
 
         if not (self.contacts is not None and self.model.body_count
                 and hasattr(self.solver, "rigid_contact_restitution_iterations")):
-            return False
+            return None
         if not (self.model.device.is_cpu or wp.is_conditional_graph_supported()):
-            return False
+            return None
         gate = PassGate(self.solver)
-        return gate if gate.usable else False
+        return gate if gate.usable else None
 
     def take_work(self) -> float:
         """The fields' work (J) summed on the device since it was last read, and zero it."""
