@@ -66,3 +66,26 @@ def test_a_push_or_a_field_still_to_come_keeps_the_take_going():
     assert not at_rest(rec, 40, 30, SimpleNamespace(pending=[], fields=SimpleNamespace(fields=[wind])), 40 / 30)
     over = SimpleNamespace(enabled=True, end_time=1.0)
     assert at_rest(rec, 40, 30, SimpleNamespace(pending=[], fields=SimpleNamespace(fields=[over])), 40 / 30)
+
+
+def test_a_take_at_rest_ends_on_a_frame_the_guard_checked(tmp_path, monkeypatch):
+    """The guard checks every few frames; a take that ends early at rest ends on a checked frame, as the last
+    frame of a full take is, so its last pose is one the guard passed."""
+    from physomni_usd.physics import runner
+
+    checked, check, init = [], runner.GuardedRun._check, runner.GuardedRun.__init__
+
+    def counting(self):
+        checked.append(self.frame)
+        return check(self)
+
+    def every_fourth(self, *a, **k):  # this slide comes to rest on a multiple of the default cadence
+        init(self, *a, **k)
+        self.check_every = 4
+
+    monkeypatch.setattr(runner.GuardedRun, "_check", counting)
+    monkeypatch.setattr(runner.GuardedRun, "__init__", every_fourth)
+    report, _, _ = _slide(tmp_path / "rest", REST_SECONDS)
+    last = report["frames"] - 1
+    assert report["ended_at_rest"] is not None and last % 4  # an end between the guard's checks
+    assert last in checked, (last, checked[-5:])

@@ -257,6 +257,8 @@ def run_guarded(models, plan: StepPlan, seconds: float, progress=None, echo=lamb
         if progress:
             progress(run.frame, last)
         if window and run.frame < last and at_rest(rec, run.frame, window, models.stepper, run.t):
+            if run.frame % run.check_every and not run._check():  # a take never ends on an unchecked frame
+                continue
             rest = {"still_from_s": round((run.frame - window) / plan.fps, 4), "ended_s": round(run.t, 4)}
             ended = rest["ended_s"]
             break
