@@ -137,3 +137,37 @@ def test_a_softened_cloth_is_said_and_reported(tmp_path):
     assert entry["softened_from_n_m"] == 100.0 and 0 < entry["spring_n_m"] < 100.0, entry
     lines, entry = run(200.0)
     assert lines == [] and "softened_from_n_m" not in entry and entry["spring_n_m"] == 100.0, entry
+
+
+def test_the_cloth_rule_pairs_each_particle_with_its_own_stiffest_spring(tmp_path):
+    """Two cloths and a soft body in one model: a light coin (softened below the clamp), a heavy sheet at the
+    clamp and a jelly whose particles have no springs. The plan must read the coin's lightest particle with the
+    coin's own (softened) springs: the sheet's 100 N/m on the coin's mass, or a soft body's particle read as
+    a cloth's, would ask beyond the cap and name another particle or stiffness."""
+    from physomni_usd.bench.scenes import BenchObject, write_bench_shot
+    from physomni_usd.physics.cloth import CLOTH_SPRING_KE
+    from physomni_usd.physics.prepare import prepare_simulation
+    from physomni_usd.physics.stability import MAX_SUBSTEPS
+    from physomni_usd.settings import SimulateSettings
+    from physomni_usd.usd import layers
+
+    coin = trimesh.creation.cylinder(radius=0.015, height=0.004, sections=32)
+    coin.apply_translation((-0.3, 0.0, 0.01))
+    sheet = trimesh.creation.box((0.3, 0.3, 0.004))
+    sheet.apply_translation((0.3, 0.0, 0.01))
+    jelly = trimesh.creation.box((0.01, 0.01, 0.01))
+    jelly.apply_translation((0.0, 0.3, 0.005))
+    shot = write_bench_shot(tmp_path / "shot", [BenchObject("coin", coin, "pbd_cloth", {"density": 0.1}),
+                                                BenchObject("sheet", sheet, "pbd_cloth", {"density": 200.0}),
+                                                BenchObject("jelly", jelly, "pbd_elastic", {"density": 1.0})])
+    prepared = prepare_simulation(layers.open_shot(shot, mute_sim=True), SimulateSettings(seconds=0.1))
+    models, cloth = prepared.models, prepared.plan.reasons["cloth"]
+    masses = models.model.particle_mass.numpy()
+    (c0, cn), (s0, sn), (j0, jn) = (models.ranges[f"/World/Objects/{n}"] for n in ("coin", "sheet", "jelly"))
+    coin_k = models.cloth_sheets["/World/Objects/coin"].spring_n_m
+    assert coin_k < CLOTH_SPRING_KE[1] == models.cloth_sheets["/World/Objects/sheet"].spring_n_m
+    # the jelly's particles are the lightest of all, the coin's the lightest of the cloths
+    assert masses[j0:j0 + jn].min() < masses[c0:c0 + cn].min() < masses[s0:s0 + sn].min()
+    assert cloth["particle_kg"] == pytest.approx(float(masses[c0:c0 + cn][masses[c0:c0 + cn] > 0].min()), rel=1e-6)
+    assert cloth["stiffness_n_m"] == pytest.approx(coin_k, rel=1e-6)
+    assert cloth["substeps"] <= MAX_SUBSTEPS and not cloth["capped"], cloth
