@@ -325,11 +325,13 @@ def plan_steps(inputs: PlanInputs) -> StepPlan:
             m, cloth_stiffness = 1.0, float(stiff.max())
         dt_cloth = CLOTH_FACTOR * math.sqrt(m / cloth_stiffness)
         wanted = math.ceil(frame / dt_cloth)
-        # what the rule read, and whether MAX_SUBSTEPS bit (a cloth stepped beyond the rule; ``cloth.add_cloth``
-        # softens a light cloth's springs until the cap resolves them); every rigid body and contact search of
-        # the scene runs at the cloth's substeps; its contacts are searched at the rate the rest asks
+        # what the rule read, and whether the substeps taken fall short of it (MAX_SUBSTEPS, or the user's: a
+        # cloth stepped beyond the rule; ``cloth.add_cloth`` softens a light cloth's springs until those substeps
+        # resolve them); every rigid body of the scene runs at the cloth's substeps, its contacts are searched
+        # at the rate the rest asks
+        taken = base_substeps if inputs.fixed_substeps else MAX_SUBSTEPS
         reasons["cloth"] = {"dt": dt_cloth, "substeps": wanted, "particle_kg": m,
-                            "stiffness_n_m": cloth_stiffness, "capped": wanted > MAX_SUBSTEPS}
+                            "stiffness_n_m": cloth_stiffness, "capped": wanted > taken}
         need = max(need, wanted)
     if soft_dt:
         reasons["soft_body"] = {"dt": soft_dt, "substeps": math.ceil(frame / soft_dt)}
