@@ -10,8 +10,8 @@ import numpy as np
 
 from physomni_usd.bench import deformable, markdown, rigid, selection
 from physomni_usd.bench.stability import run_matrix
-from physomni_usd.physics.stability import (CLOTH_FACTOR, MAX_SUBSTEPS, MPM_STEPS, RIGID_SUBSTEPS, PlanInputs, StepPlan,
-                                            plan_steps, scene_kinds)
+from physomni_usd.physics.stability import (CLOTH_FACTOR, MAX_SUBSTEPS, MPM_STEPS, PARTICLE_CONTACT_GAP,
+                                            RIGID_SUBSTEPS, PlanInputs, StepPlan, plan_steps, scene_kinds)
 
 from .conftest import cli
 
@@ -117,7 +117,28 @@ def test_contacts_are_searched_as_often_as_speed_needs():
     plan = StepPlan(30.0, 8, collide_every=8, thinnest=0.2, acceleration=9.81)
     assert plan.collide_interval(0.0) == 8  # resting: once a frame
     assert plan.collide_interval(50.0) == 1  # fast: every substep
-    assert StepPlan(30.0, 8, collide_every=1, thinnest=0.2).collide_interval(0.0) == 1  # cloth present
+    assert StepPlan(30.0, 8, collide_every=1, thinnest=0.2).collide_interval(0.0) == 1  # searched every substep
+
+
+def test_a_light_cloth_is_searched_for_contacts_at_the_rate_the_rest_of_the_scene_asks():
+    """A cloth that asks the cap's substeps does not take the contact search along: it searches as often as the
+    rigid scene would step (8 a frame), more often when a particle could close half its contact gap between
+    searches; a scene whose cloth asks no more than the rest, and a soft body's own rate, keep every substep."""
+    light = plan_steps(PlanInputs([], 30.0, 8, cloth_masses=np.array([5e-7, 7.5e-7]), cloth_stiffness=100.0,
+                                  particles=True))
+    assert light.substeps == MAX_SUBSTEPS and light.collide_every == MAX_SUBSTEPS // 8
+    assert light.particle_gap == PARTICLE_CONTACT_GAP
+    assert light.collide_interval(0.0) == MAX_SUBSTEPS // 8  # at rest: 8 searches a frame
+    # falling at 1 m/s: half the gap is crossed in 0.005 / (1 + g/30) s, fewer substeps than a rigid step's
+    want = int(0.5 * PARTICLE_CONTACT_GAP / ((1.0 + 9.81 / 30.0) * light.dt))
+    assert light.collide_interval(1.0) == want < MAX_SUBSTEPS // 8
+    assert light.collide_interval(100.0) == 1
+    assert light.refined().collide_interval(0.0) == 1  # a retried frame searches every substep
+    heavy = plan_steps(PlanInputs([], 30.0, 8, cloth_masses=np.array([1.0]), cloth_stiffness=100.0, particles=True))
+    assert heavy.substeps == 8 and heavy.collide_every == 1
+    soft = plan_steps(PlanInputs([], 30.0, 8, cloth_masses=np.array([5e-7]), cloth_stiffness=100.0,
+                                 soft_dt=1.0 / (30 * 500), particles=True))
+    assert soft.collide_every == MAX_SUBSTEPS // 500
 
 
 def test_mpm_steps_follow_the_material_the_bench_measured():

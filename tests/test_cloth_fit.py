@@ -89,14 +89,15 @@ def test_a_light_cloth_is_no_stiffer_than_the_step_cap_resolves():
     wp, newton = load_warp(), load_newton()
     prim = SimpleNamespace(GetAttribute=lambda name: SimpleNamespace(Get=lambda: None))
 
-    def cloth(mesh, volume_density, fps=30.0):
+    def cloth(mesh, volume_density, fps=30.0, substeps=None):
         obj = SimpleNamespace(points=np.asarray(mesh.vertices), faces=np.asarray(mesh.faces), params={},
                               fixed=False, path="/World/Objects/c", volume_density=volume_density, prim=prim,
                               trimesh=lambda: mesh)
         builder = newton.ModelBuilder(up_axis=newton.Axis.Z)
-        start, count, made = add_cloth(builder, obj, wp, fps)
+        start, count, made = add_cloth(builder, obj, wp, fps, substeps)
         masses = np.asarray(builder.particle_mass[start:start + count])
-        plan = plan_steps(PlanInputs([], fps, 8, cloth_masses=masses, cloth_stiffness=max(builder.spring_stiffness)))
+        plan = plan_steps(PlanInputs([], fps, substeps or 8, cloth_masses=masses, fixed_substeps=bool(substeps),
+                                     cloth_stiffness=max(builder.spring_stiffness)))
         bend = max(p[0] for p in builder.edge_bending_properties)
         # what report.json says of it: the stiffness simulated, and what it was softened from, if it was
         assert made.spring_n_m == pytest.approx(max(builder.spring_stiffness), rel=1e-6)
@@ -115,6 +116,22 @@ def test_a_light_cloth_is_no_stiffer_than_the_step_cap_resolves():
     plan, stretch, bend = cloth(sheet, None)
     assert stretch == CLOTH_SPRING_KE[1] and bend == CLOTH_BEND_KE[1] and plan.substeps < MAX_SUBSTEPS
     assert softened == [CLOTH_SPRING_KE[1], CLOTH_SPRING_KE[1], None], softened
+    # the user's substeps: the springs are softened to what those resolve, not to the cap's, and the plan,
+    # taking exactly them, meets the rule
+    _, at_cap, _ = cloth(coin, 200.0)
+    for substeps in (100, 2 * MAX_SUBSTEPS):
+        plan, given, _ = cloth(coin, 200.0, 30.0, substeps)
+        assert plan.substeps == substeps and plan.reasons["cloth"]["substeps"] <= substeps
+        assert not plan.reasons["cloth"]["capped"], plan.reasons
+        assert given == pytest.approx(min(CLOTH_SPRING_KE[1], at_cap * (substeps / MAX_SUBSTEPS) ** 2), rel=1e-4)
+    # so is a cloth at the clamp under fewer substeps than it asks
+    plan, given, _ = cloth(sheet, None, 30.0, 4)
+    assert given < CLOTH_SPRING_KE[1] and plan.reasons["cloth"]["substeps"] == 4, plan.reasons
+    assert not plan.reasons["cloth"]["capped"]
+    # a plan whose given substeps fall short of the rule says so
+    short = plan_steps(PlanInputs([], 30.0, 4, cloth_masses=np.array([1e-3]), cloth_stiffness=100.0,
+                                  fixed_substeps=True))
+    assert short.substeps == 4 and short.reasons["cloth"]["capped"], short.reasons
 
 
 def test_a_softened_cloth_is_said_and_reported(tmp_path):
@@ -124,16 +141,56 @@ def test_a_softened_cloth_is_said_and_reported(tmp_path):
     from physomni_usd.physics.simulate import simulate_shot
     from physomni_usd.settings import SimulateSettings
 
-    def run(density):
+    def run(density, substeps=None):
         coin = trimesh.creation.cylinder(radius=0.015, height=0.004, sections=32)
         coin.apply_translation((0.0, 0.0, 0.01))
-        shot = write_bench_shot(tmp_path / str(density), [BenchObject("coin", coin, "pbd_cloth", {"density": density})])
+        shot = write_bench_shot(tmp_path / f"{density}-{substeps}",
+                                [BenchObject("coin", coin, "pbd_cloth", {"density": density})])
         said = []
-        section = simulate_shot(shot, SimulateSettings(seconds=0.05), echo=said.append)
+        section = simulate_shot(shot, SimulateSettings(seconds=0.05, substeps=substeps), echo=said.append)
         return [line for line in said if "softened" in line], section["cloths"]["coin"]
 
     lines, entry = run(0.1)
     assert len(lines) == 1 and "coin" in lines[0] and "fps" in lines[0], lines
     assert entry["softened_from_n_m"] == 100.0 and 0 < entry["spring_n_m"] < 100.0, entry
+    at_cap = entry["spring_n_m"]
     lines, entry = run(200.0)
     assert lines == [] and "softened_from_n_m" not in entry and entry["spring_n_m"] == 100.0, entry
+    # the user's substeps: softened to what they resolve, and the line names the option that steps finer
+    lines, entry = run(0.1, substeps=100)
+    assert len(lines) == 1 and "--substeps 100" in lines[0], lines
+    assert entry["spring_n_m"] == pytest.approx(at_cap / 100, rel=1e-2), (at_cap, entry)  # both rounded
+
+
+def test_the_cloth_rule_pairs_each_particle_with_its_own_stiffest_spring(tmp_path):
+    """Two cloths and a soft body in one model: a light coin (softened below the clamp), a heavy sheet at the
+    clamp and a jelly whose particles have no springs. The plan must read the coin's lightest particle with the
+    coin's own (softened) springs: the sheet's 100 N/m on the coin's mass, or a soft body's particle read as
+    a cloth's, would ask beyond the cap and name another particle or stiffness."""
+    from physomni_usd.bench.scenes import BenchObject, write_bench_shot
+    from physomni_usd.physics.cloth import CLOTH_SPRING_KE
+    from physomni_usd.physics.prepare import prepare_simulation
+    from physomni_usd.physics.stability import MAX_SUBSTEPS
+    from physomni_usd.settings import SimulateSettings
+    from physomni_usd.usd import layers
+
+    coin = trimesh.creation.cylinder(radius=0.015, height=0.004, sections=32)
+    coin.apply_translation((-0.3, 0.0, 0.01))
+    sheet = trimesh.creation.box((0.3, 0.3, 0.004))
+    sheet.apply_translation((0.3, 0.0, 0.01))
+    jelly = trimesh.creation.box((0.01, 0.01, 0.01))
+    jelly.apply_translation((0.0, 0.3, 0.005))
+    shot = write_bench_shot(tmp_path / "shot", [BenchObject("coin", coin, "pbd_cloth", {"density": 0.1}),
+                                                BenchObject("sheet", sheet, "pbd_cloth", {"density": 200.0}),
+                                                BenchObject("jelly", jelly, "pbd_elastic", {"density": 1.0})])
+    prepared = prepare_simulation(layers.open_shot(shot, mute_sim=True), SimulateSettings(seconds=0.1))
+    models, cloth = prepared.models, prepared.plan.reasons["cloth"]
+    masses = models.model.particle_mass.numpy()
+    (c0, cn), (s0, sn), (j0, jn) = (models.ranges[f"/World/Objects/{n}"] for n in ("coin", "sheet", "jelly"))
+    coin_k = models.cloth_sheets["/World/Objects/coin"].spring_n_m
+    assert coin_k < CLOTH_SPRING_KE[1] == models.cloth_sheets["/World/Objects/sheet"].spring_n_m
+    # the jelly's particles are the lightest of all, the coin's the lightest of the cloths
+    assert masses[j0:j0 + jn].min() < masses[c0:c0 + cn].min() < masses[s0:s0 + sn].min()
+    assert cloth["particle_kg"] == pytest.approx(float(masses[c0:c0 + cn][masses[c0:c0 + cn] > 0].min()), rel=1e-6)
+    assert cloth["stiffness_n_m"] == pytest.approx(coin_k, rel=1e-6)
+    assert cloth["substeps"] <= MAX_SUBSTEPS and not cloth["capped"], cloth

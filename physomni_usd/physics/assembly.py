@@ -55,7 +55,7 @@ class ShotModels:
         self.device = str(pick_device(settings.device))
         builder = newton.ModelBuilder(up_axis=newton.Axis.Z)
         self._add_rigid_bodies(builder)
-        self._add_deformables(builder)
+        self._add_deformables(builder, settings.substeps)
         pushes = self._add_controls(builder)
         self._add_fields(builder)
         with wp.ScopedDevice(self.device), warnings.catch_warnings(record=True) as caught:
@@ -110,8 +110,9 @@ class ShotModels:
         # feet for objects whose visible geometry cannot stand where the photo shows them standing
         self.supported = add_hidden_support(builder, objects, self.path_body, _ground_height(stage), newton, wp)
 
-    def _add_deformables(self, builder) -> None:
-        """Cloths and soft bodies as particles of the builder, with what their surfaces follow."""
+    def _add_deformables(self, builder, substeps: int | None = None) -> None:
+        """Cloths and soft bodies as particles of the builder, with what their surfaces follow; ``substeps``:
+        the user's substeps per frame, which the cloths' springs are softened to resolve (None: the cap)."""
         wp = self.wp
         self.ranges = {}  # cloth / soft body path → (first particle, count)
         self.cloth_sheets = {}  # cloth path → its cloth.ClothSheet (how its surface follows its particles)
@@ -120,7 +121,7 @@ class ShotModels:
         self.soft_dt = None
         for o in self.objects:
             if o.family == "cloth":
-                start, count, self.cloth_sheets[o.path] = add_cloth(builder, o, wp, self.cfg.fps)
+                start, count, self.cloth_sheets[o.path] = add_cloth(builder, o, wp, self.cfg.fps, substeps)
                 self.ranges[o.path] = (start, count)
             elif o.family == "soft":
                 start, count, rest, dt_soft = add_soft_body(builder, o, wp)

@@ -200,11 +200,12 @@ def areal_density(obj, sheet: ClothSheet) -> float:
     return obj.volume_density * volume / max(area, 1e-12)
 
 
-def add_cloth(builder, obj, wp, fps: float = 30.0) -> tuple[int, int, ClothSheet]:
+def add_cloth(builder, obj, wp, fps: float = 30.0, substeps: int | None = None) -> tuple[int, int, ClothSheet]:
     """Cloth from the object's own surface made fit for the solver (:func:`cloth_sheet`; springs + bending);
     returns (first particle, count, the sheet, whose particles are where the cloth starts). Its springs are
-    no stiffer than ``stability.MAX_SUBSTEPS`` a frame at ``fps`` resolve (the cloth rule,
-    dt ≤ CLOTH_FACTOR·√(m/k), on its lightest particle), and its bending is softened alike. A small, light
+    no stiffer than the substeps a frame will take at ``fps`` resolve (the cloth rule, dt ≤ CLOTH_FACTOR·√(m/k),
+    on its lightest particle): ``substeps``, the user's, where given, else ``stability.MAX_SUBSTEPS``; its
+    bending is softened alike. A small, light
     object made cloth asks more at the stiffness clamp, and the plan's cap then stepped it beyond the rule:
     the desk example's coin (0.15 g in 194 particles, 4,718 substeps asked, 1,008 taken, beside MPM objects)
     crumpled and rose 3 cm off the desk within a second, the scene's fastest speed 36 m/s; at the stiffness
@@ -248,7 +249,7 @@ def add_cloth(builder, obj, wp, fps: float = 30.0) -> tuple[int, int, ClothSheet
         per_particle = np.bincount(springs, minlength=len(world)).max()
         light = float(floored[floored > 0].min()) if (floored > 0).any() else float(mass.mean())
         # the stiffness the cap resolves, a hair under so that the rule's rounding up stays within it
-        resolved = light * (CLOTH_FACTOR * MAX_SUBSTEPS * fps) ** 2 * (1.0 - 1e-6)
+        resolved = light * (CLOTH_FACTOR * (substeps or MAX_SUBSTEPS) * fps) ** 2 * (1.0 - 1e-6)
         if stretch > resolved:
             soften = float(resolved) / stretch
             stretch = float(resolved)

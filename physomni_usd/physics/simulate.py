@@ -48,7 +48,8 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
         if sheet is not None and sheet.softened_from_n_m:
             echo(f"simulate: {o.name}'s cloth springs softened from {sheet.softened_from_n_m:.3g} to "
                  f"{sheet.spring_n_m:.3g} N/m (its bending alike): stiffer, its light particles would need more "
-                 f"substeps than a frame allows at {cfg.fps:g} fps (a higher --fps steps finer)")
+                 + (f"than the --substeps {settings.substeps} given (more step finer)" if settings.substeps else
+                    f"substeps than a frame allows at {cfg.fps:g} fps (a higher --fps steps finer)"))
     run = run_guarded(sim, plan, settings.seconds, progress, echo, rest_seconds=settings.rest_seconds)
     take = run.take
     if run.rest is not None:

@@ -82,6 +82,10 @@ PILE_ITERATIONS = 16
 PILE_CONTACT_M = 0.003
 #: Energies below this (J) are noise, not growth.
 ENERGY_FLOOR = 1e-3
+#: m beyond a particle's radius within which the contact search gives it a contact with a shape (Newton's
+#: default, written here because the reuse of particle contacts is bounded by it: a contact found at a search
+#: serves while the particle cannot have closed more than half of this on a shape it had none with).
+PARTICLE_CONTACT_GAP = 0.01
 
 
 def reachable_speed(objects, ground_z: float = 0.0) -> float:
@@ -164,14 +168,19 @@ class StepPlan:
     thinnest: float | None = None  # m, the thinnest rigid collider, for :meth:`collide_interval`
     acceleration: float = GRAVITY  # m/s², the largest a body can get (gravity, force fields)
     restitution: bool = True  # XPBD restitution on (see ``plan_steps`` for when it is not)
+    particle_gap: float | None = None  # m, the particles' contact gap where the model steps particles
 
     def collide_interval(self, speed: float) -> int:
-        """Substeps between contact searches for a frame starting at ``speed`` (m/s): contacts found at
-        the frame's start hold while nothing moves more than a quarter of the thinnest collider."""
-        if self.collide_every <= 1 or not self.thinnest:
+        """Substeps between contact searches for a frame whose fastest body or particle starts at ``speed``
+        (m/s): contacts found at a search hold while nothing moves more than a quarter of the thinnest
+        collider, nor a particle more than half its contact gap (:data:`PARTICLE_CONTACT_GAP`)."""
+        reach = [0.25 * self.thinnest] if self.thinnest else []
+        if self.particle_gap:
+            reach.append(0.5 * self.particle_gap)
+        if self.collide_every <= 1 or not reach:
             return 1
         v = speed + self.acceleration / self.fps
-        return max(1, min(self.collide_every, int(0.25 * self.thinnest / max(v * self.dt, 1e-12))))
+        return max(1, min(self.collide_every, int(min(reach) / max(v * self.dt, 1e-12))))
 
     def restitution_passes(self, speed: float) -> int:
         """Outer passes of the restitution solve for a frame starting at ``speed`` (m/s; see
@@ -191,7 +200,7 @@ class StepPlan:
         return StepPlan(self.fps, min(self.substeps * 2, MAX_SUBSTEPS * 4),
                         self.mpm_steps * 2 if self.mpm_steps else 0, dict(self.reasons),
                         min(self.iterations * 2, 200) if self.iterations else None, 1, self.thinnest,
-                        self.acceleration, self.restitution)
+                        self.acceleration, self.restitution, self.particle_gap)
 
     def as_dict(self) -> dict:
         out = {"fps": self.fps, "substeps": self.substeps, "dt": self.dt, "iterations": self.iterations,
@@ -201,12 +210,18 @@ class StepPlan:
         return out
 
 
-def contact_reuse(substeps: int, particles: bool = False) -> int:
+def contact_reuse(substeps: int, particles: bool = False, others: int | None = None) -> int:
     """Most substeps one contact search serves (``StepPlan.collide_every``). A search costs more than an
     XPBD substep, so rigid scenes search again only as often as their bodies' speed needs
-    (:meth:`StepPlan.collide_interval`), at most once a frame; cloth and soft bodies need their contacts
-    every substep. ``bench physics`` steps its rigid cases with this same reuse, so its errors include it."""
-    return 1 if particles else substeps
+    (:meth:`StepPlan.collide_interval`), at most once a frame. A scene stepping particles searches at least
+    ``others`` times a frame, the substeps all but its cloths ask (rigid bodies, soft bodies): a light cloth
+    can ask a thousand, each search costs more than the cloth's own substep, and its contacts (particle,
+    shape, the point on the shape in the body's frame, the normal) still hold against the bodies' new poses
+    while the particle stays within its contact gap, which ``collide_interval`` bounds. ``bench physics``
+    steps its rigid cases with this same reuse, so its errors include it."""
+    if not particles:
+        return substeps
+    return max(1, substeps // max(1, others or substeps))
 
 
 def mpm_family(kind: str) -> str:
@@ -296,6 +311,7 @@ def plan_steps(inputs: PlanInputs) -> StepPlan:
     if piled:
         iterations = max(iterations, PILE_ITERATIONS)
         reasons["pile"] = {"held_by_several": piled, "iterations": iterations}
+    others = need  # what all but the cloths ask: the contact search's rate (``contact_reuse``)
     stiff = np.broadcast_to(np.asarray(cloth_stiffness, float), np.shape(cloth_masses)) \
         if cloth_masses is not None else np.zeros(0)
     if len(stiff) and (stiff > 0).any():
@@ -309,17 +325,20 @@ def plan_steps(inputs: PlanInputs) -> StepPlan:
             m, cloth_stiffness = 1.0, float(stiff.max())
         dt_cloth = CLOTH_FACTOR * math.sqrt(m / cloth_stiffness)
         wanted = math.ceil(frame / dt_cloth)
-        # what the rule read, and whether MAX_SUBSTEPS bit (a cloth stepped beyond the rule; ``cloth.add_cloth``
-        # softens a light cloth's springs until the cap resolves them); every rigid body and contact search of
-        # the scene runs at the cloth's substeps
+        # what the rule read, and whether the substeps taken fall short of it (MAX_SUBSTEPS, or the user's: a
+        # cloth stepped beyond the rule; ``cloth.add_cloth`` softens a light cloth's springs until those substeps
+        # resolve them); every rigid body of the scene runs at the cloth's substeps, its contacts are searched
+        # at the rate the rest asks
+        taken = base_substeps if inputs.fixed_substeps else MAX_SUBSTEPS
         reasons["cloth"] = {"dt": dt_cloth, "substeps": wanted, "particle_kg": m,
-                            "stiffness_n_m": cloth_stiffness, "capped": wanted > MAX_SUBSTEPS}
+                            "stiffness_n_m": cloth_stiffness, "capped": wanted > taken}
         need = max(need, wanted)
     if soft_dt:
         reasons["soft_body"] = {"dt": soft_dt, "substeps": math.ceil(frame / soft_dt)}
         need = max(need, math.ceil(frame / soft_dt))
+        others = max(others, math.ceil(frame / soft_dt))
     substeps = base_substeps if inputs.fixed_substeps else min(need, MAX_SUBSTEPS)
-    collide_every = contact_reuse(substeps, inputs.particles)
+    collide_every = contact_reuse(substeps, inputs.particles, others)
     if mpm is None:
         mpm_steps = 0
     else:
@@ -338,7 +357,7 @@ def plan_steps(inputs: PlanInputs) -> StepPlan:
         # rigid substeps are a whole multiple of the MPM steps, so both meet at every MPM step
         substeps = math.ceil(substeps / mpm_steps) * mpm_steps
     return StepPlan(fps, substeps, mpm_steps, reasons, iterations, collide_every, thinnest,
-                    GRAVITY + acceleration, restitution)
+                    GRAVITY + acceleration, restitution, PARTICLE_CONTACT_GAP if inputs.particles else None)
 
 
 class Guard:

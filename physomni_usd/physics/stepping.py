@@ -14,7 +14,7 @@ from ..fields import FIELD_KIND
 from .controls import give_velocities
 from .mpm import add_particle_forces, step_particles
 from .snapshots import restore, snapshot
-from .stability import StepPlan, body_energy, particle_energy
+from .stability import PARTICLE_CONTACT_GAP, StepPlan, body_energy, particle_energy
 
 
 def xpbd_solver(model, iterations: int):
@@ -33,7 +33,7 @@ def contact_pipeline(model):
 
     # sticky contact matching keeps a resting hull's contact points from frame to frame;
     # without it XPBD lets flat-based hulls creep by millimetres per second
-    pipeline = newton.CollisionPipeline(model, contact_matching="sticky")
+    pipeline = newton.CollisionPipeline(model, contact_matching="sticky", soft_contact_gap=PARTICLE_CONTACT_GAP)
     return pipeline, pipeline.contacts()
 
 
