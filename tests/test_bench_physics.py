@@ -139,6 +139,10 @@ def test_a_light_cloth_is_searched_for_contacts_at_the_rate_the_rest_of_the_scen
     soft = plan_steps(PlanInputs([], 30.0, 8, cloth_masses=np.array([5e-7]), cloth_stiffness=100.0,
                                  soft_dt=1.0 / (30 * 500), particles=True))
     assert soft.collide_every == MAX_SUBSTEPS // 500
+    # the user's --substeps set the substeps, not the search's rate: the rules' 8 a frame still hold
+    given = plan_steps(PlanInputs([], 30.0, MAX_SUBSTEPS, cloth_masses=np.array([5e-7]), cloth_stiffness=100.0,
+                                  particles=True, fixed_substeps=True))
+    assert given.substeps == MAX_SUBSTEPS and given.collide_every == MAX_SUBSTEPS // 8, given.reasons
 
 
 def test_mpm_steps_follow_the_material_the_bench_measured():

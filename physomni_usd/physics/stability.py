@@ -275,6 +275,9 @@ def plan_steps(inputs: PlanInputs) -> StepPlan:
     by_kind = max(round(RIGID_SUBSTEPS[k] * 30.0 / fps) for k in kinds)
     reasons = {"base": base_substeps, "scene": kinds, "by_scene": by_kind, "reachable_speed_m_s": round(v, 4)}
     need = max(base_substeps, by_kind)
+    # what all but the cloths ask by the rules alone, never the user's or the scene's base: the contact search's
+    # rate (``contact_reuse``); started from the base, a user's --substeps would make every substep a search
+    others = by_kind
     thinnest = None
     iterations = inputs.base_iterations
     restitution = True
@@ -285,10 +288,12 @@ def plan_steps(inputs: PlanInputs) -> StepPlan:
         tunnel = math.ceil(frame * v / (0.5 * max(thinnest, 1e-4)))
         reasons["tunnelling"] = {"thinnest_m": round(thinnest, 5), "substeps": tunnel}
         need = max(need, tunnel)
+        others = max(others, tunnel)
         if acceleration > 0:
             dt_a = math.sqrt(0.5 * max(thinnest, 1e-4) / acceleration)
             entry = {"acceleration_m_s2": acceleration, "substeps": math.ceil(frame / dt_a)}
             need = max(need, math.ceil(frame / dt_a))
+            others = max(others, math.ceil(frame / dt_a))
             if acceleration > 10 * GRAVITY:
                 # a body pressed by many g keeps a residual overlap each step, which comes back as a
                 # launch when the push ends unless the contacts are iterated tighter
@@ -307,11 +312,11 @@ def plan_steps(inputs: PlanInputs) -> StepPlan:
             iterations = max(iterations, 4 * factor)
             reasons["mass_ratio"] = {"ratio": round(ratio, 1), "factor": factor, "iterations": iterations}
             need = max(need, base_substeps * factor)
+            others = max(others, by_kind * factor)
     piled = held_by_several(objects)
     if piled:
         iterations = max(iterations, PILE_ITERATIONS)
         reasons["pile"] = {"held_by_several": piled, "iterations": iterations}
-    others = need  # what all but the cloths ask: the contact search's rate (``contact_reuse``)
     stiff = np.broadcast_to(np.asarray(cloth_stiffness, float), np.shape(cloth_masses)) \
         if cloth_masses is not None else np.zeros(0)
     if len(stiff) and (stiff > 0).any():
