@@ -172,8 +172,9 @@ class StepPlan:
 
     def collide_interval(self, speed: float) -> int:
         """Substeps between contact searches for a frame whose fastest body or particle starts at ``speed``
-        (m/s): contacts found at a search hold while nothing moves more than a quarter of the thinnest
-        collider, nor a particle more than half its contact gap (:data:`PARTICLE_CONTACT_GAP`)."""
+        (m/s, linear: a body's spin is not counted): contacts found at a search hold while nothing moves more
+        than a quarter of the thinnest collider, nor a particle more than half its contact gap
+        (:data:`PARTICLE_CONTACT_GAP`)."""
         reach = [0.25 * self.thinnest] if self.thinnest else []
         if self.particle_gap:
             reach.append(0.5 * self.particle_gap)
@@ -215,9 +216,11 @@ def contact_reuse(substeps: int, particles: bool = False, others: int | None = N
     XPBD substep, so rigid scenes search again only as often as their bodies' speed needs
     (:meth:`StepPlan.collide_interval`), at most once a frame. A scene stepping particles searches at least
     ``others`` times a frame, the substeps all but its cloths ask (rigid bodies, soft bodies): a light cloth
-    can ask a thousand, each search costs more than the cloth's own substep, and its contacts (particle,
-    shape, the point on the shape in the body's frame, the normal) still hold against the bodies' new poses
-    while the particle stays within its contact gap, which ``collide_interval`` bounds. ``bench physics``
+    can ask a thousand, and each search costs more than the cloth's own substep. A particle contact (particle,
+    shape, the point on the shape in the body's frame, the world-space normal found at the search) follows the
+    body's moves by its point; its normal does not turn with the body, so it serves while the particle stays
+    within its contact gap (``collide_interval`` bounds that by linear speed; a body's spin is not read, a
+    limit for a fast-spinning body under a cloth). ``bench physics``
     steps its rigid cases with this same reuse, so its errors include it."""
     if not particles:
         return substeps
