@@ -133,7 +133,11 @@ def test_a_light_cloth_is_searched_for_contacts_at_the_rate_the_rest_of_the_scen
     want = int(0.5 * PARTICLE_CONTACT_GAP / ((1.0 + 9.81 / 30.0) * light.dt))
     assert light.collide_interval(1.0) == want < MAX_SUBSTEPS // 8
     assert light.collide_interval(100.0) == 1
-    assert light.refined().collide_interval(0.0) == 1  # a retried frame searches every substep
+    # a retried frame keeps searching at most half as many substeps apart, not every one of its 2000
+    retried = light.refined()
+    assert retried.substeps == 2 * MAX_SUBSTEPS and retried.collide_every == MAX_SUBSTEPS // 16
+    assert retried.collide_interval(0.0) == MAX_SUBSTEPS // 16
+    assert StepPlan(30.0, 8, collide_every=8, thinnest=0.2).refined().collide_every == 1  # rigid: every substep
     heavy = plan_steps(PlanInputs([], 30.0, 8, cloth_masses=np.array([1.0]), cloth_stiffness=100.0, particles=True))
     assert heavy.substeps == 8 and heavy.collide_every == 1
     soft = plan_steps(PlanInputs([], 30.0, 8, cloth_masses=np.array([5e-7]), cloth_stiffness=100.0,

@@ -197,10 +197,14 @@ class StepPlan:
         return 1.0 / (self.fps * self.mpm_steps) if self.mpm_steps else None
 
     def refined(self) -> StepPlan:
-        """The same plan at half the step and twice the iterations, finding contacts every substep."""
+        """The same plan at half the step and twice the iterations. A rigid plan finds contacts every substep;
+        a plan stepping particles, whose substeps a light cloth sets, searches half as many substeps apart
+        (four times as often a frame, still bounded by ``collide_interval``): the run keeps the refined plan
+        for the rest of the take, and a search every substep would cost a cloth scene 2000 a frame."""
+        collide_every = max(1, self.collide_every // 2) if self.particle_gap else 1
         return StepPlan(self.fps, min(self.substeps * 2, MAX_SUBSTEPS * 4),
                         self.mpm_steps * 2 if self.mpm_steps else 0, dict(self.reasons),
-                        min(self.iterations * 2, 200) if self.iterations else None, 1, self.thinnest,
+                        min(self.iterations * 2, 200) if self.iterations else None, collide_every, self.thinnest,
                         self.acceleration, self.restitution, self.particle_gap)
 
     def as_dict(self) -> dict:
