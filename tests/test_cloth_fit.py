@@ -102,6 +102,11 @@ def test_a_light_cloth_is_no_stiffer_than_the_step_cap_resolves():
         # what report.json says of it: the stiffness simulated, and what it was softened from, if it was
         assert made.spring_n_m == pytest.approx(max(builder.spring_stiffness), rel=1e-6)
         softened.append(made.softened_from_n_m)
+        if made.softened_from_n_m:  # the substeps the line says its springs needed: the rule's, unsoftened
+            stiff = plan_steps(PlanInputs([], fps, 8, cloth_masses=masses, cloth_stiffness=made.softened_from_n_m))
+            assert made.needs_substeps == stiff.reasons["cloth"]["substeps"] > (substeps or MAX_SUBSTEPS)
+        else:
+            assert made.needs_substeps is None
         return plan, max(builder.spring_stiffness), bend
 
     softened = []
@@ -158,7 +163,7 @@ def test_a_softened_cloth_is_said_and_reported(tmp_path):
     assert lines == [] and "softened_from_n_m" not in entry and entry["spring_n_m"] == 100.0, entry
     # the user's substeps: softened to what they resolve, and the line names the option that steps finer
     lines, entry = run(0.1, substeps=100)
-    assert len(lines) == 1 and "--substeps 100" in lines[0], lines
+    assert len(lines) == 1 and "--substeps 100 resolves only" in lines[0], lines
     assert entry["spring_n_m"] == pytest.approx(at_cap / 100, rel=1e-2), (at_cap, entry)  # both rounded
 
 
