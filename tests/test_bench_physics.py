@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import pytest
 
@@ -128,6 +129,7 @@ def test_a_light_cloth_is_searched_for_contacts_at_the_rate_the_rest_of_the_scen
                                   particles=True))
     assert light.substeps == MAX_SUBSTEPS and light.collide_every == MAX_SUBSTEPS // 8
     assert light.particle_gap == PARTICLE_CONTACT_GAP
+    assert light.reasons["contacts"]["searches_a_frame"] == 8, light.reasons
     assert light.collide_interval(0.0) == MAX_SUBSTEPS // 8  # at rest: 8 searches a frame
     # falling at 1 m/s: half the gap is crossed in 0.005 / (1 + g/30) s, fewer substeps than a rigid step's
     want = int(0.5 * PARTICLE_CONTACT_GAP / ((1.0 + 9.81 / 30.0) * light.dt))
@@ -147,6 +149,12 @@ def test_a_light_cloth_is_searched_for_contacts_at_the_rate_the_rest_of_the_scen
     given = plan_steps(PlanInputs([], 30.0, MAX_SUBSTEPS, cloth_masses=np.array([5e-7]), cloth_stiffness=100.0,
                                   particles=True, fixed_substeps=True))
     assert given.substeps == MAX_SUBSTEPS and given.collide_every == MAX_SUBSTEPS // 8, given.reasons
+    # beside MPM the substeps round up to a whole multiple of its steps; the reuse is read from those that run
+    mpm = SimpleNamespace(wave_speed=1.0, spacing=0.01,
+                          objects=[SimpleNamespace(obj=SimpleNamespace(kind="mpm_elastic"))])
+    beside = plan_steps(PlanInputs([], 30.0, 8, mpm_steps=300, mpm=mpm, cloth_masses=np.array([5e-7]),
+                                   cloth_stiffness=100.0, particles=True))
+    assert beside.substeps == 1200 and beside.collide_every == 1200 // 8, beside.as_dict()
 
 
 def test_mpm_steps_follow_the_material_the_bench_measured():

@@ -350,7 +350,6 @@ def plan_steps(inputs: PlanInputs) -> StepPlan:
         need = max(need, math.ceil(frame / soft_dt))
         others = max(others, math.ceil(frame / soft_dt))
     substeps = base_substeps if inputs.fixed_substeps else min(need, MAX_SUBSTEPS)
-    collide_every = contact_reuse(substeps, inputs.particles, others)
     if mpm is None:
         mpm_steps = 0
     else:
@@ -368,6 +367,11 @@ def plan_steps(inputs: PlanInputs) -> StepPlan:
         mpm_steps = mpm_steps or chosen
         # rigid substeps are a whole multiple of the MPM steps, so both meet at every MPM step
         substeps = math.ceil(substeps / mpm_steps) * mpm_steps
+    # from the substeps that run (after the MPM round-up), so the searches a frame are what the report says
+    collide_every = contact_reuse(substeps, inputs.particles, others)
+    if collide_every > 1:
+        reasons["contacts"] = {"searches_a_frame": others, "collide_every": collide_every,
+                               "why": "particles: searched at the rate all but the cloths ask"}
     return StepPlan(fps, substeps, mpm_steps, reasons, iterations, collide_every, thinnest,
                     GRAVITY + acceleration, restitution, PARTICLE_CONTACT_GAP if inputs.particles else None)
 
