@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import pytest
 
@@ -128,17 +129,32 @@ def test_a_light_cloth_is_searched_for_contacts_at_the_rate_the_rest_of_the_scen
                                   particles=True))
     assert light.substeps == MAX_SUBSTEPS and light.collide_every == MAX_SUBSTEPS // 8
     assert light.particle_gap == PARTICLE_CONTACT_GAP
+    assert light.reasons["contacts"]["searches_a_frame"] == 8, light.reasons
     assert light.collide_interval(0.0) == MAX_SUBSTEPS // 8  # at rest: 8 searches a frame
     # falling at 1 m/s: half the gap is crossed in 0.005 / (1 + g/30) s, fewer substeps than a rigid step's
     want = int(0.5 * PARTICLE_CONTACT_GAP / ((1.0 + 9.81 / 30.0) * light.dt))
     assert light.collide_interval(1.0) == want < MAX_SUBSTEPS // 8
     assert light.collide_interval(100.0) == 1
-    assert light.refined().collide_interval(0.0) == 1  # a retried frame searches every substep
+    # a retried frame keeps searching at most half as many substeps apart, not every one of its 2000
+    retried = light.refined()
+    assert retried.substeps == 2 * MAX_SUBSTEPS and retried.collide_every == MAX_SUBSTEPS // 16
+    assert retried.collide_interval(0.0) == MAX_SUBSTEPS // 16
+    assert StepPlan(30.0, 8, collide_every=8, thinnest=0.2).refined().collide_every == 1  # rigid: every substep
     heavy = plan_steps(PlanInputs([], 30.0, 8, cloth_masses=np.array([1.0]), cloth_stiffness=100.0, particles=True))
     assert heavy.substeps == 8 and heavy.collide_every == 1
     soft = plan_steps(PlanInputs([], 30.0, 8, cloth_masses=np.array([5e-7]), cloth_stiffness=100.0,
                                  soft_dt=1.0 / (30 * 500), particles=True))
     assert soft.collide_every == MAX_SUBSTEPS // 500
+    # the user's --substeps set the substeps, not the search's rate: the rules' 8 a frame still hold
+    given = plan_steps(PlanInputs([], 30.0, MAX_SUBSTEPS, cloth_masses=np.array([5e-7]), cloth_stiffness=100.0,
+                                  particles=True, fixed_substeps=True))
+    assert given.substeps == MAX_SUBSTEPS and given.collide_every == MAX_SUBSTEPS // 8, given.reasons
+    # beside MPM the substeps round up to a whole multiple of its steps; the reuse is read from those that run
+    mpm = SimpleNamespace(wave_speed=1.0, spacing=0.01,
+                          objects=[SimpleNamespace(obj=SimpleNamespace(kind="mpm_elastic"))])
+    beside = plan_steps(PlanInputs([], 30.0, 8, mpm_steps=300, mpm=mpm, cloth_masses=np.array([5e-7]),
+                                   cloth_stiffness=100.0, particles=True))
+    assert beside.substeps == 1200 and beside.collide_every == 1200 // 8, beside.as_dict()
 
 
 def test_mpm_steps_follow_the_material_the_bench_measured():

@@ -4,6 +4,7 @@ they collide two-way with the rigid bodies and the ground through the same solve
 from __future__ import annotations
 
 import itertools
+import math
 import warnings
 from dataclasses import dataclass
 from functools import lru_cache
@@ -82,6 +83,7 @@ class ClothSheet:
     offset: np.ndarray  # (V, 3) the surface vertex's offset from that particle at rest
     softened_from_n_m: float | None = None  # its springs' stiffness before ``add_cloth`` softened them, if it did
     spring_n_m: float | None = None  # N/m, its springs' stiffness as simulated
+    needs_substeps: int | None = None  # substeps a frame its springs would ask before softening, if softened
 
 
 def cloth_sheet(points: np.ndarray, faces: np.ndarray) -> ClothSheet:
@@ -248,9 +250,11 @@ def add_cloth(builder, obj, wp, fps: float = 30.0, substeps: int | None = None) 
 
         per_particle = np.bincount(springs, minlength=len(world)).max()
         light = float(floored[floored > 0].min()) if (floored > 0).any() else float(mass.mean())
-        # the stiffness the cap resolves, a hair under so that the rule's rounding up stays within it
+        # the stiffness the substeps taken resolve (the user's, else the cap), a hair under so that the rule's
+        # rounding up stays within it
         resolved = light * (CLOTH_FACTOR * (substeps or MAX_SUBSTEPS) * fps) ** 2 * (1.0 - 1e-6)
         if stretch > resolved:
+            sheet.needs_substeps = math.ceil(math.sqrt(stretch / light) / (CLOTH_FACTOR * fps))
             soften = float(resolved) / stretch
             stretch = float(resolved)
             builder.spring_stiffness[first_spring:] = [stretch] * (len(builder.spring_stiffness) - first_spring)

@@ -15,6 +15,7 @@ from ..usd import layers
 from .prepare import prepare_simulation
 from .recording import shot_checks, write_take
 from .runner import run_guarded
+from .stability import MAX_SUBSTEPS
 
 
 def _compiled_line(before: float | None, after: float | None) -> str:
@@ -47,9 +48,11 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
         sheet = sim.cloth_sheets.get(o.path) if o.family == "cloth" else None
         if sheet is not None and sheet.softened_from_n_m:
             echo(f"simulate: {o.name}'s cloth springs softened from {sheet.softened_from_n_m:.3g} to "
-                 f"{sheet.spring_n_m:.3g} N/m (its bending alike): stiffer, its light particles would need more "
-                 + (f"than the --substeps {settings.substeps} given (more step finer)" if settings.substeps else
-                    f"substeps than a frame allows at {cfg.fps:g} fps (a higher --fps steps finer)"))
+                 f"{sheet.spring_n_m:.3g} N/m (its bending alike): at {sheet.softened_from_n_m:.3g} N/m its "
+                 f"particles need {sheet.needs_substeps} substeps a frame; "
+                 + (f"--substeps {settings.substeps} resolves only {sheet.spring_n_m:.3g} N/m (give more, or leave "
+                    "--substeps out)" if settings.substeps else
+                    f"a frame allows {MAX_SUBSTEPS} at {cfg.fps:g} fps (a higher --fps steps finer)"))
     run = run_guarded(sim, plan, settings.seconds, progress, echo, rest_seconds=settings.rest_seconds)
     take = run.take
     if run.rest is not None:

@@ -172,8 +172,9 @@ class StepPlan:
 
     def collide_interval(self, speed: float) -> int:
         """Substeps between contact searches for a frame whose fastest body or particle starts at ``speed``
-        (m/s): contacts found at a search hold while nothing moves more than a quarter of the thinnest
-        collider, nor a particle more than half its contact gap (:data:`PARTICLE_CONTACT_GAP`)."""
+        (m/s, linear: a body's spin is not counted): contacts found at a search hold while nothing moves more
+        than a quarter of the thinnest collider, nor a particle more than half its contact gap
+        (:data:`PARTICLE_CONTACT_GAP`)."""
         reach = [0.25 * self.thinnest] if self.thinnest else []
         if self.particle_gap:
             reach.append(0.5 * self.particle_gap)
@@ -196,10 +197,14 @@ class StepPlan:
         return 1.0 / (self.fps * self.mpm_steps) if self.mpm_steps else None
 
     def refined(self) -> StepPlan:
-        """The same plan at half the step and twice the iterations, finding contacts every substep."""
+        """The same plan at half the step and twice the iterations. A rigid plan finds contacts every substep;
+        a plan stepping particles, whose substeps a light cloth sets, searches half as many substeps apart
+        (four times as often a frame, still bounded by ``collide_interval``): the run keeps the refined plan
+        for the rest of the take, and a search every substep would cost a cloth scene 2000 a frame."""
+        collide_every = max(1, self.collide_every // 2) if self.particle_gap else 1
         return StepPlan(self.fps, min(self.substeps * 2, MAX_SUBSTEPS * 4),
                         self.mpm_steps * 2 if self.mpm_steps else 0, dict(self.reasons),
-                        min(self.iterations * 2, 200) if self.iterations else None, 1, self.thinnest,
+                        min(self.iterations * 2, 200) if self.iterations else None, collide_every, self.thinnest,
                         self.acceleration, self.restitution, self.particle_gap)
 
     def as_dict(self) -> dict:
@@ -215,9 +220,11 @@ def contact_reuse(substeps: int, particles: bool = False, others: int | None = N
     XPBD substep, so rigid scenes search again only as often as their bodies' speed needs
     (:meth:`StepPlan.collide_interval`), at most once a frame. A scene stepping particles searches at least
     ``others`` times a frame, the substeps all but its cloths ask (rigid bodies, soft bodies): a light cloth
-    can ask a thousand, each search costs more than the cloth's own substep, and its contacts (particle,
-    shape, the point on the shape in the body's frame, the normal) still hold against the bodies' new poses
-    while the particle stays within its contact gap, which ``collide_interval`` bounds. ``bench physics``
+    can ask a thousand, and each search costs more than the cloth's own substep. A particle contact (particle,
+    shape, the point on the shape in the body's frame, the world-space normal found at the search) follows the
+    body's moves by its point; its normal does not turn with the body, so it serves while the particle stays
+    within its contact gap (``collide_interval`` bounds that by linear speed; a body's spin is not read, a
+    limit for a fast-spinning body under a cloth). ``bench physics``
     steps its rigid cases with this same reuse, so its errors include it."""
     if not particles:
         return substeps
@@ -275,6 +282,9 @@ def plan_steps(inputs: PlanInputs) -> StepPlan:
     by_kind = max(round(RIGID_SUBSTEPS[k] * 30.0 / fps) for k in kinds)
     reasons = {"base": base_substeps, "scene": kinds, "by_scene": by_kind, "reachable_speed_m_s": round(v, 4)}
     need = max(base_substeps, by_kind)
+    # what all but the cloths ask by the rules alone, never the user's or the scene's base: the contact search's
+    # rate (``contact_reuse``); started from the base, a user's --substeps would make every substep a search
+    others = by_kind
     thinnest = None
     iterations = inputs.base_iterations
     restitution = True
@@ -285,10 +295,12 @@ def plan_steps(inputs: PlanInputs) -> StepPlan:
         tunnel = math.ceil(frame * v / (0.5 * max(thinnest, 1e-4)))
         reasons["tunnelling"] = {"thinnest_m": round(thinnest, 5), "substeps": tunnel}
         need = max(need, tunnel)
+        others = max(others, tunnel)
         if acceleration > 0:
             dt_a = math.sqrt(0.5 * max(thinnest, 1e-4) / acceleration)
             entry = {"acceleration_m_s2": acceleration, "substeps": math.ceil(frame / dt_a)}
             need = max(need, math.ceil(frame / dt_a))
+            others = max(others, math.ceil(frame / dt_a))
             if acceleration > 10 * GRAVITY:
                 # a body pressed by many g keeps a residual overlap each step, which comes back as a
                 # launch when the push ends unless the contacts are iterated tighter
@@ -307,11 +319,11 @@ def plan_steps(inputs: PlanInputs) -> StepPlan:
             iterations = max(iterations, 4 * factor)
             reasons["mass_ratio"] = {"ratio": round(ratio, 1), "factor": factor, "iterations": iterations}
             need = max(need, base_substeps * factor)
+            others = max(others, by_kind * factor)
     piled = held_by_several(objects)
     if piled:
         iterations = max(iterations, PILE_ITERATIONS)
         reasons["pile"] = {"held_by_several": piled, "iterations": iterations}
-    others = need  # what all but the cloths ask: the contact search's rate (``contact_reuse``)
     stiff = np.broadcast_to(np.asarray(cloth_stiffness, float), np.shape(cloth_masses)) \
         if cloth_masses is not None else np.zeros(0)
     if len(stiff) and (stiff > 0).any():
@@ -338,7 +350,6 @@ def plan_steps(inputs: PlanInputs) -> StepPlan:
         need = max(need, math.ceil(frame / soft_dt))
         others = max(others, math.ceil(frame / soft_dt))
     substeps = base_substeps if inputs.fixed_substeps else min(need, MAX_SUBSTEPS)
-    collide_every = contact_reuse(substeps, inputs.particles, others)
     if mpm is None:
         mpm_steps = 0
     else:
@@ -356,6 +367,11 @@ def plan_steps(inputs: PlanInputs) -> StepPlan:
         mpm_steps = mpm_steps or chosen
         # rigid substeps are a whole multiple of the MPM steps, so both meet at every MPM step
         substeps = math.ceil(substeps / mpm_steps) * mpm_steps
+    # from the substeps that run (after the MPM round-up), so the searches a frame are what the report says
+    collide_every = contact_reuse(substeps, inputs.particles, others)
+    if collide_every > 1:
+        reasons["contacts"] = {"searches_a_frame": others, "collide_every": collide_every,
+                               "why": "particles: searched at the rate all but the cloths ask"}
     return StepPlan(fps, substeps, mpm_steps, reasons, iterations, collide_every, thinnest,
                     GRAVITY + acceleration, restitution, PARTICLE_CONTACT_GAP if inputs.particles else None)
 
