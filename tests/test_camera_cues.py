@@ -126,3 +126,36 @@ def test_a_nearly_level_horizon_reads_the_pitch_but_not_the_field_of_view():
         vertical = next(c for c in est.cues if c.kind == "vertical vanishing point")
         horizon = next(c for c in est.cues if c.kind == "horizon vanishing points")
         assert horizon.pitch_deg == pytest.approx(pitch, abs=2.0) and vertical.pitch_deg == pytest.approx(pitch, abs=2.0)
+
+
+def _bowl_alone(pitch: float):
+    """A plain 320×240 photo (nothing else reads the pitch) of one bowl 18 cm across and 6 cm deep, narrowing to
+    a 10 cm foot, 0.6 m from a camera of 50° (the default field of view) pitched ``pitch``; and its mask."""
+    import math
+
+    import numpy as np
+    import trimesh
+
+    from physomni_usd.bench.synthetic import render_truth
+    from physomni_usd.geometry.camera import PinholeCamera
+
+    look = max(pitch, 14.0)
+    cam = PinholeCamera(320, 240, 50.0, pitch, (0.0, 0.0, 0.6 * math.sin(math.radians(look))))
+    bowl = trimesh.creation.revolve([[0.0, 0.0], [0.05, 0.0], [0.09, 0.06], [0.085, 0.06], [0.045, 0.007],
+                                     [0.0, 0.007]], sections=64)
+    bowl.apply_translation([0.0, 0.6 * math.cos(math.radians(look)), 0.0])
+    _, masks = render_truth(cam, [bowl])
+    return np.full((240, 320, 3), 128, np.uint8), masks
+
+
+@pytest.mark.parametrize("pitch", [20.0, 45.0, 70.0])
+def test_a_bowls_open_rim_reads_the_pitch_where_nothing_else_does(pitch):
+    photo, masks = _bowl_alone(pitch)
+    feet = [foot_pixel(fill_holes(m))[1] for m in masks]
+    est = estimate_camera(photo, masks, ["bowl"], feet)
+    rims = [c for c in est.cues if c.kind == "open rim"]
+    assert len(rims) == 1 and rims[0].pitch_deg == pytest.approx(pitch, abs=3.0)
+    assert est.pitch_deg == pytest.approx(pitch, abs=3.0)
+    # an outline whose label has no open top (a fruit) reads no rim: the photo alone says nothing here
+    est = estimate_camera(photo, masks, ["apple"], feet)
+    assert not any(c.kind == "open rim" for c in est.cues)
