@@ -159,3 +159,45 @@ def test_a_bowls_open_rim_reads_the_pitch_where_nothing_else_does(pitch):
     # an outline whose label has no open top (a fruit) reads no rim: the photo alone says nothing here
     est = estimate_camera(photo, masks, ["apple"], feet)
     assert not any(c.kind == "open rim" for c in est.cues)
+
+
+def _bowl_at(width: int, height: int, fov: float, pitch: float, u: float, v: float, dist: float = 0.6):
+    """The mask of the bowl of :func:`_bowl_alone` whose rim's centre lies ``dist`` m along the ray through
+    pixel (u, v) of a ``width`` × ``height`` camera of ``fov`` pitched ``pitch``, 1 m above the ground."""
+    import numpy as np
+    import trimesh
+
+    from physomni_usd.bench.synthetic import render_truth
+    from physomni_usd.geometry.camera import PinholeCamera
+
+    cam = PinholeCamera(width, height, fov, pitch, (0.0, 0.0, 1.0))
+    bowl = trimesh.creation.revolve([[0.0, 0.0], [0.05, 0.0], [0.09, 0.06], [0.085, 0.06], [0.045, 0.007],
+                                     [0.0, 0.007]], sections=96)
+    g = cam.origin + cam.rays(u, v) * dist
+    bowl.apply_translation([g[0], g[1], g[2] - 0.06])
+    return render_truth(cam, [bowl])[1][0]
+
+
+def test_a_rim_below_the_centre_of_a_wide_view_reads_one_pitch():
+    # below the image's centre a level circle's outline passes round and stands upright as the pitch grows: a
+    # folded minor/major fits two or three pitches (a portrait 65° view's rim at row 290 read 80° for 28°)
+    from physomni_usd.align.cues import rim_cues, rim_outlines
+
+    for pitch in (30.0, 32.0):
+        mask = _bowl_at(240, 320, 65.0, pitch, 120.0, 270.0, 0.9)
+        rims = rim_outlines([mask], ["bowl"])
+        assert len(rims) == 1
+        cues = rim_cues(rims, 240, 320, 65.0)
+        assert len(cues) == 1 and cues[0].pitch_deg == pytest.approx(pitch, abs=3.0)
+
+
+def test_a_bowl_the_photos_border_cuts_reads_no_rim():
+    # its half-width at the rim's row is the border's, not the rim's (a bowl at u = 20 read 32.75° for 40°)
+    from physomni_usd.align.cues import rim_outlines
+
+    for u in (5.0, 20.0):
+        mask = _bowl_at(320, 240, 50.0, 40.0, u, 130.0)
+        assert mask[:, 0].any() and not rim_outlines([mask], ["bowl"])
+    assert len(rim_outlines([_bowl_at(320, 240, 50.0, 40.0, 160.0, 130.0)], ["bowl"])) == 1
+
+
