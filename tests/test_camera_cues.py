@@ -201,3 +201,15 @@ def test_a_bowl_the_photos_border_cuts_reads_no_rim():
     assert len(rim_outlines([_bowl_at(320, 240, 50.0, 40.0, 160.0, 130.0)], ["bowl"])) == 1
 
 
+
+def test_a_rim_does_not_override_the_vanishing_points_field_of_view():
+    # a rim read off (a handle, a lip) with the horizon gave 50° for the vertical point's 25° (truth 29°) on a
+    # generated scene: the rims name no field of view where the vanishing points read one
+    img, box = _room(25.0)
+    bowl = _bowl_at(320, 240, 50.0, 40.0, 160.0, 150.0)  # drawn as seen from 40°: its rim says 40° under 50°
+    img[bowl] = (60, 60, 180)
+    est = estimate_camera(img, [box, bowl], ["box", "bowl"], [foot_pixel(m)[1] for m in (box, bowl)])
+    kinds = [c.kind for c in est.cues]
+    assert "vanishing points" in kinds and "open rim" in kinds
+    assert "ellipses and horizon" not in kinds
+    assert est.fov_deg == pytest.approx(50.0, rel=0.10)
