@@ -126,3 +126,90 @@ def test_a_nearly_level_horizon_reads_the_pitch_but_not_the_field_of_view():
         vertical = next(c for c in est.cues if c.kind == "vertical vanishing point")
         horizon = next(c for c in est.cues if c.kind == "horizon vanishing points")
         assert horizon.pitch_deg == pytest.approx(pitch, abs=2.0) and vertical.pitch_deg == pytest.approx(pitch, abs=2.0)
+
+
+def _bowl_alone(pitch: float):
+    """A plain 320×240 photo (nothing else reads the pitch) of one bowl 18 cm across and 6 cm deep, narrowing to
+    a 10 cm foot, 0.6 m from a camera of 50° (the default field of view) pitched ``pitch``; and its mask."""
+    import math
+
+    import numpy as np
+    import trimesh
+
+    from physomni_usd.bench.synthetic import render_truth
+    from physomni_usd.geometry.camera import PinholeCamera
+
+    look = max(pitch, 14.0)
+    cam = PinholeCamera(320, 240, 50.0, pitch, (0.0, 0.0, 0.6 * math.sin(math.radians(look))))
+    bowl = trimesh.creation.revolve([[0.0, 0.0], [0.05, 0.0], [0.09, 0.06], [0.085, 0.06], [0.045, 0.007],
+                                     [0.0, 0.007]], sections=64)
+    bowl.apply_translation([0.0, 0.6 * math.cos(math.radians(look)), 0.0])
+    _, masks = render_truth(cam, [bowl])
+    return np.full((240, 320, 3), 128, np.uint8), masks
+
+
+@pytest.mark.parametrize("pitch", [20.0, 45.0, 70.0])
+def test_a_bowls_open_rim_reads_the_pitch_where_nothing_else_does(pitch):
+    photo, masks = _bowl_alone(pitch)
+    feet = [foot_pixel(fill_holes(m))[1] for m in masks]
+    est = estimate_camera(photo, masks, ["bowl"], feet)
+    rims = [c for c in est.cues if c.kind == "open rim"]
+    assert len(rims) == 1 and rims[0].pitch_deg == pytest.approx(pitch, abs=3.0)
+    assert est.pitch_deg == pytest.approx(pitch, abs=3.0)
+    # an outline whose label has no open top (a fruit) reads no rim: the photo alone says nothing here
+    est = estimate_camera(photo, masks, ["apple"], feet)
+    assert not any(c.kind == "open rim" for c in est.cues)
+
+
+def _bowl_at(width: int, height: int, fov: float, pitch: float, u: float, v: float, dist: float = 0.6):
+    """The mask of the bowl of :func:`_bowl_alone` whose rim's centre lies ``dist`` m along the ray through
+    pixel (u, v) of a ``width`` × ``height`` camera of ``fov`` pitched ``pitch``, 1 m above the ground."""
+    import numpy as np
+    import trimesh
+
+    from physomni_usd.bench.synthetic import render_truth
+    from physomni_usd.geometry.camera import PinholeCamera
+
+    cam = PinholeCamera(width, height, fov, pitch, (0.0, 0.0, 1.0))
+    bowl = trimesh.creation.revolve([[0.0, 0.0], [0.05, 0.0], [0.09, 0.06], [0.085, 0.06], [0.045, 0.007],
+                                     [0.0, 0.007]], sections=96)
+    g = cam.origin + cam.rays(u, v) * dist
+    bowl.apply_translation([g[0], g[1], g[2] - 0.06])
+    return render_truth(cam, [bowl])[1][0]
+
+
+def test_a_rim_below_the_centre_of_a_wide_view_reads_one_pitch():
+    # below the image's centre a level circle's outline passes round and stands upright as the pitch grows: a
+    # folded minor/major fits two or three pitches (a portrait 65° view's rim at row 290 read 80° for 28°)
+    from physomni_usd.align.cues import rim_cues, rim_outlines
+
+    for pitch in (30.0, 32.0):
+        mask = _bowl_at(240, 320, 65.0, pitch, 120.0, 270.0, 0.9)
+        rims = rim_outlines([mask], ["bowl"])
+        assert len(rims) == 1
+        cues = rim_cues(rims, 240, 320, 65.0)
+        assert len(cues) == 1 and cues[0].pitch_deg == pytest.approx(pitch, abs=3.0)
+
+
+def test_a_bowl_the_photos_border_cuts_reads_no_rim():
+    # its half-width at the rim's row is the border's, not the rim's (a bowl at u = 20 read 32.75° for 40°)
+    from physomni_usd.align.cues import rim_outlines
+
+    for u in (5.0, 20.0):
+        mask = _bowl_at(320, 240, 50.0, 40.0, u, 130.0)
+        assert mask[:, 0].any() and not rim_outlines([mask], ["bowl"])
+    assert len(rim_outlines([_bowl_at(320, 240, 50.0, 40.0, 160.0, 130.0)], ["bowl"])) == 1
+
+
+
+def test_a_rim_does_not_override_the_vanishing_points_field_of_view():
+    # a rim read off (a handle, a lip) with the horizon gave 50° for the vertical point's 25° (truth 29°) on a
+    # generated scene: the rims name no field of view where the vanishing points read one
+    img, box = _room(25.0)
+    bowl = _bowl_at(320, 240, 50.0, 40.0, 160.0, 150.0)  # drawn as seen from 40°: its rim says 40° under 50°
+    img[bowl] = (60, 60, 180)
+    est = estimate_camera(img, [box, bowl], ["box", "bowl"], [foot_pixel(m)[1] for m in (box, bowl)])
+    kinds = [c.kind for c in est.cues]
+    assert "vanishing points" in kinds and "open rim" in kinds
+    assert "ellipses and horizon" not in kinds
+    assert est.fov_deg == pytest.approx(50.0, rel=0.10)
