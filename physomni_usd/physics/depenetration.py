@@ -6,10 +6,16 @@ cloth particle that starts at rest is kept below ``SEPARATION_SPEED`` plus what 
 alone could have given it since t = 0 (the way PhysX bounds its depenetration velocity): the positions
 separate, the velocity the correction would inject does not appear, and nothing that was at rest in the
 photo gains speed from it. The energy the separation adds (lifting a body out of another) is the solver's
-work, bounded by :meth:`Depenetration.energy_bound`, and the guard counts it as such."""
+work, bounded by :meth:`Depenetration.energy_bound`, and the guard counts it as such.
+
+The guard arms the bound again where it rolls back to a state that holds an overlap (:meth:`Depenetration.rearm`):
+a coarse step can leave a hull a millimetre inside what it rests on between two contact searches, and the finer
+step the guard retries with would otherwise separate it at d/dt — faster the finer the step (1.4 mm under a cup
+became 0.5 m/s at 64 substeps a frame and 10 m/s at 512, and the run diverged for taking finer steps)."""
 
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 
 import numpy as np
@@ -28,8 +34,8 @@ WINDOW_S = (0.1, 0.5)
 
 class Depenetration:
     """The velocity bound of a :class:`~.stepping.Stepper`'s start overlaps. ``bodies`` and ``particles``
-    are the indices bounded, ``depth`` the deepest start overlap (m), ``until`` the time (s) the bound
-    ends; a stepper holding one calls :meth:`apply` after each substep before ``until``."""
+    are the indices bounded, ``depth`` the deepest start overlap (m), ``until`` how long (s) the bound holds
+    after :attr:`since`; a stepper holding one calls :meth:`apply` after each substep while :meth:`active`."""
 
     def __init__(self, stepper, acceleration: float = GRAVITY):
         import warp as wp
@@ -46,7 +52,8 @@ class Depenetration:
             self.depth = max(self.depth, _particle_depth(stepper))
         self.until = float(np.clip(3.0 * self.depth / SEPARATION_SPEED, *WINDOW_S)) if self.any else 0.0
         device = model.device
-        self._t = wp.zeros(1, dtype=float, device=device)  # the frame's start time, written outside a capture
+        # the frame's start time within the window and the window's length, written outside a capture
+        self._t = wp.zeros(2, dtype=float, device=device)
         self._body_cap = self._caps(model.body_count, self.bodies, device)
         self._particle_cap = self._caps(model.particle_count, self.particles, device)
         self._radius = None
@@ -58,6 +65,47 @@ class Depenetration:
             self._radius = wp.array(np.maximum(r, 1e-3).astype(np.float32), dtype=float, device=device)
         self._masses = (model.body_mass.numpy()[self.bodies] if len(self.bodies) else np.zeros(0),
                         model.particle_mass.numpy()[self.particles] if len(self.particles) else np.zeros(0))
+        #: when the bound's window opened (s): 0 for the start overlaps, the roll-back's time once re-armed
+        self.since = 0.0
+        self._prior_j = 0.0  # the energy bound of the windows before this one
+        self._start = (self.bodies, self.particles, self.depth, self.until, self._masses)
+        self.rearms = 0
+
+    def rearm(self, stepper, t: float) -> bool:
+        """Open a new window at time ``t`` (s) for the rigid bodies in an overlap deeper than ``OVERLAP_MIN_M``
+        in ``stepper``'s state now (the guard has just rolled back to it); returns whether any was found. Only
+        bodies are bounded: a particle's start rest does not hold mid-run. The caps are written into the same
+        arrays, so frames captured before read the new window."""
+        if self._body_cap is None:
+            return False
+        pushed = {p.body for p in stepper.pending if p.body is not None}
+        bodies, depth = _overlapping_bodies(stepper)
+        bodies = np.array([b for b in bodies if b not in pushed], int)
+        if not len(bodies):
+            return False
+        self._prior_j = self.energy_bound(math.inf)
+        self._open(bodies, np.zeros(0, int), depth, float(np.clip(3.0 * depth / SEPARATION_SPEED, *WINDOW_S)),
+                   (stepper.model.body_mass.numpy()[bodies], np.zeros(0)), t)
+        self.rearms += 1
+        return True
+
+    def restart(self) -> None:
+        """Back to the start overlaps' window (the run went back to t = 0)."""
+        self._prior_j, self.rearms = 0.0, 0
+        self._open(*self._start, 0.0)
+
+    def _open(self, bodies, particles, depth, until, masses, since) -> None:
+        changed = (len(bodies) != len(self.bodies) or np.any(bodies != self.bodies)
+                   or len(particles) != len(self.particles) or np.any(particles != self.particles))
+        self.bodies, self.particles, self.depth, self.until, self._masses = bodies, particles, depth, until, masses
+        self.since = float(since)
+        if not changed:
+            return
+        for cap, indices in ((self._body_cap, bodies), (self._particle_cap, particles)):
+            if cap is not None:
+                caps = np.full(cap.shape[0], -1.0, np.float32)
+                caps[indices] = SEPARATION_SPEED
+                cap.assign(caps)
 
     @staticmethod
     def _caps(count: int, indices: np.ndarray, device):
@@ -75,11 +123,12 @@ class Depenetration:
 
     def active(self, t0: float) -> bool:
         """Whether the bound acts in a frame starting at ``t0`` (s)."""
-        return self.any and t0 < self.until
+        return self.any and self.since <= t0 + 1e-9 and t0 - self.since < self.until
 
     def set_time(self, t0: float) -> None:
-        """The frame's start time, read by the kernels (a captured frame reads it from the device)."""
-        self._t.fill_(float(t0))
+        """The frame's start time within the window, read by the kernels (a captured frame reads it from the
+        device): what gravity may have given a body is counted from the window's opening."""
+        self._t.assign(np.array([max(float(t0) - self.since, 0.0), self.until], np.float32))
 
     def apply(self, model, state, t_offset: float) -> None:
         """Bound the velocities in ``state``, ``t_offset`` seconds after the frame's start."""
@@ -88,23 +137,25 @@ class Depenetration:
         body_kernel, particle_kernel = _kernels()
         if self._body_cap is not None and len(self.bodies):
             wp.launch(body_kernel, dim=model.body_count,
-                      inputs=[state.body_qd, self._body_cap, self._radius, self._t, t_offset, self.acceleration,
-                              self.until], device=model.device)
+                      inputs=[state.body_qd, self._body_cap, self._radius, self._t, t_offset, self.acceleration],
+                      device=model.device)
         if self._particle_cap is not None and len(self.particles):
             wp.launch(particle_kernel, dim=model.particle_count,
-                      inputs=[state.particle_qd, self._particle_cap, self._t, t_offset, self.acceleration,
-                              self.until], device=model.device)
+                      inputs=[state.particle_qd, self._particle_cap, self._t, t_offset, self.acceleration],
+                      device=model.device)
 
     def energy_bound(self, t: float) -> float:
         """Most energy (J) the separation can have added by time ``t``: each bounded mass lifted by the
         deepest overlap plus the kinetic energy of the bound's speed (the fall gravity gives is not counted:
         it converts energy, it adds none)."""
         m = float(self._masses[0].sum() + self._masses[1].sum())
-        return m * (GRAVITY * self.depth + 0.5 * SEPARATION_SPEED ** 2) if self.any and t > 0 else 0.0
+        now = m * (GRAVITY * self.depth + 0.5 * SEPARATION_SPEED ** 2) if self.any and t > self.since else 0.0
+        return self._prior_j + now
 
     def as_dict(self) -> dict:
         return {"bodies": len(self.bodies), "particles": len(self.particles), "deepest_m": round(self.depth, 5),
-                "until_s": round(self.until, 4), "separation_speed_m_s": SEPARATION_SPEED}
+                "until_s": round(self.since + self.until, 4), "separation_speed_m_s": SEPARATION_SPEED,
+                "rearmed": self.rearms}
 
 
 def _overlapping_bodies(stepper) -> tuple[list[int], float]:
@@ -264,11 +315,11 @@ def _kernels():
 
     @wp.kernel
     def bound_bodies(qd: wp.array(dtype=wp.spatial_vector), cap: wp.array(dtype=float), radius: wp.array(dtype=float),
-                     t0: wp.array(dtype=float), t_offset: float, accel: float, until: float):
+                     t0: wp.array(dtype=float), t_offset: float, accel: float):
         b = wp.tid()
         c = cap[b]
         t = t0[0] + t_offset
-        if c < 0.0 or t >= until:
+        if c < 0.0 or t >= t0[1]:
             return
         c = c + accel * t
         w = qd[b]
@@ -285,11 +336,11 @@ def _kernels():
 
     @wp.kernel
     def bound_particles(qd: wp.array(dtype=wp.vec3), cap: wp.array(dtype=float), t0: wp.array(dtype=float),
-                        t_offset: float, accel: float, until: float):
+                        t_offset: float, accel: float):
         i = wp.tid()
         c = cap[i]
         t = t0[0] + t_offset
-        if c < 0.0 or t >= until:
+        if c < 0.0 or t >= t0[1]:
             return
         c = c + accel * t
         v = qd[i]

@@ -75,6 +75,7 @@ class GuardedRun:
         """Back to frame 0 (the state as built; pending pushes again) at the first plan."""
         with _device(self.stepper):
             self.stepper.restore(self._start)
+            self.depenetration.restart()
         self.plan = self.base_plan
         self._restart()
 
@@ -144,7 +145,14 @@ class GuardedRun:
         self._back(self._saved)
         self.plan = self.plan.refined()
         self._retry_frame = self.frame + 1
-        if not finite or speed > self.guard.max_speed:
+        # an overlap the coarser step left at the state gone back to would be separated at d/dt by the finer
+        # one, faster the finer the step: it separates at the bounded speed instead, its energy counted
+        with _device(self.stepper):
+            overlap = self.depenetration.rearm(self.stepper, self.t)
+        if overlap:
+            found = (f"energy grew; the state gone back to holds overlaps up to {self.depenetration.depth * 1000:.2g} mm, "
+                     "separated from there at a bounded speed")
+        elif not finite or speed > self.guard.max_speed:
             found = why
         elif self.stepper.fields:
             found = (f"energy grew beyond the {field_work:.3g} J the force fields did since the last check "
@@ -169,14 +177,15 @@ class GuardedRun:
         growth = energy - budget
         slack = g.slack(budget)
         t_checked = self._saved[2]
-        if t_checked < self.depenetration.until and self.depenetration.any:
+        if self.depenetration.active(t_checked):
             room = self.depenetration.energy_bound(self.t) - self.separation_j
             if growth - slack <= room:
                 amount = max(growth, 0.0)
                 self.separation_j += amount
                 g.add_work(amount)
                 self.log.append({"frame": self.frame, "cause": "overlap", "energy_j": round(amount, 6),
-                                 "found": f"start overlaps up to {self.depenetration.depth * 1000:.2g} mm separating",
+                                 "found": f"{'overlaps at a roll-back' if self.depenetration.since else 'start overlaps'} "
+                                          f"up to {self.depenetration.depth * 1000:.2g} mm separating",
                                  "remedy": "kept the frame: separated at a bounded speed, the energy counted as "
                                            "the solver's work"})
                 return True
