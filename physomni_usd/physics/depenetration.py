@@ -83,7 +83,8 @@ class Depenetration:
         bodies = np.array([b for b in bodies if b not in pushed], int)
         if not len(bodies):
             return False
-        self._prior_j = self.energy_bound(math.inf)
+        if t != self.since:  # a second roll-back to the same state re-opens its window, not adds to it
+            self._prior_j = self.energy_bound(math.inf)
         self._open(bodies, np.zeros(0, int), depth, float(np.clip(3.0 * depth / SEPARATION_SPEED, *WINDOW_S)),
                    (stepper.model.body_mass.numpy()[bodies], np.zeros(0)), t)
         self.rearms += 1
