@@ -55,6 +55,8 @@ class GuardedRun:
             old = stepper.depenetration
             if old is None or old.acceleration != plan.acceleration:
                 stepper.depenetration = Depenetration(stepper, plan.acceleration)
+            else:
+                old.restart()  # the start's window, not one a roll-back of the last run opened
             self.depenetration = stepper.depenetration
             self._start = stepper.checkpoint()
         self.log: list[dict] = []  # every roll-back and every growth counted, with cause and remedy
