@@ -23,7 +23,10 @@ def _cup_on_book():
     book.apply_translation((0.0, 0.0, 0.015))
     cup = trimesh.creation.cylinder(radius=0.04, height=0.09, sections=24)
     cup.apply_translation((0.0, 0.0, 0.03 + 0.045))
-    return [BenchObject("book", book, "rigid", {"density": 200.0}), BenchObject("cup", cup, "rigid", {"density": 600.0})]
+    # the book lighter than the cup, as in the scene it comes from: the overlap's pop-out then survives the
+    # restitution pass (a heavy book under a light cup separated calmly even without the bound)
+    return [BenchObject("book", book, "rigid", {"density": 200.0}),
+            BenchObject("cup", cup, "rigid", {"density": 600.0})]
 
 
 def test_a_roll_back_to_an_overlap_does_not_separate_it_faster_at_the_finer_step(tmp_path, monkeypatch):

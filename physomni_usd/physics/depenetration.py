@@ -74,8 +74,10 @@ class Depenetration:
     def rearm(self, stepper, t: float) -> bool:
         """Open a new window at time ``t`` (s) for the rigid bodies in an overlap deeper than ``OVERLAP_MIN_M``
         in ``stepper``'s state now (the guard has just rolled back to it); returns whether any was found. Only
-        bodies are bounded: a particle's start rest does not hold mid-run. The caps are written into the same
-        arrays, so frames captured before read the new window."""
+        bodies are bounded: a particle's start rest does not hold mid-run. A body already moving faster than
+        ``SEPARATION_SPEED`` there (its centre, or its surface turning: ω times its radius of gyration) keeps
+        its own speed as its cap: the bound stops the separation adding speed, it takes none away from a body
+        caught mid-impact. The caps are written into the same arrays, so frames captured before read them."""
         if self._body_cap is None:
             return False
         pushed = {p.body for p in stepper.pending if p.body is not None}
@@ -85,8 +87,11 @@ class Depenetration:
             return False
         if t != self.since:  # a second roll-back to the same state re-opens its window, not adds to it
             self._prior_j = self.energy_bound(math.inf)
+        qd = stepper.state.body_qd.numpy()[bodies].astype(np.float64)
+        turning = np.linalg.norm(qd[:, 3:], axis=1) * self._radius.numpy()[bodies]
+        speed = np.maximum(np.linalg.norm(qd[:, :3], axis=1), turning)
         self._open(bodies, np.zeros(0, int), depth, float(np.clip(3.0 * depth / SEPARATION_SPEED, *WINDOW_S)),
-                   (stepper.model.body_mass.numpy()[bodies], np.zeros(0)), t)
+                   (stepper.model.body_mass.numpy()[bodies], np.zeros(0)), t, np.maximum(speed, SEPARATION_SPEED))
         self.rearms += 1
         return True
 
@@ -95,17 +100,14 @@ class Depenetration:
         self._prior_j, self.rearms = 0.0, 0
         self._open(*self._start, 0.0)
 
-    def _open(self, bodies, particles, depth, until, masses, since) -> None:
-        changed = (len(bodies) != len(self.bodies) or np.any(bodies != self.bodies)
-                   or len(particles) != len(self.particles) or np.any(particles != self.particles))
+    def _open(self, bodies, particles, depth, until, masses, since, body_caps=SEPARATION_SPEED) -> None:
         self.bodies, self.particles, self.depth, self.until, self._masses = bodies, particles, depth, until, masses
         self.since = float(since)
-        if not changed:
-            return
-        for cap, indices in ((self._body_cap, bodies), (self._particle_cap, particles)):
+        for cap, indices, values in ((self._body_cap, bodies, body_caps),
+                                     (self._particle_cap, particles, SEPARATION_SPEED)):
             if cap is not None:
                 caps = np.full(cap.shape[0], -1.0, np.float32)
-                caps[indices] = SEPARATION_SPEED
+                caps[indices] = values
                 cap.assign(caps)
 
     @staticmethod

@@ -152,8 +152,8 @@ class GuardedRun:
         with _device(self.stepper):
             overlap = self.depenetration.rearm(self.stepper, self.t)
         if overlap:
-            found = (f"energy grew; the state gone back to holds overlaps up to {self.depenetration.depth * 1000:.2g} mm, "
-                     "separated from there at a bounded speed")
+            found = (f"energy grew; the state gone back to holds overlaps up to "
+                     f"{self.depenetration.depth * 1000:.2g} mm, separated from there at a bounded speed")
         elif not finite or speed > self.guard.max_speed:
             found = why
         elif self.stepper.fields:
@@ -185,9 +185,9 @@ class GuardedRun:
                 amount = max(growth, 0.0)
                 self.separation_j += amount
                 g.add_work(amount)
+                which = "overlaps at a roll-back" if self.depenetration.since else "start overlaps"
                 self.log.append({"frame": self.frame, "cause": "overlap", "energy_j": round(amount, 6),
-                                 "found": f"{'overlaps at a roll-back' if self.depenetration.since else 'start overlaps'} "
-                                          f"up to {self.depenetration.depth * 1000:.2g} mm separating",
+                                 "found": f"{which} up to {self.depenetration.depth * 1000:.2g} mm separating",
                                  "remedy": "kept the frame: separated at a bounded speed, the energy counted as "
                                            "the solver's work"})
                 return True
