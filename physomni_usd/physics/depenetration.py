@@ -50,7 +50,7 @@ class Depenetration:
             self.particles = np.intersect1d(self.particles, stepper.separating_particles)
         if model.particle_count and len(self.particles):
             self.depth = max(self.depth, _particle_depth(stepper))
-        self.until = float(np.clip(3.0 * self.depth / SEPARATION_SPEED, *WINDOW_S)) if self.any else 0.0
+        self.until = _window(self.depth) if self.any else 0.0
         device = model.device
         # the frame's start time within the window and the window's length, written outside a capture
         self._t = wp.zeros(2, dtype=float, device=device)
@@ -85,13 +85,26 @@ class Depenetration:
         bodies = np.array([b for b in bodies if b not in pushed], int)
         if not len(bodies):
             return False
-        if t != self.since:  # a second roll-back to the same state re-opens its window, not adds to it
-            self._prior_j = self.energy_bound(math.inf)
         qd = stepper.state.body_qd.numpy()[bodies].astype(np.float64)
         turning = np.linalg.norm(qd[:, 3:], axis=1) * self._radius.numpy()[bodies]
-        speed = np.maximum(np.linalg.norm(qd[:, :3], axis=1), turning)
-        self._open(bodies, np.zeros(0, int), depth, float(np.clip(3.0 * depth / SEPARATION_SPEED, *WINDOW_S)),
-                   (stepper.model.body_mass.numpy()[bodies], np.zeros(0)), t, np.maximum(speed, SEPARATION_SPEED))
+        caps = np.maximum(np.maximum(np.linalg.norm(qd[:, :3], axis=1), turning), SEPARATION_SPEED)
+        body_mass = stepper.model.body_mass.numpy()
+        if self.active(t):
+            # the window open at t (the start's, with its resting cloth, or an earlier roll-back's) goes on,
+            # widened: replacing it would drop its particles, its bodies and their mass from the energy bound
+            old = self._body_cap.numpy()
+            merged = np.union1d(self.bodies, bodies).astype(int)
+            body_caps = old[merged]
+            mine = np.searchsorted(merged, bodies)
+            body_caps[mine] = np.maximum(body_caps[mine], caps)
+            depth = max(self.depth, depth)
+            until = max(self.until, t - self.since + _window(depth))
+            self._open(merged, self.particles, depth, until, (body_mass[merged], self._masses[1]), self.since,
+                       body_caps)
+        else:
+            if t != self.since:  # a second roll-back to the same state re-opens its window, not adds to it
+                self._prior_j = self.energy_bound(math.inf)
+            self._open(bodies, np.zeros(0, int), depth, _window(depth), (body_mass[bodies], np.zeros(0)), t, caps)
         self.rearms += 1
         return True
 
@@ -159,6 +172,11 @@ class Depenetration:
         return {"bodies": len(self.bodies), "particles": len(self.particles), "deepest_m": round(self.depth, 5),
                 "until_s": round(self.since + self.until, 4), "separation_speed_m_s": SEPARATION_SPEED,
                 "rearmed": self.rearms}
+
+
+def _window(depth: float) -> float:
+    """How long (s) the bound holds for an overlap ``depth`` (m) deep."""
+    return float(np.clip(3.0 * depth / SEPARATION_SPEED, *WINDOW_S))
 
 
 def _overlapping_bodies(stepper) -> tuple[list[int], float]:
