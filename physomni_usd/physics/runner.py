@@ -151,16 +151,16 @@ class GuardedRun:
         # one, faster the finer the step: it separates at the bounded speed instead, its energy counted
         with _device(self.stepper):
             overlap = self.depenetration.rearm(self.stepper, self.t)
-        if overlap:
-            found = (f"energy grew; the state gone back to holds overlaps up to "
-                     f"{self.depenetration.depth * 1000:.2g} mm, separated from there at a bounded speed")
-        elif not finite or speed > self.guard.max_speed:
+        if not finite or speed > self.guard.max_speed:
             found = why
         elif self.stepper.fields:
             found = (f"energy grew beyond the {field_work:.3g} J the force fields did since the last check "
                      "(counted) with no start overlap separating: the step is too long for the forces")
         else:
             found = "energy grew with no start overlap separating and no work done: the step is too long"
+        if overlap:  # told beside the diagnosis, not instead of it: a NaN or an over-speed stays named
+            found += (f"; the state gone back to holds overlaps up to {self.depenetration.depth * 1000:.2g} mm, "
+                      "separated from there at a bounded speed")
         self.log.append({"frame": failed, "why": why, "cause": "stiff", "found": found,
                          "remedy": f"halved the step: {self.plan.substeps} substeps per frame",
                          "substeps": self.plan.substeps, "mpm_steps": self.plan.mpm_steps})
