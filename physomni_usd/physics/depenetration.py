@@ -48,15 +48,15 @@ class Depenetration:
 
         model, state = stepper.model, stepper.state
         self.acceleration = float(acceleration)
-        pushed_bodies = {p.body for p in stepper.pending if p.body is not None}
-        self.bodies, self.depth = _overlapping_bodies(stepper)
-        self.bodies = np.array([b for b in self.bodies if b not in pushed_bodies], int)
+        bodies, self.depth = _overlapping_bodies(stepper)
         self.particles = _resting_particles(model, state, stepper.pending)
         if stepper.separating_particles is not None:
             self.particles = np.intersect1d(self.particles, stepper.separating_particles)
         if model.particle_count and len(self.particles):
             self.depth = max(self.depth, _particle_depth(stepper))
-        self.until = _window(self.depth) if self.any else 0.0
+        until = _window(self.depth) if bodies or len(self.particles) else 0.0
+        self.bodies = _unpushed(bodies, stepper.pending, until)
+        self.until = until if self.any else 0.0
         device = model.device
         # the frame's start time within the window and the window's length, written outside a capture
         self._t = wp.zeros(2, dtype=float, device=device)
@@ -86,9 +86,9 @@ class Depenetration:
         caught mid-impact. The caps are written into the same arrays, so frames captured before read them."""
         if self._body_cap is None:
             return False
-        pushed = {p.body for p in stepper.pending if p.body is not None}
         bodies, depth = _overlapping_bodies(stepper, REARM_OVERLAP_M)
-        bodies = np.array([b for b in bodies if b not in pushed], int)
+        end = max(self.since + self.until, t + _window(depth)) if self.active(t) else t + _window(depth)
+        bodies = _unpushed(bodies, stepper.pending, end)
         if not len(bodies):
             return False
         qd = stepper.state.body_qd.numpy()[bodies].astype(np.float64)
@@ -178,6 +178,13 @@ class Depenetration:
         return {"bodies": len(self.bodies), "particles": len(self.particles), "deepest_m": round(self.depth, 5),
                 "until_s": round(self.since + self.until, 4), "separation_speed_m_s": SEPARATION_SPEED,
                 "rearmed": self.rearms}
+
+
+def _unpushed(bodies, pending, until: float) -> np.ndarray:
+    """``bodies`` less those a push reaches before ``until`` (s): the push sets their speed within the window,
+    which the bound would clip; a push due after the window closes leaves the body to it."""
+    pushed = {p.body for p in pending if p.body is not None and p.at < until}
+    return np.array([b for b in bodies if b not in pushed], int)
 
 
 def _window(depth: float) -> float:
