@@ -35,7 +35,6 @@ def test_a_roll_back_to_an_overlap_does_not_separate_it_faster_at_the_finer_step
     finer step must separate the overlap at the bounded speed: the run ends, and nothing moves faster than
     what separating and a 1 cm fall could give."""
     check = runner.GuardedRun._check
-    fastest = []
     state = {"tipped": False, "failed": False}
 
     def tipping(self):
@@ -58,12 +57,42 @@ def test_a_roll_back_to_an_overlap_does_not_separate_it_faster_at_the_finer_step
                 return check(self)
             finally:
                 self.guard.initial += 1.0
-        ok = check(self)
-        fastest.append(float(np.abs(st.state.body_qd.numpy()).max()))
-        return ok
+        return check(self)
 
     monkeypatch.setattr(runner.GuardedRun, "_check", tipping)
     report = simulate_shot(write_bench_shot(tmp_path, _cup_on_book()), SimulateSettings(seconds=0.8))
     assert state["failed"] and len(report["guard"]["rollbacks"]) >= 1
     assert "overlaps up to" in report["guard"]["rollbacks"][0]["found"]
     assert report["max_speed_m_s"] <= 0.1 + np.sqrt(2 * 9.81 * 0.01), report["max_speed_m_s"]
+
+
+def test_a_roll_back_inside_the_start_window_keeps_what_it_bounds(tmp_path, monkeypatch):
+    """Two cups start inside a book, one 5 mm deep, one 0.5 mm (below what a roll-back re-arms). The first
+    check is made to fail, so the run goes back to t = 0 with the start window open: the re-arm for the deep
+    cup widens that window and must keep the shallow cup (and the book) in it, not replace it by the deep
+    overlap's bodies alone."""
+    check = runner.GuardedRun._check
+    state = {"failed": False}
+
+    def failing_once(self):
+        if not state["failed"]:
+            state["failed"] = True
+            self.guard.initial -= 1.0
+            try:
+                return check(self)
+            finally:
+                self.guard.initial += 1.0
+        return check(self)
+
+    book = trimesh.creation.box((0.3, 0.15, 0.03))
+    book.apply_translation((0.0, 0.0, 0.015))
+    objects = [BenchObject("book", book, "rigid", {"density": 200.0})]
+    for name, x, sink in (("deep", -0.08, 0.005), ("shallow", 0.08, 0.0005)):
+        cup = trimesh.creation.cylinder(radius=0.04, height=0.09, sections=24)
+        cup.apply_translation((x, 0.0, 0.03 + 0.045 - sink))
+        objects.append(BenchObject(name, cup, "rigid", {"density": 600.0}))
+    monkeypatch.setattr(runner.GuardedRun, "_check", failing_once)
+    report = simulate_shot(write_bench_shot(tmp_path, objects), SimulateSettings(seconds=0.3))
+    bound = report["guard"]["depenetration"]
+    assert state["failed"] and bound["rearmed"] >= 1, report["guard"]
+    assert bound["bodies"] == 3, bound
