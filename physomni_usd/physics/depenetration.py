@@ -87,6 +87,10 @@ class Depenetration:
         if self._body_cap is None:
             return False
         bodies, depth = _overlapping_bodies(stepper, REARM_OVERLAP_M)
+        # searched a second time, as a new model's contacts are: one search is matched against the failed
+        # attempt's contacts, and the retry would start from a contact history the run never had there
+        if stepper.pipeline is not None:
+            stepper.pipeline.collide(stepper.state, stepper.contacts)
         end = max(self.since + self.until, t + _window(depth)) if self.active(t) else t + _window(depth)
         bodies = _unpushed(bodies, stepper.pending, end)
         if not len(bodies):
@@ -307,7 +311,8 @@ def lift_out(stepper, ranges: dict, bodies: dict | None = None, fixed=(), passes
     bodies = bodies or {}
     movable = _movable_bodies(stepper.model)
     for _ in range(passes):
-        stepper.pipeline.collide(stepper.state, stepper.contacts)
+        if stepper.pipeline is not None:
+            stepper.pipeline.collide(stepper.state, stepper.contacts)
         idx, normal, depth, body = _particle_contacts(stepper)
         q = stepper.state.particle_q.numpy()
         bq = stepper.state.body_q.numpy() if movable.size else None
