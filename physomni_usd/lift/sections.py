@@ -70,7 +70,7 @@ def round_rings(centres, radii, tangent, normal, sections: int) -> np.ndarray:
             + ring[None, :, 1:2] * radii[:, None, None] * normal)
 
 
-def ray_slab_rings(front_left, front_right, dir_left, dir_right, normal, depth: "float | np.ndarray", sections: int) -> np.ndarray:
+def ray_slab_rings(front_left, front_right, dir_left, dir_right, normal, depth, sections: int) -> np.ndarray:
     """Quadrilateral sections (K, n, 3) whose sides follow the camera rays through the outline, seen from above.
 
     The front edge of each section is the outline's row on the front plane and

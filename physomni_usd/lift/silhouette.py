@@ -51,8 +51,7 @@ from ..settings import LiftSettings
 from ..sizes import body_kind
 from .sections import bulge, inflated_rings, loft, ray_slab_rings, round_rings, span_samples
 
-#: Fraction of an object's height that forms its base: a round object's flat base (balls excepted), a slab's
-#: rows kept at full depth (:func:`slab_depths`).
+#: Fraction of a round object's height that forms its flat base (balls excepted).
 BASE_BAND = 0.15
 #: A bottom band of this fraction of the height, at least this fraction of the widest row wide, is flat.
 FLAT_BOTTOM_BAND = 0.04
@@ -495,15 +494,15 @@ def round_body(rows: StandingRows) -> LiftedMesh:
 def slab_depths(widths: np.ndarray, z: np.ndarray, ratio: float) -> np.ndarray:
     """(K,) metres: how deep each row of a slab is, rows ``widths`` (K,) metres wide at heights ``z`` (K,). The
     slab is ``ratio`` times the smaller of the outline's width and height deep, and no row deeper than it is
-    wide: a row whose whole span is narrow (a mirror's stalk, an antenna, a handle's end) stays thin rather
+    wide: a thin part of the outline (a mirror's stalk, an antenna, a handle's end) stays a thin part rather
     than a wall as deep as the body, which a turned object shows as a long strip of its rim. The rows of the
-    bottom band (:data:`BASE_BAND` of the height) keep the slab's full depth, so that it stands on the base
-    it stood on, however narrow its foot (a body deep above a thin foot would otherwise tip over it)."""
+    bottom band (:data:`BASE_BAND` of the height) take the band's deepest, so that it stands on the base it
+    stood on."""
     height = float(z.max() - z.min())
     depth = ratio * min(float(widths.max()), height or float(widths.max()))
     rows = np.minimum(depth, widths)
     band = z <= z.min() + BASE_BAND * height
-    rows[band] = depth
+    rows[band] = rows[band].max()
     return rows
 
 
