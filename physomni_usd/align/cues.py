@@ -378,7 +378,7 @@ def round_outlines(masks, labels) -> list[RoundOutline]:
         found = mask_ellipse(mask) if thickness <= FLAT_RATIO else None
         if found is not None and found[1] < ELLIPSE_IOU:
             # not an ellipse as seen: perhaps one that another object hides
-            others = np.logical_or.reduce([m for j, m in enumerate(filled) if j != i] or [np.zeros_like(mask)])
+            others = _others(filled, i)
             if (others & ~mask).any():
                 found = mask_ellipse(mask, others)
         if found is None or found[1] < ELLIPSE_IOU:
@@ -393,7 +393,7 @@ def round_outlines(masks, labels) -> list[RoundOutline]:
         for i, (mask, label) in enumerate(zip(filled, labels)):
             prior = size_prior(label)
             if prior is not None and prior.keyword in UPRIGHT_RIMS:
-                others = np.logical_or.reduce([m for j, m in enumerate(filled) if j != i] or [np.zeros_like(mask)])
+                others = _others(filled, i)
                 found = top_rim(mask, _cut(others))
                 if found is not None:
                     rims.append(found)
@@ -402,6 +402,12 @@ def round_outlines(masks, labels) -> list[RoundOutline]:
                 if o.rim:
                     _choose_sides(o, rims, filled[0].shape[1], filled[0].shape[0])
     return out
+
+
+def _others(filled: list[np.ndarray], i: int) -> np.ndarray:
+    """(H, W) bool: every mask of ``filled`` but the ``i``-th, as one; what may hide that one's outline."""
+    rest = [m for j, m in enumerate(filled) if j != i]
+    return np.logical_or.reduce(rest) if rest else np.zeros_like(filled[i])
 
 
 def rim_outlines(masks, labels) -> list[RoundOutline]:
@@ -413,7 +419,7 @@ def rim_outlines(masks, labels) -> list[RoundOutline]:
         prior = size_prior(label)
         if prior is None or prior.shape != "round" or not _deep_vessel(label, prior):
             continue
-        others = np.logical_or.reduce([m for j, m in enumerate(filled) if j != i] or [np.zeros_like(mask)])
+        others = _others(filled, i)
         found = top_rim(mask, _cut(others))
         if found is not None:
             ratio, u, v = found
