@@ -91,7 +91,8 @@ class Depenetration:
         # attempt's contacts, and the retry would start from a contact history the run never had there
         if stepper.pipeline is not None:
             stepper.pipeline.collide(stepper.state, stepper.contacts)
-        end = max(self.since + self.until, t + _window(depth)) if self.active(t) else t + _window(depth)
+        widening = self.active(t)
+        end = max(self.since + self.until, t + _window(depth)) if widening else t + _window(depth)
         bodies = _unpushed(bodies, stepper.pending, end)
         if not len(bodies):
             return False
@@ -99,7 +100,7 @@ class Depenetration:
         turning = np.linalg.norm(qd[:, 3:], axis=1) * self._radius.numpy()[bodies]
         caps = np.maximum(np.maximum(np.linalg.norm(qd[:, :3], axis=1), turning), SEPARATION_SPEED)
         body_mass = stepper.model.body_mass.numpy()
-        if self.active(t):
+        if widening:
             # the window open at t (the start's, with its resting cloth, or an earlier roll-back's) goes on,
             # widened: replacing it would drop its particles, its bodies and their mass from the energy bound
             old = self._body_cap.numpy()
@@ -129,19 +130,13 @@ class Depenetration:
         for cap, indices, values in ((self._body_cap, bodies, body_caps),
                                      (self._particle_cap, particles, SEPARATION_SPEED)):
             if cap is not None:
-                caps = np.full(cap.shape[0], -1.0, np.float32)
-                caps[indices] = values
-                cap.assign(caps)
+                cap.assign(_cap_values(cap.shape[0], indices, values))
 
     @staticmethod
     def _caps(count: int, indices: np.ndarray, device):
         import warp as wp
 
-        if not count:
-            return None
-        caps = np.full(count, -1.0, np.float32)  # −1: not bounded
-        caps[indices] = SEPARATION_SPEED
-        return wp.array(caps, dtype=float, device=device)
+        return wp.array(_cap_values(count, indices), dtype=float, device=device) if count else None
 
     @property
     def any(self) -> bool:
@@ -189,6 +184,13 @@ def _unpushed(bodies, pending, until: float) -> np.ndarray:
     which the bound would clip; a push due after the window closes leaves the body to it."""
     pushed = {p.body for p in pending if p.body is not None and p.at < until}
     return np.array([b for b in bodies if b not in pushed], int)
+
+
+def _cap_values(count: int, indices: np.ndarray, values=SEPARATION_SPEED) -> np.ndarray:
+    """(count,) float32 speed caps (m/s): ``values`` at ``indices``, −1 (not bounded) elsewhere."""
+    caps = np.full(count, -1.0, np.float32)
+    caps[indices] = values
+    return caps
 
 
 def _window(depth: float) -> float:
