@@ -1,5 +1,6 @@
-"""Shared fixtures: a tiny synthetic photo with known objects, a shot built from it once per session, and each
-bundled example and bench photo built once per session as a user would build it."""
+"""Shared fixtures: a tiny synthetic photo with known objects, a shot built from it once per session, each
+bundled example and bench photo built once per session as a user would build it, and the rendered cup on its
+saucer built once per session."""
 
 from __future__ import annotations
 
@@ -10,6 +11,8 @@ import sys
 import cv2
 import numpy as np
 import pytest
+
+from physomni_usd.geometry.camera import PinholeCamera
 
 W, H = 240, 180
 
@@ -158,3 +161,42 @@ def motorcycle_run(tmp_path_factory) -> tuple[subprocess.CompletedProcess, pathl
     out = tmp_path_factory.mktemp("motorcycle-run") / "moto"
     proc = subprocess.run(["bash", str(EXAMPLES / "motorcycle" / "run.sh"), str(out)], capture_output=True, text=True)
     return proc, out
+
+
+#: The camera the cup on its saucer (:func:`cup_saucer_truth`) is rendered through.
+TRUTH_CAMERA = PinholeCamera(320, 240, 50.0, 40.0, (0.0, -0.35, 0.35))
+
+
+def cup_saucer_truth():
+    """A 15 cm saucer, an 8 cm cup standing on it and an 11 cm spoon lying in it, metres, world (z up)."""
+    import trimesh
+
+    saucer = trimesh.creation.cylinder(0.075, 0.015, sections=48)
+    saucer.apply_translation([0, 0, 0.0075])
+    cup = trimesh.creation.cylinder(0.04, 0.09, sections=48)
+    cup.apply_translation([-0.01, 0.0, 0.015 + 0.045])
+    spoon = trimesh.creation.box((0.11, 0.018, 0.006))
+    spoon.apply_transform(trimesh.transformations.rotation_matrix(0.5, [0, 0, 1]))
+    spoon.apply_translation([0.025, -0.035, 0.015 + 0.003])
+    return [saucer, cup, spoon]
+
+
+@pytest.fixture(scope="session")
+def cup_saucer_build(tmp_path_factory) -> dict:
+    """The cup on its saucer rendered through :data:`TRUTH_CAMERA` (rng seed 3), its three *visible* masks
+    written as saucer/cup/spoon.png and the shot built from them (``out``), once per session: tests/test_cup_saucer.py
+    checks the build and tests/test_cloth_sheet.py makes its objects cloth. Shared: a test that changes the shot
+    works on a copy of it."""
+    from physomni_usd.bench.synthetic import render_truth
+    from physomni_usd.building import build_shot
+
+    folder = tmp_path_factory.mktemp("cup_saucer")
+    photo, masks = render_truth(TRUTH_CAMERA, cup_saucer_truth(), np.random.default_rng(3))  # visible parts only
+    cv2.imwrite(str(folder / "photo.png"), cv2.cvtColor(photo, cv2.COLOR_RGB2BGR))
+    specs = []
+    for name, m in zip(("saucer", "cup", "spoon"), masks):
+        cv2.imwrite(str(folder / f"{name}.png"), m.astype(np.uint8) * 255)
+        specs.append(f"{folder / name}.png:{name}")
+    out = folder / "shot"
+    build_shot(folder / "photo.png", out, masks=specs)
+    return {"out": out, "photo": photo, "masks": masks}

@@ -6,32 +6,19 @@ substeps a frame), and the cup made a light cloth (4 kg/m²) did too; both now s
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 import pytest
 from pxr import Usd
 
 import physomni_usd as api
-from physomni_usd.bench.synthetic import render_truth
-from physomni_usd.building import build_shot
 from physomni_usd.metrics.geometry import world_meshes
 from physomni_usd.physics.cloth import CLOTH_MIN_QUALITY, cloth_sheet, triangle_quality
 from physomni_usd.settings import SimulateSettings
 
-from .test_cup_saucer import TRUTH_CAMERA, _truth
-
 
 @pytest.fixture(scope="module")
-def cup_saucer(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("cloth_sheet")
-    photo, masks = render_truth(TRUTH_CAMERA, _truth(), np.random.default_rng(3))
-    cv2.imwrite(str(folder / "photo.png"), cv2.cvtColor(photo, cv2.COLOR_RGB2BGR))
-    specs = []
-    for name, m in zip(("saucer", "cup", "spoon"), masks):
-        cv2.imwrite(str(folder / f"{name}.png"), m.astype(np.uint8) * 255)
-        specs.append(f"{folder / name}.png:{name}")
-    build_shot(folder / "photo.png", folder / "shot", masks=specs)
-    return folder / "shot"
+def cup_saucer(cup_saucer_build):
+    return cup_saucer_build["out"]  # the session's build, which tests/test_cup_saucer.py checks
 
 
 def test_the_sheet_has_no_sliver_and_a_sensible_resolution_and_the_surface_follows_it(cup_saucer):

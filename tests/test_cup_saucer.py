@@ -9,42 +9,21 @@ import json
 import cv2
 import numpy as np
 import pytest
-import trimesh
 
 from physomni_usd.bench.synthetic import render_truth
-from physomni_usd.building import build_shot
 from physomni_usd.geometry.camera import PinholeCamera
 
-TRUTH_CAMERA = PinholeCamera(320, 240, 50.0, 40.0, (0.0, -0.35, 0.35))
-
-
-def _truth():
-    """A 15 cm saucer, an 8 cm cup standing on it and an 11 cm spoon lying in it, metres, world (z up)."""
-    saucer = trimesh.creation.cylinder(0.075, 0.015, sections=48)
-    saucer.apply_translation([0, 0, 0.0075])
-    cup = trimesh.creation.cylinder(0.04, 0.09, sections=48)
-    cup.apply_translation([-0.01, 0.0, 0.015 + 0.045])
-    spoon = trimesh.creation.box((0.11, 0.018, 0.006))
-    spoon.apply_transform(trimesh.transformations.rotation_matrix(0.5, [0, 0, 1]))
-    spoon.apply_translation([0.025, -0.035, 0.015 + 0.003])
-    return [saucer, cup, spoon]
+from .conftest import TRUTH_CAMERA
+from .conftest import cup_saucer_truth as _truth
 
 
 @pytest.fixture(scope="module")
-def cup_on_saucer(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("cup_saucer")
-    truth = _truth()
-    photo, masks = render_truth(TRUTH_CAMERA, truth, np.random.default_rng(3))  # visible parts only
-    cv2.imwrite(str(folder / "photo.png"), cv2.cvtColor(photo, cv2.COLOR_RGB2BGR))
-    specs = []
-    for name, m in zip(("saucer", "cup", "spoon"), masks):
-        cv2.imwrite(str(folder / f"{name}.png"), m.astype(np.uint8) * 255)
-        specs.append(f"{folder / name}.png:{name}")
-    out = folder / "shot"
-    build_shot(folder / "photo.png", out, masks=specs)
-    whole = render_truth(TRUTH_CAMERA, truth[:1])[1][0]  # the saucer's full outline, nothing in front
-    return {"out": out, "photo": photo, "whole": whole, "saucer": masks[0], "cup": masks[1], "spoon": masks[2],
-            "report": json.loads((out / "report.json").read_text())}
+def cup_on_saucer(cup_saucer_build):
+    """The session's build (tests/conftest.py's ``cup_saucer_build``), with the saucer's full outline."""
+    out, masks = cup_saucer_build["out"], cup_saucer_build["masks"]
+    whole = render_truth(TRUTH_CAMERA, _truth()[:1])[1][0]  # the saucer's full outline, nothing in front
+    return {"out": out, "photo": cup_saucer_build["photo"], "whole": whole, "saucer": masks[0], "cup": masks[1],
+            "spoon": masks[2], "report": json.loads((out / "report.json").read_text())}
 
 
 def test_the_order_and_the_completed_area_are_in_the_report(cup_on_saucer):
