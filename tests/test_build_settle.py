@@ -4,6 +4,7 @@ shot with nothing pushed, keeps a small settling whose outline still matches the
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from physomni_usd.align.compare import silhouette
 from physomni_usd.bench.scenes import BOX, BenchObject, box, write_bench_shot
@@ -302,3 +303,46 @@ def test_a_settle_goes_on_while_what_moves_could_still_be_kept_and_no_longer(tmp
     assert seconds < settled.simulated_s < fall_s and not settled.at_rest, settled
     assert m["above"].resting and 0.006 < m["above"].moved_m < 0.014, m["above"]
     assert m["high"].moved_m > KEEP_M and not m["high"].resting, m["high"]
+
+
+def test_a_build_whose_settle_diverges_as_placed_is_refused_naming_what_diverged(tmp_path, monkeypatch):
+    """Where the settle of the shot as placed diverges (every check of the guard fails past the first frames,
+    so that it gives up at its finest step), the build ends with one line naming what diverged and puts the
+    output folder back as it was; it used to record the divergence as a skipped settle and write a shot that
+    ``simulate`` diverges on."""
+    import trimesh
+
+    from physomni_usd.building import build_shot
+    from physomni_usd.errors import PhysOmniError
+    from physomni_usd.physics import runner
+
+    camera = PinholeCamera(240, 180, 50.0, 30.0, (0.0, -0.55, 0.35))
+    truth = []
+    for size, at in (((0.30, 0.20, 0.10), (0, 0, 0)), ((0.07, 0.07, 0.07), (0.25, -0.05, 0.0))):
+        b = trimesh.creation.box(size)
+        b.apply_translation([at[0], at[1], at[2] + size[2] / 2])
+        truth.append(b)
+    specs = rendered_blocks(tmp_path, camera, truth)
+    check = runner.GuardedRun._check
+    runs = []
+
+    def growing(self):  # the energy reads 1 kJ above the budget at every check past frame 2: no step passes
+        runs.append(self.frame)
+        if self.frame <= 2:
+            return check(self)
+        self.guard.initial -= 1000.0
+        try:
+            return check(self)
+        finally:
+            self.guard.initial += 1000.0
+
+    monkeypatch.setattr(runner.GuardedRun, "_check", growing)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    with pytest.raises(PhysOmniError) as caught:
+        build_shot(tmp_path / "photo.png", out, masks=specs)
+    line = str(caught.value)
+    assert runs and "\n" not in line, line
+    assert "the shot as placed diverges with nothing pushed" in line and "fastest: block" in line, line
+    assert sorted(p.name for p in out.iterdir()) == ["notes.txt"] and (out / "notes.txt").read_text() == "mine"

@@ -44,8 +44,9 @@ class GuardedRun:
 
     def __init__(self, stepper, plan: StepPlan, *, capture: bool = True, tolerance: float = ENERGY_TOLERANCE,
                  check_every: int = CHECK_EVERY, stage=None, give_up: bool = True, echo=lambda m: None,
-                 graphs: FrameGraphs | None = None):
+                 graphs: FrameGraphs | None = None, bodies: dict[int, str] | None = None):
         self.stepper, self.base_plan, self.plan = stepper, plan, plan
+        self.bodies = bodies or {}  # body index → the object's name, to name the fastest where a run fails
         self.graphs = graphs if graphs is not None else FrameGraphs(stepper, enabled=capture)
         self.stage, self.give_up, self.echo = stage, give_up, echo
         self.check_every = max(1, int(check_every))
@@ -143,7 +144,9 @@ class GuardedRun:
             what = (f"simulation diverged at frame {failed}: {why}, even at {self.plan.substeps} substeps per frame"
                     if len(self.rollbacks) >= MAX_RETRIES else
                     f"simulation stuck at frame {failed}: {why}, {FRAME_WALL_BUDGET_S:g} s spent on it")
-            raise PhysOmniError(failure_line(self.stage, what) if self.stage is not None else what)
+            objects, named = _fastest(self.stepper, self.bodies)
+            what += named
+            raise Diverged(failure_line(self.stage, what) if self.stage is not None else what, objects)
         self._back(self._saved)
         self.plan = self.plan.refined()
         self._retry_frame = self.frame + 1
@@ -248,8 +251,9 @@ def run_guarded(models, plan: StepPlan, seconds: float, progress=None, echo=lamb
     until then); with ``stop`` (bodies' recorded poses (F, B, 7) up to a frame → bool), end early where it
     says so. The take's plan is the last one stepped (a roll-back refines it)."""
     frames = int(round(seconds * plan.fps)) + 1
+    bodies = {b: p.rsplit("/", 1)[-1] for p, b in models.path_body.items()}
     run = GuardedRun(models.stepper, plan, capture=CAPTURE, stage=models.stage, echo=echo,
-                     graphs=models.frame_graphs(CAPTURE))
+                     graphs=models.frame_graphs(CAPTURE), bodies=bodies)
     rec = Recorder(models, frames)
     rec.record(0)
     replayed, captures = run.graphs.captured_frames, run.graphs.captures  # the graphs outlive a run
@@ -304,6 +308,32 @@ def _device(stepper):
     import warp as wp
 
     return wp.ScopedDevice(stepper.model.device)
+
+
+class Diverged(PhysOmniError):
+    """A guarded run that gave up (diverged at its finest step, or stuck on a frame); ``objects`` names what diverged (:func:`_fastest`)."""
+
+    def __init__(self, message: str, objects: list[str]):
+        super().__init__(message)
+        self.objects = objects
+
+
+def _fastest(stepper, bodies: dict[int, str]) -> tuple[list[str], str]:
+    """What a failed run diverged in, named (the user's handle on which object or pair to look at): the bodies
+    whose speed is not finite, else the fastest by its centre's speed (as the guard's over-speed reads it),
+    with its spin; and the words saying so ("" where no body is named; ``bodies``: body index → object name)."""
+    if not bodies or not stepper.model.body_count:
+        return [], ""
+    qd = stepper.state.body_qd.numpy()
+    v, w = np.linalg.norm(qd[:, :3], axis=1), np.linalg.norm(qd[:, 3:6], axis=1)
+    finite = {b for b in bodies if b < len(qd) and np.isfinite(v[b]) and np.isfinite(w[b])}
+    nan = sorted(bodies[b] for b in bodies if b < len(qd) and b not in finite)
+    if nan:
+        return nan, f"; not finite: {', '.join(nan)}"
+    if not finite:
+        return [], ""
+    b = max(finite, key=lambda k: v[k])
+    return [bodies[b]], f"; fastest: {bodies[b]} ({v[b]:.3g} m/s, {w[b]:.3g} rad/s)"
 
 
 def _top_speed(stepper) -> float:
