@@ -618,8 +618,8 @@ def _settle(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, field
             settled = settle_shot(layers.open_shot(out, mute_sim=True, mute_edits=True), scene.settings.settle_s,
                                   echo)
         except PhysOmniError as exc:
-            if _same(total, verified) and isinstance(exc, Diverged):  # simulate would diverge on it too
-                _refuse_placed(exc, supports)
+            if _same(total, verified) and isinstance(exc, Diverged) and exc.finest:
+                _refuse_placed(exc, supports, out, scene.settings.settle_s, echo)
             if _same(total, verified):  # the shot as placed, refused: the check after this says why
                 info["skipped"] = str(exc)
             else:
@@ -694,15 +694,35 @@ def _settle(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, field
                  f"or --pitch, or hold it with --fixed")
 
 
-def _refuse_placed(exc, supports: dict) -> None:
+def _refuse_placed(exc, supports: dict, out: pathlib.Path, seconds: float, echo) -> None:
     """End the build (exit 1, one line; the folder put back as it was) where the settle of the shot as placed
-    diverged (``exc``, a ``physics.runner.Diverged``) with nothing pushed, the guard's roll-backs and their
-    re-armed separation included: ``simulate`` of the same shot would fail the same way, after a build that
-    said it was written (a cup rocking on a book diverged in the settle; the build wrote it, and its check,
-    which never simulates, passed it). What diverged is named with what it rests on or what rests on it
-    (``supports``: upper's name → what it rests on)."""
-    from .errors import PhysOmniError
+    diverged at its finest step (``exc``, a ``physics.runner.Diverged``) with nothing pushed, the guard's
+    roll-backs and their re-armed separation included: ``simulate`` of the same shot would fail the same way,
+    after a build that said it was written (a cup rocking on a book diverged in the settle; the build wrote it,
+    and its check, which never simulates, passed it). What diverged is named with what it rests on or what
+    rests on it (``supports``: upper's name → what it rests on).
 
+    The settle steps the build's own layers; ``simulate`` composes the artist's ``edits.usda`` too. Where that
+    layer says anything, the shot is settled again as ``simulate`` composes it, and refused only where that
+    diverges too: an object the artist holds with ``physomni:fixed``, or gave another material or mass, may
+    be what keeps it from diverging (then a warning says so and the settle is skipped)."""
+    from .errors import PhysOmniError
+    from .physics.runner import Diverged
+    from .physics.settle import settle_shot
+
+    if _edited(out):
+        try:
+            settle_shot(layers.open_shot(out, mute_sim=True), seconds, echo)
+        except Diverged as again:
+            if not again.finest:
+                return
+            exc = again
+        except PhysOmniError:
+            return
+        else:
+            echo(f"warning: the shot as placed diverges without {layers.EDITS} ({exc}); with it, it does not: "
+                 "the shot is not settled")
+            return
     pairs = []
     for n in exc.objects:
         on = [f"{n} on {supports[n]}"] if n in supports else []
@@ -710,6 +730,14 @@ def _refuse_placed(exc, supports: dict) -> None:
     which = f" ({'; '.join(pairs)})" if pairs else ""
     raise PhysOmniError(f"the shot as placed diverges with nothing pushed{which}: {exc}; simulate would fail on "
                         "it too (give the objects' masks again, --size, or hold one with --fixed)") from None
+
+
+def _edited(out: pathlib.Path) -> bool:
+    """Whether the artist's ``edits.usda`` in ``out`` says anything about a prim (a rebuild keeps it)."""
+    from pxr import Sdf
+
+    edits = Sdf.Layer.FindOrOpen(str(out / layers.EDITS)) if (out / layers.EDITS).exists() else None
+    return edits is not None and bool(edits.rootPrims)
 
 
 def _same(a: dict, b: dict) -> bool:

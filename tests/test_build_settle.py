@@ -305,15 +305,11 @@ def test_a_settle_goes_on_while_what_moves_could_still_be_kept_and_no_longer(tmp
     assert m["high"].moved_m > KEEP_M and not m["high"].resting, m["high"]
 
 
-def test_a_build_whose_settle_diverges_as_placed_is_refused_naming_what_diverged(tmp_path, monkeypatch):
-    """Where the settle of the shot as placed diverges (every check of the guard fails past the first frames,
-    so that it gives up at its finest step), the build ends with one line naming what diverged and puts the
-    output folder back as it was; it used to record the divergence as a skipped settle and write a shot that
-    ``simulate`` diverges on."""
+def _two_blocks(tmp_path, monkeypatch, diverges=lambda run: True):
+    """A book-sized block and a small one beside it, rendered, and a guard whose energy reads 1 kJ above its
+    budget at every check past frame 2 of a run where ``diverges(run)``: no step passes."""
     import trimesh
 
-    from physomni_usd.building import build_shot
-    from physomni_usd.errors import PhysOmniError
     from physomni_usd.physics import runner
 
     camera = PinholeCamera(240, 180, 50.0, 30.0, (0.0, -0.55, 0.35))
@@ -326,9 +322,9 @@ def test_a_build_whose_settle_diverges_as_placed_is_refused_naming_what_diverged
     check = runner.GuardedRun._check
     runs = []
 
-    def growing(self):  # the energy reads 1 kJ above the budget at every check past frame 2: no step passes
+    def growing(self):
         runs.append(self.frame)
-        if self.frame <= 2:
+        if self.frame <= 2 or not diverges(self):
             return check(self)
         self.guard.initial -= 1000.0
         try:
@@ -339,6 +335,18 @@ def test_a_build_whose_settle_diverges_as_placed_is_refused_naming_what_diverged
     monkeypatch.setattr(runner.GuardedRun, "_check", growing)
     out = tmp_path / "out"
     out.mkdir()
+    return specs, out, runs
+
+
+def test_a_build_whose_settle_diverges_as_placed_is_refused_naming_what_diverged(tmp_path, monkeypatch):
+    """Where the settle of the shot as placed diverges (every check of the guard fails past the first frames,
+    so that it gives up at its finest step), the build ends with one line naming what diverged and puts the
+    output folder back as it was; it used to record the divergence as a skipped settle and write a shot that
+    ``simulate`` diverges on."""
+    from physomni_usd.building import build_shot
+    from physomni_usd.errors import PhysOmniError
+
+    specs, out, runs = _two_blocks(tmp_path, monkeypatch)
     (out / "notes.txt").write_text("mine")
     with pytest.raises(PhysOmniError) as caught:
         build_shot(tmp_path / "photo.png", out, masks=specs)
@@ -346,3 +354,43 @@ def test_a_build_whose_settle_diverges_as_placed_is_refused_naming_what_diverged
     assert runs and "\n" not in line, line
     assert "the shot as placed diverges with nothing pushed" in line and "fastest: block" in line, line
     assert sorted(p.name for p in out.iterdir()) == ["notes.txt"] and (out / "notes.txt").read_text() == "mine"
+
+
+def test_a_settle_given_up_on_a_slow_frame_is_no_divergence_and_the_build_goes_on(tmp_path, monkeypatch):
+    """A run that gives up because a frame took longer than its wall-clock budget (load, a first kernel
+    compile) has not shown the shot diverges: the build is written, its settle recorded as skipped."""
+    from physomni_usd.building import build_shot
+    from physomni_usd.physics import runner
+    from physomni_usd.report import read_report
+
+    specs, out, runs = _two_blocks(tmp_path, monkeypatch)
+    monkeypatch.setattr(runner, "FRAME_WALL_BUDGET_S", -1.0)  # every frame over budget: gives up at once
+    build_shot(tmp_path / "photo.png", out, masks=specs)
+    settle = read_report(out)["shot"]["alignment"]["settle"]
+    assert runs and "simulation stuck at frame" in settle["skipped"], settle
+    assert (out / layers.SHOT).exists()
+
+
+def test_a_settle_that_diverges_only_without_the_artists_edits_does_not_refuse_the_build(tmp_path, monkeypatch):
+    """The settle steps the build's own layers; ``simulate`` composes ``edits.usda`` too. Where the artist's
+    layer holds every object fixed and the shot diverges only with an object free, the build is written (with
+    a warning) and not refused for what ``simulate`` would not do."""
+    from pxr import Sdf
+
+    from physomni_usd.building import build_shot
+
+    def free(run):
+        return any(not p.GetAttribute("physomni:fixed").Get()
+                   for p in run.stage.GetPrimAtPath("/World/Objects").GetChildren())
+
+    specs, out, runs = _two_blocks(tmp_path, monkeypatch, diverges=free)
+    edits = Sdf.Layer.CreateNew(str(out / layers.EDITS))
+    for n in ("block_0", "block_1"):
+        spec = Sdf.CreatePrimInLayer(edits, f"/World/Objects/{n}")
+        spec.specifier = Sdf.SpecifierOver
+        Sdf.AttributeSpec(spec, "physomni:fixed", Sdf.ValueTypeNames.Bool).default = True
+    edits.Save()
+    said = []
+    build_shot(tmp_path / "photo.png", out, masks=specs, echo=said.append)
+    assert runs and (out / layers.SHOT).exists()
+    assert any(m.startswith("warning: the shot as placed diverges without edits.usda") for m in said), said

@@ -141,12 +141,13 @@ class GuardedRun:
             if not self.give_up:
                 self._saved = self._checkpoint(self._saved)  # stepping on, as the preview does, from here
                 return True
+            finest = len(self.rollbacks) >= MAX_RETRIES
             what = (f"simulation diverged at frame {failed}: {why}, even at {self.plan.substeps} substeps per frame"
-                    if len(self.rollbacks) >= MAX_RETRIES else
+                    if finest else
                     f"simulation stuck at frame {failed}: {why}, {FRAME_WALL_BUDGET_S:g} s spent on it")
             objects, named = _fastest(self.stepper, self.bodies)
             what += named
-            raise Diverged(failure_line(self.stage, what) if self.stage is not None else what, objects)
+            raise Diverged(failure_line(self.stage, what) if self.stage is not None else what, objects, finest)
         self._back(self._saved)
         self.plan = self.plan.refined()
         self._retry_frame = self.frame + 1
@@ -311,11 +312,15 @@ def _device(stepper):
 
 
 class Diverged(PhysOmniError):
-    """A guarded run that gave up (diverged at its finest step, or stuck on a frame); ``objects`` names what diverged (:func:`_fastest`)."""
+    """A guarded run that gave up; ``objects`` names what diverged (:func:`_fastest`). ``finest``: it failed at
+    its finest step, every roll-back spent; False where it gave up on a frame that took too long
+    (``FRAME_WALL_BUDGET_S``), which says as much about the machine's load or a first kernel compile as about
+    the scene. Users see it as a :class:`PhysOmniError` (the CLI's ``error:`` line, batch's failure type)."""
 
-    def __init__(self, message: str, objects: list[str]):
+    def __init__(self, message: str, objects: list[str], finest: bool = True):
         super().__init__(message)
         self.objects = objects
+        self.finest = finest
 
 
 def _fastest(stepper, bodies: dict[int, str]) -> tuple[list[str], str]:
