@@ -727,7 +727,7 @@ def _refuse_placed(exc, supports: dict, out: pathlib.Path, seconds: float, echo)
     for n in exc.objects:
         on = [f"{n} on {supports[n]}"] if n in supports else []
         pairs += on + [f"{u} on {n}" for u, lower in sorted(supports.items()) if lower == n]
-    which = f" ({'; '.join(pairs)})" if pairs else ""
+    which = f" ({'; '.join(dict.fromkeys(pairs))})" if pairs else ""
     raise PhysOmniError(f"the shot as placed diverges with nothing pushed{which}: {exc}; simulate would fail on "
                         "it too (give the objects' masks again, --size, or hold one with --fixed)") from None
 

@@ -3,6 +3,8 @@ shot with nothing pushed, keeps a small settling whose outline still matches the
 
 from __future__ import annotations
 
+import pathlib
+
 import numpy as np
 import pytest
 
@@ -394,3 +396,15 @@ def test_a_settle_that_diverges_only_without_the_artists_edits_does_not_refuse_t
     build_shot(tmp_path / "photo.png", out, masks=specs, echo=said.append)
     assert runs and (out / layers.SHOT).exists()
     assert any(m.startswith("warning: the shot as placed diverges without edits.usda") for m in said), said
+
+
+def test_a_refusal_names_each_pair_once():
+    """Two diverging objects, one on the other: the pair is named once, with what each rests on."""
+    from physomni_usd.building import _refuse_placed
+    from physomni_usd.errors import PhysOmniError
+    from physomni_usd.physics.runner import Diverged
+
+    exc = Diverged("simulation diverged at frame 3", ["cup_1", "book_0"])
+    with pytest.raises(PhysOmniError) as caught:
+        _refuse_placed(exc, {"cup_1": "book_0", "book_0": "table_2"}, pathlib.Path("nowhere"), 1.0, print)
+    assert "(cup_1 on book_0; book_0 on table_2): simulation diverged at frame 3" in str(caught.value)
