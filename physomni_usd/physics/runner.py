@@ -325,20 +325,43 @@ class Diverged(PhysOmniError):
 
 def _fastest(stepper, bodies: dict[int, str]) -> tuple[list[str], str]:
     """What a failed run diverged in, named (the user's handle on which object or pair to look at): the bodies
-    whose speed is not finite, else the fastest by its centre's speed (as the guard's over-speed reads it),
-    with its spin; and the words saying so ("" where no body is named; ``bodies``: body index → object name)."""
-    if not bodies or not stepper.model.body_count:
-        return [], ""
-    qd = stepper.state.body_qd.numpy()
+    whose velocity is not finite, else the fastest by the speed of its points (its centre's speed plus its spin
+    times its radius of gyration: a small block spinning up on a book is found as one sliding off), with
+    ``particles`` where theirs are not finite or faster; and the words saying so ("" where none is named;
+    ``bodies``: body index → object name)."""
+    m = stepper.model
+    parts = _particle_speeds(stepper)
+    wild = [] if all(np.isfinite(v).all() for v in parts) else ["particles"]
+    top = max((float(v.max()) for v in parts if v.size and np.isfinite(v).all()), default=0.0)
+    if not bodies or not m.body_count:
+        return wild, f"; not finite: {', '.join(wild)}" if wild else ""
+    qd = stepper.state.body_qd.numpy().astype(np.float64)
     v, w = np.linalg.norm(qd[:, :3], axis=1), np.linalg.norm(qd[:, 3:6], axis=1)
-    finite = {b for b in bodies if b < len(qd) and np.isfinite(v[b]) and np.isfinite(w[b])}
-    nan = sorted(bodies[b] for b in bodies if b < len(qd) and b not in finite)
+    mass = m.body_mass.numpy().astype(np.float64)
+    trace = np.trace(m.body_inertia.numpy().astype(np.float64), axis1=1, axis2=2)
+    radius = np.sqrt(np.divide(trace, 2.0 * mass, out=np.zeros_like(mass), where=mass > 0))
+    points = v + w * radius
+    finite = {b for b in bodies if b < len(qd) and np.isfinite(points[b])}
+    nan = sorted(bodies[b] for b in bodies if b < len(qd) and b not in finite) + wild
     if nan:
         return nan, f"; not finite: {', '.join(nan)}"
     if not finite:
         return [], ""
-    b = max(finite, key=lambda k: v[k])
+    b = max(finite, key=lambda k: points[k])
+    if top > points[b]:
+        return ["particles"], f"; fastest: particles ({top:.3g} m/s)"
     return [bodies[b]], f"; fastest: {bodies[b]} ({v[b]:.3g} m/s, {w[b]:.3g} rad/s)"
+
+
+def _particle_speeds(stepper) -> list[np.ndarray]:
+    """The speeds of the moving particles of each particle model stepped (cloth and soft bodies, MPM)."""
+    s, m = stepper.state, stepper.model
+    out = []
+    for model, state in ((m, s), (stepper.mpm.model, stepper.mpm.state) if stepper.mpm else (None, None)):
+        if model is not None and model.particle_count:
+            moving = model.particle_mass.numpy() > 0
+            out.append(np.linalg.norm(state.particle_qd.numpy()[moving], axis=1))
+    return out
 
 
 def _top_speed(stepper) -> float:
@@ -347,11 +370,7 @@ def _top_speed(stepper) -> float:
     speeds = [0.0]
     if m.body_count:
         speeds.append(float(np.linalg.norm(s.body_qd.numpy()[:, :3], axis=1).max()))
-    for model, state in ((m, s), (stepper.mpm.model, stepper.mpm.state) if stepper.mpm else (None, None)):
-        if model is not None and model.particle_count:
-            moving = model.particle_mass.numpy() > 0
-            if moving.any():
-                speeds.append(float(np.linalg.norm(state.particle_qd.numpy()[moving], axis=1).max()))
+    speeds += [float(v.max()) for v in _particle_speeds(stepper) if v.size]
     return max(speeds)
 
 
