@@ -595,8 +595,10 @@ def _settle(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, field
     kept before that a later round finds gone too far goes back to the photo's pose, and what rests on or holds
     one going back, at a settled pose, goes back with it (:func:`_tie`). A round the simulator
     refuses puts the shot back to the last write it accepted, with a warning: the settle never makes a build
-    fail that would pass without it. It settles the build's own layers (the artist's edits muted)."""
+    fail that would pass without it, but for the shot as placed diverging (:func:`_refuse_placed`), which
+    ``simulate`` would diverge on too. It settles the build's own layers (the artist's edits muted)."""
     from .errors import PhysOmniError
+    from .physics.runner import Diverged
     from .physics.settle import SETTLE_ROUNDS, judge, settle_shot
 
     info: dict = {"rounds": []}
@@ -616,7 +618,9 @@ def _settle(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, field
             settled = settle_shot(layers.open_shot(out, mute_sim=True, mute_edits=True), scene.settings.settle_s,
                                   echo)
         except PhysOmniError as exc:
-            if _same(total, verified):  # the shot as placed: what simulate refuses, the check after this says
+            if _same(total, verified) and isinstance(exc, Diverged) and exc.finest:
+                _refuse_placed(exc, supports, out, scene.settings.settle_s, echo)
+            if _same(total, verified):  # the shot as placed, refused: the check after this says why
                 info["skipped"] = str(exc)
             else:
                 _settle_back(scene, verified, placed, out, photo_path, user_sizes, fields, files, info, exc, echo)
@@ -688,6 +692,52 @@ def _settle(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, field
         for n, why in far.items():
             echo(f"warning: {n} does not stay where the photo shows it: it {why}; give its mask again, --size "
                  f"or --pitch, or hold it with --fixed")
+
+
+def _refuse_placed(exc, supports: dict, out: pathlib.Path, seconds: float, echo) -> None:
+    """End the build (exit 1, one line; the folder put back as it was) where the settle of the shot as placed
+    diverged at its finest step (``exc``, a ``physics.runner.Diverged``) with nothing pushed, the guard's
+    roll-backs and their re-armed separation included: ``simulate`` of the same shot would fail the same way,
+    after a build that said it was written (a cup rocking on a book diverged in the settle; the build wrote it,
+    and its check, which never simulates, passed it). What diverged is named with what it rests on or what
+    rests on it (``supports``: upper's name → what it rests on).
+
+    The settle steps the build's own layers; ``simulate`` composes the artist's ``edits.usda`` too. Where that
+    layer says anything, the shot is settled again as ``simulate`` composes it, and refused only where that
+    diverges too: an object the artist holds with ``physomni:fixed``, or gave another material or mass, may
+    be what keeps it from diverging (then a warning says so and the settle is skipped)."""
+    from .errors import PhysOmniError
+    from .physics.runner import Diverged
+    from .physics.settle import settle_shot
+
+    if _edited(out):
+        try:
+            settle_shot(layers.open_shot(out, mute_sim=True), seconds, echo)
+        except Diverged as again:
+            if not again.finest:
+                return
+            exc = again
+        except PhysOmniError:
+            return
+        else:
+            echo(f"warning: the shot as placed diverges without {layers.EDITS} ({exc}); with it, it does not: "
+                 "the shot is not settled")
+            return
+    pairs = []
+    for n in exc.objects:
+        on = [f"{n} on {supports[n]}"] if n in supports else []
+        pairs += on + [f"{u} on {n}" for u, lower in sorted(supports.items()) if lower == n]
+    which = f" ({'; '.join(dict.fromkeys(pairs))})" if pairs else ""
+    raise PhysOmniError(f"the shot as placed diverges with nothing pushed{which}: {exc}; simulate would fail on "
+                        "it too (give the objects' masks again, --size, or hold one with --fixed)") from None
+
+
+def _edited(out: pathlib.Path) -> bool:
+    """Whether the artist's ``edits.usda`` in ``out`` says anything about a prim (a rebuild keeps it)."""
+    from pxr import Sdf
+
+    edits = Sdf.Layer.FindOrOpen(str(out / layers.EDITS)) if (out / layers.EDITS).exists() else None
+    return edits is not None and bool(edits.rootPrims)
 
 
 def _same(a: dict, b: dict) -> bool:

@@ -3,7 +3,10 @@ shot with nothing pushed, keeps a small settling whose outline still matches the
 
 from __future__ import annotations
 
+import pathlib
+
 import numpy as np
+import pytest
 
 from physomni_usd.align.compare import silhouette
 from physomni_usd.bench.scenes import BOX, BenchObject, box, write_bench_shot
@@ -302,3 +305,134 @@ def test_a_settle_goes_on_while_what_moves_could_still_be_kept_and_no_longer(tmp
     assert seconds < settled.simulated_s < fall_s and not settled.at_rest, settled
     assert m["above"].resting and 0.006 < m["above"].moved_m < 0.014, m["above"]
     assert m["high"].moved_m > KEEP_M and not m["high"].resting, m["high"]
+
+
+def _two_blocks(tmp_path, monkeypatch, diverges=lambda run: True):
+    """A book-sized block and a small one beside it, rendered, and a guard whose energy reads 1 kJ above its
+    budget at every check past frame 2 of a run where ``diverges(run)``: no step passes."""
+    import trimesh
+
+    from physomni_usd.physics import runner
+
+    camera = PinholeCamera(240, 180, 50.0, 30.0, (0.0, -0.55, 0.35))
+    truth = []
+    for size, at in (((0.30, 0.20, 0.10), (0, 0, 0)), ((0.07, 0.07, 0.07), (0.25, -0.05, 0.0))):
+        b = trimesh.creation.box(size)
+        b.apply_translation([at[0], at[1], at[2] + size[2] / 2])
+        truth.append(b)
+    specs = rendered_blocks(tmp_path, camera, truth)
+    check = runner.GuardedRun._check
+    runs = []
+
+    def growing(self):
+        runs.append(self.frame)
+        if self.frame <= 2 or not diverges(self):
+            return check(self)
+        self.guard.initial -= 1000.0
+        try:
+            return check(self)
+        finally:
+            self.guard.initial += 1000.0
+
+    monkeypatch.setattr(runner.GuardedRun, "_check", growing)
+    out = tmp_path / "out"
+    out.mkdir()
+    return specs, out, runs
+
+
+def test_a_build_whose_settle_diverges_as_placed_is_refused_naming_what_diverged(tmp_path, monkeypatch):
+    """Where the settle of the shot as placed diverges (every check of the guard fails past the first frames,
+    so that it gives up at its finest step), the build ends with one line naming what diverged and puts the
+    output folder back as it was; it used to record the divergence as a skipped settle and write a shot that
+    ``simulate`` diverges on."""
+    from physomni_usd.building import build_shot
+    from physomni_usd.errors import PhysOmniError
+
+    specs, out, runs = _two_blocks(tmp_path, monkeypatch)
+    (out / "notes.txt").write_text("mine")
+    with pytest.raises(PhysOmniError) as caught:
+        build_shot(tmp_path / "photo.png", out, masks=specs)
+    line = str(caught.value)
+    assert runs and "\n" not in line, line
+    assert "the shot as placed diverges with nothing pushed" in line and "fastest: block" in line, line
+    assert sorted(p.name for p in out.iterdir()) == ["notes.txt"] and (out / "notes.txt").read_text() == "mine"
+
+
+def test_a_settle_given_up_on_a_slow_frame_is_no_divergence_and_the_build_goes_on(tmp_path, monkeypatch):
+    """A run that gives up because a frame took longer than its wall-clock budget (load, a first kernel
+    compile) has not shown the shot diverges: the build is written, its settle recorded as skipped."""
+    from physomni_usd.building import build_shot
+    from physomni_usd.physics import runner
+    from physomni_usd.report import read_report
+
+    specs, out, runs = _two_blocks(tmp_path, monkeypatch)
+    monkeypatch.setattr(runner, "FRAME_WALL_BUDGET_S", -1.0)  # every frame over budget: gives up at once
+    build_shot(tmp_path / "photo.png", out, masks=specs)
+    settle = read_report(out)["shot"]["alignment"]["settle"]
+    assert runs and "simulation stuck at frame" in settle["skipped"], settle
+    assert (out / layers.SHOT).exists()
+
+
+def test_a_settle_that_diverges_only_without_the_artists_edits_does_not_refuse_the_build(tmp_path, monkeypatch):
+    """The settle steps the build's own layers; ``simulate`` composes ``edits.usda`` too. Where the artist's
+    layer holds every object fixed and the shot diverges only with an object free, the build is written (with
+    a warning) and not refused for what ``simulate`` would not do."""
+    from pxr import Sdf
+
+    from physomni_usd.building import build_shot
+
+    def free(run):
+        return any(not p.GetAttribute("physomni:fixed").Get()
+                   for p in run.stage.GetPrimAtPath("/World/Objects").GetChildren())
+
+    specs, out, runs = _two_blocks(tmp_path, monkeypatch, diverges=free)
+    edits = Sdf.Layer.CreateNew(str(out / layers.EDITS))
+    for n in ("block_0", "block_1"):
+        spec = Sdf.CreatePrimInLayer(edits, f"/World/Objects/{n}")
+        spec.specifier = Sdf.SpecifierOver
+        Sdf.AttributeSpec(spec, "physomni:fixed", Sdf.ValueTypeNames.Bool).default = True
+    edits.Save()
+    said = []
+    build_shot(tmp_path / "photo.png", out, masks=specs, echo=said.append)
+    assert runs and (out / layers.SHOT).exists()
+    assert any(m.startswith("warning: the shot as placed diverges without edits.usda") for m in said), said
+
+
+def test_a_refusal_names_each_pair_once():
+    """Two diverging objects, one on the other: the pair is named once, with what each rests on."""
+    from physomni_usd.building import _refuse_placed
+    from physomni_usd.errors import PhysOmniError
+    from physomni_usd.physics.runner import Diverged
+
+    exc = Diverged("simulation diverged at frame 3", ["cup_1", "book_0"])
+    with pytest.raises(PhysOmniError) as caught:
+        _refuse_placed(exc, {"cup_1": "book_0", "book_0": "table_2"}, pathlib.Path("nowhere"), 1.0, print)
+    assert "(cup_1 on book_0; book_0 on table_2): simulation diverged at frame 3" in str(caught.value)
+
+
+def test_the_fastest_is_told_by_its_spin_too_and_particles_by_theirs():
+    """The object named where a run diverges is the one whose points move fastest: a small block spinning at
+    20 rad/s (its points at 1.5 m/s) before one sliding at 1 m/s; particles faster still are named as such."""
+    from types import SimpleNamespace
+
+    from physomni_usd.physics.runner import _fastest
+
+    class Array:
+        def __init__(self, a):
+            self.a = np.asarray(a, dtype=np.float32)
+
+        def numpy(self):
+            return self.a
+
+    inertia = 1.0 * 2 * 0.1 ** 2 / 12 * np.eye(3)  # a 1 kg, 10 cm cube: radius of gyration 5 cm
+    model = SimpleNamespace(body_count=2, body_mass=Array([1.0, 1.0]), body_inertia=Array([inertia, inertia]),
+                            particle_count=0)
+    state = SimpleNamespace(body_qd=Array([[1.0, 0, 0, 0, 0, 0], [0.5, 0, 0, 0, 0, 20.0]]))
+    stepper = SimpleNamespace(model=model, state=state, mpm=None)
+    bodies = {0: "sliding", 1: "spinning"}
+    assert _fastest(stepper, bodies)[0] == ["spinning"]
+    model.particle_count = 2
+    model.particle_mass, state.particle_qd = Array([1.0, 1.0]), Array([[0, 0, 0], [0, 3.0, 0]])
+    assert _fastest(stepper, bodies) == (["particles"], "; fastest: particles (3 m/s)")
+    state.particle_qd = Array([[0, 0, 0], [0, np.nan, 0]])
+    assert _fastest(stepper, bodies)[0] == ["particles"]

@@ -44,8 +44,9 @@ class GuardedRun:
 
     def __init__(self, stepper, plan: StepPlan, *, capture: bool = True, tolerance: float = ENERGY_TOLERANCE,
                  check_every: int = CHECK_EVERY, stage=None, give_up: bool = True, echo=lambda m: None,
-                 graphs: FrameGraphs | None = None):
+                 graphs: FrameGraphs | None = None, bodies: dict[int, str] | None = None):
         self.stepper, self.base_plan, self.plan = stepper, plan, plan
+        self.bodies = bodies or {}  # body index → the object's name, to name the fastest where a run fails
         self.graphs = graphs if graphs is not None else FrameGraphs(stepper, enabled=capture)
         self.stage, self.give_up, self.echo = stage, give_up, echo
         self.check_every = max(1, int(check_every))
@@ -140,10 +141,13 @@ class GuardedRun:
             if not self.give_up:
                 self._saved = self._checkpoint(self._saved)  # stepping on, as the preview does, from here
                 return True
+            finest = len(self.rollbacks) >= MAX_RETRIES
             what = (f"simulation diverged at frame {failed}: {why}, even at {self.plan.substeps} substeps per frame"
-                    if len(self.rollbacks) >= MAX_RETRIES else
+                    if finest else
                     f"simulation stuck at frame {failed}: {why}, {FRAME_WALL_BUDGET_S:g} s spent on it")
-            raise PhysOmniError(failure_line(self.stage, what) if self.stage is not None else what)
+            objects, named = _fastest(self.stepper, self.bodies)
+            what += named
+            raise Diverged(failure_line(self.stage, what) if self.stage is not None else what, objects, finest)
         self._back(self._saved)
         self.plan = self.plan.refined()
         self._retry_frame = self.frame + 1
@@ -248,8 +252,9 @@ def run_guarded(models, plan: StepPlan, seconds: float, progress=None, echo=lamb
     until then); with ``stop`` (bodies' recorded poses (F, B, 7) up to a frame → bool), end early where it
     says so. The take's plan is the last one stepped (a roll-back refines it)."""
     frames = int(round(seconds * plan.fps)) + 1
+    bodies = {b: p.rsplit("/", 1)[-1] for p, b in models.path_body.items()}
     run = GuardedRun(models.stepper, plan, capture=CAPTURE, stage=models.stage, echo=echo,
-                     graphs=models.frame_graphs(CAPTURE))
+                     graphs=models.frame_graphs(CAPTURE), bodies=bodies)
     rec = Recorder(models, frames)
     rec.record(0)
     replayed, captures = run.graphs.captured_frames, run.graphs.captures  # the graphs outlive a run
@@ -306,17 +311,66 @@ def _device(stepper):
     return wp.ScopedDevice(stepper.model.device)
 
 
+class Diverged(PhysOmniError):
+    """A guarded run that gave up; ``objects`` names what diverged (:func:`_fastest`). ``finest``: it failed at
+    its finest step, every roll-back spent; False where it gave up on a frame that took too long
+    (``FRAME_WALL_BUDGET_S``), which says as much about the machine's load or a first kernel compile as about
+    the scene. Users see it as a :class:`PhysOmniError` (the CLI's ``error:`` line, batch's failure type)."""
+
+    def __init__(self, message: str, objects: list[str], finest: bool = True):
+        super().__init__(message)
+        self.objects = objects
+        self.finest = finest
+
+
+def _fastest(stepper, bodies: dict[int, str]) -> tuple[list[str], str]:
+    """What a failed run diverged in, named (the user's handle on which object or pair to look at): the bodies
+    whose velocity is not finite, else the fastest by the speed of its points (its centre's speed plus its spin
+    times its radius of gyration: a small block spinning up on a book is found as one sliding off), with
+    ``particles`` where theirs are not finite or faster; and the words saying so ("" where none is named;
+    ``bodies``: body index → object name)."""
+    m = stepper.model
+    parts = _particle_speeds(stepper)
+    wild = [] if all(np.isfinite(v).all() for v in parts) else ["particles"]
+    top = max((float(v.max()) for v in parts if v.size and np.isfinite(v).all()), default=0.0)
+    if not bodies or not m.body_count:
+        return wild, f"; not finite: {', '.join(wild)}" if wild else ""
+    qd = stepper.state.body_qd.numpy().astype(np.float64)
+    v, w = np.linalg.norm(qd[:, :3], axis=1), np.linalg.norm(qd[:, 3:6], axis=1)
+    mass = m.body_mass.numpy().astype(np.float64)
+    trace = np.trace(m.body_inertia.numpy().astype(np.float64), axis1=1, axis2=2)
+    radius = np.sqrt(np.divide(trace, 2.0 * mass, out=np.zeros_like(mass), where=mass > 0))
+    points = v + w * radius
+    finite = {b for b in bodies if b < len(qd) and np.isfinite(points[b])}
+    nan = sorted(bodies[b] for b in bodies if b < len(qd) and b not in finite) + wild
+    if nan:
+        return nan, f"; not finite: {', '.join(nan)}"
+    if not finite:
+        return [], ""
+    b = max(finite, key=lambda k: points[k])
+    if top > points[b]:
+        return ["particles"], f"; fastest: particles ({top:.3g} m/s)"
+    return [bodies[b]], f"; fastest: {bodies[b]} ({v[b]:.3g} m/s, {w[b]:.3g} rad/s)"
+
+
+def _particle_speeds(stepper) -> list[np.ndarray]:
+    """The speeds of the moving particles of each particle model stepped (cloth and soft bodies, MPM)."""
+    s, m = stepper.state, stepper.model
+    out = []
+    for model, state in ((m, s), (stepper.mpm.model, stepper.mpm.state) if stepper.mpm else (None, None)):
+        if model is not None and model.particle_count:
+            moving = model.particle_mass.numpy() > 0
+            out.append(np.linalg.norm(state.particle_qd.numpy()[moving], axis=1))
+    return out
+
+
 def _top_speed(stepper) -> float:
     """The fastest body's or particle's speed (m/s), as :meth:`~.stepping.Stepper.energy` reads it."""
     s, m = stepper.state, stepper.model
     speeds = [0.0]
     if m.body_count:
         speeds.append(float(np.linalg.norm(s.body_qd.numpy()[:, :3], axis=1).max()))
-    for model, state in ((m, s), (stepper.mpm.model, stepper.mpm.state) if stepper.mpm else (None, None)):
-        if model is not None and model.particle_count:
-            moving = model.particle_mass.numpy() > 0
-            if moving.any():
-                speeds.append(float(np.linalg.norm(state.particle_qd.numpy()[moving], axis=1).max()))
+    speeds += [float(v.max()) for v in _particle_speeds(stepper) if v.size]
     return max(speeds)
 
 
