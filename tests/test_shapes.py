@@ -161,3 +161,56 @@ def test_only_open_containers_are_vessels():
 def _prior(label: str) -> dict:
     p = size_prior(label)
     return {"height_hint": p.height_m, "prior_shape": p.shape}
+
+
+def test_a_thin_part_of_a_slab_is_no_deeper_than_it_is_wide_and_the_slab_still_stands():
+    """A body with a thin stalk on top (a mirror on its stem): the stalk's rows are as deep as they are wide,
+    not the body's depth (a turned object would show each as a strip as long as the body is deep); the body's
+    rows keep the slab's depth, and so does its bottom band, so that it stands as it did."""
+    from physomni_usd.lift.silhouette import stands
+
+    m = np.zeros((240, 320), np.uint8)
+    cv2.rectangle(m, (80, 150), (240, 200), 1, -1)  # the body
+    cv2.rectangle(m, (196, 60), (200, 150), 1, -1)  # a 5 px stalk
+    camera = PinholeCamera(320, 240, 50.0, 10.0, (0.0, 0.0, 1.0))
+    slab = lift_silhouette(m > 0, camera, label="thing")
+    assert slab.shape == "extrude" and stands(slab.vertices, slab.faces)
+    mesh = _closed(slab)
+    v = slab.vertices
+    forward = camera.world_from_camera[:, 2].copy()
+    forward[2] = 0.0
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    z0, height = v[:, 2].min(), np.ptp(v[:, 2])
+
+    def extent(low, high):
+        band = v[(v[:, 2] >= z0 + low * height) & (v[:, 2] <= z0 + high * height)]
+        return np.ptp(band @ forward), np.ptp(band @ right)
+
+    stalk_deep, stalk_wide = extent(0.6, 1.0)
+    body_deep, body_wide = extent(0.0, 0.3)
+    assert stalk_deep <= 1.5 * stalk_wide, (stalk_deep, stalk_wide)  # the rays spread it a little, no more
+    assert body_deep > 5 * stalk_deep and body_deep >= 0.3 * min(body_wide, height), (body_deep, stalk_deep)
+
+
+def test_a_slab_on_a_thin_foot_keeps_its_full_depth_underfoot_and_stands():
+    """A wide body on a narrow foot (a sign on its post, a lamp on its stem): the foot's rows are narrow, but a
+    foot only as deep as it is wide would leave the body's weight behind it and the slab would tip over; the
+    bottom band keeps the slab's full depth."""
+    from physomni_usd.lift.silhouette import stands
+    from physomni_usd.settings import LiftSettings
+
+    m = np.zeros((240, 320), np.uint8)
+    cv2.rectangle(m, (80, 60), (240, 150), 1, -1)  # the body
+    cv2.rectangle(m, (150, 150), (170, 200), 1, -1)  # its foot, 20 px wide
+    camera = PinholeCamera(320, 240, 50.0, 10.0, (0.0, 0.0, 1.0))
+    slab = lift_silhouette(m > 0, camera, LiftSettings(shape="extrude"), label="thing")
+    assert slab.shape == "extrude" and stands(slab.vertices, slab.faces)
+    v = slab.vertices
+    forward = camera.world_from_camera[:, 2].copy()
+    forward[2] = 0.0
+    forward /= np.linalg.norm(forward)
+    z0, height = v[:, 2].min(), np.ptp(v[:, 2])
+    foot = v[v[:, 2] <= z0 + 0.1 * height] @ forward
+    body = v[v[:, 2] >= z0 + 0.5 * height] @ forward
+    assert np.ptp(foot) >= 0.9 * np.ptp(body), (np.ptp(foot), np.ptp(body))

@@ -28,7 +28,8 @@ assumes the object stands on the ground facing the camera:
      (``footprint.height_from_edge``), the outline's top row cast onto that
      height gives the depth, and the box has square edges;
    - ``extrude`` (otherwise): a slab of the outline whose depth is
-     ``depth_ratio`` times the smaller of its width and height, with sides
+     ``depth_ratio`` times the smaller of its width and height (no row
+     deeper than it is wide: thin parts stay thin), with sides
      along the camera's rays so that it hides behind its own front —
      vehicles, furniture, and boxes whose top does not show.
 
@@ -50,7 +51,8 @@ from ..settings import LiftSettings
 from ..sizes import body_kind
 from .sections import bulge, inflated_rings, loft, ray_slab_rings, round_rings, span_samples
 
-#: Fraction of a round object's height that forms its flat base (balls excepted).
+#: Fraction of an object's height that forms its base: a round object's flat base (balls excepted), a slab's
+#: rows kept at full depth (:func:`slab_depths`).
 BASE_BAND = 0.15
 #: A bottom band of this fraction of the height, at least this fraction of the widest row wide, is flat.
 FLAT_BOTTOM_BAND = 0.04
@@ -490,12 +492,26 @@ def round_body(rows: StandingRows) -> LiftedMesh:
     return _lofted(r, round_rings(centres, radius, r.tangent, r.normal, r.settings.sections), "round")
 
 
+def slab_depths(widths: np.ndarray, z: np.ndarray, ratio: float) -> np.ndarray:
+    """(K,) metres: how deep each row of a slab is, rows ``widths`` (K,) metres wide at heights ``z`` (K,). The
+    slab is ``ratio`` times the smaller of the outline's width and height deep, and no row deeper than it is
+    wide: a row whose whole span is narrow (a mirror's stalk, an antenna, a handle's end) stays thin rather
+    than a wall as deep as the body, which a turned object shows as a long strip of its rim. The rows of the
+    bottom band (:data:`BASE_BAND` of the height) keep the slab's full depth, so that it stands on the base
+    it stood on, however narrow its foot (a body deep above a thin foot would otherwise tip over it)."""
+    height = float(z.max() - z.min())
+    depth = ratio * min(float(widths.max()), height or float(widths.max()))
+    rows = np.minimum(depth, widths)
+    band = z <= z.min() + BASE_BAND * height
+    rows[band] = depth
+    return rows
+
+
 def extruded_body(rows: StandingRows) -> LiftedMesh:
-    """A slab of the outline, ``depth_ratio`` times the smaller of its width and height deep, its sides along
-    the camera's rays."""
+    """A slab of the outline, ``depth_ratio`` times the smaller of its width and height deep and no row deeper
+    than it is wide (:func:`slab_depths`), its sides along the camera's rays."""
     r = rows
-    width = float(np.linalg.norm(r.right - r.left, axis=1).max())
-    depth = r.settings.depth_ratio * min(width, float(r.z.max() - r.z.min()) or width)
+    depth = slab_depths(np.linalg.norm(r.right - r.left, axis=1), r.z, r.settings.depth_ratio)
     rings = ray_slab_rings(r.left, r.right, r.camera.rays(r.spans[:, 0], r.edges),
                            r.camera.rays(r.spans[:, 1], r.edges), r.normal, depth, r.settings.sections)
     return _lofted(r, rings, "extrude")
