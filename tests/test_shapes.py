@@ -214,3 +214,32 @@ def test_a_slab_on_a_thin_foot_keeps_its_full_depth_underfoot_and_stands():
     foot = v[v[:, 2] <= z0 + 0.1 * height] @ forward
     body = v[v[:, 2] >= z0 + 0.5 * height] @ forward
     assert np.ptp(foot) >= 0.9 * np.ptp(body), (np.ptp(foot), np.ptp(body))
+
+
+def test_a_slab_the_thickness_invariant_holds_at_its_limit_keeps_every_row_deep(monkeypatch):
+    """A slanted oval cut by the frame's edge (the fruits photo's kiwi), here with a stalk on top, is a slab whose
+    depth, 0.4 of its widest row, is under a third of its outline's width: thinning its narrow rows (as the rule
+    does with no floor under them) would leave it judged thinner than its outline allows
+    (``metrics.geometry.thin_side``), so none is thinned."""
+    from physomni_usd.lift import silhouette
+    from physomni_usd.settings import LiftSettings
+
+    camera = PinholeCamera(320, 240, 50.0, 10.0, (0.0, 0.0, 1.0))
+    m = np.zeros((240, 320), np.uint8)
+    cv2.ellipse(m, (20, 150), (25, 50), 30, 0, 360, 1, -1)
+    cv2.rectangle(m, (18, 70), (21, 110), 1, -1)  # a stalk on top: rows narrower than the slab is deep
+    forward = camera.world_from_camera[:, 2].copy()
+    forward[2] = 0.0
+    forward /= np.linalg.norm(forward)
+
+    def top_and_body():
+        slab = lift_silhouette(m > 0, camera, LiftSettings(shape="extrude"), label="thing")
+        v = slab.vertices
+        z0, height = v[:, 2].min(), np.ptp(v[:, 2])
+        return np.ptp(v[v[:, 2] >= z0 + 0.97 * height] @ forward), np.ptp(v @ forward)
+
+    top, body = top_and_body()
+    assert top >= 0.9 * body, (top, body)  # the kiwi's top row as deep as its body
+    monkeypatch.setattr(silhouette, "SLAB_FLOOR_STEPS", (0.0,))  # the rule with no floor thins it
+    top, body = top_and_body()
+    assert top < 0.6 * body, (top, body)
