@@ -529,9 +529,9 @@ def extruded_body(rows: StandingRows) -> LiftedMesh:
         depth = slab_depths(widths, r.z, r.settings.depth_ratio, floor=step * full)
         lifted = _lofted(r, ray_slab_rings(r.left, r.right, dir_left, dir_right, r.normal, depth,
                                            r.settings.sections), "extrude")
-        if step == SLAB_FLOOR_STEPS[-1] or _thick_enough(lifted.vertices, r):
+        if _thick_enough(lifted.vertices, r):
             return lifted
-    return lifted
+    return lifted  # the full slab (the last floor), thin as its outline makes it
 
 
 def _thick_enough(vertices: np.ndarray, rows: StandingRows) -> bool:
