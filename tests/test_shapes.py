@@ -216,11 +216,12 @@ def test_a_slab_on_a_thin_foot_keeps_its_full_depth_underfoot_and_stands():
     assert np.ptp(foot) >= 0.9 * np.ptp(body), (np.ptp(foot), np.ptp(body))
 
 
-def test_a_slab_the_thickness_invariant_holds_at_its_limit_keeps_every_row_deep(monkeypatch):
-    """A slanted oval cut by the frame's edge (the fruits photo's kiwi), here with a stalk on top, is a slab whose
-    depth, 0.4 of its widest row, is under a third of its outline's width: thinning its narrow rows (as the rule
-    does with no floor under them) would leave it judged thinner than its outline allows
-    (``metrics.geometry.thin_side``), so none is thinned."""
+def test_a_slab_too_thin_once_thinned_keeps_every_row_deep(monkeypatch):
+    """A slanted oval cut by the frame's edge (the fruits photo's kiwi), here with a stalk on top: thinned, its
+    stalk's rows as deep as they are wide, its box is judged thinner than its outline allows
+    (``metrics.geometry.thin_side``, on its own box or along the slab's axes), so the full slab is kept, every
+    row as deep as the body (the full slab is no thicker than its outline makes it: thinning is what is
+    refused, not the outline)."""
     from physomni_usd.lift import silhouette
     from physomni_usd.settings import LiftSettings
 
@@ -240,6 +241,22 @@ def test_a_slab_the_thickness_invariant_holds_at_its_limit_keeps_every_row_deep(
 
     top, body = top_and_body()
     assert top >= 0.9 * body, (top, body)  # the kiwi's top row as deep as its body
-    monkeypatch.setattr(silhouette, "SLAB_FLOOR_STEPS", (0.0,))  # the rule with no floor thins it
+    monkeypatch.setattr(silhouette, "_keeps_thinned", lambda thin, full, rows: True)  # kept, it is thinned
     top, body = top_and_body()
     assert top < 0.6 * body, (top, body)
+
+
+def test_a_post_with_an_arm_to_one_side_stands_as_its_full_slab_does():
+    """A narrow post with a wide arm to one side (a gallows, a signpost): thinned, the post's rows above the
+    bottom band lose depth and the arm keeps it, the weight moves toward the arm, off the foot, and the slab
+    tips where the full slab stands (:func:`lift.silhouette.stands`); the full slab is kept."""
+    from physomni_usd.lift.silhouette import stands
+    from physomni_usd.settings import LiftSettings
+
+    camera = PinholeCamera(320, 240, 50.0, 10.0, (0.0, 0.0, 1.0))
+    for arm in (14, 18, 22):
+        m = np.zeros((240, 320), np.uint8)
+        cv2.rectangle(m, (100, 60), (129, 200), 1, -1)  # the post, 30 px
+        cv2.rectangle(m, (100, 60), (200, 60 + arm), 1, -1)  # the arm, to the right
+        slab = lift_silhouette(m > 0, camera, LiftSettings(shape="extrude"), label="thing")
+        assert slab.shape == "extrude" and stands(slab.vertices, slab.faces), arm
