@@ -495,9 +495,8 @@ def round_body(rows: StandingRows) -> LiftedMesh:
 def slab_depths(widths: np.ndarray, z: np.ndarray, ratio: float) -> np.ndarray:
     """(K,) metres: how deep each row of a thinned slab is, rows ``widths`` (K,) metres wide at heights ``z``
     (K,). The slab is ``ratio`` times the smaller of the outline's width and height deep, and no row deeper
-    than it is wide: a row whose whole span is narrow (a
-    mirror's stalk, an antenna, a handle's end) stays thin rather than a wall as deep as the body, which a
-    turned object shows as a long strip of its rim. The rows of the bottom band (:data:`BASE_BAND` of the
+    than it is wide: a row whose whole span is narrow (a mirror's stalk, an antenna, a handle's end) stays thin
+    rather than a wall as deep as the body, which a turned object shows as a long strip of its rim. The rows of the bottom band (:data:`BASE_BAND` of the
     height) keep the slab's full depth, so that it stands on the base it stood on, however narrow its foot (a
     body deep above a thin foot would otherwise tip over it)."""
     height = float(z.max() - z.min())
