@@ -70,7 +70,8 @@ class LiftSettings(_Settings):
                             "auto: round when the outline is mirror-symmetric.")
     depth_ratio: float = Field(0.4, gt=0.01, le=2.0,
                                description="Depth of an extruded object as a fraction of the smaller of its "
-                                           "width and height.")
+                                           "width and height (a row narrower than that is as deep as it is "
+                                           "wide).")
     symmetry_iou: float = Field(0.88, ge=0.0, le=1.0,
                                 description="Mirror IoU of the outline above which auto picks round.")
 

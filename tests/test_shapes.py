@@ -161,3 +161,102 @@ def test_only_open_containers_are_vessels():
 def _prior(label: str) -> dict:
     p = size_prior(label)
     return {"height_hint": p.height_m, "prior_shape": p.shape}
+
+
+def test_a_thin_part_of_a_slab_is_no_deeper_than_it_is_wide_and_the_slab_still_stands():
+    """A body with a thin stalk on top (a mirror on its stem): the stalk's rows are as deep as they are wide,
+    not the body's depth (a turned object would show each as a strip as long as the body is deep); the body's
+    rows keep the slab's depth, and so does its bottom band, so that it stands as it did."""
+    from physomni_usd.lift.silhouette import stands
+
+    m = np.zeros((240, 320), np.uint8)
+    cv2.rectangle(m, (80, 150), (240, 200), 1, -1)  # the body
+    cv2.rectangle(m, (196, 60), (200, 150), 1, -1)  # a 5 px stalk
+    camera = PinholeCamera(320, 240, 50.0, 10.0, (0.0, 0.0, 1.0))
+    slab = lift_silhouette(m > 0, camera, label="thing")
+    assert slab.shape == "extrude" and stands(slab.vertices, slab.faces)
+    mesh = _closed(slab)
+    v = slab.vertices
+    forward = camera.world_from_camera[:, 2].copy()
+    forward[2] = 0.0
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    z0, height = v[:, 2].min(), np.ptp(v[:, 2])
+
+    def extent(low, high):
+        band = v[(v[:, 2] >= z0 + low * height) & (v[:, 2] <= z0 + high * height)]
+        return np.ptp(band @ forward), np.ptp(band @ right)
+
+    stalk_deep, stalk_wide = extent(0.6, 1.0)
+    body_deep, body_wide = extent(0.0, 0.3)
+    assert stalk_deep <= 1.5 * stalk_wide, (stalk_deep, stalk_wide)  # the rays spread it a little, no more
+    assert body_deep > 5 * stalk_deep and body_deep >= 0.3 * min(body_wide, height), (body_deep, stalk_deep)
+
+
+def test_a_slab_on_a_thin_foot_keeps_its_full_depth_underfoot_and_stands():
+    """A wide body on a narrow foot (a sign on its post, a lamp on its stem): the foot's rows are narrow, but a
+    foot only as deep as it is wide would leave the body's weight behind it and the slab would tip over; the
+    bottom band keeps the slab's full depth."""
+    from physomni_usd.lift.silhouette import stands
+    from physomni_usd.settings import LiftSettings
+
+    m = np.zeros((240, 320), np.uint8)
+    cv2.rectangle(m, (80, 60), (240, 150), 1, -1)  # the body
+    cv2.rectangle(m, (150, 150), (170, 200), 1, -1)  # its foot, 20 px wide
+    camera = PinholeCamera(320, 240, 50.0, 10.0, (0.0, 0.0, 1.0))
+    slab = lift_silhouette(m > 0, camera, LiftSettings(shape="extrude"), label="thing")
+    assert slab.shape == "extrude" and stands(slab.vertices, slab.faces)
+    v = slab.vertices
+    forward = camera.world_from_camera[:, 2].copy()
+    forward[2] = 0.0
+    forward /= np.linalg.norm(forward)
+    z0, height = v[:, 2].min(), np.ptp(v[:, 2])
+    foot = v[v[:, 2] <= z0 + 0.1 * height] @ forward
+    body = v[v[:, 2] >= z0 + 0.5 * height] @ forward
+    assert np.ptp(foot) >= 0.9 * np.ptp(body), (np.ptp(foot), np.ptp(body))
+
+
+def test_a_slab_too_thin_once_thinned_keeps_every_row_deep(monkeypatch):
+    """A slanted oval cut by the frame's edge (the fruits photo's kiwi), here with a stalk on top: thinned, its
+    stalk's rows as deep as they are wide, its box is judged thinner than its outline allows
+    (``metrics.geometry.thin_side``, on its own box or along the slab's axes), so the full slab is kept, every
+    row as deep as the body (the full slab is no thicker than its outline makes it: thinning is what is
+    refused, not the outline)."""
+    from physomni_usd.lift import silhouette
+    from physomni_usd.settings import LiftSettings
+
+    camera = PinholeCamera(320, 240, 50.0, 10.0, (0.0, 0.0, 1.0))
+    m = np.zeros((240, 320), np.uint8)
+    cv2.ellipse(m, (20, 150), (25, 50), 30, 0, 360, 1, -1)
+    cv2.rectangle(m, (18, 70), (21, 110), 1, -1)  # a stalk on top: rows narrower than the slab is deep
+    forward = camera.world_from_camera[:, 2].copy()
+    forward[2] = 0.0
+    forward /= np.linalg.norm(forward)
+
+    def top_and_body():
+        slab = lift_silhouette(m > 0, camera, LiftSettings(shape="extrude"), label="thing")
+        v = slab.vertices
+        z0, height = v[:, 2].min(), np.ptp(v[:, 2])
+        return np.ptp(v[v[:, 2] >= z0 + 0.97 * height] @ forward), np.ptp(v @ forward)
+
+    top, body = top_and_body()
+    assert top >= 0.9 * body, (top, body)  # the kiwi's top row as deep as its body
+    monkeypatch.setattr(silhouette, "_keeps_thinned", lambda thin, full, rows: True)  # kept, it is thinned
+    top, body = top_and_body()
+    assert top < 0.6 * body, (top, body)
+
+
+def test_a_post_with_an_arm_to_one_side_stands_as_its_full_slab_does():
+    """A narrow post with a wide arm to one side (a gallows, a signpost): thinned, the post's rows above the
+    bottom band lose depth and the arm keeps it, the weight moves toward the arm, off the foot, and the slab
+    tips where the full slab stands (:func:`lift.silhouette.stands`); the full slab is kept."""
+    from physomni_usd.lift.silhouette import stands
+    from physomni_usd.settings import LiftSettings
+
+    camera = PinholeCamera(320, 240, 50.0, 10.0, (0.0, 0.0, 1.0))
+    for arm in (14, 18, 22):
+        m = np.zeros((240, 320), np.uint8)
+        cv2.rectangle(m, (100, 60), (129, 200), 1, -1)  # the post, 30 px
+        cv2.rectangle(m, (100, 60), (200, 60 + arm), 1, -1)  # the arm, to the right
+        slab = lift_silhouette(m > 0, camera, LiftSettings(shape="extrude"), label="thing")
+        assert slab.shape == "extrude" and stands(slab.vertices, slab.faces), arm

@@ -70,14 +70,16 @@ def round_rings(centres, radii, tangent, normal, sections: int) -> np.ndarray:
             + ring[None, :, 1:2] * radii[:, None, None] * normal)
 
 
-def ray_slab_rings(front_left, front_right, dir_left, dir_right, normal, depth: float, sections: int) -> np.ndarray:
+def ray_slab_rings(front_left, front_right, dir_left, dir_right, normal, depth: "float | np.ndarray",
+                   sections: int) -> np.ndarray:
     """Quadrilateral sections (K, n, 3) whose sides follow the camera rays through the outline, seen from above.
 
     The front edge of each section is the outline's row on the front plane and
-    the back edge lies ``depth`` further along ``normal`` at the same height;
+    the back edge lies ``depth`` (one for all, or (K,) one per section) further along ``normal`` at the same height;
     the sides run along the rays' horizontal directions, so from the camera
     they hide behind the front face's edges instead of widening the outline.
     """
+    depth = np.broadcast_to(np.asarray(depth, float), (len(front_left),))
     dir_left = dir_left * np.array([1.0, 1.0, 0.0])
     dir_right = dir_right * np.array([1.0, 1.0, 0.0])
     back_left = front_left + dir_left * (depth / (dir_left @ normal))[:, None]

@@ -28,7 +28,8 @@ assumes the object stands on the ground facing the camera:
      (``footprint.height_from_edge``), the outline's top row cast onto that
      height gives the depth, and the box has square edges;
    - ``extrude`` (otherwise): a slab of the outline whose depth is
-     ``depth_ratio`` times the smaller of its width and height, with sides
+     ``depth_ratio`` times the smaller of its width and height (no row
+     deeper than it is wide: thin parts stay thin), with sides
      along the camera's rays so that it hides behind its own front —
      vehicles, furniture, and boxes whose top does not show.
 
@@ -50,7 +51,8 @@ from ..settings import LiftSettings
 from ..sizes import body_kind
 from .sections import bulge, inflated_rings, loft, ray_slab_rings, round_rings, span_samples
 
-#: Fraction of a round object's height that forms its flat base (balls excepted).
+#: Fraction of an object's height that forms its base: a round object's flat base (balls excepted), a slab's
+#: rows kept at full depth (:func:`slab_depths`).
 BASE_BAND = 0.15
 #: A bottom band of this fraction of the height, at least this fraction of the widest row wide, is flat.
 FLAT_BOTTOM_BAND = 0.04
@@ -490,15 +492,54 @@ def round_body(rows: StandingRows) -> LiftedMesh:
     return _lofted(r, round_rings(centres, radius, r.tangent, r.normal, r.settings.sections), "round")
 
 
+def slab_depths(widths: np.ndarray, z: np.ndarray, ratio: float) -> np.ndarray:
+    """(K,) metres: how deep each row of a thinned slab is, rows ``widths`` (K,) metres wide at heights ``z``
+    (K,). The slab is ``ratio`` times the smaller of the outline's width and height deep, and no row deeper
+    than it is wide: a row whose whole span is narrow (a mirror's stalk, an antenna, a handle's end) stays thin
+    rather than a wall as deep as the body, which a turned object shows as a long strip of its rim. The rows of the bottom band (:data:`BASE_BAND` of the
+    height) keep the slab's full depth, so that it stands on the base it stood on, however narrow its foot (a
+    body deep above a thin foot would otherwise tip over it)."""
+    height = float(z.max() - z.min())
+    depth = ratio * min(float(widths.max()), height or float(widths.max()))
+    rows = np.minimum(widths, depth)
+    band = z <= z.min() + BASE_BAND * height
+    rows[band] = depth
+    return rows
+
+
 def extruded_body(rows: StandingRows) -> LiftedMesh:
-    """A slab of the outline, ``depth_ratio`` times the smaller of its width and height deep, its sides along
-    the camera's rays."""
+    """A slab of the outline, ``depth_ratio`` times the smaller of its width and height deep and no row deeper
+    than it is wide (:func:`slab_depths`), its sides along the camera's rays.
+
+    The thinned slab is kept only where it is no worse than the full one (every row as deep as the body) on
+    what the build judges (:func:`_keeps_thinned`); otherwise the full slab is: a short slanted outline (a kiwi
+    at the frame's edge) thinned loses the corners that tilted its box and is judged too thin along the slab's
+    depth; a narrow post with a wide arm to one side (a gallows, a signpost) thinned below the arm carries its
+    weight toward the arm, off its foot, and tips over where the full slab stood."""
     r = rows
-    width = float(np.linalg.norm(r.right - r.left, axis=1).max())
-    depth = r.settings.depth_ratio * min(width, float(r.z.max() - r.z.min()) or width)
-    rings = ray_slab_rings(r.left, r.right, r.camera.rays(r.spans[:, 0], r.edges),
-                           r.camera.rays(r.spans[:, 1], r.edges), r.normal, depth, r.settings.sections)
-    return _lofted(r, rings, "extrude")
+    widths = np.linalg.norm(r.right - r.left, axis=1)
+    dir_left, dir_right = r.camera.rays(r.spans[:, 0], r.edges), r.camera.rays(r.spans[:, 1], r.edges)
+    thinned = slab_depths(widths, r.z, r.settings.depth_ratio)
+    thin, full = (_lofted(r, ray_slab_rings(r.left, r.right, dir_left, dir_right, r.normal, depth,
+                                            r.settings.sections), "extrude")
+                  for depth in (thinned, float(thinned.max())))
+    return thin if _keeps_thinned(thin, full, r) else full
+
+
+def _keeps_thinned(thin: LiftedMesh, full: LiftedMesh, rows: StandingRows) -> bool:
+    """Whether a thinned slab ``thin`` may stand for the full slab ``full``: it stands (:func:`stands`) wherever
+    the full one does, and it is as thick as ``metrics.geometry.thin_side`` asks of a thing whose label says
+    nothing (a third of its outline's smaller side; a ball's label asks more, a flat one nothing), both on its
+    own box and on its box along the slab's axes (a build's later poses can make the first find either)."""
+    from ..metrics.geometry import THIN_FRACTION, THIN_SLACK, thin_side
+
+    if stands(full.vertices, full.faces) and not stands(thin.vertices, thin.faces):
+        return False
+    v = thin.vertices
+    if thin_side(v, "", rows.camera.origin) is not None:
+        return False
+    extents = np.sort([np.ptp(v @ axis) for axis in (rows.tangent, rows.normal, np.array([0.0, 0.0, 1.0]))])
+    return bool(extents[0] >= THIN_FRACTION * THIN_SLACK * extents[1])
 
 
 def inflated_body(rows: StandingRows) -> LiftedMesh | None:
