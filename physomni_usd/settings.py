@@ -125,6 +125,15 @@ MAX_SOLVER_STEPS = 1_000_000
 MAX_PARTICLES = 2_000_000
 
 
+#: A ball's collider (``physics.round``): a rigid object lifted as a ball collides as the ellipsoid that
+#: fills its hull's box (upright, its lowest point where the hull's is) only where that ellipsoid is the
+#: hull's shape: its volume is at least ``BALL_MIN_FILL`` of the hull's (a tessellated ball: 1.0-1.04, the
+#: hull lying inside its points' ellipsoid; a cylinder 0.67) and it pokes out of the hull by at most
+#: ``BALL_MAX_PROTRUSION`` of its shortest semi-axis (a tessellated ball: under 2 %; a cube 41 %), so it
+#: touches what the mesh touches and starts inside nothing the mesh does not. Below either, the hull stays.
+BALL_MIN_FILL = 0.9
+BALL_MAX_PROTRUSION = 0.03
+
 #: Seconds of stillness after which ``run`` ends a take when its length was not asked for.
 REST_SECONDS = 1.0
 

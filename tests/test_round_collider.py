@@ -1,57 +1,103 @@
-"""Issue 38, part 1 (nothing unpushed moves): a ball collides as a sphere about its centre of mass
-(``physics.round``), so a lifted fruit resting on the ground stays, where on its tessellated hull it rocked."""
+"""Issue 38, part 1 (nothing unpushed moves): a ball collides as an ellipsoid with its lowest point where its
+hull's is (``physics.round``), so a lifted fruit resting on the ground stays where it rocked on its tessellated
+hull, rests at the mesh's height, and still rolls when pushed; what is not round keeps its hull."""
 
 from __future__ import annotations
 
 import numpy as np
+from pxr import UsdGeom
 
 from physomni_usd.bench.scenes import BenchObject, write_bench_shot
-from physomni_usd.physics.round import inscribed_radius
+from physomni_usd.physics.round import fit_ellipsoid
 from physomni_usd.physics.settle import settle_shot
+from physomni_usd.physics.simulate import simulate_shot
+from physomni_usd.settings import BALL_MAX_PROTRUSION, BALL_MIN_FILL, SimulateSettings
 from physomni_usd.usd import layers
 
 FRUIT = {"density": 950.0, "restitution": 0.2, "dynamic_friction": 0.45, "static_friction": 0.5}
 
 
-def _apple():
-    """A lifted apple as the build writes it: a tessellated ball a little taller than wide, standing on a
-    small flat foot (235726/005's: 6.4 cm wide, 7.3 cm tall)."""
+def _ball(tall: float = 1.132, radius: float = 0.0322):
+    """A lifted ball as the build writes it: a tessellated sphere ``tall`` times taller than wide, standing
+    on a small flat foot (235726/005's apple: 6.4 cm wide, 7.3 cm tall)."""
     import trimesh
 
-    m = trimesh.creation.icosphere(subdivisions=3, radius=0.0322)
-    v = m.vertices * [1.0, 1.0, 1.132]
+    m = trimesh.creation.icosphere(subdivisions=3, radius=radius)
+    v = m.vertices * [1.0, 1.0, tall]
     low = v[:, 2].min()
-    v[v[:, 2] < low + 0.0025, 2] = low
+    v[v[:, 2] < low + 0.0025 * tall, 2] = low
     v[:, 2] -= low
     return trimesh.Trimesh(v, m.faces, process=False)
 
 
-def _settle(tmp_path, shape):
-    mesh = _apple()
-    shot = write_bench_shot(tmp_path, [BenchObject("apple", mesh, "rigid", FRUIT, shape=shape)])
-    return mesh, settle_shot(layers.open_shot(shot, mute_sim=True), 2.0).motions["apple"]
+def _settle(tmp_path, mesh, shape):
+    shot = write_bench_shot(tmp_path, [BenchObject("ball", mesh, "rigid", FRUIT, shape=shape)])
+    return settle_shot(layers.open_shot(shot, mute_sim=True), 2.0)
 
 
-def test_a_ball_on_the_ground_neither_rocks_nor_rolls(tmp_path):
-    mesh, m = _settle(tmp_path, "sphere")
-    assert m.turned_deg < 0.05, m
-    assert np.abs(m.translation[:2]).max() < 1e-4, m
-    # it sinks by what its hull is taller than its inscribed sphere about the centre of mass, and no more
-    drop = mesh.center_mass[2] - inscribed_radius(mesh.vertices, mesh.center_mass)
-    assert -m.translation[2] <= drop + 5e-4, (m, drop)
+def test_a_ball_on_the_ground_neither_rocks_nor_rolls_nor_sinks(tmp_path):
+    for tall in (1.132, 1.5, 0.7):  # an apple, a lemon on end, a squashed tomato
+        settled = _settle(tmp_path / f"t{tall}", _ball(tall), "sphere")
+        m = settled.motions["ball"]
+        assert settled.colliders["ball"]["collides_as"] == "ellipsoid", settled.colliders
+        assert m.turned_deg < 0.05, (tall, m)
+        assert np.abs(m.translation[:2]).max() < 1e-4, (tall, m)
+        # it rests where its mesh does: the inscribed sphere of the last round sank a 1.5x tall ball 16 mm
+        assert abs(m.translation[2]) < 5e-4, (tall, m)
 
 
 def test_the_same_mesh_not_lifted_as_a_ball_keeps_its_hull(tmp_path):
-    """The sphere is for what the lift made a ball: the same points lifted otherwise rest on their hull, which
-    the solver rocks on its foot (the case a sphere mends)."""
-    _, m = _settle(tmp_path, "extrude")
-    assert m.turned_deg > 0.1 and -m.translation[2] < 1e-3, m
+    """The ellipsoid is for what the lift made a ball: the same points lifted otherwise rest on their hull,
+    which the solver rocks on its foot (the case the ellipsoid mends)."""
+    settled = _settle(tmp_path, _ball(), "extrude")
+    m = settled.motions["ball"]
+    assert "ball" not in settled.colliders and m.turned_deg > 0.1 and -m.translation[2] < 1e-3, (m, settled)
 
 
-def test_the_inscribed_radius():
+def test_what_a_ball_is_not_keeps_its_hull(tmp_path):
+    """Below the roundness floor the hull stays: a box lifted as a ball stands on its face, not on an
+    ellipsoid that would roll it."""
     import trimesh
 
-    cube = trimesh.creation.box((0.2, 0.1, 0.4))
-    assert abs(inscribed_radius(cube.vertices, np.zeros(3)) - 0.05) < 1e-9
-    assert abs(inscribed_radius(cube.vertices, np.array([0.0, 0.02, 0.0])) - 0.03) < 1e-9
-    assert inscribed_radius(cube.vertices, np.array([0.5, 0.0, 0.0])) < 0.0
+    box = trimesh.creation.box((0.08, 0.06, 0.05))
+    box.apply_translation((0.0, 0.0, 0.025))
+    settled = _settle(tmp_path, box, "sphere")
+    assert settled.colliders["ball"]["collides_as"] == "hull", settled.colliders
+    m = settled.motions["ball"]
+    assert m.moved_m < 1e-3 and m.turned_deg < 0.5, m
+
+
+def test_the_fit_and_its_floor():
+    import trimesh
+
+    turn = trimesh.transformations.rotation_matrix(0.7, [0, 0, 1])[:3, :3]
+    lemon = _ball(1.0).vertices * [1.4, 1.0, 1.0] @ turn.T  # long along a horizontal axis turned 40°
+    fit = fit_ellipsoid(lemon)
+    assert fit.fits and np.allclose(sorted(fit.semi), sorted([0.0322 * 1.4, 0.0322, fit.semi[2]]), atol=5e-4)
+    assert abs(abs(fit.axes[:, 0] @ turn[:, 0]) - 1.0) < 1e-3  # its long axis is the lemon's
+    assert abs(fit.centre[2] - fit.semi[2] - lemon[:, 2].min()) < 1e-9  # its lowest point is the mesh's
+    cube = trimesh.creation.box((0.1, 0.1, 0.1)).vertices
+    assert fit_ellipsoid(cube).fill < BALL_MIN_FILL and not fit_ellipsoid(cube).fits
+    turned = fit_ellipsoid(cube @ turn.T)  # its footprint's axes are any: the ellipsoid pokes out of its corners
+    assert turned.protrusion > BALL_MAX_PROTRUSION and not turned.fits
+    cylinder = fit_ellipsoid(trimesh.creation.cylinder(0.05, 0.1, sections=64).vertices)
+    assert cylinder.fill < BALL_MIN_FILL and not cylinder.fits
+
+
+def test_a_pushed_ball_rolls(tmp_path):
+    """Pushed along the ground, the ball turns as it goes, as a ball rolls: its turn is the distance over
+    its radius once it has stopped sliding."""
+    mesh = _ball(1.0, 0.04)
+    shot = write_bench_shot(tmp_path, [BenchObject("ball", mesh, "rigid", FRUIT, velocity=(0.6, 0.0, 0.0),
+                                                   shape="sphere")])
+    report = simulate_shot(shot, SimulateSettings(seconds=1.0))
+    assert report["colliders"]["ball"]["collides_as"] == "ellipsoid"
+    stage = layers.open_shot(shot)
+    xf = UsdGeom.Xformable(stage.GetPrimAtPath("/World/Objects/ball"))
+    poses = [np.array(xf.ComputeLocalToWorldTransform(f)) for f in (report["frames"] - 4, report["frames"] - 1)]
+    dx = poses[1][3, 0] - poses[0][3, 0]
+    turn = poses[0][:3, :3].T @ poses[1][:3, :3]  # row-vector matrices: the turn between the two frames
+    angle = np.arccos(np.clip((np.trace(turn) - 1.0) / 2.0, -1.0, 1.0))
+    assert dx > 0.01, dx  # still going after a second (three frames: a turn under half a revolution)
+    assert abs(angle * 0.04 / dx - 1.0) < 0.1, (angle, dx)  # rolling, not sliding
+    assert abs(poses[1][3, 2] - poses[0][3, 2]) < 1e-3  # on the ground, not bouncing

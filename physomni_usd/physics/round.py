@@ -1,38 +1,107 @@
-"""A ball collides as a sphere: the one collision shape of a rigid object lifted as a ball (``sphere``).
+"""A ball collides as an ellipsoid: the one collision shape of a rigid object lifted as a ball (``sphere``),
+and what each such object was given (``Rounded``, for the report).
 
 A ball is lifted as a tessellated sphere, and its convex hull is what Newton collides. Resting on its
 hull it stands on a vertex or a small facet, and the solver does not keep it there: 235726/005's apple on a
 flat 1.2 cm foot, alone on the ground, rocked by 0.3° within 0.1 s, the rocking grew, and by 2 s it had
-turned 8° and wandered 5 mm with nothing pushing it. A sphere about its centre of mass touches what holds it
-at one point straight below that centre, as a real ball does, and stays (the same apple: not a tenth of a
-millimetre in 2 s). The sphere is the largest about the centre of mass inside the hull, so it reaches
-nowhere the visible mesh does not and starts inside nothing the mesh does not; where the mesh is taller
-than wide it rests that much lower (the settle keeps that drop: ``physics.settle``). Its mass and inertia
-stay the visible mesh's."""
+turned 8° and wandered 5 mm with nothing pushing it. A smooth surface touches what holds it at one point,
+as a real ball does, and stays.
+
+The smooth surface is the upright ellipsoid that fills the hull's box (its horizontal axes along the hull's
+principal ones): its lowest point is where the hull's is, so it rests at the height the mesh rests at (a
+sphere inscribed about the centre of mass sank by what a tall ball is taller than wide: 3-16 mm), and a
+squashed or tall fruit keeps its outline. Where that ellipsoid is not the hull's shape (it fills less of the
+hull than ``settings.BALL_MIN_FILL``, or pokes out of it by more than ``settings.BALL_MAX_PROTRUSION`` of
+its shortest semi-axis) the hull stays. The body's mass, centre of mass and inertia stay the mesh's, so an
+ellipsoid whose centre is above the centre of mass rights itself as the fruit does."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-#: The lifted shape (``physomni:liftedShape``) that collides as a sphere.
+from ..settings import BALL_MAX_PROTRUSION, BALL_MIN_FILL
+
+#: The lifted shape (``physomni:liftedShape``) that collides as an ellipsoid.
 BALL = "sphere"
+#: Points on the ellipsoid at which its poke out of the hull is measured (their spacing on a 3 cm ball: 1.2 mm).
+_SAMPLES = 2000
 
 
-def inscribed_radius(local: np.ndarray, centre: np.ndarray) -> float:
-    """The radius (m) of the largest sphere about ``centre`` (3,) inside the convex hull of ``local`` (N, 3);
-    ≤ 0 where the centre lies outside it."""
+@dataclass
+class Ellipsoid:
+    """An upright ellipsoid in the world: its ``centre`` (3,), ``axes`` (3, 3; columns: its two horizontal
+    axes and +z) and ``semi`` (3,) semi-axes (m), with how it fits the hull it was made for: ``fill`` (its
+    volume over the hull's) and ``protrusion`` (how far it pokes out of the hull, over its shortest semi-axis)."""
+
+    centre: np.ndarray
+    axes: np.ndarray
+    semi: np.ndarray
+    fill: float
+    protrusion: float
+
+    @property
+    def fits(self) -> bool:
+        return self.fill >= BALL_MIN_FILL and self.protrusion <= BALL_MAX_PROTRUSION
+
+    def as_dict(self) -> dict:
+        return {"semi_axes_m": [round(float(x), 4) for x in self.semi], "fill": round(self.fill, 3),
+                "protrusion": round(self.protrusion, 4)}
+
+
+def _sphere_points(n: int) -> np.ndarray:
+    """``n`` nearly even points on the unit sphere (a Fibonacci spiral)."""
+    i = np.arange(n) + 0.5
+    z = 1.0 - 2.0 * i / n
+    r = np.sqrt(1.0 - z * z)
+    phi = np.pi * (1.0 + 5 ** 0.5) * i
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+
+
+def fit_ellipsoid(points: np.ndarray) -> Ellipsoid:
+    """The upright ellipsoid filling the box of ``points`` (N, 3; world, z up) whose horizontal axes are the
+    principal axes of the points' footprint, and how it fits their convex hull."""
     import trimesh
 
-    hull = trimesh.convex.convex_hull(local)
+    hull = trimesh.convex.convex_hull(points)
+    v = np.asarray(hull.vertices, float)
+    xy = v[:, :2] - v[:, :2].mean(axis=0)
+    _, vecs = np.linalg.eigh(xy.T @ xy)
+    axes = np.eye(3)
+    axes[:2, 0], axes[:2, 1] = vecs[:, 1], vecs[:, 0]
+    axes[:2, 1] *= 1.0 if np.linalg.det(axes[:2, :2]) > 0 else -1.0  # right-handed: a rotation
+    local = v @ axes
+    lo, hi = local.min(axis=0), local.max(axis=0)
+    semi = 0.5 * (hi - lo)
+    centre = axes @ (0.5 * (lo + hi))
+    fill = float(4.0 / 3.0 * np.pi * np.prod(semi) / max(hull.volume, 1e-18))
+    surface = centre + (_sphere_points(_SAMPLES) * semi) @ axes.T
     normals = np.asarray(hull.face_normals, float)
-    origins = np.asarray(hull.triangles[:, 0], float)
-    return float(np.min(np.einsum("ij,ij->i", origins - centre, normals)))
+    offsets = np.einsum("ij,ij->i", np.asarray(hull.triangles[:, 0], float), normals)
+    poke = (surface @ normals.T - offsets).max(axis=1).max()
+    return Ellipsoid(centre, axes, semi, fill, float(max(poke, 0.0) / max(semi.min(), 1e-12)))
 
 
-def sphere_balls(builder, objects, path_body: dict, newton, wp) -> list[str]:
-    """Make the one collision shape of each rigid object of ``objects`` lifted as a ball a sphere about its
-    body's centre of mass (``builder`` before ``finalize``); returns the names of those changed."""
-    out = []
+@dataclass
+class Rounded:
+    """What ``round_balls`` did: ``ellipsoids`` (object name → its fit, for those that collide as one) and
+    ``hulls`` (name → its fit, for balls whose hull stays because the ellipsoid is not its shape)."""
+
+    ellipsoids: dict
+    hulls: dict
+
+    def report(self) -> dict:
+        """Each ball's collider for ``report.json``: name → ``collides_as`` (``ellipsoid`` or ``hull``) and its fit."""
+        return {**{n: {"collides_as": "ellipsoid", **f} for n, f in self.ellipsoids.items()},
+                **{n: {"collides_as": "hull", **f} for n, f in self.hulls.items()}}
+
+
+def round_balls(builder, objects, path_body: dict, newton, wp) -> Rounded:
+    """Make the one collision shape of each rigid object of ``objects`` lifted as a ball the ellipsoid of
+    :func:`fit_ellipsoid` where it fits (``builder`` before ``finalize``; the body's mass and inertia are
+    left as they are)."""
+    done = Rounded({}, {})
     for o in objects:
         b = path_body.get(o.path)
         if b is None or o.family != "rigid" or o.prim.GetCustomDataByKey("physomni:liftedShape") != BALL:
@@ -40,19 +109,21 @@ def sphere_balls(builder, objects, path_body: dict, newton, wp) -> list[str]:
         shapes = builder.body_shapes.get(b) or []
         if len(shapes) != 1 or builder.shape_type[shapes[0]] != newton.GeoType.CONVEX_MESH:
             continue  # a second shape (a hidden support) means the lift's ball is not what holds it
+        fit = fit_ellipsoid(np.asarray(o.points, float))
+        if not fit.fits:
+            done.hulls[o.name] = fit.as_dict()
+            continue
         s = shapes[0]
         pose = builder.body_q[b]
         t = np.array([pose[0], pose[1], pose[2]], float)
         rot = np.array(wp.quat_to_matrix(wp.quat(pose[3], pose[4], pose[5], pose[6])), float).reshape(3, 3)
-        local = (o.points - t) @ rot  # world → the body's frame
-        com = np.array(builder.body_com[b], float)
-        radius = inscribed_radius(local, com)
-        if radius <= 0.0:
-            continue
-        builder.shape_type[s] = newton.GeoType.SPHERE
+        centre = rot.T @ (fit.centre - t)  # world → the body's frame
+        turn = rot.T @ fit.axes
+        builder.shape_type[s] = newton.GeoType.ELLIPSOID
         builder.shape_source[s] = None
-        builder.shape_scale[s] = (radius, 0.0, 0.0)
-        builder.shape_transform[s] = wp.transform(wp.vec3(*map(float, com)), wp.quat_identity())
-        builder.shape_collision_radius[s] = radius
-        out.append(o.name)
-    return out
+        builder.shape_scale[s] = tuple(map(float, fit.semi))
+        builder.shape_transform[s] = wp.transform(wp.vec3(*map(float, centre)),
+                                                  wp.quat_from_matrix(wp.mat33(*map(float, turn.ravel()))))
+        builder.shape_collision_radius[s] = float(fit.semi.max())
+        done.ellipsoids[o.name] = fit.as_dict()
+    return done
