@@ -76,6 +76,10 @@ def test_the_fit_and_its_floor():
     assert fit.fits and np.allclose(sorted(fit.semi), sorted([0.0322 * 1.4, 0.0322, fit.semi[2]]), atol=5e-4)
     assert abs(abs(fit.axes[:, 0] @ turn[:, 0]) - 1.0) < 1e-3  # its long axis is the lemon's
     assert abs(fit.centre[2] - fit.semi[2] - lemon[:, 2].min()) < 1e-9  # its lowest point is the mesh's
+    # it stands straight under the centre of mass, so it starts balanced; one far off the middle is no ball's
+    com = lemon.mean(axis=0) + [0.0005, 0.0, 0.0]
+    assert np.allclose(fit_ellipsoid(lemon, com).centre[:2], com[:2]) and fit_ellipsoid(lemon, com).fits
+    assert not fit_ellipsoid(lemon, lemon.mean(axis=0) + [0.004, 0.0, 0.0]).fits
     cube = trimesh.creation.box((0.1, 0.1, 0.1)).vertices
     assert fit_ellipsoid(cube).fill < BALL_MIN_FILL and not fit_ellipsoid(cube).fits
     turned = fit_ellipsoid(cube @ turn.T)  # its footprint's axes are any: the ellipsoid pokes out of its corners

@@ -1,4 +1,4 @@
-"""A ball collides as an ellipsoid: the one collision shape of a rigid object lifted as a ball (``sphere``),
+"""A ball collides as an ellipsoid: the one collision shape of a rigid object lifted as what may be a ball,
 and what each such object was given (``Rounded``, for the report).
 
 A ball is lifted as a tessellated sphere, and its convex hull is what Newton collides. Resting on its
@@ -7,13 +7,14 @@ flat 1.2 cm foot, alone on the ground, rocked by 0.3° within 0.1 s, the rocking
 turned 8° and wandered 5 mm with nothing pushing it. A smooth surface touches what holds it at one point,
 as a real ball does, and stays.
 
-The smooth surface is the upright ellipsoid that fills the hull's box (its horizontal axes along the hull's
-principal ones): its lowest point is where the hull's is, so it rests at the height the mesh rests at (a
-sphere inscribed about the centre of mass sank by what a tall ball is taller than wide: 3-16 mm), and a
-squashed or tall fruit keeps its outline. Where that ellipsoid is not the hull's shape (it fills less of the
-hull than ``settings.BALL_MIN_FILL``, or pokes out of it by more than ``settings.BALL_MAX_PROTRUSION`` of
-its shortest semi-axis) the hull stays. The body's mass, centre of mass and inertia stay the mesh's, so an
-ellipsoid whose centre is above the centre of mass rights itself as the fruit does."""
+The smooth surface is the upright ellipsoid with the hull's extents (its horizontal axes along the hull's
+principal ones), its lowest point the hull's, straight under the centre of mass: it rests at the height the
+mesh rests at (a sphere inscribed about the centre of mass sank by what a tall ball is taller than wide:
+3-16 mm) and starts balanced, and a squashed or tall fruit keeps its outline. Where that ellipsoid is not
+the hull's shape (it would hold less than ``settings.BALL_MIN_FILL`` of the hull's volume, or it pokes out of
+the hull by more than ``settings.BALL_MAX_PROTRUSION`` of its shortest semi-axis: a cup, a box, a ball whose
+centre of mass is off its middle) the hull stays. The body's mass, centre of mass and inertia stay the
+mesh's. A ball taller than wide balances on its end as the ellipsoid does (unstably: the mesh's foot is gone)."""
 
 from __future__ import annotations
 
@@ -23,8 +24,10 @@ import numpy as np
 
 from ..settings import BALL_MAX_PROTRUSION, BALL_MIN_FILL
 
-#: The lifted shape (``physomni:liftedShape``) that collides as an ellipsoid.
-BALL = "sphere"
+#: The lifted shapes (``physomni:liftedShape``) that may be a ball: the footprint's ball (``sphere``), the
+#: lofted body of a round outline (``round``: a ball seen from the side, or a cup, which the fit refuses) and an
+#: organic one's dome (``inflated``: an orange lifted from its outline).
+BALLS = ("sphere", "round", "inflated")
 #: Points on the ellipsoid at which its poke out of the hull is measured (their spacing on a 3 cm ball: 1.2 mm).
 _SAMPLES = 2000
 
@@ -32,8 +35,9 @@ _SAMPLES = 2000
 @dataclass
 class Ellipsoid:
     """An upright ellipsoid in the world: its ``centre`` (3,), ``axes`` (3, 3; columns: its two horizontal
-    axes and +z) and ``semi`` (3,) semi-axes (m), with how it fits the hull it was made for: ``fill`` (its
-    volume over the hull's) and ``protrusion`` (how far it pokes out of the hull, over its shortest semi-axis)."""
+    axes and +z) and ``semi`` (3,) semi-axes (m), with how the hull it was made for fits it: ``fill`` (the
+    volume of the ellipsoid filling the hull's box over the hull's), ``protrusion`` (how far the collider
+    pokes out of the hull, over its shortest semi-axis)."""
 
     centre: np.ndarray
     axes: np.ndarray
@@ -59,9 +63,11 @@ def _sphere_points(n: int) -> np.ndarray:
     return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
 
 
-def fit_ellipsoid(points: np.ndarray) -> Ellipsoid:
-    """The upright ellipsoid filling the box of ``points`` (N, 3; world, z up) whose horizontal axes are the
-    principal axes of the points' footprint, and how it fits their convex hull."""
+def fit_ellipsoid(points: np.ndarray, com: np.ndarray | None = None) -> Ellipsoid:
+    """The upright ellipsoid for the convex hull of ``points`` (N, 3; world, z up): its horizontal axes the
+    principal axes of the hull's footprint and its semi-axes half the hull's extents along them, its lowest
+    point the hull's lowest, straight under ``com`` (the body's centre of mass; None: the box's centre), so
+    that it starts at rest where the mesh stands."""
     import trimesh
 
     hull = trimesh.convex.convex_hull(points)
@@ -74,8 +80,11 @@ def fit_ellipsoid(points: np.ndarray) -> Ellipsoid:
     local = v @ axes
     lo, hi = local.min(axis=0), local.max(axis=0)
     semi = 0.5 * (hi - lo)
-    centre = axes @ (0.5 * (lo + hi))
     fill = float(4.0 / 3.0 * np.pi * np.prod(semi) / max(hull.volume, 1e-18))
+    centre = 0.5 * (lo + hi)
+    if com is not None:
+        centre[:2] = (np.asarray(com, float) @ axes)[:2]
+    centre = axes @ centre
     surface = centre + (_sphere_points(_SAMPLES) * semi) @ axes.T
     normals = np.asarray(hull.face_normals, float)
     offsets = np.einsum("ij,ij->i", np.asarray(hull.triangles[:, 0], float), normals)
@@ -104,19 +113,19 @@ def round_balls(builder, objects, path_body: dict, newton, wp) -> Rounded:
     done = Rounded({}, {})
     for o in objects:
         b = path_body.get(o.path)
-        if b is None or o.family != "rigid" or o.prim.GetCustomDataByKey("physomni:liftedShape") != BALL:
+        if b is None or o.family != "rigid" or o.prim.GetCustomDataByKey("physomni:liftedShape") not in BALLS:
             continue
         shapes = builder.body_shapes.get(b) or []
         if len(shapes) != 1 or builder.shape_type[shapes[0]] != newton.GeoType.CONVEX_MESH:
             continue  # a second shape (a hidden support) means the lift's ball is not what holds it
-        fit = fit_ellipsoid(np.asarray(o.points, float))
-        if not fit.fits:
-            done.hulls[o.name] = fit.as_dict()
-            continue
         s = shapes[0]
         pose = builder.body_q[b]
         t = np.array([pose[0], pose[1], pose[2]], float)
         rot = np.array(wp.quat_to_matrix(wp.quat(pose[3], pose[4], pose[5], pose[6])), float).reshape(3, 3)
+        fit = fit_ellipsoid(np.asarray(o.points, float), rot @ np.array(builder.body_com[b], float) + t)
+        if not fit.fits:
+            done.hulls[o.name] = fit.as_dict()
+            continue
         centre = rot.T @ (fit.centre - t)  # world → the body's frame
         turn = rot.T @ fit.axes
         builder.shape_type[s] = newton.GeoType.ELLIPSOID
