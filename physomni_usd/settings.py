@@ -134,6 +134,10 @@ MAX_PARTICLES = 2_000_000
 #: ball, 3.5 %; a cube turned off its footprint's axes 41 %). Where it is not, the hull stays.
 BALL_MIN_FILL = 0.9
 BALL_MAX_PROTRUSION = 0.05
+#: A ball's ellipsoid whose longest semi-axis is within this fraction of its shortest collides as a sphere
+#: (Newton's sphere contacts are its own; an ellipsoid's, its general convex search's, which rolled a round
+#: apple out of its bowl): the sphere is as tall as the hull, the protrusion floor above still applies.
+BALL_SPHERE_SPREAD = 0.05
 
 #: Seconds of stillness after which ``run`` ends a take when its length was not asked for.
 REST_SECONDS = 1.0
