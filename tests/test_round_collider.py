@@ -36,10 +36,11 @@ def _settle(tmp_path, mesh, shape):
 
 
 def test_a_ball_on_the_ground_neither_rocks_nor_rolls_nor_sinks(tmp_path):
-    for tall in (1.132, 1.5, 0.7):  # an apple, a lemon on end, a squashed tomato
+    for tall, collider in ((1.132, "ellipsoid"), (1.5, "ellipsoid"), (0.7, "ellipsoid"), (1.02, "sphere")):
+        # an apple, a lemon on end, a squashed tomato, an orange
         settled = _settle(tmp_path / f"t{tall}", _ball(tall), "sphere")
         m = settled.motions["ball"]
-        assert settled.colliders["ball"]["collides_as"] == "ellipsoid", settled.colliders
+        assert settled.colliders["ball"]["collides_as"] == collider, settled.colliders
         assert m.turned_deg < 0.05, (tall, m)
         assert np.abs(m.translation[:2]).max() < 1e-4, (tall, m)
         # it rests where its mesh does: the inscribed sphere of the last round sank a 1.5x tall ball 16 mm
@@ -76,6 +77,7 @@ def test_the_fit_and_its_floor():
     assert fit.fits and np.allclose(sorted(fit.semi), sorted([0.0322 * 1.4, 0.0322, fit.semi[2]]), atol=5e-4)
     assert abs(abs(fit.axes[:, 0] @ turn[:, 0]) - 1.0) < 1e-3  # its long axis is the lemon's
     assert abs(fit.centre[2] - fit.semi[2] - lemon[:, 2].min()) < 1e-9  # its lowest point is the mesh's
+    assert not fit.sphere and fit_ellipsoid(_ball(1.02).vertices).sphere  # a nearly round one is a sphere
     # it stands straight under the centre of mass, so it starts balanced; one far off the middle is no ball's
     com = lemon.mean(axis=0) + [0.0005, 0.0, 0.0]
     assert np.allclose(fit_ellipsoid(lemon, com).centre[:2], com[:2]) and fit_ellipsoid(lemon, com).fits
@@ -95,7 +97,7 @@ def test_a_pushed_ball_rolls(tmp_path):
     shot = write_bench_shot(tmp_path, [BenchObject("ball", mesh, "rigid", FRUIT, velocity=(0.6, 0.0, 0.0),
                                                    shape="sphere")])
     report = simulate_shot(shot, SimulateSettings(seconds=1.0))
-    assert report["colliders"]["ball"]["collides_as"] == "ellipsoid"
+    assert report["colliders"]["ball"]["collides_as"] == "sphere"
     stage = layers.open_shot(shot)
     xf = UsdGeom.Xformable(stage.GetPrimAtPath("/World/Objects/ball"))
     poses = [np.array(xf.ComputeLocalToWorldTransform(f)) for f in (report["frames"] - 4, report["frames"] - 1)]
