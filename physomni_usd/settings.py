@@ -125,18 +125,16 @@ MAX_SOLVER_STEPS = 1_000_000
 MAX_PARTICLES = 2_000_000
 
 
-#: A ball's collider (``physics.round``): a rigid object lifted as what may be a ball collides as the upright
-#: ellipsoid with its hull's extents, its lowest point the hull's and under the centre of mass, only where
-#: that ellipsoid is the hull's shape: the ellipsoid filling the hull's box holds at least ``BALL_MIN_FILL``
-#: of the hull's volume (a tessellated ball: 1.0-1.04, the hull lying inside its points' ellipsoid; a
-#: cylinder 0.67; a cube 0.52) and the collider pokes out of the hull by at most ``BALL_MAX_PROTRUSION`` of
-#: its shortest semi-axis (a tessellated ball: under 2 %; its centre of mass 1 mm off the middle of a 3.2 cm
-#: ball, 3.5 %; a cube turned off its footprint's axes 41 %). Where it is not, the hull stays.
+#: A ball's collider (``physics.round``): a rigid object lifted as what may be a ball collides as a sphere
+#: only where the upright ellipsoid with its hull's extents is round, its longest semi-axis within
+#: ``BALL_SPHERE_SPREAD`` of its shortest (a taller one balancing on its end as an ellipsoid rolls away), and
+#: the sphere is the hull's shape: that ellipsoid holds at least ``BALL_MIN_FILL`` of the hull's volume (a
+#: tessellated ball: 1.0-1.04, the hull lying inside its points' ellipsoid; a cylinder 0.67; a cube 0.52)
+#: and the sphere, as tall as the hull and under its centre of mass, pokes out of the hull by at most
+#: ``BALL_MAX_PROTRUSION`` of its radius (a tessellated ball: under 2 %; its centre of mass 1 mm off the
+#: middle of a 3.2 cm ball, 3.5 %). Everything else keeps its hull.
 BALL_MIN_FILL = 0.9
 BALL_MAX_PROTRUSION = 0.05
-#: A ball's ellipsoid whose longest semi-axis is within this fraction of its shortest collides as a sphere
-#: (Newton's sphere contacts are its own; an ellipsoid's, its general convex search's, which rolled a round
-#: apple out of its bowl): the sphere is as tall as the hull, the protrusion floor above still applies.
 BALL_SPHERE_SPREAD = 0.05
 
 #: Seconds of stillness after which ``run`` ends a take when its length was not asked for.

@@ -1,4 +1,4 @@
-"""A ball collides as an ellipsoid: the one collision shape of a rigid object lifted as what may be a ball,
+"""A round ball collides as a sphere: the one collision shape of a rigid object lifted as what may be a ball,
 and what each such object was given (``Rounded``, for the report).
 
 A ball is lifted as a tessellated sphere, and its convex hull is what Newton collides. Resting on its
@@ -7,17 +7,17 @@ flat 1.2 cm foot, alone on the ground, rocked by 0.3° within 0.1 s, the rocking
 turned 8° and wandered 5 mm with nothing pushing it. A smooth surface touches what holds it at one point,
 as a real ball does, and stays.
 
-The smooth surface is the upright ellipsoid with the hull's extents (its horizontal axes along the hull's
-principal ones), its lowest point the hull's, straight under the centre of mass: it rests at the height the
-mesh rests at (a sphere inscribed about the centre of mass sank by what a tall ball is taller than wide:
-3-16 mm) and starts balanced, and a squashed or tall fruit keeps its outline. Where that ellipsoid is not
-the hull's shape (it would hold less than ``settings.BALL_MIN_FILL`` of the hull's volume, or it pokes out of
-the hull by more than ``settings.BALL_MAX_PROTRUSION`` of its shortest semi-axis: a cup, a box, a ball whose
-centre of mass is off its middle) the hull stays. The body's mass, centre of mass and inertia stay the
-mesh's. A ball taller than wide balances on its end as the ellipsoid does (unstably: the mesh's foot is gone).
-Where the semi-axes agree within ``settings.BALL_SPHERE_SPREAD`` it is a Newton sphere as tall as the hull:
-Newton's ellipsoid, found by its general convex search, rolled 235726/019's round apple (semi-axes equal) out
-of its bowl, 52 cm in 2 s, where its sphere of the same size moved 1 mm."""
+The fit that decides is the upright ellipsoid with the hull's extents (its horizontal axes along the hull's
+principal ones). Only where its semi-axes agree within ``settings.BALL_SPHERE_SPREAD`` does the ball collide
+as a Newton sphere as tall as the hull, its lowest point the hull's, straight under the centre of mass (it
+rests at the height the mesh rests at and starts balanced), and only where that sphere is the hull's shape:
+the ellipsoid holds at least ``settings.BALL_MIN_FILL`` of the hull's volume and the sphere pokes out of the
+hull by at most ``settings.BALL_MAX_PROTRUSION`` of its radius (not a cup, a box, a ball whose centre of
+mass is off its middle). Everything else keeps its hull. An ellipsoid collider was tried and dropped: a ball
+taller than wide balances on its end as the ellipsoid does, unstably (256721/018's three oranges 1.13x taller
+than wide rolled 18-77 cm where their hulls moved 1-3 mm), and Newton's ellipsoid contacts, its general
+convex search's, rolled 235726/019's round apple out of its bowl, 52 cm in 2 s, where its sphere of the same
+size moved 1 mm. The body's mass, centre of mass and inertia stay the mesh's."""
 
 from __future__ import annotations
 
@@ -31,16 +31,16 @@ from ..settings import BALL_MAX_PROTRUSION, BALL_MIN_FILL, BALL_SPHERE_SPREAD
 #: lofted body of a round outline (``round``: a ball seen from the side, or a cup, which the fit refuses) and an
 #: organic one's dome (``inflated``: an orange lifted from its outline).
 BALLS = ("sphere", "round", "inflated")
-#: Points on the ellipsoid at which its poke out of the hull is measured (their spacing on a 3 cm ball: 1.2 mm).
+#: Points on the collider at which its poke out of the hull is measured (their spacing on a 3 cm ball: 1.2 mm).
 _SAMPLES = 2000
 
 
 @dataclass
 class Ellipsoid:
-    """An upright ellipsoid in the world: its ``centre`` (3,), ``axes`` (3, 3; columns: its two horizontal
-    axes and +z) and ``semi`` (3,) semi-axes (m), with how the hull it was made for fits it: ``fill`` (the
-    volume of the ellipsoid filling the hull's box over the hull's), ``protrusion`` (how far the collider
-    pokes out of the hull, over its shortest semi-axis)."""
+    """The upright ellipsoid fitted to a hull, in the world: its ``centre`` (3,), ``axes`` (3, 3; columns: its
+    two horizontal axes and +z) and ``semi`` (3,) semi-axes (m; all equal where it is a sphere), with how the
+    hull it was made for fits it: ``fill`` (the volume of the ellipsoid filling the hull's box over the
+    hull's), ``protrusion`` (how far it pokes out of the hull, over its shortest semi-axis)."""
 
     centre: np.ndarray
     axes: np.ndarray
@@ -55,7 +55,8 @@ class Ellipsoid:
 
     @property
     def fits(self) -> bool:
-        return self.fill >= BALL_MIN_FILL and self.protrusion <= BALL_MAX_PROTRUSION
+        """Whether the ball collides as this sphere: it is one, and it is the hull's shape."""
+        return self.sphere and self.fill >= BALL_MIN_FILL and self.protrusion <= BALL_MAX_PROTRUSION
 
     def as_dict(self) -> dict:
         return {"semi_axes_m": [round(float(x), 4) for x in self.semi], "fill": round(self.fill, 3),
@@ -73,9 +74,10 @@ def _sphere_points(n: int) -> np.ndarray:
 
 def fit_ellipsoid(points: np.ndarray, com: np.ndarray | None = None) -> Ellipsoid:
     """The upright ellipsoid for the convex hull of ``points`` (N, 3; world, z up): its horizontal axes the
-    principal axes of the hull's footprint and its semi-axes half the hull's extents along them, its lowest
-    point the hull's lowest, straight under ``com`` (the body's centre of mass; None: the box's centre), so
-    that it starts at rest where the mesh stands."""
+    principal axes of the hull's footprint and its semi-axes half the hull's extents along them (made a sphere
+    as tall as the hull where they agree within ``BALL_SPHERE_SPREAD``), its lowest point the hull's lowest,
+    straight under ``com`` (the body's centre of mass; None: the box's centre), so that it starts at rest
+    where the mesh stands."""
     import trimesh
 
     hull = trimesh.convex.convex_hull(points)
@@ -105,21 +107,21 @@ def fit_ellipsoid(points: np.ndarray, com: np.ndarray | None = None) -> Ellipsoi
 
 @dataclass
 class Rounded:
-    """What ``round_balls`` did: ``ellipsoids`` (object name → its fit, for those that collide as one) and
-    ``hulls`` (name → its fit, for balls whose hull stays because the ellipsoid is not its shape)."""
+    """What ``round_balls`` did: ``spheres`` (object name → its fit, for those that collide as a sphere) and
+    ``hulls`` (name → its fit, for balls whose hull stays because they are not round or the sphere is not
+    the hull's shape)."""
 
-    ellipsoids: dict
+    spheres: dict
     hulls: dict
 
     def report(self) -> dict:
-        """Each ball's collider for ``report.json``: name → ``collides_as`` (``ellipsoid`` or ``hull``) and its fit."""
-        return {**{n: {"collides_as": "sphere" if len(set(f["semi_axes_m"])) == 1 else "ellipsoid", **f}
-                for n, f in self.ellipsoids.items()},
+        """Each ball's collider for ``report.json``: name → ``collides_as`` (``sphere`` or ``hull``) and its fit."""
+        return {**{n: {"collides_as": "sphere", **f} for n, f in self.spheres.items()},
                 **{n: {"collides_as": "hull", **f} for n, f in self.hulls.items()}}
 
 
 def round_balls(builder, objects, path_body: dict, newton, wp) -> Rounded:
-    """Make the one collision shape of each rigid object of ``objects`` lifted as a ball the ellipsoid of
+    """Make the one collision shape of each rigid object of ``objects`` lifted as a ball the sphere of
     :func:`fit_ellipsoid` where it fits (``builder`` before ``finalize``; the body's mass and inertia are
     left as they are)."""
     done = Rounded({}, {})
@@ -139,12 +141,10 @@ def round_balls(builder, objects, path_body: dict, newton, wp) -> Rounded:
             done.hulls[o.name] = fit.as_dict()
             continue
         centre = rot.T @ (fit.centre - t)  # world → the body's frame
-        turn = rot.T @ fit.axes
-        builder.shape_type[s] = newton.GeoType.SPHERE if fit.sphere else newton.GeoType.ELLIPSOID
+        builder.shape_type[s] = newton.GeoType.SPHERE
         builder.shape_source[s] = None
-        builder.shape_scale[s] = (float(fit.semi[0]), 0.0, 0.0) if fit.sphere else tuple(map(float, fit.semi))
-        builder.shape_transform[s] = wp.transform(wp.vec3(*map(float, centre)),
-                                                  wp.quat_from_matrix(wp.mat33(*map(float, turn.ravel()))))
-        builder.shape_collision_radius[s] = float(fit.semi.max())
-        done.ellipsoids[o.name] = fit.as_dict()
+        builder.shape_scale[s] = (float(fit.semi[0]), 0.0, 0.0)
+        builder.shape_transform[s] = wp.transform(wp.vec3(*map(float, centre)), wp.quat_identity())
+        builder.shape_collision_radius[s] = float(fit.semi[0])
+        done.spheres[o.name] = fit.as_dict()
     return done
