@@ -1,6 +1,7 @@
-"""Issue 38, part 1 (nothing unpushed moves): a ball collides as an ellipsoid with its lowest point where its
+"""Issue 38, part 1 (nothing unpushed moves): a round ball collides as a sphere with its lowest point where its
 hull's is (``physics.round``), so a lifted fruit resting on the ground stays where it rocked on its tessellated
-hull, rests at the mesh's height, and still rolls when pushed; what is not round keeps its hull."""
+hull, rests at the mesh's height, and still rolls when pushed; what is not round (a tall or squashed fruit, a
+box) keeps its hull."""
 
 from __future__ import annotations
 
@@ -35,33 +36,40 @@ def _settle(tmp_path, mesh, shape):
     return settle_shot(layers.open_shot(shot, mute_sim=True), 2.0)
 
 
-def test_a_ball_on_the_ground_neither_rocks_nor_rolls_nor_sinks(tmp_path):
-    for tall, collider in ((1.132, "ellipsoid"), (1.5, "ellipsoid"), (0.7, "ellipsoid"), (1.02, "sphere")):
-        # an apple, a lemon on end, a squashed tomato, an orange
+def test_a_round_ball_on_the_ground_neither_rocks_nor_rolls_nor_sinks(tmp_path):
+    for tall in (1.0, 1.02):  # an orange, one a little taller than wide
         settled = _settle(tmp_path / f"t{tall}", _ball(tall), "sphere")
         m = settled.motions["ball"]
-        assert settled.colliders["ball"]["collides_as"] == collider, settled.colliders
+        assert settled.colliders["ball"]["collides_as"] == "sphere", settled.colliders
         assert m.turned_deg < 0.05, (tall, m)
         assert np.abs(m.translation[:2]).max() < 1e-4, (tall, m)
-        # it rests where its mesh does: the inscribed sphere of the last round sank a 1.5x tall ball 16 mm
-        assert abs(m.translation[2]) < 5e-4, (tall, m)
+        assert abs(m.translation[2]) < 5e-4, (tall, m)  # it rests where its mesh does
+
+
+def test_a_ball_less_round_keeps_its_hull(tmp_path):
+    """A ball taller or flatter than the sphere spread allows keeps its hull: an ellipsoid balancing on its end
+    rolled away where the hull stays on its foot."""
+    for tall in (1.132, 0.7):  # an apple, a squashed tomato
+        settled = _settle(tmp_path / f"t{tall}", _ball(tall), "sphere")
+        assert settled.colliders["ball"]["collides_as"] == "hull", (tall, settled.colliders)
+        assert settled.motions["ball"].moved_m < 0.01, (tall, settled.motions["ball"])
 
 
 def test_the_same_mesh_not_lifted_as_a_ball_keeps_its_hull(tmp_path):
-    """The ellipsoid is for what the lift made a ball: the same points lifted otherwise rest on their hull,
-    which the solver rocks on its foot (the case the ellipsoid mends)."""
-    settled = _settle(tmp_path, _ball(), "extrude")
+    """The sphere is for what the lift made a ball: the same points lifted otherwise rest on their hull,
+    which the solver rocks on its foot (the case the sphere mends)."""
+    settled = _settle(tmp_path, _ball(1.02), "extrude")
     m = settled.motions["ball"]
     assert "ball" not in settled.colliders and m.turned_deg > 0.1 and -m.translation[2] < 1e-3, (m, settled)
 
 
 def test_what_a_ball_is_not_keeps_its_hull(tmp_path):
-    """Below the roundness floor the hull stays: a box lifted as a ball stands on its face, not on an
-    ellipsoid that would roll it."""
+    """Below the roundness floor the hull stays: a cube lifted as a ball (its extents equal) stands on its
+    face, not on a sphere that would roll it."""
     import trimesh
 
-    box = trimesh.creation.box((0.08, 0.06, 0.05))
-    box.apply_translation((0.0, 0.0, 0.025))
+    box = trimesh.creation.box((0.06, 0.06, 0.06))
+    box.apply_translation((0.0, 0.0, 0.03))
     settled = _settle(tmp_path, box, "sphere")
     assert settled.colliders["ball"]["collides_as"] == "hull", settled.colliders
     m = settled.motions["ball"]
@@ -74,20 +82,22 @@ def test_the_fit_and_its_floor():
     turn = trimesh.transformations.rotation_matrix(0.7, [0, 0, 1])[:3, :3]
     lemon = _ball(1.0).vertices * [1.4, 1.0, 1.0] @ turn.T  # long along a horizontal axis turned 40°
     fit = fit_ellipsoid(lemon)
-    assert fit.fits and np.allclose(sorted(fit.semi), sorted([0.0322 * 1.4, 0.0322, fit.semi[2]]), atol=5e-4)
+    assert np.allclose(sorted(fit.semi), sorted([0.0322 * 1.4, 0.0322, fit.semi[2]]), atol=5e-4)
     assert abs(abs(fit.axes[:, 0] @ turn[:, 0]) - 1.0) < 1e-3  # its long axis is the lemon's
-    assert abs(fit.centre[2] - fit.semi[2] - lemon[:, 2].min()) < 1e-9  # its lowest point is the mesh's
-    assert not fit.sphere and fit_ellipsoid(_ball(1.02).vertices).sphere  # a nearly round one is a sphere
+    assert not fit.sphere and not fit.fits  # not round: it keeps its hull
+    ball = _ball(1.02).vertices
+    fit = fit_ellipsoid(ball)
+    assert fit.sphere and fit.fits  # a nearly round one is a sphere
+    assert abs(fit.centre[2] - fit.semi[2] - ball[:, 2].min()) < 1e-9  # its lowest point is the mesh's
     # it stands straight under the centre of mass, so it starts balanced; one far off the middle is no ball's
-    com = lemon.mean(axis=0) + [0.0005, 0.0, 0.0]
-    assert np.allclose(fit_ellipsoid(lemon, com).centre[:2], com[:2]) and fit_ellipsoid(lemon, com).fits
-    assert not fit_ellipsoid(lemon, lemon.mean(axis=0) + [0.004, 0.0, 0.0]).fits
-    cube = trimesh.creation.box((0.1, 0.1, 0.1)).vertices
-    assert fit_ellipsoid(cube).fill < BALL_MIN_FILL and not fit_ellipsoid(cube).fits
-    turned = fit_ellipsoid(cube @ turn.T)  # its footprint's axes are any: the ellipsoid pokes out of its corners
-    assert turned.protrusion > BALL_MAX_PROTRUSION and not turned.fits
+    com = ball.mean(axis=0) + [0.0005, 0.0, 0.0]
+    assert np.allclose(fit_ellipsoid(ball, com).centre[:2], com[:2]) and fit_ellipsoid(ball, com).fits
+    off = fit_ellipsoid(ball, ball.mean(axis=0) + [0.004, 0.0, 0.0])
+    assert off.sphere and off.protrusion > BALL_MAX_PROTRUSION and not off.fits
+    cube = fit_ellipsoid(trimesh.creation.box((0.1, 0.1, 0.1)).vertices)
+    assert cube.sphere and cube.fill < BALL_MIN_FILL and not cube.fits
     cylinder = fit_ellipsoid(trimesh.creation.cylinder(0.05, 0.1, sections=64).vertices)
-    assert cylinder.fill < BALL_MIN_FILL and not cylinder.fits
+    assert cylinder.sphere and cylinder.fill < BALL_MIN_FILL and not cylinder.fits
 
 
 def test_a_pushed_ball_rolls(tmp_path):
