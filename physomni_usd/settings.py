@@ -130,7 +130,7 @@ MAX_PARTICLES = 2_000_000
 #: ``BALL_SPHERE_SPREAD`` of its shortest (a taller one balancing on its end as an ellipsoid rolls away), and
 #: the sphere is the hull's shape: that ellipsoid holds at least ``BALL_MIN_FILL`` of the hull's volume (a
 #: tessellated ball: 1.0-1.04, the hull lying inside its points' ellipsoid; a cylinder 0.67; a cube 0.52)
-#: and the sphere, as tall as the hull and under its centre of mass, pokes out of the hull by at most
+#: and the sphere, its radius the smallest semi-axis and under its centre of mass, pokes out of the hull by at most
 #: ``BALL_MAX_PROTRUSION`` of its radius (a tessellated ball: under 2 %; its centre of mass 1 mm off the
 #: middle of a 3.2 cm ball, 3.5 %). Everything else keeps its hull.
 BALL_MIN_FILL = 0.9

@@ -46,6 +46,22 @@ def test_a_round_ball_on_the_ground_neither_rocks_nor_rolls_nor_sinks(tmp_path):
         assert abs(m.translation[2]) < 5e-4, (tall, m)  # it rests where its mesh does
 
 
+def test_two_touching_balls_a_little_taller_than_wide_stay(tmp_path):
+    """The sphere is no wider than the hull: one as tall as a ball a little taller than wide pokes out of its
+    sides into the fruit beside it, and the two push each other away."""
+    for tall in (1.02, 1.04):
+        a = _ball(tall)
+        b = a.copy()
+        b.apply_translation((np.ptp(a.vertices[:, 0]) + 0.0002, 0.0, 0.0))  # hulls 0.2 mm apart
+        shot = write_bench_shot(tmp_path / f"t{tall}", [BenchObject("a", a, "rigid", FRUIT, shape="sphere"),
+                                                        BenchObject("b", b, "rigid", FRUIT, shape="sphere")])
+        settled = settle_shot(layers.open_shot(shot, mute_sim=True), 2.0)
+        for name in ("a", "b"):
+            assert settled.colliders[name]["collides_as"] == "sphere", (tall, settled.colliders)
+            m = settled.motions[name]
+            assert m.moved_m < 1e-3 and m.turned_deg < 0.5, (tall, name, m)
+
+
 def test_a_ball_less_round_keeps_its_hull(tmp_path):
     """A ball taller or flatter than the sphere spread allows keeps its hull: an ellipsoid balancing on its end
     rolled away where the hull stays on its foot."""

@@ -9,8 +9,9 @@ as a real ball does, and stays.
 
 The fit that decides is the upright ellipsoid with the hull's extents (its horizontal axes along the hull's
 principal ones). Only where its semi-axes agree within ``settings.BALL_SPHERE_SPREAD`` does the ball collide
-as a Newton sphere as tall as the hull, its lowest point the hull's, straight under the centre of mass (it
-rests at the height the mesh rests at and starts balanced), and only where that sphere is the hull's shape:
+as a Newton sphere whose radius is the smallest semi-axis (no wider than the hull: one as tall as a ball 3 %
+taller than wide started inside the fruit beside it, and both rolled 8 cm), its lowest point the hull's,
+straight under the centre of mass (it rests at the height the mesh rests at and starts balanced), and only where that sphere is the hull's shape:
 the ellipsoid holds at least ``settings.BALL_MIN_FILL`` of the hull's volume and the sphere pokes out of the
 hull by at most ``settings.BALL_MAX_PROTRUSION`` of its radius (not a cup, a box, a ball whose centre of
 mass is off its middle). Everything else keeps its hull. An ellipsoid collider was tried and dropped: a ball
@@ -75,7 +76,7 @@ def _sphere_points(n: int) -> np.ndarray:
 def fit_ellipsoid(points: np.ndarray, com: np.ndarray | None = None) -> Ellipsoid:
     """The upright ellipsoid for the convex hull of ``points`` (N, 3; world, z up): its horizontal axes the
     principal axes of the hull's footprint and its semi-axes half the hull's extents along them (made a sphere
-    as tall as the hull where they agree within ``BALL_SPHERE_SPREAD``), its lowest point the hull's lowest,
+    of the smallest where they agree within ``BALL_SPHERE_SPREAD``: no wider and no taller than the hull), its lowest point the hull's lowest,
     straight under ``com`` (the body's centre of mass; None: the box's centre), so that it starts at rest
     where the mesh stands."""
     import trimesh
@@ -92,7 +93,7 @@ def fit_ellipsoid(points: np.ndarray, com: np.ndarray | None = None) -> Ellipsoi
     semi = 0.5 * (hi - lo)
     fill = float(4.0 / 3.0 * np.pi * np.prod(semi) / max(hull.volume, 1e-18))
     if semi.max() <= (1.0 + BALL_SPHERE_SPREAD) * semi.min():
-        semi[:] = semi[2]  # a sphere as tall as the hull; how much its sides poke out is measured below
+        semi[:] = semi.min()  # no wider than the hull: a wider one starts inside the fruit beside it
     centre = 0.5 * (lo + hi)
     centre[2] = lo[2] + semi[2]
     if com is not None:
