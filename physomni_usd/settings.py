@@ -136,6 +136,10 @@ MAX_PARTICLES = 2_000_000
 BALL_MIN_FILL = 0.9
 BALL_MAX_PROTRUSION = 0.05
 BALL_SPHERE_SPREAD = 0.05
+#: A ball something rests on keeps its hull (a sphere has no rolling resistance, so what stands on it rolls it
+#: away: two round balls stacked 2 mm off centre, the lower as a sphere rolled 22 cm, as a hull 1 mm): another
+#: object's lowest point over the ball, above its middle and at most this far above its top.
+BALL_LOAD_GAP = 0.005
 
 #: Seconds of stillness after which ``run`` ends a take when its length was not asked for.
 REST_SECONDS = 1.0

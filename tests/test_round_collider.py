@@ -62,6 +62,20 @@ def test_two_touching_balls_a_little_taller_than_wide_stay(tmp_path):
             assert m.moved_m < 1e-3 and m.turned_deg < 0.5, (tall, name, m)
 
 
+def test_a_ball_something_rests_on_keeps_its_hull(tmp_path):
+    """A sphere does not resist rolling: a round ball with another resting on it a little off its top keeps
+    its hull, and stays where it is; the ball on top, holding nothing, is a sphere."""
+    a = _ball(1.0, 0.035)
+    b = a.copy()
+    b.apply_translation((0.002, 0.0, np.ptp(a.vertices[:, 2]) + 0.0002))
+    shot = write_bench_shot(tmp_path, [BenchObject("a", a, "rigid", FRUIT, shape="sphere"),
+                                       BenchObject("b", b, "rigid", FRUIT, shape="sphere")])
+    settled = settle_shot(layers.open_shot(shot, mute_sim=True), 2.0)
+    assert settled.colliders["a"]["collides_as"] == "hull" and settled.colliders["a"]["holds"] == "b", settled.colliders
+    assert settled.colliders["b"]["collides_as"] == "sphere", settled.colliders
+    assert settled.motions["a"].moved_m < 3e-3, settled.motions["a"]  # as a sphere: 22 cm
+
+
 def test_a_ball_less_round_keeps_its_hull(tmp_path):
     """A ball taller or flatter than the sphere spread allows keeps its hull: an ellipsoid balancing on its end
     rolled away where the hull stays on its foot."""

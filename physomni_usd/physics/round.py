@@ -11,14 +11,16 @@ The fit that decides is the upright ellipsoid with the hull's extents (its horiz
 principal ones). Only where its semi-axes agree within ``settings.BALL_SPHERE_SPREAD`` does the ball collide
 as a Newton sphere whose radius is the smallest semi-axis (no wider than the hull: one as tall as a ball 3 %
 taller than wide started inside the fruit beside it, and both rolled 8 cm), its lowest point the hull's,
-straight under the centre of mass (it rests at the height the mesh rests at and starts balanced), and only where that sphere is the hull's shape:
-the ellipsoid holds at least ``settings.BALL_MIN_FILL`` of the hull's volume and the sphere pokes out of the
-hull by at most ``settings.BALL_MAX_PROTRUSION`` of its radius (not a cup, a box, a ball whose centre of
-mass is off its middle). Everything else keeps its hull. An ellipsoid collider was tried and dropped: a ball
-taller than wide balances on its end as the ellipsoid does, unstably (256721/018's three oranges 1.13x taller
-than wide rolled 18-77 cm where their hulls moved 1-3 mm), and Newton's ellipsoid contacts, its general
-convex search's, rolled 235726/019's round apple out of its bowl, 52 cm in 2 s, where its sphere of the same
-size moved 1 mm. The body's mass, centre of mass and inertia stay the mesh's."""
+straight under the centre of mass (it rests at the height the mesh rests at and starts balanced), and only
+where that sphere is the hull's shape: the ellipsoid holds at least ``settings.BALL_MIN_FILL`` of the hull's
+volume and the sphere pokes out of the hull by at most ``settings.BALL_MAX_PROTRUSION`` of its radius (not a
+cup, a box, a ball whose centre of mass is off its middle), and nothing rests on it (a sphere does not resist
+rolling, and rolls away from under what stands on it). Everything else keeps its hull. An ellipsoid collider
+was tried and dropped: a ball taller than wide balances on its end as the ellipsoid does, unstably
+(256721/018's three oranges 1.13x taller than wide rolled 18-77 cm where their hulls moved 1-3 mm), and
+Newton's ellipsoid contacts, its general convex search's, rolled 235726/019's round apple out of its bowl, 52
+cm in 2 s, where its sphere of the same size moved 1 mm. The body's mass, centre of mass and inertia stay the
+mesh's."""
 
 from __future__ import annotations
 
@@ -26,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..settings import BALL_MAX_PROTRUSION, BALL_MIN_FILL, BALL_SPHERE_SPREAD
+from ..settings import BALL_LOAD_GAP, BALL_MAX_PROTRUSION, BALL_MIN_FILL, BALL_SPHERE_SPREAD
 
 #: The lifted shapes (``physomni:liftedShape``) that may be a ball: the footprint's ball (``sphere``), the
 #: lofted body of a round outline (``round``: a ball seen from the side, or a cup, which the fit refuses) and an
@@ -76,9 +78,9 @@ def _sphere_points(n: int) -> np.ndarray:
 def fit_ellipsoid(points: np.ndarray, com: np.ndarray | None = None) -> Ellipsoid:
     """The upright ellipsoid for the convex hull of ``points`` (N, 3; world, z up): its horizontal axes the
     principal axes of the hull's footprint and its semi-axes half the hull's extents along them (made a sphere
-    of the smallest where they agree within ``BALL_SPHERE_SPREAD``: no wider and no taller than the hull), its lowest point the hull's lowest,
-    straight under ``com`` (the body's centre of mass; None: the box's centre), so that it starts at rest
-    where the mesh stands."""
+    of the smallest where they agree within ``BALL_SPHERE_SPREAD``: no wider and no taller than the hull), its
+    lowest point the hull's lowest, straight under ``com`` (the body's centre of mass; None: the box's
+    centre), so that it starts at rest where the mesh stands."""
     import trimesh
 
     hull = trimesh.convex.convex_hull(points)
@@ -106,11 +108,30 @@ def fit_ellipsoid(points: np.ndarray, com: np.ndarray | None = None) -> Ellipsoi
     return Ellipsoid(centre, axes, semi, fill, float(max(poke, 0.0) / max(semi.min(), 1e-12)))
 
 
+def _load(ball: np.ndarray, others) -> str | None:
+    """The name of the first of ``others`` (objects with world ``points``) resting on ``ball`` (N, 3; world
+    points): its lowest point above the ball's middle, at most ``BALL_LOAD_GAP`` over its top, and within the
+    ball's footprint; None where nothing rests on it."""
+    lo, hi = ball.min(axis=0), ball.max(axis=0)
+    mid = 0.5 * (lo + hi)
+    for o in others:
+        p = np.asarray(o.points, float)
+        if not len(p):
+            continue
+        bottom = p[:, 2].min()
+        if not mid[2] < bottom <= hi[2] + BALL_LOAD_GAP:
+            continue
+        foot = p[p[:, 2] <= bottom + BALL_LOAD_GAP, :2]
+        if (np.all(foot >= lo[:2], axis=1) & np.all(foot <= hi[:2], axis=1)).any():
+            return o.name
+    return None
+
+
 @dataclass
 class Rounded:
     """What ``round_balls`` did: ``spheres`` (object name → its fit, for those that collide as a sphere) and
-    ``hulls`` (name → its fit, for balls whose hull stays because they are not round or the sphere is not
-    the hull's shape)."""
+    ``hulls`` (name → its fit, for balls whose hull stays because they are not round, the sphere is not
+    the hull's shape, or something rests on them: ``holds``, its name)."""
 
     spheres: dict
     hulls: dict
@@ -138,8 +159,9 @@ def round_balls(builder, objects, path_body: dict, newton, wp) -> Rounded:
         t = np.array([pose[0], pose[1], pose[2]], float)
         rot = np.array(wp.quat_to_matrix(wp.quat(pose[3], pose[4], pose[5], pose[6])), float).reshape(3, 3)
         fit = fit_ellipsoid(np.asarray(o.points, float), rot @ np.array(builder.body_com[b], float) + t)
-        if not fit.fits:
-            done.hulls[o.name] = fit.as_dict()
+        held = _load(np.asarray(o.points, float), [k for k in objects if k is not o])
+        if not fit.fits or held is not None:
+            done.hulls[o.name] = {**fit.as_dict(), **({"holds": held} if held is not None else {})}
             continue
         centre = rot.T @ (fit.centre - t)  # world → the body's frame
         builder.shape_type[s] = newton.GeoType.SPHERE
