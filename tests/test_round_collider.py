@@ -9,7 +9,7 @@ import numpy as np
 from pxr import UsdGeom
 
 from physomni_usd.bench.scenes import BenchObject, write_bench_shot
-from physomni_usd.physics.round import fit_ellipsoid
+from physomni_usd.physics.round import fit_ball
 from physomni_usd.physics.settle import settle_shot
 from physomni_usd.physics.simulate import simulate_shot
 from physomni_usd.settings import BALL_MAX_PROTRUSION, BALL_MIN_FILL, SimulateSettings
@@ -111,22 +111,22 @@ def test_the_fit_and_its_floor():
 
     turn = trimesh.transformations.rotation_matrix(0.7, [0, 0, 1])[:3, :3]
     lemon = _ball(1.0).vertices * [1.4, 1.0, 1.0] @ turn.T  # long along a horizontal axis turned 40°
-    fit = fit_ellipsoid(lemon)
+    fit = fit_ball(lemon)
     assert np.allclose(sorted(fit.semi), sorted([0.0322 * 1.4, 0.0322, fit.semi[2]]), atol=5e-4)
     assert abs(abs(fit.axes[:, 0] @ turn[:, 0]) - 1.0) < 1e-3  # its long axis is the lemon's
     assert not fit.sphere and not fit.fits  # not round: it keeps its hull
     ball = _ball(1.02).vertices
-    fit = fit_ellipsoid(ball)
+    fit = fit_ball(ball)
     assert fit.sphere and fit.fits  # a nearly round one is a sphere
     assert abs(fit.centre[2] - fit.semi[2] - ball[:, 2].min()) < 1e-9  # its lowest point is the mesh's
     # it stands straight under the centre of mass, so it starts balanced; one far off the middle is no ball's
     com = ball.mean(axis=0) + [0.0005, 0.0, 0.0]
-    assert np.allclose(fit_ellipsoid(ball, com).centre[:2], com[:2]) and fit_ellipsoid(ball, com).fits
-    off = fit_ellipsoid(ball, ball.mean(axis=0) + [0.004, 0.0, 0.0])
+    assert np.allclose(fit_ball(ball, com).centre[:2], com[:2]) and fit_ball(ball, com).fits
+    off = fit_ball(ball, ball.mean(axis=0) + [0.004, 0.0, 0.0])
     assert off.sphere and off.protrusion > BALL_MAX_PROTRUSION and not off.fits
-    cube = fit_ellipsoid(trimesh.creation.box((0.1, 0.1, 0.1)).vertices)
+    cube = fit_ball(trimesh.creation.box((0.1, 0.1, 0.1)).vertices)
     assert cube.sphere and cube.fill < BALL_MIN_FILL and not cube.fits
-    cylinder = fit_ellipsoid(trimesh.creation.cylinder(0.05, 0.1, sections=64).vertices)
+    cylinder = fit_ball(trimesh.creation.cylinder(0.05, 0.1, sections=64).vertices)
     assert cylinder.sphere and cylinder.fill < BALL_MIN_FILL and not cylinder.fits
 
 

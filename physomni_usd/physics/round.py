@@ -39,11 +39,12 @@ _SAMPLES = 2000
 
 
 @dataclass
-class Ellipsoid:
-    """The upright ellipsoid fitted to a hull, in the world: its ``centre`` (3,), ``axes`` (3, 3; columns: its
-    two horizontal axes and +z) and ``semi`` (3,) semi-axes (m; all equal where it is a sphere), with how the
-    hull it was made for fits it: ``fill`` (the volume of the ellipsoid filling the hull's box over the
-    hull's), ``protrusion`` (how far it pokes out of the hull, over its shortest semi-axis)."""
+class BallFit:
+    """A ball's hull fitted: the upright ellipsoid with the hull's extents, made the sphere it collides as
+    where it is round, in the world: its ``centre`` (3,), ``axes`` (3, 3; columns: its two horizontal axes
+    and +z) and ``semi`` (3,) semi-axes (m; all equal where it is a sphere), with how the hull fits it:
+    ``fill`` (the volume of the ellipsoid filling the hull's box over the hull's: before it is made a
+    sphere), ``protrusion`` (how far the collider pokes out of the hull, over its shortest semi-axis)."""
 
     centre: np.ndarray
     axes: np.ndarray
@@ -75,7 +76,7 @@ def _sphere_points(n: int) -> np.ndarray:
     return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
 
 
-def fit_ellipsoid(points: np.ndarray, com: np.ndarray | None = None) -> Ellipsoid:
+def fit_ball(points: np.ndarray, com: np.ndarray | None = None) -> BallFit:
     """The upright ellipsoid for the convex hull of ``points`` (N, 3; world, z up): its horizontal axes the
     principal axes of the hull's footprint and its semi-axes half the hull's extents along them (made a sphere
     of the smallest where they agree within ``BALL_SPHERE_SPREAD``: no wider and no taller than the hull), its
@@ -105,7 +106,7 @@ def fit_ellipsoid(points: np.ndarray, com: np.ndarray | None = None) -> Ellipsoi
     normals = np.asarray(hull.face_normals, float)
     offsets = np.einsum("ij,ij->i", np.asarray(hull.triangles[:, 0], float), normals)
     poke = (surface @ normals.T - offsets).max(axis=1).max()
-    return Ellipsoid(centre, axes, semi, fill, float(max(poke, 0.0) / max(semi.min(), 1e-12)))
+    return BallFit(centre, axes, semi, fill, float(max(poke, 0.0) / max(semi.min(), 1e-12)))
 
 
 def _load(ball: np.ndarray, others) -> str | None:
@@ -144,7 +145,7 @@ class Rounded:
 
 def round_balls(builder, objects, path_body: dict, newton, wp) -> Rounded:
     """Make the one collision shape of each rigid object of ``objects`` lifted as a ball the sphere of
-    :func:`fit_ellipsoid` where it fits (``builder`` before ``finalize``; the body's mass and inertia are
+    :func:`fit_ball` where it fits (``builder`` before ``finalize``; the body's mass and inertia are
     left as they are)."""
     done = Rounded({}, {})
     for o in objects:
@@ -158,7 +159,7 @@ def round_balls(builder, objects, path_body: dict, newton, wp) -> Rounded:
         pose = builder.body_q[b]
         t = np.array([pose[0], pose[1], pose[2]], float)
         rot = np.array(wp.quat_to_matrix(wp.quat(pose[3], pose[4], pose[5], pose[6])), float).reshape(3, 3)
-        fit = fit_ellipsoid(np.asarray(o.points, float), rot @ np.array(builder.body_com[b], float) + t)
+        fit = fit_ball(np.asarray(o.points, float), rot @ np.array(builder.body_com[b], float) + t)
         held = _load(np.asarray(o.points, float), [k for k in objects if k is not o])
         if not fit.fits or held is not None:
             done.hulls[o.name] = {**fit.as_dict(), **({"holds": held} if held is not None else {})}
