@@ -44,3 +44,28 @@ def test_a_side_view_still_lifts_standing_silhouettes():
     lifted, truth = _lift(scene, "bottle")
     assert lifted.info["mode"] == "standing"
     assert float(np.ptp(lifted.vertices[:, 2])) == pytest.approx(truth.extents[2], rel=0.15)
+
+
+def test_an_extruded_slab_stands_on_a_flat_foot_under_its_centre():
+    """A box turned to the camera shows its bottom edge sloping (it runs back in depth): the slab of its outline
+    stands on a foot as wide as itself, not on the lowest corner with its centre beyond it (a box on a stack
+    toppled off it)."""
+    import cv2
+
+    from physomni_usd.geometry.camera import PinholeCamera
+    from physomni_usd.lift.silhouette import LiftSettings
+
+    camera = PinholeCamera(320, 240, 50.0, 10.0, (0.0, 0.0, 0.5))
+    mask = np.zeros((240, 320), np.uint8)
+    # a slanted quadrilateral: its bottom edge 12 px lower at the right, its top level
+    cv2.fillConvexPoly(mask, np.array([[130, 60], [190, 60], [190, 182], [130, 170]], np.int32), 1)
+    lifted = lift_silhouette(mask > 0, camera, LiftSettings(shape="extrude"))
+    assert lifted.info["mode"] == "standing" and lifted.shape == "extrude"
+    v = lifted.vertices
+    foot = v[v[:, 2] <= v[:, 2].min() + 0.003]
+    across = np.cross(camera.world_from_camera[:, 2] * [1, 1, 0], [0.0, 0.0, 1.0])
+    across /= np.linalg.norm(across)
+    width = float(np.ptp(v @ across))
+    # the foot spans the slab's width, and the centre stands over it
+    assert float(np.ptp(foot @ across)) >= 0.8 * width
+    assert float((foot @ across).min()) <= float(v.mean(0) @ across) <= float((foot @ across).max())

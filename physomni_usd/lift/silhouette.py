@@ -496,8 +496,16 @@ def extruded_body(rows: StandingRows) -> LiftedMesh:
     r = rows
     width = float(np.linalg.norm(r.right - r.left, axis=1).max())
     depth = r.settings.depth_ratio * min(width, float(r.z.max() - r.z.min()) or width)
-    rings = ray_slab_rings(r.left, r.right, r.camera.rays(r.spans[:, 0], r.edges),
-                           r.camera.rays(r.spans[:, 1], r.edges), r.normal, depth, r.settings.sections)
+    # its lowest rows are the foot's edge running back in depth (a box turned to the camera: its bottom edge
+    # slopes in the photo), not a bottom that tapers: cast as they show, the slab stood on one corner of its
+    # foot, its centre beyond it, and toppled off the box under it (a box of three falling 37 cm). The bottom
+    # band takes its widest span, a flat foot as wide as the slab, as a round body's does
+    spans = r.spans.copy()
+    band = r.z <= r.z.min() + BASE_BAND * (r.z.max() - r.z.min())
+    spans[band, 0], spans[band, 1] = spans[band, 0].min(), spans[band, 1].max()
+    left, right = r.on_plane(spans[:, 0], r.edges, r.contact), r.on_plane(spans[:, 1], r.edges, r.contact)
+    rings = ray_slab_rings(left, right, r.camera.rays(spans[:, 0], r.edges),
+                           r.camera.rays(spans[:, 1], r.edges), r.normal, depth, r.settings.sections)
     return _lofted(r, rings, "extrude")
 
 
