@@ -106,18 +106,10 @@ def test_build_settles_unless_told_not_to(tmp_path):
     (``shot.alignment.settle``); ``--settle 0`` writes it as placed."""
     import json
 
-    import trimesh
-
     from physomni_usd.building import build_shot
     from physomni_usd.settings import BuildSettings
 
-    camera = PinholeCamera(240, 180, 50.0, 30.0, (0.0, -0.55, 0.35))
-    truth = []
-    for size, at in (((0.30, 0.20, 0.10), (0, 0, 0)), ((0.07, 0.07, 0.07), (0.25, -0.05, 0.0))):
-        b = trimesh.creation.box(size)
-        b.apply_translation([at[0], at[1], at[2] + size[2] / 2])
-        truth.append(b)
-    specs = rendered_blocks(tmp_path, camera, truth)
+    specs = _rendered_pair(tmp_path)
     build_shot(tmp_path / "photo.png", tmp_path / "plain", masks=specs, settings=BuildSettings(settle_s=0.0))
     plain = json.loads((tmp_path / "plain" / "report.json").read_text())
     assert "settle" not in plain["shot"]["alignment"]
@@ -307,12 +299,9 @@ def test_a_settle_goes_on_while_what_moves_could_still_be_kept_and_no_longer(tmp
     assert m["high"].moved_m > KEEP_M and not m["high"].resting, m["high"]
 
 
-def _two_blocks(tmp_path, monkeypatch, diverges=lambda run: True):
-    """A book-sized block and a small one beside it, rendered, and a guard whose energy reads 1 kJ above its
-    budget at every check past frame 2 of a run where ``diverges(run)``: no step passes."""
+def _rendered_pair(tmp_path):
+    """A book-sized block and a small one beside it on the ground, rendered into ``tmp_path``: their masks."""
     import trimesh
-
-    from physomni_usd.physics import runner
 
     camera = PinholeCamera(240, 180, 50.0, 30.0, (0.0, -0.55, 0.35))
     truth = []
@@ -320,7 +309,15 @@ def _two_blocks(tmp_path, monkeypatch, diverges=lambda run: True):
         b = trimesh.creation.box(size)
         b.apply_translation([at[0], at[1], at[2] + size[2] / 2])
         truth.append(b)
-    specs = rendered_blocks(tmp_path, camera, truth)
+    return rendered_blocks(tmp_path, camera, truth)
+
+
+def _two_blocks(tmp_path, monkeypatch, diverges=lambda run: True):
+    """A book-sized block and a small one beside it, rendered, and a guard whose energy reads 1 kJ above its
+    budget at every check past frame 2 of a run where ``diverges(run)``: no step passes."""
+    from physomni_usd.physics import runner
+
+    specs = _rendered_pair(tmp_path)
     check = runner.GuardedRun._check
     runs = []
 
