@@ -496,9 +496,9 @@ def slab_depths(widths: np.ndarray, z: np.ndarray, ratio: float) -> np.ndarray:
     """(K,) metres: how deep each row of a thinned slab is, rows ``widths`` (K,) metres wide at heights ``z``
     (K,). The slab is ``ratio`` times the smaller of the outline's width and height deep, and no row deeper
     than it is wide: a row whose whole span is narrow (a mirror's stalk, an antenna, a handle's end) stays thin
-    rather than a wall as deep as the body, which a turned object shows as a long strip of its rim. The rows of the bottom band (:data:`BASE_BAND` of the
-    height) keep the slab's full depth, so that it stands on the base it stood on, however narrow its foot (a
-    body deep above a thin foot would otherwise tip over it)."""
+    rather than a wall as deep as the body, which a turned object shows as a long strip of its rim. The rows
+    of the bottom band (:data:`BASE_BAND` of the height) keep the slab's full depth, so that it stands on the
+    base it stood on, however narrow its foot (a body deep above a thin foot would otherwise tip over it)."""
     height = float(z.max() - z.min())
     depth = ratio * min(float(widths.max()), height or float(widths.max()))
     rows = np.minimum(widths, depth)
@@ -520,9 +520,15 @@ def extruded_body(rows: StandingRows) -> LiftedMesh:
     widths = np.linalg.norm(r.right - r.left, axis=1)
     dir_left, dir_right = r.camera.rays(r.spans[:, 0], r.edges), r.camera.rays(r.spans[:, 1], r.edges)
     thinned = slab_depths(widths, r.z, r.settings.depth_ratio)
-    thin, full = (_lofted(r, ray_slab_rings(r.left, r.right, dir_left, dir_right, r.normal, depth,
-                                            r.settings.sections), "extrude")
-                  for depth in (thinned, float(thinned.max())))
+
+    def slab(depth):
+        return _lofted(r, ray_slab_rings(r.left, r.right, dir_left, dir_right, r.normal, depth, r.settings.sections),
+                       "extrude")
+
+    full = slab(float(thinned.max()))
+    if np.all(thinned == thinned.max()):  # no row narrower than the slab is deep: nothing to thin
+        return full
+    thin = slab(thinned)
     return thin if _keeps_thinned(thin, full, r) else full
 
 
@@ -533,7 +539,7 @@ def _keeps_thinned(thin: LiftedMesh, full: LiftedMesh, rows: StandingRows) -> bo
     own box and on its box along the slab's axes (a build's later poses can make the first find either)."""
     from ..metrics.geometry import THIN_FRACTION, THIN_SLACK, thin_side
 
-    if stands(full.vertices, full.faces) and not stands(thin.vertices, thin.faces):
+    if not stands(thin.vertices, thin.faces) and stands(full.vertices, full.faces):
         return False
     v = thin.vertices
     if thin_side(v, "", rows.camera.origin) is not None:
