@@ -44,3 +44,82 @@ def test_a_side_view_still_lifts_standing_silhouettes():
     lifted, truth = _lift(scene, "bottle")
     assert lifted.info["mode"] == "standing"
     assert float(np.ptp(lifted.vertices[:, 2])) == pytest.approx(truth.extents[2], rel=0.15)
+
+
+def _outline(camera, vertices, faces) -> np.ndarray:
+    import cv2
+
+    uv, _ = camera.project(vertices)
+    out = np.zeros((camera.height, camera.width), np.uint8)
+    for f in faces:
+        cv2.fillConvexPoly(out, np.round(uv[f] * 8).astype(np.int32), 1, shift=3)
+    return out > 0
+
+
+def _slab_as_cast(mask, camera):
+    """The slab with every row's sides along its own rays (no foot reaching back): the outline it must keep."""
+    from physomni_usd.lift import silhouette
+    from physomni_usd.lift.silhouette import LiftSettings
+
+    keep = silhouette._foot_reaching_back
+    silhouette._foot_reaching_back = lambda r, depth: (r.camera.rays(r.spans[:, 0], r.edges),
+                                                       r.camera.rays(r.spans[:, 1], r.edges))
+    try:
+        return lift_silhouette(mask, camera, LiftSettings(shape="extrude"))
+    finally:
+        silhouette._foot_reaching_back = keep
+
+
+@pytest.mark.parametrize("pitch,yaw", [(10.0, 25.0), (20.0, 35.0)])
+def test_a_turned_box_slab_stands_on_a_foot_reaching_back_to_its_corners(pitch, yaw):
+    """A box turned to the camera shows its bottom edges sloping (they run back on the ground): the slab of its
+    outline stands on a foot reaching back to its corners, not on the lowest corner with its centre beyond it
+    (a box on a stack toppled off it); the photo's view keeps its outline and the wedge in front of the box's
+    sides stays empty (a neighbour standing there would start inside it)."""
+    import trimesh
+
+    from physomni_usd.geometry.camera import PinholeCamera
+    from physomni_usd.lift.silhouette import LiftSettings, stands
+
+    camera = PinholeCamera(640, 480, 50.0, pitch, (0.0, 0.0, 0.2 + 1.2 * np.sin(np.radians(pitch))))
+    box = trimesh.creation.box((0.30, 0.20, 0.25))
+    box.apply_transform(trimesh.transformations.rotation_matrix(np.radians(yaw), [0, 0, 1]))
+    box.apply_translation([0.05, 1.3, 0.125])
+    mask = _outline(camera, box.vertices, box.faces)
+    as_cast = _slab_as_cast(mask, camera)
+    lifted = lift_silhouette(mask, camera, LiftSettings(shape="extrude"))
+    assert lifted.info["mode"] == "standing" and lifted.shape == "extrude"
+    assert not stands(as_cast.vertices, as_cast.faces)
+    assert stands(lifted.vertices, lifted.faces)
+    seen, seen_before = _outline(camera, lifted.vertices, lifted.faces), _outline(camera, as_cast.vertices,
+                                                                                as_cast.faces)
+    assert (seen != seen_before).sum() <= 0.002 * seen_before.sum()
+    # the foot adds to the slab as cast behind the box's bottom edges, not in the wedge in front of its sides
+    # (the slab as cast overhangs them a little already: its band stands on the front plane); a foot as wide as
+    # the slab across its front would hold a neighbour standing there
+    lo, hi = box.bounds[0] - [0.1, 0.1, 0.0], box.bounds[1] + [0.1, 0.1, 0.0]
+    grid = np.stack(np.meshgrid(np.linspace(lo[0], hi[0], 60), np.linspace(lo[1], hi[1], 60),
+                                np.linspace(0.002, 0.04, 5), indexing="ij"), -1).reshape(-1, 3)
+    inside = [trimesh.Trimesh(m.vertices, m.faces, process=False).contains(grid) for m in (lifted, as_cast)]
+    assert (inside[0] & ~inside[1]).sum() > 0
+    outside = [(held & ~box.contains(grid)).sum() for held in inside]
+    assert outside[0] <= 1.15 * outside[1]
+
+
+def test_a_stem_with_a_leaf_keeps_the_foot_it_shows():
+    """A leaf drooping beside a thin stem is no bottom edge running back: the slab's foot stays the stem's."""
+    import cv2
+
+    from physomni_usd.geometry.camera import PinholeCamera
+    from physomni_usd.lift.silhouette import LiftSettings
+
+    camera = PinholeCamera(640, 480, 50.0, 10.0, (0.0, 0.0, 0.8))
+    mask = np.zeros((480, 640), np.uint8)
+    cv2.rectangle(mask, (315, 300), (325, 420), 1, -1)
+    cv2.ellipse(mask, (320, 230), (110, 90), 0, 0, 360, 1, -1)
+    cv2.fillConvexPoly(mask, np.array([[320, 300], [200, 405], [210, 410], [325, 320]], np.int32), 1)
+    lifted = lift_silhouette(mask > 0, camera, LiftSettings(shape="extrude"))
+    as_cast = _slab_as_cast(mask > 0, camera)
+    foot = lambda v: v[v[:, 2] <= v[:, 2].min() + 1e-6]
+    assert np.ptp(foot(lifted.vertices)[:, 0]) == pytest.approx(np.ptp(foot(as_cast.vertices)[:, 0]), abs=1e-6)
+    assert np.ptp(foot(lifted.vertices)[:, 0]) < 0.05

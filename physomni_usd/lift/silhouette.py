@@ -51,8 +51,12 @@ from ..settings import LiftSettings
 from ..sizes import body_kind
 from .sections import bulge, inflated_rings, loft, ray_slab_rings, round_rings, span_samples
 
+#: How far (pixels, and as a fraction of its run) a slab's bottom edge may bend and still be one straight edge
+#: running back on the ground (:func:`_foot_reaching_back`): a box's is straight to a pixel, a wheel's round
+#: bottom bends by a third of its run.
+SLOPE_SLACK_PX, SLOPE_SLACK = 2.0, 0.15
 #: Fraction of an object's height that forms its base: a round object's flat base (balls excepted), a slab's
-#: rows kept at full depth (:func:`slab_depths`).
+#: rows kept at full depth (:func:`slab_depths`) and the rows its foot is read from (:func:`_foot_reaching_back`).
 BASE_BAND = 0.15
 #: A bottom band of this fraction of the height, at least this fraction of the widest row wide, is flat.
 FLAT_BOTTOM_BAND = 0.04
@@ -507,6 +511,50 @@ def slab_depths(widths: np.ndarray, z: np.ndarray, ratio: float) -> np.ndarray:
     return rows
 
 
+def _foot_reaching_back(r: StandingRows, depth: float) -> tuple[np.ndarray, np.ndarray]:
+    """(K, 3) each: the directions in which the slab's rows run back from their left and right ends.
+
+    A row's sides follow its own rays, except the foot's where the bottom band's outline slopes out from the
+    foot to a corner (a box turned to the camera: its bottom edges run back in depth). Those pixels show the
+    ground, so that side's corner pixel is cast along its own ray onto the ground (z = base_z) and the foot
+    runs back from its front end to that corner, pushed straight back to the slab's back: the slab stands on a
+    foot reaching behind its front face to its true corners. Cast as they show, the slab stood on its lowest
+    corner only, its centre beyond it, and toppled off the box under it (a box of three falling 37 cm). The
+    foot's side stays behind the bottom edge (the line to the corner), so the photo's view keeps its outline
+    and nothing fills the wedge in front of the box's sides. A side is left as cast where its band's ends do
+    not run straight out from the foot to the corner (:data:`SLOPE_SLACK`: a stem with a leaf, a pole on a
+    base, a wheel: no sloping edge)."""
+    dirs = [r.camera.rays(r.spans[:, 0], r.edges), r.camera.rays(r.spans[:, 1], r.edges)]
+    band = np.nonzero(r.z <= r.z.min() + BASE_BAND * (r.z.max() - r.z.min()))[0]
+    foot = int(band.max())  # rows run top to bottom: the band's last row is the foot's
+    # the band's pixel rows, each one's ends: the sampled rows are too coarse to tell an edge from a leaf
+    rows = np.arange(max(int(np.floor(r.edges[band.min()])), int(r.ys[0])), int(r.ys[-1]) + 1)
+    rows = rows[r.solid[rows].any(axis=1)]
+    width = r.solid.shape[1]
+    ends = np.stack([np.argmax(r.solid[rows], axis=1), width - np.argmax(r.solid[rows, ::-1], axis=1)], axis=1)
+    for side, (front, outward) in enumerate(((r.left, -1.0), (r.right, 1.0))):
+        out = outward * ends[:, side].astype(float)
+        # the lowest pixel row reaching furthest out (an edge a pixel off the side's is still the side)
+        corner = int(np.nonzero(out >= out.max() - SLOPE_SLACK_PX)[0].max())
+        run = out[corner:]
+        if len(run) < 2 or run[0] <= run[-1]:
+            continue
+        # a sloping edge: straight from the corner down to the foot (a leaf or a wheel's round bottom bends)
+        line = np.linspace(run[0], run[-1], len(run))
+        if np.abs(run - line).max() > max(SLOPE_SLACK_PX, SLOPE_SLACK * (run[0] - run[-1])):
+            continue
+        ground = plane_points(r.camera, float(ends[corner, side]), float(rows[corner]) + 0.5, r.base_z)
+        reach = (ground - r.contact) @ r.normal
+        if not (np.all(np.isfinite(ground)) and reach > 0.0):
+            continue
+        # a corner deeper than the slab: the foot runs part of the way along its bottom edge
+        back = ground + max(depth - reach, 0.0) * r.normal
+        way = back - front[foot]
+        way[2] = 0.0
+        dirs[side][foot] = way
+    return dirs[0], dirs[1]
+
+
 def extruded_body(rows: StandingRows) -> LiftedMesh:
     """A slab of the outline, ``depth_ratio`` times the smaller of its width and height deep and no row deeper
     than it is wide (:func:`slab_depths`), its sides along the camera's rays.
@@ -518,8 +566,8 @@ def extruded_body(rows: StandingRows) -> LiftedMesh:
     weight toward the arm, off its foot, and tips over where the full slab stood."""
     r = rows
     widths = np.linalg.norm(r.right - r.left, axis=1)
-    dir_left, dir_right = r.camera.rays(r.spans[:, 0], r.edges), r.camera.rays(r.spans[:, 1], r.edges)
     thinned = slab_depths(widths, r.z, r.settings.depth_ratio)
+    dir_left, dir_right = _foot_reaching_back(r, float(thinned.max()))
 
     def slab(depth):
         return _lofted(r, ray_slab_rings(r.left, r.right, dir_left, dir_right, r.normal, depth, r.settings.sections),
