@@ -123,3 +123,20 @@ def test_a_stem_with_a_leaf_keeps_the_foot_it_shows():
     foot = lambda v: v[v[:, 2] <= v[:, 2].min() + 1e-6]
     assert np.ptp(foot(lifted.vertices)[:, 0]) == pytest.approx(np.ptp(foot(as_cast.vertices)[:, 0]), abs=1e-6)
     assert np.ptp(foot(lifted.vertices)[:, 0]) < 0.05
+
+
+def test_a_thin_outline_seen_from_steeply_above_lifts_as_a_slab():
+    """A pencil lying across a top-down view, forced to a slab: its bottom band spans under two pixel rows, so
+    there is no bottom edge to read a slope from and the foot is cast as it shows (reading one raised, and the
+    build reported the pencil's foot as above the horizon)."""
+    import cv2
+
+    from physomni_usd.geometry.camera import PinholeCamera
+    from physomni_usd.lift.silhouette import LiftSettings
+
+    camera = PinholeCamera(640, 480, 50.0, 82.0, (0.0, 0.0, 0.3))
+    for thick in (6, 12):
+        mask = np.zeros((480, 640), np.uint8)
+        cv2.rectangle(mask, (220, 300 - thick // 2), (420, 300 + thick // 2), 1, -1)
+        lifted = lift_silhouette(mask > 0, camera, LiftSettings(shape="extrude"))
+        assert lifted.shape == "extrude" and len(lifted.faces)

@@ -530,6 +530,8 @@ def _foot_reaching_back(r: StandingRows, depth: float) -> tuple[np.ndarray, np.n
     # the band's pixel rows, each one's ends: the sampled rows are too coarse to tell an edge from a leaf
     rows = np.arange(max(int(np.floor(r.edges[band.min()])), int(r.ys[0])), int(r.ys[-1]) + 1)
     rows = rows[r.solid[rows].any(axis=1)]
+    if len(rows) < 2:  # a band under two pixel rows (a thin outline seen steeply): no edge to read a slope from
+        return dirs[0], dirs[1]
     width = r.solid.shape[1]
     ends = np.stack([np.argmax(r.solid[rows], axis=1), width - np.argmax(r.solid[rows, ::-1], axis=1)], axis=1)
     for side, (front, outward) in enumerate(((r.left, -1.0), (r.right, 1.0))):
