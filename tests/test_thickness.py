@@ -96,3 +96,26 @@ def test_a_block_placed_as_a_4mm_slab_is_built_a_block(stack, tmp_path, monkeypa
     assert extents[2] == pytest.approx(before["longest"], rel=0.03)
     assert max_penetration(meshes) <= 0.002
     assert all(thin_side(m.vertices, "block", origin) is None for m in meshes.values())
+
+
+#: A slab's outline (x, z) in mm whose smallest-volume box has two near-equal fits: the one fitted snapped
+#: between a side of 38.9 mm and one of 46.2 mm at a micrometre's noise on the points.
+SNAPPING_OUTLINE_MM = [(27.0, 31.2), (-7.1, 48.2), (-11.9, 56.2), (-17.0, 23.0), (-25.4, 23.5), (-25.8, 17.1),
+                       (-37.2, 2.0)]
+
+
+def test_thickness_and_side_move_no_more_than_the_points():
+    """A shot's 32-bit points are the built solid rounded: the judgement must not change with a micrometre on
+    the points (a kiwi at 12.6 mm passed as built and failed read back from the shot)."""
+    q = np.asarray(SNAPPING_OUTLINE_MM) / 1000.0
+    ring = np.stack([q[:, 0], np.zeros(len(q)), q[:, 1]], axis=1)
+    depth = 0.012  # under a third of either side the box snapped between (13.0 mm or 15.4 mm, less slack)
+    slab = np.vstack([ring, ring + [0.0, depth, 0.0]])
+    judged = []
+    for seed in range(8):
+        noisy = slab + 1e-6 * np.random.default_rng(seed).standard_normal(slab.shape) if seed else slab
+        thin = thin_side(noisy, "block", [0.0, -0.4, 0.03])
+        judged.append(None if thin is None else (round(thin["thickness_m"], 4), round(thin["side_m"], 4)))
+    assert len(set(judged)) == 1, judged
+    # the least width across the outline (38.9 mm, a third 13.0 mm): 12 mm is too thin along the view
+    assert judged[0] == pytest.approx((depth, 0.0389), abs=1e-4)

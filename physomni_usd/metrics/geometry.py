@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import trimesh
+from scipy.spatial import ConvexHull, cKDTree
 from pxr import Usd, UsdGeom
 
 from ..usd.author import OBJECTS
@@ -271,7 +272,7 @@ def rest_turn(stage: Usd.Stage, names=None) -> dict[str, float]:
 THIN_FRACTION = 1.0 / 3.0
 ROUND_FRACTION = 0.8
 #: The share of the least thickness a solid must reach to pass: one deepened to exactly that thickness
-#: measures a little under it once its oriented box is fitted again.
+#: measures a little under it once judged again.
 THIN_SLACK = 0.98
 #: A label whose typical resting height is under this fraction of its longest side says the thing is flat
 #: (a coin, a card, a book, a plate): it may be as thin as it is.
@@ -297,29 +298,92 @@ def label_says(label: str) -> str | None:
 def thin_side(vertices: np.ndarray, label: str, camera_origin) -> dict | None:
     """How an object (``vertices`` (n, 3), world metres) is too thin, or None when it is not.
 
-    Its thinnest side is the smallest extent of its oriented bounding box; the smaller side of its outline the
-    middle one. It is too thin below :data:`THIN_FRACTION` of that side (:data:`ROUND_FRACTION` for a
-    ball-shaped label), unless its label says flat or an open vessel, or the thin side lies across the line of sight from
-    ``camera_origin`` (3,) so that the photo itself shows it thin. Returns ``thickness_m``, ``side_m``,
-    ``need_m`` (the least thickness allowed), ``axis`` (3,) unit and ``centre`` (3,) of the box."""
+    Its thickness is its least width over every direction (:func:`least_width`); the smaller side of its
+    outline the least width of what it shows looking along that direction. It is too thin below
+    :data:`THIN_FRACTION` of that side (:data:`ROUND_FRACTION` for a ball-shaped label), unless its label says
+    flat or an open vessel, or the thin side lies across the line of sight from ``camera_origin`` (3,) so that
+    the photo itself shows it thin. Both widths move as little as the vertices do: a smallest-volume box, which
+    this was, can snap between two boxes of near equal volume at a rounding of the vertices (a slab read back
+    from a shot's 32-bit points judged with its outline's side 4.35 cm where the built one had 3.83 cm).
+    Returns ``thickness_m``, ``side_m``, ``need_m`` (the least thickness allowed), ``axis`` (3,) unit and
+    ``centre`` (3,) of the box the widths span."""
     says = label_says(label)
     if says in ("flat", "vessel"):  # as thin as it is: a flat thing, or a vessel whose rim measured it
         return None
     v = np.asarray(vertices, float)
-    try:
-        to_origin, extents = trimesh.bounds.oriented_bounds(v, angle_digits=2)
-    except Exception:  # noqa: BLE001 — a degenerate point set (a plane, a line) has no box: judge its axes
-        to_origin, extents = np.eye(4), np.ptp(v, axis=0)
-        to_origin[:3, 3] = -(v.min(0) + v.max(0)) / 2
-    order = np.argsort(extents)
-    thickness, side = float(extents[order[0]]), float(extents[order[1]])
-    need = (ROUND_FRACTION if says == "round" else THIN_FRACTION) * side
-    if thickness >= need * THIN_SLACK or side <= 0:
+    thickness, axis = least_width(v)
+    across = np.cross(axis, [0.0, 0.0, 1.0] if abs(axis[2]) < 0.9 else [1.0, 0.0, 0.0])
+    across /= np.linalg.norm(across)
+    frame = np.stack([across, np.cross(axis, across)], axis=1)
+    side, turn = least_width(v @ frame)
+    if side <= 0:
         return None
-    world = np.linalg.inv(to_origin)
-    axis, centre = world[:3, order[0]], world[:3, 3]
+    need = (ROUND_FRACTION if says == "round" else THIN_FRACTION) * side
+    if thickness >= need * THIN_SLACK:
+        return None
+    box = np.stack([axis, frame @ turn, frame @ np.array([-turn[1], turn[0]])])
+    span = v @ box.T
+    centre = 0.5 * (span.min(0) + span.max(0)) @ box
     view = centre - np.asarray(camera_origin, float)
     view /= max(np.linalg.norm(view), 1e-12)
     if abs(float(axis @ view)) < SEEN_AXIS_COS:
         return None
-    return {"thickness_m": thickness, "side_m": side, "need_m": need, "axis": axis, "centre": centre}
+    return {"thickness_m": float(thickness), "side_m": float(side), "need_m": need, "axis": axis, "centre": centre}
+
+
+def least_width(points: np.ndarray) -> tuple[float, np.ndarray]:
+    """(width, unit direction (d,)) of the narrowest slab between two parallel planes (lines in 2-D) holding
+    ``points`` (n, d), d = 2 or 3: the least of ``ptp(points @ u)`` over unit ``u``, which moves no more than
+    the points do. Exact on their convex hull: the narrowest slab rests on a facet of the hull with the farthest
+    vertex on the other plane, or (3-D) on two hull edges whose directions it spans. A flat or collinear set
+    has width 0 across it."""
+    p = np.asarray(points, float)
+    d = p.shape[1]
+    try:
+        hull = ConvexHull(p)
+    except Exception:  # noqa: BLE001 — qhull refuses a flat set: its width across it is 0
+        centred = p - p.mean(0)
+        return 0.0, np.linalg.svd(centred, full_matrices=True)[2][-1]
+    h = p[hull.vertices]
+    normals = hull.equations[:, :d]
+    candidates = [normals]
+    if d == 3:
+        candidates.append(_edge_pair_directions(hull))
+    dirs = np.vstack(candidates)
+    dirs = dirs[np.linalg.norm(dirs, axis=1) > 0.5]
+    widths = np.concatenate([np.ptp(h @ dirs[k:k + 1024].T, axis=0) for k in range(0, len(dirs), 1024)])
+    best = int(np.argmin(widths))
+    return float(widths[best]), dirs[best]
+
+
+def _edge_pair_directions(hull) -> np.ndarray:
+    """(m, 3) unit directions across pairs of edges of a 3-D ``hull`` that can bound one slab from either
+    side. An edge holds a supporting plane for the normals on the arc between its two facets' normals; two edges
+    are opposite sides of one slab only where the arc of one meets the other's, reversed. Pairs whose arcs'
+    bounding caps miss each other are passed over, so the work stays near the number of edges, not its square."""
+    normals = hull.equations[:, :3]
+    facets = np.arange(len(hull.simplices))
+    ab, fg = [], []
+    for k in range(3):  # the edge opposite each facet's vertex k, shared with its k-th neighbour
+        g = hull.neighbors[:, k]
+        once = facets < g
+        ab.append(np.stack([hull.simplices[once, (k + 1) % 3], hull.simplices[once, (k + 2) % 3]], axis=1))
+        fg.append(np.stack([facets[once], g[once]], axis=1))
+    ab, fg = np.vstack(ab), np.vstack(fg)
+    n1, n2 = normals[fg[:, 0]], normals[fg[:, 1]]
+    mid = n1 + n2
+    mid /= np.maximum(np.linalg.norm(mid, axis=1), 1e-12)[:, None]
+    radius = 0.5 * np.arccos(np.clip(np.einsum("ij,ij->i", n1, n2), -1.0, 1.0))
+    # the caps of edge i's arc and edge j's reversed arc meet, angle(mid_i, -mid_j) <= r_i + r_j: looked up
+    # by the chord between the caps' centres (a round body's hull has thousands of edges)
+    reach = 2.0 * np.sin(np.minimum(radius + radius.max(), np.pi) / 2.0) + 1e-9
+    near = cKDTree(mid).query_ball_point(-mid, reach)
+    i = np.repeat(np.arange(len(mid)), [len(n) for n in near])
+    j = np.fromiter((k for n in near for k in n), int, len(i))
+    i, j = i[i < j], j[i < j]
+    pts = hull.points
+    e = pts[ab[:, 1]] - pts[ab[:, 0]]
+    u = np.cross(e[i], e[j])
+    norm = np.linalg.norm(u, axis=1)
+    keep = norm > 1e-12 * np.linalg.norm(e[i], axis=1) * np.linalg.norm(e[j], axis=1)
+    return u[keep] / norm[keep][:, None]
