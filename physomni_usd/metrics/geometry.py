@@ -341,9 +341,10 @@ def least_width(points: np.ndarray) -> tuple[float, np.ndarray]:
     d = p.shape[1]
     try:
         hull = ConvexHull(p)
-    except Exception:  # noqa: BLE001 — qhull refuses a flat set: its width across it is 0
+    except Exception:  # noqa: BLE001 — qhull refuses a (nearly) flat set: its spread across that plane
         centred = p - p.mean(0)
-        return 0.0, np.linalg.svd(centred, full_matrices=True)[2][-1]
+        normal = np.linalg.svd(centred, full_matrices=True)[2][-1]
+        return float(np.ptp(p @ normal)), normal
     h = p[hull.vertices]
     normals = hull.equations[:, :d]
     candidates = [normals]
@@ -354,6 +355,10 @@ def least_width(points: np.ndarray) -> tuple[float, np.ndarray]:
     widths = np.concatenate([np.ptp(h @ dirs[k:k + 1024].T, axis=0) for k in range(0, len(dirs), 1024)])
     best = int(np.argmin(widths))
     return float(widths[best]), dirs[best]
+
+
+#: An edge of a hull whose arc of normals is this wide (radians) or less is blunt (:func:`_edge_pair_directions`).
+EDGE_CAP_RAD = np.radians(10.0)
 
 
 def _edge_pair_directions(hull) -> np.ndarray:
@@ -371,16 +376,30 @@ def _edge_pair_directions(hull) -> np.ndarray:
         fg.append(np.stack([facets[once], g[once]], axis=1))
     ab, fg = np.vstack(ab), np.vstack(fg)
     n1, n2 = normals[fg[:, 0]], normals[fg[:, 1]]
+    cos = np.einsum("ij,ij->i", n1, n2)
+    # an edge inside a flat face of the hull bounds a slab only in that face's plane: its facets' normal holds it
+    real = cos < 1.0 - 1e-9
+    ab, n1, n2, cos = ab[real], n1[real], n2[real], cos[real]
     mid = n1 + n2
     mid /= np.maximum(np.linalg.norm(mid, axis=1), 1e-12)[:, None]
-    radius = 0.5 * np.arccos(np.clip(np.einsum("ij,ij->i", n1, n2), -1.0, 1.0))
+    radius = 0.5 * np.arccos(np.clip(cos, -1.0, 1.0))
     # the caps of edge i's arc and edge j's reversed arc meet, angle(mid_i, -mid_j) <= r_i + r_j: looked up
-    # by the chord between the caps' centres (a round body's hull has thousands of edges)
-    reach = 2.0 * np.sin(np.minimum(radius + radius.max(), np.pi) / 2.0) + 1e-9
+    # by the chord between the caps' centres (a round body's hull has thousands of edges). Most edges of a
+    # dense smooth hull are blunt; reaching every one by the widest cap (one square rim edge) would pair each
+    # with a quarter of the rest. A blunt edge looks only as far as another blunt one reaches; a sharp edge
+    # looks as far as any reaches, so finding the pairs with a sharp edge is its own query's work.
+    blunt = radius <= EDGE_CAP_RAD
+    reach_of = np.where(blunt, radius + EDGE_CAP_RAD, radius + (radius.max() if len(radius) else 0.0))
+    reach = 2.0 * np.sin(np.minimum(reach_of, np.pi) / 2.0) + 1e-9
+    if len(mid) == 0:
+        return np.zeros((0, 3))
     near = cKDTree(mid).query_ball_point(-mid, reach)
     i = np.repeat(np.arange(len(mid)), [len(n) for n in near])
     j = np.fromiter((k for n in near for k in n), int, len(i))
-    i, j = i[i < j], j[i < j]
+    pair = np.unique(np.sort(np.stack([i, j], axis=1), axis=1), axis=0)
+    i, j = pair[:, 0], pair[:, 1]
+    meet = np.arccos(np.clip(-np.einsum("ij,ij->i", mid[i], mid[j]), -1.0, 1.0)) <= radius[i] + radius[j] + 1e-9
+    i, j = i[meet & (i != j)], j[meet & (i != j)]
     pts = hull.points
     e = pts[ab[:, 1]] - pts[ab[:, 0]]
     u = np.cross(e[i], e[j])
