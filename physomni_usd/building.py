@@ -534,7 +534,7 @@ def _deepened(scene: Scene, camera, verts, align_info: dict) -> list:
     out, done = [], []
     for o, v in zip(scene.objects, verts):
         first = thin = thin_side(v, o.mask.label, camera.origin)
-        for _ in range(3):  # the stretched solid's own box can lie otherwise: judge it again
+        for _ in range(3):  # the stretched solid's least width can lie along another direction: judge it again
             if thin is None:
                 break
             v = deepen(v, thin, camera.origin)

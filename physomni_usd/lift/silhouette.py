@@ -563,8 +563,8 @@ def extruded_body(rows: StandingRows) -> LiftedMesh:
 
     The thinned slab is kept only where it is no worse than the full one (every row as deep as the body) on
     what the build judges (:func:`_keeps_thinned`); otherwise the full slab is: a short slanted outline (a kiwi
-    at the frame's edge) thinned loses the corners that tilted its box and is judged too thin along the slab's
-    depth; a narrow post with a wide arm to one side (a gallows, a signpost) thinned below the arm carries its
+    at the frame's edge) thinned is judged too thin along the slab's depth against its extent along the slab's
+    axes; a narrow post with a wide arm to one side (a gallows, a signpost) thinned below the arm carries its
     weight toward the arm, off its foot, and tips over where the full slab stood."""
     r = rows
     widths = np.linalg.norm(r.right - r.left, axis=1)
@@ -585,8 +585,9 @@ def extruded_body(rows: StandingRows) -> LiftedMesh:
 def _keeps_thinned(thin: LiftedMesh, full: LiftedMesh, rows: StandingRows) -> bool:
     """Whether a thinned slab ``thin`` may stand for the full slab ``full``: it stands (:func:`stands`) wherever
     the full one does, and it is as thick as ``metrics.geometry.thin_side`` asks of a thing whose label says
-    nothing (a third of its outline's smaller side; a ball's label asks more, a flat one nothing), both on its
-    own box and on its box along the slab's axes (a build's later poses can make the first find either)."""
+    nothing (a third of its outline's smaller side; a ball's label asks more, a flat one nothing), both by its
+    least width over every direction and by its extents along the slab's axes (a build's later poses can make
+    the first find either)."""
     from ..metrics.geometry import THIN_FRACTION, THIN_SLACK, thin_side
 
     if not stands(thin.vertices, thin.faces) and stands(full.vertices, full.faces):

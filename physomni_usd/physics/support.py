@@ -350,7 +350,9 @@ def _dome_on_dome(verts, faces, supports: dict, i: int, j: int, eye, done: list)
 def _thinned(before: np.ndarray, after: np.ndarray) -> bool:
     """Whether cutting ``before`` (N, 3) to ``after`` took its thinnest side (of its oriented box) below
     :data:`~physomni_usd.metrics.geometry.ROUND_FRACTION` of its middle one where it was not below before: the
-    build deepened every round object to that depth (``building``), and flattening its sole must not undo it."""
+    build deepened every round object to that depth (``building``), and flattening its sole must not undo it.
+    The build now judges by least widths (``metrics.geometry.thin_side``); this still by the oriented box,
+    whose sides can be wider than those widths, so the two can disagree on a borderline solid."""
     import trimesh
 
     from ..metrics.geometry import ROUND_FRACTION, THIN_SLACK
