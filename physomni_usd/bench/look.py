@@ -16,7 +16,8 @@ object leaves behind is the plate (its old shadow gone with it), while the
 shadow it casts where it now stands, darkest right beside it, hugs the area it
 left and would read as the fill's grain, outline and colour; where an object has moved
 only part of the way the renderer fades it over (a few pixels), the frame there is
-partly the photo still, and its plate is read in full (:func:`_left_fully`). Each is also given
+partly the photo still, and its plate is read in full (:func:`_left_fully`) over the area the frame no
+longer shows as the photo (an object nudged under a pixel of the fade reveals nothing). Each is also given
 as the frame shows it, shadows and all (``*_as_shown``, ``colour_difference_plain``):
 
 * ``gradient_ratio``: mean gradient magnitude inside the revealed area (its
@@ -288,10 +289,13 @@ def revealed_figures(renderer, image: np.ndarray, state, unshaded: np.ndarray | 
     now = cv2.dilate(drawn.astype(np.uint8), _disk(2)) > 0  # any object in this frame
     near_now = cv2.dilate(now.astype(np.uint8), _disk(3)) > 0  # and its edge's own gradient
     photo = getattr(renderer, "photo", None)
-    # where the frame still shows the photo (an object in place), nothing was revealed
-    shown = image if unshaded is None else _left_fully(renderer, state, unshaded)
-    as_photo = (np.abs(shown.astype(np.float32) - photo).max(-1) <= 1.5 if photo is not None
+    # where the frame as rendered still shows the photo (an object in place), nothing was revealed: decided
+    # before the plate is put in for partly moved objects, or one nudged under a pixel of the fade (the frame
+    # there all but the photo) would have its whole plate hole read as revealed
+    rendered = image if unshaded is None else unshaded
+    as_photo = (np.abs(rendered.astype(np.float32) - photo).max(-1) <= 1.5 if photo is not None
                 else np.zeros((h, w), bool))
+    shown = image if unshaded is None else _left_fully(renderer, state, unshaded)
     photo_any = cv2.dilate(np.any(placed, axis=0).astype(np.uint8), _disk(2)) > 0
     def gradient(img):
         grey = cv2.cvtColor(img, cv2.COLOR_RGB2GRAY).astype(np.float32)
