@@ -226,8 +226,8 @@ def test_where_the_desk_ball_stood_the_plate_continues_the_wood(tmp_path):
     has the wood's grain, no outline and the wood's colour, at 480 px and at the photo's own 640 px (the
     size a render of 880 px gives it: frames are never larger than the photo). The ball strikes the cap,
     which takes its share of the blow and slides 1.2 mm (1.6 px at 480, 2.1 px at 640, a jolt a viewer sees):
-    what the cap left must continue the wood too (moved less than the renderer's fade, its plate is read in
-    full: the frame there is partly the photo's own shadow), and nothing that stayed in place reveals its plate."""
+    what the cap left must continue the wood too (moved less than the renderer's fade, its figures are read on
+    its plate: the frame there is partly the photo's own shadow), and nothing that stayed in place reveals its plate."""
     import physomni_usd as api
     from pxr import UsdGeom
     from physomni_usd.rendering.video import ShotRenderer

@@ -16,8 +16,8 @@ object leaves behind is the plate (its old shadow gone with it), while the
 shadow it casts where it now stands, darkest right beside it, hugs the area it
 left and would read as the fill's grain, outline and colour; where an object has moved
 only part of the way the renderer fades it over (a few pixels), the frame there is
-partly the photo still, and its plate is read in full (:func:`_left_fully`) over the area the frame no
-longer shows as the photo (an object nudged under a pixel of the fade reveals nothing). Each is also given
+partly the photo still, and the figures are read on its plate (:func:`_left_fully`) over the area the
+frame no longer shows as the photo (an object nudged under a pixel of the fade reveals nothing). Each is also given
 as the frame shows it, shadows and all (``*_as_shown``, ``colour_difference_plain``):
 
 * ``gradient_ratio``: mean gradient magnitude inside the revealed area (its
@@ -250,9 +250,10 @@ def _left_fully(renderer, state, unshaded: np.ndarray) -> np.ndarray:
     frame is by design that much the photo still, its own contact shadow at the old place fading out as the
     moved object's new one fades in, and the photo's shadow read as the fill would be the photo's, not the
     plate's (the desk's cap, knocked 1.6 px at 480: the frame there 0.57 of the photo and 0.43 of the plate, its
-    shadow's remnant 3.3x the wood's gradient and 28 levels darker, where the plate itself is 0.94x and 1.1).
-    Unchanged for a renderer that cannot say how far its objects moved, or where every object moved fully or
-    not at all."""
+    shadow's remnant 3.3x the wood's gradient and 28 levels darker, where the plate itself is 0.85x and 2.1).
+    Only for the figures: a frame that is all but the photo (an object nudged under a pixel of the fade) has
+    revealed nothing, which the caller decides on the frame as rendered. Unchanged for a renderer that cannot
+    say how far its objects moved, or where every object moved fully or not at all."""
     plate, owner = getattr(renderer, "plate", None), getattr(renderer, "owner", None)
     moved_since = getattr(renderer, "_moved_since_start", None)
     if plate is None or owner is None or moved_since is None or state.points is None:
@@ -275,8 +276,8 @@ def revealed_figures(renderer, image: np.ndarray, state, unshaded: np.ndarray | 
     and the targets' figures are read on it: what an object leaves behind is the plate, and the shadow it casts
     where it is now, darkest right beside it, hugs the area it left (a sweet nudged by a few pixels leaves a
     crescent inside its own new shadow, whose fall-off read as the fill's grain: 2.5× the ring's gradient as
-    shown, 0.95× without); an object moved only part of the way has its plate read in full there
-    (:func:`_left_fully`). The same figures on ``image`` as shown are given beside them (``*_as_shown``)."""
+    shown, 0.95× without); an object moved only part of the way has its figures read on its plate
+    (:func:`_left_fully`) over the area the frame as rendered no longer shows as the photo. The same figures on ``image`` as shown are given beside them (``*_as_shown``)."""
     h, w = image.shape[:2]
     masks = plate_holes(renderer, photo_masks(renderer))
     placed = [m for m in masks if m is not None]
