@@ -626,6 +626,8 @@ def _settle(scene: Scene, out: pathlib.Path, photo_path, user_sizes: dict, field
                 _settle_back(scene, verified, placed, out, photo_path, user_sizes, fields, files, info, exc, echo)
                 total, written = dict(verified), True
             break
+        if settled.colliders:
+            info["colliders"] = settled.colliders
         if settled.skipped:
             info["skipped"] = settled.skipped
             break

@@ -126,6 +126,22 @@ MAX_SOLVER_STEPS = 1_000_000
 MAX_PARTICLES = 2_000_000
 
 
+#: A ball's collider (``physics.round``): a rigid object lifted as what may be a ball collides as a sphere
+#: only where the upright ellipsoid with its hull's extents is round, its longest semi-axis within
+#: ``BALL_SPHERE_SPREAD`` of its shortest (a taller one balancing on its end as an ellipsoid rolls away), and
+#: the sphere is the hull's shape: that ellipsoid holds at least ``BALL_MIN_FILL`` of the hull's volume (a
+#: tessellated ball: 1.0-1.04, the hull lying inside its points' ellipsoid; a cylinder 0.67; a cube 0.52)
+#: and the sphere, its radius the smallest semi-axis and under its centre of mass, pokes out of the hull by at most
+#: ``BALL_MAX_PROTRUSION`` of its radius (a tessellated ball: under 2 %; its centre of mass 1 mm off the
+#: middle of a 3.2 cm ball, 3.5 %). Everything else keeps its hull.
+BALL_MIN_FILL = 0.9
+BALL_MAX_PROTRUSION = 0.05
+BALL_SPHERE_SPREAD = 0.05
+#: A ball something rests on keeps its hull (a sphere has no rolling resistance, so what stands on it rolls it
+#: away: two round balls stacked 2 mm off centre, the lower as a sphere rolled 22 cm, as a hull 1 mm): another
+#: object's lowest point over the ball, above its middle and at most this far above its top.
+BALL_LOAD_GAP = 0.005
+
 #: Seconds of stillness after which ``run`` ends a take when its length was not asked for.
 REST_SECONDS = 1.0
 

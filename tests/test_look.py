@@ -173,6 +173,48 @@ def test_pixels_drawn_over_by_particles_are_an_object_in_the_frame():
     assert within_targets(seen), seen
 
 
+def _partly_moved(fill: str, part: float = 0.5) -> tuple:
+    """The made-up wood frame of an object that has moved only 0.5 of the way the renderer fades it over (as the
+    desk's cap, knocked 1.6 px): the photo shows it as a dark disc with its contact shadow, a darker crescent, to
+    its lower right; the plate is the wood (``fill`` "texture") or one flat colour over the disc and the
+    shadow; the object is drawn 2 px to the right, and the frame without contact shadows is, by design, half the
+    photo and half the plate around it. With ``part`` 0.1 (moved 0.95 px) the object is drawn 1 px to the right
+    and the frame around it is the photo's own pixels, as the renderer shows an object nudged that little."""
+    renderer, wood, _ = _frame("texture")
+    y, x = np.mgrid[:120, :160]
+    disc = renderer.objects[0].texture[..., 3] > 0
+    shade = ((x - 84) ** 2 + (y - 64) ** 2 < 33 ** 2) & ~disc
+    photo = wood.astype(np.float32)
+    photo[shade] *= 0.6
+    photo[disc] = (30, 60, 70)
+    plate = wood.astype(np.float32)
+    if fill == "flat":
+        plate[disc | shade] = plate[disc | shade].mean(0)
+    now = (x - (82 if part >= 0.5 else 81)) ** 2 + (y - 60) ** 2 < 25 ** 2
+    frame = photo + (part if part >= 0.5 else 0.0) * (plate - photo)
+    frame[now] = (30, 60, 70)
+    renderer.photo, renderer.plate, renderer.owner = photo, plate, np.zeros((120, 160), np.int32)
+    renderer._moved_since_start = lambda camera, points, particles: (np.array([part, 1.0]), [])
+    state = SimpleNamespace(mesh_face=np.where(now, 0, -1).astype(np.int32), points=np.zeros((1, 3)), camera=None)
+    image = np.clip(frame + 0.5, 0, 255).astype(np.uint8)
+    return renderer, image, state, image
+
+
+def test_an_object_moved_part_of_the_way_is_judged_by_its_plate_not_the_photo_s_fading_shadow():
+    """Where its object has moved only part of the way, the frame is partly the photo still, its own shadow
+    fading out: that remnant is the photo's, and the fill is read as it shows once the object has left (a
+    fill as good as the surface passes; a flat one does not)."""
+    good = revealed_figures(*_partly_moved("texture"))
+    flat = revealed_figures(*_partly_moved("flat"))
+    assert len(good) == len(flat) == 1
+    assert within_targets(good[0]), good  # read on the frame, the half-faded shadow: 29 levels off, border 2.6x
+    assert not within_targets(flat[0]) and flat[0]["gradient_ratio"] < 0.6, flat
+    # nudged under a pixel of the fade the frame is the photo still: nothing was revealed, whatever the plate
+    # holds (the sweets' candies, moved 0.9-1.1 px, would otherwise each gain a row read on their whole plate hole)
+    assert revealed_figures(*_partly_moved("texture", 0.1)) == [], revealed_figures(*_partly_moved("texture", 0.1))
+    assert revealed_figures(*_partly_moved("flat", 0.1)) == []
+
+
 def test_contact_sheet_is_one_row_of_equal_heights():
     sheet = contact_sheet([("a", np.zeros((100, 150, 3), np.uint8)), ("missing", None)])
     assert sheet.shape[0] == 240 and sheet.shape[2] == 3 and sheet.shape[1] > 240 + 360
@@ -183,8 +225,9 @@ def test_where_the_desk_ball_stood_the_plate_continues_the_wood(tmp_path):
     """The bundled desk example, its ball pushed for half a second: in the last frame the area it left
     has the wood's grain, no outline and the wood's colour, at 480 px and at the photo's own 640 px (the
     size a render of 880 px gives it: frames are never larger than the photo). The ball strikes the cap,
-    which takes its share of the blow and slides 1.6 mm (2 px at 480, 3 px at 640, a jolt a viewer sees):
-    what the cap left must continue the wood too, and nothing that stayed in place reveals its plate."""
+    which takes its share of the blow and slides 1.2 mm (1.6 px at 480, 2.1 px at 640, a jolt a viewer sees):
+    what the cap left must continue the wood too (moved less than the renderer's fade, its figures are read on
+    its plate: the frame there is partly the photo's own shadow), and nothing that stayed in place reveals its plate."""
     import physomni_usd as api
     from pxr import UsdGeom
     from physomni_usd.rendering.video import ShotRenderer

@@ -14,7 +14,10 @@ in front of them now; at least :data:`MIN_REVEALED` pixels). They are read on
 the last frame rendered without the moved objects' new contact shadows: what an
 object leaves behind is the plate (its old shadow gone with it), while the
 shadow it casts where it now stands, darkest right beside it, hugs the area it
-left and would read as the fill's grain, outline and colour. Each is also given
+left and would read as the fill's grain, outline and colour; where an object has moved
+only part of the way the renderer fades it over (a few pixels), the frame there is
+partly the photo still, and the figures are read on its plate (:func:`_left_fully`) over the area the
+frame no longer shows as the photo (an object nudged under a pixel of the fade reveals nothing). Each is also given
 as the frame shows it, shadows and all (``*_as_shown``, ``colour_difference_plain``):
 
 * ``gradient_ratio``: mean gradient magnitude inside the revealed area (its
@@ -240,6 +243,31 @@ def ring_grain(image: np.ndarray, ring: np.ndarray, width: float) -> tuple:
     return (float(vecs[0, 1]), float(vecs[1, 1])), (float(vecs[0, 0]), float(vecs[1, 0])), k
 
 
+def _left_fully(renderer, state, unshaded: np.ndarray) -> np.ndarray:
+    """``unshaded`` (a frame of ``renderer`` rendered from ``state`` without contact shadows) with the plate shown
+    in full wherever the object that owns the pixel has moved only part of the way the renderer fades it over
+    (``rendering.video``: from ``IN_PLACE_PX`` to ``IN_PLACE_PX + REVEAL_PX`` pixels from where the photo shows it): there the
+    frame is by design that much the photo still, its own contact shadow at the old place fading out as the
+    moved object's new one fades in, and the photo's shadow read as the fill would be the photo's, not the
+    plate's (the desk's cap, knocked 1.6 px at 480: the frame there 0.57 of the photo and 0.43 of the plate, its
+    shadow's remnant 3.3x the wood's gradient and 28 levels darker, where the plate itself is 0.85x and 2.1).
+    Only for the figures: a frame that is all but the photo (an object nudged under a pixel of the fade) has
+    revealed nothing, which the caller decides on the frame as rendered. Unchanged for a renderer that cannot
+    say how far its objects moved, or where every object moved fully or not at all."""
+    plate, owner = getattr(renderer, "plate", None), getattr(renderer, "owner", None)
+    moved_since = getattr(renderer, "_moved_since_start", None)
+    if plate is None or owner is None or moved_since is None or state.points is None:
+        return unshaded
+    moved = moved_since(state.camera, state.points, [])[0]
+    partly = (moved > 0.0) & (moved < 1.0)
+    if not partly.any():
+        return unshaded
+    here = partly[owner] & (state.mesh_face < 0)  # the background, not an object drawn over it
+    out = unshaded.copy()
+    out[here] = np.clip(np.asarray(plate, np.float32)[here] + 0.5, 0, 255).astype(np.uint8)
+    return out
+
+
 def revealed_figures(renderer, image: np.ndarray, state, unshaded: np.ndarray | None = None) -> list[dict]:
     """The figures of the module's docstring for each object whose part of the plate (:func:`plate_holes`)
     ``image`` (a frame of ``renderer``, rendered from ``state``) shows with no object in front of it.
@@ -248,7 +276,8 @@ def revealed_figures(renderer, image: np.ndarray, state, unshaded: np.ndarray | 
     and the targets' figures are read on it: what an object leaves behind is the plate, and the shadow it casts
     where it is now, darkest right beside it, hugs the area it left (a sweet nudged by a few pixels leaves a
     crescent inside its own new shadow, whose fall-off read as the fill's grain: 2.5× the ring's gradient as
-    shown, 0.95× without). The same figures on ``image`` as shown are given beside them (``*_as_shown``)."""
+    shown, 0.95× without); an object moved only part of the way has its figures read on its plate
+    (:func:`_left_fully`) over the area the frame as rendered no longer shows as the photo. The same figures on ``image`` as shown are given beside them (``*_as_shown``)."""
     h, w = image.shape[:2]
     masks = plate_holes(renderer, photo_masks(renderer))
     placed = [m for m in masks if m is not None]
@@ -261,10 +290,13 @@ def revealed_figures(renderer, image: np.ndarray, state, unshaded: np.ndarray | 
     now = cv2.dilate(drawn.astype(np.uint8), _disk(2)) > 0  # any object in this frame
     near_now = cv2.dilate(now.astype(np.uint8), _disk(3)) > 0  # and its edge's own gradient
     photo = getattr(renderer, "photo", None)
-    # where the frame still shows the photo (an object in place), nothing was revealed
-    shown = image if unshaded is None else unshaded
-    as_photo = (np.abs(shown.astype(np.float32) - photo).max(-1) <= 1.5 if photo is not None
+    # where the frame as rendered still shows the photo (an object in place), nothing was revealed: decided
+    # before the plate is put in for partly moved objects, or one nudged under a pixel of the fade (the frame
+    # there all but the photo) would have its whole plate hole read as revealed
+    rendered = image if unshaded is None else unshaded
+    as_photo = (np.abs(rendered.astype(np.float32) - photo).max(-1) <= 1.5 if photo is not None
                 else np.zeros((h, w), bool))
+    shown = image if unshaded is None else _left_fully(renderer, state, unshaded)
     photo_any = cv2.dilate(np.any(placed, axis=0).astype(np.uint8), _disk(2)) > 0
     def gradient(img):
         grey = cv2.cvtColor(img, cv2.COLOR_RGB2GRAY).astype(np.float32)

@@ -29,6 +29,7 @@ from .params import ParticleValues, particle_values
 from .pieces import add_decomposed, is_decomposed
 from .stability import SceneConfig
 from .stepping import FrameGraphs, Stepper, contact_pipeline, xpbd_solver
+from .round import round_balls
 from .support import add_hidden_support
 
 #: Newton simplifies convex hulls to this many vertices; its default (64) cuts the corners of
@@ -109,6 +110,7 @@ class ShotModels:
         self.own_bodies = set(own)  # bodies Newton's importer did not build, so did not give their velocity
         # feet for objects whose visible geometry cannot stand where the photo shows them standing
         self.supported = add_hidden_support(builder, objects, self.path_body, _ground_height(stage), newton, wp)
+        self.rounded = round_balls(builder, objects, self.path_body, newton, wp)
 
     def _add_deformables(self, builder, substeps: int | None = None) -> None:
         """Cloths and soft bodies as particles of the builder, with what their surfaces follow; ``substeps``:

@@ -90,13 +90,15 @@ class Motion:
 @dataclass
 class Settled:
     """What the settle simulated: each rigid object's :class:`Motion` (name → it), the seconds simulated,
-    whether it ended with everything still, why it was skipped (None where it ran), and its wall time."""
+    whether it ended with everything still, why it was skipped (None where it ran), its wall time, and what each
+    ball collided as (``physics.round``: name → ``collides_as`` and its fit)."""
 
     motions: dict[str, Motion] = field(default_factory=dict)
     simulated_s: float = 0.0
     at_rest: bool = False
     skipped: str | None = None
     seconds: float = 0.0
+    colliders: dict = field(default_factory=dict)
 
 
 def settle_shot(stage, seconds: float, echo=lambda m: None) -> Settled:
@@ -148,7 +150,8 @@ def settle_shot(stage, seconds: float, echo=lambda m: None) -> Settled:
     end = stepper.state.body_q.numpy()
     frames = run.take.body_q  # (F, B, 7)
     last = frames[max(0, len(frames) - 1 - round(window * prep.plan.fps))]
-    out = Settled(simulated_s=float(run.take.seconds), at_rest=run.rest is not None)
+    out = Settled(simulated_s=float(run.take.seconds), at_rest=run.rest is not None,
+                  colliders=models.rounded.report())
     for path, o in free.items():
         b = models.path_body[path]
         r0, r1 = Rotation.from_quat(start[b, 3:7]), Rotation.from_quat(end[b, 3:7])

@@ -85,7 +85,7 @@ def simulate_shot(shot, settings: SimulateSettings = SimulateSettings(), progres
         "guard": run.guard, "retries": len(run.guard["rollbacks"]), "newton_notes": run.notes,
         "force_fields": [f"{x.kind} {x.path}" for x in sim.fields.fields], "ignored_parameters": prep.ignored,
         "max_speed_m_s": run.max_speed, "captured_step": run.capture,
-        "hidden_support": sim.supported, **checks,
+        "hidden_support": sim.supported, "colliders": sim.rounded.report(), **checks,
         "modules": {"torch": "torch" in sys.modules},
         "model_reused": sim.reused,
         "seconds": {"read": round(sim.t_built - t_start - sim.t_model, 4), "build_model": round(sim.t_model, 4),
