@@ -350,8 +350,7 @@ def least_width(points: np.ndarray) -> tuple[float, np.ndarray]:
     candidates = [normals]
     if d == 3:
         candidates.append(_edge_pair_directions(hull))
-    dirs = np.vstack(candidates)
-    dirs = dirs[np.linalg.norm(dirs, axis=1) > 0.5]
+    dirs = np.vstack(candidates)  # unit rows: qhull's facet normals, the edge pairs' normalised crosses
     widths = np.concatenate([np.ptp(h @ dirs[k:k + 1024].T, axis=0) for k in range(0, len(dirs), 1024)])
     best = int(np.argmin(widths))
     return float(widths[best]), dirs[best]
@@ -380,6 +379,8 @@ def _edge_pair_directions(hull) -> np.ndarray:
     # an edge inside a flat face of the hull bounds a slab only in that face's plane: its facets' normal holds it
     real = cos < 1.0 - 1e-9
     ab, n1, n2, cos = ab[real], n1[real], n2[real], cos[real]
+    if len(ab) == 0:
+        return np.zeros((0, 3))
     mid = n1 + n2
     mid /= np.maximum(np.linalg.norm(mid, axis=1), 1e-12)[:, None]
     radius = 0.5 * np.arccos(np.clip(cos, -1.0, 1.0))
@@ -389,17 +390,16 @@ def _edge_pair_directions(hull) -> np.ndarray:
     # with a quarter of the rest. A blunt edge looks only as far as another blunt one reaches; a sharp edge
     # looks as far as any reaches, so finding the pairs with a sharp edge is its own query's work.
     blunt = radius <= EDGE_CAP_RAD
-    reach_of = np.where(blunt, radius + EDGE_CAP_RAD, radius + (radius.max() if len(radius) else 0.0))
+    reach_of = np.where(blunt, radius + EDGE_CAP_RAD, radius + radius.max())
     reach = 2.0 * np.sin(np.minimum(reach_of, np.pi) / 2.0) + 1e-9
-    if len(mid) == 0:
-        return np.zeros((0, 3))
     near = cKDTree(mid).query_ball_point(-mid, reach)
     i = np.repeat(np.arange(len(mid)), [len(n) for n in near])
     j = np.fromiter((k for n in near for k in n), int, len(i))
     pair = np.unique(np.sort(np.stack([i, j], axis=1), axis=1), axis=0)
     i, j = pair[:, 0], pair[:, 1]
     meet = np.arccos(np.clip(-np.einsum("ij,ij->i", mid[i], mid[j]), -1.0, 1.0)) <= radius[i] + radius[j] + 1e-9
-    i, j = i[meet & (i != j)], j[meet & (i != j)]
+    meet &= i != j
+    i, j = i[meet], j[meet]
     pts = hull.points
     e = pts[ab[:, 1]] - pts[ab[:, 0]]
     u = np.cross(e[i], e[j])
