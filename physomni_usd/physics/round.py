@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..settings import BALL_LOAD_GAP, BALL_MAX_PROTRUSION, BALL_MIN_FILL, BALL_SPHERE_SPREAD
+from .support import body_frame
 
 #: The lifted shapes (``physomni:liftedShape``) that may be a ball: the footprint's ball (``sphere``), the
 #: lofted body of a round outline (``round``: a ball seen from the side, or a cup, which the fit refuses) and an
@@ -156,9 +157,7 @@ def round_balls(builder, objects, path_body: dict, newton, wp) -> Rounded:
         if len(shapes) != 1 or builder.shape_type[shapes[0]] != newton.GeoType.CONVEX_MESH:
             continue  # a second shape (a hidden support) means the lift's ball is not what holds it
         s = shapes[0]
-        pose = builder.body_q[b]
-        t = np.array([pose[0], pose[1], pose[2]], float)
-        rot = np.array(wp.quat_to_matrix(wp.quat(pose[3], pose[4], pose[5], pose[6])), float).reshape(3, 3)
+        t, rot = body_frame(builder, b, wp)
         fit = fit_ball(np.asarray(o.points, float), rot @ np.array(builder.body_com[b], float) + t)
         held = _load(np.asarray(o.points, float), [k for k in objects if k is not o])
         if not fit.fits or held is not None:

@@ -56,6 +56,14 @@ def needs_support(points: np.ndarray, faces: np.ndarray, ground_z: float) -> boo
     return overhang(points, solid.center_mass) > OVERHANG
 
 
+def body_frame(builder, b: int, wp) -> tuple[np.ndarray, np.ndarray]:
+    """Body ``b``'s pose in ``builder`` (before ``finalize``): its origin (3,) and rotation (3, 3), world metres;
+    a world point ``x`` is ``(x - origin) @ rotation`` in the body's frame."""
+    pose = builder.body_q[b]
+    origin = np.array([pose[0], pose[1], pose[2]], float)
+    return origin, np.array(wp.quat_to_matrix(wp.quat(pose[3], pose[4], pose[5], pose[6])), float).reshape(3, 3)
+
+
 def add_hidden_support(builder, objects, path_body: dict, ground_z: float, newton, wp) -> list[str]:
     """For each rigid object in ``objects`` that :func:`needs_support`, add a massless collision hull down
     to the ground to its body in ``builder`` (before ``finalize``), with the friction and restitution
@@ -70,9 +78,7 @@ def add_hidden_support(builder, objects, path_body: dict, ground_z: float, newto
         foot = o.points.copy()
         foot[:, 2] = ground_z
         hull = trimesh.convex.convex_hull(np.vstack([o.points, foot]))
-        pose = builder.body_q[b]
-        t = np.array([pose[0], pose[1], pose[2]], float)
-        rot = np.array(wp.quat_to_matrix(wp.quat(pose[3], pose[4], pose[5], pose[6])), float).reshape(3, 3)
+        t, rot = body_frame(builder, b, wp)
         local = (hull.vertices - t) @ rot  # world → the body's frame
         cfg = newton.ModelBuilder.ShapeConfig()
         cfg.density = 0.0  # collision only: the visible mesh keeps the mass and the inertia
