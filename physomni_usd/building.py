@@ -390,10 +390,9 @@ def _view_from_exif(photo_path, shape, settings: BuildSettings, echo) -> BuildSe
 
 def _camera_line(scene: Scene) -> str:
     """The camera build chose and what chose it (the report's shot.alignment.camera says it in full)."""
-    given = scene.settings.camera
-    info = scene.align_info.get("camera") or {
-        "pitch_source": "placed meshes" + (", camera search" if "camera_search" in scene.align_info else ""),
-        "fov_source": given.fov_source or ("user" if given.fov_deg is not None else f"default {DEFAULT_FOV_DEG:g}°")}
+    searched = ", then the camera search" if "camera_search" in scene.align_info else ""
+    info = scene.align_info.get("camera") or {"pitch_source": "placed meshes" + searched,
+                                              "fov_source": scene.align_info.get("fov_source", "") + searched}
     return (f"align: camera pitched {scene.camera.pitch_deg:.1f}° ({info.get('pitch_source')}), field of view "
             f"{scene.camera.fov_deg:.1f}° ({info.get('fov_source')})")
 
@@ -503,6 +502,10 @@ def _place(scene: Scene) -> None:
         shapes = ["external"] * len(lifted)
         notes = placed.info["mesh_notes"]
         align_info = placed.info
+        given = settings.camera
+        # what chose the view the meshes were placed under (the camera search may refine it after)
+        align_info["fov_source"] = given.fov_source or (
+            "user" if given.fov_deg is not None else f"default {DEFAULT_FOV_DEG:g}°")
         if settings.camera_search:
             found = search_camera(camera, verts, faces, scene.photo, scene.masks, scene.plate,
                                   max_evals=settings.camera_search_evals)
