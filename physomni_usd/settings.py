@@ -45,9 +45,13 @@ class _Settings(BaseModel):
 class CameraSettings(_Settings):
     fov_deg: Annotated[float | None, Option(
         "--fov", "Vertical field of view of the photo in degrees",
-        "from the photo's vanishing points, else 50°")] = Field(
-        None, gt=5.0, lt=150.0, description="Vertical field of view of the photo, degrees; None estimates it from "
-                                            "the photo's vanishing points, else 50° (a phone's main camera).")
+        "from the focal length in the photo's EXIF, else its vanishing points, else 50°")] = Field(
+        None, gt=5.0, lt=150.0, description="Vertical field of view of the photo, degrees; None reads it from the "
+                                            "photo's EXIF focal length (perceive.exif), else estimates it from "
+                                            "its vanishing points, else 50° (a phone's main camera).")
+    fov_source: str | None = Field(None, description="What set fov_deg where the user did not (the photo's "
+                                                     "EXIF, by build); None: the user. Reported as the view's "
+                                                     "source.")
     pitch_deg: Annotated[float | None, Option(
         "--pitch", "Downward camera tilt in degrees, 0 (level) to 90 (straight down)",
         "estimated from the photo: round outlines, vanishing points, horizon, where objects stand")] = Field(
