@@ -62,6 +62,19 @@ def test_two_touching_balls_a_little_taller_than_wide_stay(tmp_path):
             assert m.moved_m < 1e-3 and m.turned_deg < 0.5, (tall, name, m)
 
 
+def test_a_ball_round_across_and_a_little_taller_collides_as_the_sphere_of_its_level_radius(tmp_path):
+    """A footprint's ball takes its height from its outline's tangent cone, a few per cent uncertain
+    (452298/004's round orange lifted 6.6 % taller than wide): round across and taller by at most
+    ``BALL_TALL_SPREAD``, it collides as the sphere of its level radius and stays, where its hull rocked."""
+    for tall in (1.066, 1.095):
+        settled = _settle(tmp_path / f"t{tall}", _ball(tall), "sphere")
+        assert settled.colliders["ball"]["collides_as"] == "sphere", (tall, settled.colliders)
+        semi = settled.colliders["ball"]["semi_axes_m"]
+        assert semi[0] == semi[2] <= 0.0322 + 1e-4, semi  # no wider than the hull across
+        m = settled.motions["ball"]
+        assert m.turned_deg < 0.05 and m.moved_m < 1e-4, (tall, m)
+
+
 def test_a_ball_something_rests_on_keeps_its_hull(tmp_path):
     """A sphere does not resist rolling: a round ball with another resting on it a little off its top keeps
     its hull, and stays where it is; the ball on top, holding nothing, is a sphere."""
