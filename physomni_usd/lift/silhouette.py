@@ -15,8 +15,9 @@ assumes the object stands on the ground facing the camera:
    with flat caps, one function per shape (the table ``SHAPES``):
    - ``round`` (outline mirror-symmetric and not ending in a straight
      bottom edge): circles, a surface of revolution whose axis follows the
-     silhouette's mid-line — cups, bottles, balls; all but balls get a flat
-     base;
+     silhouette's mid-line, each touching the front plane — cups, bottles,
+     on a flat base; a ball's outline (nearly a disc) about one upright axis
+     through the ball's centre instead, its lowest point under it;
    - ``inflated`` (a label of a soft, rounded thing, ``sizes.body_kind``,
      whose outline is not mirror-symmetric — fruit, toys, bags): each
      point of the outline's inside bulges towards and away from the camera
