@@ -141,6 +141,12 @@ MAX_PARTICLES = 2_000_000
 BALL_MIN_FILL = 0.9
 BALL_MAX_PROTRUSION = 0.05
 BALL_SPHERE_SPREAD = 0.05
+#: ... or where it is round across (its level semi-axes within ``BALL_SPHERE_SPREAD``) and its upright one the
+#: longest by at most ``BALL_TALL_SPREAD``: a ball lifted from its footprint takes its height from the tangent
+#: cone of its outline, that uncertain (452298/004's orange: 6.6 % taller than wide, truly round), and its
+#: hull rocked on its facets (7.8° in 2 s). It collides as the sphere of its level radius, its lowest point
+#: the hull's.
+BALL_TALL_SPREAD = 0.10
 #: A ball something rests on keeps its hull (a sphere has no rolling resistance, so what stands on it rolls it
 #: away: two round balls stacked 2 mm off centre, the lower as a sphere rolled 22 cm, as a hull 1 mm): another
 #: object's lowest point over the ball, above its middle and at most this far above its top.

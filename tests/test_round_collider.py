@@ -62,6 +62,19 @@ def test_two_touching_balls_a_little_taller_than_wide_stay(tmp_path):
             assert m.moved_m < 1e-3 and m.turned_deg < 0.5, (tall, name, m)
 
 
+def test_a_ball_round_across_and_a_little_taller_collides_as_the_sphere_of_its_level_radius(tmp_path):
+    """A footprint's ball takes its height from its outline's tangent cone, a few per cent uncertain
+    (452298/004's round orange lifted 6.6 % taller than wide): round across and taller by at most
+    ``BALL_TALL_SPREAD``, it collides as the sphere of its level radius and stays, where its hull rocked."""
+    for tall in (1.066, 1.095):
+        settled = _settle(tmp_path / f"t{tall}", _ball(tall), "sphere")
+        assert settled.colliders["ball"]["collides_as"] == "sphere", (tall, settled.colliders)
+        semi = settled.colliders["ball"]["semi_axes_m"]
+        assert semi[0] == semi[2] <= 0.0322 + 1e-4, semi  # no wider than the hull across
+        m = settled.motions["ball"]
+        assert m.turned_deg < 0.05 and m.moved_m < 1e-4, (tall, m)
+
+
 def test_a_ball_something_rests_on_keeps_its_hull(tmp_path):
     """A sphere does not resist rolling: a round ball with another resting on it a little off its top keeps
     its hull, and stays where it is; the ball on top, holding nothing, is a sphere."""
@@ -147,3 +160,39 @@ def test_a_pushed_ball_rolls(tmp_path):
     assert dx > 0.01, dx  # still going after a second (three frames: a turn under half a revolution)
     assert abs(angle * 0.04 / dx - 1.0) < 0.1, (angle, dx)  # rolling, not sliding
     assert abs(poses[1][3, 2] - poses[0][3, 2]) < 1e-3  # on the ground, not bouncing
+
+
+def test_a_ball_lifted_standing_and_stacked_on_another_stays(tmp_path):
+    """A ball seen from the side (8° down) is lofted about its own upright axis: stacked on another such ball
+    and steadied as the build does, it stays. Lofted against its front plane as a cup is, its centre of mass lay
+    2 cm behind its lowest point and it tipped backward off the ball under it (25 cm; 452298/027, /035, /020)."""
+    import math
+
+    import cv2
+    import trimesh
+
+    from physomni_usd.geometry.camera import PinholeCamera
+    from physomni_usd.lift.silhouette import lift_silhouette
+    from physomni_usd.physics.support import steady_stacks
+
+    radius = 0.035
+    camera = PinholeCamera(640, 480, 50.0, 8.0, (0.0, -0.6, radius + 0.6 * math.tan(math.radians(8.0))))
+    ball = trimesh.creation.icosphere(4, radius)
+    ball.vertices += [0.0, 0.0, radius]
+    uv, _ = camera.project(ball.vertices)
+    mask = np.zeros((480, 640), np.uint8)
+    for tri in ball.faces:
+        cv2.fillPoly(mask, [np.round(uv[tri] * 16).astype(np.int32)], 1, shift=4)
+    lifted = lift_silhouette(mask > 0, camera, label="orange")
+    lower = trimesh.Trimesh(lifted.vertices, lifted.faces, process=False)
+    upper = lower.copy()
+    upper.vertices[:, 2] += np.ptp(lower.vertices[:, 2])  # its lowest point on the lower one's top
+    verts, _ = steady_stacks([lower.vertices, upper.vertices], [lower.faces, upper.faces], {1: (0, "contact")},
+                             camera.origin)
+    shot = write_bench_shot(tmp_path, [
+        BenchObject("lower", trimesh.Trimesh(verts[0], lower.faces, process=False), "rigid", FRUIT, shape="round"),
+        BenchObject("upper", trimesh.Trimesh(verts[1], upper.faces, process=False), "rigid", FRUIT, shape="round")])
+    settled = settle_shot(layers.open_shot(shot, mute_sim=True), 2.0)
+    for name in ("lower", "upper"):
+        m = settled.motions[name]
+        assert m.moved_m < 0.002 and m.turned_deg < 1.0, (name, m)

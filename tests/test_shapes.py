@@ -260,3 +260,44 @@ def test_a_post_with_an_arm_to_one_side_stands_as_its_full_slab_does():
         cv2.rectangle(m, (100, 60), (200, 60 + arm), 1, -1)  # the arm, to the right
         slab = lift_silhouette(m > 0, camera, LiftSettings(shape="extrude"), label="thing")
         assert slab.shape == "extrude" and stands(slab.vertices, slab.faces), arm
+
+
+def _ball_seen_low(deg: float, x: float = 0.0, radius: float = 0.035):
+    """A camera ``deg`` degrees above a ball of ``radius`` (m) resting on the ground 0.6 m ahead of it (``x``
+    m to its right), the ball's silhouette and its centre."""
+    import math
+
+    camera = PinholeCamera(640, 480, 50.0, deg, (0.0, -0.6, radius + 0.6 * math.tan(math.radians(deg))))
+    ball = trimesh.creation.icosphere(4, radius)
+    ball.vertices += [x, 0.0, radius]
+    return camera, _silhouette(camera, ball), np.array([x, 0.0, radius])
+
+
+@pytest.mark.parametrize("deg, x", [(4.0, 0.0), (9.0, 0.12), (15.0, -0.1)])
+def test_a_ball_seen_from_the_side_is_lofted_about_one_upright_axis_under_its_centre_of_mass(deg, x):
+    """A ball's lowest point is under its middle, not at its front (a cup's foot): lofted against the front plane
+    its centre of mass lay 2 cm behind its lowest point, and stacked on another fruit it tipped backward off it."""
+    camera, mask, centre = _ball_seen_low(deg, x)
+    lifted = lift_silhouette(mask, camera, label="orange")
+    assert lifted.shape == "round"
+    mesh = _closed(lifted)
+    z = lifted.vertices[:, 2]
+    lowest = lifted.vertices[z <= z.min() + 5e-4, :2].mean(axis=0)
+    assert np.linalg.norm(mesh.center_mass[:2] - lowest) < 1e-3
+    assert np.linalg.norm(mesh.center_mass - centre) < 0.01  # where the ball is, to a few pixels of its foot
+    extent = np.ptp(lifted.vertices, axis=0)
+    assert np.ptp(extent) < 0.05 * extent.max()  # as deep as wide and tall
+    seen = _silhouette(camera, mesh)
+    assert (seen & mask).sum() >= 0.99 * mask.sum() and (seen & mask).sum() >= 0.85 * (seen | mask).sum()
+
+
+def test_a_cup_seen_from_the_side_keeps_its_front_and_flat_base():
+    """What is not a ball (a cup's outline: taller than wide) stays the front-anchored loft on its flat base."""
+    camera = PinholeCamera(640, 480, 50.0, 10.0, (0.0, -0.6, 0.14))
+    mask = np.zeros((480, 640), np.uint8)
+    cv2.ellipse(mask, (320, 300), (45, 70), 0, 0, 360, 1, -1)
+    lifted = lift_silhouette(mask > 0, camera, label="cup")
+    assert lifted.shape == "round" and "axis" not in lifted.info
+    z = lifted.vertices[:, 2]
+    base = lifted.vertices[z <= z.min() + 1e-9, :2]
+    assert np.ptp(base[:, 0]) > 0.5 * np.ptp(lifted.vertices[:, 0])  # a flat base as wide as the body

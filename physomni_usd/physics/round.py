@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..settings import BALL_LOAD_GAP, BALL_MAX_PROTRUSION, BALL_MIN_FILL, BALL_SPHERE_SPREAD
+from ..settings import BALL_LOAD_GAP, BALL_MAX_PROTRUSION, BALL_MIN_FILL, BALL_SPHERE_SPREAD, BALL_TALL_SPREAD
 from .support import body_frame
 
 #: The lifted shapes (``physomni:liftedShape``) that may be a ball: the footprint's ball (``sphere``), the
@@ -96,7 +96,7 @@ def fit_ball(points: np.ndarray, com: np.ndarray | None = None) -> BallFit:
     lo, hi = local.min(axis=0), local.max(axis=0)
     semi = 0.5 * (hi - lo)
     fill = float(4.0 / 3.0 * np.pi * np.prod(semi) / max(hull.volume, 1e-18))
-    if semi.max() <= (1.0 + BALL_SPHERE_SPREAD) * semi.min():
+    if semi.max() <= (1.0 + BALL_SPHERE_SPREAD) * semi.min() or _round_across_tall(semi):
         semi[:] = semi.min()  # no wider than the hull: a wider one starts inside the fruit beside it
     centre = 0.5 * (lo + hi)
     centre[2] = lo[2] + semi[2]
@@ -108,6 +108,15 @@ def fit_ball(points: np.ndarray, com: np.ndarray | None = None) -> BallFit:
     offsets = np.einsum("ij,ij->i", np.asarray(hull.triangles[:, 0], float), normals)
     poke = (surface @ normals.T - offsets).max(axis=1).max()
     return BallFit(centre, axes, semi, fill, float(max(poke, 0.0) / max(semi.min(), 1e-12)))
+
+
+def _round_across_tall(semi: np.ndarray) -> bool:
+    """Whether semi-axes ``semi`` (two level, then upright) are a ball round across whose upright one is the
+    longest by at most ``BALL_TALL_SPREAD`` (a footprint's height, from its outline's tangent cone, that
+    uncertain): it collides as the sphere of its level radius."""
+    across = semi[:2]
+    return bool(across.max() <= (1.0 + BALL_SPHERE_SPREAD) * across.min()
+                and across.max() <= semi[2] <= (1.0 + BALL_TALL_SPREAD) * across.min())
 
 
 def _load(ball: np.ndarray, others) -> str | None:
