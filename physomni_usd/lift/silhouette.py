@@ -520,9 +520,10 @@ def ball_body(rows: StandingRows) -> LiftedMesh | None:
     its centre facing the camera, tilted back by the view's angle: its top row is the back of a ring near
     the top, its bottom row the front of one near the bottom. So each row is cast onto that tilted plane
     and made the ring about the axis through both its ends (as wide as the row, as deep off the axis as the
-    row lies), which from the camera shows the row as the photo does. What no row shows (under the bottom
-    row, over the top row) closes as a sphere's cap: down to the ground, and up as the widest ring's sphere
-    would. None where the tilted plane does not keep the rows in order (a view it cannot hold)."""
+    row lies), which from the camera shows the row as the photo does, no wider than the ball's sphere there
+    (stretched up to the top row where that is higher). What no row shows (under the bottom row, over the top
+    row) closes as that ball to its poles. None where the tilted plane does not keep the rows in order (a view
+    it cannot hold)."""
     r = rows
     camera = r.camera
     origin = camera.origin
