@@ -305,8 +305,9 @@ def test_a_cup_seen_from_the_side_keeps_its_front_and_flat_base():
 
 @pytest.mark.parametrize("deg", [1.0, 4.0, 15.0])
 def test_a_ball_seen_from_the_side_is_round_at_both_ends(deg):
-    """A ball rests on a point, and its top is the sphere's: every vertex within 2 mm of the ground lies within
-    √(2R·2 mm) of its upright axis (a sphere's ring there), and its top is no higher than the ball's. Its end
+    """A ball rests on a small sole under its middle, and its top is the sphere's: every vertex within 2 mm of
+    the ground lies within √(2R·2 mm) of its upright axis (a sphere's ring there), and its top is no higher
+    than the ball's. Its end
     rows took the widest span of the rows half-way to their neighbours and it stood on a flat foot 29 mm
     across (its bottom ring 15 mm in radius at the ground; at 1° no cap at all), and its top overshot by 3 mm.
     Its contact stays the outline's foot on the ground, in front of where it rests (``info['rest']``)."""

@@ -48,7 +48,7 @@ import cv2
 import numpy as np
 
 from ..geometry.camera import PinholeCamera
-from ..settings import LiftSettings
+from ..settings import BALL_SOLE, LiftSettings
 from ..sizes import body_kind
 from .sections import bulge, inflated_rings, loft, ray_slab_rings, round_rings, span_samples
 
@@ -522,7 +522,7 @@ def ball_body(rows: StandingRows) -> LiftedMesh | None:
     and made the ring about the axis through both its ends (as wide as the row, as deep off the axis as the
     row lies), which from the camera shows the row as the photo does, no wider than the ball's sphere there
     (stretched up to the top row where that is higher). What no row shows (under the bottom row, over the top
-    row) closes as that ball to its poles. None where the tilted plane does not keep the rows in order (a view
+    row) closes as that ball: to its top pole, and down to a small round sole (``BALL_SOLE``). None where the tilted plane does not keep the rows in order (a view
     it cannot hold)."""
     r = rows
     camera = r.camera
@@ -568,7 +568,10 @@ def ball_body(rows: StandingRows) -> LiftedMesh | None:
     tall = max(radius, 0.5 * (float(z[0]) - r.base_z))
     middle_z = r.base_z + tall
     polar = np.arccos(np.clip((z - middle_z) / tall, -1.0, 1.0))  # 0 at the top pole, π at the bottom one
-    seen = (polar > 1e-6) & (polar < np.pi - 1e-6)
+    # it rests on a small round sole, the ball cut BALL_SOLE of its radius over its lowest point (on its pole
+    # alone its hull, which a ball something rests on collides as, rocked on the pole's small facets)
+    sole = math.acos(min(BALL_SOLE * radius / tall, 1.0) - 1.0)
+    seen = (polar > 1e-6) & (polar < sole)
     if seen.sum() < 2:
         return None
     z, polar = z[seen], polar[seen]
@@ -577,15 +580,15 @@ def ball_body(rows: StandingRows) -> LiftedMesh | None:
     steps = np.arange(1, BALL_CAP_RINGS + 1) / (BALL_CAP_RINGS + 1)
     # each end's rings shrink as the ball's towards its pole, from the end row's (narrower where it is)
     top_polar = polar[0] * (1.0 - steps)
-    bottom_polar = np.pi - (np.pi - polar[-1]) * (1.0 - steps)
+    bottom_polar = sole - (sole - polar[-1]) * (1.0 - np.r_[steps, 1.0])
     heights = np.r_[middle_z + tall * np.cos(top_polar[::-1]), z, middle_z + tall * np.cos(bottom_polar)]
     radii = np.r_[rings_r[0] * np.sin(top_polar[::-1]) / np.sin(polar[0]), rings_r,
                   rings_r[-1] * np.sin(bottom_polar) / np.sin(polar[-1])]
+    heights[-1] = r.base_z  # the sole's rim brought down onto the ground
     centres = np.repeat(axis[None], len(heights), axis=0)
     centres[:, 2] = heights
     verts, faces = loft(round_rings(centres, np.maximum(radii, 1e-5), r.tangent, r.normal, r.settings.sections))
-    verts[-2] = np.r_[axis[:2], middle_z + tall]  # each end's fan closes on its pole, not a flat disc
-    verts[-1] = np.r_[axis[:2], r.base_z]
+    verts[-2] = np.r_[axis[:2], middle_z + tall]  # the top's fan closes on its pole, not a flat disc
     # its contact stays the outline's foot on the ground (what placing reads), ahead of where it rests
     lifted = LiftedMesh(verts, faces, "round", r.contact, r.v_foot, _standing_info("round"))
     lifted.info["axis"] = "ball"
