@@ -147,6 +147,11 @@ BALL_SPHERE_SPREAD = 0.05
 #: hull rocked on its facets (7.8° in 2 s). It collides as the sphere of its level radius, its lowest point
 #: the hull's.
 BALL_TALL_SPREAD = 0.10
+#: A ball seen standing (``lift.silhouette.ball_body``) rests on a round sole: its sphere cut this fraction of
+#: its radius over its lowest point (a sole √(2·0.03) ≈ 0.25 of its radius across, 2 mm of a 7 cm orange's
+#: height flat). On its pole alone its hull, which a ball something rests on collides as, rocked on the pole's
+#: small facets: the lower of two stacked oranges turned 6° and slid 12 mm.
+BALL_SOLE = 0.03
 #: A ball something rests on keeps its hull (a sphere has no rolling resistance, so what stands on it rolls it
 #: away: two round balls stacked 2 mm off centre, the lower as a sphere rolled 22 cm, as a hull 1 mm): another
 #: object's lowest point over the ball, above its middle and at most this far above its top.

@@ -92,6 +92,33 @@ def test_make_room_squashes_the_nearer_object_only():
     assert np.isclose(verts[0][:, 1].min(), near[:, 1].min())  # the front stays where the camera saw it
 
 
+def test_make_room_keeps_a_ball_seen_standing_balanced_over_where_it_rests():
+    """A ball seen standing was as deep as it is wide (its depth measured, not guessed): placing shrinks it
+    about its own axis, never squashes it behind its foot, which kept its front half and flattened its back
+    half, its centre of mass ahead of where it rests."""
+    import math
+
+    from physomni_usd.backends.builtin import _depth_measured
+
+    radius = 0.035
+    camera = PinholeCamera(640, 480, 50.0, 8.0, (0.0, -0.6, radius + 0.6 * math.tan(math.radians(8.0))))
+    ball = trimesh.creation.icosphere(4, radius)
+    ball.vertices += [0.0, 0.0, radius]
+    uv, _ = camera.project(ball.vertices)
+    mask = np.zeros((480, 640), np.uint8)
+    for tri in ball.faces:
+        cv2.fillPoly(mask, [np.round(uv[tri] * 16).astype(np.int32)], 1, shift=4)
+    lifted = lift_silhouette(mask > 0, camera, label="orange")
+    behind = np.array([0.0, 0.05, 0.0])  # a second one 5 cm behind it, their backs and fronts overlapping
+    measured = _depth_measured(lifted.info)
+    verts, _ = make_room([lifted.vertices, lifted.vertices + behind], [lifted.contact, lifted.contact + behind],
+                         camera.origin, 0.002, fixed_depth=[measured, measured])
+    near = trimesh.Trimesh(verts[0], lifted.faces, process=False)
+    z = verts[0][:, 2]
+    sole = verts[0][z <= z.min() + 1e-6, :2].mean(axis=0)  # the round sole it rests on
+    assert np.linalg.norm(near.center_mass[:2] - sole) < 1e-3
+
+
 def test_mask_spec_and_identifiers():
     assert split_spec("dir/cup.png:cup") == ("dir/cup.png", "cup")
     assert split_spec("C:/x/cup.png") == ("C:/x/cup.png", None)

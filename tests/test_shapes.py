@@ -301,3 +301,30 @@ def test_a_cup_seen_from_the_side_keeps_its_front_and_flat_base():
     z = lifted.vertices[:, 2]
     base = lifted.vertices[z <= z.min() + 1e-9, :2]
     assert np.ptp(base[:, 0]) > 0.5 * np.ptp(lifted.vertices[:, 0])  # a flat base as wide as the body
+
+
+@pytest.mark.parametrize("deg", [1.0, 4.0, 15.0])
+def test_a_ball_seen_from_the_side_is_round_at_both_ends(deg):
+    """A ball rests on a small sole under its middle, and its top is the sphere's: every vertex within 2 mm of
+    the ground lies within √(2R·2 mm) of its upright axis (a sphere's ring there), and its top is no higher
+    than the ball's. Its end
+    rows took the widest span of the rows half-way to their neighbours and it stood on a flat foot 29 mm
+    across (its bottom ring 15 mm in radius at the ground; at 1° no cap at all), and its top overshot by 3 mm.
+    Its contact stays the outline's foot on the ground, in front of where it rests (``info['rest']``)."""
+    import math
+
+    radius = 0.035
+    camera, mask, centre = _ball_seen_low(deg)
+    lifted = lift_silhouette(mask, camera, label="orange")
+    assert lifted.info.get("axis") == "ball"
+    v = lifted.vertices
+    rest = np.asarray(lifted.info["rest"])
+    assert abs(rest[2] - v[:, 2].min()) < 1e-6
+    near = v[v[:, 2] <= v[:, 2].min() + 0.002]
+    assert np.linalg.norm(near[:, :2] - rest[:2], axis=1).max() <= math.sqrt(2.0 * radius * 0.002), deg
+    assert np.ptp(v[:, 2]) <= 2.0 * radius + 0.0015
+    mesh = _closed(lifted)
+    assert np.linalg.norm(mesh.center_mass[:2] - rest[:2]) < 1e-3
+    # the foot the outline shows: nearer the camera than where the ball rests, on the ground
+    assert abs(lifted.contact[2] - rest[2]) < 1e-9
+    assert np.linalg.norm(lifted.contact[:2] - camera.origin[:2]) < np.linalg.norm(rest[:2] - camera.origin[:2])

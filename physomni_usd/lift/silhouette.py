@@ -48,7 +48,7 @@ import cv2
 import numpy as np
 
 from ..geometry.camera import PinholeCamera
-from ..settings import LiftSettings
+from ..settings import BALL_SOLE, LiftSettings
 from ..sizes import body_kind
 from .sections import bulge, inflated_rings, loft, ray_slab_rings, round_rings, span_samples
 
@@ -506,7 +506,9 @@ BALL_CAP_RINGS = 4
 
 
 def ball_body(rows: StandingRows) -> LiftedMesh | None:
-    """A ball: circles about one vertical axis, its lowest point on that axis under its centre of mass.
+    """A ball: circles about one vertical axis, its lowest point on that axis under its centre of mass
+    (``info['rest']``; its ``contact`` stays where the outline's foot meets the ground, in front of it, and
+    ``info['axis']`` is ``ball``: placing keeps its depth, as measured, and shrinks it about that axis).
 
     A cup's foot is its front edge, a ball's is under its middle: the ray through the outline's lowest pixel
     grazes the ball's front-underside and meets the ground ``R·tan(θ/2)`` in front of where it rests (θ that
@@ -518,9 +520,10 @@ def ball_body(rows: StandingRows) -> LiftedMesh | None:
     its centre facing the camera, tilted back by the view's angle: its top row is the back of a ring near
     the top, its bottom row the front of one near the bottom. So each row is cast onto that tilted plane
     and made the ring about the axis through both its ends (as wide as the row, as deep off the axis as the
-    row lies), which from the camera shows the row as the photo does. What no row shows (under the bottom
-    row, over the top row) closes as a sphere's cap: down to the ground, and up as the widest ring's sphere
-    would. None where the tilted plane does not keep the rows in order (a view it cannot hold)."""
+    row lies), which from the camera shows the row as the photo does, no wider than the ball's sphere there
+    (stretched up to the top row where that is higher). What no row shows (under the bottom row, over the top
+    row) closes as that ball: to its top pole, and down to a small round sole (``BALL_SOLE``). None where the tilted plane does not keep the rows in order (a view
+    it cannot hold)."""
     r = rows
     camera = r.camera
     origin = camera.origin
@@ -558,36 +561,39 @@ def ball_body(rows: StandingRows) -> LiftedMesh | None:
     axis = centre + float(np.average(across, weights=half ** 2 + 1e-12)) * r.tangent
     deep = (middle - axis) @ r.normal
     rings_r = np.sqrt(half ** 2 + deep ** 2)
-    # over the top row: the widest ring's sphere through the top ring; under the bottom row: the sphere
-    # through the bottom ring that rests on the ground (a ball's where the outline is its circle)
-    top = _sphere_cap(float(z[0]), float(rings_r[0]), max(radius, float(rings_r[0])), 1.0)
-    drop = float(z[-1]) - r.base_z
-    if drop <= 1e-9:
-        bottom = np.zeros((0, 2))  # the bottom row already at the ground (an outline taller than its ball)
-    elif drop <= rings_r[-1]:
-        bottom = _sphere_cap(float(z[-1]), float(rings_r[-1]), (rings_r[-1] ** 2 + drop ** 2) / (2.0 * drop), -1.0)
-    else:  # a bottom row high over the ground and narrow: a half-ellipse's quarter reaches down to it
-        psi = 0.5 * np.pi * np.arange(1, BALL_CAP_RINGS + 1) / (BALL_CAP_RINGS + 1)
-        bottom = np.stack([z[-1] - drop * np.sin(psi), rings_r[-1] * np.cos(psi)], axis=1)
-    heights = np.r_[top[::-1, 0], z, bottom[:, 0]]
-    radii = np.r_[top[::-1, 1], rings_r, bottom[:, 1]]
+    # The ball is the sphere of the cone, resting on the ground, stretched up only as far as the outline's top
+    # row reaches: each row's ring is no wider than that ball's at its height, to a pixel (a row takes the widest span of
+    # the rows half-way to its neighbours, so the bottom row's ring was 15 mm across where a sphere's is 1 mm,
+    # and the ball stood on a flat foot), and what no row shows closes as the ball to its poles.
+    tall = max(radius, 0.5 * (float(z[0]) - r.base_z))
+    middle_z = r.base_z + tall
+    polar = np.arccos(np.clip((z - middle_z) / tall, -1.0, 1.0))  # 0 at the top pole, π at the bottom one
+    # it rests on a small round sole, the ball cut BALL_SOLE of its radius over its lowest point (on its pole
+    # alone its hull, which a ball something rests on collides as, rocked on the pole's small facets)
+    sole = math.acos(min(BALL_SOLE * radius / tall, 1.0) - 1.0)
+    seen = (polar > 1e-6) & (polar < sole)
+    if seen.sum() < 2:
+        return None
+    z, polar = z[seen], polar[seen]
+    pixel = 2.0 * radius / max(float(np.ptp(r.spans[widest])), 1.0)  # a pixel at the ball, in metres
+    rings_r = np.minimum(rings_r[seen], radius * np.sin(polar) + 0.5 * pixel)
+    steps = np.arange(1, BALL_CAP_RINGS + 1) / (BALL_CAP_RINGS + 1)
+    # each end's rings shrink as the ball's towards its pole, from the end row's (narrower where it is)
+    top_polar = polar[0] * (1.0 - steps)
+    bottom_polar = sole - (sole - polar[-1]) * (1.0 - np.r_[steps, 1.0])
+    heights = np.r_[middle_z + tall * np.cos(top_polar[::-1]), z, middle_z + tall * np.cos(bottom_polar)]
+    radii = np.r_[rings_r[0] * np.sin(top_polar[::-1]) / np.sin(polar[0]), rings_r,
+                  rings_r[-1] * np.sin(bottom_polar) / np.sin(polar[-1])]
+    heights[-1] = r.base_z  # the sole's rim brought down onto the ground
     centres = np.repeat(axis[None], len(heights), axis=0)
     centres[:, 2] = heights
-    lifted = _lofted(r, round_rings(centres, np.maximum(radii, 1e-5), r.tangent, r.normal, r.settings.sections),
-                     "round")
-    lifted.contact = np.r_[axis[:2], r.base_z]
+    verts, faces = loft(round_rings(centres, np.maximum(radii, 1e-5), r.tangent, r.normal, r.settings.sections))
+    verts[-2] = np.r_[axis[:2], middle_z + tall]  # the top's fan closes on its pole, not a flat disc
+    # its contact stays the outline's foot on the ground (what placing reads), ahead of where it rests
+    lifted = LiftedMesh(verts, faces, "round", r.contact, r.v_foot, _standing_info("round"))
     lifted.info["axis"] = "ball"
+    lifted.info["rest"] = [round(float(x), 5) for x in (*axis[:2], r.base_z)]
     return lifted
-
-
-def _sphere_cap(z0: float, r0: float, rho: float, up: float) -> np.ndarray:
-    """(BALL_CAP_RINGS, 2) heights and radii of rings closing a ring at height ``z0`` of radius ``r0`` as the
-    sphere of radius ``rho`` through it, upward (``up`` 1) or downward (-1), from it towards the pole (never the
-    pole itself: a ring of no radius leaves empty faces)."""
-    start = math.asin(min(r0 / max(rho, 1e-12), 1.0))
-    centre = z0 - up * rho * math.cos(start)
-    psi = start * (1.0 - np.arange(1, BALL_CAP_RINGS + 1) / (BALL_CAP_RINGS + 1))
-    return np.stack([centre + up * rho * np.cos(psi), rho * np.sin(psi)], axis=1)
 
 
 def slab_depths(widths: np.ndarray, z: np.ndarray, ratio: float) -> np.ndarray:
