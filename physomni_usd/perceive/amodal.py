@@ -67,7 +67,12 @@ def occlusion_order(masks: list[np.ndarray]) -> list[tuple[int, int]]:
     if not masks:
         return []
     reach = max(2, int(round(0.01 * masks[0].shape[0])))
-    hulls = [_hull(m) for m in masks]
+    # a closure's rasterised edge takes in the row of a neighbour's pixels along their shared outline, whoever is
+    # in front: a few pixels, and of a sliver (an apple seen only between the fruit in front of it) a few
+    # hundredths, which read as the round fruit in front hiding nothing and the sliver hiding them. Only what a
+    # closure takes in beyond that row tells the order
+    rim = np.ones((3, 3), np.uint8)
+    hulls = [_hull(m) & ~(cv2.dilate(m.astype(np.uint8), rim) > 0) for m in masks]
     areas = [max(int(m.sum()), 1) for m in masks]
     out = []
     for i in range(len(masks)):
