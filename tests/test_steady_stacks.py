@@ -171,3 +171,37 @@ def test_a_ball_on_a_bowl_s_inner_floor_gets_a_flat_foot_and_one_on_a_crate_s_to
     on_top = _ball(0.2 + 0.035)
     verts, done = steady_stacks([crate.vertices, on_top.vertices], [crate.faces, on_top.faces], {1: (0, "on")}, None)
     assert not [d for d in done if d["object"] == 1], done
+
+
+def test_a_cup_near_the_edge_of_a_narrow_board_is_seated_deeper_than_a_ball():
+    # a cup 1.2 cm inside a board read too narrow, two fifths of its base over the edge, stood by the steadying
+    # margin and was rocked off it by the solver (issue 38): a flat foot is seated SEAT_MARGIN inside
+    from physomni_usd.geometry.resting import SEAT_MARGIN, STEADY_MARGIN
+
+    board = _box((0.3, 0.083, 0.03), (0, 0, 0.015))
+    board = trimesh.Trimesh(*trimesh.remesh.subdivide_to_size(board.vertices, board.faces, 0.01))  # as lifted
+    cup = trimesh.creation.cylinder(radius=0.039, height=0.07, sections=48)
+    cup.apply_translation([0.0, 0.0415 - 0.012, 0.065])  # its centre 1.2 cm inside the board's back edge
+    eye = np.array([0.0, -1.0, 0.4])
+    top = _top_under(board.vertices, 0.03, 0.01)
+    assert -SEAT_MARGIN < _outside(top, cup.center_mass[:2]) <= -STEADY_MARGIN
+    verts, done = steady_stacks([board.vertices, cup.vertices], [board.faces, cup.faces], {1: (0, "on")}, eye)
+    moved = verts[1].mean(axis=0) - cup.vertices.mean(axis=0)
+    assert _outside(top, cup.center_mass[:2] + moved[:2]) <= -SEAT_MARGIN + 1e-3, done
+    assert abs(moved[2]) < 1e-9 and np.linalg.norm(moved) < 0.02, moved
+    # the board, read shallower than the cup on it, reaches back under all of the cup's foot, where the cup hides
+    # it; its front, which the photo shows, and its length stay
+    foot = verts[1][verts[1][:, 2] <= verts[1][:, 2].min() + 1e-6]
+    assert verts[0][:, 1].max() >= foot[:, 1].max(), done
+    assert np.isclose(verts[0][:, 1].min(), board.vertices[:, 1].min())
+    assert np.allclose(np.ptp(verts[0][:, [0, 2]], axis=0), np.ptp(board.vertices[:, [0, 2]], axis=0))
+    assert any(d.get("widened_under") == 1 for d in done), done
+
+
+def test_a_support_is_not_widened_toward_the_camera_nor_under_a_foot_it_holds():
+    board = _box((0.3, 0.2, 0.03), (0, 0, 0.015))
+    cup = trimesh.creation.cylinder(radius=0.039, height=0.07, sections=48)
+    cup.apply_translation([0.0, 0.0, 0.065])
+    eye = np.array([0.0, -1.0, 0.4])
+    verts, done = steady_stacks([board.vertices, cup.vertices], [board.faces, cup.faces], {1: (0, "on")}, eye)
+    assert np.array_equal(verts[0], board.vertices) and not done

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.resting import FOOT_CUT, contact_band, solid as _solid, solid_com as _solid_com, steady_margin
+from ..geometry.resting import (FOOT_CUT, SEAT_MARGIN, contact_band, solid as _solid, solid_com as _solid_com,
+                                steady_margin)
 
 #: An object whose lowest point is within this of the ground (m, or this fraction of its size if larger)
 #: stands on it.
@@ -165,6 +166,69 @@ def _cheapest_shift(region: np.ndarray, c: np.ndarray, margin: float, com: np.nd
     return steps[np.argmin(np.linalg.norm(across, axis=1) + 0.1 * np.linalg.norm(steps, axis=1))]
 
 
+#: A flat foot overhanging its support's top behind it by more than this fraction of its own depth has that
+#: top widened under it (:func:`widen_under`; a box 5 mm over the back of the box under it stands as it is) ...
+WIDEN_FRACTION = 0.15
+#: ... to this far (m) past the foot.
+WIDEN_SLACK = 0.002
+
+
+def _reach(hull_eq: np.ndarray, start: np.ndarray, along: np.ndarray) -> float:
+    """How far (m) from ``start`` (2,) along the unit ``along`` (2,) a convex region (``ConvexHull.equations``,
+    2D) reaches; ≤ 0 where ``start`` lies outside it there."""
+    a = hull_eq[:, :2] @ along
+    d = -(hull_eq[:, :2] @ start + hull_eq[:, 2])
+    ahead = a > 1e-12
+    return float((d[ahead] / a[ahead]).min()) if ahead.any() else 0.0
+
+
+def widen_under(supporter: np.ndarray, region: np.ndarray, foot: np.ndarray, eye, com) -> np.ndarray | None:
+    """``supporter`` (N, 3) stretched away from the camera at ``eye`` (level, behind the centre of ``foot``) until
+    its top (``region``, (K, 2)) reaches under all of ``foot`` (M, 2: the flat foot of what rests on it, centre of
+    mass ``com``), tapering off beside the foot; None where the foot overhangs only toward the camera or not at
+    all. A book lifted from a footprint read too shallow (8 cm deep under a 7.8 cm cup) leaves the cup's back
+    over its edge whatever shift the photo allows; a heavy cup on it, two fifths of its base over nothing, rocked
+    the light book and fell off it at the third frame. The part behind the cup's foot is what the cup hides."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    if eye is None:
+        return None
+    d = np.asarray(com, float)[:2] - np.asarray(eye, float)[:2]
+    if float(np.linalg.norm(d)) < 1e-9:
+        return None
+    d = d / float(np.linalg.norm(d))
+    side = np.array([-d[1], d[0]])
+    try:
+        top, sole = ConvexHull(region).equations, ConvexHull(foot).equations
+    except QhullError:
+        return None
+    c = foot.mean(axis=0)
+    lat = (foot - c) @ side
+    lo, hi = float(lat.min()), float(lat.max())
+    grid = np.linspace(lo, hi, 25)
+    need = []
+    for s in grid:
+        start = c + s * side
+        far, have = _reach(sole, start, d), _reach(top, start, d)
+        need.append(max(1.0, (far + WIDEN_SLACK) / have) if far > 0 and have > 0 else 1.0)
+    need = np.array(need)
+    depth = float(np.ptp((foot - c) @ d))
+    if need.max() <= 1.0 + 1e-9 or _reach(sole, c, d) - _reach(top, c, d) <= WIDEN_FRACTION * depth:
+        return None
+    out = np.array(supporter, float)
+    rel = out[:, :2] - c
+    s, t = rel @ side, rel @ d
+    k = np.interp(np.clip(s, lo, hi), grid, need)
+    # beside the foot the stretch fades over half the foot's width: the top stays whole, not notched
+    beyond = np.maximum(lo - s, s - hi)
+    k = 1.0 + (k - 1.0) * np.clip(1.0 - beyond / max(0.5 * (hi - lo), 1e-9), 0.0, 1.0)
+    grow = np.where(t > 0, t * (k - 1.0), 0.0)
+    if grow.max() <= 1e-6:
+        return None  # no vertex of it lies behind the foot (a box's eight corners): it keeps its shape
+    out[:, :2] += grow[:, None] * d
+    return out
+
+
 def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np.ndarray], list[dict]]:
     """Vertex sets in which each object resting on another (``supports``: {upper: (lower, how)}) has its
     centre of mass over the supporter's top, and what was moved. A lifted object stands where its outline's
@@ -174,7 +238,9 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
     on it). First the top under its foot is made flat at its base (:func:`raise_top`: hidden by
     it); where that centre still overhangs, it is shifted level, with whatever rests on it, by the shift
     into ``geometry.resting.STEADY_MARGIN`` inside that top that moves its image least (:func:`_cheapest_shift`): a few
-    pixels, where a fall moves it off the frame. A rounded object on another's rounded top (no shift holds a dome
+    pixels, where a fall moves it off the frame. One on a flat foot (a cup) is seated ``SEAT_MARGIN`` inside, and
+    a top read shallower than that foot reaches back under it where the foot hides it (:func:`widen_under`).
+    A rounded object on another's rounded top (no shift holds a dome
     on a dome) goes into a pile's hollow beside it where one holds it, else over the lower one's crown on flat
     faces of both (:func:`_dome_on_dome`); so does one whose centre of mass overhangs its own foot. Higher
     objects first. Before all that, every object standing on a point on the ground gets a flat foot
@@ -222,34 +288,52 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
             continue
         foot = pts[pts[:, 2] <= low + band, :2]
         margin = steady_margin(foot)
+        # a flat foot (a cup, a box) is seated deeper: no hollow or crown is sought for it, only a level shift
+        flat = flat_foot(pts)[1] <= 0
+        seat = steady_margin(foot, SEAT_MARGIN) if flat else margin
         c = com[:2]
         out = _outside(region, c)
-        if out <= -margin:
+        if out <= -seat:
+            if flat:
+                _widen(verts, i, j, foot, low, band, eye, com, done)
             # balanced dome on dome: a pile's hollow beside it holds it as the photo shows it, else its crown
             if not (_rounded_pair(verts[i], verts[j])
                     and _into_hollow(verts, faces, supports, i, j, com, eye, margin, out, done)):
                 _dome_on_dome(verts, faces, supports, i, j, eye, done)
             continue
         # held by several together (a pile's hollow): on one's top alone it balances on a dome
-        if _into_hollow(verts, faces, supports, i, j, com, eye, margin, out, done):
+        if out > -margin and _into_hollow(verts, faces, supports, i, j, com, eye, margin, out, done):
             continue
-        if _dome_on_dome(verts, faces, supports, i, j, eye, done):
+        if out > -margin and _dome_on_dome(verts, faces, supports, i, j, eye, done):
             continue
         raised = raise_top(verts[j], foot, low)
         if not np.array_equal(raised, verts[j]):
             # free: the top under its foot is hidden from the camera by what stands on it
             verts[j] = raised
             region = _top_under(raised, low, band)
-            if _outside(region, c) <= -margin:
+            if _outside(region, c) <= -seat:
                 done.append({"object": i, "on": j, "shift_m": 0.0, "raised_top": True})
+                if flat:
+                    _widen(verts, i, j, foot, low, band, eye, com, done)
                 continue
-        shift = _cheapest_shift(region, c, margin, com, eye)
+        shift = _cheapest_shift(region, c, seat, com, eye)
         for k in riders(i, supports):
             verts[k][:, :2] += shift
         verts[j] = raise_top(verts[j], foot + shift, low)  # flat under where the foot now stands
         done.append({"object": i, "on": j, "shift_m": round(float(np.linalg.norm(shift)), 4),
                      "overhang_m": round(_outside(region, c), 4)})
+        if flat:
+            _widen(verts, i, j, foot + shift, low, band, eye, com + [*shift, 0.0], done)
     return verts, done
+
+
+def _widen(verts, i: int, j: int, foot, low: float, band: float, eye, com, done: list) -> None:
+    """Object ``j``'s vertices in ``verts`` reaching under all of the flat ``foot`` of ``i`` on it
+    (:func:`widen_under`), recorded in ``done``, where its top falls short of that foot behind it."""
+    wide = widen_under(verts[j], _top_under(verts[j], low, band), foot, eye, com)
+    if wide is not None:
+        done.append({"object": j, "widened_under": i, "widened_m": round(float(np.abs(wide - verts[j]).max()), 4)})
+        verts[j] = wide
 
 
 #: What holds an object walls it in where it rises this fraction of the object's height above its lowest point
