@@ -169,8 +169,9 @@ def _cheapest_shift(region: np.ndarray, c: np.ndarray, margin: float, com: np.nd
 #: A flat foot overhanging its support's top behind it by more than this fraction of its own depth has that
 #: top widened under it (:func:`widen_under`; a box 5 mm over the back of the box under it stands as it is) ...
 WIDEN_FRACTION = 0.15
-#: ... to this far (m) past the foot.
-WIDEN_SLACK = 0.002
+#: ... to this far (m) past the foot's farthest point, all across the foot: a top widened only to the foot's
+#: round back (a ridge between a lifted book's few edge vertices) held the cup's back on a point, and it tipped.
+WIDEN_SLACK = 0.005
 
 
 def _reach(hull_eq: np.ndarray, start: np.ndarray, along: np.ndarray) -> float:
@@ -206,11 +207,11 @@ def widen_under(supporter: np.ndarray, region: np.ndarray, foot: np.ndarray, eye
     lat = (foot - c) @ side
     lo, hi = float(lat.min()), float(lat.max())
     grid = np.linspace(lo, hi, 25)
+    far = float(((foot - c) @ d).max()) + WIDEN_SLACK
     need = []
     for s in grid:
-        start = c + s * side
-        far, have = _reach(sole, start, d), _reach(top, start, d)
-        need.append(max(1.0, (far + WIDEN_SLACK) / have) if far > 0 and have > 0 else 1.0)
+        have = _reach(top, c + s * side, d)
+        need.append(max(1.0, far / have) if have > 0 else 1.0)
     need = np.array(need)
     depth = float(np.ptp((foot - c) @ d))
     if need.max() <= 1.0 + 1e-9 or _reach(sole, c, d) - _reach(top, c, d) <= WIDEN_FRACTION * depth:
