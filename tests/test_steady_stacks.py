@@ -112,7 +112,10 @@ def test_a_stack_is_steadied_by_the_load_each_object_carries_not_by_its_own_cent
     assert np.allclose(moved[1], moved[2]), moved  # the top box goes with the one under it
     assert _outside(region, (load + moved[1])[:2]) <= -0.009, done
     assert abs(moved[1][2]) < 1e-9 and abs(moved[1][0]) < 0.25 * abs(moved[1][1])  # level, along the sight (a grid step across)
-    assert np.array_equal(verts[0], bottom.vertices)
+    # the bottom box stays where the photo shows it; a quarter of the middle one's foot still over its back edge,
+    # it reaches back under it there, hidden by it
+    assert np.allclose(verts[0][:, [0, 2]], bottom.vertices[:, [0, 2]], atol=1e-4)
+    assert np.isclose(verts[0][:, 1].min(), bottom.vertices[:, 1].min())
 
 
 def test_a_slanted_sole_is_made_level_where_it_holds_the_centre_of_mass():
@@ -173,10 +176,10 @@ def test_a_ball_on_a_bowl_s_inner_floor_gets_a_flat_foot_and_one_on_a_crate_s_to
     assert not [d for d in done if d["object"] == 1], done
 
 
-def test_a_cup_near_the_edge_of_a_narrow_board_is_seated_deeper_than_a_ball():
+def test_a_board_read_shallower_than_the_cup_on_it_reaches_back_under_the_cup():
     # a cup 1.2 cm inside a board read too narrow, two fifths of its base over the edge, stood by the steadying
-    # margin and was rocked off it by the solver (issue 38): a flat foot is seated SEAT_MARGIN inside
-    from physomni_usd.geometry.resting import SEAT_MARGIN, STEADY_MARGIN
+    # margin and was rocked off it by the solver (issue 38)
+    from physomni_usd.geometry.resting import STEADY_MARGIN
 
     board = _box((0.3, 0.083, 0.03), (0, 0, 0.015))
     board = trimesh.Trimesh(*trimesh.remesh.subdivide_to_size(board.vertices, board.faces, 0.01))  # as lifted
@@ -184,11 +187,9 @@ def test_a_cup_near_the_edge_of_a_narrow_board_is_seated_deeper_than_a_ball():
     cup.apply_translation([0.0, 0.0415 - 0.012, 0.065])  # its centre 1.2 cm inside the board's back edge
     eye = np.array([0.0, -1.0, 0.4])
     top = _top_under(board.vertices, 0.03, 0.01)
-    assert -SEAT_MARGIN < _outside(top, cup.center_mass[:2]) <= -STEADY_MARGIN
+    assert _outside(top, cup.center_mass[:2]) <= -STEADY_MARGIN
     verts, done = steady_stacks([board.vertices, cup.vertices], [board.faces, cup.faces], {1: (0, "on")}, eye)
-    moved = verts[1].mean(axis=0) - cup.vertices.mean(axis=0)
-    assert _outside(top, cup.center_mass[:2] + moved[:2]) <= -SEAT_MARGIN + 1e-3, done
-    assert abs(moved[2]) < 1e-9 and np.linalg.norm(moved) < 0.02, moved
+    assert np.array_equal(verts[1], cup.vertices)  # its centre holds: it is not moved off its outline
     # the board, read shallower than the cup on it, reaches back under all of the cup's foot, where the cup hides
     # it; its front, which the photo shows, and its length stay
     foot = verts[1][verts[1][:, 2] <= verts[1][:, 2].min() + 1e-6]

@@ -12,10 +12,6 @@ CONTACT_BAND = 0.01
 #: A stacked object's centre of mass is brought this far (m, or this fraction of its footprint's smaller side
 #: if less) inside the top of what holds it: on the edge, the solver's rocking tips it.
 STEADY_MARGIN = 0.01
-#: ... and one standing on a flat foot (a cup on a book) this far: a cup lifted onto a book read too narrow,
-#: brought 11.6 mm inside its edge with two fifths of its base over it, was rocked off by the solver at the
-#: third frame (the book under it a third of its mass) and fell 14 cm.
-SEAT_MARGIN = 0.02
 #: The flattened cap of a rounded foot is at most this fraction of the object's height (an orange: 2-3 mm).
 FOOT_CUT = 0.05
 
@@ -26,11 +22,10 @@ def contact_band(points: np.ndarray) -> float:
     return max(CONTACT_BAND, CONTACT_BAND * float(np.ptp(points[:, 2])))
 
 
-def steady_margin(foot: np.ndarray, most: float = STEADY_MARGIN) -> float:
+def steady_margin(foot: np.ndarray) -> float:
     """How far (m) inside a top a centre of mass over ``foot`` (M, 2, its contact's points seen from above) is
-    kept: ``most`` (:data:`STEADY_MARGIN`, :data:`SEAT_MARGIN` for a flat foot), or a quarter of the foot's
-    smaller side where less."""
-    return min(most, 0.25 * float(np.ptp(foot, axis=0).min()) if len(foot) > 1 else most)
+    kept: :data:`STEADY_MARGIN`, or a quarter of the foot's smaller side where less."""
+    return min(STEADY_MARGIN, 0.25 * float(np.ptp(foot, axis=0).min()) if len(foot) > 1 else STEADY_MARGIN)
 
 
 def solid(points: np.ndarray, faces: np.ndarray):

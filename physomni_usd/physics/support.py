@@ -12,8 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.resting import (FOOT_CUT, SEAT_MARGIN, contact_band, solid as _solid, solid_com as _solid_com,
-                                steady_margin)
+from ..geometry.resting import FOOT_CUT, contact_band, solid as _solid, solid_com as _solid_com, steady_margin
 
 #: An object whose lowest point is within this of the ground (m, or this fraction of its size if larger)
 #: stands on it.
@@ -239,8 +238,8 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
     on it). First the top under its foot is made flat at its base (:func:`raise_top`: hidden by
     it); where that centre still overhangs, it is shifted level, with whatever rests on it, by the shift
     into ``geometry.resting.STEADY_MARGIN`` inside that top that moves its image least (:func:`_cheapest_shift`): a few
-    pixels, where a fall moves it off the frame. One on a flat foot (a cup) is seated ``SEAT_MARGIN`` inside, and
-    a top read shallower than that foot reaches back under it where the foot hides it (:func:`widen_under`).
+    pixels, where a fall moves it off the frame. Under a flat foot (a cup), a top read shallower than that foot
+    reaches back under it where the foot hides it (:func:`widen_under`).
     A rounded object on another's rounded top (no shift holds a dome
     on a dome) goes into a pile's hollow beside it where one holds it, else over the lower one's crown on flat
     faces of both (:func:`_dome_on_dome`); so does one whose centre of mass overhangs its own foot. Higher
@@ -289,12 +288,10 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
             continue
         foot = pts[pts[:, 2] <= low + band, :2]
         margin = steady_margin(foot)
-        # a flat foot (a cup, a box) is seated deeper: no hollow or crown is sought for it, only a level shift
-        flat = flat_foot(pts)[1] <= 0
-        seat = steady_margin(foot, SEAT_MARGIN) if flat else margin
+        flat = flat_foot(pts)[1] <= 0  # a cup, a box: what holds it is widened under it where it falls short
         c = com[:2]
         out = _outside(region, c)
-        if out <= -seat:
+        if out <= -margin:
             if flat:
                 _widen(verts, i, j, foot, low, band, eye, com, done)
             # balanced dome on dome: a pile's hollow beside it holds it as the photo shows it, else its crown
@@ -303,21 +300,21 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
                 _dome_on_dome(verts, faces, supports, i, j, eye, done)
             continue
         # held by several together (a pile's hollow): on one's top alone it balances on a dome
-        if out > -margin and _into_hollow(verts, faces, supports, i, j, com, eye, margin, out, done):
+        if _into_hollow(verts, faces, supports, i, j, com, eye, margin, out, done):
             continue
-        if out > -margin and _dome_on_dome(verts, faces, supports, i, j, eye, done):
+        if _dome_on_dome(verts, faces, supports, i, j, eye, done):
             continue
         raised = raise_top(verts[j], foot, low)
         if not np.array_equal(raised, verts[j]):
             # free: the top under its foot is hidden from the camera by what stands on it
             verts[j] = raised
             region = _top_under(raised, low, band)
-            if _outside(region, c) <= -seat:
+            if _outside(region, c) <= -margin:
                 done.append({"object": i, "on": j, "shift_m": 0.0, "raised_top": True})
                 if flat:
                     _widen(verts, i, j, foot, low, band, eye, com, done)
                 continue
-        shift = _cheapest_shift(region, c, seat, com, eye)
+        shift = _cheapest_shift(region, c, margin, com, eye)
         for k in riders(i, supports):
             verts[k][:, :2] += shift
         verts[j] = raise_top(verts[j], foot + shift, low)  # flat under where the foot now stands
