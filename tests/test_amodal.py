@@ -88,3 +88,15 @@ def test_a_sliver_seen_between_the_fruit_in_front_of_it_is_hidden_by_them_and_hi
     assert sliver.sum() < 0.2 * front[0].sum()
     assert {(0, 3), (2, 3)} <= set(order), order
     assert not [pair for pair in order if pair[0] == 3], order
+
+
+def test_a_stick_two_pixels_wide_across_a_box_hides_it():
+    # every pixel of so thin an occluder lies within a pixel of the box's outline on both sides: none is left
+    # beyond that row, and the order must fall back on the raw reach of the box's closure
+    box = np.zeros((240, 320), bool)
+    box[80:160, 100:220] = True
+    stick = np.zeros_like(box)
+    stick[119:121, 60:260] = True
+    box &= ~stick
+    assert occlusion_order([stick, box]) == [(0, 1)]
+    assert occlusion_order([box, stick]) == [(1, 0)]

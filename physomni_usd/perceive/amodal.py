@@ -84,6 +84,10 @@ def occlusion_order(masks: list[np.ndarray]) -> list[tuple[int, int]]:
             into_i = (hulls[j] & masks[i]).sum() / areas[i]
             deep_j = (inner[i] & masks[j]).sum() / areas[j]  # ... beyond the row along their shared outline
             deep_i = (inner[j] & masks[i]).sum() / areas[i]
+            if deep_j + deep_i == 0:
+                # a thin occluder (a stick of a pixel or two across a box) lies wholly within that row of the
+                # other's outline: nothing is left beyond it, and the raw reach decides as it did before
+                deep_j, deep_i = into_j, into_i
             if into_j >= MIN_HIDDEN_FRACTION and deep_j > 0 and deep_j >= ORDER_RATIO * deep_i:
                 out.append((j, i))
             elif into_i >= MIN_HIDDEN_FRACTION and deep_i > 0 and deep_i >= ORDER_RATIO * deep_j:
