@@ -206,3 +206,114 @@ def test_a_support_is_not_widened_toward_the_camera_nor_under_a_foot_it_holds():
     eye = np.array([0.0, -1.0, 0.4])
     verts, done = steady_stacks([board.vertices, cup.vertices], [board.faces, cup.faces], {1: (0, "on")}, eye)
     assert np.array_equal(verts[0], board.vertices) and not done
+    # a cup over the board's front edge, which the photo shows: the board's back stays where it is
+    board, cup = _cup_on_board(y=-0.0415 + 0.012)
+    verts, done = steady_stacks([board.vertices, cup.vertices], [board.faces, cup.faces], {1: (0, "on")}, eye)
+    assert np.isclose(verts[0][:, 1].max(), board.vertices[:, 1].max()), done
+    assert not [d for d in done if "widened_under" in d], done
+    # a box 5 mm over the back of the box under it (a twelfth of its depth) stands as it is
+    lower = _box((0.2, 0.08, 0.05), (0, 0, 0.025))
+    lower = trimesh.Trimesh(*trimesh.remesh.subdivide_to_size(lower.vertices, lower.faces, 0.01))
+    upper = _box((0.1, 0.06, 0.04), (0, 0.04 + 0.005 - 0.03, 0.07))
+    verts, done = steady_stacks([lower.vertices, upper.vertices], [lower.faces, upper.faces], {1: (0, "on")}, eye)
+    assert np.array_equal(verts[0], lower.vertices) and not [d for d in done if "widened_under" in d], done
+
+
+def test_the_top_under_another_object_on_the_support_is_not_stretched():
+    board, cup = _cup_on_board()
+    card = _box((0.03, 0.02, 0.08), (0.035, 0.025, 0.07))  # stands on the board beside the cup, within its span
+    eye = np.array([0.0, -1.0, 0.4])
+    verts, done = steady_stacks([board.vertices, cup.vertices, card.vertices],
+                                [board.faces, cup.faces, card.faces], {1: (0, "on"), 2: (0, "on")}, eye)
+    under = ((np.abs(board.vertices[:, 0] - 0.035) <= 0.015) & (np.abs(board.vertices[:, 1] - 0.025) <= 0.01))
+    assert under.any()
+    assert np.array_equal(verts[0][under], board.vertices[under]), done
+
+
+def _cup_on_board(y=0.0415 - 0.012, depth=0.083):
+    board = _box((0.3, depth, 0.03), (0, 0, 0.015))
+    board = trimesh.Trimesh(*trimesh.remesh.subdivide_to_size(board.vertices, board.faces, 0.01))  # as lifted
+    cup = trimesh.creation.cylinder(radius=0.039, height=0.07, sections=48)
+    cup.apply_translation([0.0, y, 0.065])
+    return board, cup
+
+
+def _silhouette(verts, faces, eye, at, size=(480, 640), f=900.0):
+    """The (H, W) bool pixels a pinhole camera at ``eye`` looking at ``at`` sees the mesh cover."""
+    import cv2
+
+    fwd = (at - eye) / np.linalg.norm(at - eye)
+    right = np.cross(fwd, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, fwd)
+    rel = verts - eye
+    z = rel @ fwd
+    uv = np.column_stack([rel @ right / z, -(rel @ up) / z]) * f + [size[1] / 2, size[0] / 2]
+    out = np.zeros(size, np.uint8)
+    tris = [np.round(uv[tri] * 16).astype(np.int32) for tri in faces]
+    for tri in tris:  # one at a time: in one call overlapping triangles (a cup's near and far wall) cancel
+        cv2.fillConvexPoly(out, tri, 1, shift=4)
+    return out > 0
+
+
+def _turned(before, after, faces):
+    n0 = np.cross(before[faces[:, 1]] - before[faces[:, 0]], before[faces[:, 2]] - before[faces[:, 0]])
+    n1 = np.cross(after[faces[:, 1]] - after[faces[:, 0]], after[faces[:, 2]] - after[faces[:, 0]])
+    return int(((n0 * n1).sum(axis=1) <= 0).sum())
+
+
+def test_a_widened_board_changes_no_pixel_the_cup_leaves_seen():
+    # stretched beside the cup as well, the board's outline changed by 265 pixels from a level camera and 578
+    # from a steep one that the cup does not cover
+    board, cup = _cup_on_board()
+    widened = 0
+    for eye in (np.array([0.0, -1.0, 0.2]), np.array([0.0, -1.0, 0.4]), np.array([0.15, -0.35, 0.8])):
+        verts, done = steady_stacks([board.vertices, cup.vertices], [board.faces, cup.faces], {1: (0, "on")}, eye)
+        widened += any("widened_under" in d for d in done)
+        at = cup.center_mass
+        was = _silhouette(board.vertices, board.faces, eye, at)
+        now = _silhouette(verts[0], board.faces, eye, at)
+        hides = _silhouette(verts[1], cup.faces, eye, at)
+        assert not ((was ^ now) & ~hides).any(), (eye, int(((was ^ now) & ~hides).sum()), done)
+    assert widened >= 2
+
+
+def test_a_board_is_not_widened_into_a_box_or_a_wall_against_its_back():
+    # against_wall puts a shelf's back on the wall: 124 of the widened shelf's vertices ended inside it, and 261
+    # 3 cm inside a box touching the board's back
+    from physomni_usd.physics.support import WIDEN_GAP
+
+    board, cup = _cup_on_board()
+    eye = np.array([0.0, -1.0, 0.4])
+    for behind in (_box((0.1, 0.1, 0.1), (0.0, 0.0415 + 0.05, 0.05)), _box((1.0, 0.02, 1.0), (0.0, 0.0515, 0.5))):
+        verts, done = steady_stacks([board.vertices, cup.vertices, behind.vertices],
+                                    [board.faces, cup.faces, behind.faces], {1: (0, "on")}, eye)
+        assert verts[0][:, 1].max() <= behind.vertices[:, 1].min() + 1e-9, done
+        assert not behind.contains(verts[0]).any()
+    # a box 4 cm back leaves room for the board to reach under the cup, and it stops short of it
+    behind = _box((0.1, 0.1, 0.1), (0.0, 0.0415 + 0.04 + 0.05, 0.05))
+    verts, done = steady_stacks([board.vertices, cup.vertices, behind.vertices],
+                                [board.faces, cup.faces, behind.faces], {1: (0, "on")}, eye)
+    assert any("widened_under" in d for d in done), done
+    assert verts[0][:, 1].max() <= behind.vertices[:, 1].min() - WIDEN_GAP + 1e-9
+
+
+def test_a_widened_top_turns_no_face_over():
+    # a stretch per position across the foot sheared the board's faces seen from 45 degrees (24 turned over),
+    # and a cup off the centre of a round tin turned 4 and moved a vertex 9.4 cm (need = far / have, have -> 0)
+    board, cup = _cup_on_board()
+    foot_depth = 2 * 0.039
+    for eye in (np.array([-0.7, -0.7, 0.4]), np.array([0.7, -0.7, 0.4])):
+        verts, done = steady_stacks([board.vertices, cup.vertices], [board.faces, cup.faces], {1: (0, "on")}, eye)
+        assert _turned(board.vertices, verts[0], board.faces) == 0, done
+        assert np.linalg.norm(verts[0] - board.vertices, axis=1).max() <= foot_depth + 1e-9
+    tin = trimesh.creation.cylinder(radius=0.06, height=0.1, sections=64)
+    tin.apply_translation([0, 0, 0.05])
+    tin = trimesh.Trimesh(*trimesh.remesh.subdivide_to_size(tin.vertices, tin.faces, 0.01))
+    for x, y in ((0.03, 0.03), (0.045, 0.0), (0.0, 0.04), (-0.035, 0.025)):
+        cup = trimesh.creation.cylinder(radius=0.039, height=0.07, sections=48)
+        cup.apply_translation([x, y, 0.135])
+        for eye in (np.array([0.0, -1.0, 0.4]), np.array([-0.7, -0.7, 0.6])):
+            verts, done = steady_stacks([tin.vertices, cup.vertices], [tin.faces, cup.faces], {1: (0, "on")}, eye)
+            assert _turned(tin.vertices, verts[0], tin.faces) == 0, (x, y, done)
+            assert np.linalg.norm(verts[0] - tin.vertices, axis=1).max() <= foot_depth + 1e-9, (x, y, done)
