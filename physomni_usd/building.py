@@ -557,8 +557,8 @@ def _steadied(scene: Scene, camera, verts, faces, supports, align_info: dict) ->
     verts, done = steady_stacks(verts, faces, supports, camera.origin)
     if done:
         names = [o.name for o in scene.objects]
-        named = ("object", "on", "widened_under")  # indices into the scene's objects
-        align_info["steadied"] = [d | {key: names[d[key]] for key in named if key in d} for d in done]
+        align_info["steadied"] = [d | {"object": names[d["object"]]} | ({"on": names[d["on"]]} if "on" in d else {})
+                                  for d in done]
     return verts
 
 

@@ -165,144 +165,6 @@ def _cheapest_shift(region: np.ndarray, c: np.ndarray, margin: float, com: np.nd
     return steps[np.argmin(np.linalg.norm(across, axis=1) + 0.1 * np.linalg.norm(steps, axis=1))]
 
 
-#: A flat foot overhanging its support's top behind it by more than this fraction of its own depth has that
-#: top widened under it (:func:`widen_under`; a box 5 mm over the back of the box under it stands as it is) ...
-WIDEN_FRACTION = 0.15
-#: ... to this far (m) past the foot's farthest point, all across the foot: a top widened only to the foot's
-#: round back (a ridge between a lifted book's few edge vertices) held the cup's back on a point, and it tipped.
-WIDEN_SLACK = 0.005
-#: Where the top reaches less than this fraction of the foot's depth behind the foot's front there is no top
-#: to widen: stretched by the ratio of the two, a sliver of a round tin's top moved a vertex 9.4 cm.
-WIDEN_LEAST_TOP = 0.25
-#: A widened top stops this far (m) short of anything else behind it: the 2 mm a contact keeps.
-WIDEN_GAP = 0.002
-#: A widening that shrinks any face of the support below this fraction of its area is not made: it folds.
-WIDEN_LEAST_AREA = 0.1
-
-
-def _reach(hull_eq: np.ndarray, start: np.ndarray, along: np.ndarray) -> float:
-    """How far (m) from ``start`` (2,) along the unit ``along`` (2,) a convex region (``ConvexHull.equations``,
-    2D) reaches; ≤ 0 where ``start`` lies outside it there."""
-    a = hull_eq[:, :2] @ along
-    d = -(hull_eq[:, :2] @ start + hull_eq[:, 2])
-    ahead = a > 1e-12
-    return float((d[ahead] / a[ahead]).min()) if ahead.any() else 0.0
-
-
-def _first_hit(mesh, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
-    """The distance (m) along each unit ``directions`` row from ``origins`` to ``mesh``, inf where it misses."""
-    out = np.full(len(origins), np.inf)
-    if len(origins):
-        where, ray, _ = mesh.ray.intersects_location(origins, directions, multiple_hits=True)
-        if len(ray):
-            np.minimum.at(out, ray, np.einsum("ij,ij->i", where - origins[ray], directions[ray]))
-    return out
-
-
-def widen_under(supporter: np.ndarray, faces: np.ndarray, low: float, band: float, foot: np.ndarray, eye, com,
-                load, others=(), kept=()) -> np.ndarray | None:
-    """``supporter`` (N, 3; triangle ``faces``) stretched away from the camera at ``eye``, along the level
-    direction ``d`` from the eye toward the load's centre of mass ``com``, until its top (its points within
-    ``band`` under ``low``) reaches under all of ``foot`` (M, 2: the flat foot of what rests on it); None where
-    the foot overhangs only toward the camera, hardly at all, or where no stretch the rules below allow reaches.
-    A book lifted from a footprint read too shallow (8 cm deep under a 7.8 cm cup) leaves the cup's back over
-    its edge whatever shift the photo allows; a heavy cup on it, two fifths of its base over nothing, rocked the
-    light book and fell off it at the third frame. The part behind the cup's foot is what the cup hides, so only
-    that part moves: one stretch from the foot's front across the foot's side-to-side span and nothing beside
-    it, no vertex further than the foot is deep, none where it, where it goes or a corner of its faces is not
-    hidden from the eye by ``load`` (a trimesh: the object and what it carries; else the outline the photo
-    shows would change), none into ``others`` (trimeshes: every other object, a wall or a box against the
-    support's back) and none under ``kept`` ((K, 2) feet of other objects standing on the support)."""
-    from scipy.spatial import ConvexHull, Delaunay, QhullError
-
-    if eye is None:
-        return None
-    eye = np.asarray(eye, float)
-    d = np.asarray(com, float)[:2] - eye[:2]
-    if float(np.linalg.norm(d)) < 1e-9:
-        return None
-    d = d / float(np.linalg.norm(d))
-    side = np.array([-d[1], d[0]])
-    pts = np.asarray(supporter, float)
-    on_top = pts[:, 2] >= min(low, pts[:, 2].max()) - band
-    try:
-        top, sole = ConvexHull(np.unique(np.round(pts[on_top, :2], 6), axis=0)).equations, ConvexHull(foot).equations
-    except (QhullError, ValueError):
-        return None
-    c = foot.mean(axis=0)
-    lat = (foot - c) @ side
-    lo, hi = float(lat.min()), float(lat.max())
-    depth = float(np.ptp((foot - c) @ d))
-    if depth <= 0 or _reach(sole, c, d) - _reach(top, c, d) <= WIDEN_FRACTION * depth:
-        return None
-    # stretched from the foot's front: how much top lies under the foot across it, and the foot's depth past it
-    o = c + float(((foot - c) @ d).min()) * d
-    grid = np.linspace(lo, hi, 25)[1:-1]
-    have = np.array([_reach(top, o + q * side, d) for q in grid])
-    there = have >= WIDEN_LEAST_TOP * depth
-    if not there.any():
-        return None
-    far = depth + WIDEN_SLACK
-    rel = pts[:, :2] - o
-    s, t = rel @ side, rel @ d
-    span = (s >= lo) & (s <= hi) & (t > 0)
-    for other in kept:  # what stands on it beside the load keeps the top under it
-        try:
-            span &= ~(Delaunay(other).find_simplex(pts[:, :2]) >= 0)
-        except (QhullError, ValueError):
-            pass
-    if not span.any():
-        return None
-    # one stretch for the whole span (per position it sheared the mesh), at most the foot's depth at any vertex
-    k = min(max(far / float(have[there].min()), 1.0), 1.0 + depth / float(t[span].max()))
-    move = np.where(span, t * (k - 1.0), 0.0)
-    ahead = np.zeros((len(pts), 3))
-    ahead[:, :2] = d
-    moving = np.flatnonzero(move > 1e-6)
-    for mesh in others:  # never into what stands behind it
-        gap = _first_hit(mesh, pts[moving], ahead[moving])
-        move[moving] = np.minimum(move[moving], np.maximum(gap - WIDEN_GAP, 0.0))
-
-    def hidden(points: np.ndarray) -> np.ndarray:
-        ray = points - eye
-        dist = np.linalg.norm(ray, axis=1)
-        return _first_hit(load, np.repeat(eye[None], len(points), 0), ray / dist[:, None]) < dist - 1e-6
-
-    # a vertex moves only where it, where it goes and every corner of its faces are hidden by the load: the
-    # faces it drags then change no pixel the load leaves seen
-    moving = np.flatnonzero(move > 1e-6)
-    seen = np.ones(len(pts), bool)
-    near = np.unique(faces[np.isin(faces, moving).any(axis=1)])
-    seen[near] = ~hidden(pts[near])
-    faces_seen = seen[faces].any(axis=1)
-    blocked = np.zeros(len(pts), bool)
-    blocked[np.unique(faces[faces_seen])] = True
-    move[blocked] = 0.0
-    for last in (False, False, False, True):  # cut back where it would come out from behind the load
-        moving = np.flatnonzero(move > 1e-6)
-        ok = hidden(pts[moving] + move[moving, None] * ahead[moving])
-        if ok.all():
-            break
-        move[moving[~ok]] = 0.0 if last else 0.5 * move[moving[~ok]]
-    if move.max() <= 1e-6:
-        return None
-    out = pts + move[:, None] * ahead
-    try:
-        wide = ConvexHull(np.unique(np.round(out[on_top, :2], 6), axis=0)).equations
-    except QhullError:
-        return None
-    short = [_reach(sole, o + q * side, d) - _reach(wide, o + q * side, d) for q in grid[there]]
-    if max(short) > 0.001:
-        return None  # still short of the foot: a half widened top holds it no better
-    before = np.cross(pts[faces[:, 1]] - pts[faces[:, 0]], pts[faces[:, 2]] - pts[faces[:, 0]])
-    after = np.cross(out[faces[:, 1]] - out[faces[:, 0]], out[faces[:, 2]] - out[faces[:, 0]])
-    area0, area1 = np.linalg.norm(before, axis=1), np.linalg.norm(after, axis=1)
-    real = area0 > 1e-12
-    if ((before * after).sum(axis=1)[real] <= 0).any() or (area1[real] < WIDEN_LEAST_AREA * area0[real]).any():
-        return None  # a face turned over or folded flat
-    return out
-
-
 def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np.ndarray], list[dict]]:
     """Vertex sets in which each object resting on another (``supports``: {upper: (lower, how)}) has its
     centre of mass over the supporter's top, and what was moved. A lifted object stands where its outline's
@@ -312,9 +174,7 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
     on it). First the top under its foot is made flat at its base (:func:`raise_top`: hidden by
     it); where that centre still overhangs, it is shifted level, with whatever rests on it, by the shift
     into ``geometry.resting.STEADY_MARGIN`` inside that top that moves its image least (:func:`_cheapest_shift`): a few
-    pixels, where a fall moves it off the frame. Under a flat foot (a cup), a top read shallower than that foot
-    reaches back under it where the foot hides it (:func:`widen_under`).
-    A rounded object on another's rounded top (no shift holds a dome
+    pixels, where a fall moves it off the frame. A rounded object on another's rounded top (no shift holds a dome
     on a dome) goes into a pile's hollow beside it where one holds it, else over the lower one's crown on flat
     faces of both (:func:`_dome_on_dome`); so does one whose centre of mass overhangs its own foot. Higher
     objects first. Before all that, every object standing on a point on the ground gets a flat foot
@@ -362,12 +222,9 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
             continue
         foot = pts[pts[:, 2] <= low + band, :2]
         margin = steady_margin(foot)
-        flat = flat_foot(pts)[1] <= 0  # a cup, a box: what holds it is widened under it where it falls short
         c = com[:2]
         out = _outside(region, c)
         if out <= -margin:
-            if flat:
-                _widen(verts, faces, supports, i, j, foot, low, band, eye, com, done)
             # balanced dome on dome: a pile's hollow beside it holds it as the photo shows it, else its crown
             if not (_rounded_pair(verts[i], verts[j])
                     and _into_hollow(verts, faces, supports, i, j, com, eye, margin, out, done)):
@@ -385,8 +242,6 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
             region = _top_under(raised, low, band)
             if _outside(region, c) <= -margin:
                 done.append({"object": i, "on": j, "shift_m": 0.0, "raised_top": True})
-                if flat:
-                    _widen(verts, faces, supports, i, j, foot, low, band, eye, com, done)
                 continue
         shift = _cheapest_shift(region, c, margin, com, eye)
         for k in riders(i, supports):
@@ -394,38 +249,7 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
         verts[j] = raise_top(verts[j], foot + shift, low)  # flat under where the foot now stands
         done.append({"object": i, "on": j, "shift_m": round(float(np.linalg.norm(shift)), 4),
                      "overhang_m": round(_outside(region, c), 4)})
-        if flat:
-            _widen(verts, faces, supports, i, j, foot + shift, low, band, eye, com + [*shift, 0.0], done)
     return verts, done
-
-
-def _widen(verts, faces, supports: dict, i: int, j: int, foot, low: float, band: float, eye, com,
-           done: list) -> None:
-    """Object ``j``'s vertices in ``verts`` reaching under all of the flat ``foot`` of ``i`` on it
-    (:func:`widen_under`), recorded in ``done``, where its top falls short of that foot behind it."""
-    import trimesh
-
-    from ..align.support import riders
-
-    if eye is None:
-        return
-    load = riders(i, supports)
-    body = trimesh.util.concatenate([trimesh.Trimesh(verts[k], faces[k], process=False) for k in load])
-    lo, hi = verts[j].min(axis=0), verts[j].max(axis=0)
-    reach = float(np.ptp(foot, axis=0).max())
-    others = [trimesh.Trimesh(verts[k], faces[k], process=False) for k in range(len(verts))
-              if k != j and k not in load and (verts[k][:, :2].max(axis=0) >= lo[:2] - reach).all()
-              and (verts[k][:, :2].min(axis=0) <= hi[:2] + reach).all()
-              and verts[k][:, 2].max() >= lo[2] and verts[k][:, 2].min() <= hi[2]]
-    kept = []
-    for k, (under, _) in supports.items():
-        if under == j and k != i:
-            sole = verts[k][verts[k][:, 2] <= verts[k][:, 2].min() + contact_band(verts[k]), :2]
-            kept.append(sole)
-    wide = widen_under(verts[j], faces[j], low, band, foot, eye, com, body, others, kept)
-    if wide is not None:
-        done.append({"object": j, "widened_under": i, "widened_m": round(float(np.abs(wide - verts[j]).max()), 4)})
-        verts[j] = wide
 
 
 #: What holds an object walls it in where it rises this fraction of the object's height above its lowest point
