@@ -105,6 +105,30 @@ def test_a_ball_beside_a_crown_is_seated_on_a_wider_face_rather_than_carried_ont
     assert _outside(crown, com[:2]) <= -steady_margin(sole) + 1e-6 and _outside(sole, com[:2]) < 0, com
 
 
+def test_a_heavy_ball_seated_off_the_crown_of_a_light_one_keeps_the_pair_over_the_light_one_s_foot():
+    """A lemon read as on a smaller orange, 15 mm off its axis: seated there on a wide cut of the orange's crown,
+    it held, but the two together leaned past the orange's narrow foot; the orange tipped and both fell 21 cm.
+    It is brought only as near its place as leaves the pair's centre of mass (by volume) over that foot."""
+    below = trimesh.creation.icosphere(subdivisions=3, radius=0.03)
+    below.apply_translation([0, 0, 0.03])
+    held = trimesh.creation.icosphere(subdivisions=3, radius=0.045)
+    held.apply_translation([0.02, 0, 0.03 + np.sqrt(0.075 ** 2 - 0.02 ** 2)])
+    eye = np.array([0.0, -0.6, 0.3])  # looking along +y: x is across the line of sight
+    verts, done = steady_stacks([below.vertices, held.vertices], [below.faces, held.faces], {1: (0, "on")}, eye)
+    assert [d for d in done if d.get("object") == 1 and "crown_cut_m" in d], done
+    low = float(verts[0][:, 2].min())
+    foot = verts[0][verts[0][:, 2] <= low + 1e-6, :2]
+    solids = [trimesh.Trimesh(v, f) for v, f in zip(verts, [below.faces, held.faces])]
+    pair = np.average([s.center_mass for s in solids], axis=0, weights=[s.volume for s in solids])
+    assert _outside(foot, pair[:2]) <= -steady_margin(foot) + 1e-6, (pair, done)
+    top, sole = float(verts[0][:, 2].max()), float(verts[1][:, 2].min())
+    assert abs(sole - top) < 1e-9  # still resting on the cut face
+    crown = verts[0][verts[0][:, 2] >= top - 1e-9, :2]
+    assert _outside(crown, solids[1].center_mass[:2]) < 0
+    # brought no farther than that: not carried onto the crown's middle, 20 mm across the sight
+    assert float(verts[1][:, 0].mean() - held.vertices[:, 0].mean()) > -0.018, done
+
+
 def test_a_ball_on_a_rim_keeps_its_round_foot():
     """An orange in a bowl's mouth rests on the rim by its roundness: flattened there, it fell 24 cm."""
     ring = trimesh.creation.annulus(r_min=0.03, r_max=0.036, height=0.05)

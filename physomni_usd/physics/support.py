@@ -139,11 +139,12 @@ def raise_top(supporter: np.ndarray, foot: np.ndarray, base_z: float) -> np.ndar
     return out
 
 
-def _cheapest_shift(region: np.ndarray, c: np.ndarray, margin: float, com: np.ndarray, eye) -> np.ndarray:
+def _cheapest_shift(region: np.ndarray, c: np.ndarray, margin: float, com: np.ndarray, eye,
+                    allowed=None) -> np.ndarray:
     """The level shift (2,) of a centre of mass ``c`` into the convex hull of ``region`` by ``margin`` that moves
     its image least: a shift along the line of sight from ``eye`` costs nothing, across it all its length (so
-    a level view forgives depth, a view from above forgives nothing). Where no point of the top is that far
-    inside, its deepest point."""
+    a level view forgives depth, a view from above forgives nothing). Only shifts ``allowed`` ((K, 2) → (K,)
+    bool) allows count, where given. Where no point of the top is that far inside, its deepest point."""
     from scipy.spatial import ConvexHull, QhullError
 
     try:
@@ -154,6 +155,8 @@ def _cheapest_shift(region: np.ndarray, c: np.ndarray, margin: float, com: np.nd
     g = np.stack(np.meshgrid(np.linspace(lo[0], hi[0], 48), np.linspace(lo[1], hi[1], 48)), -1).reshape(-1, 2)
     depth = (g @ eq[:, :2].T + eq[:, 2]).max(axis=1)
     ok = depth <= -margin
+    if allowed is not None and ok.any():
+        ok[ok] = allowed(g[ok] - c)
     if not ok.any():
         return g[np.argmin(depth)] - c
     steps = g[ok] - c
@@ -377,7 +380,8 @@ def _dome_on_dome(verts, faces, supports: dict, i: int, j: int, eye, done: list)
     com = _load_com(riders(i, supports), verts, faces)
     _, sole_cut = flat_foot(pts)
     margin = steady_margin(pts[pts[:, 2] <= float(pts[:, 2].min()) + sole_cut, :2])
-    seat = _seat(verts[j], top, cut_j, SEAT_DEPTH * float(np.ptp(pts[:, 2])), com, margin, eye)
+    seat = _seat(verts[j], top, cut_j, SEAT_DEPTH * float(np.ptp(pts[:, 2])), com, margin, eye,
+                 _stands_under(verts, faces, supports, i, j))
     if seat is None:
         return False
     cut_j, shift = seat
@@ -409,29 +413,92 @@ def _dome_on_dome(verts, faces, supports: dict, i: int, j: int, eye, done: list)
 SEAT_STEPS = 8
 
 
-def _seat(lower: np.ndarray, top: float, cut: float, deepest: float, com: np.ndarray, margin: float, eye):
+def _seat(lower: np.ndarray, top: float, cut: float, deepest: float, com: np.ndarray, margin: float, eye,
+          stands=None):
     """The depth (m) of ``lower``'s crown (its highest point at ``top``) cut flat, from ``cut`` down to
     ``deepest`` if deeper, and the level shift (2,) that brings the centre of mass ``com`` of what rests on it
     ``margin`` inside that face, of which the photo sees least: the shift across the line of sight from ``eye``
     and the drop of the deeper cut both move its image. A fruit seen in a pile's hollow, read as on one fruit
     beside its crown, was carried 2.5 cm sideways onto that crown, off its outline; seated on a face cut wider
-    under it, it moves less. None where no face holds it."""
+    under it, it moves less. Only a shift that ``stands`` ((K, 2) → (K,) bool; :func:`_stands_under`) allows: a
+    face wide enough to hold the load off the crown does not make what it is cut in stand under it. Where no
+    allowed shift is found, over the middle of the crown's own cut. None where no face holds it."""
     depths = np.unique(np.linspace(cut, max(cut, deepest), SEAT_STEPS))
     ray = np.asarray(com, float) - np.asarray(eye, float) if eye is not None else np.zeros(3)
     ray = ray / max(float(np.linalg.norm(ray)), 1e-12)
-    best = None
+    best = crown = None
+
+    def holds(shift) -> bool:
+        return stands is None or bool(stands(np.asarray(shift, float)[None])[0])
+
     for depth in depths:
         face = np.unique(np.round(lower[lower[:, 2] >= top - depth - 1e-9, :2], 6), axis=0)
         if len(face) < 3:
             continue
-        shift = np.zeros(2) if _outside(face, com[:2]) <= -margin else _cheapest_shift(face, com[:2], margin, com, eye)
+        if crown is None:
+            crown = (float(depth), face.mean(axis=0) - com[:2])
+        still = np.zeros(2)
+        shift = still if _outside(face, com[:2]) <= -margin and holds(still) else \
+            _cheapest_shift(face, com[:2], margin, com, eye, stands)
         if _outside(face, com[:2] + shift) > -margin + 1e-9:
             shift = face.mean(axis=0) - com[:2]  # no point that deep: over the face's middle, as a crown's
+        if not holds(shift):
+            continue
         move = np.array([shift[0], shift[1], cut - depth])
         seen = float(np.linalg.norm(move - (move @ ray) * ray))
         if best is None or seen < best[0] - 1e-6:
             best = (seen, float(depth), shift)
-    return None if best is None else best[1:]
+    return crown if best is None else best[1:]
+
+
+def _stands_under(verts, faces, supports: dict, i: int, j: int):
+    """A test (level shifts (K, 2) → (K,) bool) that every object in the column under ``i`` from ``j`` down
+    still has its whole load, itself and all it carries, with ``i`` and its riders shifted level so, the steady
+    margin inside its own foot. A lemon seated 15 mm off the axis of an orange standing on a foot 8 mm across brought the
+    centre of mass of the two outside that foot: the orange tipped and both fell 21 cm. Weighed by volume, as
+    :func:`_load_com`: the materials are not estimated yet. Only an object whose foot is its lowest point is
+    judged (on the ground, walled in, or a dome on a dome, whose foot :func:`flat_foot` cuts there); one on a
+    bowl's rim rests elsewhere."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    from ..align.support import riders
+
+    moved = riders(i, supports)
+    vol = {}
+
+    def weight(k):
+        if k not in vol:
+            s = _solid(verts[k], faces[k])
+            vol[k] = (max(float(abs(s.volume)), 1e-12), np.asarray(s.center_mass, float)[:2])
+        return vol[k]
+
+    levels, k, seen = [], j, set(moved)
+    while k is not None and k not in seen:
+        seen.add(k)
+        below = supports[k][0] if k in supports else None
+        if below is None or walled_in(verts[k], verts[below], faces[below]) or _rounded_pair(verts[k], verts[below]):
+            footed = flat_foot(verts[k])[0]
+            foot = np.unique(np.round(footed[footed[:, 2] <= float(footed[:, 2].min()) + 1e-6, :2], 6), axis=0)
+            try:
+                eq = ConvexHull(foot).equations  # unit outward normals: a·x + b·y + d is the signed distance
+            except (QhullError, ValueError):
+                eq = None  # a line or a point: not a foot to judge by
+            if eq is not None:
+                load = sorted(set(riders(k, supports)) | set(moved))
+                w = np.array([weight(m)[0] for m in load])
+                c0 = np.average([weight(m)[1] for m in load], axis=0, weights=w)
+                frac = float(sum(weight(m)[0] for m in moved) / w.sum())
+                levels.append((eq, steady_margin(foot), c0, frac))
+        k = below
+
+    def stands(shifts: np.ndarray) -> np.ndarray:
+        ok = np.ones(len(shifts), bool)
+        for eq, margin, c0, frac in levels:
+            c = c0 + frac * np.asarray(shifts, float)
+            ok &= (c @ eq[:, :2].T + eq[:, 2]).max(axis=1) <= -margin
+        return ok
+
+    return stands
 
 
 def _thinned(before: np.ndarray, after: np.ndarray) -> bool:
