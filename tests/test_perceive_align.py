@@ -15,6 +15,8 @@ from physomni_usd.lift.silhouette import flat_bottom, is_ball, lift_silhouette
 from physomni_usd.perceive.masks import identifier, split_spec
 from physomni_usd.settings import LiftSettings
 
+from .conftest import ball_seen_low
+
 W, H = 320, 240
 
 
@@ -96,19 +98,10 @@ def test_make_room_keeps_a_ball_seen_standing_balanced_over_where_it_rests():
     """A ball seen standing was as deep as it is wide (its depth measured, not guessed): placing shrinks it
     about its own axis, never squashes it behind its foot, which kept its front half and flattened its back
     half, its centre of mass ahead of where it rests."""
-    import math
-
     from physomni_usd.backends.builtin import _depth_measured
 
-    radius = 0.035
-    camera = PinholeCamera(640, 480, 50.0, 8.0, (0.0, -0.6, radius + 0.6 * math.tan(math.radians(8.0))))
-    ball = trimesh.creation.icosphere(4, radius)
-    ball.vertices += [0.0, 0.0, radius]
-    uv, _ = camera.project(ball.vertices)
-    mask = np.zeros((480, 640), np.uint8)
-    for tri in ball.faces:
-        cv2.fillPoly(mask, [np.round(uv[tri] * 16).astype(np.int32)], 1, shift=4)
-    lifted = lift_silhouette(mask > 0, camera, label="orange")
+    camera, mask, _ = ball_seen_low(8.0)
+    lifted = lift_silhouette(mask, camera, label="orange")
     behind = np.array([0.0, 0.05, 0.0])  # a second one 5 cm behind it, their backs and fronts overlapping
     measured = _depth_measured(lifted.info)
     verts, _ = make_room([lifted.vertices, lifted.vertices + behind], [lifted.contact, lifted.contact + behind],

@@ -166,24 +166,15 @@ def test_a_ball_lifted_standing_and_stacked_on_another_stays(tmp_path):
     """A ball seen from the side (8° down) is lofted about its own upright axis: stacked on another such ball
     and steadied as the build does, it stays. Lofted against its front plane as a cup is, its centre of mass lay
     2 cm behind its lowest point and it tipped backward off the ball under it (25 cm; 452298/027, /035, /020)."""
-    import math
-
-    import cv2
     import trimesh
 
-    from physomni_usd.geometry.camera import PinholeCamera
     from physomni_usd.lift.silhouette import lift_silhouette
     from physomni_usd.physics.support import steady_stacks
 
-    radius = 0.035
-    camera = PinholeCamera(640, 480, 50.0, 8.0, (0.0, -0.6, radius + 0.6 * math.tan(math.radians(8.0))))
-    ball = trimesh.creation.icosphere(4, radius)
-    ball.vertices += [0.0, 0.0, radius]
-    uv, _ = camera.project(ball.vertices)
-    mask = np.zeros((480, 640), np.uint8)
-    for tri in ball.faces:
-        cv2.fillPoly(mask, [np.round(uv[tri] * 16).astype(np.int32)], 1, shift=4)
-    lifted = lift_silhouette(mask > 0, camera, label="orange")
+    from .conftest import ball_seen_low
+
+    camera, mask, _ = ball_seen_low(8.0)
+    lifted = lift_silhouette(mask, camera, label="orange")
     lower = trimesh.Trimesh(lifted.vertices, lifted.faces, process=False)
     upper = lower.copy()
     upper.vertices[:, 2] += np.ptp(lower.vertices[:, 2])  # its lowest point on the lower one's top

@@ -12,6 +12,8 @@ from physomni_usd.geometry.camera import PinholeCamera
 from physomni_usd.lift.silhouette import lift_silhouette
 from physomni_usd.sizes import body_kind, size_prior
 
+from .conftest import ball_seen_low
+
 
 def _blob(tilt_deg: float = 0.0) -> np.ndarray:
     """A lopsided outline (a body and a head), not mirror-symmetric: no surface of revolution fits it. With
@@ -262,22 +264,11 @@ def test_a_post_with_an_arm_to_one_side_stands_as_its_full_slab_does():
         assert slab.shape == "extrude" and stands(slab.vertices, slab.faces), arm
 
 
-def _ball_seen_low(deg: float, x: float = 0.0, radius: float = 0.035):
-    """A camera ``deg`` degrees above a ball of ``radius`` (m) resting on the ground 0.6 m ahead of it (``x``
-    m to its right), the ball's silhouette and its centre."""
-    import math
-
-    camera = PinholeCamera(640, 480, 50.0, deg, (0.0, -0.6, radius + 0.6 * math.tan(math.radians(deg))))
-    ball = trimesh.creation.icosphere(4, radius)
-    ball.vertices += [x, 0.0, radius]
-    return camera, _silhouette(camera, ball), np.array([x, 0.0, radius])
-
-
 @pytest.mark.parametrize("deg, x", [(4.0, 0.0), (9.0, 0.12), (15.0, -0.1)])
 def test_a_ball_seen_from_the_side_is_lofted_about_one_upright_axis_under_its_centre_of_mass(deg, x):
     """A ball's lowest point is under its middle, not at its front (a cup's foot): lofted against the front plane
     its centre of mass lay 2 cm behind its lowest point, and stacked on another fruit it tipped backward off it."""
-    camera, mask, centre = _ball_seen_low(deg, x)
+    camera, mask, centre = ball_seen_low(deg, x)
     lifted = lift_silhouette(mask, camera, label="orange")
     assert lifted.shape == "round"
     mesh = _closed(lifted)
@@ -314,7 +305,7 @@ def test_a_ball_seen_from_the_side_is_round_at_both_ends(deg):
     import math
 
     radius = 0.035
-    camera, mask, centre = _ball_seen_low(deg)
+    camera, mask, centre = ball_seen_low(deg)
     lifted = lift_silhouette(mask, camera, label="orange")
     assert lifted.info.get("axis") == "ball"
     v = lifted.vertices
