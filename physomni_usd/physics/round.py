@@ -129,7 +129,7 @@ def _sphere_mass(builder, b: int, centre: np.ndarray, radius: float, wp) -> None
     """Give body ``b`` (``builder`` before ``finalize``) the mass properties of the sphere it collides as: its
     centre of mass at the sphere's ``centre`` (the body's frame) and a solid sphere's inertia about it, its mass
     kept. A ball a little taller than wide kept its mesh's centre of mass 1-3 mm over the sphere's centre,
-    balanced on a round bottom, and a 2 cm/s push rolled it 4-14 cm where a round one rolled 4 mm."""
+    balanced on a round bottom, and a 2 cm/s push rolled it 4-17 cm where a round one rolled 4 mm."""
     builder.body_com[b] = wp.vec3(*map(float, centre))
     mass = float(builder.body_mass[b])
     moment = 0.4 * mass * radius * radius

@@ -139,6 +139,15 @@ def raise_top(supporter: np.ndarray, foot: np.ndarray, base_z: float) -> np.ndar
     return out
 
 
+def _across_sight(moves: np.ndarray, at: np.ndarray, eye) -> np.ndarray:
+    """(K,) metres: how much of each move (K, 3) of a point at ``at`` (3,) the photo sees, its part across the
+    line of sight from ``eye`` (a move along it changes the image least; None: no eye, the whole move)."""
+    ray = np.asarray(at, float) - np.asarray(eye, float) if eye is not None else np.zeros(3)
+    ray = ray / max(float(np.linalg.norm(ray)), 1e-12)
+    moves = np.atleast_2d(np.asarray(moves, float))
+    return np.linalg.norm(moves - np.outer(moves @ ray, ray), axis=1)
+
+
 def _cheapest_shift(region: np.ndarray, c: np.ndarray, margin: float, com: np.ndarray, eye,
                     allowed=None) -> np.ndarray:
     """The level shift (2,) of a centre of mass ``c`` into the convex hull of ``region`` by ``margin`` that moves
@@ -160,12 +169,9 @@ def _cheapest_shift(region: np.ndarray, c: np.ndarray, margin: float, com: np.nd
     if not ok.any():
         return g[np.argmin(depth)] - c
     steps = g[ok] - c
-    ray = np.asarray(com, float) - np.asarray(eye, float) if eye is not None else np.zeros(3)
-    ray = ray / max(float(np.linalg.norm(ray)), 1e-12)
-    s3 = np.column_stack([steps, np.zeros(len(steps))])
-    across = s3 - np.outer(s3 @ ray, ray)
+    across = _across_sight(np.column_stack([steps, np.zeros(len(steps))]), com, eye)
     # a tenth of the length itself breaks ties: of the shifts the photo cannot tell apart, the shortest
-    return steps[np.argmin(np.linalg.norm(across, axis=1) + 0.1 * np.linalg.norm(steps, axis=1))]
+    return steps[np.argmin(across + 0.1 * np.linalg.norm(steps, axis=1))]
 
 
 def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np.ndarray], list[dict]]:
@@ -320,9 +326,7 @@ def _least_seen_crown(verts, faces, supports: dict, i: int, lowers: list, eye, d
         if not _dome_on_dome(trial, faces, supports, i, j, eye, log):
             continue
         move = trial[i].mean(axis=0) - np.asarray(verts[i], float).mean(axis=0)
-        ray = trial[i].mean(axis=0) - np.asarray(eye, float) if eye is not None else np.zeros(3)
-        ray = ray / max(float(np.linalg.norm(ray)), 1e-12)
-        seen = float(np.linalg.norm(move - (move @ ray) * ray))
+        seen = float(_across_sight(move, trial[i].mean(axis=0), eye)[0])
         if best is None or seen < best[0]:
             best = (seen, trial, log)
     if best is None:
@@ -424,8 +428,6 @@ def _seat(lower: np.ndarray, top: float, cut: float, deepest: float, com: np.nda
     face wide enough to hold the load off the crown does not make what it is cut in stand under it. Where no
     allowed shift is found, over the middle of the crown's own cut. None where no face holds it."""
     depths = np.unique(np.linspace(cut, max(cut, deepest), SEAT_STEPS))
-    ray = np.asarray(com, float) - np.asarray(eye, float) if eye is not None else np.zeros(3)
-    ray = ray / max(float(np.linalg.norm(ray)), 1e-12)
     best = crown = None
 
     def holds(shift) -> bool:
@@ -444,8 +446,7 @@ def _seat(lower: np.ndarray, top: float, cut: float, deepest: float, com: np.nda
             shift = face.mean(axis=0) - com[:2]  # no point that deep: over the face's middle, as a crown's
         if not holds(shift):
             continue
-        move = np.array([shift[0], shift[1], cut - depth])
-        seen = float(np.linalg.norm(move - (move @ ray) * ray))
+        seen = float(_across_sight(np.array([shift[0], shift[1], cut - depth]), com, eye)[0])
         if best is None or seen < best[0] - 1e-6:
             best = (seen, float(depth), shift)
     return crown if best is None else best[1:]
