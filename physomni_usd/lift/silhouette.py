@@ -522,8 +522,8 @@ def ball_body(rows: StandingRows) -> LiftedMesh | None:
     and made the ring about the axis through both its ends (as wide as the row, as deep off the axis as the
     row lies), which from the camera shows the row as the photo does, no wider than the ball's sphere there
     (stretched up to the top row where that is higher). What no row shows (under the bottom row, over the top
-    row) closes as that ball: to its top pole, and down to a small round sole (``BALL_SOLE``). None where the tilted plane does not keep the rows in order (a view
-    it cannot hold)."""
+    row) closes as that ball: to its top pole, and down to a small round sole (``BALL_SOLE``). None where the
+    tilted plane does not keep the rows in order (a view it cannot hold)."""
     r = rows
     camera = r.camera
     origin = camera.origin
@@ -562,9 +562,9 @@ def ball_body(rows: StandingRows) -> LiftedMesh | None:
     deep = (middle - axis) @ r.normal
     rings_r = np.sqrt(half ** 2 + deep ** 2)
     # The ball is the sphere of the cone, resting on the ground, stretched up only as far as the outline's top
-    # row reaches: each row's ring is no wider than that ball's at its height, to a pixel (a row takes the widest span of
-    # the rows half-way to its neighbours, so the bottom row's ring was 15 mm across where a sphere's is 1 mm,
-    # and the ball stood on a flat foot), and what no row shows closes as the ball to its poles.
+    # row reaches: each row's ring is no wider than that ball's at its height, to a pixel (a row takes the
+    # widest span of the rows half-way to its neighbours, so the bottom row's ring was 15 mm across where a
+    # sphere's is 1 mm, and the ball stood on a flat foot), and what no row shows closes as the ball to its poles.
     tall = max(radius, 0.5 * (float(z[0]) - r.base_z))
     middle_z = r.base_z + tall
     polar = np.arccos(np.clip((z - middle_z) / tall, -1.0, 1.0))  # 0 at the top pole, π at the bottom one

@@ -455,11 +455,11 @@ def _seat(lower: np.ndarray, top: float, cut: float, deepest: float, com: np.nda
 def _stands_under(verts, faces, supports: dict, i: int, j: int):
     """A test (level shifts (K, 2) → (K,) bool) that every object in the column under ``i`` from ``j`` down
     still has its whole load, itself and all it carries, with ``i`` and its riders shifted level so, the steady
-    margin inside its own foot. A lemon seated 15 mm off the axis of an orange standing on a foot 8 mm across brought the
-    centre of mass of the two outside that foot: the orange tipped and both fell 21 cm. Weighed by volume, as
-    :func:`_load_com`: the materials are not estimated yet. Only an object whose foot is its lowest point is
-    judged (on the ground, walled in, or a dome on a dome, whose foot :func:`flat_foot` cuts there); one on a
-    bowl's rim rests elsewhere."""
+    margin inside its own foot. A lemon seated 15 mm off the axis of an orange standing on a foot 8 mm across
+    brought the centre of mass of the two outside that foot: the orange tipped and both fell 21 cm. Weighed by volume,
+    as :func:`_load_com`: the materials are not estimated yet. Only an object whose foot is its lowest point is judged
+    (on the ground, walled in, or a dome on a dome, whose foot :func:`flat_foot` cuts there); one on a bowl's rim rests
+    elsewhere."""
     from scipy.spatial import ConvexHull, QhullError
 
     from ..align.support import riders
