@@ -152,6 +152,12 @@ BALL_TALL_SPREAD = 0.10
 #: height flat). On its pole alone its hull, which a ball something rests on collides as, rocked on the pole's
 #: small facets: the lower of two stacked oranges turned 6° and slid 12 mm.
 BALL_SOLE = 0.03
+#: A round thing is lifted as a centred ball (``lift.ball``) from the circle its visible outline shows: the arc the
+#: photo shows must cover at least ``BALL_ARC_MIN`` of that circle to measure it (a ball's label otherwise takes
+#: its whole outline's circle), and an outline whose label names no ball is one only where that arc fits its circle
+#: to ``BALL_ARC_RMS`` of the radius (a rendered orange's edge: under 1 %; a 7.45 x 5.98 cm lemon's: 7 %).
+BALL_ARC_MIN = 0.3
+BALL_ARC_RMS = 0.02
 #: A ball something rests on keeps its hull (a sphere has no rolling resistance, so what stands on it rolls it
 #: away: two round balls stacked 2 mm off centre, the lower as a sphere rolled 22 cm, as a hull 1 mm): another
 #: object's lowest point over the ball, above its middle and at most this far above its top.

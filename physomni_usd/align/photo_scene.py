@@ -182,7 +182,7 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
                                                                                       camera):
             supports.pop(i)
         base = surface_under(out[supports[i][0]], masks[i], camera) if i in supports else 0.0
-        kwargs = _lift_options(labels[i], scale, photo)
+        kwargs = _lift_options(labels[i], scale, photo) | ({} if visible is None else {"visible": visible[i]})
         if i in supports and (seated := on_rim(out[supports[i][0]], masks[i], camera, settings, rims)) is not None:
             out[i] = seated
             return
@@ -227,7 +227,7 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
         reached = foot_behind(masks[i], [visible[a] for a in front], [out[a] for a in front], camera)
         if reached is not None:
             out[i] = lift_silhouette(reached, camera, settings.lift, base_z=0.0,
-                                     **_lift_options(labels[i], scale, photo))
+                                     **_lift_options(labels[i], scale, photo), visible=visible[i])
             out[i].info["foot"] = "reached down behind what hides it"
     # what rests on something the masks do not show (a shelf, a wall) stands where its size agrees with the others'
     raise_unseen(out, labels, supports, camera, scale, photo=photo if wall else None,

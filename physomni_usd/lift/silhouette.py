@@ -50,6 +50,7 @@ import numpy as np
 from ..geometry.camera import PinholeCamera
 from ..settings import BALL_SOLE, LiftSettings
 from ..sizes import body_kind
+from .ball import lift_ball
 from .sections import bulge, inflated_rings, loft, ray_slab_rings, round_rings, span_samples
 
 #: How far (pixels, and as a fraction of its run) a slab's bottom edge may bend and still be one straight edge
@@ -255,7 +256,7 @@ def plane_points(camera: PinholeCamera, u, v, z: float = 0.0) -> np.ndarray:
 def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSettings = LiftSettings(),
                     height_hint: float | None = None, prior_shape: str | None = None,
                     base_z: float = 0.0, flat: bool = False, photo: np.ndarray | None = None,
-                    label: str | None = None) -> LiftedMesh:
+                    label: str | None = None, visible: np.ndarray | None = None) -> LiftedMesh:
     """Closed mesh of the object whose silhouette is ``mask`` (H, W) bool, standing on z = ``base_z``.
 
     ``height_hint`` (the camera's units) and ``prior_shape`` come from the
@@ -266,11 +267,20 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
     ``label`` chooses the body (``sizes.body_kind``): inflated for organic
     things, a cuboid for boxy ones, from above a hollow vessel for open containers (``vessel.py``).
     Where the body the label asks for cannot be made (an inflated body with no patch of itself to stand on),
-    the outline alone decides, as for an unknown label.
+    the outline alone decides, as for an unknown label. A round thing (a ball's label, or a visible arc that is a
+    circle's) is a centred ball in any view (``ball.py``), measured on ``visible`` (what the photo shows of it;
+    default the mask): never a slab, a blob or a loft resting on its front, whose centre of mass lies off its foot.
     """
     solid = fill_holes(mask)
-    seen = Silhouette(solid, lift_mode(solid, camera, settings, flat), camera, settings, height_hint, prior_shape,
-                      base_z, flat, photo)
+    mode = lift_mode(solid, camera, settings, flat)
+    if settings.shape == "auto" and not flat and body_kind(label or "") not in ("boxy", "vessel") \
+            and prior_shape in ("ball", None, "any"):
+        ball = lift_ball(solid, camera, base_z, None if visible is None else fill_holes(visible) & solid,
+                         ball_label=prior_shape == "ball", by_outline=mode == "standing")
+        if ball is not None:
+            verts, faces, contact, info = ball
+            return LiftedMesh(verts, faces, "sphere", contact, foot_pixel(solid)[1], {"mode": mode} | info)
+    seen = Silhouette(solid, mode, camera, settings, height_hint, prior_shape, base_z, flat, photo)
     kind = body_kind(label) if label else None
     lifted = None
     for body in dict.fromkeys((kind, None)):  # the label's body, then the outline alone
