@@ -38,7 +38,7 @@ def _com_over_contact(lifted):
 def _lift(mask, camera, label, visible=None):
     prior = size_prior(label)
     return lift_silhouette(mask, camera, height_hint=prior and prior.height_m, prior_shape=prior and prior.shape,
-                           label=label, visible=visible)
+                           label=label, **({} if visible is None else {"visible": visible}))
 
 
 @pytest.mark.parametrize("deg", [3.0, 10.0, 16.0])
