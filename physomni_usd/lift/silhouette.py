@@ -65,6 +65,8 @@ FLAT_BOTTOM_BAND = 0.04
 FLAT_BOTTOM_WIDTH = 0.85
 #: A silhouette this close to a circle (IoU with its fitted circle) is a ball and keeps a round bottom.
 BALL_IOU = 0.9
+#: An outline is hidden where more than this fraction of its completed mask is not seen (completion's slack).
+HIDDEN_FRACTION = 0.02
 
 #: A cuboid needs its top to show: the front side's top edge at most this fraction of the silhouette's height,
 #: and the photo's brightness across that edge changing by at least CUBOID_STEP grey levels and
@@ -135,6 +137,11 @@ def is_ball(mask: np.ndarray) -> bool:
     disc = (xs - xs.mean()) ** 2 + (ys - ys.mean()) ** 2 <= r * r
     inside = int(disc.sum())
     return inside / (len(xs) + (np.pi * r * r - inside)) >= BALL_IOU
+
+
+def hidden(solid: np.ndarray, visible: np.ndarray | None) -> bool:
+    """Whether more than ``HIDDEN_FRACTION`` of the completed outline ``solid`` is not ``visible``."""
+    return visible is not None and int((solid & ~visible).sum()) > HIDDEN_FRACTION * int(solid.sum())
 
 
 def row_spans(mask: np.ndarray, edges: np.ndarray) -> np.ndarray:
@@ -273,10 +280,11 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
     """
     solid = fill_holes(mask)
     mode = lift_mode(solid, camera, settings, flat)
+    shown = None if visible is None else fill_holes(visible) & solid
     if settings.shape == "auto" and not flat and body_kind(label or "") not in ("boxy", "vessel") \
-            and prior_shape in ("ball", None, "any"):
-        ball = lift_ball(solid, camera, base_z, None if visible is None else fill_holes(visible) & solid,
-                         ball_label=prior_shape == "ball", by_outline=mode == "standing")
+            and prior_shape in ("ball", None, "any") and not (is_ball(solid) and not hidden(solid, shown)):
+        # a whole disc is already a ball's (the footprint's sphere, ball_body seen standing)
+        ball = lift_ball(solid, camera, base_z, shown, ball_label=prior_shape == "ball", by_outline=mode == "standing")
         if ball is not None:
             verts, faces, contact, info = ball
             return LiftedMesh(verts, faces, "sphere", contact, foot_pixel(solid)[1], {"mode": mode} | info)
