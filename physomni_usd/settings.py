@@ -158,6 +158,9 @@ BALL_SOLE = 0.03
 #: to ``BALL_ARC_RMS`` of the radius (a rendered orange's edge: under 1 %; a 7.45 x 5.98 cm lemon's: 7 %).
 BALL_ARC_MIN = 0.3
 BALL_ARC_RMS = 0.02
+#: A label the size table calls a ball is a round thing's (lifted as a centred ball whatever its outline) where its
+#: typical height is at least this fraction of its length: a lemon (6 of 7 cm) is, a potato or an egg is not.
+BALL_LABEL_ROUNDNESS = 0.8
 #: A ball something rests on keeps its hull (a sphere has no rolling resistance, so what stands on it rolls it
 #: away: two round balls stacked 2 mm off centre, the lower as a sphere rolled 22 cm, as a hull 1 mm): another
 #: object's lowest point over the ball, above its middle and at most this far above its top.

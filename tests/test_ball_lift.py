@@ -85,3 +85,14 @@ def test_an_unlabelled_outline_is_a_ball_only_where_its_visible_arc_is_a_circle(
     box = np.zeros_like(seen)
     box[200:300, 250:400] = True
     assert _lift(box, camera, "thing", box & (np.arange(box.shape[1])[None, :] < 330)).info.get("axis") != "ball"
+
+
+def test_a_potato_half_hidden_is_not_made_a_ball():
+    # the size table calls a potato a ball, but it lies on its long side (10 x 6 cm): only a round label's
+    # outline, or a visible arc that is a circle, makes a ball
+    camera = PinholeCamera(640, 480, 50.0, 10.0, (0.0, -0.6, 0.03 + 0.6 * np.tan(np.radians(10.0))))
+    seen = _fruit(camera, np.array([0.05, 0.03, 0.03]), np.array([0.0, 0.0, 0.03]))
+    ys, xs = np.nonzero(seen)
+    visible = seen & (np.arange(seen.shape[1])[None, :] < xs.min() + 0.6 * np.ptp(xs))
+    assert _lift(seen, camera, "potato", visible).shape != "sphere"
+    assert _lift(seen, camera, "lemon", visible).shape == "sphere"

@@ -48,8 +48,8 @@ import cv2
 import numpy as np
 
 from ..geometry.camera import PinholeCamera
-from ..settings import BALL_SOLE, LiftSettings
-from ..sizes import body_kind
+from ..settings import BALL_LABEL_ROUNDNESS, BALL_SOLE, LiftSettings
+from ..sizes import body_kind, size_prior
 from .ball import lift_ball
 from .sections import bulge, inflated_rings, loft, ray_slab_rings, round_rings, span_samples
 
@@ -137,6 +137,14 @@ def is_ball(mask: np.ndarray) -> bool:
     disc = (xs - xs.mean()) ** 2 + (ys - ys.mean()) ** 2 <= r * r
     inside = int(disc.sum())
     return inside / (len(xs) + (np.pi * r * r - inside)) >= BALL_IOU
+
+
+def round_label(label: str | None) -> bool:
+    """Whether the size table calls ``label``'s thing a ball about as tall as it is long (an apple, a lemon, a ball;
+    not a potato or an egg, which lie on their long side): :data:`settings.BALL_LABEL_ROUNDNESS`."""
+    prior = size_prior(label) if label else None
+    return bool(prior and prior.shape == "ball" and prior.height_m and prior.longest_m
+                and prior.height_m >= BALL_LABEL_ROUNDNESS * prior.longest_m)
 
 
 def hidden(solid: np.ndarray, visible: np.ndarray | None) -> bool:
@@ -284,7 +292,7 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
     if settings.shape == "auto" and not flat and body_kind(label or "") not in ("boxy", "vessel") \
             and prior_shape in ("ball", None, "any") and not (is_ball(solid) and not hidden(solid, shown)):
         # a whole disc is already a ball's (the footprint's sphere, ball_body seen standing)
-        ball = lift_ball(solid, camera, base_z, shown, ball_label=prior_shape == "ball", by_outline=mode == "standing")
+        ball = lift_ball(solid, camera, base_z, shown, ball_label=round_label(label), by_outline=mode == "standing")
         if ball is not None:
             verts, faces, contact, info = ball
             return LiftedMesh(verts, faces, "sphere", contact, foot_pixel(solid)[1], {"mode": mode} | info)
