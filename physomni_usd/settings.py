@@ -155,9 +155,27 @@ BALL_SOLE = 0.03
 #: A round thing is lifted as a centred ball (``lift.ball``) from the circle its visible outline shows: the arc the
 #: photo shows must cover at least ``BALL_ARC_MIN`` of that circle to measure it (a ball's label otherwise takes
 #: its whole outline's circle), and an outline whose label names no ball is one only where that arc fits its circle
-#: to ``BALL_ARC_RMS`` of the radius (a rendered orange's edge: under 1 %; a 7.45 x 5.98 cm lemon's: 7 %).
+#: to ``BALL_ARC_RMS`` of the radius. A ball's label takes a looser ``BALL_LABEL_ARC_RMS`` (a fruit is a little
+#: flat or lumpy), but a fit worse than that (a straight cut, two fruits' merged outline) is no ball's outline.
 BALL_ARC_MIN = 0.3
 BALL_ARC_RMS = 0.02
+BALL_LABEL_ARC_RMS = 0.06
+#: A ball's label's arc covering this much of its circle and fitting an upright ellipse (to ``BALL_ARC_RMS``)
+#: better than a circle is lifted as that upright oblate spheroid, its height kept at least ``BALL_FLAT_MIN`` of
+#: its width (and at most its width: taller, it would stand on its tip).
+BALL_ELLIPSE_ARC = 0.5
+BALL_FLAT_MIN = 0.5
+#: Angular bins over which the visible arc's coverage of its circle is counted (``lift.ball.fit_circle``).
+BALL_ARC_BINS = 36
+#: An outline pixel is the thing's own edge only where no other object's visible mask and no hidden part of its
+#: completed outline lie within this many pixels of it: an occluder's straight edge is not the ball's.
+BALL_EDGE_PX = 2
+#: A ball's diameter read from its arc must lie within this factor of its label's typical size at the scene's
+#: scale, and under 0.9 of the camera's height above its support; else the arc (or the ground it was put on) was
+#: wrong and the outline's own lift is kept.
+BALL_SIZE_BAND = 2.0
+#: An outline is hidden where more than this fraction of its completed mask is not seen (completion's slack).
+BALL_HIDDEN_FRACTION = 0.02
 #: A label the size table calls a ball is a round thing's (lifted as a centred ball whatever its outline) where its
 #: typical height is at least this fraction of its length: a lemon (6 of 7 cm) is, a potato or an egg is not.
 BALL_LABEL_ROUNDNESS = 0.8

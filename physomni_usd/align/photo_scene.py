@@ -169,6 +169,11 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
     hides = set(hides)
     out = [None] * len(masks)
     started = set()
+    # how many objects the photo shows at each pixel: the others' of ``i`` are where a round thing's edge is theirs
+    shown = None if visible is None else np.sum([np.asarray(v, np.int32) for v in visible], axis=0)
+
+    def seen_options(i):
+        return {} if visible is None else {"visible": visible[i], "occluders": shown - visible[i] > 0}
 
     def place(i):
         """Lifts ``i`` on what holds it; lifts, first, what it could rest on together with that (the
@@ -182,7 +187,7 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
                                                                                       camera):
             supports.pop(i)
         base = surface_under(out[supports[i][0]], masks[i], camera) if i in supports else 0.0
-        kwargs = _lift_options(labels[i], scale, photo) | ({} if visible is None else {"visible": visible[i]})
+        kwargs = _lift_options(labels[i], scale, photo) | seen_options(i)
         if i in supports and (seated := on_rim(out[supports[i][0]], masks[i], camera, settings, rims)) is not None:
             out[i] = seated
             return
@@ -227,7 +232,7 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
         reached = foot_behind(masks[i], [visible[a] for a in front], [out[a] for a in front], camera)
         if reached is not None:
             out[i] = lift_silhouette(reached, camera, settings.lift, base_z=0.0,
-                                     **_lift_options(labels[i], scale, photo), visible=visible[i])
+                                     **_lift_options(labels[i], scale, photo), **seen_options(i))
             out[i].info["foot"] = "reached down behind what hides it"
     # what rests on something the masks do not show (a shelf, a wall) stands where its size agrees with the others'
     raise_unseen(out, labels, supports, camera, scale, photo=photo if wall else None,

@@ -48,7 +48,7 @@ import cv2
 import numpy as np
 
 from ..geometry.camera import PinholeCamera
-from ..settings import BALL_LABEL_ROUNDNESS, BALL_SOLE, LiftSettings
+from ..settings import BALL_HIDDEN_FRACTION, BALL_LABEL_ROUNDNESS, BALL_SOLE, LiftSettings
 from ..sizes import body_kind, size_prior
 from .ball import lift_ball
 from .sections import bulge, inflated_rings, loft, ray_slab_rings, round_rings, span_samples
@@ -65,8 +65,6 @@ FLAT_BOTTOM_BAND = 0.04
 FLAT_BOTTOM_WIDTH = 0.85
 #: A silhouette this close to a circle (IoU with its fitted circle) is a ball and keeps a round bottom.
 BALL_IOU = 0.9
-#: An outline is hidden where more than this fraction of its completed mask is not seen (completion's slack).
-HIDDEN_FRACTION = 0.02
 
 #: A cuboid needs its top to show: the front side's top edge at most this fraction of the silhouette's height,
 #: and the photo's brightness across that edge changing by at least CUBOID_STEP grey levels and
@@ -148,8 +146,8 @@ def round_label(label: str | None) -> bool:
 
 
 def hidden(solid: np.ndarray, visible: np.ndarray | None) -> bool:
-    """Whether more than ``HIDDEN_FRACTION`` of the completed outline ``solid`` is not ``visible``."""
-    return visible is not None and int((solid & ~visible).sum()) > HIDDEN_FRACTION * int(solid.sum())
+    """Whether more than ``BALL_HIDDEN_FRACTION`` of the completed outline ``solid`` is not ``visible``."""
+    return visible is not None and int((solid & ~visible).sum()) > BALL_HIDDEN_FRACTION * int(solid.sum())
 
 
 def row_spans(mask: np.ndarray, edges: np.ndarray) -> np.ndarray:
@@ -271,7 +269,8 @@ def plane_points(camera: PinholeCamera, u, v, z: float = 0.0) -> np.ndarray:
 def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSettings = LiftSettings(),
                     height_hint: float | None = None, prior_shape: str | None = None,
                     base_z: float = 0.0, flat: bool = False, photo: np.ndarray | None = None,
-                    label: str | None = None, visible: np.ndarray | None = None) -> LiftedMesh:
+                    label: str | None = None, visible: np.ndarray | None = None,
+                    occluders: np.ndarray | None = None) -> LiftedMesh:
     """Closed mesh of the object whose silhouette is ``mask`` (H, W) bool, standing on z = ``base_z``.
 
     ``height_hint`` (the camera's units) and ``prior_shape`` come from the
@@ -284,7 +283,7 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
     Where the body the label asks for cannot be made (an inflated body with no patch of itself to stand on),
     the outline alone decides, as for an unknown label. A round thing (a ball's label, or a visible arc that is a
     circle's) is a centred ball in any view (``ball.py``), measured on ``visible`` (what the photo shows of it;
-    default the mask): never a slab, a blob or a loft resting on its front, whose centre of mass lies off its foot.
+    default the mask) against ``occluders`` (the other objects' visible masks): never a slab, a blob or a loft resting on its front, whose centre of mass lies off its foot.
     """
     solid = fill_holes(mask)
     mode = lift_mode(solid, camera, settings, flat)
@@ -292,7 +291,8 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
     if settings.shape == "auto" and not flat and body_kind(label or "") not in ("boxy", "vessel") \
             and prior_shape in ("ball", None, "any") and not (is_ball(solid) and not hidden(solid, shown)):
         # a whole disc is already a ball's (the footprint's sphere, ball_body seen standing)
-        ball = lift_ball(solid, camera, base_z, shown, ball_label=round_label(label), by_outline=mode == "standing")
+        ball = lift_ball(solid, camera, base_z, shown, ball_label=round_label(label), by_outline=mode == "standing",
+                         occluders=occluders, size_hint=height_hint if round_label(label) else None)
         if ball is not None:
             verts, faces, contact, info = ball
             return LiftedMesh(verts, faces, "sphere", contact, foot_pixel(solid)[1], {"mode": mode} | info)
