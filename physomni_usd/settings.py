@@ -160,10 +160,12 @@ BALL_SOLE = 0.03
 BALL_ARC_MIN = 0.3
 BALL_ARC_RMS = 0.02
 BALL_LABEL_ARC_RMS = 0.06
-#: A ball's label's arc covering this much of its circle and fitting an upright ellipse (to ``BALL_ARC_RMS``)
-#: better than a circle is lifted as that upright oblate spheroid, its height kept at least ``BALL_FLAT_MIN`` of
-#: its width (and at most its width: taller, it would stand on its tip).
+#: A ball's label's arc covering ``BALL_ELLIPSE_ARC`` of its circle and fitting an upright ellipse to under
+#: ``BALL_ELLIPSE_GAIN`` of the circle's error (and ``BALL_LABEL_ARC_RMS``) is lifted as that upright oblate
+#: spheroid, its height kept at least ``BALL_FLAT_MIN`` of its width (and at most its width: taller, it would
+#: stand on its tip). A fruit 12 px across fits no curve better than 2-3 % (its pixels), hence a ratio.
 BALL_ELLIPSE_ARC = 0.5
+BALL_ELLIPSE_GAIN = 0.7
 BALL_FLAT_MIN = 0.5
 #: Angular bins over which the visible arc's coverage of its circle is counted (``lift.ball.fit_circle``).
 BALL_ARC_BINS = 36

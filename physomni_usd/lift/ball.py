@@ -28,8 +28,8 @@ import math
 import cv2
 import numpy as np
 
-from ..settings import (BALL_ARC_BINS, BALL_ARC_MIN, BALL_ARC_RMS, BALL_EDGE_PX, BALL_ELLIPSE_ARC, BALL_FLAT_MIN,
-                        BALL_LABEL_ARC_RMS, BALL_SIZE_BAND, BALL_SOLE)
+from ..settings import (BALL_ARC_BINS, BALL_ARC_MIN, BALL_ARC_RMS, BALL_EDGE_PX, BALL_ELLIPSE_ARC, BALL_ELLIPSE_GAIN,
+                        BALL_FLAT_MIN, BALL_LABEL_ARC_RMS, BALL_SIZE_BAND, BALL_SOLE)
 
 
 def boundary_points(solid: np.ndarray) -> np.ndarray:
@@ -130,7 +130,8 @@ def round_outline(solid: np.ndarray, visible: np.ndarray | None, ball_label: boo
     A ball's label takes the circle of its visible arc where that arc is long enough to measure
     (``BALL_ARC_MIN`` of the circle), else of its whole outline off the image's border, either only where it fits
     that circle to ``BALL_LABEL_ARC_RMS`` of the radius; where the arc covers ``BALL_ELLIPSE_ARC`` of it and an
-    upright ellipse fits it to ``BALL_ARC_RMS`` where the circle does not, that ellipse (a fruit a little flat).
+    upright ellipse fits it that well and clearly better than the circle (``BALL_ELLIPSE_GAIN``), that ellipse
+    (a fruit a little flat).
     Any other outline is a ball's only where its visible arc is that long and fits its circle to
     ``BALL_ARC_RMS``, and only where ``by_outline`` (seen from the side: from above a cylinder's top is such a
     circle too)."""
@@ -146,7 +147,7 @@ def round_outline(solid: np.ndarray, visible: np.ndarray | None, ball_label: boo
         if not ball_label:
             return None
         oval = fit_ellipse(pts) if arc[4] >= BALL_ELLIPSE_ARC else None
-        if oval is not None and oval[4] <= BALL_ARC_RMS and oval[4] < arc[3]:
+        if oval is not None and oval[4] <= min(BALL_LABEL_ARC_RMS, BALL_ELLIPSE_GAIN * arc[3]):
             return (*oval[:4], f"the upright ellipse of {how}")
         if arc[3] <= BALL_LABEL_ARC_RMS:
             return (*arc[:3], arc[2], f"the circle of {how}")
