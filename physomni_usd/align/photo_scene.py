@@ -169,11 +169,14 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
     hides = set(hides)
     out = [None] * len(masks)
     started = set()
-    # how many objects the photo shows at each pixel: the others' of ``i`` are where a round thing's edge is theirs
-    shown = None if visible is None else np.sum([np.asarray(v, np.int32) for v in visible], axis=0)
 
     def seen_options(i):
-        return {} if visible is None else {"visible": visible[i], "occluders": shown - visible[i] > 0}
+        """What the photo shows of ``i``, and what may hide it: every other object but those ``i`` hides (behind it,
+        they are its background: a fruit's edge against the bowl it lies in is its own)."""
+        if visible is None:
+            return {}
+        front = [np.asarray(visible[j], bool) for j in range(len(visible)) if j != i and (i, j) not in hides]
+        return {"visible": visible[i], "occluders": np.any(front, axis=0) if front else None}
 
     def place(i):
         """Lifts ``i`` on what holds it; lifts, first, what it could rest on together with that (the
