@@ -44,7 +44,7 @@ def visible_arc(solid: np.ndarray, visible: np.ndarray | None, occluders: np.nda
     """(n, 2) boundary pixels of the completed outline ``solid`` that the photo shows as its edge: on the
     ``visible`` mask (where the completed outline runs through hidden pixels, it is a guess), off the image's
     border (a thing cut by the frame ends there, not at its edge), and with only background within
-    ``BALL_EDGE_PX`` outside them: where ``occluders`` (the other objects' visible masks) or a hidden part of the
+    ``BALL_EDGE_PX`` outside them: where ``occluders`` (the visible masks of what may be in front) or a hidden part of the
     outline lie next to it, the edge is where something else begins (a convex completion runs along an
     occluder's straight cut), not the thing's own."""
     pts = boundary_points(solid)

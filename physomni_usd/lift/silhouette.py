@@ -283,7 +283,7 @@ def lift_silhouette(mask: np.ndarray, camera: PinholeCamera, settings: LiftSetti
     Where the body the label asks for cannot be made (an inflated body with no patch of itself to stand on),
     the outline alone decides, as for an unknown label. A round thing (a ball's label, or a visible arc that is a
     circle's) is a centred ball in any view (``ball.py``), measured on ``visible`` (what the photo shows of it;
-    default the mask) against ``occluders`` (the other objects' visible masks): never a slab, a blob or a loft resting on its front, whose centre of mass lies off its foot.
+    default the mask) against ``occluders`` (the visible masks of what may be in front of it): never a slab, a blob or a loft resting on its front, whose centre of mass lies off its foot.
     """
     solid = fill_holes(mask)
     mode = lift_mode(solid, camera, settings, flat)
