@@ -218,3 +218,39 @@ def test_a_ball_on_a_bowl_s_inner_floor_gets_a_flat_foot_and_one_on_a_crate_s_to
     on_top = _ball(0.2 + 0.035)
     verts, done = steady_stacks([crate.vertices, on_top.vertices], [crate.faces, on_top.faces], {1: (0, "on")}, None)
     assert not [d for d in done if d["object"] == 1], done
+
+
+def _slanted_slab_on_a_book():
+    """A cup lifted as a slab (6.9 cm wide, 2.6 cm deep, 9.5 cm tall) whose foot follows its outline's slanted
+    lower edge, 8 mm higher at its right end, standing by its left end on a book (241611/038): its centre of
+    mass lies 17 mm beyond the 2 mm it touches with, and 10 mm of contact band take in its whole foot."""
+    book = _box((0.24, 0.17, 0.03), (0.0, 0.0, 0.015))
+    slab = trimesh.creation.box(extents=(0.069, 0.0256, 0.095)).subdivide().subdivide()
+    v = slab.vertices + [0.0, 0.0, 0.03 + 0.0475]
+    bottom = v[:, 2] < 0.03 + 1e-9
+    v[bottom, 2] = 0.03 + 0.008 * (v[bottom, 0] + 0.0345) / 0.069
+    return book, trimesh.Trimesh(v, slab.faces, process=False)
+
+
+def test_a_stacked_slab_on_a_slanted_foot_gets_a_level_sole_and_stays(tmp_path):
+    """Judged on its 10 mm contact band the slab stands; on what touches it does not, and it tipped off the book
+    at once. Levelled as an object on the ground is, it stands still for 2 s with nothing pushing it."""
+    from physomni_usd.bench.scenes import BenchObject, write_bench_shot
+    from physomni_usd.physics.settle import settle_shot
+    from physomni_usd.usd import layers
+
+    book, slab = _slanted_slab_on_a_book()
+    com = slab.center_mass
+    assert overhang(slab.vertices, com) < -0.005  # the contact band reads it standing
+    low = slab.vertices[:, 2].min()
+    assert overhang(slab.vertices[slab.vertices[:, 2] <= low + 0.002], com) > 0.01  # what touches does not hold it
+    verts, done = steady_stacks([book.vertices, slab.vertices], [book.faces, slab.faces], {1: (0, "on")}, None)
+    assert [d["object"] for d in done if "level_sole_m" in d] == [1], done
+    assert float(verts[1][:, 2].min()) == low and np.array_equal(verts[0], book.vertices)
+    wood = {"density": 700.0, "restitution": 0.2, "dynamic_friction": 0.45, "static_friction": 0.5}
+    shot = write_bench_shot(tmp_path, [BenchObject("book", trimesh.Trimesh(verts[0], book.faces), "rigid", wood),
+                                       BenchObject("cup", trimesh.Trimesh(verts[1], slab.faces), "rigid", wood)])
+    settled = settle_shot(layers.open_shot(shot, mute_sim=True), 2.0)
+    for name in ("book", "cup"):
+        m = settled.motions[name]
+        assert np.linalg.norm(m.translation) < 0.01 and m.turned_deg < 5.0, (name, m)

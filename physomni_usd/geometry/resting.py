@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..settings import REAL_CONTACT
+
 #: Points within this of the lowest (m, or this fraction of its height if larger) are its contact.
 CONTACT_BAND = 0.01
 #: A stacked object's centre of mass is brought this far (m, or this fraction of its footprint's smaller side
@@ -20,6 +22,23 @@ def contact_band(points: np.ndarray) -> float:
     """How far above its lowest point (m) a point of ``points`` (N, 3) is still in its contact:
     :data:`CONTACT_BAND`, or that fraction of its height where larger."""
     return max(CONTACT_BAND, CONTACT_BAND * float(np.ptp(points[:, 2])))
+
+
+def real_contact(points: np.ndarray, top: np.ndarray | None = None) -> np.ndarray:
+    """(K, 2): where ``points`` (N, 3) touch what they rest on, seen from above: those within
+    :data:`~physomni_usd.settings.REAL_CONTACT` of the lowest, and where ``top`` (M, 2, the top of what holds it
+    seen from above) is given, only those over its convex hull (a foot past a book's edge touches nothing)."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    pts = np.asarray(points, float)
+    feet = np.unique(np.round(pts[pts[:, 2] <= float(pts[:, 2].min()) + REAL_CONTACT, :2], 6), axis=0)
+    if top is not None and len(feet):
+        try:
+            eq = ConvexHull(np.asarray(top, float)).equations
+        except (QhullError, ValueError):
+            return feet[:0]
+        feet = feet[(feet @ eq[:, :2].T + eq[:, 2]).max(axis=1) <= 1e-9]
+    return feet
 
 
 def steady_margin(foot: np.ndarray) -> float:

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.resting import FOOT_CUT, contact_band, solid as _solid, solid_com as _solid_com, steady_margin
+from ..geometry.resting import (FOOT_CUT, contact_band, real_contact, solid as _solid, solid_com as _solid_com,
+                                steady_margin)
 
 #: An object whose lowest point is within this of the ground (m, or this fraction of its size if larger)
 #: stands on it.
@@ -103,6 +104,30 @@ def _load_com(group, vertex_sets, faces) -> np.ndarray:
     return np.average([np.asarray(s.center_mass, float) for s in solids], axis=0, weights=w)
 
 
+def _real_overhang(points: np.ndarray, com: np.ndarray, top: np.ndarray | None = None) -> tuple[float, np.ndarray]:
+    """How far (m) ``com`` lies, seen from above, outside the convex hull of ``points``' real contact
+    (``geometry.resting.real_contact``, over ``top`` where given), ≤ 0 inside, and that contact (K, 2); inf where it
+    touches at fewer than three points or along a line: balanced there, the solver's first tremor tips it."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    feet = real_contact(points, top)
+    if len(feet) < 3:
+        return float("inf"), feet
+    try:
+        eq = ConvexHull(feet).equations
+    except QhullError:
+        return float("inf"), feet
+    return float((eq[:, :2] @ np.asarray(com, float)[:2] + eq[:, 2]).max()), feet
+
+
+def _stands(points: np.ndarray, com: np.ndarray, top: np.ndarray | None = None) -> bool:
+    """Whether ``points`` (N, 3), their centre of mass at ``com``, stand on their real contact (over ``top``
+    where given): that centre the steady margin inside it. The contact band reads a slanted foot as wide as its
+    lowest centimetre; it stands only on what touches."""
+    out, feet = _real_overhang(points, com, top)
+    return out <= -steady_margin(feet)
+
+
 def _top_under(supporter: np.ndarray, base_z: float, band: float) -> np.ndarray:
     """(K, 2): the points of ``supporter`` seen from above at the height an object resting on it stands
     (within ``band`` under ``base_z``), or its highest points where none are that high (a domed top)."""
@@ -174,7 +199,7 @@ def _cheapest_shift(region: np.ndarray, c: np.ndarray, margin: float, com: np.nd
     return steps[np.argmin(across + 0.1 * np.linalg.norm(steps, axis=1))]
 
 
-def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np.ndarray], list[dict]]:
+def steady_stacks(vertex_sets, faces, supports: dict, eye=None, labels=None) -> tuple[list[np.ndarray], list[dict]]:
     """Vertex sets in which each object resting on another (``supports``: {upper: (lower, how)}) has its
     centre of mass over the supporter's top, and what was moved. A lifted object stands where its outline's
     foot is read, at a depth the photo hardly shows; a few centimetres too far forward of the box under it,
@@ -190,7 +215,11 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
     objects first. Before all that, every object standing on a point on the ground gets a flat foot
     (:func:`flat_foot`), what rests on it lowered with it (not one held by another object: an orange in a bowl's
     mouth, rounded, rests on its rim; flattened, it fell 24 cm; but one on a floor walled in by what holds it,
-    :func:`walled_in`), and a sole that its centre of mass overhangs is levelled (:func:`level_sole`)."""
+    :func:`walled_in`), and a sole that its centre of mass overhangs is levelled (:func:`level_sole`); so is the
+    sole of an object on another that does not stand on what it touches (:func:`_stands`), unless that leaves it
+    thinner than its outline allows (``metrics.geometry.thin_side``, by ``labels``, one per object, seen from
+    ``eye``). Whether an object stands, and how far inside a top its load is, are judged on its real contact
+    (``geometry.resting.real_contact``): a slanted foot's contact band reads it held where it is not."""
     from ..align.support import riders  # the build's; simulate, which imports this module, needs none of align
 
     verts = [np.asarray(v, float).copy() for v in vertex_sets]
@@ -201,16 +230,27 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
         # tests/test_studio_pushes.py); in a hollow (a fruit on a bowl's inner floor) a ball on the flat floor
         # wanders 5 cm with nothing pushing it, where the walls around it stop a pushed one anyway
         if i in supports and not walled_in(verts[i], verts[supports[i][0]], faces[supports[i][0]]):
-            continue
-        footed, cut = flat_foot(verts[i])
-        if cut > 0 and _thinned(verts[i], footed):
-            cut = 0.0  # as level_sole's: a round thing is not cut thinner than the build made it
-        if cut > 0:
-            verts[i] = footed
-            for k in riders(i, supports)[1:]:
-                verts[k][:, 2] -= cut
-            done.append({"object": i, "flat_foot_m": round(cut, 4)})
+            # ... but a slanted sole is levelled there too: a cup lifted as a slab on a book stood on its sole's
+            # low end, its centre of mass 17 mm beyond it, and tipped at once (241611/038)
+            if _stands(verts[i], _solid_com(verts[i], faces[i])):
+                continue
+        else:
+            footed, cut = flat_foot(verts[i])
+            if cut > 0 and _thinned(verts[i], footed):
+                cut = 0.0  # as level_sole's: a round thing is not cut thinner than the build made it
+            if cut > 0:
+                verts[i] = footed
+                for k in riders(i, supports)[1:]:
+                    verts[k][:, 2] -= cut
+                done.append({"object": i, "flat_foot_m": round(cut, 4)})
         soled, level = level_sole(verts[i], faces[i])  # a foot cut round its lowest point may not hold it
+        if level > 0 and i in supports and labels is not None and eye is not None:
+            from ..metrics.geometry import thin_side
+
+            # a fruit slab-lifted on a book, deepened to just the depth its outline allows and tilted 22°, came
+            # out of a 10 mm sole thinner than that (241611/008); the ground's soles kept as they were measured
+            if thin_side(soled, labels[i], eye) is not None and thin_side(verts[i], labels[i], eye) is None:
+                level = 0.0
         if level > 0 and not _thinned(verts[i], soled):
             verts[i] = soled
             done.append({"object": i, "level_sole_m": round(level, 4)})
@@ -221,9 +261,8 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
         pts = verts[i]
         low = float(pts[:, 2].min())
         band = contact_band(pts)
-        if overhang(pts, _solid_com(pts, faces[i])) > OVERHANG:
-            _dome_on_dome(verts, faces, supports, i, j, eye, done)
-            continue  # it cannot stand on its own foot: no shift helps
+        if not _stands(pts, _solid_com(pts, faces[i])) and _dome_on_dome(verts, faces, supports, i, j, eye, done):
+            continue  # it cannot stand on its own foot, but on a seat cut in the crown under it
         # what tips it off its supporter is its load, itself and all it carries: a book over the lower book's
         # back edge by the one on it (each alone over the top under it) fell 16 cm with it
         com = _load_com(riders(i, supports), verts, faces)
@@ -233,8 +272,23 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
         foot = pts[pts[:, 2] <= low + band, :2]
         margin = steady_margin(foot)
         c = com[:2]
+        # an object standing on an area of itself is held by the part of it over the top, not by the top: a
+        # cup over a book's hidden far edge, its centre of mass 10 mm inside the book's top, 5.7 mm inside its
+        # bottom's vertices over it, crept and tipped off after 1 s (241611/054)
+        area = _real_overhang(pts, _solid_com(pts, faces[i]))[0] < float("inf")
+
+        def short(d=np.zeros(2)) -> float:
+            """How far (m) the load's centre, moved level by ``d``, lacks of its margin inside the top and inside
+            the object's real contact over it (≤ 0: held)."""
+            lack = _outside(region, c + d) + margin
+            if area:
+                step = np.array([d[0], d[1], 0.0])
+                held, feet = _real_overhang(pts + step, com + step, region)
+                lack = max(lack, held + steady_margin(feet))
+            return lack
+
         out = _outside(region, c)
-        if out <= -margin:
+        if short() <= 0:
             # balanced dome on dome: a pile's hollow beside it holds it as the photo shows it, else its crown
             if not (_rounded_pair(verts[i], verts[j])
                     and _into_hollow(verts, faces, supports, i, j, com, eye, margin, out, done)):
@@ -255,10 +309,16 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
             # free: the top under its foot is hidden from the camera by what stands on it
             verts[j] = raised
             region = _top_under(raised, low, band)
-            if _outside(region, c) <= -margin:
+            if short() <= 0:
                 done.append({"object": i, "on": j, "shift_m": 0.0, "raised_top": True})
                 continue
         shift = _cheapest_shift(region, c, margin, com, eye)
+        lack = short(shift)
+        if 0 < lack < float("inf"):
+            # the contact over the top ends short of the top's edge: the centre that much further inside
+            again = _cheapest_shift(region, c, margin + lack, com, eye)
+            if short(again) < lack:
+                shift = again
         for k in riders(i, supports):
             verts[k][:, :2] += shift
         verts[j] = raise_top(verts[j], foot + shift, low)  # flat under where the foot now stands
