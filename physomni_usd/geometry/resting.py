@@ -1,7 +1,8 @@
 """How a lifted rigid object rests on what is under it, in the terms both the build's placement
 (``align``: whether a pile's hollow holds a fruit) and the simulator's steadying (``physics.support``) judge
-it by: its contact band, the margin its centre of mass keeps inside a top, the cap a rounded foot loses, and
-the centre of mass of its solid. Metres; points (N, 3), world, z up."""
+it by: its contact band, its real contact (what touches, and the part of that over a top), the margin its
+centre of mass keeps inside a top, the cap a rounded foot loses, and the centre of mass of its solid. Metres;
+points (N, 3), world, z up."""
 
 from __future__ import annotations
 
@@ -24,21 +25,61 @@ def contact_band(points: np.ndarray) -> float:
     return max(CONTACT_BAND, CONTACT_BAND * float(np.ptp(points[:, 2])))
 
 
-def real_contact(points: np.ndarray, top: np.ndarray | None = None) -> np.ndarray:
-    """(K, 2): where ``points`` (N, 3) touch what they rest on, seen from above: those within
-    :data:`~physomni_usd.settings.REAL_CONTACT` of the lowest, and where ``top`` (M, 2, the top of what holds it
-    seen from above) is given, only those over its convex hull (a foot past a book's edge touches nothing)."""
+def real_contact(points: np.ndarray, gap: np.ndarray | None = None) -> np.ndarray:
+    """(K, 2): where ``points`` (N, 3) touch what they rest on, seen from above: those whose ``gap`` (N, m, each
+    point's height over what is under it; their height where not given: a level floor) is within
+    :data:`~physomni_usd.settings.REAL_CONTACT` of the least. On a slanted top the object's lowest point is not
+    all that touches; on a level one its slanted foot touches only at its low end."""
+    pts = np.asarray(points, float)
+    g = pts[:, 2] if gap is None else np.asarray(gap, float)
+    return np.unique(np.round(pts[g <= float(np.nanmin(g)) + REAL_CONTACT, :2], 6), axis=0)
+
+
+def hull_ring(points: np.ndarray) -> np.ndarray:
+    """(K, 2): the convex hull of ``points`` (N, 2) counter-clockwise; empty where it has no area."""
     from scipy.spatial import ConvexHull, QhullError
 
-    pts = np.asarray(points, float)
-    feet = np.unique(np.round(pts[pts[:, 2] <= float(pts[:, 2].min()) + REAL_CONTACT, :2], 6), axis=0)
-    if top is not None and len(feet):
-        try:
-            eq = ConvexHull(np.asarray(top, float)).equations
-        except (QhullError, ValueError):
-            return feet[:0]
-        feet = feet[(feet @ eq[:, :2].T + eq[:, 2]).max(axis=1) <= 1e-9]
-    return feet
+    pts = np.asarray(points, float).reshape(-1, 2)
+    if len(pts) < 3:
+        return pts[:0]
+    try:
+        return pts[ConvexHull(pts).vertices]
+    except QhullError:
+        return pts[:0]
+
+
+def contact_over(feet: np.ndarray, top: np.ndarray) -> np.ndarray:
+    """(K, 2): the convex hull of ``feet`` (a real contact) cut by that of ``top`` (what holds it, seen from
+    above), counter-clockwise; empty where they do not overlap. The polygons, not the vertices of one inside the
+    other: those move with how finely the object is meshed (a box 12 mm inside a book's edge was left alone on
+    its 8 corners and shifted 2.5 mm subdivided twice)."""
+    out, ring = hull_ring(feet), hull_ring(top)
+    for a, b in zip(ring, np.roll(ring, -1, axis=0)):  # each edge of the top's ring in turn clips what is left
+        if not len(out):
+            break
+        e = b - a
+        side = e[0] * (out[:, 1] - a[1]) - e[1] * (out[:, 0] - a[0])  # ≥ 0: on the top's side of the edge
+        kept = []
+        for k in range(len(out)):
+            p, q, sp, sq = out[k - 1], out[k], side[k - 1], side[k]
+            if (sp >= 0) != (sq >= 0):
+                kept.append(p + (q - p) * sp / (sp - sq))
+            if sq >= 0:
+                kept.append(q)
+        out = np.array(kept).reshape(-1, 2)
+    return hull_ring(out)
+
+
+def least_width(points: np.ndarray) -> float:
+    """The least width (m) of the convex hull of ``points`` (N, 2) across any direction; 0 without area. Not
+    its extent along x or y: a strip turned 45° is as thin as it was."""
+    ring = hull_ring(points)
+    if not len(ring):
+        return 0.0
+    e = np.roll(ring, -1, axis=0) - ring
+    n = np.column_stack([-e[:, 1], e[:, 0]]) / np.maximum(np.linalg.norm(e, axis=1), 1e-18)[:, None]
+    # for each edge, how far the farthest corner lies from its line: the hull's width across that edge
+    return float(np.abs(np.einsum("kmd,kd->km", ring[None, :, :] - ring[:, None, :], n)).max(axis=1).min())
 
 
 def steady_margin(foot: np.ndarray) -> float:

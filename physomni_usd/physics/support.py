@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.resting import (FOOT_CUT, contact_band, real_contact, solid as _solid, solid_com as _solid_com,
-                                steady_margin)
+from ..geometry.resting import (FOOT_CUT, contact_band, contact_over, hull_ring, real_contact, solid as _solid,
+                                solid_com as _solid_com, steady_margin)
 
 #: An object whose lowest point is within this of the ground (m, or this fraction of its size if larger)
 #: stands on it.
@@ -23,21 +23,28 @@ ON_GROUND = 0.01
 OVERHANG = 0.005
 
 
+def _hull_out(feet: np.ndarray, c: np.ndarray) -> float:
+    """Signed distance (m) of ``c`` (2,) outside the convex hull of ``feet`` (K, 2), ≤ 0 inside; inf where
+    they span no area (fewer than three points, or a line)."""
+    ring = hull_ring(feet)
+    if not len(ring):
+        return float("inf")
+    e = np.roll(ring, -1, axis=0) - ring
+    n = np.column_stack([e[:, 1], -e[:, 0]]) / np.maximum(np.linalg.norm(e, axis=1), 1e-18)[:, None]  # outward
+    return float(np.einsum("kd,kd->k", np.asarray(c, float)[:2] - ring, n).max())
+
+
 def overhang(points: np.ndarray, com: np.ndarray) -> float:
     """How far (m) the centre of mass ``com`` (3,) lies, seen from above, outside the convex hull of the
     lowest of ``points`` (N, 3, world, z up); ≤ 0 inside."""
-    from scipy.spatial import ConvexHull, QhullError
-
     low = points[:, 2].min()
     band = contact_band(points)
     feet = np.unique(np.round(points[points[:, 2] <= low + band, :2], 6), axis=0)
     c = np.asarray(com, float)[:2]
-    if len(feet) >= 3:
-        try:
-            eq = ConvexHull(feet).equations  # unit outward normals: a·x + b·y + d is the signed distance
-            return float((eq[:, :2] @ c + eq[:, 2]).max())
-        except QhullError:
-            pass  # collinear: a line of contact
+    out = _hull_out(feet, c)
+    if out < float("inf"):
+        return out
+    # a point or a line of contact: the distance to it
     a, b = feet[np.argmin(feet @ (feet[-1] - feet[0]))], feet[np.argmax(feet @ (feet[-1] - feet[0]))]
     ab = b - a
     s = np.clip((c - a) @ ab / max(ab @ ab, 1e-18), 0.0, 1.0)
@@ -104,28 +111,58 @@ def _load_com(group, vertex_sets, faces) -> np.ndarray:
     return np.average([np.asarray(s.center_mass, float) for s in solids], axis=0, weights=w)
 
 
-def _real_overhang(points: np.ndarray, com: np.ndarray, top: np.ndarray | None = None) -> tuple[float, np.ndarray]:
-    """How far (m) ``com`` lies, seen from above, outside the convex hull of ``points``' real contact
-    (``geometry.resting.real_contact``, over ``top`` where given), ≤ 0 inside, and that contact (K, 2); inf where it
-    touches at fewer than three points or along a line: balanced there, the solver's first tremor tips it."""
-    from scipy.spatial import ConvexHull, QhullError
-
-    feet = real_contact(points, top)
-    if len(feet) < 3:
-        return float("inf"), feet
-    try:
-        eq = ConvexHull(feet).equations
-    except QhullError:
-        return float("inf"), feet
-    return float((eq[:, :2] @ np.asarray(com, float)[:2] + eq[:, 2]).max()), feet
+def _real_overhang(points: np.ndarray, com: np.ndarray, top: np.ndarray | None = None,
+                   gap: np.ndarray | None = None) -> tuple[float, np.ndarray]:
+    """How far (m) ``com`` lies, seen from above, outside ``points``' real contact
+    (``geometry.resting.real_contact`` by ``gap``; cut by the convex hull of ``top`` where given,
+    ``geometry.resting.contact_over``), ≤ 0 inside, and that contact (K, 2); inf where it spans no area (two
+    points or a line): balanced there, the solver's first tremor tips it."""
+    feet = real_contact(points, gap)
+    if top is not None:
+        feet = contact_over(feet, top)
+    return _hull_out(feet, com), feet
 
 
-def _stands(points: np.ndarray, com: np.ndarray) -> bool:
-    """Whether ``points`` (N, 3), their centre of mass at ``com``, stand on their real contact: that centre the
-    steady margin inside it. The contact band reads a slanted foot as wide as its lowest centimetre; it stands
-    only on what touches."""
-    out, feet = _real_overhang(points, com)
+def _stands(points: np.ndarray, com: np.ndarray, gap: np.ndarray | None = None) -> bool:
+    """Whether ``points`` (N, 3), their centre of mass at ``com``, stand on their real contact (by ``gap``, as
+    :func:`surface_gap` measures it over what holds them): that centre the steady margin inside it. The contact
+    band reads a slanted foot as wide as its lowest centimetre; it stands only on what touches."""
+    out, feet = _real_overhang(points, com, gap=gap)
     return out <= -steady_margin(feet)
+
+
+def surface_gap(upper: np.ndarray, lower: np.ndarray, lower_faces: np.ndarray) -> np.ndarray:
+    """(N,) m: how high each point of ``upper`` (N, 3) stands over the surface of ``lower`` (M, 3, triangle
+    ``lower_faces``) straight under it (a ray cast down, as :func:`walled_in` does); over nothing of it, over
+    the surface under the nearest point that is over it (the top goes on level past its edge); inf for points
+    above ``upper``'s contact band, which touch nothing. A box flush on a 4° top touches with all its sole,
+    not with the 2 mm over its lowest point, and levelled to that point it sank 4 mm into the top."""
+    import trimesh
+
+    pts = np.asarray(upper, float)
+    gap = np.full(len(pts), np.inf)
+    low = pts[:, 2] <= float(pts[:, 2].min()) + contact_band(pts)
+    o = pts[low].copy()
+    o[:, 2] = float(np.max(lower[:, 2])) + ON_FLOOR
+    mesh = trimesh.Trimesh(lower, lower_faces, process=False)
+    hits, ray, _ = mesh.ray.intersects_location(o, np.tile([0.0, 0.0, -1.0], (len(o), 1)))
+    if not len(hits):
+        gap[low] = pts[low, 2] - float(np.max(lower[:, 2]))
+        return gap
+    z = pts[low, 2]
+    surf = np.full(len(o), -np.inf)
+    # the highest hit not far above the point (a slight overlap still reads as resting on that face)
+    keep = hits[:, 2] <= z[ray] + contact_band(pts)
+    np.maximum.at(surf, ray[keep], hits[keep, 2])
+    miss = ~np.isfinite(surf)
+    if miss.all():
+        np.maximum.at(surf, ray, hits[:, 2])
+        miss = ~np.isfinite(surf)
+    if miss.any():
+        near = np.argmin(np.linalg.norm(o[miss, None, :2] - o[None, ~miss, :2], axis=2), axis=1)
+        surf[miss] = surf[~miss][near]
+    gap[low] = z - surf
+    return gap
 
 
 def _top_under(supporter: np.ndarray, base_z: float, band: float) -> np.ndarray:
@@ -229,10 +266,13 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None, labels=None) -> 
         # another stopped a pushed ball read as standing on a crate's top (6 mm where it rolled,
         # tests/test_studio_pushes.py); in a hollow (a fruit on a bowl's inner floor) a ball on the flat floor
         # wanders 5 cm with nothing pushing it, where the walls around it stop a pushed one anyway
-        if i in supports and not walled_in(verts[i], verts[supports[i][0]], faces[supports[i][0]]):
+        on_top = i in supports and not walled_in(verts[i], verts[supports[i][0]], faces[supports[i][0]])
+        if on_top:
             # ... but a slanted sole is levelled there too: a cup lifted as a slab on a book stood on its sole's
             # low end, its centre of mass 17 mm beyond it, and tipped at once (241611/038)
-            if _stands(verts[i], _solid_com(verts[i], faces[i])):
+            j = supports[i][0]
+            gap = surface_gap(verts[i], verts[j], faces[j])
+            if _stands(verts[i], _solid_com(verts[i], faces[i]), gap):
                 continue
         else:
             footed, cut = flat_foot(verts[i])
@@ -244,12 +284,21 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None, labels=None) -> 
                     verts[k][:, 2] -= cut
                 done.append({"object": i, "flat_foot_m": round(cut, 4)})
         soled, level = level_sole(verts[i], faces[i])  # a foot cut round its lowest point may not hold it
-        if level > 0 and i in supports and labels is not None and eye is not None:
-            from ..metrics.geometry import thin_side
+        if level > 0 and on_top:
+            # levelled to its lowest point, a sole on a slanted top sinks into it where the top rises (a start
+            # overlap the solver throws apart); there it is left as it is
+            after = surface_gap(soled, verts[j], faces[j])
+            refused = float(np.min(after)) < min(float(np.min(gap)), 0.0) - SOLE_DIP
+            if not refused and labels is not None and eye is not None:
+                from ..metrics.geometry import thin_side
 
-            # a fruit slab-lifted on a book, deepened to just the depth its outline allows and tilted 22°, came
-            # out of a 10 mm sole thinner than that (241611/008); the ground's soles kept as they were measured
-            if thin_side(soled, labels[i], eye) is not None and thin_side(verts[i], labels[i], eye) is None:
+                # a fruit slab-lifted on a book, deepened to just the depth its outline allows and tilted 22°,
+                # came out of a 10 mm sole thinner than that (241611/008); the ground's soles and those in a
+                # hollow (walled in) kept as they were measured
+                refused = thin_side(soled, labels[i], eye) is not None and thin_side(verts[i], labels[i], eye) is None
+            if refused:
+                out, _ = _real_overhang(verts[i], _solid_com(verts[i], faces[i]), gap=gap)
+                done.append({"object": i, "unsteady_m": round(min(out, 1.0), 4)})  # nothing here helps it
                 level = 0.0
         if level > 0 and not _thinned(verts[i], soled):
             verts[i] = soled
@@ -261,7 +310,9 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None, labels=None) -> 
         pts = verts[i]
         low = float(pts[:, 2].min())
         band = contact_band(pts)
-        if not _stands(pts, _solid_com(pts, faces[i])) and _dome_on_dome(verts, faces, supports, i, j, eye, done):
+        gap = surface_gap(pts, verts[j], faces[j])
+        if not _stands(pts, _solid_com(pts, faces[i]), gap) and _dome_on_dome(verts, faces, supports, i, j, eye,
+                                                                             done):
             continue  # it cannot stand on its own foot, but on a seat cut in the crown under it
         # what tips it off its supporter is its load, itself and all it carries: a book over the lower book's
         # back edge by the one on it (each alone over the top under it) fell 16 cm with it
@@ -275,17 +326,18 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None, labels=None) -> 
         # an object standing on an area of itself is held by the part of it over the top, not by the top: a
         # cup over a book's hidden far edge, its centre of mass 10 mm inside the book's top, 5.7 mm inside its
         # bottom's vertices over it, crept and tipped off after 1 s (241611/054)
-        area = _real_overhang(pts, _solid_com(pts, faces[i]))[0] < float("inf")
+        touch = real_contact(pts, gap)
+        area = len(hull_ring(touch)) > 0
 
         def short(d=np.zeros(2)) -> float:
             """How far (m) the load's centre, moved level by ``d``, lacks of its margin inside the top and inside
             the object's real contact over it (≤ 0: held)."""
             lack = _outside(region, c + d) + margin
             if area:
-                step = np.array([d[0], d[1], 0.0])
-                held, feet = _real_overhang(pts + step, com + step, region)
-                if held < float("inf"):  # on two of its own points over the top, what it touches there is the top's
-                    lack = max(lack, held + steady_margin(feet))
+                over = contact_over(touch + d, region)
+                held = _hull_out(over, c + d)
+                if held < float("inf"):  # on a sliver over the top, what it touches there is the top's edge
+                    lack = max(lack, held + steady_margin(over))
             return lack
 
         out = _outside(region, c)
@@ -356,6 +408,10 @@ def walled_in(upper: np.ndarray, lower: np.ndarray, lower_faces: np.ndarray) -> 
                                               np.array([[0.0, 0.0, -1.0]]))
     return bool(len(hits)) and float(hits[:, 2].max()) >= low[2] - ON_FLOOR
 
+
+#: A stacked object's sole is not levelled where that brings a point of it more than this (m) closer to the top
+#: under it than its nearest point was (:func:`steady_stacks`).
+SOLE_DIP = 1e-4
 
 #: A rounded object on a rounded top is brought over that top's crown by at most this fraction of its own
 #: smaller level width: farther, the photo shows it elsewhere, and it is left as it was.
