@@ -26,13 +26,17 @@ def contact_band(points: np.ndarray) -> float:
 
 
 def real_contact(points: np.ndarray, gap: np.ndarray | None = None) -> np.ndarray:
-    """(K, 2): where ``points`` (N, 3) touch what they rest on, seen from above: those whose ``gap`` (N, m, each
-    point's height over what is under it; their height where not given: a level floor) is within
-    :data:`~physomni_usd.settings.REAL_CONTACT` of the least. On a slanted top the object's lowest point is not
-    all that touches; on a level one its slanted foot touches only at its low end."""
+    """(K, 2): where ``points`` (N, 3) touch what they rest on, seen from above: those within
+    :data:`~physomni_usd.settings.REAL_CONTACT` of the lowest and, where ``gap`` (N, m, each point's height over
+    the surface straight under it) is given, those within that of the least gap too. On a slanted top more than
+    the lowest point touches; on a level one a slanted foot touches only at its low end; a fruit in a pile's
+    hollow rests by its lowest point on the fruits round it, not on the one it was read on alone."""
     pts = np.asarray(points, float)
-    g = pts[:, 2] if gap is None else np.asarray(gap, float)
-    return np.unique(np.round(pts[g <= float(np.nanmin(g)) + REAL_CONTACT, :2], 6), axis=0)
+    near = pts[:, 2] <= float(pts[:, 2].min()) + REAL_CONTACT
+    if gap is not None:
+        g = np.asarray(gap, float)
+        near |= g <= float(np.min(g)) + REAL_CONTACT
+    return np.unique(np.round(pts[near, :2], 6), axis=0)
 
 
 def hull_ring(points: np.ndarray) -> np.ndarray:
