@@ -368,19 +368,16 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None, labels=None) -> 
                 done.append({"object": i, "on": j, "shift_m": 0.0, "raised_top": True})
                 continue
         shift = _cheapest_shift(region, c, margin, com, eye)
+        # no second shift for a contact over the top that ends short: the distance inside two convex polygons'
+        # overlap is the lesser of those inside each, the shift brings the top's to the margin and the object's
+        # own contact moves with it. What it still lacks is its foot's (recorded: no shift helps it)
         lack = short(shift)
-        if 0 < lack <= margin:
-            # the contact over the top ends short of the top's edge: the centre that much further inside. By no
-            # more than the margin itself: a box on a box carried 3 cm further (241611/042) lost a third of its
-            # outline, where a cup creeping off a book's edge wanted millimetres (241611/054)
-            again = _cheapest_shift(region, c, margin + lack, com, eye)
-            if short(again) < lack:
-                shift = again
         for k in riders(i, supports):
             verts[k][:, :2] += shift
         verts[j] = raise_top(verts[j], foot + shift, low)  # flat under where the foot now stands
         done.append({"object": i, "on": j, "shift_m": round(float(np.linalg.norm(shift)), 4),
-                     "overhang_m": round(_outside(region, c), 4)})
+                     "overhang_m": round(_outside(region, c), 4)}
+                    | ({"short_m": round(lack, 4)} if lack > 0 else {}))
     return verts, done
 
 
