@@ -14,6 +14,7 @@ import numpy as np
 
 from ..geometry.resting import (FOOT_CUT, contact_band, contact_over, hull_ring, real_contact, solid as _solid,
                                 solid_com as _solid_com, steady_margin)
+from ..settings import HEAVY_LOAD, HEAVY_LOAD_MARGIN
 
 #: An object whose lowest point is within this of the ground (m, or this fraction of its size if larger)
 #: stands on it.
@@ -109,6 +110,13 @@ def _load_com(group, vertex_sets, faces) -> np.ndarray:
     solids = [_solid(vertex_sets[k], faces[k]) for k in group]
     w = np.array([max(float(abs(s.volume)), 1e-12) for s in solids])
     return np.average([np.asarray(s.center_mass, float) for s in solids], axis=0, weights=w)
+
+
+def _mass(group, vertex_sets, faces, labels) -> float:
+    """The mass (kg) of the objects ``group`` (indices), their solids at their labels' table densities."""
+    from ..materials.defaults import rigid_material
+
+    return float(sum(_solid(vertex_sets[k], faces[k]).volume * rigid_material(labels[k]).density for k in group))
 
 
 def _real_overhang(points: np.ndarray, com: np.ndarray, top: np.ndarray | None = None,
@@ -255,7 +263,8 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None, labels=None) -> 
     :func:`walled_in`), and a sole that its centre of mass overhangs is levelled (:func:`level_sole`); so is the
     sole of an object on another that does not stand on what it touches (:func:`_stands`), unless that leaves it
     thinner than its outline allows (``metrics.geometry.thin_side``, by ``labels``, one per object, seen from
-    ``eye``). Whether an object stands, and how far inside a top its load is, are judged on its real contact
+    ``eye``); a load :data:`~physomni_usd.settings.HEAVY_LOAD` times its supporter's mass (by ``labels``) keeps
+    a wider margin. Whether an object stands, and how far inside a top its load is, are judged on its real contact
     (``geometry.resting.real_contact``): a slanted foot's contact band reads it held where it is not."""
     from ..align.support import riders  # the build's; simulate, which imports this module, needs none of align
 
@@ -322,6 +331,12 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None, labels=None) -> 
             continue
         foot = pts[pts[:, 2] <= low + band, :2]
         margin = steady_margin(foot)
+        load = _mass(riders(i, supports), verts, faces, labels) if labels is not None else 0.0
+        if labels is not None and load >= HEAVY_LOAD * _mass([j], verts, faces, labels):
+            # a light supporter leans under a heavy load off its middle: a cup five times its book's mass, 10 mm
+            # inside the book's top, tilted it 0.9° and slid off (241611/054), where one four times its book's
+            # stood 14 mm inside (046)
+            margin *= HEAVY_LOAD_MARGIN
         c = com[:2]
         # an object standing on an area of itself is held by the part of it over the top, not by the top: a
         # cup over a book's hidden far edge, its centre of mass 10 mm inside the book's top, 5.7 mm inside its
