@@ -329,3 +329,13 @@ def test_a_load_much_heavier_than_a_light_supporter_keeps_a_wider_margin():
         verts, done = steady_stacks([book.vertices, cup.vertices], [book.faces, cup.faces], {1: (0, "on")}, eye,
                                     labels)
         assert bool([d for d in done if d.get("shift_m", 0) > 0.001]) == moved, (labels, done)
+
+
+def test_the_margin_of_a_thin_foot_does_not_change_as_it_turns():
+    """A 20 x 2 cm foot keeps its centre of mass a quarter of its width inside, 5 mm, however it is turned: on
+    its extent along x and y, turned 45° it was read as 14 mm wide and kept the full 10 mm."""
+    strip = np.array([[0.0, 0.0], [0.2, 0.0], [0.2, 0.02], [0.0, 0.02]])
+    for deg in (0.0, 30.0, 45.0):
+        r = np.radians(deg)
+        turned = strip @ np.array([[np.cos(r), -np.sin(r)], [np.sin(r), np.cos(r)]]).T
+        assert abs(steady_margin(turned) - 0.005) < 1e-9, deg

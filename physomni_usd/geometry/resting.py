@@ -88,8 +88,9 @@ def least_width(points: np.ndarray) -> float:
 
 def steady_margin(foot: np.ndarray) -> float:
     """How far (m) inside a top a centre of mass over ``foot`` (M, 2, its contact's points seen from above) is
-    kept: :data:`STEADY_MARGIN`, or a quarter of the foot's smaller side where less."""
-    return min(STEADY_MARGIN, 0.25 * float(np.ptp(foot, axis=0).min()) if len(foot) > 1 else STEADY_MARGIN)
+    kept: :data:`STEADY_MARGIN`, or a quarter of the foot's least width (:func:`least_width`) where less, not of
+    its extent along x or y (a strip along x stood; turned 45°, the same strip was judged twice as wide)."""
+    return min(STEADY_MARGIN, 0.25 * least_width(foot)) if len(foot) > 1 else STEADY_MARGIN
 
 
 def solid(points: np.ndarray, faces: np.ndarray):
