@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.resting import FOOT_CUT, contact_band, solid as _solid, solid_com as _solid_com, steady_margin
+from ..geometry.resting import (FOOT_CUT, contact_band, contact_over, hull_ring, real_contact, solid as _solid,
+                                solid_com as _solid_com, steady_margin)
+from ..settings import HEAVY_LOAD, HEAVY_LOAD_MARGIN
 
 #: An object whose lowest point is within this of the ground (m, or this fraction of its size if larger)
 #: stands on it.
@@ -22,21 +24,28 @@ ON_GROUND = 0.01
 OVERHANG = 0.005
 
 
+def _hull_out(feet: np.ndarray, c: np.ndarray) -> float:
+    """Signed distance (m) of ``c`` (2,) outside the convex hull of ``feet`` (K, 2), ≤ 0 inside; inf where
+    they span no area (fewer than three points, or a line)."""
+    ring = hull_ring(feet)
+    if not len(ring):
+        return float("inf")
+    e = np.roll(ring, -1, axis=0) - ring
+    n = np.column_stack([e[:, 1], -e[:, 0]]) / np.maximum(np.linalg.norm(e, axis=1), 1e-18)[:, None]  # outward
+    return float(np.einsum("kd,kd->k", np.asarray(c, float)[:2] - ring, n).max())
+
+
 def overhang(points: np.ndarray, com: np.ndarray) -> float:
     """How far (m) the centre of mass ``com`` (3,) lies, seen from above, outside the convex hull of the
     lowest of ``points`` (N, 3, world, z up); ≤ 0 inside."""
-    from scipy.spatial import ConvexHull, QhullError
-
     low = points[:, 2].min()
     band = contact_band(points)
     feet = np.unique(np.round(points[points[:, 2] <= low + band, :2], 6), axis=0)
     c = np.asarray(com, float)[:2]
-    if len(feet) >= 3:
-        try:
-            eq = ConvexHull(feet).equations  # unit outward normals: a·x + b·y + d is the signed distance
-            return float((eq[:, :2] @ c + eq[:, 2]).max())
-        except QhullError:
-            pass  # collinear: a line of contact
+    out = _hull_out(feet, c)
+    if out < float("inf"):
+        return out
+    # a point or a line of contact: the distance to it
     a, b = feet[np.argmin(feet @ (feet[-1] - feet[0]))], feet[np.argmax(feet @ (feet[-1] - feet[0]))]
     ab = b - a
     s = np.clip((c - a) @ ab / max(ab @ ab, 1e-18), 0.0, 1.0)
@@ -101,6 +110,67 @@ def _load_com(group, vertex_sets, faces) -> np.ndarray:
     solids = [_solid(vertex_sets[k], faces[k]) for k in group]
     w = np.array([max(float(abs(s.volume)), 1e-12) for s in solids])
     return np.average([np.asarray(s.center_mass, float) for s in solids], axis=0, weights=w)
+
+
+def _mass(group, vertex_sets, faces, labels) -> float:
+    """The mass (kg) of the objects ``group`` (indices), their solids at their labels' table densities."""
+    from ..materials.defaults import rigid_material
+
+    return float(sum(_solid(vertex_sets[k], faces[k]).volume * rigid_material(labels[k]).density for k in group))
+
+
+def _real_overhang(points: np.ndarray, com: np.ndarray, top: np.ndarray | None = None,
+                   gap: np.ndarray | None = None) -> tuple[float, np.ndarray]:
+    """How far (m) ``com`` lies, seen from above, outside ``points``' real contact
+    (``geometry.resting.real_contact`` by ``gap``; cut by the convex hull of ``top`` where given,
+    ``geometry.resting.contact_over``), ≤ 0 inside, and that contact (K, 2); inf where it spans no area (two
+    points or a line): balanced there, the solver's first tremor tips it."""
+    feet = real_contact(points, gap)
+    if top is not None:
+        feet = contact_over(feet, top)
+    return _hull_out(feet, com), feet
+
+
+def _stands(points: np.ndarray, com: np.ndarray, gap: np.ndarray | None = None) -> bool:
+    """Whether ``points`` (N, 3), their centre of mass at ``com``, stand on their real contact (by ``gap``, as
+    :func:`surface_gap` measures it over what holds them): that centre the steady margin inside it. The contact
+    band reads a slanted foot as wide as its lowest centimetre; it stands only on what touches."""
+    out, feet = _real_overhang(points, com, gap=gap)
+    return out <= -steady_margin(feet)
+
+
+def surface_gap(upper: np.ndarray, lower: np.ndarray, lower_faces: np.ndarray) -> np.ndarray:
+    """(N,) m: how high each point of ``upper`` (N, 3) stands over the surface of ``lower`` (M, 3, triangle
+    ``lower_faces``) straight under it (a ray cast down, as :func:`walled_in` does); over nothing of it, over
+    the surface under the nearest point that is over it (the top goes on level past its edge); inf for points
+    above ``upper``'s contact band, which touch nothing. A box flush on a 4° top touches with all its sole,
+    not with the 2 mm over its lowest point, and levelled to that point it sank 4 mm into the top."""
+    import trimesh
+
+    pts = np.asarray(upper, float)
+    gap = np.full(len(pts), np.inf)
+    low = pts[:, 2] <= float(pts[:, 2].min()) + contact_band(pts)
+    o = pts[low].copy()
+    o[:, 2] = float(np.max(lower[:, 2])) + ON_FLOOR
+    mesh = trimesh.Trimesh(lower, lower_faces, process=False)
+    hits, ray, _ = mesh.ray.intersects_location(o, np.tile([0.0, 0.0, -1.0], (len(o), 1)))
+    if not len(hits):
+        gap[low] = pts[low, 2] - float(np.max(lower[:, 2]))
+        return gap
+    z = pts[low, 2]
+    surf = np.full(len(o), -np.inf)
+    # the highest hit not far above the point (a slight overlap still reads as resting on that face)
+    keep = hits[:, 2] <= z[ray] + contact_band(pts)
+    np.maximum.at(surf, ray[keep], hits[keep, 2])
+    miss = ~np.isfinite(surf)
+    if miss.all():
+        np.maximum.at(surf, ray, hits[:, 2])
+        miss = ~np.isfinite(surf)
+    if miss.any():
+        near = np.argmin(np.linalg.norm(o[miss, None, :2] - o[None, ~miss, :2], axis=2), axis=1)
+        surf[miss] = surf[~miss][near]
+    gap[low] = z - surf
+    return gap
 
 
 def _top_under(supporter: np.ndarray, base_z: float, band: float) -> np.ndarray:
@@ -174,7 +244,7 @@ def _cheapest_shift(region: np.ndarray, c: np.ndarray, margin: float, com: np.nd
     return steps[np.argmin(across + 0.1 * np.linalg.norm(steps, axis=1))]
 
 
-def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np.ndarray], list[dict]]:
+def steady_stacks(vertex_sets, faces, supports: dict, eye=None, labels=None) -> tuple[list[np.ndarray], list[dict]]:
     """Vertex sets in which each object resting on another (``supports``: {upper: (lower, how)}) has its
     centre of mass over the supporter's top, and what was moved. A lifted object stands where its outline's
     foot is read, at a depth the photo hardly shows; a few centimetres too far forward of the box under it,
@@ -190,7 +260,12 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
     objects first. Before all that, every object standing on a point on the ground gets a flat foot
     (:func:`flat_foot`), what rests on it lowered with it (not one held by another object: an orange in a bowl's
     mouth, rounded, rests on its rim; flattened, it fell 24 cm; but one on a floor walled in by what holds it,
-    :func:`walled_in`), and a sole that its centre of mass overhangs is levelled (:func:`level_sole`)."""
+    :func:`walled_in`), and a sole that its centre of mass overhangs is levelled (:func:`level_sole`); so is the
+    sole of an object on another that does not stand on what it touches (:func:`_stands`), unless that leaves it
+    thinner than its outline allows (``metrics.geometry.thin_side``, by ``labels``, one per object, seen from
+    ``eye``); a load :data:`~physomni_usd.settings.HEAVY_LOAD` times its supporter's mass (by ``labels``) keeps
+    a wider margin. Whether an object stands, and how far inside a top its load is, are judged on its real contact
+    (``geometry.resting.real_contact``): a slanted foot's contact band reads it held where it is not."""
     from ..align.support import riders  # the build's; simulate, which imports this module, needs none of align
 
     verts = [np.asarray(v, float).copy() for v in vertex_sets]
@@ -200,17 +275,40 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
         # another stopped a pushed ball read as standing on a crate's top (6 mm where it rolled,
         # tests/test_studio_pushes.py); in a hollow (a fruit on a bowl's inner floor) a ball on the flat floor
         # wanders 5 cm with nothing pushing it, where the walls around it stop a pushed one anyway
-        if i in supports and not walled_in(verts[i], verts[supports[i][0]], faces[supports[i][0]]):
-            continue
-        footed, cut = flat_foot(verts[i])
-        if cut > 0 and _thinned(verts[i], footed):
-            cut = 0.0  # as level_sole's: a round thing is not cut thinner than the build made it
-        if cut > 0:
-            verts[i] = footed
-            for k in riders(i, supports)[1:]:
-                verts[k][:, 2] -= cut
-            done.append({"object": i, "flat_foot_m": round(cut, 4)})
+        on_top = i in supports and not walled_in(verts[i], verts[supports[i][0]], faces[supports[i][0]])
+        if on_top:
+            # ... but a slanted sole is levelled there too: a cup lifted as a slab on a book stood on its sole's
+            # low end, its centre of mass 17 mm beyond it, and tipped at once (241611/038)
+            j = supports[i][0]
+            gap = surface_gap(verts[i], verts[j], faces[j])
+            if _stands(verts[i], _solid_com(verts[i], faces[i]), gap):
+                continue
+        else:
+            footed, cut = flat_foot(verts[i])
+            if cut > 0 and _thinned(verts[i], footed):
+                cut = 0.0  # as level_sole's: a round thing is not cut thinner than the build made it
+            if cut > 0:
+                verts[i] = footed
+                for k in riders(i, supports)[1:]:
+                    verts[k][:, 2] -= cut
+                done.append({"object": i, "flat_foot_m": round(cut, 4)})
         soled, level = level_sole(verts[i], faces[i])  # a foot cut round its lowest point may not hold it
+        if level > 0 and on_top:
+            # levelled to its lowest point, a sole on a slanted top sinks into it where the top rises (a start
+            # overlap the solver throws apart); there it is left as it is
+            after = surface_gap(soled, verts[j], faces[j])
+            refused = float(np.min(after)) < min(float(np.min(gap)), 0.0) - SOLE_DIP
+            if not refused and labels is not None and eye is not None:
+                from ..metrics.geometry import thin_side
+
+                # a fruit slab-lifted on a book, deepened to just the depth its outline allows and tilted 22°,
+                # came out of a 10 mm sole thinner than that (241611/008); the ground's soles and those in a
+                # hollow (walled in) kept as they were measured
+                refused = thin_side(soled, labels[i], eye) is not None and thin_side(verts[i], labels[i], eye) is None
+            if refused:
+                out, _ = _real_overhang(verts[i], _solid_com(verts[i], faces[i]), gap=gap)
+                done.append({"object": i, "unsteady_m": round(min(out, 1.0), 4)})  # nothing here helps it
+                level = 0.0
         if level > 0 and not _thinned(verts[i], soled):
             verts[i] = soled
             done.append({"object": i, "level_sole_m": round(level, 4)})
@@ -221,9 +319,10 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
         pts = verts[i]
         low = float(pts[:, 2].min())
         band = contact_band(pts)
-        if overhang(pts, _solid_com(pts, faces[i])) > OVERHANG:
-            _dome_on_dome(verts, faces, supports, i, j, eye, done)
-            continue  # it cannot stand on its own foot: no shift helps
+        gap = surface_gap(pts, verts[j], faces[j])
+        if not _stands(pts, _solid_com(pts, faces[i]), gap) and _dome_on_dome(verts, faces, supports, i, j, eye,
+                                                                             done):
+            continue  # it cannot stand on its own foot, but on a seat cut in the crown under it
         # what tips it off its supporter is its load, itself and all it carries: a book over the lower book's
         # back edge by the one on it (each alone over the top under it) fell 16 cm with it
         com = _load_com(riders(i, supports), verts, faces)
@@ -232,16 +331,41 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
             continue
         foot = pts[pts[:, 2] <= low + band, :2]
         margin = steady_margin(foot)
+        load = _mass(riders(i, supports), verts, faces, labels) if labels is not None else 0.0
+        if labels is not None and load >= HEAVY_LOAD * _mass([j], verts, faces, labels):
+            # a light supporter leans under a heavy load off its middle: a cup five times its book's mass, 10 mm
+            # inside the book's top, tilted it 0.9° and slid off (241611/054), where one four times its book's
+            # stood 14 mm inside (046)
+            margin *= HEAVY_LOAD_MARGIN
         c = com[:2]
+        # an object standing on an area of itself is held by the part of it over the top, not by the top: a
+        # cup over a book's hidden far edge, its centre of mass 10 mm inside the book's top, 5.7 mm inside its
+        # bottom's vertices over it, crept and tipped off after 1 s (241611/054)
+        touch = real_contact(pts, gap)
+        area = len(hull_ring(touch)) > 0
+
+        def short(d=np.zeros(2)) -> float:
+            """How far (m) the load's centre, moved level by ``d``, lacks of its margin inside the top and inside
+            the object's real contact over it (≤ 0: held)."""
+            lack = _outside(region, c + d) + margin
+            if area:
+                over = contact_over(touch + d, region)
+                held = _hull_out(over, c + d)
+                if held < float("inf"):  # on a sliver over the top, what it touches there is the top's edge
+                    lack = max(lack, held + steady_margin(over))
+            return lack
+
         out = _outside(region, c)
-        if out <= -margin:
+        if short() <= 0:
             # balanced dome on dome: a pile's hollow beside it holds it as the photo shows it, else its crown
             if not (_rounded_pair(verts[i], verts[j])
                     and _into_hollow(verts, faces, supports, i, j, com, eye, margin, out, done)):
                 _dome_on_dome(verts, faces, supports, i, j, eye, done)
             continue
-        # held by several together (a pile's hollow): on one's top alone it balances on a dome
-        if _into_hollow(verts, faces, supports, i, j, com, eye, margin, out, done):
+        # held by several together (a pile's hollow): on one's top alone it balances on a dome. Its own
+        # supporter's top alone holds it only as its real contact over that top does
+        if _into_hollow(verts, faces, supports, i, j, com, eye, margin, out, done,
+                        lambda move, on: list(on) != [j] or short(np.asarray(move, float)[:2]) <= 0):
             continue
         # a dome read as on one fruit of a pile may stand over another's crown: seated on the one under its
         # centre of mass it moves less than onto its own supporter's (a lemon carried 4.9 cm off its outline)
@@ -255,15 +379,20 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
             # free: the top under its foot is hidden from the camera by what stands on it
             verts[j] = raised
             region = _top_under(raised, low, band)
-            if _outside(region, c) <= -margin:
+            if short() <= 0:
                 done.append({"object": i, "on": j, "shift_m": 0.0, "raised_top": True})
                 continue
         shift = _cheapest_shift(region, c, margin, com, eye)
+        # no second shift for a contact over the top that ends short: the distance inside two convex polygons'
+        # overlap is the lesser of those inside each, the shift brings the top's to the margin and the object's
+        # own contact moves with it. What it still lacks is its foot's (recorded: no shift helps it)
+        lack = short(shift)
         for k in riders(i, supports):
             verts[k][:, :2] += shift
         verts[j] = raise_top(verts[j], foot + shift, low)  # flat under where the foot now stands
         done.append({"object": i, "on": j, "shift_m": round(float(np.linalg.norm(shift)), 4),
-                     "overhang_m": round(_outside(region, c), 4)})
+                     "overhang_m": round(_outside(region, c), 4)}
+                    | ({"short_m": round(lack, 4)} if lack > 0 else {}))
     return verts, done
 
 
@@ -292,6 +421,10 @@ def walled_in(upper: np.ndarray, lower: np.ndarray, lower_faces: np.ndarray) -> 
     return bool(len(hits)) and float(hits[:, 2].max()) >= low[2] - ON_FLOOR
 
 
+#: A stacked object's sole is not levelled where that brings a point of it more than this (m) closer to the top
+#: under it than its nearest point was (:func:`steady_stacks`).
+SOLE_DIP = 1e-4
+
 #: A rounded object on a rounded top is brought over that top's crown by at most this fraction of its own
 #: smaller level width: farther, the photo shows it elsewhere, and it is left as it was.
 CROWN_REACH = 0.5
@@ -301,13 +434,14 @@ SEAT_DEPTH = 0.15
 
 
 def _into_hollow(verts, faces, supports: dict, i: int, j: int, com, eye, margin: float, overhang: float,
-                 done: list) -> bool:
+                 done: list, holds=None) -> bool:
     """Object ``i`` (on ``j``) and what it carries moved into the hollow :func:`into_hollow` finds for it, if
-    one holds it; records it in ``done`` and returns whether it did."""
+    one holds it (and ``holds`` (move (3,), the objects it rests on) → bool agrees, where given); records it in
+    ``done`` and returns whether it did."""
     from ..align.support import into_hollow, riders
 
     hollow = into_hollow(verts, faces, supports, i, com, eye, margin, min(float(v[:, 2].min()) for v in verts))
-    if hollow is None:
+    if hollow is None or (holds is not None and not holds(*hollow)):
         return False
     move, on = hollow
     for k in riders(i, supports):
