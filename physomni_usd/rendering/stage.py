@@ -29,6 +29,7 @@ class RenderObject:
     origin: tuple[int, int] | None = None  # the texture's top-left pixel in the photo (physomni:textureOrigin)
     corner_st: np.ndarray | None = None  # (M, 3, 2) st at each triangle corner (faceVarying st kept exact)
     two_sided: bool = False  # the texture is [photo crop | unseen sides] (physomni:unseenSides)
+    body: str = "mesh"  # "pillow": drawn with rendering.pillow's body, its points static and in its local frame
 
 
 @dataclass
@@ -102,6 +103,8 @@ def read_photo_points(stage: Usd.Stage, objects: list[RenderObject]) -> list[np.
     for o in objects:
         prim = scene.GetPrimAtPath(o.path)
         pts = UsdGeom.Mesh(prim).GetPointsAttr().Get(time) if prim and prim.IsA(UsdGeom.Mesh) else None
+        if pts is not None and o.body != "mesh":  # drawn with another body, posed as the mesh is
+            pts = o.static_points
         if pts is None:
             out.append(None)
             continue
