@@ -11,15 +11,23 @@ import numpy as np
 import trimesh
 
 from physomni_usd.geometry.camera import RenderCamera
-from physomni_usd.rendering.pillow import pillow
+from physomni_usd.rendering.pillow import grounded, pillow
 from physomni_usd.rendering.stage import RenderObject
 
 SIZE, F = 200, 200.0
 
 
+#: The object's pose where the photo shows it (USD row-vector form): turned 30° about z and 20° about x, moved.
+_R = (trimesh.transformations.rotation_matrix(np.radians(30), (0, 0, 1))
+      @ trimesh.transformations.rotation_matrix(np.radians(20), (1, 0, 0)))[:3, :3].T
+POSE = np.eye(4)
+POSE[:3, :3] = _R
+POSE[3, :3] = (0.3, -0.2, 0.5)
+
+
 def _slab_object():
-    """A disc with a thin stalk (4 px wide) in a 200 px photo, lifted as a 0.4 m slab 2 m away, and the camera
-    (looking along +y, z up)."""
+    """A disc with a thin stalk (4 px wide) in a 200 px photo, lifted as a 1 m deep slab 2 m away (in the world;
+    its points in its own frame, posed by :data:`POSE`), and the camera (looking along +y, z up)."""
     camera = RenderCamera(SIZE, SIZE, F, F, np.zeros(3), np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]]))
     mask = np.zeros((SIZE, SIZE), np.uint8)
     cv2.circle(mask, (80, 100), 40, 1, -1)
@@ -27,18 +35,20 @@ def _slab_object():
     texture = np.zeros((SIZE, SIZE, 4), np.uint8)
     texture[..., :3] = 128
     texture[..., 3] = mask * 255
-    box = trimesh.creation.box(extents=(2.0, 0.4, 2.0))
-    box.apply_translation((0.0, 2.2, 0.0))
+    box = trimesh.creation.box(extents=(4.0, 1.0, 4.0))
+    box.apply_translation((0.0, 2.5, 0.0))
+    local = (np.asarray(box.vertices, np.float64) - POSE[3, :3]) @ np.linalg.inv(POSE[:3, :3])
     obj = RenderObject("/World/Objects/thing_0", np.asarray(box.faces), np.zeros((len(box.vertices), 2)), texture,
-                       None, np.asarray(box.vertices, np.float64), 2.0, None, (0, 0), None, False)
+                       None, local, 2.0, None, (0, 0), None, False)
     return obj, camera, mask.astype(bool)
 
 
 def test_the_pillow_is_closed_without_walls_and_thin_where_the_outline_is():
     obj, camera, mask = _slab_object()
-    drawn = pillow(obj, camera, np.eye(4))
+    drawn = pillow(obj, camera, POSE)
     assert drawn is not None and drawn.body == "pillow"
-    pts, faces = drawn.static_points, drawn.faces
+    # its points in the object's own frame: posed as the photo shows it, they are in the world
+    pts, faces = drawn.static_points @ POSE[:3, :3] + POSE[3, :3], drawn.faces
     # closed: no edge on one face only, so no ray slips between front and back (a part a cell or two wide is
     # a sheet there twice, its edges on four faces)
     edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
@@ -56,20 +66,53 @@ def test_the_pillow_is_closed_without_walls_and_thin_where_the_outline_is():
     st = drawn.st * [SIZE, -SIZE] + [0.0, SIZE]
     assert np.abs(uv - st).max() < 1e-6
     assert mask[np.clip(uv[:, 1].astype(int), 0, SIZE - 1), np.clip(uv[:, 0].astype(int), 0, SIZE - 1)].all()
-    # depth along each pixel's ray: the front on the slab's front (2 m), no point behind its back (2.4 m)
-    dist = np.linalg.norm(pts, axis=1)
+    # depth along each pixel's ray: within the slab (2 m to 3 m), centred on its middle (2.5 m), where the
+    # physics' slab has its mass and its faces to rest on
     ray_depth = pts[:, 1]
-    assert ray_depth.min() > 2.0 - 5e-3 and ray_depth.max() <= 2.4 + 5e-3  # the mesh read on a coarser grid
+    assert ray_depth.min() > 2.0 - 5e-3 and ray_depth.max() <= 3.0 + 5e-3  # the mesh read on a coarser grid
     disc = uv[:, 0] < 120
     stalk = uv[:, 0] > 130
-    assert ray_depth[disc].max() - 2.0 > 0.15  # the disc bulges (40 px radius: 0.4 m across)
+    assert ray_depth[disc].max() - ray_depth[disc].min() > 0.15  # the disc bulges (40 px radius: 0.4 m across)
+    assert abs(0.5 * (ray_depth[disc].max() + ray_depth[disc].min()) - 2.5) < 0.01
     # the stalk (4 px: 4 cm wide) no thicker than half its width, and a little for the grid's cells
-    assert ray_depth[stalk].max() - 2.0 <= 0.02 + 0.01
-    assert np.isfinite(dist).all()
+    _, texel = np.unique(np.round(drawn.st, 9), axis=0, return_inverse=True)
+    texel = texel.ravel()
+    thick = np.zeros(texel.max() + 1)
+    np.maximum.at(thick, texel, ray_depth)
+    low = np.full(texel.max() + 1, np.inf)
+    np.minimum.at(low, texel, ray_depth)
+    thick -= low  # per texel: from its front point to its back point
+    assert thick[texel[stalk]].max() <= 0.02 + 0.01
+    assert abs(np.median(ray_depth[stalk]) - 2.5) < 0.01
+
+
+def test_a_pillow_lying_down_rests_where_its_slab_does():
+    """Lying on its back (the slab's front up), the pillow, thinner than the slab, is set down on the floor the
+    slab stands on; lifted off it, it stays in the slab's middle."""
+    obj, camera, _ = _slab_object()
+    drawn = pillow(obj, camera, POSE)
+    lying = np.eye(4)
+    # the photo's pose, then turned 90° about x: the photo's depth (world y) now up
+    lying[:3, :3] = POSE[:3, :3] @ trimesh.transformations.rotation_matrix(np.radians(90), (1, 0, 0))[:3, :3].T
+    slab_low = (obj.static_points @ lying[:3, :3])[:, 2].min()
+    lying[3, 2] = -slab_low  # the slab on the floor
+    pts = drawn.static_points @ lying[:3, :3] + lying[3, :3]
+    assert pts[:, 2].min() > 0.2  # as posed, the pillow (0.44 m thick) hangs in the slab's (1 m) middle
+    assert abs(grounded(drawn, pts, lying)[:, 2].min()) < 1e-6
+    lying[3, 2] += 0.5  # in the air: drawn where the body is
+    up = drawn.static_points @ lying[:3, :3] + lying[3, :3]
+    assert np.array_equal(grounded(drawn, up, lying), up)
+
+
+def test_a_slab_scaled_to_nothing_is_no_pillow():
+    obj, camera, _ = _slab_object()
+    flat = POSE.copy()
+    flat[:3, :3] = 0.0
+    assert pillow(obj, camera, flat) is None
 
 
 def test_a_box_like_outline_stays_its_slab():
     obj, camera, _ = _slab_object()
     square = np.zeros_like(obj.texture)
     square[50:150, 50:150] = 255
-    assert pillow(dataclasses.replace(obj, texture=square), camera, np.eye(4)) is None
+    assert pillow(dataclasses.replace(obj, texture=square), camera, POSE) is None

@@ -3,13 +3,17 @@
 A slab (``physomni:liftedShape`` ``extrude``) joins its front and back by walls along the photo's rays: once
 the object turns (a push tips it over, an orbit walks round it) those walls face the camera and show the
 outline's few pixels drawn out across the slab's whole depth (the fallen motorcycle's four hanging panels).
-Drawn instead, each pixel of the mask is a front point, on the lifted mesh's front along that pixel's ray, and a
-back point behind it, apart by a parabola of the pixel's distance to the outline, so that front and back meet
-at the outline and there are no walls at all. The parabola spans the widest disc of the mask that covers the
-pixel and is never steeper than :data:`RIM_SLOPE`, so that a thin part (a mirror stalk, a leg) stays no thicker
-than half its width, and no point lies deeper than the lifted mesh is there. Both sides take the pixel's
-own texel: the back is the front seen in a mirror. The pillow is laid in the mesh's own frame, so the physics
-body's transform poses it each frame; the collider, the mesh in the USD and its physics are unchanged.
+Drawn instead, each pixel of the mask is a front point and a back point on that pixel's ray, apart by a
+parabola of the pixel's distance to the outline and centred on the lifted mesh's depth there, so that front and
+back meet at the outline and there are no walls at all, and the pillow fills the middle of the slab the physics
+moves (a fallen bike lying on its back rests on the floor, not a slab's half depth above it). The parabola
+spans the widest disc of the mask that covers the pixel and is never steeper than :data:`RIM_SLOPE`, so that a
+thin part (a mirror stalk, a leg) stays no thicker than half its width, and no point lies outside the lifted
+mesh there. Both sides take the pixel's own texel: the back is the front seen in a mirror. The pillow is laid
+in the mesh's own frame, so the physics body's transform poses it each frame, and :func:`grounded` sets it
+down on the floor wherever the slab stands on it; the collider, the mesh in the USD and its physics are
+unchanged. Only a shot in which the object or the camera can move draws it (:func:`with_pillows`): frame 0 of
+a still one is the slab's, the photo itself.
 """
 
 from __future__ import annotations
@@ -35,6 +39,9 @@ FRONT_SLOPE = 2.0
 CELLS = 192
 #: Cells across the coarser grid on which the lifted mesh's depth along the rays is read (it varies slowly).
 DEPTH_CELLS = 96
+#: Height (metres) above the floor (z = 0) within which a slab's lowest point stands on it, and its pillow is
+#: set down there too.
+GROUND_TOUCH_M = 0.01
 
 
 def _local_radius(inside: np.ndarray, dist: np.ndarray) -> np.ndarray:
@@ -161,14 +168,18 @@ def pillow(obj, camera, matrix: np.ndarray):
     if not known.any():
         return None
     near, far = _filled(near, known), _filled(far, known)
-    size = (gw, gh)
-    near = cv2.resize(near.astype(np.float32), size, interpolation=cv2.INTER_LINEAR)
-    far = cv2.resize(far.astype(np.float32), size, interpolation=cv2.INTER_LINEAR)
-    near = _gentle(near, inside, step * float(np.median(near[inside])) / camera.fx)
-    # the front is the lifted mesh's own front (smooth: the surface the photo shows, where the lift put it) and
-    # the back bulges behind it: a centre halfway to the mesh's back would step wherever the slab's depth does
-    # from row to row, and draw each step out as a wall
-    depth = np.minimum(bulge * near / camera.fx, far - near)
+    # coarse sample (i, j) lies on cell (i·coarse, j·coarse): read each cell between its samples there (a
+    # resize to the grid's size would spread them evenly over it, up to a cell off at the far end)
+    map_x = np.broadcast_to(np.arange(gw, dtype=np.float32)[None, :] / coarse, (gh, gw))
+    map_y = np.broadcast_to(np.arange(gh, dtype=np.float32)[:, None] / coarse, (gh, gw))
+    near, far = (cv2.remap(v.astype(np.float32), np.ascontiguousarray(map_x), np.ascontiguousarray(map_y),
+                           cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE) for v in (near, far))
+    # the pillow sits in the middle of the slab's depth, where the physics' slab has its mass and rests on its
+    # faces (on the slab's front it hung a half slab above the floor once the bike lay on its back); the middle
+    # is kept as gentle as the front should be, so that a step in the slab's depth is no wall of its own
+    mid = _gentle(0.5 * (near + far), inside, step * float(np.median(near[inside])) / camera.fx)
+    depth = np.minimum(bulge * mid / camera.fx, np.maximum(far - near, 0.0))
+    near = mid - 0.5 * depth
 
     # vertices: each inside cell on the front and, unless it is on the outline, on the back
     index = -np.ones((gh, gw), np.int64)
@@ -203,28 +214,75 @@ def pillow(obj, camera, matrix: np.ndarray):
     # a face with all three corners on the outline is there twice, once each way: a sheet where the part is
     # a cell or two wide, closed like the rest (every edge between an even number of faces)
     faces = np.concatenate([front_faces, back_faces])
-    inv = np.linalg.inv(matrix[:3, :3])
-    local = (pts_world - matrix[3, :3]) @ inv
+    if abs(np.linalg.det(matrix[:3, :3])) < 1e-12:  # scaled to nothing: no frame to lay the pillow in
+        return None
+    local = (pts_world - matrix[3, :3]) @ np.linalg.inv(matrix[:3, :3])
+    # the slab's hull: the points whose lowest one says where the slab stands (grounded)
+    hull = obj.static_points
+    try:
+        import trimesh
+
+        hull = np.asarray(trimesh.Trimesh(obj.static_points, process=False).convex_hull.vertices, np.float64)
+    except Exception:  # a degenerate slab: its own points, all of them
+        pass
     return dataclasses.replace(obj, faces=faces, st=st, static_points=local, corner_st=st[faces],
-                               body="pillow")
+                               body="pillow", slab_points=hull)
 
 
-def drawn_objects(objects: list, stage, camera) -> list:
-    """``objects`` (RenderObjects) with each slab-lifted one replaced by its :func:`pillow` (the others, and a
-    slab that cannot be made one, as they are)."""
+def grounded(obj, points: np.ndarray, matrix: np.ndarray) -> np.ndarray:
+    """``points`` (N, 3), ``obj``'s world points posed by ``matrix`` (4, 4, row-vector form), set down on the
+    floor (z = 0) when ``obj`` is a pillow whose slab stands there (its lowest point within
+    :data:`GROUND_TOUCH_M`): the pillow lies within the slab, and lying on its side or its back it would hang
+    above the floor the slab rests on by however much thinner it is there."""
+    slab = getattr(obj, "slab_points", None)
+    if slab is None or not len(points):
+        return points
+    slab_low = float((slab @ matrix[:3, 2] + matrix[3, 2]).min())
+    if slab_low > GROUND_TOUCH_M:
+        return points
+    out = points.copy()
+    out[:, 2] += slab_low - float(points[:, 2].min())
+    return out
+
+
+def _may_move(prim) -> bool:
+    """Whether ``prim``'s world transform may change over time (its own or an ancestor's ops are animated)."""
+    from pxr import UsdGeom
+
+    while prim and prim.GetPath().pathString != "/":
+        if prim.IsA(UsdGeom.Xformable) and UsdGeom.Xformable(prim).TransformMightBeTimeVarying():
+            return True
+        prim = prim.GetParent()
+    return False
+
+
+def with_pillows(objects: list, stage, camera) -> list:
+    """``objects`` (RenderObjects) with each slab-lifted one replaced by its :func:`pillow` where the shot can
+    show it turned: its transform varies in time or starts away from where the photo shows it, or the camera
+    moves (the others, a slab that stays where the photo shows it, and one that cannot be made a pillow, as
+    they are: the photo itself, and no pillow built for a frame-0 render of a still shot)."""
     from pxr import Usd, UsdGeom
 
-    from .stage import _scene_stage
+    from .stage import _scene_stage, read_photo_camera_matrix
 
     scene = _scene_stage(stage)
     source = scene if scene is not None else stage
-    cache = UsdGeom.XformCache(Usd.TimeCode(stage.GetStartTimeCode()))
+    start = Usd.TimeCode(stage.GetStartTimeCode())
+    cache = UsdGeom.XformCache(start)
+    live = UsdGeom.XformCache(start)
+    cam = stage.GetPrimAtPath("/World/Camera")
+    camera_moves = bool(cam) and (_may_move(cam) or not np.allclose(
+        np.array(live.GetLocalToWorldTransform(cam)), read_photo_camera_matrix(stage), atol=1e-6))
     out = []
     for o in objects:
         drawn = None
         if o.prim is not None and o.prim.GetCustomDataByKey("physomni:liftedShape") in SLABS:
             prim = source.GetPrimAtPath(o.path)
             if prim:
-                drawn = pillow(o, camera, np.array(cache.GetLocalToWorldTransform(prim)))
+                matrix = np.array(cache.GetLocalToWorldTransform(prim))
+                moves = camera_moves or _may_move(o.prim) or not np.allclose(
+                    np.array(live.GetLocalToWorldTransform(o.prim)), matrix, atol=1e-6)
+                if moves:
+                    drawn = pillow(o, camera, matrix)
         out.append(drawn if drawn is not None else o)
     return out

@@ -14,6 +14,7 @@ from ..geometry.camera import RenderCamera, camera_from_usd
 from ..geometry.mesh import triangulate
 from ..usd.author import OBJECTS
 from ..usd.textures import read_image, texture_file
+from .pillow import grounded
 
 
 @dataclass
@@ -30,6 +31,7 @@ class RenderObject:
     corner_st: np.ndarray | None = None  # (M, 3, 2) st at each triangle corner (faceVarying st kept exact)
     two_sided: bool = False  # the texture is [photo crop | unseen sides] (physomni:unseenSides)
     body: str = "mesh"  # "pillow": drawn with rendering.pillow's body, its points static and in its local frame
+    slab_points: np.ndarray | None = None  # a pillow's: its slab's hull (local), which says where it stands
 
 
 @dataclass
@@ -109,7 +111,7 @@ def read_photo_points(stage: Usd.Stage, objects: list[RenderObject]) -> list[np.
             out.append(None)
             continue
         m = np.array(cache.GetLocalToWorldTransform(prim))
-        out.append(np.asarray(pts, np.float64) @ m[:3, :3] + m[3, :3])
+        out.append(grounded(o, np.asarray(pts, np.float64) @ m[:3, :3] + m[3, :3], m))
     return out
 
 
@@ -205,4 +207,4 @@ def read_camera(stage: Usd.Stage, time: Usd.TimeCode, width: int, height: int) -
 def world_points(obj: RenderObject, cache: UsdGeom.XformCache, stage: Usd.Stage, time: Usd.TimeCode) -> np.ndarray:
     pts = obj.static_points if obj.static_points is not None else np.asarray(obj.points_attr.Get(time), np.float64)
     m = np.array(cache.GetLocalToWorldTransform(stage.GetPrimAtPath(obj.path)))
-    return pts @ m[:3, :3] + m[3, :3]
+    return grounded(obj, pts @ m[:3, :3] + m[3, :3], m)

@@ -30,7 +30,7 @@ from .encode import encoder_failure, even_sides, video_writer
 from .passes import PassWriter, pass_files
 from .stage import (read_camera, read_objects, read_particles, read_photo, read_photo_camera, read_photo_points,
                     read_photo_camera_matrix, read_plate, read_wide_plate, visible, world_points)
-from .pillow import drawn_objects
+from .pillow import with_pillows
 from .world import photo_environment
 
 
@@ -125,7 +125,7 @@ class ShotRenderer:
         self.plate = plate.astype(np.float32)
         self.height, self.width = self.plate.shape[:2]
         # a slab is drawn as a pillow of its mask: no walls to stretch once it turns (physics keeps the slab)
-        self.objects = drawn_objects(read_objects(stage), stage, read_photo_camera(stage, w, h))
+        self.objects = with_pillows(read_objects(stage), stage, read_photo_camera(stage, w, h))
         self._read_photo(stage, (w, h))
         self.particles = read_particles(stage)
         self.device = pick_device(settings.device)
