@@ -42,6 +42,23 @@ def test_a_fill_that_continues_the_surface_is_on_target_and_a_flat_patch_is_not(
     assert flat[0]["gradient_ratio"] < 0.6 and not within_targets(flat[0]), flat
 
 
+def test_an_objects_cut_outs_over_the_plate_cover_nothing():
+    """A face whose texel there is transparent (a slab's back seen between a wheel's spokes) shows the plate
+    behind it: the area is read as revealed, whether the caster says so (``FrameState.face``) or the first
+    face's texel, read at the hit's barycentrics, does."""
+    renderer, img, state = _frame("texture")
+    seen = len(revealed_figures(renderer, img, state))
+    over = np.full((120, 160), 0, np.int32)  # one face over the whole frame, transparent everywhere
+    cut_out = SimpleNamespace(mesh_face=over, face=np.full((120, 160), -1, np.int32))
+    assert len(revealed_figures(renderer, img, cut_out)) == seen == 1
+    renderer.corner_px = np.array([[0.0, 0.0], [8.0, 0.0], [0.0, 8.0]])
+    renderer.atlas_alpha = np.zeros((8, 8), np.float32)
+    read = SimpleNamespace(mesh_face=over, bary=np.full((120, 160, 2), 0.3, np.float32))
+    assert len(revealed_figures(renderer, img, read)) == 1
+    renderer.atlas_alpha[:] = 1.0  # opaque: the object covers it
+    assert revealed_figures(renderer, img, read) == []
+
+
 def _across_the_horizon(fill: str) -> tuple:
     """A 480×320 frame like the cloth example's: a grey-blue backdrop above row 150 that lightens downward, a
     brown grained floor below that darkens downward; where an object stood, 140×200 px across the horizon

@@ -11,8 +11,8 @@ import numpy as np
 import trimesh
 
 from physomni_usd.geometry.camera import RenderCamera
-from physomni_usd.rendering.pillow import grounded, pillow
-from physomni_usd.rendering.stage import RenderObject
+from physomni_usd.rendering.pillow import pillow
+from physomni_usd.rendering.stage import RenderObject, grounded
 
 SIZE, F = 200, 200.0
 

@@ -10,9 +10,9 @@ moves (a fallen bike lying on its back rests on the floor, not a slab's half dep
 spans the widest disc of the mask that covers the pixel and is never steeper than :data:`RIM_SLOPE`, so that a
 thin part (a mirror stalk, a leg) stays no thicker than half its width, and no point lies outside the lifted
 mesh there. Both sides take the pixel's own texel: the back is the front seen in a mirror. The pillow is laid
-in the mesh's own frame, so the physics body's transform poses it each frame, and :func:`grounded` sets it
-down on the floor wherever the slab stands on it; the collider, the mesh in the USD and its physics are
-unchanged. Only a shot in which the object or the camera can move draws it (:func:`with_pillows`): frame 0 of
+in the mesh's own frame, so the physics body's transform poses it each frame, and
+``rendering.stage.grounded`` sets it down on the floor wherever the slab stands on it; the collider, the mesh
+in the USD and its physics are unchanged. Only a shot in which the object or the camera can move draws it (:func:`with_pillows`): frame 0 of
 a still one is the slab's, the photo itself.
 """
 
@@ -39,9 +39,6 @@ FRONT_SLOPE = 2.0
 CELLS = 192
 #: Cells across the coarser grid on which the lifted mesh's depth along the rays is read (it varies slowly).
 DEPTH_CELLS = 96
-#: Height (metres) above the floor (z = 0) within which a slab's lowest point stands on it, and its pillow is
-#: set down there too.
-GROUND_TOUCH_M = 0.01
 
 
 def _local_radius(inside: np.ndarray, dist: np.ndarray) -> np.ndarray:
@@ -227,22 +224,6 @@ def pillow(obj, camera, matrix: np.ndarray):
         pass
     return dataclasses.replace(obj, faces=faces, st=st, static_points=local, corner_st=st[faces],
                                body="pillow", slab_points=hull)
-
-
-def grounded(obj, points: np.ndarray, matrix: np.ndarray) -> np.ndarray:
-    """``points`` (N, 3), ``obj``'s world points posed by ``matrix`` (4, 4, row-vector form), set down on the
-    floor (z = 0) when ``obj`` is a pillow whose slab stands there (its lowest point within
-    :data:`GROUND_TOUCH_M`): the pillow lies within the slab, and lying on its side or its back it would hang
-    above the floor the slab rests on by however much thinner it is there."""
-    slab = getattr(obj, "slab_points", None)
-    if slab is None or not len(points):
-        return points
-    slab_low = float((slab @ matrix[:3, 2] + matrix[3, 2]).min())
-    if slab_low > GROUND_TOUCH_M:
-        return points
-    out = points.copy()
-    out[:, 2] += slab_low - float(points[:, 2].min())
-    return out
 
 
 def _may_move(prim) -> bool:

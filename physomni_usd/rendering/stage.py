@@ -14,7 +14,6 @@ from ..geometry.camera import RenderCamera, camera_from_usd
 from ..geometry.mesh import triangulate
 from ..usd.author import OBJECTS
 from ..usd.textures import read_image, texture_file
-from .pillow import grounded
 
 
 @dataclass
@@ -202,6 +201,27 @@ def read_camera(stage: Usd.Stage, time: Usd.TimeCode, width: int, height: int) -
     m = UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(time)
     return camera_from_usd(cam.GetFocalLengthAttr().Get(time), cam.GetHorizontalApertureAttr().Get(time),
                            cam.GetVerticalApertureAttr().Get(time), np.array(m), width, height)
+
+
+#: Height (metres) above the floor (z = 0) within which a slab's lowest point stands on it, and a pillow
+#: (``rendering.pillow``) is set down there too.
+GROUND_TOUCH_M = 0.01
+
+
+def grounded(obj, points: np.ndarray, matrix: np.ndarray) -> np.ndarray:
+    """``points`` (N, 3), ``obj``'s world points posed by ``matrix`` (4, 4, row-vector form), set down on the
+    floor (z = 0) when ``obj`` is a pillow (``rendering.pillow``) whose slab stands there (its lowest point within
+    :data:`GROUND_TOUCH_M`): the pillow lies within the slab, and lying on its side or its back it would hang
+    above the floor the slab rests on by however much thinner it is there."""
+    slab = getattr(obj, "slab_points", None)
+    if slab is None or not len(points):
+        return points
+    slab_low = float((slab @ matrix[:3, 2] + matrix[3, 2]).min())
+    if slab_low > GROUND_TOUCH_M:
+        return points
+    out = points.copy()
+    out[:, 2] += slab_low - float(points[:, 2].min())
+    return out
 
 
 def world_points(obj: RenderObject, cache: UsdGeom.XformCache, stage: Usd.Stage, time: Usd.TimeCode) -> np.ndarray:

@@ -102,6 +102,9 @@ class FrameState:
     # (H, W) float32 0–1: how much of each pixel the particles drawn this frame cover (they are no faces, so
     # ``mesh_face`` does not see them); None for a stage without particles
     particle_alpha: np.ndarray | None = None
+    # (H, W) int32 the face each pixel shows: the first on its ray whose texel is opaque (the image's), −1 where
+    # the ray leaves through cut-outs only or meets nothing
+    face: np.ndarray | None = None
 
 
 class ShotRenderer:
@@ -610,7 +613,7 @@ class ShotRenderer:
         face, px = self.caster.cast(cam.origin, self._rays, 1e6, pixels=covered_pixels(cam, points, self.faces))
         # the caster's buffers are overwritten by the next cast: the state keeps its own
         state = FrameState(float(t), cam, self._rays, points, self.caster.mesh_face.copy(),
-                           self.caster.mesh_depth.copy(), self.caster.bary.copy(), drawn)
+                           self.caster.mesh_depth.copy(), self.caster.bary.copy(), drawn, face.copy())
         hit = face >= 0
         obj = np.where(hit, self.face_object[np.maximum(face, 0)], -1)
         faithful = None
