@@ -116,3 +116,28 @@ def test_a_box_like_outline_stays_its_slab():
     square = np.zeros_like(obj.texture)
     square[50:150, 50:150] = 255
     assert pillow(dataclasses.replace(obj, texture=square), camera, POSE) is None
+
+
+def test_the_quick_starts_fallen_bike_is_drawn_on_the_floor(motorcycle_run):
+    """The quick start (the bike pushed sideways, 2 m/s): at its last frame the bike lies on the floor, and its
+    pillow's lowest point is the slab's, on the floor (on the slab's front, it hung 27 cm above it)."""
+    from pxr import Usd, UsdGeom
+
+    from physomni_usd.rendering.stage import read_objects, world_points
+    from physomni_usd.rendering.video import ShotRenderer
+    from physomni_usd.usd import layers
+
+    proc, out = motorcycle_run
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    stage = layers.open_shot(out / "shot.usda")
+    drawn = {o.path: o for o in ShotRenderer(stage).objects}
+    slab = next(o for o in read_objects(stage) if "motorcycle" in o.path)
+    assert drawn[slab.path].body == "pillow"
+    end = Usd.TimeCode(stage.GetEndTimeCode())
+    cache = UsdGeom.XformCache(end)
+    slab_pts = world_points(slab, cache, stage, end)
+    pillow_pts = world_points(drawn[slab.path], cache, stage, end)
+    m = np.array(cache.GetLocalToWorldTransform(stage.GetPrimAtPath(slab.path)))
+    assert abs(m[2, 2]) < 0.5  # fallen: its own up (local z) no longer the world's
+    assert slab_pts[:, 2].min() < 0.01
+    assert abs(pillow_pts[:, 2].min() - slab_pts[:, 2].min()) < 0.02
