@@ -261,6 +261,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
             raise InputError(f"output {out} exists and is not a directory")
         check_labels(masks, boxes)
         full_photo = photo = read_photo(photo_path, settings.max_pixels)
+        settings = _view_from_exif(photo_path, full_photo.shape, settings, echo)
         work = working(photo.shape, settings.working_pixels)
         full_masks = []
         if work is not None:
@@ -315,6 +316,7 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
         _outpaint(scene)
     with timer.step("align.place"):
         _place(scene)
+    echo(_camera_line(scene))
     for warning in ((scene.align_info.get("camera") or {}).get("warnings", [])
                     + (scene.align_info.get("scale") or {}).get("warnings", [])
                     + scene.align_info.get("silhouette_warnings", [])):
@@ -364,6 +366,35 @@ def _build_shot(photo_path, out_dir, masks, boxes, settings, pushes, echo, force
                          **({"occlusion": occlusion} if occlusion else {}),
                          **depth_info})
     return BuildResult(out, shot, report_objects, timer.seconds)
+
+
+def _view_from_exif(photo_path, shape, settings: BuildSettings, echo) -> BuildSettings:
+    """``settings`` with the field of view the photo's EXIF gives (and its source) where --fov gave none; a
+    view outside --fov's range is said and left to the cues."""
+    from .perceive.exif import exif_view
+    from .settings import CameraSettings
+
+    if settings.camera.fov_deg is not None:
+        return settings
+    bounds = {k: getattr(m, k) for m in CameraSettings.model_fields["fov_deg"].metadata
+              for k in ("gt", "lt") if getattr(m, k, None) is not None}
+    seen = exif_view(photo_path, shape[1], shape[0], (bounds["gt"], bounds["lt"]))
+    if seen is None:
+        return settings
+    if seen.fov_deg is None:
+        echo(f"warning: {seen.warning}")
+        return settings
+    return settings.model_copy(update={"camera": settings.camera.model_copy(
+        update={"fov_deg": seen.fov_deg, "fov_source": seen.source})})
+
+
+def _camera_line(scene: Scene) -> str:
+    """The camera build chose and what chose it (the report's shot.alignment.camera says it in full)."""
+    searched = ", then the camera search" if "camera_search" in scene.align_info else ""
+    info = scene.align_info.get("camera") or {"pitch_source": "placed meshes" + searched,
+                                              "fov_source": scene.align_info.get("fov_source", "") + searched}
+    return (f"align: camera pitched {scene.camera.pitch_deg:.1f}° ({info.get('pitch_source')}), field of view "
+            f"{scene.camera.fov_deg:.1f}° ({info.get('fov_source')})")
 
 
 def _refuse_what_simulate_refuses(out: pathlib.Path) -> None:
@@ -471,6 +502,10 @@ def _place(scene: Scene) -> None:
         shapes = ["external"] * len(lifted)
         notes = placed.info["mesh_notes"]
         align_info = placed.info
+        given = settings.camera
+        # what chose the view the meshes were placed under (the camera search may refine it after)
+        align_info["fov_source"] = given.fov_source or (
+            "user" if given.fov_deg is not None else f"default {DEFAULT_FOV_DEG:g}°")
         if settings.camera_search:
             found = search_camera(camera, verts, faces, scene.photo, scene.masks, scene.plate,
                                   max_evals=settings.camera_search_evals)

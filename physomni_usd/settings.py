@@ -45,9 +45,13 @@ class _Settings(BaseModel):
 class CameraSettings(_Settings):
     fov_deg: Annotated[float | None, Option(
         "--fov", "Vertical field of view of the photo in degrees",
-        "from the photo's vanishing points, else 50°")] = Field(
-        None, gt=5.0, lt=150.0, description="Vertical field of view of the photo, degrees; None estimates it from "
-                                            "the photo's vanishing points, else 50° (a phone's main camera).")
+        "from the focal length in the photo's EXIF, else its vanishing points, else 50°")] = Field(
+        None, gt=5.0, lt=150.0, description="Vertical field of view of the photo, degrees; None reads it from the "
+                                            "photo's EXIF focal length (perceive.exif), else estimates it from "
+                                            "its vanishing points, else 50° (a phone's main camera).")
+    fov_source: str | None = Field(None, description="What set fov_deg where the user did not (the photo's "
+                                                     "EXIF, by build); None: the user. Reported as the view's "
+                                                     "source.")
     pitch_deg: Annotated[float | None, Option(
         "--pitch", "Downward camera tilt in degrees, 0 (level) to 90 (straight down)",
         "estimated from the photo: round outlines, vanishing points, horizon, where objects stand")] = Field(
@@ -137,6 +141,17 @@ MAX_PARTICLES = 2_000_000
 BALL_MIN_FILL = 0.9
 BALL_MAX_PROTRUSION = 0.05
 BALL_SPHERE_SPREAD = 0.05
+#: ... or where it is round across (its level semi-axes within ``BALL_SPHERE_SPREAD``) and its upright one the
+#: longest by at most ``BALL_TALL_SPREAD``: a ball lifted from its footprint takes its height from the tangent
+#: cone of its outline, that uncertain (452298/004's orange: 6.6 % taller than wide, truly round), and its
+#: hull rocked on its facets (7.8° in 2 s). It collides as the sphere of its level radius, its lowest point
+#: the hull's.
+BALL_TALL_SPREAD = 0.10
+#: A ball seen standing (``lift.silhouette.ball_body``) rests on a round sole: its sphere cut this fraction of
+#: its radius over its lowest point (a sole √(2·0.03) ≈ 0.25 of its radius across, 2 mm of a 7 cm orange's
+#: height flat). On its pole alone its hull, which a ball something rests on collides as, rocked on the pole's
+#: small facets: the lower of two stacked oranges turned 6° and slid 12 mm.
+BALL_SOLE = 0.03
 #: A ball something rests on keeps its hull (a sphere has no rolling resistance, so what stands on it rolls it
 #: away: two round balls stacked 2 mm off centre, the lower as a sphere rolled 22 cm, as a hull 1 mm): another
 #: object's lowest point over the ball, above its middle and at most this far above its top.

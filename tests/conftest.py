@@ -59,6 +59,23 @@ def rendered_blocks(folder: pathlib.Path, camera, truth, label: str = "block") -
     return specs
 
 
+def ball_seen_low(deg: float, x: float = 0.0, radius: float = 0.035):
+    """A camera ``deg`` degrees above a ball of ``radius`` (m) resting on the ground 0.6 m ahead of it (``x`` m to
+    its right): the camera, the ball's silhouette (bool, 480 × 640) and its centre (3,) m."""
+    import math
+
+    import trimesh
+
+    camera = PinholeCamera(640, 480, 50.0, deg, (0.0, -0.6, radius + 0.6 * math.tan(math.radians(deg))))
+    ball = trimesh.creation.icosphere(4, radius)
+    ball.vertices += [x, 0.0, radius]
+    uv, _ = camera.project(ball.vertices)
+    mask = np.zeros((camera.height, camera.width), np.uint8)
+    for tri in ball.faces:
+        cv2.fillPoly(mask, [np.round(uv[tri] * 16).astype(np.int32)], 1, shift=4)
+    return camera, mask > 0, np.array([x, 0.0, radius])
+
+
 def cli(*args, check=False, env=None) -> subprocess.CompletedProcess:
     """Run ``physomni-usd ARGS`` in a fresh interpreter; returns the completed process."""
     code = ("import sys\nfrom physomni_usd.cli import main\n"

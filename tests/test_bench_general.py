@@ -87,6 +87,36 @@ def test_support_is_judged_against_what_holds_each_object():
     assert general._support_ok("wall", "held", true, built) and not general._support_ok("shelf", "ground", true, built)
 
 
+def test_a_build_can_be_told_the_field_of_view_alone():
+    """``--fov-given`` tells the build the true view and leaves the pitch to the photo; ``--camera-given`` both."""
+    truth = {"camera": {"fov_deg": 33.0, "pitch_deg": 61.0}}
+    assert general.given_camera(truth, False) is None
+    fov = general.given_camera(truth, "fov").camera
+    assert fov.fov_deg == 33.0 and fov.pitch_deg is None
+    both = general.given_camera(truth, True).camera
+    assert both.fov_deg == 33.0 and both.pitch_deg == 61.0
+    assert general.GIVEN_SUFFIX["fov"] != general.GIVEN_SUFFIX[True]  # the two builds do not overwrite each other
+    with pytest.raises(ValueError):
+        general.given_camera(truth, "pitch")
+
+
+def test_position_error_splits_along_and_across_the_ray():
+    """A wrong depth is all along the ray, a turned ray all across it; the two make up the whole error."""
+    true = np.array([0.3, 0.4, 1.2])
+    dist = np.linalg.norm(true)
+    depth, lateral = general.position_split(1.1 * true, true)
+    assert depth == pytest.approx(0.1) and lateral == pytest.approx(0.0, abs=1e-12)
+    depth, lateral = general.position_split(0.9 * true, true)
+    assert depth == pytest.approx(-0.1)
+    across = np.cross(true, [0.0, 1.0, 0.0])
+    across *= 0.05 * dist / np.linalg.norm(across)
+    depth, lateral = general.position_split(true + across, true)
+    assert depth == pytest.approx(0.0, abs=1e-12) and lateral == pytest.approx(0.05)
+    est = 1.02 * true + across
+    depth, lateral = general.position_split(est, true)
+    assert np.hypot(depth, lateral) == pytest.approx(np.linalg.norm(est - true) / dist)
+
+
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
     """Two fresh scenes rendered and built from their visible masks, simulated 2 s with nothing pushed."""

@@ -54,6 +54,7 @@ def test_noisy_meshes_stand_on_the_ground_apart(noisy_build):
     assert max_penetration(meshes) <= 1e-3
     report = json.loads((out / "report.json").read_text())
     assert report["shot"]["alignment"]["plane"]["method"].startswith("agmf")
+    assert report["shot"]["alignment"]["fov_source"] == "user"  # --fov placed the meshes
 
 
 def test_pose_file_naming_an_unknown_label_is_refused(tmp_path):

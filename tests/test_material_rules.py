@@ -54,3 +54,11 @@ def test_soft_body_tetrahedra_fill_a_holed_mesh():
     a, b, c, d = (verts[tets[:, k]] for k in range(4))
     vol = np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a).sum() / 6
     assert abs(vol - ball.volume) / ball.volume < 0.25
+
+
+def test_citrus_fruit_get_the_fruit_material_not_the_default():
+    # a lemon took the default row (200 kg/m³, a fifth of the orange beside it) in generated fruit piles
+    from physomni_usd.materials.defaults import DEFAULT, rigid_material
+
+    for label in ("lemon", "lime", "lemons"):
+        assert rigid_material(label) == rigid_material("orange") != DEFAULT, label

@@ -15,6 +15,8 @@ from physomni_usd.lift.silhouette import flat_bottom, is_ball, lift_silhouette
 from physomni_usd.perceive.masks import identifier, split_spec
 from physomni_usd.settings import LiftSettings
 
+from .conftest import ball_seen_low
+
 W, H = 320, 240
 
 
@@ -90,6 +92,24 @@ def test_make_room_squashes_the_nearer_object_only():
     assert scales[1] == 1.0 and scales[0] < 1.0
     assert separation(footprint(verts[0]), footprint(verts[1])) is None
     assert np.isclose(verts[0][:, 1].min(), near[:, 1].min())  # the front stays where the camera saw it
+
+
+def test_make_room_keeps_a_ball_seen_standing_balanced_over_where_it_rests():
+    """A ball seen standing was as deep as it is wide (its depth measured, not guessed): placing shrinks it
+    about its own axis, never squashes it behind its foot, which kept its front half and flattened its back
+    half, its centre of mass ahead of where it rests."""
+    from physomni_usd.backends.builtin import _depth_measured
+
+    camera, mask, _ = ball_seen_low(8.0)
+    lifted = lift_silhouette(mask, camera, label="orange")
+    behind = np.array([0.0, 0.05, 0.0])  # a second one 5 cm behind it, their backs and fronts overlapping
+    measured = _depth_measured(lifted.info)
+    verts, _ = make_room([lifted.vertices, lifted.vertices + behind], [lifted.contact, lifted.contact + behind],
+                         camera.origin, 0.002, fixed_depth=[measured, measured])
+    near = trimesh.Trimesh(verts[0], lifted.faces, process=False)
+    z = verts[0][:, 2]
+    sole = verts[0][z <= z.min() + 1e-6, :2].mean(axis=0)  # the round sole it rests on
+    assert np.linalg.norm(near.center_mass[:2] - sole) < 1e-3
 
 
 def test_mask_spec_and_identifiers():

@@ -62,6 +62,19 @@ def test_two_touching_balls_a_little_taller_than_wide_stay(tmp_path):
             assert m.moved_m < 1e-3 and m.turned_deg < 0.5, (tall, name, m)
 
 
+def test_a_ball_round_across_and_a_little_taller_collides_as_the_sphere_of_its_level_radius(tmp_path):
+    """A footprint's ball takes its height from its outline's tangent cone, a few per cent uncertain
+    (452298/004's round orange lifted 6.6 % taller than wide): round across and taller by at most
+    ``BALL_TALL_SPREAD``, it collides as the sphere of its level radius and stays, where its hull rocked."""
+    for tall in (1.066, 1.095):
+        settled = _settle(tmp_path / f"t{tall}", _ball(tall), "sphere")
+        assert settled.colliders["ball"]["collides_as"] == "sphere", (tall, settled.colliders)
+        semi = settled.colliders["ball"]["semi_axes_m"]
+        assert semi[0] == semi[2] <= 0.0322 + 1e-4, semi  # no wider than the hull across
+        m = settled.motions["ball"]
+        assert m.turned_deg < 0.05 and m.moved_m < 1e-4, (tall, m)
+
+
 def test_a_ball_something_rests_on_keeps_its_hull(tmp_path):
     """A sphere does not resist rolling: a round ball with another resting on it a little off its top keeps
     its hull, and stays where it is; the ball on top, holding nothing, is a sphere."""
@@ -147,3 +160,52 @@ def test_a_pushed_ball_rolls(tmp_path):
     assert dx > 0.01, dx  # still going after a second (three frames: a turn under half a revolution)
     assert abs(angle * 0.04 / dx - 1.0) < 0.1, (angle, dx)  # rolling, not sliding
     assert abs(poses[1][3, 2] - poses[0][3, 2]) < 1e-3  # on the ground, not bouncing
+
+
+def test_a_ball_lifted_standing_and_stacked_on_another_stays(tmp_path):
+    """A ball seen from the side (8° down) is lofted about its own upright axis: stacked on another such ball
+    and steadied as the build does, it stays. Lofted against its front plane as a cup is, its centre of mass lay
+    2 cm behind its lowest point and it tipped backward off the ball under it (25 cm; 452298/027, /035, /020)."""
+    import trimesh
+
+    from physomni_usd.lift.silhouette import lift_silhouette
+    from physomni_usd.physics.support import steady_stacks
+
+    from .conftest import ball_seen_low
+
+    camera, mask, _ = ball_seen_low(8.0)
+    lifted = lift_silhouette(mask, camera, label="orange")
+    lower = trimesh.Trimesh(lifted.vertices, lifted.faces, process=False)
+    upper = lower.copy()
+    upper.vertices[:, 2] += np.ptp(lower.vertices[:, 2])  # its lowest point on the lower one's top
+    verts, _ = steady_stacks([lower.vertices, upper.vertices], [lower.faces, upper.faces], {1: (0, "contact")},
+                             camera.origin)
+    shot = write_bench_shot(tmp_path, [
+        BenchObject("lower", trimesh.Trimesh(verts[0], lower.faces, process=False), "rigid", FRUIT, shape="round"),
+        BenchObject("upper", trimesh.Trimesh(verts[1], upper.faces, process=False), "rigid", FRUIT, shape="round")])
+    settled = settle_shot(layers.open_shot(shot, mute_sim=True), 2.0)
+    for name in ("lower", "upper"):
+        m = settled.motions[name]
+        assert m.moved_m < 0.002 and m.turned_deg < 1.0, (name, m)
+
+
+def test_a_ball_a_little_taller_collided_as_a_sphere_rolls_as_a_round_one(tmp_path):
+    """A ball collided as a sphere has the sphere's mass properties: on a level floor a round ball is balanced
+    wherever it turns, so a gentle push rolls a ball 6.6-9.5 % taller than wide as far as it rolls a round one.
+    With its mesh's centre of mass (1.2-2.9 mm over the sphere's centre) it sat on top of its round bottom and a
+    2 cm/s push tipped it over, 4.5-5 cm where the round one went 4 mm."""
+
+    def rolled(tall):
+        shot = write_bench_shot(tmp_path / f"t{tall}", [BenchObject("ball", _ball(tall), "rigid", FRUIT,
+                                                                   velocity=(0.02, 0.0, 0.0), shape="sphere")])
+        report = simulate_shot(shot, SimulateSettings(seconds=2.0))
+        assert report["colliders"]["ball"]["collides_as"] == "sphere", (tall, report["colliders"])
+        stage = layers.open_shot(shot)
+        xf = UsdGeom.Xformable(stage.GetPrimAtPath("/World/Objects/ball"))
+        first, last = [np.array(xf.ComputeLocalToWorldTransform(f)) for f in (0, report["frames"] - 1)]
+        return float(np.linalg.norm(last[3, :2] - first[3, :2]))
+
+    round_one = rolled(1.0)
+    assert round_one < 0.01, round_one
+    for tall in (1.066, 1.095):
+        assert abs(rolled(tall) - round_one) < 0.002, (tall, round_one)

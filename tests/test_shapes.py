@@ -12,6 +12,8 @@ from physomni_usd.geometry.camera import PinholeCamera
 from physomni_usd.lift.silhouette import lift_silhouette
 from physomni_usd.sizes import body_kind, size_prior
 
+from .conftest import ball_seen_low
+
 
 def _blob(tilt_deg: float = 0.0) -> np.ndarray:
     """A lopsided outline (a body and a head), not mirror-symmetric: no surface of revolution fits it. With
@@ -260,3 +262,60 @@ def test_a_post_with_an_arm_to_one_side_stands_as_its_full_slab_does():
         cv2.rectangle(m, (100, 60), (200, 60 + arm), 1, -1)  # the arm, to the right
         slab = lift_silhouette(m > 0, camera, LiftSettings(shape="extrude"), label="thing")
         assert slab.shape == "extrude" and stands(slab.vertices, slab.faces), arm
+
+
+@pytest.mark.parametrize("deg, x", [(4.0, 0.0), (9.0, 0.12), (15.0, -0.1)])
+def test_a_ball_seen_from_the_side_is_lofted_about_one_upright_axis_under_its_centre_of_mass(deg, x):
+    """A ball's lowest point is under its middle, not at its front (a cup's foot): lofted against the front plane
+    its centre of mass lay 2 cm behind its lowest point, and stacked on another fruit it tipped backward off it."""
+    camera, mask, centre = ball_seen_low(deg, x)
+    lifted = lift_silhouette(mask, camera, label="orange")
+    assert lifted.shape == "round"
+    mesh = _closed(lifted)
+    z = lifted.vertices[:, 2]
+    lowest = lifted.vertices[z <= z.min() + 5e-4, :2].mean(axis=0)
+    assert np.linalg.norm(mesh.center_mass[:2] - lowest) < 1e-3
+    assert np.linalg.norm(mesh.center_mass - centre) < 0.01  # where the ball is, to a few pixels of its foot
+    extent = np.ptp(lifted.vertices, axis=0)
+    assert np.ptp(extent) < 0.05 * extent.max()  # as deep as wide and tall
+    seen = _silhouette(camera, mesh)
+    assert (seen & mask).sum() >= 0.99 * mask.sum() and (seen & mask).sum() >= 0.85 * (seen | mask).sum()
+
+
+def test_a_cup_seen_from_the_side_keeps_its_front_and_flat_base():
+    """What is not a ball (a cup's outline: taller than wide) stays the front-anchored loft on its flat base."""
+    camera = PinholeCamera(640, 480, 50.0, 10.0, (0.0, -0.6, 0.14))
+    mask = np.zeros((480, 640), np.uint8)
+    cv2.ellipse(mask, (320, 300), (45, 70), 0, 0, 360, 1, -1)
+    lifted = lift_silhouette(mask > 0, camera, label="cup")
+    assert lifted.shape == "round" and "axis" not in lifted.info
+    z = lifted.vertices[:, 2]
+    base = lifted.vertices[z <= z.min() + 1e-9, :2]
+    assert np.ptp(base[:, 0]) > 0.5 * np.ptp(lifted.vertices[:, 0])  # a flat base as wide as the body
+
+
+@pytest.mark.parametrize("deg", [1.0, 4.0, 15.0])
+def test_a_ball_seen_from_the_side_is_round_at_both_ends(deg):
+    """A ball rests on a small sole under its middle, and its top is the sphere's: every vertex within 2 mm of
+    the ground lies within √(2R·2 mm) of its upright axis (a sphere's ring there), and its top is no higher
+    than the ball's. Its end
+    rows took the widest span of the rows half-way to their neighbours and it stood on a flat foot 29 mm
+    across (its bottom ring 15 mm in radius at the ground; at 1° no cap at all), and its top overshot by 3 mm.
+    Its contact stays the outline's foot on the ground, in front of where it rests (``info['rest']``)."""
+    import math
+
+    radius = 0.035
+    camera, mask, centre = ball_seen_low(deg)
+    lifted = lift_silhouette(mask, camera, label="orange")
+    assert lifted.info.get("axis") == "ball"
+    v = lifted.vertices
+    rest = np.asarray(lifted.info["rest"])
+    assert abs(rest[2] - v[:, 2].min()) < 1e-6
+    near = v[v[:, 2] <= v[:, 2].min() + 0.002]
+    assert np.linalg.norm(near[:, :2] - rest[:2], axis=1).max() <= math.sqrt(2.0 * radius * 0.002), deg
+    assert np.ptp(v[:, 2]) <= 2.0 * radius + 0.0015
+    mesh = _closed(lifted)
+    assert np.linalg.norm(mesh.center_mass[:2] - rest[:2]) < 1e-3
+    # the foot the outline shows: nearer the camera than where the ball rests, on the ground
+    assert abs(lifted.contact[2] - rest[2]) < 1e-9
+    assert np.linalg.norm(lifted.contact[:2] - camera.origin[:2]) < np.linalg.norm(rest[:2] - camera.origin[:2])

@@ -8,8 +8,9 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from physomni_usd.physics.support import (FOOT_FRACTION, _outside, _top_under, flat_foot, overhang, raise_top,
-                                          steady_stacks)
+from physomni_usd.geometry.resting import steady_margin
+from physomni_usd.physics.support import (FOOT_FRACTION, SEAT_DEPTH, _outside, _top_under, flat_foot, overhang,
+                                          raise_top, steady_stacks)
 
 
 def _box(size, centre):
@@ -79,7 +80,53 @@ def test_a_ball_on_a_ball_stands_over_its_crown_on_flat_faces_of_both():
     crown = verts[0][verts[0][:, 2] >= top - 1e-9, :2]
     assert np.ptp(sole, axis=0).min() > 0.3 * r and np.ptp(crown, axis=0).min() > 0.3 * r  # faces, not points
     com = trimesh.Trimesh(verts[1], held.faces).center_mass
-    assert np.linalg.norm(com[:2] - crown.mean(axis=0)) < 2e-3, com  # over the crown, not 6 mm off it
+    assert _outside(crown, com[:2]) <= -steady_margin(sole), com  # well inside the face, its weight on it
+    assert np.allclose(verts[1][:, :2], held.vertices[:, :2])  # held there: not moved off where the photo shows it
+
+
+def test_a_ball_beside_a_crown_is_seated_on_a_wider_face_rather_than_carried_onto_the_crown():
+    """A fruit of a pile's hollow read as on one fruit, 2.5 cm beside its crown across the line of sight: carried
+    onto the crown its image moved half its width off its outline. The crown is cut deeper under it (hidden by
+    it) into a face wide enough to hold it nearer where it stands; its image moves least, and it holds."""
+    below, held = _ball(0.035), _ball(0.095, x=0.025)
+    eye = np.array([0.0, -0.6, 0.3])  # looking along +y: x is across the line of sight
+    verts, done = steady_stacks([below.vertices, held.vertices], [below.faces, held.faces], {1: (0, "on")}, eye)
+    seated = [d for d in done if d.get("object") == 1 and "crown_cut_m" in d]
+    assert seated, done
+    moved = float(np.linalg.norm(verts[1][:, :2].mean(0) - held.vertices[:, :2].mean(0)))
+    drop = float(held.vertices[:, 2].max() - verts[1][:, 2].max())
+    assert moved + drop < 0.016, (moved, drop)  # onto the crown: 25 mm sideways
+    top, foot = float(verts[0][:, 2].max()), float(verts[1][:, 2].min())
+    assert abs(foot - top) < 1e-9
+    assert seated[0]["crown_cut_m"] <= SEAT_DEPTH * 0.07 + 1e-4  # hidden under it, a few mm
+    sole = verts[1][verts[1][:, 2] <= foot + 1e-9, :2]
+    crown = verts[0][verts[0][:, 2] >= top - 1e-9, :2]
+    com = trimesh.Trimesh(verts[1], held.faces).center_mass
+    assert _outside(crown, com[:2]) <= -steady_margin(sole) + 1e-6 and _outside(sole, com[:2]) < 0, com
+
+
+def test_a_heavy_ball_seated_off_the_crown_of_a_light_one_keeps_the_pair_over_the_light_one_s_foot():
+    """A lemon read as on a smaller orange, 15 mm off its axis: seated there on a wide cut of the orange's crown,
+    it held, but the two together leaned past the orange's narrow foot; the orange tipped and both fell 21 cm.
+    It is brought only as near its place as leaves the pair's centre of mass (by volume) over that foot."""
+    below = trimesh.creation.icosphere(subdivisions=3, radius=0.03)
+    below.apply_translation([0, 0, 0.03])
+    held = trimesh.creation.icosphere(subdivisions=3, radius=0.045)
+    held.apply_translation([0.02, 0, 0.03 + np.sqrt(0.075 ** 2 - 0.02 ** 2)])
+    eye = np.array([0.0, -0.6, 0.3])  # looking along +y: x is across the line of sight
+    verts, done = steady_stacks([below.vertices, held.vertices], [below.faces, held.faces], {1: (0, "on")}, eye)
+    assert [d for d in done if d.get("object") == 1 and "crown_cut_m" in d], done
+    low = float(verts[0][:, 2].min())
+    foot = verts[0][verts[0][:, 2] <= low + 1e-6, :2]
+    solids = [trimesh.Trimesh(v, f) for v, f in zip(verts, [below.faces, held.faces])]
+    pair = np.average([s.center_mass for s in solids], axis=0, weights=[s.volume for s in solids])
+    assert _outside(foot, pair[:2]) <= -steady_margin(foot) + 1e-6, (pair, done)
+    top, sole = float(verts[0][:, 2].max()), float(verts[1][:, 2].min())
+    assert abs(sole - top) < 1e-9  # still resting on the cut face
+    crown = verts[0][verts[0][:, 2] >= top - 1e-9, :2]
+    assert _outside(crown, solids[1].center_mass[:2]) < 0
+    # brought no farther than that: not carried onto the crown's middle, 20 mm across the sight
+    assert float(verts[1][:, 0].mean() - held.vertices[:, 0].mean()) > -0.018, done
 
 
 def test_a_ball_on_a_rim_keeps_its_round_foot():

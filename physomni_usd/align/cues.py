@@ -889,8 +889,9 @@ def min_pitch(fov_deg: float, height: int, foot_rows) -> float:
 
 
 def estimate_camera(photo: np.ndarray, masks, labels, foot_rows, fov_deg: float | None = None,
-                    pitch_deg: float | None = None) -> CameraEstimate:
-    """Pitch and vertical field of view of the photo; a given ``fov_deg`` / ``pitch_deg`` wins over the cues."""
+                    pitch_deg: float | None = None, fov_source: str | None = None) -> CameraEstimate:
+    """Pitch and vertical field of view of the photo; a given ``fov_deg`` / ``pitch_deg`` wins over the cues
+    (``fov_source``: what gave ``fov_deg``, the user where None)."""
     h, w = photo.shape[:2]
     objects = np.zeros((h, w), bool)
     for m in masks:
@@ -911,7 +912,7 @@ def estimate_camera(photo: np.ndarray, masks, labels, foot_rows, fov_deg: float 
                 if c.kind == "horizon vanishing points":
                     c.pitch_deg = math.degrees(math.atan2(0.5 * h - horizon_row, f))
     if fov_deg is not None:
-        fov, fov_source = float(fov_deg), "user"
+        fov, fov_source = float(fov_deg), fov_source or "user"
     elif fov_cues:
         fov = weighted_median([c.fov_deg for c in fov_cues], [c.weight for c in fov_cues])
         fov_source = "vanishing points"

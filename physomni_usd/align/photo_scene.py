@@ -392,7 +392,7 @@ def lift_photo_scene(masks, labels, names, photo, settings: BuildSettings, user_
     h, w = photo.shape[:2]
     cam_cfg = settings.camera
     feet = [foot_pixel(fill_holes(m))[1] for m in masks]
-    est = estimate_camera(photo, masks, labels, feet, cam_cfg.fov_deg, cam_cfg.pitch_deg)
+    est = estimate_camera(photo, masks, labels, feet, cam_cfg.fov_deg, cam_cfg.pitch_deg, cam_cfg.fov_source)
     if est.min_pitch_deg > MAX_PITCH_DEG:
         raise InputError("objects' feet are too high in the photo for any camera pitch; give --pitch and --fov")
     pitch = est.pitch_deg

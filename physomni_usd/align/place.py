@@ -97,9 +97,11 @@ def make_room(vertex_sets: list[np.ndarray], fronts: list[np.ndarray], camera_or
               gap: float = 0.002, fixed_depth: list[bool] | None = None) -> tuple[list[np.ndarray], list[float]]:
     """Make nearer objects shallower where their back overlaps an object behind them.
 
-    ``fronts`` (3,) are the points where each object meets the ground at its
-    front; objects flagged in ``fixed_depth`` (seen from above, their depth
-    was measured) keep theirs. Returns the new vertex sets and each object's depth scale.
+    ``fronts`` (3,) are the points where each object's outline meets the ground
+    at its front; objects flagged in ``fixed_depth`` (seen from above, or a
+    ball seen standing: their depth was measured) keep theirs and shrink about
+    their own vertical axis instead. Returns the new vertex sets and each
+    object's depth scale.
     """
     verts = [np.asarray(v, float).copy() for v in vertex_sets]
     scales = [1.0] * len(verts)

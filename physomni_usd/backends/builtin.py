@@ -92,9 +92,16 @@ class SilhouetteLifter(_Builtin):
         pose = dict(rotation_wxyz=tuple(float(x) for x in to_wxyz(to_camera)),
                     translation=tuple(float(x) for x in -to_camera @ camera.origin))
         return [LiftedObject(m.vertices, m.faces, shape=m.shape, **pose,
-                             ground=GroundEvidence(camera, m.contact, m.info.get("mode") == "footprint",
+                             ground=GroundEvidence(camera, m.contact, _depth_measured(m.info),
                                                    found.supports.get(i), m.info, found.info))
                 for i, m in enumerate(found.lifted)]
+
+
+def _depth_measured(info: dict) -> bool:
+    """Whether a lift measured its object's depth (``GroundEvidence.fixed_depth``): seen from above, or a ball
+    seen standing (round about its own axis, as deep as it is wide). Squashed behind its foot as a guessed
+    depth is, a ball kept its front half and lost its back's, its centre of mass ahead of where it rests."""
+    return info.get("mode") == "footprint" or info.get("axis") == "ball"
 
 
 class MeshFolderLifter(_Builtin):

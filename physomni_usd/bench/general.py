@@ -153,12 +153,47 @@ def _shown(folder: pathlib.Path, names, meshes, camera: PinholeCamera) -> list[n
     return cut_out_silhouettes([m.vertices for m in meshes], [m.faces for m in meshes], camera, cuts)
 
 
+#: Where a build told some of the true camera (``camera_given``) goes, beside its mode's folder.
+GIVEN_SUFFIX = {False: "", True: "-camera", "fov": "-fov"}
+
+
+def given_camera(truth: dict, camera_given: bool | str):
+    """The build settings that tell a build the truth's camera: its pitch and field of view (``True``), its
+    field of view alone (``"fov"``: the pitch still read from the photo, under the right view), or nothing
+    (``False``: None, the defaults). The field of view alone separates what a view the photo did not show
+    costs (the cues' rows read as pitches under the default 50°, every ray turned) from what the pitch costs."""
+    if not camera_given:
+        return None
+    from ..settings import BuildSettings
+
+    if camera_given not in GIVEN_SUFFIX:
+        raise ValueError(f"camera_given is True, False or 'fov', not {camera_given!r}")
+    told = {"fov_deg": truth["camera"]["fov_deg"]}
+    if camera_given is True:
+        told["pitch_deg"] = truth["camera"]["pitch_deg"]
+    settings = BuildSettings()
+    return settings.model_copy(update={"camera": settings.camera.model_copy(update=told)})
+
+
+def position_split(est: np.ndarray, true: np.ndarray) -> tuple[float, float]:
+    """An object's position error ``est`` − ``true`` (both in the true camera's frame, after the one scale)
+    split along the true ray through it (``depth``, > 0 farther than the truth) and across it (``lateral``,
+    ≥ 0), each over its true distance. Across the ray is what the photo shows (a wrong field of view turns
+    every ray but the centre's); along it is what the lift and the placement infer (the pitch, the support,
+    the object's depth)."""
+    dist = max(float(np.linalg.norm(true)), 1e-12)
+    ray, err = true / dist, est - true
+    along = float(err @ ray)
+    return along / dist, float(np.linalg.norm(err - along * ray)) / dist
+
+
 def build_row(folder, truth: dict, true_meshes: list, camera: PinholeCamera, mode: str,
-              seconds: float = 2.0, materials: int = 0, camera_given: bool = False) -> dict:
+              seconds: float = 2.0, materials: int = 0, camera_given: bool | str = False) -> dict:
     """One scene built from its masks or boxes (``mode``) into ``folder/mode``, simulated ``seconds`` with
     nothing pushed, against the invariants and the truth (see the module). ``camera_given``: the build is
-    told the true pitch and field of view (``--pitch``, ``--fov``), into ``folder/mode-camera``; what is
-    left wrong is the lift's and the placement's, not the camera's."""
+    told the true pitch and field of view (``--pitch``, ``--fov``), into ``folder/mode-camera``, or with
+    ``"fov"`` the field of view alone, into ``folder/mode-fov`` (:func:`given_camera`); what is left wrong
+    is the lift's and the placement's (and with ``"fov"`` the pitch's), not the camera's."""
     import physomni_usd as api
     from pxr import Usd
 
@@ -175,16 +210,10 @@ def build_row(folder, truth: dict, true_meshes: list, camera: PinholeCamera, mod
            "pitch_true": round(truth["camera"]["pitch_deg"], 2), "fov_true": round(truth["camera"]["fov_deg"], 2),
            "built": False, "simulated": False, "error": None, "objects": [], "camera_given": camera_given}
     specs = _specs(folder, truth, mode)
-    settings = None
-    if camera_given:
-        from ..settings import BuildSettings
-
-        settings = BuildSettings()
-        settings = settings.model_copy(update={"camera": settings.camera.model_copy(
-            update={"pitch_deg": truth["camera"]["pitch_deg"], "fov_deg": truth["camera"]["fov_deg"]})})
+    settings = given_camera(truth, camera_given)
     t0 = time.perf_counter()
     try:
-        result = api.build(folder / "photo.png", folder / (f"{mode}-camera" if camera_given else mode),
+        result = api.build(folder / "photo.png", folder / (mode + GIVEN_SUFFIX[camera_given]),
                            specs if mode == "masks" else (), specs if mode == "boxes" else (), settings)
     except BaseException as exc:  # noqa: BLE001 — a benchmark reports a failed build (even an exit) and goes on
         if isinstance(exc, KeyboardInterrupt):
@@ -246,6 +275,8 @@ def build_row(folder, truth: dict, true_meshes: list, camera: PinholeCamera, mod
             **depth_split(mine[i], true_meshes[i], built_camera, camera, k, middle),
             "position_error_frac": round(float(np.linalg.norm(k * est_cam[i] - true_cam[i])
                                                / np.linalg.norm(true_cam[i])), 4),
+            **dict(zip(("position_depth_frac", "position_lateral_frac"),
+                       (round(v, 4) for v in position_split(k * est_cam[i], true_cam[i])))),
             "raw_position_error_frac": round(o["raw_position_error_frac"], 4),
             "size_ratio": round(ratio, 3), "scaled_size_ratio": round(k * ratio, 3),
             "longest_m": o["longest_m"], "true_longest_m": o["true_longest_m"]})
@@ -446,6 +477,10 @@ def summarise(rows: list[dict]) -> dict:
                        "depth_position_abs": med([abs(o["depth_position"]) for o in objs if "depth_position" in o]),
                        "depth_extent": med([o["depth_extent"] for o in objs if "depth_extent" in o]),
                        "position_error_frac": med([o["position_error_frac"] for o in objs]),
+                       "position_depth_abs": med([abs(o["position_depth_frac"]) for o in objs
+                                                  if "position_depth_frac" in o]),
+                       "position_lateral": med([o["position_lateral_frac"] for o in objs
+                                                if "position_lateral_frac" in o]),
                        "raw_position_error_frac": med([o["raw_position_error_frac"] for o in objs]),
                        "size_ratio": med([o["size_ratio"] for o in objs]),
                        "pitch_error_deg": med([r["pitch_error_deg"] for r in group if "pitch_error_deg" in r]),
@@ -456,7 +491,7 @@ def summarise(rows: list[dict]) -> dict:
 
 
 def scene_rows(index: int, seed: int, folder, modes=MODES, seconds: float = 2.0, echo=print,
-               materials: int = 0, camera_given: bool = False) -> list[dict]:
+               materials: int = 0, camera_given: bool | str = False) -> list[dict]:
     """Scene ``index`` of the run of ``seed``: generate, render, build by each of ``modes``; a row per mode."""
     from ..geometry.raycast import SilhouetteRenderer  # noqa: F401 — warp loads once, before the clock starts
 
@@ -507,7 +542,7 @@ HEADER = (f"{'scene':>10} {'layout':<7}{'from':<6}{'n':>3}{'pitch':>8}{'ovl mm':
 
 
 def bench_general(n: int, seed: int | None = None, out_dir=None, modes=MODES, seconds: float = 2.0,
-                  echo=print, materials: int = 0, camera_given: bool = False) -> dict:
+                  echo=print, materials: int = 0, camera_given: bool | str = False) -> dict:
     """``n`` scenes drawn from ``seed`` (a new one, printed, when None), each built by every one of ``modes``
     (told the true camera with ``camera_given``: see :func:`build_row`); the scenes and shots go to
     ``out_dir`` (a temporary folder, removed, when None). Returns the numbers."""
@@ -516,7 +551,8 @@ def bench_general(n: int, seed: int | None = None, out_dir=None, modes=MODES, se
     if seed is None:
         seed = int(np.random.default_rng().integers(1, 1_000_000))
     echo(f"bench general: seed {seed} ({n} scenes; rerun them with --seed {seed})"
-         + ("; each build is given the true pitch and field of view" if camera_given else ""))
+         + {False: "", True: "; each build is given the true pitch and field of view",
+            "fov": "; each build is given the true field of view"}[camera_given])
     started = time.perf_counter()
     rows = []
     with tempfile.TemporaryDirectory(prefix="physomni-general-") as tmp:
@@ -539,7 +575,7 @@ def markdown(numbers: dict) -> str:
     """The pass rates as a Markdown table, one column per build mode."""
     s = numbers["summary"]
     modes = list(s)
-    given = " --camera-given" if numbers.get("camera_given") else ""
+    given = {True: " --camera-given", "fov": " --fov-given"}.get(numbers.get("camera_given"), "")
     lines = [f"`bench general --n {numbers['n']} --seed {numbers['seed']}{given}` on {numbers['date']} "
              f"({numbers['machine']}), {numbers['size'][0]}×{numbers['size'][1]} px, {numbers['samples']} samples: "
              f"{numbers['seconds_per_scene']} s per scene (render, {len(modes)} builds and their simulations).", "",
@@ -574,13 +610,16 @@ def markdown(numbers: dict) -> str:
             "depth_position_abs": "median error along its ray, over its longest side",
             "depth_extent": "median extent along its ray over the truth's",
             "position_error_frac": "median position error (after scale)",
+            "position_depth_abs": "median position error along the photo's ray (after scale)",
+            "position_lateral": "median position error across the photo's ray (after scale)",
             "raw_position_error_frac": "median position error (as built)", "size_ratio": "median size ratio",
             "pitch_error_deg": "median pitch error °", "fov_error_frac": "median field-of-view error",
             "frame0_psnr_db": "median frame 0 PSNR dB"}
     def cell(value, key):
         if value is None:
             return "—"
-        return f"{100 * value:.1f} %" if "position_error" in key or "fov" in key else f"{value:.2f}"
+        return (f"{100 * value:.1f} %" if "position_error" in key or key.startswith("position_") or "fov" in key
+                else f"{value:.2f}")
 
     for key, name in meds.items():
         lines.append(f"| {name} | " + " | ".join(cell(s[m]["median"].get(key), key) for m in modes) + " |")

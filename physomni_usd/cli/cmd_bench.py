@@ -322,8 +322,11 @@ def bench_photos_command(pitches, seconds, real, only, json_path):
 @click.option("--camera-given", is_flag=True,
               help="Tell each build the true pitch and field of view (--pitch, --fov): what is left wrong is the "
                    "lift's and the placement's, not the camera's.")
+@click.option("--fov-given", is_flag=True,
+              help="Tell each build the true field of view alone (--fov), the pitch still read from the photo: "
+                   "what the view the photo did not show costs, apart from the pitch.")
 @json_option("numbers")
-def bench_general_command(n, seed, out_dir, seconds, only, materials, camera_given, json_path):
+def bench_general_command(n, seed, out_dir, seconds, only, materials, camera_given, fov_given, json_path):
     """Scenes generated fresh, rendered with Blender's Cycles, each built as a user's photo would be.
 
     \b
@@ -357,7 +360,8 @@ def bench_general_command(n, seed, out_dir, seconds, only, materials, camera_giv
         from ..bench.general import MODES, bench_general, markdown
 
         numbers = bench_general(n, seed, out_dir, MODES if only == "both" else (only,), seconds,
-                                echo=click.echo, materials=materials, camera_given=camera_given)
+                                echo=click.echo, materials=materials,
+                                camera_given=True if camera_given else ("fov" if fov_given else False))
         write_numbers(numbers, json_path, out_dir / "general.json" if out_dir else None)
         if out_dir:
             from .._files import write_bytes

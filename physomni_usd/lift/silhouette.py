@@ -15,8 +15,9 @@ assumes the object stands on the ground facing the camera:
    with flat caps, one function per shape (the table ``SHAPES``):
    - ``round`` (outline mirror-symmetric and not ending in a straight
      bottom edge): circles, a surface of revolution whose axis follows the
-     silhouette's mid-line — cups, bottles, balls; all but balls get a flat
-     base;
+     silhouette's mid-line, each touching the front plane — cups, bottles,
+     on a flat base; a ball's outline (nearly a disc) about one upright axis
+     through the ball's centre instead, its lowest point under it;
    - ``inflated`` (a label of a soft, rounded thing, ``sizes.body_kind``,
      whose outline is not mirror-symmetric — fruit, toys, bags): each
      point of the outline's inside bulges towards and away from the camera
@@ -47,7 +48,7 @@ import cv2
 import numpy as np
 
 from ..geometry.camera import PinholeCamera
-from ..settings import LiftSettings
+from ..settings import BALL_SOLE, LiftSettings
 from ..sizes import body_kind
 from .sections import bulge, inflated_rings, loft, ray_slab_rings, round_rings, span_samples
 
@@ -473,9 +474,14 @@ def _lofted(rows: StandingRows, rings, shape: str) -> LiftedMesh:
 
 
 def round_body(rows: StandingRows) -> LiftedMesh:
-    """A surface of revolution: each row a circle touching the front plane, its width measured where a
-    circle is widest."""
+    """A surface of revolution: a ball's (:func:`is_ball`) about one vertical axis (:func:`ball_body`); any other
+    outline's (a cup, a bottle) each row a circle touching the front plane, its width measured where a circle is
+    widest."""
     r = rows
+    if is_ball(r.solid):
+        ball = ball_body(r)
+        if ball is not None:
+            return ball
     # a circle's widest points lie one radius behind the front plane: measure the width there
     radius = 0.5 * np.linalg.norm(r.right - r.left, axis=1)
     for _ in range(2):
@@ -483,17 +489,111 @@ def round_body(rows: StandingRows) -> LiftedMesh:
         left = np.stack([r.on_plane(r.spans[i, 0], r.edges[i], behind[i]) for i in range(r.k)])
         right = np.stack([r.on_plane(r.spans[i, 1], r.edges[i], behind[i]) for i in range(r.k)])
         radius = np.maximum(0.5 * np.linalg.norm(right - left, axis=1), 1e-4)
-    if not is_ball(r.solid):
-        # Seen from above, a round base shows as an ellipse whose lowest rows are
-        # narrow; they are the base's front, not a tapering bottom. The bottom band
-        # takes its widest section, so cups and bottles stand on a flat base.
-        band = r.z <= r.z.min() + BASE_BAND * (r.z.max() - r.z.min())
-        radius[band] = radius[band].max()
+    # Seen from above, a round base shows as an ellipse whose lowest rows are
+    # narrow; they are the base's front, not a tapering bottom. The bottom band
+    # takes its widest section, so cups and bottles stand on a flat base.
+    band = r.z <= r.z.min() + BASE_BAND * (r.z.max() - r.z.min())
+    radius[band] = radius[band].max()
     centres = 0.5 * (left + right)
     # each circle touches the front plane with its nearest point
     centres += ((r.contact - centres) @ r.normal + radius)[:, None] * r.normal
     centres[:, 2] = r.z
     return _lofted(r, round_rings(centres, radius, r.tangent, r.normal, r.settings.sections), "round")
+
+
+#: Rings that close each end of a ball (:func:`ball_body`) over the part of it no row of the photo shows.
+BALL_CAP_RINGS = 4
+
+
+def ball_body(rows: StandingRows) -> LiftedMesh | None:
+    """A ball: circles about one vertical axis, its lowest point on that axis under its centre of mass
+    (``info['rest']``; its ``contact`` stays where the outline's foot meets the ground, in front of it, and
+    ``info['axis']`` is ``ball``: placing keeps its depth, as measured, and shrinks it about that axis).
+
+    A cup's foot is its front edge, a ball's is under its middle: the ray through the outline's lowest pixel
+    grazes the ball's front-underside and meets the ground ``R·tan(θ/2)`` in front of where it rests (θ that
+    ray's angle below the horizontal, R its radius). Lofted against the front plane as a cup is, a ball's
+    lowest point lay at its front with its centre of mass one radius behind it, and stacked on another fruit
+    (no sole cut under it) it tipped backward off it (three of three generated piles, 25-29 cm).
+
+    Seen from above, a ball's outline is the circle where the rays graze it, which lies in the plane through
+    its centre facing the camera, tilted back by the view's angle: its top row is the back of a ring near
+    the top, its bottom row the front of one near the bottom. So each row is cast onto that tilted plane
+    and made the ring about the axis through both its ends (as wide as the row, as deep off the axis as the
+    row lies), which from the camera shows the row as the photo does, no wider than the ball's sphere there
+    (stretched up to the top row where that is higher). What no row shows (under the bottom row, over the top
+    row) closes as that ball: to its top pole, and down to a small round sole (``BALL_SOLE``). None where the
+    tilted plane does not keep the rows in order (a view it cannot hold)."""
+    r = rows
+    camera = r.camera
+    origin = camera.origin
+    # the cone of rays grazing it: its half-angle from the widest row, its axis half-way between the rays
+    # through that row's ends across and the outline's top and bottom up and down
+    widest = int(np.argmax(r.spans[:, 1] - r.spans[:, 0]))
+    unit = lambda d: d / np.linalg.norm(d)  # noqa: E731
+    ends = [unit(camera.rays(float(u), float(r.edges[widest]))) for u in r.spans[widest]]
+    half_angle = 0.5 * math.acos(float(np.clip(ends[0] @ ends[1], -1.0, 1.0)))
+    column = 0.5 * float(r.spans[widest].sum())
+    top, bottom = (unit(camera.rays(column, float(v))) for v in (r.edges[0], r.edges[-1]))
+    across, up = unit(ends[0] + ends[1]), unit(top + bottom)
+    level = unit(across * np.array([1.0, 1.0, 0.0]))
+    slope = up[2] / max(float(np.linalg.norm(up[:2])), 1e-12)
+    axis_ray = unit(level + np.array([0.0, 0.0, slope]))
+    # resting on the ground: its centre one radius above it, the radius its distance times sin(half-angle)
+    dip = float(axis_ray[2]) - math.sin(half_angle)
+    if dip >= -1e-9:
+        return None  # its bottom at or above the horizon: no ball resting on the ground shows so
+    reach = (r.base_z - float(origin[2])) / dip
+    centre = origin + reach * axis_ray
+    radius = reach * math.sin(half_angle)
+    facing = centre - origin
+    facing -= (facing @ r.tangent) * r.tangent  # the plane keeps the image's rows level
+    facing /= np.linalg.norm(facing)
+    left = _on_plane(camera, facing, r.spans[:, 0], r.edges, centre)
+    right = _on_plane(camera, facing, r.spans[:, 1], r.edges, centre)
+    middle = 0.5 * (left + right)
+    z = middle[:, 2]
+    if not np.all(np.isfinite(middle)) or np.any(np.diff(z) >= 0.0):
+        return None
+    half = 0.5 * np.linalg.norm(right - left, axis=1)
+    # one axis for every ring, where the rows' middles lie on the whole (weighted by each ring's area)
+    across = (middle - centre) @ r.tangent
+    axis = centre + float(np.average(across, weights=half ** 2 + 1e-12)) * r.tangent
+    deep = (middle - axis) @ r.normal
+    rings_r = np.sqrt(half ** 2 + deep ** 2)
+    # The ball is the sphere of the cone, resting on the ground, stretched up only as far as the outline's top
+    # row reaches: each row's ring is no wider than that ball's at its height, to a pixel (a row takes the
+    # widest span of the rows half-way to its neighbours, so the bottom row's ring was 15 mm across where a
+    # sphere's is 1 mm, and the ball stood on a flat foot), and what no row shows closes as the ball to its poles.
+    tall = max(radius, 0.5 * (float(z[0]) - r.base_z))
+    middle_z = r.base_z + tall
+    polar = np.arccos(np.clip((z - middle_z) / tall, -1.0, 1.0))  # 0 at the top pole, π at the bottom one
+    # it rests on a small round sole, the ball cut BALL_SOLE of its radius over its lowest point (on its pole
+    # alone its hull, which a ball something rests on collides as, rocked on the pole's small facets)
+    sole = math.acos(min(BALL_SOLE * radius / tall, 1.0) - 1.0)
+    seen = (polar > 1e-6) & (polar < sole)
+    if seen.sum() < 2:
+        return None
+    z, polar = z[seen], polar[seen]
+    pixel = 2.0 * radius / max(float(np.ptp(r.spans[widest])), 1.0)  # a pixel at the ball, in metres
+    rings_r = np.minimum(rings_r[seen], radius * np.sin(polar) + 0.5 * pixel)
+    steps = np.arange(1, BALL_CAP_RINGS + 1) / (BALL_CAP_RINGS + 1)
+    # each end's rings shrink as the ball's towards its pole, from the end row's (narrower where it is)
+    top_polar = polar[0] * (1.0 - steps)
+    bottom_polar = sole - (sole - polar[-1]) * (1.0 - np.r_[steps, 1.0])
+    heights = np.r_[middle_z + tall * np.cos(top_polar[::-1]), z, middle_z + tall * np.cos(bottom_polar)]
+    radii = np.r_[rings_r[0] * np.sin(top_polar[::-1]) / np.sin(polar[0]), rings_r,
+                  rings_r[-1] * np.sin(bottom_polar) / np.sin(polar[-1])]
+    heights[-1] = r.base_z  # the sole's rim brought down onto the ground
+    centres = np.repeat(axis[None], len(heights), axis=0)
+    centres[:, 2] = heights
+    verts, faces = loft(round_rings(centres, np.maximum(radii, 1e-5), r.tangent, r.normal, r.settings.sections))
+    verts[-2] = np.r_[axis[:2], middle_z + tall]  # the top's fan closes on its pole, not a flat disc
+    # its contact stays the outline's foot on the ground (what placing reads), ahead of where it rests
+    lifted = LiftedMesh(verts, faces, "round", r.contact, r.v_foot, _standing_info("round"))
+    lifted.info["axis"] = "ball"
+    lifted.info["rest"] = [round(float(x), 5) for x in (*axis[:2], r.base_z)]
+    return lifted
 
 
 def slab_depths(widths: np.ndarray, z: np.ndarray, ratio: float) -> np.ndarray:

@@ -13,7 +13,7 @@ bottles) get far less than their wall material's density.
 | spoon, fork, knife, metal, tool, key            | 2000    | 0.35     | 0.3       | 0.3  |
 | rock, stone, brick                              | 2400    | 0.7      | 0.65      | 0.1  |
 | wood, bench, chair, table, block, crate, shelf  | 500     | 0.6      | 0.5       | 0.15 |
-| fruit, apple, orange, pear, banana, egg         | 950     | 0.5      | 0.45      | 0.2  |
+| fruit, apple, orange, lemon, lime, pear, banana, egg | 950 | 0.5   | 0.45      | 0.2  |
 | toy, plush, teddy, doll, pillow, cushion        | 150     | 0.9      | 0.8       | 0.05 |
 | motorcycle, bike, bicycle, car, vehicle, rocket | 400     | 0.8      | 0.7       | 0.1  |
 | anything else                                   | 200     | 0.7      | 0.7       | 0.1  |
@@ -46,7 +46,9 @@ _TABLE = [
     (("spoon", "fork", "knife", "metal", "tool", "key"), RigidMaterial("metal", 2000.0, 0.35, 0.3, 0.3)),
     (("rock", "stone", "brick"), RigidMaterial("stone", 2400.0, 0.7, 0.65, 0.1)),
     (("wood", "bench", "chair", "table", "block", "crate", "shelf"), RigidMaterial("wood", 500.0, 0.6, 0.5, 0.15)),
-    (("fruit", "apple", "orange", "pear", "banana", "egg"), RigidMaterial("fruit", 950.0, 0.5, 0.45, 0.2)),
+    # a lemon or a lime is as dense as an orange; under the default row it weighed a fifth of one (200 kg/m³)
+    (("fruit", "apple", "orange", "lemon", "lime", "pear", "banana", "egg"),
+     RigidMaterial("fruit", 950.0, 0.5, 0.45, 0.2)),
     (("toy", "plush", "teddy", "doll", "pillow", "cushion"), RigidMaterial("soft", 150.0, 0.9, 0.8, 0.05)),
     (("motorcycle", "bike", "bicycle", "car", "vehicle", "rocket"), RigidMaterial("vehicle", 400.0, 0.8, 0.7, 0.1)),
 ]

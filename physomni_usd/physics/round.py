@@ -8,19 +8,24 @@ turned 8° and wandered 5 mm with nothing pushing it. A smooth surface touches w
 as a real ball does, and stays.
 
 The fit that decides is the upright ellipsoid with the hull's extents (its horizontal axes along the hull's
-principal ones). Only where its semi-axes agree within ``settings.BALL_SPHERE_SPREAD`` does the ball collide
-as a Newton sphere whose radius is the smallest semi-axis (no wider than the hull: one as tall as a ball 3 %
-taller than wide started inside the fruit beside it, and both rolled 8 cm), its lowest point the hull's,
-straight under the centre of mass (it rests at the height the mesh rests at and starts balanced), and only
-where that sphere is the hull's shape: the ellipsoid holds at least ``settings.BALL_MIN_FILL`` of the hull's
-volume and the sphere pokes out of the hull by at most ``settings.BALL_MAX_PROTRUSION`` of its radius (not a
-cup, a box, a ball whose centre of mass is off its middle), and nothing rests on it (a sphere does not resist
-rolling, and rolls away from under what stands on it). Everything else keeps its hull. An ellipsoid collider
-was tried and dropped: a ball taller than wide balances on its end as the ellipsoid does, unstably
-(256721/018's three oranges 1.13x taller than wide rolled 18-77 cm where their hulls moved 1-3 mm), and
-Newton's ellipsoid contacts, its general convex search's, rolled 235726/019's round apple out of its bowl, 52
-cm in 2 s, where its sphere of the same size moved 1 mm. The body's mass, centre of mass and inertia stay the
-mesh's."""
+principal ones). The ball collides as a Newton sphere where its semi-axes agree within
+``settings.BALL_SPHERE_SPREAD``, or where it is round across (its level ones within that spread) and its upright
+one is the longest by at most ``settings.BALL_TALL_SPREAD`` (a ball lifted from its footprint or seen standing
+takes its height from its outline's tangent cone, that uncertain). The sphere's radius is the smallest
+semi-axis, the level one (no wider than the hull: one as tall as a ball 3 % taller than wide started inside the
+fruit beside it, and both rolled 8 cm), its lowest point the hull's, straight under the centre of mass (it
+rests at the height the mesh rests at and starts balanced). It is used only where that sphere is the hull's
+shape: the ellipsoid holds at least ``settings.BALL_MIN_FILL`` of the hull's volume and the sphere pokes out of
+the hull by at most ``settings.BALL_MAX_PROTRUSION`` of its radius (not a cup, a box, a ball whose centre of
+mass is off its middle), and nothing rests on it (a sphere does not resist rolling, and rolls away from under
+what stands on it). Everything else keeps its hull. An ellipsoid collider was tried and dropped: a ball taller
+than wide balances on its end as the ellipsoid does, unstably (256721/018's three oranges 1.13x taller than wide
+rolled 18-77 cm where their hulls moved 1-3 mm), and Newton's ellipsoid contacts, its general convex search's,
+rolled 235726/019's round apple out of its bowl, 52 cm in 2 s, where its sphere of the same size moved 1 mm.
+A body that collides as a sphere moves as that sphere: its mass stays the mesh's, its centre of mass is the
+sphere's centre and its inertia a solid sphere's (a ball a little taller than wide kept its mesh's centre of
+mass 1-3 mm over the sphere's centre, balanced on top of its round bottom, and a 2 cm/s push tipped it 4-17 cm
+where a round one rolled 4 mm)."""
 
 from __future__ import annotations
 
@@ -28,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..settings import BALL_LOAD_GAP, BALL_MAX_PROTRUSION, BALL_MIN_FILL, BALL_SPHERE_SPREAD
+from ..settings import BALL_LOAD_GAP, BALL_MAX_PROTRUSION, BALL_MIN_FILL, BALL_SPHERE_SPREAD, BALL_TALL_SPREAD
 from .support import body_frame
 
 #: The lifted shapes (``physomni:liftedShape``) that may be a ball: the footprint's ball (``sphere``), the
@@ -79,10 +84,11 @@ def _sphere_points(n: int) -> np.ndarray:
 
 def fit_ball(points: np.ndarray, com: np.ndarray | None = None) -> BallFit:
     """The upright ellipsoid for the convex hull of ``points`` (N, 3; world, z up): its horizontal axes the
-    principal axes of the hull's footprint and its semi-axes half the hull's extents along them (made a sphere
-    of the smallest where they agree within ``BALL_SPHERE_SPREAD``: no wider and no taller than the hull), its
-    lowest point the hull's lowest, straight under ``com`` (the body's centre of mass; None: the box's
-    centre), so that it starts at rest where the mesh stands."""
+    principal axes of the hull's footprint and its semi-axes half the hull's extents along them, made a sphere
+    of the smallest (no wider and no taller than the hull) where they agree within ``BALL_SPHERE_SPREAD`` or
+    where it is round across and at most ``BALL_TALL_SPREAD`` taller (:func:`_round_across_tall`); its lowest
+    point the hull's lowest, straight under ``com`` (the body's centre of mass; None: the box's centre), so
+    that it starts at rest where the mesh stands."""
     import trimesh
 
     hull = trimesh.convex.convex_hull(points)
@@ -96,7 +102,7 @@ def fit_ball(points: np.ndarray, com: np.ndarray | None = None) -> BallFit:
     lo, hi = local.min(axis=0), local.max(axis=0)
     semi = 0.5 * (hi - lo)
     fill = float(4.0 / 3.0 * np.pi * np.prod(semi) / max(hull.volume, 1e-18))
-    if semi.max() <= (1.0 + BALL_SPHERE_SPREAD) * semi.min():
+    if semi.max() <= (1.0 + BALL_SPHERE_SPREAD) * semi.min() or _round_across_tall(semi):
         semi[:] = semi.min()  # no wider than the hull: a wider one starts inside the fruit beside it
     centre = 0.5 * (lo + hi)
     centre[2] = lo[2] + semi[2]
@@ -108,6 +114,28 @@ def fit_ball(points: np.ndarray, com: np.ndarray | None = None) -> BallFit:
     offsets = np.einsum("ij,ij->i", np.asarray(hull.triangles[:, 0], float), normals)
     poke = (surface @ normals.T - offsets).max(axis=1).max()
     return BallFit(centre, axes, semi, fill, float(max(poke, 0.0) / max(semi.min(), 1e-12)))
+
+
+def _round_across_tall(semi: np.ndarray) -> bool:
+    """Whether semi-axes ``semi`` (two level, then upright) are a ball round across whose upright one is the
+    longest by at most ``BALL_TALL_SPREAD`` (a footprint's height, from its outline's tangent cone, that
+    uncertain): it collides as the sphere of its level radius."""
+    across = semi[:2]
+    return bool(across.max() <= (1.0 + BALL_SPHERE_SPREAD) * across.min()
+                and across.max() <= semi[2] <= (1.0 + BALL_TALL_SPREAD) * across.min())
+
+
+def _sphere_mass(builder, b: int, centre: np.ndarray, radius: float, wp) -> None:
+    """Give body ``b`` (``builder`` before ``finalize``) the mass properties of the sphere it collides as: its
+    centre of mass at the sphere's ``centre`` (the body's frame) and a solid sphere's inertia about it, its mass
+    kept. A ball a little taller than wide kept its mesh's centre of mass 1-3 mm over the sphere's centre,
+    balanced on a round bottom, and a 2 cm/s push rolled it 4-17 cm where a round one rolled 4 mm."""
+    builder.body_com[b] = wp.vec3(*map(float, centre))
+    mass = float(builder.body_mass[b])
+    moment = 0.4 * mass * radius * radius
+    builder.body_inertia[b] = wp.mat33(moment, 0.0, 0.0, 0.0, moment, 0.0, 0.0, 0.0, moment)
+    inverse = 1.0 / moment if moment > 0.0 else 0.0
+    builder.body_inv_inertia[b] = wp.mat33(inverse, 0.0, 0.0, 0.0, inverse, 0.0, 0.0, 0.0, inverse)
 
 
 def _load(ball: np.ndarray, others) -> str | None:
@@ -146,8 +174,8 @@ class Rounded:
 
 def round_balls(builder, objects, path_body: dict, newton, wp) -> Rounded:
     """Make the one collision shape of each rigid object of ``objects`` lifted as a ball the sphere of
-    :func:`fit_ball` where it fits (``builder`` before ``finalize``; the body's mass and inertia are
-    left as they are)."""
+    :func:`fit_ball` where it fits (``builder`` before ``finalize``), with the sphere's centre of mass and
+    inertia (its mass kept)."""
     done = Rounded({}, {})
     for o in objects:
         b = path_body.get(o.path)
@@ -169,5 +197,6 @@ def round_balls(builder, objects, path_body: dict, newton, wp) -> Rounded:
         builder.shape_scale[s] = (float(fit.semi[0]), 0.0, 0.0)
         builder.shape_transform[s] = wp.transform(wp.vec3(*map(float, centre)), wp.quat_identity())
         builder.shape_collision_radius[s] = float(fit.semi[0])
+        _sphere_mass(builder, b, centre, float(fit.semi[0]), wp)
         done.spheres[o.name] = fit.as_dict()
     return done

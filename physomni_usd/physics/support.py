@@ -139,11 +139,21 @@ def raise_top(supporter: np.ndarray, foot: np.ndarray, base_z: float) -> np.ndar
     return out
 
 
-def _cheapest_shift(region: np.ndarray, c: np.ndarray, margin: float, com: np.ndarray, eye) -> np.ndarray:
+def _across_sight(moves: np.ndarray, at: np.ndarray, eye) -> np.ndarray:
+    """(K,) metres: how much of each move (K, 3) of a point at ``at`` (3,) the photo sees, its part across the
+    line of sight from ``eye`` (a move along it changes the image least; None: no eye, the whole move)."""
+    ray = np.asarray(at, float) - np.asarray(eye, float) if eye is not None else np.zeros(3)
+    ray = ray / max(float(np.linalg.norm(ray)), 1e-12)
+    moves = np.atleast_2d(np.asarray(moves, float))
+    return np.linalg.norm(moves - np.outer(moves @ ray, ray), axis=1)
+
+
+def _cheapest_shift(region: np.ndarray, c: np.ndarray, margin: float, com: np.ndarray, eye,
+                    allowed=None) -> np.ndarray:
     """The level shift (2,) of a centre of mass ``c`` into the convex hull of ``region`` by ``margin`` that moves
     its image least: a shift along the line of sight from ``eye`` costs nothing, across it all its length (so
-    a level view forgives depth, a view from above forgives nothing). Where no point of the top is that far
-    inside, its deepest point."""
+    a level view forgives depth, a view from above forgives nothing). Only shifts ``allowed`` ((K, 2) → (K,)
+    bool) allows count, where given. Where no point of the top is that far inside, its deepest point."""
     from scipy.spatial import ConvexHull, QhullError
 
     try:
@@ -154,15 +164,14 @@ def _cheapest_shift(region: np.ndarray, c: np.ndarray, margin: float, com: np.nd
     g = np.stack(np.meshgrid(np.linspace(lo[0], hi[0], 48), np.linspace(lo[1], hi[1], 48)), -1).reshape(-1, 2)
     depth = (g @ eq[:, :2].T + eq[:, 2]).max(axis=1)
     ok = depth <= -margin
+    if allowed is not None and ok.any():
+        ok[ok] = allowed(g[ok] - c)
     if not ok.any():
         return g[np.argmin(depth)] - c
     steps = g[ok] - c
-    ray = np.asarray(com, float) - np.asarray(eye, float) if eye is not None else np.zeros(3)
-    ray = ray / max(float(np.linalg.norm(ray)), 1e-12)
-    s3 = np.column_stack([steps, np.zeros(len(steps))])
-    across = s3 - np.outer(s3 @ ray, ray)
+    across = _across_sight(np.column_stack([steps, np.zeros(len(steps))]), com, eye)
     # a tenth of the length itself breaks ties: of the shifts the photo cannot tell apart, the shortest
-    return steps[np.argmin(np.linalg.norm(across, axis=1) + 0.1 * np.linalg.norm(steps, axis=1))]
+    return steps[np.argmin(across + 0.1 * np.linalg.norm(steps, axis=1))]
 
 
 def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np.ndarray], list[dict]]:
@@ -175,8 +184,9 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
     it); where that centre still overhangs, it is shifted level, with whatever rests on it, by the shift
     into ``geometry.resting.STEADY_MARGIN`` inside that top that moves its image least (:func:`_cheapest_shift`): a few
     pixels, where a fall moves it off the frame. A rounded object on another's rounded top (no shift holds a dome
-    on a dome) goes into a pile's hollow beside it where one holds it, else over the lower one's crown on flat
-    faces of both (:func:`_dome_on_dome`); so does one whose centre of mass overhangs its own foot. Higher
+    on a dome) goes into a pile's hollow beside it where one holds it, else onto a seat cut in a crown under it,
+    its supporter's or that of the rounded object under its centre of mass, whichever moves its image least
+    (:func:`_dome_on_dome`, :func:`_least_seen_crown`); so does one whose centre of mass overhangs its own foot. Higher
     objects first. Before all that, every object standing on a point on the ground gets a flat foot
     (:func:`flat_foot`), what rests on it lowered with it (not one held by another object: an orange in a bowl's
     mouth, rounded, rests on its rim; flattened, it fell 24 cm; but one on a floor walled in by what holds it,
@@ -233,7 +243,12 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None) -> tuple[list[np
         # held by several together (a pile's hollow): on one's top alone it balances on a dome
         if _into_hollow(verts, faces, supports, i, j, com, eye, margin, out, done):
             continue
-        if _dome_on_dome(verts, faces, supports, i, j, eye, done):
+        # a dome read as on one fruit of a pile may stand over another's crown: seated on the one under its
+        # centre of mass it moves less than onto its own supporter's (a lemon carried 4.9 cm off its outline)
+        below = _under(verts, supports, i, com, low + band)
+        if _least_seen_crown(verts, faces, supports, i, [j] + ([below] if below not in (None, j) and
+                                                              _rounded_pair(verts[i], verts[below]) else []),
+                             eye, done):
             continue
         raised = raise_top(verts[j], foot, low)
         if not np.array_equal(raised, verts[j]):
@@ -280,6 +295,9 @@ def walled_in(upper: np.ndarray, lower: np.ndarray, lower_faces: np.ndarray) -> 
 #: A rounded object on a rounded top is brought over that top's crown by at most this fraction of its own
 #: smaller level width: farther, the photo shows it elsewhere, and it is left as it was.
 CROWN_REACH = 0.5
+#: ... and that crown may be cut down to a seat this fraction of the upper object's height deep (hidden under it):
+#: a wider face holds a centre of mass off the crown, so the upper one moves less off where the photo shows it.
+SEAT_DEPTH = 0.15
 
 
 def _into_hollow(verts, faces, supports: dict, i: int, j: int, com, eye, margin: float, overhang: float,
@@ -299,6 +317,41 @@ def _into_hollow(verts, faces, supports: dict, i: int, j: int, com, eye, margin:
     return True
 
 
+def _least_seen_crown(verts, faces, supports: dict, i: int, lowers: list, eye, done: list) -> bool:
+    """:func:`_dome_on_dome` of ``i`` on whichever of ``lowers`` moves its image least (its centre across the
+    line of sight from ``eye``, and its drop); records it in ``done`` and returns whether one held it."""
+    best = None
+    for j in lowers:
+        trial, log = [np.array(v, float) for v in verts], []
+        if not _dome_on_dome(trial, faces, supports, i, j, eye, log):
+            continue
+        move = trial[i].mean(axis=0) - np.asarray(verts[i], float).mean(axis=0)
+        seen = float(_across_sight(move, trial[i].mean(axis=0), eye)[0])
+        if best is None or seen < best[0]:
+            best = (seen, trial, log)
+    if best is None:
+        return False
+    verts[:] = best[1]
+    done.extend(best[2])
+    return True
+
+
+def _under(verts, supports: dict, i: int, com: np.ndarray, below_z: float) -> int | None:
+    """The object, not ``i`` nor one it carries, with the highest top under ``i``'s centre of mass ``com``
+    seen from above (its level bounds hold it) and no higher than ``below_z``; None where none."""
+    from ..align.support import riders
+
+    carried = set(riders(i, supports))
+    best = None
+    for k, v in enumerate(verts):
+        lo, hi = v[:, :2].min(axis=0), v[:, :2].max(axis=0)
+        if k in carried or (com[:2] < lo).any() or (com[:2] > hi).any() or float(v[:, 2].max()) > below_z:
+            continue
+        if best is None or float(v[:, 2].max()) > float(verts[best][:, 2].max()):
+            best = k
+    return best
+
+
 def _rounded_pair(upper: np.ndarray, lower: np.ndarray) -> bool:
     """Whether ``upper`` (N, 3) stands on a rounded foot and ``lower`` (M, 3) has a rounded top (both as
     :func:`flat_foot` judges a foot)."""
@@ -309,11 +362,13 @@ def _dome_on_dome(verts, faces, supports: dict, i: int, j: int, eye, done: list)
     """Object ``i`` (rounded foot: :func:`flat_foot` would cut it) resting on ``j`` alone whose top is rounded
     too (a lemon on a lemon, an apple on an orange, the photo's pile read as a column) stood over ``j``'s crown
     on flat faces of both: with no hollow to hold it, a dome on a dome balances on a point, and the solver's
-    first tremor rolls it off (three piled fruit read as a column fell 43-63 cm). Its centre of mass is moved
-    level over the crown of ``j``'s top (the centroid of the cap :func:`flat_foot` cuts from it), with what rests
-    on it, where that move is within :data:`CROWN_REACH` of its width; then its foot and ``j``'s crown are cut
-    flat (as a fruit's on the ground) and it is lowered onto that face. Both cuts are a few millimetres of what
-    each hides of the other. Records it in ``done`` and returns whether it did."""
+    first tremor rolls it off (three piled fruit read as a column fell 43-63 cm). ``j``'s crown is cut flat,
+    at least as deep as :func:`flat_foot` would cut it and at most :data:`SEAT_DEPTH` of ``i``'s height, and
+    ``i``'s centre of mass moved level, with what rests on it, inside that face by the steady margin, the depth
+    and the move together those the photo sees least (:func:`_seat`), where that move is within
+    :data:`CROWN_REACH` of its width; then its foot is cut flat (as a fruit's on the ground) and it is lowered
+    onto that face. Both cuts are millimetres of what each hides of the other. Records it in ``done`` and
+    returns whether it did."""
     from ..align.support import riders
 
     pts = verts[i]
@@ -326,10 +381,16 @@ def _dome_on_dome(verts, faces, supports: dict, i: int, j: int, eye, done: list)
     if cut_j <= 0:
         return False  # a flat top: steadied as any
     top = float(verts[j][:, 2].max())
-    crown_pts = verts[j][verts[j][:, 2] >= top - cut_j - 1e-9, :2]
-    crown = crown_pts.mean(axis=0)
     com = _load_com(riders(i, supports), verts, faces)
-    shift = crown - com[:2]
+    _, sole_cut = flat_foot(pts)
+    margin = steady_margin(pts[pts[:, 2] <= float(pts[:, 2].min()) + sole_cut, :2])
+    seat = _seat(verts[j], top, cut_j, SEAT_DEPTH * float(np.ptp(pts[:, 2])), com, margin, eye,
+                 _stands_under(verts, faces, supports, i, j))
+    if seat is None:
+        return False
+    cut_j, shift = seat
+    topped = np.array(verts[j], float)
+    topped[:, 2] = np.minimum(topped[:, 2], top - cut_j)
     if float(np.linalg.norm(shift)) > CROWN_REACH * float(np.ptp(pts[:, :2], axis=0).min()):
         return False
     movers = riders(i, supports)
@@ -341,8 +402,7 @@ def _dome_on_dome(verts, faces, supports: dict, i: int, j: int, eye, done: list)
             verts[k][:, :2] -= shift
         return False  # a cut may not make a round thing thinner than the build made it (as level_sole's)
     footed[:, 2] += cut_i  # flat_foot lowers it by its cut; the drop onto the crown below says how far
-    topped[:, 2] += cut_j  # flat_foot lowers what it cuts by the cut: j stays where it stands
-    verts[j] = topped * np.array([1.0, 1.0, -1.0])
+    verts[j] = topped
     new_top = top - cut_j
     drop = float(footed[:, 2].min()) - new_top
     verts[i] = footed - np.array([0.0, 0.0, drop])
@@ -351,6 +411,95 @@ def _dome_on_dome(verts, faces, supports: dict, i: int, j: int, eye, done: list)
     done.append({"object": i, "on": j, "crown_shift_m": round(float(np.linalg.norm(shift)), 4),
                  "foot_cut_m": round(cut_i, 4), "crown_cut_m": round(cut_j, 4)})
     return True
+
+
+#: Seat depths :func:`_seat` weighs between the crown's own cut and the deepest.
+SEAT_STEPS = 8
+
+
+def _seat(lower: np.ndarray, top: float, cut: float, deepest: float, com: np.ndarray, margin: float, eye,
+          stands=None):
+    """The depth (m) of ``lower``'s crown (its highest point at ``top``) cut flat, from ``cut`` down to
+    ``deepest`` if deeper, and the level shift (2,) that brings the centre of mass ``com`` of what rests on it
+    ``margin`` inside that face, of which the photo sees least: the shift across the line of sight from ``eye``
+    and the drop of the deeper cut both move its image. A fruit seen in a pile's hollow, read as on one fruit
+    beside its crown, was carried 2.5 cm sideways onto that crown, off its outline; seated on a face cut wider
+    under it, it moves less. Only a shift that ``stands`` ((K, 2) → (K,) bool; :func:`_stands_under`) allows: a
+    face wide enough to hold the load off the crown does not make what it is cut in stand under it. Where no
+    allowed shift is found, over the middle of the crown's own cut. None where no face holds it."""
+    depths = np.unique(np.linspace(cut, max(cut, deepest), SEAT_STEPS))
+    best = crown = None
+
+    def holds(shift) -> bool:
+        return stands is None or bool(stands(np.asarray(shift, float)[None])[0])
+
+    for depth in depths:
+        face = np.unique(np.round(lower[lower[:, 2] >= top - depth - 1e-9, :2], 6), axis=0)
+        if len(face) < 3:
+            continue
+        if crown is None:
+            crown = (float(depth), face.mean(axis=0) - com[:2])
+        still = np.zeros(2)
+        shift = still if _outside(face, com[:2]) <= -margin and holds(still) else \
+            _cheapest_shift(face, com[:2], margin, com, eye, stands)
+        if _outside(face, com[:2] + shift) > -margin + 1e-9:
+            shift = face.mean(axis=0) - com[:2]  # no point that deep: over the face's middle, as a crown's
+        if not holds(shift):
+            continue
+        seen = float(_across_sight(np.array([shift[0], shift[1], cut - depth]), com, eye)[0])
+        if best is None or seen < best[0] - 1e-6:
+            best = (seen, float(depth), shift)
+    return crown if best is None else best[1:]
+
+
+def _stands_under(verts, faces, supports: dict, i: int, j: int):
+    """A test (level shifts (K, 2) → (K,) bool) that every object in the column under ``i`` from ``j`` down
+    still has its whole load, itself and all it carries, with ``i`` and its riders shifted level so, the steady
+    margin inside its own foot. A lemon seated 15 mm off the axis of an orange standing on a foot 8 mm across
+    brought the centre of mass of the two outside that foot: the orange tipped and both fell 21 cm. Weighed by volume,
+    as :func:`_load_com`: the materials are not estimated yet. Only an object whose foot is its lowest point is judged
+    (on the ground, walled in, or a dome on a dome, whose foot :func:`flat_foot` cuts there); one on a bowl's rim rests
+    elsewhere."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    from ..align.support import riders
+
+    moved = riders(i, supports)
+    vol = {}
+
+    def weight(k):
+        if k not in vol:
+            s = _solid(verts[k], faces[k])
+            vol[k] = (max(float(abs(s.volume)), 1e-12), np.asarray(s.center_mass, float)[:2])
+        return vol[k]
+
+    levels, k, seen = [], j, set(moved)
+    while k is not None and k not in seen:
+        seen.add(k)
+        below = supports[k][0] if k in supports else None
+        if below is None or walled_in(verts[k], verts[below], faces[below]) or _rounded_pair(verts[k], verts[below]):
+            footed = flat_foot(verts[k])[0]
+            foot = np.unique(np.round(footed[footed[:, 2] <= float(footed[:, 2].min()) + 1e-6, :2], 6), axis=0)
+            try:
+                eq = ConvexHull(foot).equations  # unit outward normals: a·x + b·y + d is the signed distance
+            except (QhullError, ValueError):
+                eq = None  # a line or a point: not a foot to judge by
+            if eq is not None:
+                load = sorted(set(riders(k, supports)) | set(moved))
+                w = np.array([weight(m)[0] for m in load])
+                c0 = np.average([weight(m)[1] for m in load], axis=0, weights=w)
+                frac = float(sum(weight(m)[0] for m in moved) / w.sum())
+                levels.append((eq, steady_margin(foot), c0, frac))
+        k = below
+
+    def stands(shifts: np.ndarray) -> np.ndarray:
+        ok = np.ones(len(shifts), bool)
+        for eq, margin, c0, frac in levels:
+            c = c0 + frac * np.asarray(shifts, float)
+            ok &= (c @ eq[:, :2].T + eq[:, 2]).max(axis=1) <= -margin
+        return ok
+
+    return stands
 
 
 def _thinned(before: np.ndarray, after: np.ndarray) -> bool:

@@ -84,8 +84,9 @@ class GroundEvidence:
     """What a lifter that measured the ground tells *place* about one object (mesh frame = world)."""
 
     camera: object  # geometry.camera.PinholeCamera of the photo, in the world of the mesh
-    contact: np.ndarray  # (3,) where the object's outline meets what it stands on, world metres
-    fixed_depth: bool = False  # seen from above: its depth was measured, not guessed
+    contact: np.ndarray  # (3,) where the object's outline meets what it stands on (its front foot; a ball
+    # rests behind it), world metres
+    fixed_depth: bool = False  # seen from above, or a ball seen standing: its depth was measured, not guessed
     support: tuple[int, str] | None = None  # (index of the object it rests on, how that was seen)
     info: dict = field(default_factory=dict)  # how it was lifted, for the report
     scene: dict = field(default_factory=dict)  # what was measured of the whole scene (camera, scale)
