@@ -15,6 +15,7 @@ from physomni_usd.rendering.pillow import pillow
 from physomni_usd.rendering.stage import RenderObject, grounded
 
 SIZE, F = 200, 200.0
+EYE = 2.5
 
 
 #: The object's pose where the photo shows it (USD row-vector form): turned 30° about z and 20° about x, moved.
@@ -27,8 +28,10 @@ POSE[3, :3] = (0.3, -0.2, 0.5)
 
 def _slab_object():
     """A disc with a thin stalk (4 px wide) in a 200 px photo, lifted as a 1 m deep slab 2 m away (in the world;
-    its points in its own frame, posed by :data:`POSE`), and the camera (looking along +y, z up)."""
-    camera = RenderCamera(SIZE, SIZE, F, F, np.zeros(3), np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]]))
+    its points in its own frame, posed by :data:`POSE`), and the camera (looking along +y, z up, :data:`EYE` m
+    above the floor, so that the slab stands half a metre above it where the photo shows it)."""
+    camera = RenderCamera(SIZE, SIZE, F, F, np.array([0.0, 0.0, EYE]),
+                          np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]]))
     mask = np.zeros((SIZE, SIZE), np.uint8)
     cv2.circle(mask, (80, 100), 40, 1, -1)
     mask[98:102, 120:180] = 1  # the stalk, 4 px wide
@@ -36,7 +39,7 @@ def _slab_object():
     texture[..., :3] = 128
     texture[..., 3] = mask * 255
     box = trimesh.creation.box(extents=(4.0, 1.0, 4.0))
-    box.apply_translation((0.0, 2.5, 0.0))
+    box.apply_translation((0.0, 2.5, EYE))
     local = (np.asarray(box.vertices, np.float64) - POSE[3, :3]) @ np.linalg.inv(POSE[:3, :3])
     obj = RenderObject("/World/Objects/thing_0", np.asarray(box.faces), np.zeros((len(box.vertices), 2)), texture,
                        None, local, 2.0, None, (0, 0), None, False)
@@ -59,7 +62,8 @@ def test_the_pillow_is_closed_without_walls_and_thin_where_the_outline_is():
     tri = pts[faces]
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     n /= np.linalg.norm(n, axis=1, keepdims=True)
-    ray = tri.mean(1) / np.linalg.norm(tri.mean(1), axis=1, keepdims=True)
+    ray = tri.mean(1) - camera.origin
+    ray /= np.linalg.norm(ray, axis=1, keepdims=True)
     assert np.abs(np.einsum("ij,ij->i", n, ray)).min() >= 0.25
     # every point on the ray of the pixel whose texel it takes, inside the mask
     uv, z = camera.project(pts)
@@ -102,6 +106,70 @@ def test_a_pillow_lying_down_rests_where_its_slab_does():
     lying[3, 2] += 0.5  # in the air: drawn where the body is
     up = drawn.static_points @ lying[:3, :3] + lying[3, :3]
     assert np.array_equal(grounded(drawn, up, lying), up)
+
+
+def _lowest(drawn, pose):
+    return grounded(drawn, drawn.static_points @ pose[:3, :3] + pose[3, :3], pose)[:, 2].min()
+
+
+def test_a_pillow_is_set_down_gradually_as_its_slab_leaves_the_floor():
+    """Lying down, the pillow is set down with its slab on the floor and drawn where the body is once the slab is
+    GROUND_FADE_M up, rising gradually between: all or nothing at GROUND_TOUCH_M, 0.0099 m up it was drawn
+    0.0099 m up, 0.0101 m up 0.26 m (its half thickness) higher."""
+    from physomni_usd.rendering.stage import GROUND_FADE_M, GROUND_TOUCH_M
+
+    obj, camera, _ = _slab_object()
+    drawn = pillow(obj, camera, POSE)
+    lying = np.eye(4)
+    lying[:3, :3] = POSE[:3, :3] @ trimesh.transformations.rotation_matrix(np.radians(90), (1, 0, 0))[:3, :3].T
+    slab_low = (obj.static_points @ lying[:3, :3])[:, 2].min()
+    pillow_low = (drawn.static_points @ lying[:3, :3])[:, 2].min()
+    heights = np.linspace(0.0, 0.15, 301)
+    drawn_low = []
+    for up in heights:
+        pose = lying.copy()
+        pose[3, 2] = up - slab_low
+        drawn_low.append(_lowest(drawn, pose))
+    drawn_low = np.array(drawn_low)
+    touching = heights <= GROUND_TOUCH_M
+    assert np.abs(drawn_low[touching] - heights[touching]).max() < 1e-6  # on the floor with its slab
+    aloft = heights >= GROUND_FADE_M
+    assert np.abs(drawn_low[aloft] - (heights[aloft] - slab_low + pillow_low)).max() < 1e-6  # where the body is
+    assert np.all(np.diff(drawn_low) > 0)  # rising with the slab
+    step = heights[1] - heights[0]
+    assert np.diff(drawn_low).max() < 6 * step  # no jump: at most its half thickness over the fade's 9 cm
+    near = [_lowest(drawn, _lifted(lying, slab_low, h)) for h in (GROUND_TOUCH_M - 1e-4, GROUND_TOUCH_M + 1e-4)]
+    assert near[1] - near[0] < 1e-3
+
+
+def _lifted(pose, slab_low, up):
+    out = pose.copy()
+    out[3, 2] = up - slab_low
+    return out
+
+
+def test_at_the_photos_pose_the_pillow_is_drawn_as_built():
+    """Standing on the floor where the photo shows it, the pillow is drawn as built even where the mask's bottom
+    pixels reach below its slab's hull (set down there, the photo's bike was lifted 1.9 px, the bench 1.1 px);
+    posed elsewhere it moves by as much as its set-down changed from the photo's."""
+    obj, camera, _ = _slab_object()
+    drawn = pillow(obj, camera, POSE)
+    pts = drawn.static_points @ POSE[:3, :3] + POSE[3, :3]
+    standing = POSE.copy()
+    standing[3, 2] -= pts[:, 2].min()  # the pillow's lowest point on the floor
+    # a slab whose hull reaches 3 mm less far down than the mask: it stands on the floor (GROUND_TOUCH_M)
+    hull = (pts + (0.0, 0.0, 0.003) - POSE[3, :3]) @ np.linalg.inv(POSE[:3, :3])
+    drawn = dataclasses.replace(drawn, slab_points=hull, photo_pose=standing)
+    at_photo = drawn.static_points @ standing[:3, :3] + standing[3, :3]
+    assert np.array_equal(grounded(drawn, at_photo, standing), at_photo)
+    # counted from nothing rather than the photo's pose, it was lifted by the 3 mm
+    lifted = grounded(dataclasses.replace(drawn, photo_pose=None), at_photo, standing)
+    assert abs(lifted[:, 2].min() - 0.003) < 1e-9
+    # 1 cm higher, the set-down fades a little: drawn by the fade's share of the 3 mm lower than the body
+    up = standing.copy()
+    up[3, 2] += 0.02
+    posed = drawn.static_points @ up[:3, :3] + up[3, :3]
+    assert np.all(grounded(drawn, posed, up)[:, 2] <= posed[:, 2])
 
 
 def test_a_slab_scaled_to_nothing_is_no_pillow():

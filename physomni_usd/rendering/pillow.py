@@ -8,11 +8,12 @@ parabola of the pixel's distance to the outline and centred on the lifted mesh's
 back meet at the outline and there are no walls at all, and the pillow fills the middle of the slab the physics
 moves (a fallen bike lying on its back rests on the floor, not a slab's half depth above it). The parabola
 spans the widest disc of the mask that covers the pixel and is never steeper than :data:`RIM_SLOPE`, so that a
-thin part (a mirror stalk, a leg) stays no thicker than half its width, and no point lies outside the lifted
-mesh there. Both sides take the pixel's own texel: the back is the front seen in a mirror. The pillow is laid
-in the mesh's own frame, so the physics body's transform poses it each frame, and
-``rendering.stage.grounded`` sets it down on the floor wherever the slab stands on it; the collider, the mesh
-in the USD and its physics are unchanged. Only a shot in which the object or the camera can move draws it (:func:`with_pillows`): frame 0 of
+thin part (a mirror stalk, a leg) stays no thicker than half its width, and along each ray no point lies deeper
+than the lifted mesh there (the mask's outline, though, may reach a pixel or two past the mesh's simplified one:
+the photo's bike's bottom pixels lie below its slab). Both sides take the pixel's own texel: the back is the
+front seen in a mirror. The pillow is laid in the mesh's own frame, so the physics body's transform poses it each
+frame, and ``rendering.stage.grounded`` sets it down on the floor wherever the slab stands on it, counted from
+the photo's pose (there it is drawn as built); the collider, the mesh in the USD and its physics are unchanged. Only a shot in which the object or the camera can move draws it (:func:`with_pillows`): frame 0 of
 a still one is the slab's, the photo itself.
 """
 
@@ -223,7 +224,7 @@ def pillow(obj, camera, matrix: np.ndarray):
     except Exception:  # a degenerate slab: its own points, all of them
         pass
     return dataclasses.replace(obj, faces=faces, st=st, static_points=local, corner_st=st[faces],
-                               body="pillow", slab_points=hull)
+                               body="pillow", slab_points=hull, photo_pose=np.array(matrix, np.float64))
 
 
 def _may_move(prim) -> bool:

@@ -31,6 +31,7 @@ class RenderObject:
     two_sided: bool = False  # the texture is [photo crop | unseen sides] (physomni:unseenSides)
     body: str = "mesh"  # "pillow": drawn with rendering.pillow's body, its points static and in its local frame
     slab_points: np.ndarray | None = None  # a pillow's: its slab's hull (local), which says where it stands
+    photo_pose: np.ndarray | None = None  # a pillow's: its local-to-world transform where the photo shows it
 
 
 @dataclass
@@ -204,23 +205,41 @@ def read_camera(stage: Usd.Stage, time: Usd.TimeCode, width: int, height: int) -
 
 
 #: Height (metres) above the floor (z = 0) within which a slab's lowest point stands on it, and a pillow
-#: (``rendering.pillow``) is set down there too.
+#: (``rendering.pillow``) is set down there too; from there to GROUND_FADE_M the set-down fades out, so that a
+#: pillow lifted off the floor rises with its slab rather than jumping (all or nothing, at 0.0099 m it was drawn
+#: 0.0099 m up, at 0.0101 m 0.26 m up: the fallen bike's half-thickness).
 GROUND_TOUCH_M = 0.01
+GROUND_FADE_M = 0.1
+
+
+def _set_down(obj, matrix: np.ndarray) -> float:
+    """How far (m, up) a pillow ``obj`` posed by ``matrix`` is moved to stand where its slab does: the gap
+    between the slab's lowest point and the pillow's, all of it while the slab stands on the floor
+    (:data:`GROUND_TOUCH_M`), none from :data:`GROUND_FADE_M` up."""
+    slab_low = float((obj.slab_points @ matrix[:3, 2] + matrix[3, 2]).min())
+    low = float((obj.static_points @ matrix[:3, 2] + matrix[3, 2]).min())
+    reach = float(np.clip((GROUND_FADE_M - slab_low) / (GROUND_FADE_M - GROUND_TOUCH_M), 0.0, 1.0))
+    return (slab_low - low) * reach
 
 
 def grounded(obj, points: np.ndarray, matrix: np.ndarray) -> np.ndarray:
     """``points`` (N, 3), ``obj``'s world points posed by ``matrix`` (4, 4, row-vector form), set down on the
-    floor (z = 0) when ``obj`` is a pillow (``rendering.pillow``) whose slab stands there (its lowest point within
-    :data:`GROUND_TOUCH_M`): the pillow lies within the slab, and lying on its side or its back it would hang
-    above the floor the slab rests on by however much thinner it is there."""
+    floor (z = 0) when ``obj`` is a pillow (``rendering.pillow``) whose slab stands there (:func:`_set_down`): the
+    pillow lies within the slab, and lying on its side or its back it would hang above the floor the slab rests
+    on by however much thinner it is there. The move is counted from the photo's pose, where the pillow is
+    drawn exactly as built (there the mask's bottom pixels reach a little below the slab's simplified hull, and
+    set down the pillow was lifted 1.9 px off the photo's bike)."""
     slab = getattr(obj, "slab_points", None)
     if slab is None or not len(points):
         return points
-    slab_low = float((slab @ matrix[:3, 2] + matrix[3, 2]).min())
-    if slab_low > GROUND_TOUCH_M:
+    shift = _set_down(obj, matrix)
+    photo = getattr(obj, "photo_pose", None)
+    if photo is not None:
+        shift -= _set_down(obj, photo)
+    if shift == 0.0:
         return points
     out = points.copy()
-    out[:, 2] += slab_low - float(points[:, 2].min())
+    out[:, 2] += shift
     return out
 
 
