@@ -216,26 +216,15 @@ def pillow(obj, camera, matrix: np.ndarray):
         return None
     local = (pts_world - matrix[3, :3]) @ np.linalg.inv(matrix[:3, :3])
     # the slab's hull: the points whose lowest one says where the slab stands (grounded)
-    hull = obj.static_points
-    try:
-        import trimesh
+    import trimesh
+    from scipy.spatial import QhullError
 
+    try:
         hull = np.asarray(trimesh.Trimesh(obj.static_points, process=False).convex_hull.vertices, np.float64)
-    except Exception:  # a degenerate slab: its own points, all of them
-        pass
+    except QhullError:  # a flat or degenerate slab: its own points, all of them
+        hull = obj.static_points
     return dataclasses.replace(obj, faces=faces, st=st, static_points=local, corner_st=st[faces],
                                body="pillow", slab_points=hull, photo_pose=np.array(matrix, np.float64))
-
-
-def _may_move(prim) -> bool:
-    """Whether ``prim``'s world transform may change over time (its own or an ancestor's ops are animated)."""
-    from pxr import UsdGeom
-
-    while prim and prim.GetPath().pathString != "/":
-        if prim.IsA(UsdGeom.Xformable) and UsdGeom.Xformable(prim).TransformMightBeTimeVarying():
-            return True
-        prim = prim.GetParent()
-    return False
 
 
 def with_pillows(objects: list, stage, camera) -> list:
@@ -245,16 +234,15 @@ def with_pillows(objects: list, stage, camera) -> list:
     they are: the photo itself, and no pillow built for a frame-0 render of a still shot)."""
     from pxr import Usd, UsdGeom
 
-    from .stage import _scene_stage, read_photo_camera_matrix
+    from ..usd.layers import transform_may_vary
+    from .stage import read_photo_camera_matrix, scene_stage
 
-    scene = _scene_stage(stage)
-    source = scene if scene is not None else stage
-    start = Usd.TimeCode(stage.GetStartTimeCode())
-    cache = UsdGeom.XformCache(start)
-    live = UsdGeom.XformCache(start)
+    scene = scene_stage(stage)
+    source = scene if scene is not None else stage  # the scene layer alone: where the photo shows each object
+    cache = UsdGeom.XformCache(Usd.TimeCode(stage.GetStartTimeCode()))
     cam = stage.GetPrimAtPath("/World/Camera")
-    camera_moves = bool(cam) and (_may_move(cam) or not np.allclose(
-        np.array(live.GetLocalToWorldTransform(cam)), read_photo_camera_matrix(stage), atol=1e-6))
+    camera_moves = bool(cam) and (transform_may_vary(cam) or not np.allclose(
+        np.array(cache.GetLocalToWorldTransform(cam)), read_photo_camera_matrix(stage), atol=1e-6))
     out = []
     for o in objects:
         drawn = None
@@ -262,8 +250,8 @@ def with_pillows(objects: list, stage, camera) -> list:
             prim = source.GetPrimAtPath(o.path)
             if prim:
                 matrix = np.array(cache.GetLocalToWorldTransform(prim))
-                moves = camera_moves or _may_move(o.prim) or not np.allclose(
-                    np.array(live.GetLocalToWorldTransform(o.prim)), matrix, atol=1e-6)
+                moves = camera_moves or transform_may_vary(o.prim) or not np.allclose(
+                    np.array(cache.GetLocalToWorldTransform(o.prim)), matrix, atol=1e-6)
                 if moves:
                     drawn = pillow(o, camera, matrix)
         out.append(drawn if drawn is not None else o)

@@ -64,7 +64,9 @@ def read_wide_plate(stage: Usd.Stage) -> tuple[np.ndarray, tuple[int, int, int, 
     return None
 
 
-def _scene_stage(stage: Usd.Stage) -> Usd.Stage | None:
+def scene_stage(stage: Usd.Stage) -> Usd.Stage | None:
+    """The shot's scene layer opened alone (the photo's camera and each object where the photo shows it), or
+    None where ``stage`` has none."""
     from ..usd.layers import SCENE
 
     for layer in stage.GetLayerStack(includeSessionLayers=False):
@@ -77,7 +79,7 @@ def _scene_stage(stage: Usd.Stage) -> Usd.Stage | None:
 
 def read_photo_camera_matrix(stage: Usd.Stage) -> np.ndarray:
     """(4, 4) local-to-world matrix (USD row-vector form) of the camera that took the photo."""
-    scene = _scene_stage(stage)
+    scene = scene_stage(stage)
     src, time = (scene, Usd.TimeCode.Default()) if scene else (stage, Usd.TimeCode(stage.GetStartTimeCode()))
     return np.array(UsdGeom.Xformable(src.GetPrimAtPath("/World/Camera")).ComputeLocalToWorldTransform(time))
 
@@ -86,7 +88,7 @@ def read_photo_camera(stage: Usd.Stage, width: int, height: int) -> RenderCamera
     """The camera that took the photo, as ``build`` wrote it in ``scene.usda``, whatever the layers above
     (a camera move, an artist's keys) do with it; the stage's camera at its first frame for stages without
     a scene layer."""
-    scene = _scene_stage(stage)
+    scene = scene_stage(stage)
     if scene is not None:
         return read_camera(scene, Usd.TimeCode.Default(), width, height)
     return read_camera(stage, Usd.TimeCode(stage.GetStartTimeCode()), width, height)
@@ -96,7 +98,7 @@ def read_photo_points(stage: Usd.Stage, objects: list[RenderObject]) -> list[np.
     """Per object, its (N, 3) world points where ``build`` placed it in ``scene.usda`` (the pose the photo
     shows it in), whatever the layers above do with it (an edit or a session layer moving its start); None for
     an object the scene layer does not hold, and None in place of the list for stages without a scene layer."""
-    scene = _scene_stage(stage)
+    scene = scene_stage(stage)
     if scene is None:
         return None
     time = Usd.TimeCode(stage.GetStartTimeCode())
