@@ -80,9 +80,9 @@ KEPT_EDGE_MIN = 2
 #: shelves' own pixels lie within one or two.
 WORLD_LIKE = (1.5, 3.0)
 WORLD_NOISE = 4.0
-#: A pixel unlike the surface around the hole (the other side of WORLD_LIKE) stays filled out to the seam's outer edge,
-#: giving way to the photo there over a ramp that ends RIM_RAMP[0] px beyond the seam's width and is RIM_RAMP[1]
-#: px long (:func:`_world_back`).
+#: A pixel unlike the surface around the hole (the other side of WORLD_LIKE) stays filled out to the seam's
+#: outer edge, giving way to the photo there over a ramp that ends RIM_RAMP[0] px beyond the seam's width and is
+#: RIM_RAMP[1] px long (:func:`_world_back`).
 RIM_RAMP = (2.5, 3.0)
 
 #: The faded fill (:func:`fill_faded`): how wide its copies are averaged for each pixel of depth into the hole
