@@ -173,8 +173,8 @@ def copy_of(result, dest: pathlib.Path):
 @pytest.fixture(scope="session")
 def motorcycle_run(tmp_path_factory) -> tuple[subprocess.CompletedProcess, pathlib.Path]:
     """(the finished process, its output folder) of ``bash examples/motorcycle/run.sh OUT``, run once per
-    session: its video and its shot are read (never changed) by tests/test_motion.py and
-    tests/test_still_world.py, and the run (build, simulate, render) takes a minute on a loaded 2-core machine."""
+    session: its video and its shot are read (never changed) by tests/test_motion.py,
+    tests/test_still_world.py and tests/test_pillow.py, and the run (build, simulate, render) takes a minute on a loaded 2-core machine."""
     out = tmp_path_factory.mktemp("motorcycle-run") / "moto"
     proc = subprocess.run(["bash", str(EXAMPLES / "motorcycle" / "run.sh"), str(out)], capture_output=True, text=True)
     return proc, out

@@ -307,20 +307,34 @@ def _shadowed(floor, obj, centre, axes, blur):
     return photo.astype(np.uint8), shadow > 0.5
 
 
+#: How far a dark rim's pixels may lie off the floor in the plate, by how far (px) inside the object its mask
+#: lies. The fill stays only out to the seam beyond the kept edge (3 + 8 px here) and gives way over a ramp
+#: centred on the seam's outer edge (texture.fill.RIM_RAMP): a rim the mask missed by 8 px stays filled (measured
+#: max 12 and 14 levels off the floor, rims of 1 and 2 px), one 10 px in is half given back (38 and 69; 9 and
+#: 18 when the whole widening could stay filled), one 12 px in is the photo's (96 and 100; 28 and 35). Accepted:
+#: beyond the seam a dark band along the outline (a rim) and one crossing it (a shelf's post beside the pushed
+#: motorcycle) are both the world, told apart by distance alone; a mask 12 px inside its object leaves a ghost
+#: outline once the object moves.
+RIM_LIMITS = {8: 30, 10: 75}
+
+
 @pytest.mark.parametrize("rim", [1, 2])
-def test_a_dark_rim_the_mask_missed_stays_filled(rim):
+@pytest.mark.parametrize("inset", [8, 10, pytest.param(12, marks=pytest.mark.xfail(
+    strict=True, reason="a rim 12 px beyond the mask lies past the seam: given back as the photo (96 and 100 "
+                        "levels off the floor; 28 and 35 with the whole widening filled), see RIM_LIMITS"))])
+def test_a_dark_rim_the_mask_missed_stays_filled(rim, inset):
     """A segmenter's mask often lies a few pixels inside the object: here a grey disc on a grey floor, its
-    mask 8 px inside its edge, its edge a dark rim ``rim`` px wide. Beyond the widened mask the plate takes
-    the photo back where it looks like the floor, but not the rim: shown from the photo it would stay behind
-    as a ghost outline once the object moved. The plate there lies near the floor (measured max 13 levels
-    off it; 71 and 60 when the floor around the rim voted it back into the plate)."""
+    mask ``inset`` px inside its edge, its edge a dark rim ``rim`` px wide. Beyond the widened mask the plate
+    takes the photo back where it looks like the floor, but not the rim within the seam: shown from the photo it
+    would stay behind as a ghost outline once the object moved (71 and 60 levels off the floor at 8 px when the
+    floor around the rim voted it back into the plate). Limits by inset: :data:`RIM_LIMITS`."""
     rng = np.random.default_rng(4)
     h, w = 480, 640
     floor = np.clip(150 + rng.normal(0, 3, (h, w, 1)) * np.ones(3), 0, 255)
     body, outer, mask = (np.zeros((h, w), np.uint8) for _ in range(3))
     cv2.circle(mask, (320, 200), 80, 1, -1)
-    cv2.circle(body, (320, 200), 88, 1, -1)
-    cv2.circle(outer, (320, 200), 88 + rim, 1, -1)
+    cv2.circle(body, (320, 200), 80 + inset, 1, -1)
+    cv2.circle(outer, (320, 200), 80 + inset + rim, 1, -1)
     dark = (outer > 0) & ~(body > 0)
     photo = floor.copy()
     photo[body > 0] = 156
@@ -328,4 +342,42 @@ def test_a_dark_rim_the_mask_missed_stays_filled(rim):
     photo = photo.astype(np.uint8)
     assert plate_hole(photo, [mask > 0], 0.015, shadows=False)[dark].all()  # the rim lies in the plate's hole
     plate = background_plate(photo, [mask > 0], 0.015, shadows=False)
-    assert np.abs(plate[dark].astype(float) - floor[dark]).max() < 30
+    assert np.abs(plate[dark].astype(float) - floor[dark]).max() < RIM_LIMITS.get(inset, 30)
+
+
+def test_the_world_beyond_the_seam_is_the_photo_however_far_off_the_fill():
+    """A thin dark post stands 16 px beside a disc's mask, in the hole's widening (12 px and a seam of 8 at this
+    size) but beyond the kept edge and its seam: the fill misses the post, yet it is the world, not a rim the
+    mask missed, and the plate shows it as the photo does (kept filled, the pushed motorcycle's shelf posts and
+    box edges changed once the bike moved although nothing there did)."""
+    rng = np.random.default_rng(4)
+    h, w = 480, 640
+    photo = np.clip(150 + rng.normal(0, 3, (h, w, 1)) * np.ones(3), 0, 255)
+    mask = np.zeros((h, w), np.uint8)
+    cv2.circle(mask, (320, 200), 80, 1, -1)
+    post = np.zeros((h, w), bool)
+    post[185:216, 415:417] = True
+    photo[post] = 60
+    photo = photo.astype(np.uint8)
+    assert plate_hole(photo, [mask > 0], 0.015, shadows=False)[post].all()  # the post lies in the plate's hole
+    plate = background_plate(photo, [mask > 0], 0.015, shadows=False)
+    assert np.abs(plate[post].astype(int) - photo[post]).max() <= 1
+
+
+def test_the_fill_gives_way_to_the_world_over_a_ramp_at_the_seam():
+    """A dark bar runs out from a disc's mask across the hole's widening: within the seam beyond the kept edge
+    the plate fills it (it could be a rim the mask missed), beyond the seam it is the photo; the plate passes
+    from one to the other over a few pixels, not in one step (a hard seam round the pushed motorcycle: bench
+    look's border 1.37 of its surroundings, 1.25 with the ramp). Measured: 95 levels in one pixel stopped
+    within one pixel, at most 44 with the ramp."""
+    rng = np.random.default_rng(4)
+    h, w = 480, 640
+    photo = np.clip(150 + rng.normal(0, 3, (h, w, 1)) * np.ones(3), 0, 255)
+    mask = np.zeros((h, w), np.uint8)
+    cv2.circle(mask, (320, 200), 80, 1, -1)
+    photo[198:203, 395:440] = 60
+    photo = photo.astype(np.uint8)
+    plate = background_plate(photo, [mask > 0], 0.015, shadows=False).astype(int)
+    row = plate[200, 400:440].mean(-1)
+    assert row[0] > 120 and row[-1] < 70  # filled at the mask, the photo beyond the seam
+    assert np.abs(np.diff(row)).max() < 60, row.round()

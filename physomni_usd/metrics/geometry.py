@@ -8,6 +8,7 @@ from scipy.spatial import ConvexHull, cKDTree
 from pxr import Usd, UsdGeom
 
 from ..usd.author import OBJECTS
+from ..usd.layers import transform_may_vary
 
 
 def world_meshes(stage: Usd.Stage, time: float) -> dict[str, trimesh.Trimesh]:
@@ -38,13 +39,8 @@ class WorldMeshes:
         """Whether no time sample moves any of the meshes: neither its points nor its or an ancestor's
         transform varies, so every time's vertices are the default time's."""
         for _name, _points, _faces, still, prim in self.meshes:
-            if still is None:
+            if still is None or transform_may_vary(prim):
                 return False
-            p = prim
-            while p and not p.IsPseudoRoot():
-                if p.IsA(UsdGeom.Xformable) and UsdGeom.Xformable(p).TransformMightBeTimeVarying():
-                    return False
-                p = p.GetParent()
         return True
 
     def vertices(self, time: float) -> dict[str, np.ndarray]:

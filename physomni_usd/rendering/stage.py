@@ -29,6 +29,9 @@ class RenderObject:
     origin: tuple[int, int] | None = None  # the texture's top-left pixel in the photo (physomni:textureOrigin)
     corner_st: np.ndarray | None = None  # (M, 3, 2) st at each triangle corner (faceVarying st kept exact)
     two_sided: bool = False  # the texture is [photo crop | unseen sides] (physomni:unseenSides)
+    body: str = "mesh"  # "pillow": drawn with rendering.pillow's body, its points static and in its local frame
+    slab_points: np.ndarray | None = None  # a pillow's: its slab's hull (local), which says where it stands
+    photo_pose: np.ndarray | None = None  # a pillow's: its local-to-world transform where the photo shows it
 
 
 @dataclass
@@ -61,7 +64,9 @@ def read_wide_plate(stage: Usd.Stage) -> tuple[np.ndarray, tuple[int, int, int, 
     return None
 
 
-def _scene_stage(stage: Usd.Stage) -> Usd.Stage | None:
+def scene_stage(stage: Usd.Stage) -> Usd.Stage | None:
+    """The shot's scene layer opened alone (the photo's camera and each object where the photo shows it), or
+    None where ``stage`` has none."""
     from ..usd.layers import SCENE
 
     for layer in stage.GetLayerStack(includeSessionLayers=False):
@@ -74,7 +79,7 @@ def _scene_stage(stage: Usd.Stage) -> Usd.Stage | None:
 
 def read_photo_camera_matrix(stage: Usd.Stage) -> np.ndarray:
     """(4, 4) local-to-world matrix (USD row-vector form) of the camera that took the photo."""
-    scene = _scene_stage(stage)
+    scene = scene_stage(stage)
     src, time = (scene, Usd.TimeCode.Default()) if scene else (stage, Usd.TimeCode(stage.GetStartTimeCode()))
     return np.array(UsdGeom.Xformable(src.GetPrimAtPath("/World/Camera")).ComputeLocalToWorldTransform(time))
 
@@ -83,7 +88,7 @@ def read_photo_camera(stage: Usd.Stage, width: int, height: int) -> RenderCamera
     """The camera that took the photo, as ``build`` wrote it in ``scene.usda``, whatever the layers above
     (a camera move, an artist's keys) do with it; the stage's camera at its first frame for stages without
     a scene layer."""
-    scene = _scene_stage(stage)
+    scene = scene_stage(stage)
     if scene is not None:
         return read_camera(scene, Usd.TimeCode.Default(), width, height)
     return read_camera(stage, Usd.TimeCode(stage.GetStartTimeCode()), width, height)
@@ -93,7 +98,7 @@ def read_photo_points(stage: Usd.Stage, objects: list[RenderObject]) -> list[np.
     """Per object, its (N, 3) world points where ``build`` placed it in ``scene.usda`` (the pose the photo
     shows it in), whatever the layers above do with it (an edit or a session layer moving its start); None for
     an object the scene layer does not hold, and None in place of the list for stages without a scene layer."""
-    scene = _scene_stage(stage)
+    scene = scene_stage(stage)
     if scene is None:
         return None
     time = Usd.TimeCode(stage.GetStartTimeCode())
@@ -102,11 +107,13 @@ def read_photo_points(stage: Usd.Stage, objects: list[RenderObject]) -> list[np.
     for o in objects:
         prim = scene.GetPrimAtPath(o.path)
         pts = UsdGeom.Mesh(prim).GetPointsAttr().Get(time) if prim and prim.IsA(UsdGeom.Mesh) else None
+        if pts is not None and o.body != "mesh":  # drawn with another body, posed as the mesh is
+            pts = o.static_points
         if pts is None:
             out.append(None)
             continue
         m = np.array(cache.GetLocalToWorldTransform(prim))
-        out.append(np.asarray(pts, np.float64) @ m[:3, :3] + m[3, :3])
+        out.append(grounded(o, np.asarray(pts, np.float64) @ m[:3, :3] + m[3, :3], m))
     return out
 
 
@@ -199,7 +206,46 @@ def read_camera(stage: Usd.Stage, time: Usd.TimeCode, width: int, height: int) -
                            cam.GetVerticalApertureAttr().Get(time), np.array(m), width, height)
 
 
+#: Height (metres) above the floor (z = 0) within which a slab's lowest point stands on it, and a pillow
+#: (``rendering.pillow``) is set down there too; from there to GROUND_FADE_M the set-down fades out, so that a
+#: pillow lifted off the floor rises with its slab rather than jumping (all or nothing, at 0.0099 m it was drawn
+#: 0.0099 m up, at 0.0101 m 0.26 m up: the fallen bike's half-thickness).
+GROUND_TOUCH_M = 0.01
+GROUND_FADE_M = 0.1
+
+
+def _set_down(obj, matrix: np.ndarray) -> float:
+    """How far (m, up) a pillow ``obj`` posed by ``matrix`` is moved to stand where its slab does: the gap
+    between the slab's lowest point and the pillow's, all of it while the slab stands on the floor
+    (:data:`GROUND_TOUCH_M`), none from :data:`GROUND_FADE_M` up."""
+    slab_low = float((obj.slab_points @ matrix[:3, 2] + matrix[3, 2]).min())
+    low = float((obj.static_points @ matrix[:3, 2] + matrix[3, 2]).min())
+    reach = float(np.clip((GROUND_FADE_M - slab_low) / (GROUND_FADE_M - GROUND_TOUCH_M), 0.0, 1.0))
+    return (slab_low - low) * reach
+
+
+def grounded(obj, points: np.ndarray, matrix: np.ndarray) -> np.ndarray:
+    """``points`` (N, 3), ``obj``'s world points posed by ``matrix`` (4, 4, row-vector form), set down on the
+    floor (z = 0) when ``obj`` is a pillow (``rendering.pillow``) whose slab stands there (:func:`_set_down`): the
+    pillow lies within the slab, and lying on its side or its back it would hang above the floor the slab rests
+    on by however much thinner it is there. The move is counted from the photo's pose, where the pillow is
+    drawn exactly as built (there the mask's bottom pixels reach a little below the slab's simplified hull, and
+    set down the pillow was lifted 1.9 px off the photo's bike)."""
+    slab = getattr(obj, "slab_points", None)
+    if slab is None or not len(points):
+        return points
+    shift = _set_down(obj, matrix)
+    photo = getattr(obj, "photo_pose", None)
+    if photo is not None:
+        shift -= _set_down(obj, photo)
+    if shift == 0.0:
+        return points
+    out = points.copy()
+    out[:, 2] += shift
+    return out
+
+
 def world_points(obj: RenderObject, cache: UsdGeom.XformCache, stage: Usd.Stage, time: Usd.TimeCode) -> np.ndarray:
     pts = obj.static_points if obj.static_points is not None else np.asarray(obj.points_attr.Get(time), np.float64)
     m = np.array(cache.GetLocalToWorldTransform(stage.GetPrimAtPath(obj.path)))
-    return pts @ m[:3, :3] + m[3, :3]
+    return grounded(obj, pts @ m[:3, :3] + m[3, :3], m)

@@ -30,6 +30,7 @@ from .encode import encoder_failure, even_sides, video_writer
 from .passes import PassWriter, pass_files
 from .stage import (read_camera, read_objects, read_particles, read_photo, read_photo_camera, read_photo_points,
                     read_photo_camera_matrix, read_plate, read_wide_plate, visible, world_points)
+from .pillow import with_pillows
 from .world import photo_environment
 
 
@@ -101,6 +102,9 @@ class FrameState:
     # (H, W) float32 0–1: how much of each pixel the particles drawn this frame cover (they are no faces, so
     # ``mesh_face`` does not see them); None for a stage without particles
     particle_alpha: np.ndarray | None = None
+    # (H, W) int32 the face each pixel shows: the first on its ray whose texel is opaque (the image's), −1 where
+    # the ray leaves through cut-outs only or meets nothing
+    face: np.ndarray | None = None
 
 
 class ShotRenderer:
@@ -123,7 +127,8 @@ class ShotRenderer:
             plate = cv2.resize(plate, size, interpolation=cv2.INTER_AREA)
         self.plate = plate.astype(np.float32)
         self.height, self.width = self.plate.shape[:2]
-        self.objects = read_objects(stage)
+        # a slab is drawn as a pillow of its mask: no walls to stretch once it turns (physics keeps the slab)
+        self.objects = with_pillows(read_objects(stage), stage, read_photo_camera(stage, w, h))
         self._read_photo(stage, (w, h))
         self.particles = read_particles(stage)
         self.device = pick_device(settings.device)
@@ -608,7 +613,7 @@ class ShotRenderer:
         face, px = self.caster.cast(cam.origin, self._rays, 1e6, pixels=covered_pixels(cam, points, self.faces))
         # the caster's buffers are overwritten by the next cast: the state keeps its own
         state = FrameState(float(t), cam, self._rays, points, self.caster.mesh_face.copy(),
-                           self.caster.mesh_depth.copy(), self.caster.bary.copy(), drawn)
+                           self.caster.mesh_depth.copy(), self.caster.bary.copy(), drawn, face.copy())
         hit = face >= 0
         obj = np.where(hit, self.face_object[np.maximum(face, 0)], -1)
         faithful = None

@@ -409,3 +409,12 @@ def shot_seconds(shot_path: os.PathLike | str) -> float | None:
         return None
     rate = root.timeCodesPerSecond if root.HasTimeCodesPerSecond() else 24.0
     return max(root.endTimeCode - (root.startTimeCode if root.HasStartTimeCode() else 0.0), 0.0) / rate
+
+
+def transform_may_vary(prim: Usd.Prim) -> bool:
+    """Whether ``prim``'s world transform may change over time: its own or an ancestor's ops are animated."""
+    while prim and not prim.IsPseudoRoot():
+        if prim.IsA(UsdGeom.Xformable) and UsdGeom.Xformable(prim).TransformMightBeTimeVarying():
+            return True
+        prim = prim.GetParent()
+    return False
