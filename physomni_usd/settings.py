@@ -194,6 +194,12 @@ BALL_LOAD_GAP = 0.005
 #: (``geometry.resting.STEADY_MARGIN``, up to 10 mm), the same as inside a top: 6 mm is what that seed's
 #: objects showed, not a bound, and a margin apart for the contact would judge one foot by two rules.
 REAL_CONTACT = 0.002
+#: An object is kept steady against at least this tilt (degrees): its centre of mass at least
+#: tan(this) times its height over its sole inside its foot (``geometry.resting.steady_margin``), as well as the
+#: least-width rule. A quarter of a 16.6 mm foot (4.2 mm) passed a 92 mm slab, a bowl squashed thin to make
+#: room, its centre of mass 4.8 mm inside: it tipped over at 5.3° and fell 15 cm (587774/046). 7° is above that
+#: tip and costs a low object nothing (a 3 cm book's 15 mm centre needs 1.8 mm, below the least-width rule).
+STEADY_TILT_DEG = 7.0
 #: A stacked load at least this many times its supporter's mass (solids at their labels' table densities) ...
 HEAVY_LOAD = 4.5
 #: ... is kept this many times the steady margin inside its top (``physics.support.steady_stacks``): the light

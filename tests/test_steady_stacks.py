@@ -339,3 +339,30 @@ def test_the_margin_of_a_thin_foot_does_not_change_as_it_turns():
         r = np.radians(deg)
         turned = strip @ np.array([[np.cos(r), -np.sin(r)], [np.sin(r), np.cos(r)]]).T
         assert abs(steady_margin(turned) - 0.005) < 1e-9, deg
+
+
+def _tall_slab_on_a_narrow_foot():
+    """A bowl squashed to a slab 9 cm wide, 16.6 mm deep and 92 mm tall to make room for a ball beside it
+    (587774/046), on a book: its sole rises 4 mm over its right half, so it touches with its left half only, its
+    centre of mass 4.8 mm inside that, more than a quarter of the foot's 16.6 mm width (4.2 mm)."""
+    book = _box((0.24, 0.17, 0.03), (0.0, 0.0, 0.015))
+    side = [(-0.045, 0.0), (0.0045, 0.0), (0.045, 0.004), (0.045, 0.092), (-0.045, 0.092)]
+    hull = trimesh.convex.convex_hull(np.array([(x, y, 0.03 + z) for x, z in side for y in (-0.0083, 0.0083)]))
+    return book, trimesh.Trimesh(hull.vertices, hull.faces)
+
+
+def test_a_tall_slab_on_a_narrow_foot_is_kept_steady_against_a_tilt_not_only_by_its_width(tmp_path):
+    """The width rule passed it, and in its scene it tipped (at 5.3°) and fell 15 cm: its centre of mass 46 mm
+    up needs more than 4.8 mm to hold. Judged by the tilt it must bear, its sole is levelled, and it stands still
+    for 2 s."""
+    book, slab = _tall_slab_on_a_narrow_foot()
+    com = slab.center_mass
+    low = float(slab.vertices[:, 2].min())
+    touch = slab.vertices[slab.vertices[:, 2] <= low + 0.002]
+    assert -0.0049 < overhang(touch, com) < -0.0047 and steady_margin(touch[:, :2]) < 0.0045
+    verts, done = steady_stacks([book.vertices, slab.vertices], [book.faces, slab.faces], {1: (0, "on")}, None)
+    assert [d["object"] for d in done if "level_sole_m" in d] == [1], done
+    levelled = _settled(tmp_path, verts[0], book.faces, verts[1], slab.faces)
+    for name in ("book", "cup"):
+        m = levelled[name]
+        assert np.linalg.norm(m.translation) < 0.01 and m.turned_deg < 1.0, (name, m)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..settings import REAL_CONTACT
+from ..settings import REAL_CONTACT, STEADY_TILT_DEG
 
 #: Points within this of the lowest (m, or this fraction of its height if larger) are its contact.
 CONTACT_BAND = 0.01
@@ -86,11 +86,15 @@ def least_width(points: np.ndarray) -> float:
     return float(np.abs(np.einsum("kmd,kd->km", ring[None, :, :] - ring[:, None, :], n)).max(axis=1).min())
 
 
-def steady_margin(foot: np.ndarray) -> float:
+def steady_margin(foot: np.ndarray, height: float = 0.0) -> float:
     """How far (m) inside a top a centre of mass over ``foot`` (M, 2, its contact's points seen from above) is
     kept: :data:`STEADY_MARGIN`, or a quarter of the foot's least width (:func:`least_width`) where less, not of
-    its extent along x or y (a strip along x stood; turned 45°, the same strip was judged twice as wide)."""
-    return min(STEADY_MARGIN, 0.25 * least_width(foot)) if len(foot) > 1 else STEADY_MARGIN
+    its extent along x or y (a strip along x stood; turned 45°, the same strip was judged twice as wide); and,
+    that centre ``height`` (m) over the foot, no less than what keeps it up when tilted
+    :data:`~physomni_usd.settings.STEADY_TILT_DEG`: how far inside a centre must lie to hold grows with its
+    height, and a tall thin slab on a narrow foot passed the width rule and tipped."""
+    width = min(STEADY_MARGIN, 0.25 * least_width(foot)) if len(foot) > 1 else STEADY_MARGIN
+    return max(width, float(np.tan(np.radians(STEADY_TILT_DEG))) * max(float(height), 0.0))
 
 
 def solid(points: np.ndarray, faces: np.ndarray):

@@ -136,7 +136,7 @@ def _stands(points: np.ndarray, com: np.ndarray, gap: np.ndarray | None = None) 
     :func:`surface_gap` measures it over what holds them): that centre the steady margin inside it. The contact
     band reads a slanted foot as wide as its lowest centimetre; it stands only on what touches."""
     out, feet = _real_overhang(points, com, gap=gap)
-    return out <= -steady_margin(feet)
+    return out <= -steady_margin(feet, float(com[2]) - float(np.min(points[:, 2])))
 
 
 def surface_gap(upper: np.ndarray, lower: np.ndarray, lower_faces: np.ndarray) -> np.ndarray:
@@ -675,7 +675,7 @@ def level_sole(points: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, float
         if len(sole) < 3:
             return False
         probe = np.column_stack([sole, np.full(len(sole), low)])
-        return overhang(probe, com) <= -steady_margin(sole)
+        return overhang(probe, com) <= -steady_margin(sole, float(com[2]) - low)
 
     band = contact_band(pts)
     if holds(1e-4) or not holds(band):
