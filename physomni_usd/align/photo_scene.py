@@ -579,6 +579,12 @@ def _height_read(lifted) -> bool:
     return not (source.startswith("typical size") or "footprint's width" in source)
 
 
+def _standing_ball(obj) -> bool:
+    """Whether ``obj`` (a lifted object with ``ground`` evidence) is a ball seen standing: placing keeps its
+    shape (``align.place.make_room``)."""
+    return obj.ground.info.get("axis") == "ball"
+
+
 def place_on_ground(lifted, names, gap_m: float) -> PhotoScene:
     """The scene of ``lifted`` meshes (``swappable.protocols.LiftedObject`` with ``ground`` evidence, lifted by
     :func:`lift_photo_scene`): objects resting on others move with them; the rest are made shallower, then
@@ -588,7 +594,8 @@ def place_on_ground(lifted, names, gap_m: float) -> PhotoScene:
     supports = {i: o.ground.support for i, o in enumerate(lifted) if o.ground.support is not None}
     free = [i for i in range(len(lifted)) if i not in supports]
     room, scales_free = make_room([lifted[i].vertices for i in free], [lifted[i].ground.contact for i in free],
-                                  camera.origin, gap_m, fixed_depth=[lifted[i].ground.fixed_depth for i in free])
+                                  camera.origin, gap_m, fixed_depth=[lifted[i].ground.fixed_depth for i in free],
+                                  balls=[_standing_ball(lifted[i]) for i in free])
     moves_free = separate(room, gap_m)
     projected = [o.vertices for o in lifted]
     depth_scales = [1.0] * len(lifted)
@@ -601,7 +608,8 @@ def place_on_ground(lifted, names, gap_m: float) -> PhotoScene:
         on = [i for i in supports if supports[i][0] == j]
         if len(on) > 1:
             room_on, scales_on = make_room([lifted[i].vertices for i in on], [lifted[i].ground.contact for i in on],
-                                           camera.origin, gap_m, fixed_depth=[lifted[i].ground.fixed_depth for i in on])
+                                           camera.origin, gap_m, fixed_depth=[lifted[i].ground.fixed_depth for i in on],
+                                           balls=[_standing_ball(lifted[i]) for i in on], movable=False)
             for k, i in enumerate(on):
                 projected[i], depth_scales[i] = room_on[k], scales_on[k]
     for i in supports:
