@@ -140,3 +140,29 @@ def test_a_thin_outline_seen_from_steeply_above_lifts_as_a_slab():
         cv2.rectangle(mask, (220, 300 - thick // 2), (420, 300 + thick // 2), 1, -1)
         lifted = lift_silhouette(mask > 0, camera, LiftSettings(shape="extrude"))
         assert lifted.shape == "extrude" and len(lifted.faces)
+
+
+def test_a_typical_height_the_outline_cannot_hold_is_cut_to_one_it_can():
+    """A label's typical size is a guess (boxes come in every size): a small box on a stack, seen from steeply
+    above and given a height four times its own, had no footprint under that height (the outline's casts at its
+    foot and at its top did not meet), was lifted as a slab standing on a corner of its slanted lower edge, and
+    fell off the stack. Cut to the tallest height its outline holds, it is a footprint of about its size."""
+    import trimesh
+
+    from physomni_usd.geometry.camera import PinholeCamera
+    from physomni_usd.lift.footprint import lift_footprint
+
+    camera = PinholeCamera(320, 240, 50.0, 72.0, (0.0, 0.0, 1.0))
+    base = 0.35  # the top of the stack it rests on
+    box = trimesh.creation.box((0.08, 0.06, 0.07))
+    box.apply_transform(trimesh.transformations.rotation_matrix(np.radians(20.0), [0, 0, 1]))
+    box.apply_translation([0.03, 0.22, base + 0.035])
+    mask = _outline(camera, box.vertices, box.faces)
+    found = lift_footprint(mask, camera, 0.3, "box", base, kind="boxy")
+    assert found is not None
+    verts, _, shape, _, info = found
+    assert info["mode"] == "footprint" and shape == "prism"
+    assert float(verts[:, 2].min()) == pytest.approx(base, abs=1e-6)
+    height = float(np.ptp(verts[:, 2]))
+    assert 0.5 * 0.07 <= height <= 1.5 * 0.07
+    assert float(np.ptp(verts[:, :2], axis=0).max()) <= 1.5 * float(np.ptp(box.vertices[:, :2], axis=0).max())

@@ -98,6 +98,33 @@ def footprint(poly_uv: np.ndarray, camera, base_z: float, height: float) -> np.n
     return (c - 1.0 + 0.5) * cell + lo
 
 
+#: A height not read from the photo is cut to the tallest whose footprint keeps this share of the outline's
+#: cast on the ground (:func:`tallest_held`).
+HELD_SHARE = 0.5
+
+
+def tallest_held(poly_uv: np.ndarray, camera, base_z: float, height: float, flat: np.ndarray):
+    """(height, footprint) of the tallest object under ``height`` whose outline ``poly_uv`` holds a footprint
+    (:func:`footprint`) :data:`HELD_SHARE` of ``flat`` (the outline's cast at ``base_z``); (height, None)
+    where none does. A label's typical size is a guess: a box on a stack, given the 30 cm of boxes in general
+    where its outline from above holds 8, had no footprint, was lifted as a slab standing on one corner of
+    its slanted lower edge, and fell off the stack."""
+    need = HELD_SHARE * abs(cv2.contourArea(np.asarray(flat, np.float32)))
+
+    def held(h: float):
+        fp = footprint(poly_uv, camera, base_z, h)
+        ok = fp is not None and len(fp) >= 3 and abs(cv2.contourArea(fp.astype(np.float32))) >= need
+        return fp if ok else None
+
+    lo, hi = 0.0, float(height)
+    if need <= 0 or held(1e-3 * hi) is None:
+        return height, None
+    for _ in range(24):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if held(mid) is not None else (lo, mid)
+    return lo, held(lo)
+
+
 def circle_fit(poly: np.ndarray) -> tuple[np.ndarray, float, float]:
     """(centre (2,), radius, IoU of the polygon with that circle); the circle has the polygon's area.
 
@@ -419,6 +446,9 @@ def lift_footprint(mask: np.ndarray, camera, height_hint: float | None, prior_sh
         if lying is not None:
             height, source = lying, "the outline (the flat thing lies on its broadest face)"
     fp = footprint(poly_uv, camera, base_z, height)
+    if (fp is None or len(fp) < 3) and not str(source).startswith("visible"):
+        height, fp = tallest_held(poly_uv, camera, base_z, height, flat)
+        source = f"{source}, cut to the tallest its outline holds" if fp is not None else source
     if fp is None or len(fp) < 3:
         return None
     centre, radius, iou = circle_fit(fp)
