@@ -166,3 +166,6 @@ def test_a_typical_height_the_outline_cannot_hold_is_cut_to_one_it_can():
     height = float(np.ptp(verts[:, 2]))
     assert 0.5 * 0.07 <= height <= 1.5 * 0.07
     assert float(np.ptp(verts[:, :2], axis=0).max()) <= 1.5 * float(np.ptp(box.vertices[:, :2], axis=0).max())
+    # on the ground the outline's slab stands and keeps the outline: nothing is cut there (the slab is lifted)
+    mask = _outline(camera, box.vertices - [0.0, 0.0, base], box.faces)
+    assert lift_footprint(mask, camera, 0.5, "box", 0.0, kind="boxy") is None
