@@ -146,7 +146,8 @@ def test_a_typical_height_the_outline_cannot_hold_is_cut_to_one_it_can():
     """A label's typical size is a guess (boxes come in every size): a small box on a stack, seen from steeply
     above and given a height four times its own, had no footprint under that height (the outline's casts at its
     foot and at its top did not meet), was lifted as a slab standing on a corner of its slanted lower edge, and
-    fell off the stack. Cut to where its footprint keeps half the outline's cast, it is a footprint of about its size."""
+    fell off the stack. Cut to where its footprint keeps half the outline's cast, it is a footprint of about its
+    size."""
     import trimesh
 
     from physomni_usd.geometry.camera import PinholeCamera
