@@ -213,12 +213,28 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
         if i in supports and not balances_on(out[i], out[supports[i][0]], base):
             # a fruit in the hollow on top of a pile, a board bridging two boxes: no one object under it holds
             # its centre, the ones it touches together may. What rests on it, through others, cannot hold it.
+            # One read as resting on it by a foot it hides may be behind it on the ground instead: this one's
+            # outline covers that foot, it does not show it standing there (the back fruit of a pile, its
+            # outline a disc behind the top one's, read as on that top one, left the top one two fruit to
+            # stand on, and it stood a fruit's length behind the pile it hides).
+            behind = [k for k in range(len(masks)) if supports.get(k) == (i, "foot") and (i, k) in hides
+                      and k not in started and not any(rests_on(m, k, supports) for m in range(len(masks)))]
+            kept = {k: supports.pop(k) for k in behind}
             beside = [k for k in range(len(masks)) if k not in (i, supports[i][0]) and not rests_on(k, i, supports)]
             for k in beside:
                 place(k)
-            others = [out[k] for k in beside if out[k] is not None]
-            if not balances_on(out[i], out[supports[i][0]], base, others) \
-                    or hollows and not held_in_hollow(out[i], out[supports[i][0]], others, camera, scale):
+
+            def holds(ks):
+                others = [out[k] for k in ks if out[k] is not None]
+                return balances_on(out[i], out[supports[i][0]], base, others) \
+                    and not (hollows and not held_in_hollow(out[i], out[supports[i][0]], others, camera, scale))
+
+            held = holds(beside)
+            if kept and (not held or holds([k for k in beside if k not in kept])):
+                for k in kept:  # not needed to hold it: they rest on it as read, lifted again after it
+                    supports[k] = kept[k]
+                    started.discard(k)
+            if not held:
                 # standing on the lower one's surface it would topple off it (a box on the crown of a crumpled
                 # bag): the photo shows it as well standing on the ground, where it stays
                 supports.pop(i)
