@@ -237,3 +237,39 @@ def test_a_fruit_over_several_stands_on_them_only_where_a_hollow_among_them_hold
     assert not balances_on(fruit, under, base)
     assert balances_on(fruit, under, base, [taller])  # the footprints say held
     assert not held_in_hollow(fruit, under, [taller], eye, 1.0)  # it would rest on the taller one alone
+
+
+def test_the_top_fruit_of_a_pile_rests_on_the_three_under_it_not_the_one_it_hides_on_it():
+    """Seen from above, the top fruit of a pile hides the three under it, the back one all but a sliver over its
+    crown. That sliver's completed disc sits on the top one's outline and reads as resting on it; the top one
+    then had two fruit to hold it, stood on the ground a fruit's length behind the pile it hides, and the back
+    one rode on it and rolled off. Where it hides that foot, the one read on it is weighed as one that may hold
+    it: the top one rests in the hollow, the back one on the ground."""
+    from physomni_usd.align.photo_scene import lift_all
+    from physomni_usd.geometry.camera import PinholeCamera
+    from physomni_usd.perceive.amodal import occlusion_order
+    from physomni_usd.settings import BuildSettings
+
+    camera = PinholeCamera(320, 240, 28.0, 63.0, (0.0, 0.0, 1.0))
+    r, y0 = 0.055, 1.0 / np.tan(np.radians(63.0))
+    d = 1.15 * r
+    centres = [np.array([d * np.cos(a), y0 + d * np.sin(a), r]) for a in np.radians([210.0, 90.0, 330.0])]
+    centres.append(np.array([0.0, y0, r + np.sqrt(4 * r * r - d * d)]))
+    v, u = np.mgrid[0:240, 0:320]
+    rays, eye = camera.rays(u + 0.5, v + 0.5), camera.origin
+    hits = []
+    for c in centres:  # where each ray first meets each ball
+        b = rays @ (eye - c)
+        disc = b * b - (np.sum((eye - c) ** 2) - r * r)
+        hits.append(np.where(disc > 0, -b - np.sqrt(np.maximum(disc, 0.0)), np.inf))
+    hits = np.stack(hits)
+    masks = [np.isfinite(h) for h in hits]
+    visible = [m & (np.argmin(hits, axis=0) == k) for k, m in enumerate(masks)]
+    hides = occlusion_order(visible)
+    supports = find_supports(masks, hides)
+    assert supports[1][0] == 3 and (3, 1) in hides  # the back one read as on the top one, which hides it
+    out = lift_all(masks, ["orange", "lemon", "lemon", "orange"], camera, BuildSettings(), 0.67, supports,
+                   hides=hides, visible=visible)
+    assert 1 not in supports and supports.get(3, (None,))[0] in (0, 1, 2)
+    for k, c in enumerate(centres):
+        assert np.linalg.norm(out[k].vertices.mean(axis=0) - c) < 0.5 * r, k

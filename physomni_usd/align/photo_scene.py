@@ -213,11 +213,11 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
         if i in supports and not balances_on(out[i], out[supports[i][0]], base):
             # a fruit in the hollow on top of a pile, a board bridging two boxes: no one object under it holds
             # its centre, the ones it touches together may. What rests on it, through others, cannot hold it.
-            # One read as resting on it by a foot it hides may be behind it on the ground instead: this one's
-            # outline covers that foot, it does not show it standing there (the back fruit of a pile, its
-            # outline a disc behind the top one's, read as on that top one, left the top one two fruit to
+            # One read as resting on it where it hides that one's foot may be behind it on the ground instead:
+            # this one's outline covers that foot, it does not show it standing there (the back fruit of a pile,
+            # its outline a disc behind the top one's, read as on that top one, left the top one two fruit to
             # stand on, and it stood a fruit's length behind the pile it hides).
-            behind = [k for k in range(len(masks)) if supports.get(k) == (i, "foot") and (i, k) in hides
+            behind = [k for k in range(len(masks)) if k in supports and supports[k][0] == i and (i, k) in hides
                       and k not in started and not any(rests_on(m, k, supports) for m in range(len(masks)))]
             kept = {k: supports.pop(k) for k in behind}
             beside = [k for k in range(len(masks)) if k not in (i, supports[i][0]) and not rests_on(k, i, supports)]
