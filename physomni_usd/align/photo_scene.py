@@ -227,7 +227,7 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
             def holds(ks):
                 others = [out[k] for k in ks if out[k] is not None]
                 return balances_on(out[i], out[supports[i][0]], base, others) \
-                    and not (hollows and not held_in_hollow(out[i], out[supports[i][0]], others, camera, scale))
+                    and (not hollows or held_in_hollow(out[i], out[supports[i][0]], others, camera, scale))
 
             held = holds(beside)
             if kept and (not held or holds([k for k in beside if k not in kept])):
