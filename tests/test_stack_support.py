@@ -105,3 +105,15 @@ def test_raise_unseen_moves_only_an_oversized_object_behind_the_others(far):
     assert np.allclose(uv0, uv1, atol=1e-6)
     assert np.ptp(lifted[2].vertices, axis=0).max() == pytest.approx(0.1, rel=0.05)
     assert lifted[2].vertices[:, 2].min() > 0.3
+
+
+def test_raise_unseen_leaves_one_that_holds_up_the_top_of_a_pile_from_behind():
+    # the same oversized box behind the others, but read as holding up one the photo showed on it (the back
+    # fruit of a pile, on the ground behind the top one it holds: ``align.photo_scene.lift_all``'s ``holds``)
+    camera = PinholeCamera(240, 180, 50.0, 30.0, (0.0, -1.0, 1.0))
+    near = [_box((0.1, 0.1, 0.1), (-0.15, 0.0, 0.0)), _box((0.1, 0.1, 0.1), (0.15, 0.0, 0.0))]
+    lifted = [_Lifted(m.vertices) for m in near + [_box((0.3, 0.3, 0.3), (0.0, 1.0, 0.0))]]
+    lifted[2].info["holds"] = [0]
+    before = lifted[2].vertices.copy()
+    assert raise_unseen(lifted, ["box", "box", "box"], {}, camera) == {}
+    assert np.array_equal(lifted[2].vertices, before)

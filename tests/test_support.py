@@ -237,3 +237,100 @@ def test_a_fruit_over_several_stands_on_them_only_where_a_hollow_among_them_hold
     assert not balances_on(fruit, under, base)
     assert balances_on(fruit, under, base, [taller])  # the footprints say held
     assert not held_in_hollow(fruit, under, [taller], eye, 1.0)  # it would rest on the taller one alone
+
+
+def _balls(camera, centres, radii):
+    """Each ball's whole outline and what the camera sees of it: its mask and its visible mask."""
+    v, u = np.mgrid[0:camera.height, 0:camera.width]
+    rays, eye = camera.rays(u + 0.5, v + 0.5), camera.origin
+    hits = []
+    for c, r in zip(centres, radii):  # where each ray first meets each ball
+        b = rays @ (eye - c)
+        disc = b * b - (np.sum((eye - c) ** 2) - r * r)
+        hits.append(np.where(disc > 0, -b - np.sqrt(np.maximum(disc, 0.0)), np.inf))
+    hits = np.stack(hits)
+    masks = [np.isfinite(h) for h in hits]
+    return masks, [m & (np.argmin(hits, axis=0) == k) for k, m in enumerate(masks)]
+
+
+def _pile_of_four(rider=None):
+    """Three fruit of radius 5.5 cm in a ring on the ground and a fourth in their hollow, seen 63° down, with
+    ``rider`` (azimuth°, elevation° from the top one's crown, radius) resting on the top one."""
+    from physomni_usd.geometry.camera import PinholeCamera
+
+    camera = PinholeCamera(320, 240, 28.0, 63.0, (0.0, 0.0, 1.0))
+    r, y0 = 0.055, 1.0 / np.tan(np.radians(63.0))
+    d = 1.15 * r
+    centres = [np.array([d * np.cos(a), y0 + d * np.sin(a), r]) for a in np.radians([210.0, 90.0, 330.0])]
+    top = np.array([0.0, y0, r + np.sqrt(4 * r * r - d * d)])
+    centres.append(top)
+    radii = [r] * 4
+    if rider is not None:
+        a, e, rr = np.radians(rider[0]), np.radians(rider[1]), rider[2]
+        centres.append(top + (r + rr) * np.array([np.sin(e) * np.sin(a), np.sin(e) * np.cos(a), np.cos(e)]))
+        radii.append(rr)
+    return camera, centres, radii, *_balls(camera, centres, radii)
+
+
+def test_the_top_fruit_of_a_pile_rests_on_the_three_under_it_not_the_one_it_hides_on_it():
+    """Seen from above, the top fruit of a pile hides the three under it, the back one all but a sliver over its
+    crown. That sliver's completed disc sits on the top one's outline and reads as resting on it; the top one
+    then had two fruit to hold it, stood on the ground a fruit's length behind the pile it hides, and the back
+    one rode on it and rolled off. Where it hides that foot, the one read on it is weighed as one that may hold
+    it: the top one rests in the hollow, the back one on the ground, marked as holding it."""
+    from physomni_usd.align.photo_scene import lift_all
+    from physomni_usd.perceive.amodal import occlusion_order
+    from physomni_usd.settings import BuildSettings
+
+    camera, centres, radii, masks, visible = _pile_of_four()
+    r = radii[0]
+    hides = occlusion_order(visible)
+    supports = find_supports(masks, hides)
+    assert supports[1][0] == 3 and (3, 1) in hides  # the back one read as on the top one, which hides it
+    out = lift_all(masks, ["orange", "lemon", "lemon", "orange"], camera, BuildSettings(), 0.67, supports,
+                   hides=hides, visible=visible)
+    assert 1 not in supports and supports.get(3, (None,))[0] in (0, 1, 2)
+    for k, c in enumerate(centres):
+        assert np.linalg.norm(out[k].vertices.mean(axis=0) - c) < 0.5 * r, k
+    assert out[1].info.get("holds") == [3]  # nothing raises it from under the top one (support.raise_unseen)
+
+
+def test_of_the_ones_a_pile_top_hides_on_it_only_those_it_needs_go_to_the_ground():
+    """The top fruit of a pile hides the back one's foot and a lime's resting on its crown; both read as on it.
+    Without the back one it falls, the lime it does not need: the lime stays on it, not grounded far behind the
+    pile because the back one holds the top one (it stood 8 of its radii from where it is)."""
+    from physomni_usd.align import photo_scene
+    from physomni_usd.settings import BuildSettings
+
+    camera, centres, radii, masks, visible = _pile_of_four(rider=(0.0, 20.0, 0.03))
+    hides = {(3, 0), (3, 1), (3, 2), (3, 4)}
+    supports = {1: (3, "contact"), 3: (0, "contact"), 4: (3, "contact")}
+    behind = photo_scene.behind_what_hides_it
+    # the lime's foot read where it is, on the top one (its hidden foot cast on the ground lands behind the pile)
+    photo_scene.behind_what_hides_it = lambda lower, m, cam: False if m is masks[4] else behind(lower, m, cam)
+    try:
+        out = photo_scene.lift_all(masks, ["orange", "lemon", "lemon", "orange", "lime"], camera, BuildSettings(),
+                                   0.67, supports, hides=hides, visible=visible)
+    finally:
+        photo_scene.behind_what_hides_it = behind
+    assert 1 not in supports and supports.get(4, (None,))[0] == 3
+    for k, (c, r) in enumerate(zip(centres, radii)):
+        assert np.linalg.norm(out[k].vertices.mean(axis=0) - c) < (0.5 if k < 4 else 1.0) * r, k
+
+
+def test_a_grape_read_on_the_back_fruit_of_a_pile_goes_with_it():
+    """A grape on the top fruit's crown, misread as on the back fruit the top one hides, no longer keeps the back
+    one on the top one: the top one, held by no one fruit under it, stood behind the pile (1.8 radii off)."""
+    from physomni_usd.align.photo_scene import lift_all
+    from physomni_usd.perceive.amodal import occlusion_order
+    from physomni_usd.settings import BuildSettings
+
+    camera, centres, radii, masks, visible = _pile_of_four(rider=(0.0, 0.0, 0.012))
+    hides = occlusion_order(visible)
+    supports = find_supports(masks, hides)
+    assert supports[1][0] == 3 and supports[4][0] == 1  # the grape read on the back one
+    out = lift_all(masks, ["orange", "lemon", "lemon", "orange", "grape"], camera, BuildSettings(), 0.67, supports,
+                   hides=hides, visible=visible)
+    assert 1 not in supports and supports[4][0] == 1
+    for k in range(4):
+        assert np.linalg.norm(out[k].vertices.mean(axis=0) - centres[k]) < 0.5 * radii[k], k

@@ -34,7 +34,7 @@ from .cues import (ELLIPSE_IOU, FEET_CUE, FEET_WEIGHT, MAX_PITCH_DEG, estimate_c
                    row_pitch, weighted_median)
 from .place import footprint, make_room, separate
 from .scale import fit_scale
-from .support import (TOP_BAND, find_supports, into_hollow, raise_unseen, reach_under, rests_on, root_of,
+from .support import (TOP_BAND, find_supports, into_hollow, raise_unseen, reach_under, rests_on, riders, root_of,
                       settle_on_supports, support_order)
 
 #: Scale-and-lift rounds: an object's height from its prior depends on the scale, the scale on the lifted sizes.
@@ -213,12 +213,38 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
         if i in supports and not balances_on(out[i], out[supports[i][0]], base):
             # a fruit in the hollow on top of a pile, a board bridging two boxes: no one object under it holds
             # its centre, the ones it touches together may. What rests on it, through others, cannot hold it.
-            beside = [k for k in range(len(masks)) if k not in (i, supports[i][0]) and not rests_on(k, i, supports)]
+            # One read as resting on it where it hides that one's foot may be behind it on the ground instead:
+            # this one's outline covers that foot, it does not show it standing there (the back fruit of a pile,
+            # its outline a disc behind the top one's, read as on that top one, left the top one two fruit to
+            # stand on, and it stood a fruit's length behind the pile it hides).
+            # What rests on such a one goes with it (a grape on the back fruit): it holds nothing here.
+            behind = [k for k in range(len(masks)) if k in supports and supports[k][0] == i and (i, k) in hides
+                      and k not in started]
+            carried = {k: [m for m in riders(k, supports) if m != k] for k in behind}
+            kept = {k: supports.pop(k) for k in behind}
+            beside = [k for k in range(len(masks)) if k not in (i, supports[i][0]) and not rests_on(k, i, supports)
+                      and not any(k in c for c in carried.values())]
             for k in beside:
                 place(k)
-            others = [out[k] for k in beside if out[k] is not None]
-            if not balances_on(out[i], out[supports[i][0]], base, others) \
-                    or hollows and not held_in_hollow(out[i], out[supports[i][0]], others, camera, scale):
+
+            def holds(ks):
+                others = [out[k] for k in ks if out[k] is not None]
+                return balances_on(out[i], out[supports[i][0]], base, others) \
+                    and (not hollows or held_in_hollow(out[i], out[supports[i][0]], others, camera, scale))
+
+            held = holds(beside)
+            for k in list(kept):
+                # each that is not needed to hold it rests on it as read, lifted again after it: one truly on
+                # top must not be grounded behind the pile because another candidate holds it
+                without = [m for m in beside if m != k]
+                if not held or holds(without):
+                    supports[k] = kept.pop(k)
+                    started.difference_update([k, *carried[k]])
+                    beside = without if held else beside
+            for k in kept if held else ():
+                # standing on the ground behind it, it holds this one up: nothing may move it from under it
+                out[k].info.setdefault("holds", []).append(i)
+            if not held:
                 # standing on the lower one's surface it would topple off it (a box on the crown of a crumpled
                 # bag): the photo shows it as well standing on the ground, where it stays
                 supports.pop(i)
@@ -229,7 +255,7 @@ def lift_all(masks, labels, camera: PinholeCamera, settings: BuildSettings, scal
     for i in support_order(len(masks), supports):
         place(i)
     for i in range(len(masks)) if visible is not None else ():
-        if i in supports or any(j == i for j, _ in supports.values()):
+        if i in supports or any(j == i for j, _ in supports.values()) or out[i].info.get("holds"):
             continue
         front = in_front_of(i, masks, visible, hides)
         reached = foot_behind(masks[i], [visible[a] for a in front], [out[a] for a in front], camera)

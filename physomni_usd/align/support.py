@@ -436,8 +436,9 @@ def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0, pho
     holders = {j for j, _ in supports.values()}
     wall = _wall(photo, masks, camera, free, holders)
     for i in free:
-        # what holds others up stands on the ground (a stack on a shelf is left where the cues put it)
-        if lifted[i].info.get("foot") or i in holders:
+        # what holds others up stands on the ground (a stack on a shelf is left where the cues put it), and so
+        # does one behind a pile that holds up the fruit read as on it (``holds``, from ``align.photo_scene``)
+        if lifted[i].info.get("foot") or i in holders or lifted[i].info.get("holds"):
             continue
         others = [j for j in range(n) if j != i and typical[j] is not None and j not in riders(i, supports)]
         ratio = None
