@@ -106,3 +106,51 @@ def test_an_object_hung_on_the_wall_is_held_against_it(with_photo):
     # the objects on the floor stay where they stand
     for k in (0, 1):
         assert np.array_equal(lifted[k].vertices, near[k].vertices)
+
+
+def _lying_plate(mask, thickness):
+    """What the footprint lift makes of a flat thing's ``mask`` on the floor: its outline cast onto the ground,
+    a plate of the label's thickness (the same outline)."""
+    from physomni_usd.lift.footprint import on_plane
+
+    ys, xs = np.nonzero(mask)
+    uv = np.c_[xs + 0.5, ys + 0.5]
+    hull = cv2.convexHull(uv.astype(np.float32))[:, 0, :].astype(float)
+    ground = on_plane(CAMERA, hull, 0.0)[:, :2]
+    return np.vstack([np.c_[ground, np.zeros(len(ground))], np.c_[ground, np.full(len(ground), thickness)]])
+
+
+def test_a_card_pinned_on_the_wall_stands_upright_against_it():
+    """A card pinned upright on the wall, lifted as a plate lying on the floor far behind, is held against the
+    wall standing in its plane: as tall as the card, as thin, where it hangs. Lying it was a plate 40 cm deep
+    in mid-air, its ±45° views nothing like the card's."""
+    near = [_box((0.12, 0.12, 0.12), (-0.2, 0.0, 0.0)), _box((0.1, 0.1, 0.1), (0.2, 0.1, 0.0))]
+    card = trimesh.creation.box((0.15, 0.002, 0.1))
+    card.apply_translation([0.05, WALL_Y - 0.001, 0.35])
+    masks = [_mask(m) for m in near + [card]]
+    lifted = [_Lifted(m.vertices) for m in near] + [_Lifted(_lying_plate(masks[2], 0.002))]
+    for m, s in zip(lifted, ("prism", "prism", "plate")):
+        m.shape, m.faces = s, np.zeros((0, 3), np.int32)
+    assert np.ptp(lifted[2].vertices[:, 1]) > 0.3  # lying, it is deep
+    done = raise_unseen(lifted, ["box", "box", "card"], {}, CAMERA, photo=_photo(True), masks=masks)
+    assert done[2].get("upright") and done[2].get("held"), done
+    v = lifted[2].vertices
+    assert np.ptp(v[:, 2]) == pytest.approx(0.1, rel=0.15)
+    assert np.ptp(v[:, 0]) == pytest.approx(0.15, rel=0.15)
+    assert np.ptp(v[:, 1]) < 0.02
+    assert np.abs(0.5 * (v.min(0) + v.max(0)) - card.bounds.mean(0)).max() <= 0.05
+    assert len(lifted[2].faces) > 0
+
+
+def test_a_plate_lying_held_up_stays_lying():
+    """A board lying on a shelf no mask shows, lifted lying and held up: its outline is a rectangle lying and a
+    trapezoid standing, so it stays as it was lifted."""
+    from physomni_usd.lift.footprint import upright_plate
+
+    board = trimesh.creation.box((0.3, 0.2, 0.01))
+    board.apply_translation([0.0, 0.2, 0.305])
+    plate = _lying_plate(_mask(board), 0.01)
+    # held where its size puts it: its outline kept, nearer the camera
+    o = CAMERA.origin
+    held = o + 0.6 * (plate - o)
+    assert upright_plate(held, CAMERA) is None

@@ -40,6 +40,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ..lift.footprint import upright_plate
 from ..lift.silhouette import fill_holes, foot_pixel
 from .wall import depth_against
 
@@ -478,6 +479,13 @@ def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0, pho
         if land is not None:  # on what is under it: the depth at which its base meets that top
             t = (land[1] - origin[2]) / (base0 - origin[2])
         _hold(i, t, lifted, supports, origin, scale, out, entry, land)
+        if land is None and getattr(lifted[i], "shape", None) == "plate" and len(riders(i, supports)) == 1:
+            # a plate held up by nothing seen lies on nothing: it may be pinned upright (a card on the wall)
+            stood = upright_plate(lifted[i].vertices, camera, wall[0] if entry.get("against_wall") else None)
+            if stood is not None:
+                lifted[i].vertices, lifted[i].faces = stood
+                lifted[i].contact = stood[0][np.argmin(stood[0][:, 2])]
+                out[i] |= {"upright": True, "base_m": round(float(stood[0][:, 2].min()) * scale, 4)}
     return out
 
 

@@ -48,6 +48,9 @@ SIDES_PRIOR_FACTOR = 3.0
 DEFAULT_HEIGHT_RATIO = 0.5
 #: A prism at most this tall for the smaller side of its footprint is a plate.
 PLATE_RATIO = 0.15
+#: A held plate stands upright where its outline on the upright plane fills its rectangle by this much more
+#: than lying (:func:`upright_plate`); a mask's pixel steps move either by about 0.01–0.02.
+UPRIGHT_MARGIN = 0.04
 #: Cells across an inflated footprint's raster, and the sections it is cut into.
 INFLATE_CELLS = 96
 INFLATE_SECTIONS = 24
@@ -448,3 +451,53 @@ def lift_footprint(mask: np.ndarray, camera, height_hint: float | None, prior_sh
     info = {"mode": "footprint", "shape": shape, "height_source": source, "circle_iou": round(iou, 3),
             "view_depression_deg": round(steep, 2)}
     return verts, faces, shape, contact, info
+
+
+def rectangularity(points: np.ndarray) -> float:
+    """How well the convex hull of ``points`` (n, 2) fills its smallest enclosing rectangle (1 for a
+    rectangle, 0.5 for a triangle)."""
+    p = np.asarray(points, np.float32).reshape(-1, 1, 2)
+    (_, _), (a, b), _ = cv2.minAreaRect(p)
+    return float(cv2.contourArea(cv2.convexHull(p))) / max(float(a * b), 1e-18)
+
+
+def upright_plate(vertices: np.ndarray, camera, plane=None) -> tuple[np.ndarray, np.ndarray] | None:
+    """A plate lifted lying (``vertices``, held in the air by nothing the masks show) stood upright instead,
+    or None where lying reads its outline as well.
+
+    A card pinned to a wall, a photo or a sign held up is a rectangle standing in a vertical plane: its
+    outline cast onto the ground is a trapezoid (its sides, upright, fan out from below the camera), cast onto
+    its own plane a rectangle; one lying on a shelf the other way round. So the plate's outline is read on
+    the vertical plane facing the camera through it (``plane`` (point, normal) where a wall was found: its
+    back on the wall) and it stands there when it is more nearly a rectangle there, by
+    :data:`UPRIGHT_MARGIN`, than lying; its thickness is kept."""
+    v = np.asarray(vertices, float)
+    thickness = float(np.ptp(v[:, 2]))
+    lying = rectangularity(v[:, :2])
+    uv, depth = camera.project(v)
+    if np.any(depth <= 0):
+        return None
+    hull = cv2.convexHull(uv.astype(np.float32))[:, 0, :].astype(float)
+    if plane is None:
+        point = 0.5 * (v.min(0) + v.max(0))
+        normal = point - camera.origin
+        normal[2] = 0.0
+    else:
+        point, normal = np.asarray(plane[0], float), np.asarray(plane[1], float).copy()
+        normal[2] = 0.0
+    if np.linalg.norm(normal) < 1e-9:  # straight down on it: no plane stands facing the camera
+        return None
+    normal /= np.linalg.norm(normal)
+    d = camera.rays(hull[:, 0], hull[:, 1])
+    facing = d @ normal
+    if np.any(facing <= 1e-6):
+        return None
+    on = camera.origin + ((point - camera.origin) @ normal / facing)[:, None] * d
+    side = np.array([-normal[1], normal[0], 0.0])
+    if rectangularity(np.c_[on @ side, on[:, 2]]) < lying + UPRIGHT_MARGIN:
+        return None
+    # against a wall its back is the wall's plane; held up by nothing seen, the plane is its middle
+    back = on if plane is not None else on + 0.5 * thickness * normal
+    pts = np.vstack([back, back - thickness * normal])
+    mesh = trimesh.convex.convex_hull(pts)
+    return fine_faces(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64), camera)
