@@ -51,6 +51,11 @@ PLATE_RATIO = 0.15
 #: A held plate stands upright where its outline on the upright plane fills its rectangle by this much more
 #: than lying (:func:`upright_plate`); a mask's pixel steps move either by about 0.01–0.02.
 UPRIGHT_MARGIN = 0.04
+#: ... and fills at least this much of its rectangle standing (a mask tens of pixels across, of a rectangle,
+#: fills 0.92–0.98 of it).
+UPRIGHT_FILL = 0.9
+#: How far from facing the camera a held plate's upright plane may turn about the vertical.
+UPRIGHT_TURN_DEG = 60.0
 #: Cells across an inflated footprint's raster, and the sections it is cut into.
 INFLATE_CELLS = 96
 INFLATE_SECTIONS = 24
@@ -467,10 +472,12 @@ def upright_plate(vertices: np.ndarray, camera, plane=None) -> tuple[np.ndarray,
 
     A card pinned to a wall, a photo or a sign held up is a rectangle standing in a vertical plane: its
     outline cast onto the ground is a trapezoid (its sides, upright, fan out from below the camera), cast onto
-    its own plane a rectangle; one lying on a shelf the other way round. So the plate's outline is read on
-    the vertical plane facing the camera through it (``plane`` (point, normal) where a wall was found: its
-    back on the wall) and it stands there when it is more nearly a rectangle there, by
-    :data:`UPRIGHT_MARGIN`, than lying; its thickness is kept."""
+    its own plane a rectangle; one lying on a shelf the other way round. Cast onto any vertical plane its
+    upright sides stay upright, and turning the plane about the vertical through it brings its top and
+    bottom parallel: so the outline is read on the vertical planes through the plate turned up to
+    :data:`UPRIGHT_TURN_DEG` from facing the camera (on ``plane`` (point, normal) alone where a wall was found:
+    its back on the wall), and it stands on the best when that is more nearly a rectangle, by
+    :data:`UPRIGHT_MARGIN`, than lying, and a rectangle to :data:`UPRIGHT_FILL`; its thickness is kept."""
     v = np.asarray(vertices, float)
     thickness = float(np.ptp(v[:, 2]))
     lying = rectangularity(v[:, :2])
@@ -478,24 +485,35 @@ def upright_plate(vertices: np.ndarray, camera, plane=None) -> tuple[np.ndarray,
     if np.any(depth <= 0):
         return None
     hull = cv2.convexHull(uv.astype(np.float32))[:, 0, :].astype(float)
+    d = camera.rays(hull[:, 0], hull[:, 1])
     if plane is None:
         point = 0.5 * (v.min(0) + v.max(0))
-        normal = point - camera.origin
-        normal[2] = 0.0
+        facing = point - camera.origin
+        facing[2] = 0.0
+        if np.linalg.norm(facing) < 1e-9:  # straight down on it: no plane stands facing the camera
+            return None
+        turns = np.radians(np.arange(-UPRIGHT_TURN_DEG, UPRIGHT_TURN_DEG + 1e-9, 5.0))
+        normals = [np.array([np.cos(a) * facing[0] - np.sin(a) * facing[1],
+                             np.sin(a) * facing[0] + np.cos(a) * facing[1], 0.0]) for a in turns]
     else:
-        point, normal = np.asarray(plane[0], float), np.asarray(plane[1], float).copy()
-        normal[2] = 0.0
-    if np.linalg.norm(normal) < 1e-9:  # straight down on it: no plane stands facing the camera
+        point = np.asarray(plane[0], float)
+        normals = [np.r_[np.asarray(plane[1], float)[:2], 0.0]]
+    best = None
+    for normal in normals:
+        if np.linalg.norm(normal) < 1e-9:
+            continue
+        normal = normal / np.linalg.norm(normal)
+        along = d @ normal
+        if np.any(along <= 1e-6):
+            continue
+        on = camera.origin + ((point - camera.origin) @ normal / along)[:, None] * d
+        side = np.array([-normal[1], normal[0], 0.0])
+        score = rectangularity(np.c_[on @ side, on[:, 2]])
+        if best is None or score > best[0]:
+            best = (score, on, normal)
+    if best is None or best[0] < max(lying + UPRIGHT_MARGIN, UPRIGHT_FILL):
         return None
-    normal /= np.linalg.norm(normal)
-    d = camera.rays(hull[:, 0], hull[:, 1])
-    facing = d @ normal
-    if np.any(facing <= 1e-6):
-        return None
-    on = camera.origin + ((point - camera.origin) @ normal / facing)[:, None] * d
-    side = np.array([-normal[1], normal[0], 0.0])
-    if rectangularity(np.c_[on @ side, on[:, 2]]) < lying + UPRIGHT_MARGIN:
-        return None
+    _, on, normal = best
     # against a wall its back is the wall's plane; held up by nothing seen, the plane is its middle
     back = on if plane is not None else on + 0.5 * thickness * normal
     pts = np.vstack([back, back - thickness * normal])
