@@ -154,3 +154,29 @@ def test_a_plate_lying_held_up_stays_lying():
     o = CAMERA.origin
     held = o + 0.6 * (plate - o)
     assert upright_plate(held, CAMERA) is None
+
+
+def test_a_card_held_up_with_no_wall_stands_at_its_own_size():
+    """A card pinned upright where no wall's line is found, behind two cups: lying, its outline cast on the
+    ground is a plate ten times its size; its depth must come from its size standing, so it stands its own
+    size where it hangs (read from the lying plate it came out a tenth as far and as large)."""
+    from physomni_usd.sizes import size_prior
+
+    cup = size_prior("cup").longest_m
+    near = [_box((cup * 0.8, cup * 0.8, cup), (-0.2, 0.0, 0.0)), _box((cup * 0.8, cup * 0.8, cup), (0.2, 0.1, 0.0))]
+    typical = size_prior("card").longest_m
+    card = trimesh.creation.box((typical, 0.001, typical * 0.63))
+    card.apply_translation([0.05, WALL_Y - 0.001, 0.35])
+    masks = [_mask(m) for m in near + [card]]
+    lifted = [_Lifted(m.vertices) for m in near] + [_Lifted(_lying_plate(masks[2], 0.001))]
+    for m, s in zip(lifted, ("prism", "prism", "plate")):
+        m.shape, m.faces = s, np.zeros((0, 3), np.int32)
+    done = raise_unseen(lifted, ["cup", "cup", "card"], {}, CAMERA, masks=masks)
+    assert done[2].get("upright") and done[2].get("held"), done
+    v = lifted[2].vertices
+    assert np.ptp(v[:, 0]) == pytest.approx(typical, rel=0.2)
+    assert np.ptp(v[:, 2]) == pytest.approx(typical * 0.63, rel=0.2)
+    o = CAMERA.origin
+    assert np.linalg.norm(v.mean(0) - o) == pytest.approx(np.linalg.norm(card.bounds.mean(0) - o), rel=0.2)
+    # the report's ratio is the standing card's, about the prior's
+    assert done[2]["size_ratio"] < 4.0

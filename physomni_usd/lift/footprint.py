@@ -466,7 +466,8 @@ def rectangularity(points: np.ndarray) -> float:
     return float(cv2.contourArea(cv2.convexHull(p))) / max(float(a * b), 1e-18)
 
 
-def upright_plate(vertices: np.ndarray, camera, plane=None) -> tuple[np.ndarray, np.ndarray] | None:
+def upright_plate(vertices: np.ndarray, camera, plane=None, thickness: float | None = None
+                  ) -> tuple[np.ndarray, np.ndarray] | None:
     """A plate lifted lying (``vertices``, held in the air by nothing the masks show) stood upright instead,
     or None where lying reads its outline as well.
 
@@ -474,34 +475,42 @@ def upright_plate(vertices: np.ndarray, camera, plane=None) -> tuple[np.ndarray,
     outline cast onto the ground is a trapezoid (its sides, upright, fan out from below the camera), cast onto
     its own plane a rectangle; one lying on a shelf the other way round. Cast onto any vertical plane its
     upright sides stay upright, and turning the plane about the vertical through it brings its top and
-    bottom parallel: so the outline is read on the vertical planes through the plate turned up to
-    :data:`UPRIGHT_TURN_DEG` from facing the camera (on ``plane`` (point, normal) alone where a wall was found:
-    its back on the wall), and it stands on the best when that is more nearly a rectangle, by
-    :data:`UPRIGHT_MARGIN`, than lying, and a rectangle to :data:`UPRIGHT_FILL`; its thickness is kept."""
+    bottom parallel: so the outline is read on the vertical planes through the lying plate's middle turned up
+    to :data:`UPRIGHT_TURN_DEG` from facing the camera, and it stands on the best when that is more nearly a
+    rectangle, by :data:`UPRIGHT_MARGIN`, than lying, and a rectangle to :data:`UPRIGHT_FILL`; its thickness
+    is kept. Casting along the rays, the outline's shape on a plane does not depend on the plane's distance:
+    whether it stands is decided before how far it is.
+
+    With ``plane`` (point, normal: a wall found behind it) the outline is cast onto that plane whatever it
+    reads, its back on the wall, ``thickness`` thick (the lying plate's, where ``vertices`` already stand)."""
     v = np.asarray(vertices, float)
-    thickness = float(np.ptp(v[:, 2]))
-    lying = rectangularity(v[:, :2])
+    thickness = float(np.ptp(v[:, 2])) if thickness is None else float(thickness)
     uv, depth = camera.project(v)
     if np.any(depth <= 0):
         return None
     hull = cv2.convexHull(uv.astype(np.float32))[:, 0, :].astype(float)
     d = camera.rays(hull[:, 0], hull[:, 1])
-    if plane is None:
-        point = 0.5 * (v.min(0) + v.max(0))
-        facing = point - camera.origin
-        facing[2] = 0.0
-        if np.linalg.norm(facing) < 1e-9:  # straight down on it: no plane stands facing the camera
-            return None
-        turns = np.radians(np.arange(-UPRIGHT_TURN_DEG, UPRIGHT_TURN_DEG + 1e-9, 5.0))
-        normals = [np.array([np.cos(a) * facing[0] - np.sin(a) * facing[1],
-                             np.sin(a) * facing[0] + np.cos(a) * facing[1], 0.0]) for a in turns]
-    else:
-        point = np.asarray(plane[0], float)
-        normals = [np.r_[np.asarray(plane[1], float)[:2], 0.0]]
-    best = None
-    for normal in normals:
+    if plane is not None:
+        point, normal = np.asarray(plane[0], float), np.r_[np.asarray(plane[1], float)[:2], 0.0]
         if np.linalg.norm(normal) < 1e-9:
-            continue
+            return None
+        normal = normal / np.linalg.norm(normal)
+        along = d @ normal
+        if np.any(along <= 1e-6):
+            return None
+        back = camera.origin + ((point - camera.origin) @ normal / along)[:, None] * d
+        return _slab(back, normal, thickness, camera)
+    lying = rectangularity(v[:, :2])
+    point = 0.5 * (v.min(0) + v.max(0))
+    facing = point - camera.origin
+    facing[2] = 0.0
+    if np.linalg.norm(facing) < 1e-9:  # straight down on it: no plane stands facing the camera
+        return None
+    turns = np.radians(np.arange(-UPRIGHT_TURN_DEG, UPRIGHT_TURN_DEG + 1e-9, 5.0))
+    best = None
+    for a in turns:
+        normal = np.array([np.cos(a) * facing[0] - np.sin(a) * facing[1],
+                           np.sin(a) * facing[0] + np.cos(a) * facing[1], 0.0])
         normal = normal / np.linalg.norm(normal)
         along = d @ normal
         if np.any(along <= 1e-6):
@@ -514,8 +523,13 @@ def upright_plate(vertices: np.ndarray, camera, plane=None) -> tuple[np.ndarray,
     if best is None or best[0] < max(lying + UPRIGHT_MARGIN, UPRIGHT_FILL):
         return None
     _, on, normal = best
-    # against a wall its back is the wall's plane; held up by nothing seen, the plane is its middle
-    back = on if plane is not None else on + 0.5 * thickness * normal
+    # held up by nothing seen, the plane is its middle
+    return _slab(on + 0.5 * thickness * normal, normal, thickness, camera)
+
+
+def _slab(back: np.ndarray, normal: np.ndarray, thickness: float, camera) -> tuple[np.ndarray, np.ndarray]:
+    """The plate whose back face is the outline ``back`` and front ``thickness`` towards ``normal``'s
+    opposite (the camera's side)."""
     pts = np.vstack([back, back - thickness * normal])
     mesh = trimesh.convex.convex_hull(pts)
     return fine_faces(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64), camera)
