@@ -56,6 +56,12 @@ UPRIGHT_MARGIN = 0.04
 UPRIGHT_FILL = 0.9
 #: How far from facing the camera a held plate's upright plane may turn about the vertical.
 UPRIGHT_TURN_DEG = 60.0
+#: Seen less steeply than this below the horizontal, a lying plate's outline cast on the ground is stretched
+#: along the ray by 1/sin of that angle, and so is every pixel step of its mask: how well it fills its
+#: rectangle lying says nothing, and it is left lying (boards lying at 3–6° stood in 1–7 of 54 poses).
+UPRIGHT_MIN_DEPRESSION_DEG = 8.0
+#: ... and so is one whose mask is fewer pixels tall than this: a few rows' steps decide either fill.
+UPRIGHT_MIN_ROWS = 10.0
 #: Cells across an inflated footprint's raster, and the sections it is cut into.
 INFLATE_CELLS = 96
 INFLATE_SECTIONS = 24
@@ -478,7 +484,8 @@ def upright_plate(vertices: np.ndarray, camera, plane=None, thickness: float | N
     bottom parallel: so the outline is read on the vertical planes through the lying plate's middle turned up
     to :data:`UPRIGHT_TURN_DEG` from facing the camera, and it stands on the best when that is more nearly a
     rectangle, by :data:`UPRIGHT_MARGIN`, than lying, and a rectangle to :data:`UPRIGHT_FILL`; its thickness
-    is kept. Casting along the rays, the outline's shape on a plane does not depend on the plane's distance:
+    is kept. Seen nearly edge-on (less than :data:`UPRIGHT_MIN_DEPRESSION_DEG` below the horizontal) or
+    fewer than :data:`UPRIGHT_MIN_ROWS` pixels tall, the lying fill is too coarse to doubt, and it lies. Casting along the rays, the outline's shape on a plane does not depend on the plane's distance:
     whether it stands is decided before how far it is.
 
     With ``plane`` (point, normal: a wall found behind it) the outline is cast onto that plane whatever it
@@ -503,8 +510,12 @@ def upright_plate(vertices: np.ndarray, camera, plane=None, thickness: float | N
     lying = rectangularity(v[:, :2])
     point = 0.5 * (v.min(0) + v.max(0))
     facing = point - camera.origin
+    drop = -float(facing[2])
     facing[2] = 0.0
     if np.linalg.norm(facing) < 1e-9:  # straight down on it: no plane stands facing the camera
+        return None
+    if (math.degrees(math.atan2(drop, float(np.linalg.norm(facing)))) < UPRIGHT_MIN_DEPRESSION_DEG
+            or float(np.ptp(uv[:, 1])) < UPRIGHT_MIN_ROWS):
         return None
     turns = np.radians(np.arange(-UPRIGHT_TURN_DEG, UPRIGHT_TURN_DEG + 1e-9, 5.0))
     best = None
