@@ -54,8 +54,19 @@ UPRIGHT_MARGIN = 0.04
 #: ... and fills at least this much of its rectangle standing (a mask tens of pixels across, of a rectangle,
 #: fills 0.92–0.98 of it).
 UPRIGHT_FILL = 0.9
-#: How far from facing the camera a held plate's upright plane may turn about the vertical.
+#: How far from facing the camera a held plate's upright plane may turn about the vertical, in steps of this.
 UPRIGHT_TURN_DEG = 60.0
+UPRIGHT_TURN_STEP_DEG = 5.0
+#: Turns whose fill is within this of the best are told apart by the mask's pixel steps alone (a card's
+#: scores spread 0.907–0.917 over every turn): the middle one of them is taken (of cards hung turned 20–30°,
+#: the best fill's turn was a median 10° and up to 50° off; the middle's 7° and up to 30°; the least turn's
+#: leaned to facing the camera, up to 38° off).
+UPRIGHT_TURN_TIE = 0.01
+#: A plane that some ray meets more than this far from its normal casts the outline grazing it, stretched
+#: and unsure; nor is a cast kept whose longest side is more than :data:`UPRIGHT_MAX_GROW` times the lying
+#: plate's (a 20 cm board turned 60° came out 1.04 m deep).
+UPRIGHT_MAX_GRAZE_DEG = 65.0
+UPRIGHT_MAX_GROW = 1.5
 #: Seen less steeply than this below the horizontal, a lying plate's outline cast on the ground is stretched
 #: along the ray by 1/sin of that angle, and so is every pixel step of its mask: how well it fills its
 #: rectangle lying says nothing, and it is left lying (boards lying at 3–6° stood in 1–7 of 54 poses).
@@ -510,30 +521,43 @@ def upright_plate(vertices: np.ndarray, camera, plane=None, thickness: float | N
     lying = rectangularity(v[:, :2])
     point = 0.5 * (v.min(0) + v.max(0))
     facing = point - camera.origin
-    drop = -float(facing[2])
     facing[2] = 0.0
     if np.linalg.norm(facing) < 1e-9:  # straight down on it: no plane stands facing the camera
         return None
-    if (math.degrees(math.atan2(drop, float(np.linalg.norm(facing)))) < UPRIGHT_MIN_DEPRESSION_DEG
+    # how steeply the photo sees it: the ray through its outline's middle in the image (the lying plate's own
+    # middle lies along the far, stretched end)
+    mid = camera.rays(np.array([0.5 * (hull[:, 0].min() + hull[:, 0].max())]),
+                      np.array([0.5 * (hull[:, 1].min() + hull[:, 1].max())]))[0]
+    if (math.degrees(math.atan2(-float(mid[2]), float(np.linalg.norm(mid[:2])))) < UPRIGHT_MIN_DEPRESSION_DEG
             or float(np.ptp(uv[:, 1])) < UPRIGHT_MIN_ROWS):
         return None
-    turns = np.radians(np.arange(-UPRIGHT_TURN_DEG, UPRIGHT_TURN_DEG + 1e-9, 5.0))
-    best = None
+    turns = np.arange(-UPRIGHT_TURN_DEG, UPRIGHT_TURN_DEG + 1e-9, UPRIGHT_TURN_STEP_DEG)
+    lying_long = float(np.max(np.ptp(v[:, :2], axis=0)))
+    graze = math.cos(math.radians(UPRIGHT_MAX_GRAZE_DEG))
+    reads = []
     for a in turns:
-        normal = np.array([np.cos(a) * facing[0] - np.sin(a) * facing[1],
-                           np.sin(a) * facing[0] + np.cos(a) * facing[1], 0.0])
+        r = math.radians(a)
+        normal = np.array([math.cos(r) * facing[0] - math.sin(r) * facing[1],
+                           math.sin(r) * facing[0] + math.cos(r) * facing[1], 0.0])
         normal = normal / np.linalg.norm(normal)
         along = d @ normal
-        if np.any(along <= 1e-6):
+        if np.any(along <= graze * np.linalg.norm(d, axis=1)):
             continue
         on = camera.origin + ((point - camera.origin) @ normal / along)[:, None] * d
         side = np.array([-normal[1], normal[0], 0.0])
-        score = rectangularity(np.c_[on @ side, on[:, 2]])
-        if best is None or score > best[0]:
-            best = (score, on, normal)
-    if best is None or best[0] < max(lying + UPRIGHT_MARGIN, UPRIGHT_FILL):
+        flat = np.c_[on @ side, on[:, 2]]
+        if float(np.ptp(flat[:, 0])) > UPRIGHT_MAX_GROW * lying_long:
+            continue
+        reads.append((rectangularity(flat), float(a), on, normal))
+    if not reads:
         return None
-    _, on, normal = best
+    top = max(r[0] for r in reads)
+    near = [r for r in reads if r[0] >= top - UPRIGHT_TURN_TIE]
+    middle = float(np.median([r[1] for r in near]))
+    best = min(near, key=lambda r: (abs(r[1] - middle), abs(r[1])))
+    if best[0] < max(lying + UPRIGHT_MARGIN, UPRIGHT_FILL):
+        return None
+    _, _, on, normal = best
     # held up by nothing seen, the plane is its middle
     return _slab(on + 0.5 * thickness * normal, normal, thickness, camera)
 
