@@ -237,3 +237,30 @@ def test_cards_turned_on_a_wall_no_one_found_stand_near_their_turn():
                 off.append(abs(turned - yaw))
     assert len(off) >= 20
     assert np.median(off) <= 8.0 and max(off) <= 35.0 and sum(a > 15.5 for a in off) <= 4, sorted(off)
+
+
+def test_a_held_card_keeps_its_foot():
+    """A card stood upright and held where it hangs is fixed in the simulation: the steadying pass cuts no flat
+    foot under its lowest corner nor levels its sole (cut, it lost a tenth of its photo outline for nothing)."""
+    from physomni_usd.physics.support import steady_stacks
+    from physomni_usd.sizes import size_prior
+
+    cup = size_prior("cup").longest_m
+    near = [_box((cup * 0.8, cup * 0.8, cup), (-0.2, 0.0, 0.0)), _box((cup * 0.8, cup * 0.8, cup), (0.2, 0.1, 0.0))]
+    card = trimesh.creation.box((0.1, 0.001, 0.06))
+    card.apply_transform(trimesh.transformations.rotation_matrix(np.radians(15.0), [0, 0, 1]))
+    card.apply_translation([0.05, 0.2, 0.3])
+    masks = [_mask(m) for m in near + [card]]
+    lifted = [_Lifted(m.vertices) for m in near] + [_Lifted(_lying_plate(masks[2], 0.001))]
+    for m, s in zip(lifted, ("prism", "prism", "plate")):
+        m.shape, m.faces = s, np.zeros((0, 3), np.int32)
+    lifted[0].faces, lifted[1].faces = near[0].faces, near[1].faces
+    done = raise_unseen(lifted, ["cup", "cup", "card"], {}, CAMERA, masks=masks)
+    assert done[2].get("upright") and done[2].get("held"), done
+    verts = [m.vertices for m in lifted]
+    faces = [m.faces for m in lifted]
+    _, cut = steady_stacks(verts, faces, {})
+    assert any(d["object"] == 2 for d in cut), cut  # as any object on the ground would be
+    out, kept = steady_stacks(verts, faces, {}, held={2})
+    assert not any(d["object"] == 2 for d in kept)
+    assert np.array_equal(out[2], verts[2])
