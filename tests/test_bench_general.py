@@ -281,6 +281,10 @@ def test_the_sized_shape_takes_out_a_wrong_field_of_view_and_keeps_a_wrong_shape
     deep = box.copy()
     deep.vertices[:, 1] *= 2.5
     assert general.sized_shape_novel_iou(deep, box, camera, camera, 1.0, centre) < 0.7
+    # too deep and drawn right across the ray, it is not shrunk across it (sized by its box's diagonal it was,
+    # and scored as one a little too deep)
+    assert general.sized_shape_novel_iou(deep, box, camera, camera, 1.0, centre) == pytest.approx(
+        general.shape_novel_iou(deep, box, camera, camera, 1.0, centre), abs=1e-6)
 
 
 def test_the_depth_split_tells_a_box_misplaced_in_depth_from_one_too_deep():

@@ -107,15 +107,28 @@ def shape_novel_iou(mesh: trimesh.Trimesh, true_mesh: trimesh.Trimesh, built_cam
 
 def sized_shape_novel_iou(mesh: trimesh.Trimesh, true_mesh: trimesh.Trimesh, built_camera: PinholeCamera,
                           camera: PinholeCamera, k: float, centre) -> float:
-    """:func:`shape_novel_iou` with the built object also scaled about its box centre until its box diagonal
-    is the truth's: its proportions alone. The one scale ``k`` fits the objects' positions, which a wrong
-    field of view barely moves (they lie mostly along the rays) while it scales every outline across them by
-    its tangent's error: an object that fills its photo outline exactly then comes out that much too small or
-    large, and its shape score says so. Where this holds and :func:`shape_novel_iou` fails, the camera's
-    field of view (or the object's own distance) is what is wrong, not the lift."""
+    """:func:`shape_novel_iou` with the built object also scaled about its box centre until its extent across
+    the true camera's ray through the truth is the truth's: its outline's size taken out, its depth kept. The
+    one scale ``k`` fits the objects' positions, which a wrong field of view barely moves (they lie mostly
+    along the rays) while it scales every outline across them by its tangent's error: an object that fills
+    its photo outline exactly then comes out that much too small or large, and its shape score says so. Where
+    this holds and :func:`shape_novel_iou` fails, the camera's field of view (or the object's own distance) is
+    what is wrong, not the lift. (Sized by the whole box's diagonal, an object too deep along the ray was also
+    shrunk across it, and its error in depth half hidden.)"""
     world = _in_truth_frame(mesh, built_camera, camera, k)
     middle = 0.5 * (world.min(0) + world.max(0))
-    grow = float(np.linalg.norm(true_mesh.extents)) / max(float(np.linalg.norm(np.ptp(world, axis=0))), 1e-12)
+    ray = 0.5 * (true_mesh.bounds[0] + true_mesh.bounds[1]) - np.asarray(camera.origin, float)
+    ray = ray / max(float(np.linalg.norm(ray)), 1e-12)
+    across = np.cross(ray, [0.0, 0.0, 1.0])
+    if np.linalg.norm(across) < 1e-9:  # looking straight down: any horizontal pair is across the ray
+        across = np.array([1.0, 0.0, 0.0])
+    across = across / np.linalg.norm(across)
+    axes = np.stack([across, np.cross(across, ray)], axis=1)
+
+    def width(p):
+        return float(np.linalg.norm(np.ptp(np.asarray(p, float) @ axes, axis=0)))
+
+    grow = width(true_mesh.vertices) / max(width(world), 1e-12)
     world = 0.5 * (true_mesh.bounds[0] + true_mesh.bounds[1]) + grow * (world - middle)
     return _novel_alone(world, mesh.faces, true_mesh, camera, centre)
 
