@@ -417,7 +417,9 @@ def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0, pho
     ``scale`` turns the camera's units into metres (the labels' typical sizes are metres). With the ``photo``
     and the ``masks`` lifted, a wall's line across the photo (``align.wall``) bounds the ground first: an
     object whose foot is above it, while another's stands below it, is held in front of the wall, its back
-    against the wall's plane, whatever its size says."""
+    against the wall's plane, whatever its size says. A plate that would be held up by nothing is first stood
+    upright where its outline reads so (``lift.footprint.upright_plate``: a card pinned on a wall), and raised
+    by its size standing; its entry has ``upright`` True."""
     from ..geometry.mesh import longest_dimension
     from ..sizes import size_prior
     from .place import footprint
