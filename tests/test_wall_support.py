@@ -160,6 +160,26 @@ def test_a_plate_lying_seen_edge_on_or_small_stays_lying():
         assert upright_plate(held, CAMERA) is None, (yaw, at)
 
 
+def test_a_plate_lying_near_eye_level_stays_lying(monkeypatch):
+    """A 30 × 20 cm board lying turned 30° on a shelf 3° below the eye of a camera pitched 26° down: its ground
+    cast is stretched twentyfold along the ray and fills its rectangle worse than cast upright, where it
+    stood; seen that flat, it lies."""
+    import sys
+
+    from physomni_usd.geometry.camera import PinholeCamera
+    from physomni_usd.lift.footprint import upright_plate
+
+    camera = PinholeCamera(320, 240, 50.0, 26.0, (0.0, -0.9, 0.66))
+    monkeypatch.setattr(sys.modules[__name__], "CAMERA", camera)
+    z = 0.66 - np.tan(np.radians(3.0))
+    board = trimesh.creation.box((0.3, 0.2, 0.01))
+    board.apply_transform(trimesh.transformations.rotation_matrix(np.radians(30.0), [0, 0, 1]))
+    board.apply_translation([-0.3, 0.1, z])
+    plate = _lying_plate(_mask(board), 0.01)
+    held = camera.origin + (0.66 - z) / 0.66 * (plate - camera.origin)  # at its own depth
+    assert upright_plate(held, camera) is None
+
+
 def test_a_card_held_up_with_no_wall_stands_at_its_own_size():
     """A card pinned upright where no wall's line is found, behind two cups: lying, its outline cast on the
     ground is a plate ten times its size; its depth must come from its size standing, so it stands its own

@@ -72,7 +72,7 @@ UPRIGHT_MAX_GROW = 1.5
 #: rectangle lying says nothing, and it is left lying (boards lying at 3–6° stood in 1–7 of 54 poses).
 UPRIGHT_MIN_DEPRESSION_DEG = 8.0
 #: ... and so is one whose mask is fewer pixels tall than this: a few rows' steps decide either fill.
-UPRIGHT_MIN_ROWS = 10.0
+UPRIGHT_MIN_ROWS = 6.0
 #: Cells across an inflated footprint's raster, and the sections it is cut into.
 INFLATE_CELLS = 96
 INFLATE_SECTIONS = 24
@@ -496,8 +496,9 @@ def upright_plate(vertices: np.ndarray, camera, plane=None, thickness: float | N
     to :data:`UPRIGHT_TURN_DEG` from facing the camera, and it stands on the best when that is more nearly a
     rectangle, by :data:`UPRIGHT_MARGIN`, than lying, and a rectangle to :data:`UPRIGHT_FILL`; its thickness
     is kept. Seen nearly edge-on (less than :data:`UPRIGHT_MIN_DEPRESSION_DEG` below the horizontal) or
-    fewer than :data:`UPRIGHT_MIN_ROWS` pixels tall, the lying fill is too coarse to doubt, and it lies. Casting along the rays, the outline's shape on a plane does not depend on the plane's distance:
-    whether it stands is decided before how far it is.
+    fewer than :data:`UPRIGHT_MIN_ROWS` pixels tall, the lying fill is too coarse to doubt, and it lies.
+    Casting along the rays, the outline's shape on a plane does not depend on the plane's distance: whether
+    it stands is decided before how far it is.
 
     With ``plane`` (point, normal: a wall found behind it) the outline is cast onto that plane whatever it
     reads, its back on the wall, ``thickness`` thick (the lying plate's, where ``vertices`` already stand)."""
