@@ -589,7 +589,8 @@ def _steadied(scene: Scene, camera, verts, faces, supports, align_info: dict) ->
     pass, which parts whatever a shift now presses."""
     from .physics.support import steady_stacks
 
-    verts, done = steady_stacks(verts, faces, supports, camera.origin, [o.mask.label for o in scene.objects])
+    verts, done = steady_stacks(verts, faces, supports, camera.origin, [o.mask.label for o in scene.objects],
+                                held={i for i, o in enumerate(scene.objects) if _held(o)})
     if done:
         names = [o.name for o in scene.objects]
         align_info["steadied"] = [d | {"object": names[d["object"]]} | ({"on": names[d["on"]]} if "on" in d else {})

@@ -261,6 +261,32 @@ def test_the_shape_from_the_side_takes_out_position_and_keeps_shape():
     assert general.shape_novel_iou(deep, box, camera, camera, 1.0, centre) < 0.7
 
 
+def test_the_sized_shape_takes_out_a_wrong_field_of_view_and_keeps_a_wrong_shape():
+    """A box drawn right through a camera whose field of view's tangent is 0.6 of the truth's, its position
+    fitted (as the one scale does: along the ray), comes out 0.6 as large: its shape from ±45° fails, and with
+    its size taken out scores 1. A box 2.5× too deep still fails with its size taken out (it can fail)."""
+    import trimesh
+
+    from physomni_usd.geometry.camera import PinholeCamera
+
+    box = trimesh.creation.box((0.1, 0.06, 0.08))
+    box.apply_translation([0.0, 0.0, 0.04])
+    look = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])  # columns: right, down, forward = x, -z, y
+    camera = PinholeCamera.from_pose(320, 240, 50.0, np.array([0.0, -0.6, 0.04]), look)
+    centre = np.array([0.0, 0.0, 0.04])
+    small = box.copy()
+    small.vertices = centre + 0.6 * (small.vertices - centre)
+    assert general.shape_novel_iou(small, box, camera, camera, 1.0, centre) < 0.5
+    assert general.sized_shape_novel_iou(small, box, camera, camera, 1.0, centre) > 0.97
+    deep = box.copy()
+    deep.vertices[:, 1] *= 2.5
+    assert general.sized_shape_novel_iou(deep, box, camera, camera, 1.0, centre) < 0.7
+    # too deep and drawn right across the ray, it is not shrunk across it (sized by its box's diagonal it was,
+    # and scored as one a little too deep)
+    assert general.sized_shape_novel_iou(deep, box, camera, camera, 1.0, centre) == pytest.approx(
+        general.shape_novel_iou(deep, box, camera, camera, 1.0, centre), abs=1e-6)
+
+
 def test_the_depth_split_tells_a_box_misplaced_in_depth_from_one_too_deep():
     """A box 8 cm too far along its ray: its depth error is 0.8 of its longest side, its depth extent right,
     and placed at the right depth it scores 1 from ±45° where as built it scores low. A box 2.5× too deep,

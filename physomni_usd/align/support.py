@@ -40,6 +40,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ..lift.footprint import upright_plate
 from ..lift.silhouette import fill_holes, foot_pixel
 from .wall import depth_against
 
@@ -416,7 +417,9 @@ def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0, pho
     ``scale`` turns the camera's units into metres (the labels' typical sizes are metres). With the ``photo``
     and the ``masks`` lifted, a wall's line across the photo (``align.wall``) bounds the ground first: an
     object whose foot is above it, while another's stands below it, is held in front of the wall, its back
-    against the wall's plane, whatever its size says."""
+    against the wall's plane, whatever its size says. A plate that would be held up by nothing is first stood
+    upright where its outline reads so (``lift.footprint.upright_plate``: a card pinned on a wall), and raised
+    by its size standing; its entry has ``upright`` True."""
     from ..geometry.mesh import longest_dimension
     from ..sizes import size_prior
     from .place import footprint
@@ -440,45 +443,82 @@ def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0, pho
         # does one behind a pile that holds up the fruit read as on it (``holds``, from ``align.photo_scene``)
         if lifted[i].info.get("foot") or i in holders or lifted[i].info.get("holds"):
             continue
-        others = [j for j in range(n) if j != i and typical[j] is not None and j not in riders(i, supports)]
-        ratio = None
-        if typical[i] is not None and others:
-            # the scene's scale as the others' sizes read it: each is its typical size over its lifted one
-            ref = float(np.exp(np.median([np.log(typical[j] / max(longest[j], 1e-9)) for j in others])))
-            ratio = ref * longest[i] / typical[i]
-        t = None
-        # its size must not deny it: one that already reads smaller than its label's typical size on the ground
-        # would be smaller still nearer (a shaded band across the floor read as the wall's foot, fruit behind it)
-        if wall is not None and i in wall[1] and (ratio is None or ratio >= WALL_MIN_RATIO):
-            t = depth_against(lifted[i].vertices, wall[0], origin)
-            t = t if t is not None and t < 1.0 else None
-        entry = {"against_wall": True}
-        if t is None:
-            if ratio is None:
+        near = reach(i)[0]
+
+        def attempt(verts, size):
+            """(t, entry, land) that raises ``verts`` (object ``i`` read ``size`` long) to where the others'
+            sizes or the wall put it, or None where it stays on the ground."""
+            others = [j for j in range(n) if j != i and typical[j] is not None and j not in riders(i, supports)]
+            ratio = None
+            if typical[i] is not None and others:
+                # the scene's scale as the others' sizes read it: each is its typical size over its lifted one
+                ref = float(np.exp(np.median([np.log(typical[j] / max(longest[j], 1e-9)) for j in others])))
+                ratio = ref * size / typical[i]
+            t = None
+            # its size must not deny it: one that already reads smaller than its label's typical size on the
+            # ground would be smaller still nearer (a shaded band across the floor read as the wall's foot, fruit
+            # behind it)
+            if wall is not None and i in wall[1] and (ratio is None or ratio >= WALL_MIN_RATIO):
+                t = depth_against(verts, wall[0], origin)
+                t = t if t is not None and t < 1.0 else None
+            entry = {"against_wall": True}
+            if t is None:
+                if ratio is None:
+                    return None
+                ground = [j for j in free if j != i and j not in riders(i, supports)]
+                # behind all on the ground as lifted lying, where the photo put it
+                behind = bool(ground) and near > max(reach(j)[1] for j in ground)
+                if ratio <= RAISE_RATIO or not behind:
+                    return None
+                t = RAISE_TO / ratio
+                entry = {"size_ratio": round(ratio, 3)}
+            base0 = float(verts[:, 2].min())
+            z_base = origin[2] + t * (base0 - origin[2])
+            moved = origin + t * (verts - origin)
+            height = float(np.ptp(moved[:, 2]))
+            centre = moved[:, :2].mean(0)
+            land = None
+            for j in range(n):
+                if j in riders(i, supports):
+                    continue
+                top = float(lifted[j].vertices[:, 2].max())
+                hull = footprint(lifted[j].vertices).astype(np.float32).reshape(-1, 1, 2)
+                inside = cv2.pointPolygonTest(hull, (float(centre[0]), float(centre[1])), False) >= 0
+                if inside and abs(top - z_base) <= LAND_FRACTION * height and (land is None or top > land[1]):
+                    land = (j, top)
+            if land is not None:  # on what is under it: the depth at which its base meets that top
+                t = (land[1] - origin[2]) / (base0 - origin[2])
+            return t, entry, land
+
+        raised, stood = None, None
+        if getattr(lifted[i], "shape", None) == "plate" and len(riders(i, supports)) == 1:
+            # a plate that would be held up by nothing seen lies on nothing: it may be pinned upright (a card on
+            # the wall). Whether it stands does not depend on its depth; its depth depends on its size standing
+            # (lying, a card's outline cast on the ground is a plate many times its size, read far too near)
+            stood = upright_plate(lifted[i].vertices, camera)
+            if stood is not None:
+                raised = attempt(stood[0], longest_dimension(stood[0]))
+                if raised is None or raised[2] is not None:  # on the ground or on another: it lies as lifted
+                    raised = stood = None
+        if stood is not None:
+            thickness = float(np.ptp(lifted[i].vertices[:, 2]))
+            lifted[i].vertices, lifted[i].faces = stood
+            lifted[i].contact = stood[0][np.argmin(stood[0][:, 2])]
+            longest[i] = longest_dimension(stood[0])
+        else:
+            raised = attempt(lifted[i].vertices, longest[i])
+            if raised is None:
                 continue
-            ground = [j for j in free if j != i and j not in riders(i, supports)]
-            behind = bool(ground) and reach(i)[0] > max(reach(j)[1] for j in ground)
-            if ratio <= RAISE_RATIO or not behind:
-                continue
-            t = RAISE_TO / ratio
-            entry = {"size_ratio": round(ratio, 3)}
-        base0 = float(lifted[i].vertices[:, 2].min())
-        z_base = origin[2] + t * (base0 - origin[2])
-        moved = origin + t * (lifted[i].vertices - origin)
-        height = float(np.ptp(moved[:, 2]))
-        centre = moved[:, :2].mean(0)
-        land = None
-        for j in range(n):
-            if j in riders(i, supports):
-                continue
-            top = float(lifted[j].vertices[:, 2].max())
-            hull = footprint(lifted[j].vertices).astype(np.float32).reshape(-1, 1, 2)
-            inside = cv2.pointPolygonTest(hull, (float(centre[0]), float(centre[1])), False) >= 0
-            if inside and abs(top - z_base) <= LAND_FRACTION * height and (land is None or top > land[1]):
-                land = (j, top)
-        if land is not None:  # on what is under it: the depth at which its base meets that top
-            t = (land[1] - origin[2]) / (base0 - origin[2])
+        t, entry, land = raised
         _hold(i, t, lifted, supports, origin, scale, out, entry, land)
+        if stood is not None:
+            if entry.get("against_wall"):  # its back on the wall's plane
+                on = upright_plate(lifted[i].vertices, camera, wall[0], thickness)
+                if on is not None:
+                    lifted[i].vertices, lifted[i].faces = on
+                    lifted[i].contact = on[0][np.argmin(on[0][:, 2])]
+            out[i] |= {"upright": True, "base_m": round(float(lifted[i].vertices[:, 2].min()) * scale, 4)}
+            lifted[i].info["raised"] = out[i]
     return out
 
 

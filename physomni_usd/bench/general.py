@@ -18,7 +18,8 @@ visible masks and from their bounding boxes — and measures each build:
   orbited ±45° about the vertical through the objects' middle; position error over the true camera distance
   (after the one scale a photo cannot show, :func:`common_scale`, and before); the longest dimension over the
   truth's (as built); per scene the pitch error. Diagnostics beside them: the ±45° IoU of each object alone
-  with its own position error taken out (:func:`shape_novel_iou`), and the split of its loss along the
+  with its own position error taken out (:func:`shape_novel_iou`), and its size error too
+  (:func:`sized_shape_novel_iou`: what a wrong field of view costs an object drawn right), and the split of its loss along the
   photo's ray through it, its error in depth, its extent in depth and the IoU with the depth error alone
   taken out (:func:`depth_split`).
 
@@ -101,6 +102,34 @@ def shape_novel_iou(mesh: trimesh.Trimesh, true_mesh: trimesh.Trimesh, built_cam
     where the ±45° IoU fails and this holds, the object is misplaced, not misshapen."""
     world = _in_truth_frame(mesh, built_camera, camera, k)
     world += 0.5 * (true_mesh.bounds[0] + true_mesh.bounds[1]) - 0.5 * (world.min(0) + world.max(0))
+    return _novel_alone(world, mesh.faces, true_mesh, camera, centre)
+
+
+def sized_shape_novel_iou(mesh: trimesh.Trimesh, true_mesh: trimesh.Trimesh, built_camera: PinholeCamera,
+                          camera: PinholeCamera, k: float, centre) -> float:
+    """:func:`shape_novel_iou` with the built object also scaled about its box centre until its extent across
+    the true camera's ray through the truth is the truth's: its outline's size taken out, its depth kept. The
+    one scale ``k`` fits the objects' positions, which a wrong field of view barely moves (they lie mostly
+    along the rays) while it scales every outline across them by its tangent's error: an object that fills
+    its photo outline exactly then comes out that much too small or large, and its shape score says so. Where
+    this holds and :func:`shape_novel_iou` fails, the camera's field of view (or the object's own distance) is
+    what is wrong, not the lift. (Sized by the whole box's diagonal, an object too deep along the ray was also
+    shrunk across it, and its error in depth half hidden.)"""
+    world = _in_truth_frame(mesh, built_camera, camera, k)
+    middle = 0.5 * (world.min(0) + world.max(0))
+    ray = 0.5 * (true_mesh.bounds[0] + true_mesh.bounds[1]) - np.asarray(camera.origin, float)
+    ray = ray / max(float(np.linalg.norm(ray)), 1e-12)
+    across = np.cross(ray, [0.0, 0.0, 1.0])
+    if np.linalg.norm(across) < 1e-9:  # looking straight down: any horizontal pair is across the ray
+        across = np.array([1.0, 0.0, 0.0])
+    across = across / np.linalg.norm(across)
+    axes = np.stack([across, np.cross(across, ray)], axis=1)
+
+    def width(p):
+        return float(np.linalg.norm(np.ptp(np.asarray(p, float) @ axes, axis=0)))
+
+    grow = width(true_mesh.vertices) / max(width(world), 1e-12)
+    world = 0.5 * (true_mesh.bounds[0] + true_mesh.bounds[1]) + grow * (world - middle)
     return _novel_alone(world, mesh.faces, true_mesh, camera, centre)
 
 
@@ -272,6 +301,8 @@ def build_row(folder, truth: dict, true_meshes: list, camera: PinholeCamera, mod
             "iou_left": round(mask_iou(got[1][i], want[1][i]), 4),
             "iou_right": round(mask_iou(got[2][i], want[2][i]), 4),
             "iou_shape_novel": round(shape_novel_iou(mine[i], true_meshes[i], built_camera, camera, k, middle), 4),
+            "iou_shape_novel_sized": round(sized_shape_novel_iou(mine[i], true_meshes[i], built_camera, camera, k,
+                                                                 middle), 4),
             **depth_split(mine[i], true_meshes[i], built_camera, camera, k, middle),
             "position_error_frac": round(float(np.linalg.norm(k * est_cam[i] - true_cam[i])
                                                / np.linalg.norm(true_cam[i])), 4),
@@ -472,6 +503,8 @@ def summarise(rows: list[dict]) -> dict:
                        "iou_amodal": med([o["iou_amodal"] for o in objs]),
                        "iou_novel": med([min(o["iou_left"], o["iou_right"]) for o in objs]),
                        "iou_shape_novel": med([o["iou_shape_novel"] for o in objs if "iou_shape_novel" in o]),
+                       "iou_shape_novel_sized": med([o["iou_shape_novel_sized"] for o in objs
+                                                     if "iou_shape_novel_sized" in o]),
                        "iou_novel_depth_placed": med([o["iou_novel_depth_placed"] for o in objs
                                                       if "iou_novel_depth_placed" in o]),
                        "depth_position_abs": med([abs(o["depth_position"]) for o in objs if "depth_position" in o]),
@@ -606,6 +639,7 @@ def markdown(numbers: dict) -> str:
             "iou_amodal": "median IoU, whole outline",
             "iou_novel": "median IoU, worse of ±45°",
             "iou_shape_novel": "median IoU, worse of ±45°, alone, own position error taken out",
+            "iou_shape_novel_sized": "median IoU, worse of ±45°, alone, own position and size error taken out",
             "iou_novel_depth_placed": "median IoU, worse of ±45°, alone, own error along its ray taken out",
             "depth_position_abs": "median error along its ray, over its longest side",
             "depth_extent": "median extent along its ray over the truth's",

@@ -49,6 +49,31 @@ SIDES_PRIOR_FACTOR = 3.0
 DEFAULT_HEIGHT_RATIO = 0.5
 #: A prism at most this tall for the smaller side of its footprint is a plate.
 PLATE_RATIO = 0.15
+#: A held plate stands upright where its outline on the upright plane fills its rectangle by this much more
+#: than lying (:func:`upright_plate`); a mask's pixel steps move either by about 0.01–0.02.
+UPRIGHT_MARGIN = 0.04
+#: ... and fills at least this much of its rectangle standing (a mask tens of pixels across, of a rectangle,
+#: fills 0.92–0.98 of it).
+UPRIGHT_FILL = 0.9
+#: How far from facing the camera a held plate's upright plane may turn about the vertical, in steps of this.
+UPRIGHT_TURN_DEG = 60.0
+UPRIGHT_TURN_STEP_DEG = 5.0
+#: Turns whose fill is within this of the best are told apart by the mask's pixel steps alone (a card's
+#: scores spread 0.907–0.917 over every turn): the middle one of them is taken (of cards hung turned 20–30°,
+#: the best fill's turn was a median 10° and up to 50° off; the middle's 7° and up to 30°; the least turn's
+#: leaned to facing the camera, up to 38° off).
+UPRIGHT_TURN_TIE = 0.01
+#: A plane that some ray meets more than this far from its normal casts the outline grazing it, stretched
+#: and unsure; nor is a cast kept whose longest side is more than :data:`UPRIGHT_MAX_GROW` times the lying
+#: plate's (a 20 cm board turned 60° came out 1.04 m deep).
+UPRIGHT_MAX_GRAZE_DEG = 65.0
+UPRIGHT_MAX_GROW = 1.5
+#: Seen less steeply than this below the horizontal, a lying plate's outline cast on the ground is stretched
+#: along the ray by 1/sin of that angle, and so is every pixel step of its mask: how well it fills its
+#: rectangle lying says nothing, and it is left lying (boards lying at 3–6° stood in 1–7 of 54 poses).
+UPRIGHT_MIN_DEPRESSION_DEG = 8.0
+#: ... and so is one whose mask is fewer pixels tall than this: a few rows' steps decide either fill.
+UPRIGHT_MIN_ROWS = 6.0
 #: Cells across an inflated footprint's raster, and the sections it is cut into.
 INFLATE_CELLS = 96
 INFLATE_SECTIONS = 24
@@ -492,3 +517,99 @@ def lift_footprint(mask: np.ndarray, camera, height_hint: float | None, prior_sh
     info = {"mode": "footprint", "shape": shape, "height_source": source, "circle_iou": round(iou, 3),
             "view_depression_deg": round(steep, 2)}
     return verts, faces, shape, contact, info
+
+
+def rectangularity(points: np.ndarray) -> float:
+    """How well the convex hull of ``points`` (n, 2) fills its smallest enclosing rectangle (1 for a
+    rectangle, 0.5 for a triangle)."""
+    p = np.asarray(points, np.float32).reshape(-1, 1, 2)
+    (_, _), (a, b), _ = cv2.minAreaRect(p)
+    return float(cv2.contourArea(cv2.convexHull(p))) / max(float(a * b), 1e-18)
+
+
+def upright_plate(vertices: np.ndarray, camera, plane=None, thickness: float | None = None
+                  ) -> tuple[np.ndarray, np.ndarray] | None:
+    """A plate lifted lying (``vertices``, held in the air by nothing the masks show) stood upright instead,
+    or None where lying reads its outline as well.
+
+    A card pinned to a wall, a photo or a sign held up is a rectangle standing in a vertical plane: its
+    outline cast onto the ground is a trapezoid (its sides, upright, fan out from below the camera), cast onto
+    its own plane a rectangle; one lying on a shelf the other way round. Cast onto any vertical plane its
+    upright sides stay upright, and turning the plane about the vertical through it brings its top and
+    bottom parallel: so the outline is read on the vertical planes through the lying plate's middle turned up
+    to :data:`UPRIGHT_TURN_DEG` from facing the camera, and it stands on the best when that is more nearly a
+    rectangle, by :data:`UPRIGHT_MARGIN`, than lying, and a rectangle to :data:`UPRIGHT_FILL`; its thickness
+    is kept. Seen nearly edge-on (less than :data:`UPRIGHT_MIN_DEPRESSION_DEG` below the horizontal) or
+    fewer than :data:`UPRIGHT_MIN_ROWS` pixels tall, the lying fill is too coarse to doubt, and it lies.
+    Casting along the rays, the outline's shape on a plane does not depend on the plane's distance: whether
+    it stands is decided before how far it is.
+
+    With ``plane`` (point, normal: a wall found behind it) the outline is cast onto that plane whatever it
+    reads, its back on the wall, ``thickness`` thick (the lying plate's, where ``vertices`` already stand)."""
+    v = np.asarray(vertices, float)
+    thickness = float(np.ptp(v[:, 2])) if thickness is None else float(thickness)
+    uv, depth = camera.project(v)
+    if np.any(depth <= 0):
+        return None
+    hull = cv2.convexHull(uv.astype(np.float32))[:, 0, :].astype(float)
+    d = camera.rays(hull[:, 0], hull[:, 1])
+    if plane is not None:
+        point, normal = np.asarray(plane[0], float), np.r_[np.asarray(plane[1], float)[:2], 0.0]
+        if np.linalg.norm(normal) < 1e-9:
+            return None
+        normal = normal / np.linalg.norm(normal)
+        along = d @ normal
+        if np.any(along <= 1e-6):
+            return None
+        back = camera.origin + ((point - camera.origin) @ normal / along)[:, None] * d
+        return _slab(back, normal, thickness, camera)
+    lying = rectangularity(v[:, :2])
+    point = 0.5 * (v.min(0) + v.max(0))
+    facing = point - camera.origin
+    facing[2] = 0.0
+    if np.linalg.norm(facing) < 1e-9:  # straight down on it: no plane stands facing the camera
+        return None
+    # how steeply the photo sees it: the ray through its outline's middle in the image (the lying plate's own
+    # middle lies along the far, stretched end)
+    mid = camera.rays(np.array([0.5 * (hull[:, 0].min() + hull[:, 0].max())]),
+                      np.array([0.5 * (hull[:, 1].min() + hull[:, 1].max())]))[0]
+    if (math.degrees(math.atan2(-float(mid[2]), float(np.linalg.norm(mid[:2])))) < UPRIGHT_MIN_DEPRESSION_DEG
+            or float(np.ptp(uv[:, 1])) < UPRIGHT_MIN_ROWS):
+        return None
+    turns = np.arange(-UPRIGHT_TURN_DEG, UPRIGHT_TURN_DEG + 1e-9, UPRIGHT_TURN_STEP_DEG)
+    lying_long = float(np.max(np.ptp(v[:, :2], axis=0)))
+    graze = math.cos(math.radians(UPRIGHT_MAX_GRAZE_DEG))
+    reads = []
+    for a in turns:
+        r = math.radians(a)
+        normal = np.array([math.cos(r) * facing[0] - math.sin(r) * facing[1],
+                           math.sin(r) * facing[0] + math.cos(r) * facing[1], 0.0])
+        normal = normal / np.linalg.norm(normal)
+        along = d @ normal
+        if np.any(along <= graze * np.linalg.norm(d, axis=1)):
+            continue
+        on = camera.origin + ((point - camera.origin) @ normal / along)[:, None] * d
+        side = np.array([-normal[1], normal[0], 0.0])
+        flat = np.c_[on @ side, on[:, 2]]
+        if float(np.ptp(flat[:, 0])) > UPRIGHT_MAX_GROW * lying_long:
+            continue
+        reads.append((rectangularity(flat), float(a), on, normal))
+    if not reads:
+        return None
+    top = max(r[0] for r in reads)
+    near = [r for r in reads if r[0] >= top - UPRIGHT_TURN_TIE]
+    middle = float(np.median([r[1] for r in near]))
+    best = min(near, key=lambda r: (abs(r[1] - middle), abs(r[1])))
+    if best[0] < max(lying + UPRIGHT_MARGIN, UPRIGHT_FILL):
+        return None
+    _, _, on, normal = best
+    # held up by nothing seen, the plane is its middle
+    return _slab(on + 0.5 * thickness * normal, normal, thickness, camera)
+
+
+def _slab(back: np.ndarray, normal: np.ndarray, thickness: float, camera) -> tuple[np.ndarray, np.ndarray]:
+    """The plate whose back face is the outline ``back`` and front ``thickness`` towards ``normal``'s
+    opposite (the camera's side)."""
+    pts = np.vstack([back, back - thickness * normal])
+    mesh = trimesh.convex.convex_hull(pts)
+    return fine_faces(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64), camera)

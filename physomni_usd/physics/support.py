@@ -244,7 +244,8 @@ def _cheapest_shift(region: np.ndarray, c: np.ndarray, margin: float, com: np.nd
     return steps[np.argmin(across + 0.1 * np.linalg.norm(steps, axis=1))]
 
 
-def steady_stacks(vertex_sets, faces, supports: dict, eye=None, labels=None) -> tuple[list[np.ndarray], list[dict]]:
+def steady_stacks(vertex_sets, faces, supports: dict, eye=None, labels=None, held=frozenset()
+                  ) -> tuple[list[np.ndarray], list[dict]]:
     """Vertex sets in which each object resting on another (``supports``: {upper: (lower, how)}) has its
     centre of mass over the supporter's top, and what was moved. A lifted object stands where its outline's
     foot is read, at a depth the photo hardly shows; a few centimetres too far forward of the box under it,
@@ -264,13 +265,18 @@ def steady_stacks(vertex_sets, faces, supports: dict, eye=None, labels=None) -> 
     sole of an object on another that does not stand on what it touches (:func:`_stands`), unless that leaves it
     thinner than its outline allows (``metrics.geometry.thin_side``, by ``labels``, one per object, seen from
     ``eye``); a load :data:`~physomni_usd.settings.HEAVY_LOAD` times its supporter's mass (by ``labels``) keeps
-    a wider margin. Whether an object stands, and how far inside a top its load is, are judged on its real contact
+    a wider margin. An object in ``held`` (held fixed where the photo shows it: on what no mask shows) stands on
+    nothing the simulation moves, and its foot and sole are kept as built (a card held upright on a wall had its
+    lowest edge cut 1-3 mm flat, a tenth of its photo outline). Whether an object stands, and how far inside a
+    top its load is, are judged on its real contact
     (``geometry.resting.real_contact``): a slanted foot's contact band reads it held where it is not."""
     from ..align.support import riders  # the build's; simulate, which imports this module, needs none of align
 
     verts = [np.asarray(v, float).copy() for v in vertex_sets]
     done = []
     for i in sorted(range(len(verts)), key=lambda k: float(verts[k][:, 2].min())):
+        if i in held:
+            continue
         # on another object (an orange on a bowl's rim): what holds it is not flat. A foot on any level face of
         # another stopped a pushed ball read as standing on a crate's top (6 mm where it rolled,
         # tests/test_studio_pushes.py); in a hollow (a fruit on a bowl's inner floor) a ball on the flat floor
