@@ -213,3 +213,50 @@ def test_a_rim_does_not_override_the_vanishing_points_field_of_view():
     assert "vanishing points" in kinds and "open rim" in kinds
     assert "ellipses and horizon" not in kinds
     assert est.fov_deg == pytest.approx(50.0, rel=0.10)
+
+
+def _card_alone(pitch: float, turn_deg: float = 30.0):
+    """A plain 320×240 photo of one card (8.6 × 5.4 cm, 1 mm thick) lying on the ground turned ``turn_deg``
+    from the view, 0.3 m ahead of a camera of 50° (the default field of view) pitched ``pitch``; its mask."""
+    import math
+
+    import numpy as np
+    import trimesh
+
+    from physomni_usd.bench.synthetic import render_truth
+    from physomni_usd.geometry.camera import PinholeCamera
+
+    cam = PinholeCamera(320, 240, 50.0, pitch, (0.0, 0.0, 0.3 * math.tan(math.radians(pitch))))
+    card = trimesh.creation.box([0.086, 0.054, 0.001])
+    card.apply_transform(trimesh.transformations.rotation_matrix(math.radians(turn_deg), [0, 0, 1]))
+    card.apply_translation([0.0, 0.3, 0.0005])
+    _, masks = render_truth(cam, [card])
+    return np.full((240, 320, 3), 128, np.uint8), masks
+
+
+@pytest.mark.parametrize("pitch", [20.0, 40.0])
+def test_a_flat_cards_square_corners_read_the_pitch_where_nothing_else_does(pitch):
+    photo, masks = _card_alone(pitch)
+    feet = [foot_pixel(fill_holes(m))[1] for m in masks]
+    est = estimate_camera(photo, masks, ["card"], feet)
+    corners = [c for c in est.cues if c.kind == "square corners"]
+    assert len(corners) == 1 and corners[0].pitch_deg == pytest.approx(pitch, abs=3.0)
+    assert est.pitch_deg == pytest.approx(pitch, abs=3.0)
+    # a thing of no flat rectangular label (a ball) reads no corners: only the feet's least tilt is left
+    est = estimate_camera(photo, masks, ["apple"], feet)
+    assert not any(c.kind == "square corners" for c in est.cues)
+
+
+def test_a_rectangle_square_in_the_photo_alone_reads_no_steep_pitch():
+    """A card seen face-on (on a wall, or from straight above) is square in the photo and reads straight down;
+    alone it must not carry the pitch there."""
+    import numpy as np
+
+    import cv2
+
+    corners = cv2.boxPoints(((160.0, 120.0), (64.0, 40.0), 30.0))  # turned in the photo: no pitch keeps it square
+    mask = cv2.fillPoly(np.zeros((240, 320), np.uint8), [np.round(corners).astype(np.int32)], 1) > 0
+    est = estimate_camera(np.full((240, 320, 3), 128, np.uint8), [mask], ["card"], [float(corners[:, 1].max())])
+    corners = [c for c in est.cues if c.kind == "square corners"]
+    assert len(corners) == 1 and corners[0].pitch_deg > 80 and corners[0].detail.get("uncorroborated")
+    assert est.pitch_deg < 45
