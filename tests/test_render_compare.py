@@ -121,7 +121,12 @@ def _synthetic(pitch: float, width: int = 240, height: int = 180):
 
 
 @pytest.mark.parametrize("pitch", [30.0, 60.0])
-def test_the_search_recovers_the_pitch_of_a_synthetic_scene_the_cues_miss(pitch):
+def test_the_search_recovers_the_pitch_of_a_synthetic_scene_the_cues_miss(pitch, monkeypatch):
+    from physomni_usd.align import cues
+
+    # the book's corners read the pitch (test_a_lying_books_corners_read_the_pitch_the_search_would_find): left
+    # out here, so that nothing in the plain photo does
+    monkeypatch.setattr(cues, "rectangle_cues", lambda *a, **k: [])
     masks, labels, photo = _synthetic(pitch)
     names = [f"o{i}" for i in range(len(masks))]
     cues_only = lift_photo_scene(masks, labels, names, photo, BuildSettings(render_compare=False), {}, visible=masks)
@@ -132,6 +137,17 @@ def test_the_search_recovers_the_pitch_of_a_synthetic_scene_the_cues_miss(pitch)
     assert info["render_compare"]["chosen"] == "silhouettes"
     assert info["pitch_deg"] == pytest.approx(searched.camera.pitch_deg, abs=1e-3)
     assert min(info["render_compare"]["score"]["silhouette_iou"]) > 0.8
+
+
+def test_a_lying_books_corners_read_the_pitch_the_search_would_find():
+    # its 3 cm of thickness counted: its outline's lower corners are its bottom's, cast onto the ground as its
+    # top's, they read 39.5° for 30°
+    masks, labels, photo = _synthetic(30.0)
+    found = lift_photo_scene(masks, labels, [f"o{i}" for i in range(len(masks))], photo,
+                             BuildSettings(render_compare=False), {}, visible=masks)
+    corners = [c for c in found.info["camera"]["cues"] if c["cue"] == "square corners"]
+    assert len(corners) == 1 and corners[0]["label"] == "book"
+    assert found.camera.pitch_deg == pytest.approx(30.0, abs=2.0)
 
 
 def test_where_no_cue_reads_the_pitch_the_feet_default_has_no_reading_to_defend(monkeypatch):
