@@ -153,8 +153,9 @@ def test_a_lying_books_corners_read_the_pitch_the_search_would_find():
 def test_where_no_cue_reads_the_pitch_the_feet_default_has_no_reading_to_defend(monkeypatch):
     # a plain photo: only the feet's least tilt, a default; the silhouettes replace it on a smaller gain than
     # a reading of the photo needs (a scene seen from 75° kept at the feet's 10° for want of 40 %)
-    from physomni_usd.align import photo_scene
+    from physomni_usd.align import cues as camera_cues, photo_scene
 
+    monkeypatch.setattr(camera_cues, "rectangle_cues", lambda *a, **k: [])  # the book's corners read one
     masks, labels, photo = _synthetic(60.0)
     asked = []
     real = photo_scene.search_pitch
