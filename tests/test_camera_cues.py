@@ -260,3 +260,30 @@ def test_a_rectangle_square_in_the_photo_alone_reads_no_steep_pitch():
     corners = [c for c in est.cues if c.kind == "square corners"]
     assert len(corners) == 1 and corners[0].pitch_deg > 80 and corners[0].detail.get("uncorroborated")
     assert est.pitch_deg < 45
+
+
+def _wall_sheets():
+    """Two sheets on the wall behind, seen face-on and turned 6° and -7° in a 320×240 photo: their masks and
+    labels (each is square in the photo, so each reads straight down)."""
+    import numpy as np
+
+    import cv2
+
+    masks, labels = [], []
+    for (cx, cy, w, h, turn), label in (((70, 45, 70, 50, 6), "paper"), ((250, 50, 50, 32, -7), "ticket")):
+        pts = cv2.boxPoints(((cx, cy), (w, h), turn))
+        masks.append(cv2.fillPoly(np.zeros((240, 320), np.uint8), [np.round(pts).astype(np.int32)], 1) > 0)
+        labels.append(label)
+    return masks, labels
+
+
+def test_rectangles_square_in_the_photo_do_not_confirm_each_others_steep_pitch():
+    """Two sheets on a wall agree on straight down; a card lying on the ground reads 30°. The sheets' corners,
+    square in the photo whatever the pitch, must not confirm each other and outvote the card."""
+    photo, masks = _card_alone(30.0)
+    walls, labels = _wall_sheets()
+    masks, labels = [*masks, *walls], ["card", *labels]
+    est = estimate_camera(photo, masks, labels, [foot_pixel(fill_holes(m))[1] for m in masks])
+    steep = [c for c in est.cues if c.kind == "square corners" and c.pitch_deg > 80]
+    assert len(steep) == 2 and all(c.detail.get("uncorroborated") for c in steep)
+    assert est.pitch_deg == pytest.approx(30.0, abs=3.0)

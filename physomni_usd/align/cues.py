@@ -981,7 +981,8 @@ def rectangle_cues(masks, labels, width: int, height: int, fov_deg: float) -> li
         if low > RECT_SQUARE or high < RECT_CONTRAST:
             continue
         cues.append(Cue("square corners", pitch, RECT_WEIGHT,
-                        detail={"label": label, "squareness": round(low, 3), "worst": round(high, 3)}))
+                        detail={"label": label, "squareness": round(low, 3), "worst": round(high, 3),
+                                "photo_squareness": round(_squareness(quad), 3)}))
     return cues
 
 
@@ -1026,11 +1027,15 @@ def estimate_camera(photo: np.ndarray, masks, labels, foot_rows, fov_deg: float 
         fov, fov_source = DEFAULT_FOV_DEG, f"default {DEFAULT_FOV_DEG:g}° (a phone's main camera)"
     pitch_cues += ellipse_cues(outlines, w, h, fov) + rim_cues(rims, w, h, fov)
     corners = rectangle_cues(masks, labels, w, h, fov)
+    # a quadrilateral square in the photo reads straight down: a card on the wall seen face-on does too, and
+    # two such cards agree with each other (two sheets on a wall turned 6° and 7° took a 30° camera to 89.5°).
+    # Another's corners confirm a steep reading only where they are not square in the photo, so that it is the
+    # pitch that squares them
+    sheared = [c for c in corners if c.detail["photo_squareness"] > RECT_SQUARE]
     for c in corners:
         if c.pitch_deg > STEEP_DEG and not any(
                 o is not c and o.pitch_deg is not None and abs(o.pitch_deg - c.pitch_deg) <= AGREE_DEG
-                and (o.kind in SELF_STANDING or o in corners) for o in pitch_cues + corners):
-            # a quadrilateral square in the photo reads straight down: a card on the wall seen face-on does too
+                and (o.kind in SELF_STANDING or any(o is s for s in sheared)) for o in pitch_cues + corners):
             c.weight, c.detail["uncorroborated"] = UNCORROBORATED_WEIGHT, True
     pitch_cues += corners
     groups = identical_cues(masks, labels, w, h, fov)
