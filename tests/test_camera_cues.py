@@ -287,3 +287,19 @@ def test_rectangles_square_in_the_photo_do_not_confirm_each_others_steep_pitch()
     steep = [c for c in est.cues if c.kind == "square corners" and c.pitch_deg > 80]
     assert len(steep) == 2 and all(c.detail.get("uncorroborated") for c in steep)
     assert est.pitch_deg == pytest.approx(30.0, abs=3.0)
+
+
+def test_unconfirmed_readings_together_weigh_less_than_the_feet():
+    """Two sheets on a wall each read straight down, unconfirmed (square in the photo): each weighs less than
+    the feet's least tilt, and so must both together; the source names what the pitch came from."""
+    import numpy as np
+
+    from physomni_usd.align.cues import FEET_CUE, FEET_WEIGHT
+
+    masks, labels = _wall_sheets()
+    est = estimate_camera(np.full((240, 320, 3), 128, np.uint8), masks, labels,
+                          [foot_pixel(fill_holes(m))[1] for m in masks])
+    steep = [c for c in est.cues if c.kind == "square corners"]
+    assert len(steep) == 2 and all(c.detail.get("uncorroborated") for c in steep)
+    assert sum(c.weight for c in steep) < FEET_WEIGHT
+    assert est.pitch_deg < 45 and FEET_CUE in est.pitch_source

@@ -1067,6 +1067,14 @@ def estimate_camera(photo: np.ndarray, masks, labels, foot_rows, fov_deg: float 
                 o is not c and o.pitch_deg is not None and abs(o.pitch_deg - c.pitch_deg) <= AGREE_DEG
                 and o.kind in SELF_STANDING for o in pitch_cues):
             c.weight, c.detail["uncorroborated"] = UNCORROBORATED_WEIGHT, True
+    # readings too light to move the median alone must not add up to more than the feet: two unconfirmed
+    # steep readings (0.03 each) that disagreed with each other took a generated scene to 51.5° (truth 34°)
+    # while the source still named the feet. Together they weigh UNCORROBORATED_WEIGHT; they still anchor the
+    # render-and-compare search
+    light = [c for c in pitch_cues if c.pitch_deg is not None and 0 < c.weight < FEET_WEIGHT]
+    total = sum(c.weight for c in light)
+    for c in light if total > UNCORROBORATED_WEIGHT else ():
+        c.weight *= UNCORROBORATED_WEIGHT / total
     cues = fov_cues + pitch_cues
     cues.append(Cue(FEET_CUE, max(MIN_AUTO_PITCH_DEG, lowest), FEET_WEIGHT,
                     detail={"min_pitch_deg": round(lowest, 3)}))
@@ -1074,6 +1082,8 @@ def estimate_camera(photo: np.ndarray, masks, labels, foot_rows, fov_deg: float 
         return CameraEstimate(float(pitch_deg), fov, cues, "user", fov_source, lowest)
     usable = [c for c in cues if c.pitch_deg is not None and c.weight > 0]
     pitch = weighted_median([c.pitch_deg for c in usable], [c.weight for c in usable])
-    kinds = sorted({c.kind for c in usable if c.weight >= 0.5}) or [FEET_CUE]
+    # the heavy readings, else the one the median fell on (a reading of 0.1, outvoted, can outweigh the feet)
+    kinds = sorted({c.kind for c in usable if c.weight >= 0.5}) or sorted(
+        {c.kind for c in usable if c.pitch_deg == pitch}) or [FEET_CUE]
     pitch = float(min(max(pitch, lowest), MAX_PITCH_DEG))
     return CameraEstimate(pitch, fov, cues, "weighted median of " + ", ".join(kinds), fov_source, lowest)
