@@ -167,18 +167,34 @@ IDENTICAL_CONTRAST = 3.0
 #: Flat rectangular things (a label of box shape whose resting height is at most RECT_FLAT of its longest
 #: side) read the pitch from their corners (:func:`rectangle_cues`): an outline of at least RECT_MIN_PX pixels,
 #: clear of the frame, filling at least RECT_FILL of its convex hull (nothing cut out of it), whose hull
-#: a quadrilateral covers to RECT_FILL.
+#: a quadrilateral covers to RECT_HULL_COVER (four sides describe it: no rounded or cut-off corner).
 RECT_FLAT = 0.15
 RECT_MIN_PX = 100
 RECT_FILL = 0.9
+RECT_HULL_COVER = 0.9
+#: The hull is simplified (OpenCV approxPolyDP) with tolerances from RECT_EPS_RANGE = (first, last, step), in
+#: fractions of its perimeter, until four corners remain: the least that gives four keeps the corners where
+#: the outline's sides meet, and a larger one would cut a corner off a thing's short side.
+RECT_EPS_RANGE = (0.01, 0.2, 0.005)
+#: The pitches tried (degrees), RECT_PITCH_STEP apart from RECT_PITCH_FROM to MAX_PITCH_DEG: at 0° the far
+#: corners lie on the horizon, and half a degree is finer than the readings agree with the truth.
+RECT_PITCH_FROM = 1.0
+RECT_PITCH_STEP = 0.5
+#: Heights of the four corners (in the photo from the highest down) in units of the thing's thickness: the far
+#: two are its top's and the near two its bottom's where the second lies nearer the highest than the third
+#: (its sides along and across the view), else the two between half-way (a corner points at the camera, and
+#: the outline there cuts across the short upright edge).
+RECT_HEIGHTS_ALONG = (1.0, 1.0, 0.0, 0.0)
+RECT_HEIGHTS_CORNER_ON = (1.0, 0.5, 0.5, 0.0)
 #: The reading counts when its cast corners come within RECT_SQUARE of square (the largest |cos| of the four
 #: angles) and the worst pitch leaves them at least RECT_CONTRAST off: a rectangle with its sides along and
-#: across the view stays a rectangle, roughly, under every pitch, and says little. On generated scenes
-#: (bench general, two seeds, the true field of view) 67 of 100 such outlines read within 10°; most of those
-#: that missed were cards on a wall read straight down, or had a flat curve.
+#: across the view stays a rectangle, roughly, under every pitch, and says little. A reading weighs
+#: RECT_WEIGHT; all of them together at most RECT_MAX_WEIGHT (as identical objects), so that a table of cards
+#: does not outvote every other cue however many there are.
 RECT_SQUARE = 0.1
 RECT_CONTRAST = 0.5
 RECT_WEIGHT = 0.5
+RECT_MAX_WEIGHT = 2.0
 
 
 @dataclass
@@ -917,13 +933,13 @@ def _quadrilateral(mask: np.ndarray) -> np.ndarray | None:
     if hull_area <= 0 or len(xs) < RECT_FILL * hull_area:
         return None  # something hides part of it: its hull's corners are no corners of the thing
     perimeter = cv2.arcLength(hull, True)
-    for eps in np.arange(0.01, 0.2, 0.005):
+    for eps in np.arange(*RECT_EPS_RANGE):
         quad = cv2.approxPolyDP(hull, eps * perimeter, True)
         if len(quad) < 4:
             return None
         if len(quad) == 4:
             quad = quad[:, 0, :].astype(float) + 0.5
-            return quad if cv2.contourArea(quad.astype(np.float32)) >= RECT_FILL * hull_area else None
+            return quad if cv2.contourArea(quad.astype(np.float32)) >= RECT_HULL_COVER * hull_area else None
     return None
 
 
@@ -937,8 +953,8 @@ def _squareness(corners: np.ndarray) -> float:
 
 
 def rectangle_cues(masks, labels, width: int, height: int, fov_deg: float) -> list[Cue]:
-    """One pitch reading per flat rectangular thing: the pitch (0.5° steps) under which its outline's four
-    corners, cast onto the ground, are most nearly square (see the module)."""
+    """One pitch reading per flat rectangular thing: the pitch (RECT_PITCH_STEP apart) under which its
+    outline's four corners, cast onto the ground, are most nearly square (see the module)."""
     cues = []
     for mask, label in zip(masks, labels):
         prior = size_prior(label)
@@ -948,19 +964,16 @@ def rectangle_cues(masks, labels, width: int, height: int, fov_deg: float) -> li
         quad = _quadrilateral(np.asarray(mask, bool))
         if quad is None:
             continue
-        # its thickness shows: the outline's highest corner is its top's, its lowest its bottom's (cast all onto
-        # the ground, a 3 cm book seen from 30° read 39.5°); of the two between, both the top's where they lie
-        # nearer the highest in the photo (its sides along and across the view), else each half-way (its
-        # corner points at the camera: the outline cuts across the short upright edge there). The top lies the
-        # thickness up, which the cast length measures in the camera's heights (the label's thickness over its
-        # length, times it)
+        # its thickness shows (cast all onto the ground, a 3 cm book seen from 30° read 39.5°): the corners'
+        # heights are RECT_HEIGHTS_*. The top lies the thickness up, which the cast length measures in the
+        # camera's heights (the label's thickness over its length, times it)
         rows = np.sort(quad[:, 1])
         lift = np.zeros(4)
-        lift[np.argsort(quad[:, 1])] = [1.0, 1.0, 0.0, 0.0] if rows[1] - rows[0] < rows[2] - rows[1] \
-            else [1.0, 0.5, 0.5, 0.0]
+        lift[np.argsort(quad[:, 1])] = RECT_HEIGHTS_ALONG if rows[1] - rows[0] < rows[2] - rows[1] \
+            else RECT_HEIGHTS_CORNER_ON
         thick = prior.height_m / prior.longest_m
         curve = []
-        for pitch in np.arange(1.0, MAX_PITCH_DEG + 1e-9, 0.5):
+        for pitch in np.arange(RECT_PITCH_FROM, MAX_PITCH_DEG + 1e-9, RECT_PITCH_STEP):
             cam = PinholeCamera(width, height, fov_deg, float(pitch))
             ground = cam.ground_points(quad[:, 0], quad[:, 1])
             if not np.all(np.isfinite(ground)):
@@ -983,6 +996,9 @@ def rectangle_cues(masks, labels, width: int, height: int, fov_deg: float) -> li
         cues.append(Cue("square corners", pitch, RECT_WEIGHT,
                         detail={"label": label, "squareness": round(low, 3), "worst": round(high, 3),
                                 "photo_squareness": round(_squareness(quad), 3)}))
+    total = sum(c.weight for c in cues)
+    for c in cues if total > RECT_MAX_WEIGHT else ():
+        c.weight *= RECT_MAX_WEIGHT / total
     return cues
 
 
