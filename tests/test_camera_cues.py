@@ -303,3 +303,35 @@ def test_unconfirmed_readings_together_weigh_less_than_the_feet():
     assert len(steep) == 2 and all(c.detail.get("uncorroborated") for c in steep)
     assert sum(c.weight for c in steep) < FEET_WEIGHT
     assert est.pitch_deg < 45 and FEET_CUE in est.pitch_source
+
+
+@pytest.mark.parametrize("pitch", [25.0, 60.0])
+def test_a_card_with_rounded_corners_reads_the_pitch(pitch):
+    """A bank card's corners are rounded (3 mm of 54 mm here, 6 mm of 54 mm for a thicker plastic one): the
+    quadrilateral kept from its outline cuts them off and misses a fair part of its hull; the corners where its
+    sides meet still read the pitch."""
+    import math
+
+    import numpy as np
+
+    import cv2
+
+    from physomni_usd.align.cues import rectangle_cues
+    from physomni_usd.geometry.camera import PinholeCamera
+
+    cam = PinholeCamera(640, 480, 50.0, pitch, (0.0, 0.0, 0.5))
+    for radius in (0.003, 0.006):
+        arcs = []
+        for cx, cy, start in ((1, 1, 0), (-1, 1, 90), (-1, -1, 180), (1, -1, 270)):
+            for k in range(13):
+                a = math.radians(start + 90 * k / 12)
+                arcs.append((cx * (0.043 - radius) + radius * math.cos(a),
+                             cy * (0.027 - radius) + radius * math.sin(a)))
+        turn = math.radians(30.0)
+        rot = np.array([[math.cos(turn), -math.sin(turn)], [math.sin(turn), math.cos(turn)]])
+        centre = cam.ground_points(320.0, 264.0)[:2]
+        points = np.c_[np.asarray(arcs) @ rot.T + centre, np.zeros(len(arcs))]
+        uv, _ = cam.project(points)
+        mask = cv2.fillPoly(np.zeros((480, 640), np.uint8), [np.round(uv * 4).astype(np.int32)], 1, shift=2) > 0
+        cues = rectangle_cues([mask], ["card"], 640, 480, 50.0)
+        assert len(cues) == 1 and cues[0].pitch_deg == pytest.approx(pitch, abs=3.0), radius

@@ -174,6 +174,11 @@ RECT_FLAT = 0.15
 RECT_MIN_PX = 100
 RECT_FILL = 0.9
 RECT_HULL_COVER = 0.9
+#: The corners are where lines fitted (robustly) to each side's middle, RECT_SIDE_MIDDLE of its length, meet:
+#: the outline's points along it within RECT_SIDE_OFF of its length, at least RECT_SIDE_MIN_POINTS of them.
+RECT_SIDE_MIDDLE = (0.2, 0.8)
+RECT_SIDE_OFF = 0.15
+RECT_SIDE_MIN_POINTS = 5
 #: The hull is simplified (OpenCV approxPolyDP) with tolerances from RECT_EPS_RANGE = (first, last, step), in
 #: fractions of its perimeter, until four corners remain: the least that gives four keeps the corners where
 #: the outline's sides meet, and a larger one would cut a corner off a thing's short side.
@@ -935,14 +940,57 @@ def _quadrilateral(mask: np.ndarray) -> np.ndarray | None:
     if hull_area <= 0 or len(xs) < RECT_FILL * hull_area:
         return None  # something hides part of it: its hull's corners are no corners of the thing
     perimeter = cv2.arcLength(hull, True)
+    # the simplification keeps the point it starts from: started mid-side (or mid-way round a rounded corner)
+    # it drops a true corner, so it starts from the point farthest from the middle, a corner
+    far = np.argmax(np.linalg.norm(hull[:, 0, :] - hull[:, 0, :].mean(axis=0), axis=1))
+    hull = np.roll(hull, -int(far), axis=0)
     for eps in np.arange(*RECT_EPS_RANGE):
         quad = cv2.approxPolyDP(hull, eps * perimeter, True)
         if len(quad) < 4:
             return None
         if len(quad) == 4:
             quad = quad[:, 0, :].astype(float) + 0.5
+            # judged by where its sides meet: the simplification cuts a rounded corner off
+            quad = _side_corners(np.vstack(contours)[:, 0, :].astype(float) + 0.5, quad)
             return quad if cv2.contourArea(quad.astype(np.float32)) >= RECT_HULL_COVER * hull_area else None
     return None
+
+
+def _side_corners(outline: np.ndarray, quad: np.ndarray) -> np.ndarray:
+    """The corners where lines fitted to the middle of each of ``quad``'s four sides (the outline's points
+    along it) meet; ``quad`` where a side has too few points. A rounded or blurred corner cuts the corner the
+    simplification keeps (it lies on the outline, inside the sides' meeting point); the middle of each side is
+    straight."""
+    lines = []
+    for i in range(4):
+        a, b = quad[i], quad[(i + 1) % 4]
+        d = b - a
+        length = float(np.linalg.norm(d))
+        if length <= 0:
+            return quad
+        d /= length
+        rel = outline - a
+        t = rel @ d / length
+        off = np.abs(rel[:, 0] * d[1] - rel[:, 1] * d[0])
+        near = outline[(t > RECT_SIDE_MIDDLE[0]) & (t < RECT_SIDE_MIDDLE[1]) & (off < RECT_SIDE_OFF * length)]
+        if len(near) < RECT_SIDE_MIN_POINTS:
+            return quad
+        vx, vy, x0, y0 = cv2.fitLine(near.astype(np.float32), cv2.DIST_HUBER, 0, 0.01, 0.01).ravel()
+        lines.append((np.array([x0, y0], float), np.array([vx, vy], float)))
+    corners = []
+    for i in range(4):
+        (p, u), (q, v) = lines[i - 1], lines[i]
+        det = u[0] * -v[1] - u[1] * -v[0]
+        if abs(det) < 1e-6:
+            return quad
+        s = ((q - p)[0] * -v[1] - (q - p)[1] * -v[0]) / det
+        corners.append(p + s * u)
+    corners = np.array(corners)
+    # a meeting point far from the kept corner is no corner (two nearly parallel sides)
+    if np.max(np.linalg.norm(corners - quad, axis=1)) > RECT_SIDE_OFF * max(
+            np.linalg.norm(quad[i] - quad[i - 1]) for i in range(4)):
+        return quad
+    return corners
 
 
 def _squareness(corners: np.ndarray) -> float:
