@@ -179,6 +179,10 @@ RECT_HULL_COVER = 0.9
 RECT_SIDE_MIDDLE = (0.2, 0.8)
 RECT_SIDE_OFF = 0.15
 RECT_SIDE_MIN_POINTS = 5
+#: ... for things no thicker than RECT_SIDES_THIN of their length (a card, a sheet, a phone): a book's outline
+#: is a hexagon (its sides show), whose four fitted lines met far off its corners (the three development
+#: seeds: six books read 11-23° off, where only one reading of full weight had missed).
+RECT_SIDES_THIN = 0.06
 #: The hull is simplified (OpenCV approxPolyDP) with tolerances from RECT_EPS_RANGE = (first, last, step), in
 #: fractions of its perimeter, until four corners remain: the least that gives four keeps the corners where
 #: the outline's sides meet, and a larger one would cut a corner off a thing's short side.
@@ -927,8 +931,9 @@ def identical_cues(masks, labels, width: int, height: int, fov_deg: float) -> li
 
 # square corners -----------------------------------------------------------------------------------
 
-def _quadrilateral(mask: np.ndarray) -> np.ndarray | None:
-    """(4, 2) corners (pixels) of a convex outline that four sides describe (:data:`RECT_FILL`), else None."""
+def _quadrilateral(mask: np.ndarray, sides: bool = True) -> np.ndarray | None:
+    """(4, 2) corners (pixels) of a convex outline that four sides describe (:data:`RECT_HULL_COVER`), else
+    None; where ``sides``, where lines fitted to the sides meet (:func:`_side_corners`)."""
     m = fill_holes(mask)
     ys, xs = np.nonzero(m)
     if len(xs) < RECT_MIN_PX or xs.min() == 0 or ys.min() == 0 or xs.max() == m.shape[1] - 1 \
@@ -951,7 +956,8 @@ def _quadrilateral(mask: np.ndarray) -> np.ndarray | None:
         if len(quad) == 4:
             quad = quad[:, 0, :].astype(float) + 0.5
             # judged by where its sides meet: the simplification cuts a rounded corner off
-            quad = _side_corners(np.vstack(contours)[:, 0, :].astype(float) + 0.5, quad)
+            if sides:
+                quad = _side_corners(np.vstack(contours)[:, 0, :].astype(float) + 0.5, quad)
             return quad if cv2.contourArea(quad.astype(np.float32)) >= RECT_HULL_COVER * hull_area else None
     return None
 
@@ -1011,7 +1017,7 @@ def rectangle_cues(masks, labels, width: int, height: int, fov_deg: float) -> li
         if prior is None or not prior.votes or not prior.height_m or prior.shape != "box" \
                 or prior.height_m > RECT_FLAT * prior.longest_m:
             continue
-        quad = _quadrilateral(np.asarray(mask, bool))
+        quad = _quadrilateral(np.asarray(mask, bool), prior.height_m <= RECT_SIDES_THIN * prior.longest_m)
         if quad is None:
             continue
         # its thickness shows (cast all onto the ground, a 3 cm book seen from 30° read 39.5°): the corners'
