@@ -213,3 +213,125 @@ def test_a_rim_does_not_override_the_vanishing_points_field_of_view():
     assert "vanishing points" in kinds and "open rim" in kinds
     assert "ellipses and horizon" not in kinds
     assert est.fov_deg == pytest.approx(50.0, rel=0.10)
+
+
+def _card_alone(pitch: float, turn_deg: float = 30.0):
+    """A plain 320×240 photo of one card (8.6 × 5.4 cm, 1 mm thick) lying on the ground turned ``turn_deg``
+    from the view, 0.3 m ahead of a camera of 50° (the default field of view) pitched ``pitch``; its mask."""
+    import math
+
+    import numpy as np
+    import trimesh
+
+    from physomni_usd.bench.synthetic import render_truth
+    from physomni_usd.geometry.camera import PinholeCamera
+
+    cam = PinholeCamera(320, 240, 50.0, pitch, (0.0, 0.0, 0.3 * math.tan(math.radians(pitch))))
+    card = trimesh.creation.box([0.086, 0.054, 0.001])
+    card.apply_transform(trimesh.transformations.rotation_matrix(math.radians(turn_deg), [0, 0, 1]))
+    card.apply_translation([0.0, 0.3, 0.0005])
+    _, masks = render_truth(cam, [card])
+    return np.full((240, 320, 3), 128, np.uint8), masks
+
+
+@pytest.mark.parametrize("pitch", [20.0, 40.0])
+def test_a_flat_cards_square_corners_read_the_pitch_where_nothing_else_does(pitch):
+    photo, masks = _card_alone(pitch)
+    feet = [foot_pixel(fill_holes(m))[1] for m in masks]
+    est = estimate_camera(photo, masks, ["card"], feet)
+    corners = [c for c in est.cues if c.kind == "square corners"]
+    assert len(corners) == 1 and corners[0].pitch_deg == pytest.approx(pitch, abs=3.0)
+    assert est.pitch_deg == pytest.approx(pitch, abs=3.0)
+    # a thing of no flat rectangular label (a ball) reads no corners: only the feet's least tilt is left
+    est = estimate_camera(photo, masks, ["apple"], feet)
+    assert not any(c.kind == "square corners" for c in est.cues)
+
+
+def test_a_rectangle_square_in_the_photo_alone_reads_no_steep_pitch():
+    """A card seen face-on (on a wall, or from straight above) is square in the photo and reads straight down;
+    alone it must not carry the pitch there."""
+    import numpy as np
+
+    import cv2
+
+    corners = cv2.boxPoints(((160.0, 120.0), (64.0, 40.0), 30.0))  # turned in the photo: no pitch keeps it square
+    mask = cv2.fillPoly(np.zeros((240, 320), np.uint8), [np.round(corners).astype(np.int32)], 1) > 0
+    est = estimate_camera(np.full((240, 320, 3), 128, np.uint8), [mask], ["card"], [float(corners[:, 1].max())])
+    corners = [c for c in est.cues if c.kind == "square corners"]
+    assert len(corners) == 1 and corners[0].pitch_deg > 80 and corners[0].detail.get("uncorroborated")
+    assert est.pitch_deg < 45
+
+
+def _wall_sheets():
+    """Two sheets on the wall behind, seen face-on and turned 6° and -7° in a 320×240 photo: their masks and
+    labels (each is square in the photo, so each reads straight down)."""
+    import numpy as np
+
+    import cv2
+
+    masks, labels = [], []
+    for (cx, cy, w, h, turn), label in (((70, 45, 70, 50, 6), "paper"), ((250, 50, 50, 32, -7), "ticket")):
+        pts = cv2.boxPoints(((cx, cy), (w, h), turn))
+        masks.append(cv2.fillPoly(np.zeros((240, 320), np.uint8), [np.round(pts).astype(np.int32)], 1) > 0)
+        labels.append(label)
+    return masks, labels
+
+
+def test_rectangles_square_in_the_photo_do_not_confirm_each_others_steep_pitch():
+    """Two sheets on a wall agree on straight down; a card lying on the ground reads 30°. The sheets' corners,
+    square in the photo whatever the pitch, must not confirm each other and outvote the card."""
+    photo, masks = _card_alone(30.0)
+    walls, labels = _wall_sheets()
+    masks, labels = [*masks, *walls], ["card", *labels]
+    est = estimate_camera(photo, masks, labels, [foot_pixel(fill_holes(m))[1] for m in masks])
+    steep = [c for c in est.cues if c.kind == "square corners" and c.pitch_deg > 80]
+    assert len(steep) == 2 and all(c.detail.get("uncorroborated") for c in steep)
+    assert est.pitch_deg == pytest.approx(30.0, abs=3.0)
+
+
+def test_unconfirmed_readings_together_weigh_less_than_the_feet():
+    """Two sheets on a wall each read straight down, unconfirmed (square in the photo): each weighs less than
+    the feet's least tilt, and so must both together; the source names what the pitch came from."""
+    import numpy as np
+
+    from physomni_usd.align.cues import FEET_CUE, FEET_WEIGHT
+
+    masks, labels = _wall_sheets()
+    est = estimate_camera(np.full((240, 320, 3), 128, np.uint8), masks, labels,
+                          [foot_pixel(fill_holes(m))[1] for m in masks])
+    steep = [c for c in est.cues if c.kind == "square corners"]
+    assert len(steep) == 2 and all(c.detail.get("uncorroborated") for c in steep)
+    assert sum(c.weight for c in steep) < FEET_WEIGHT
+    assert est.pitch_deg < 45 and FEET_CUE in est.pitch_source
+
+
+@pytest.mark.parametrize("pitch", [25.0, 60.0])
+def test_a_card_with_rounded_corners_reads_the_pitch(pitch):
+    """A bank card's corners are rounded (3 mm of 54 mm here, 6 mm of 54 mm for a thicker plastic one): the
+    quadrilateral kept from its outline cuts them off and misses a fair part of its hull; the corners where its
+    sides meet still read the pitch."""
+    import math
+
+    import numpy as np
+
+    import cv2
+
+    from physomni_usd.align.cues import rectangle_cues
+    from physomni_usd.geometry.camera import PinholeCamera
+
+    cam = PinholeCamera(640, 480, 50.0, pitch, (0.0, 0.0, 0.5))
+    for radius in (0.003, 0.006):
+        arcs = []
+        for cx, cy, start in ((1, 1, 0), (-1, 1, 90), (-1, -1, 180), (1, -1, 270)):
+            for k in range(13):
+                a = math.radians(start + 90 * k / 12)
+                arcs.append((cx * (0.043 - radius) + radius * math.cos(a),
+                             cy * (0.027 - radius) + radius * math.sin(a)))
+        turn = math.radians(30.0)
+        rot = np.array([[math.cos(turn), -math.sin(turn)], [math.sin(turn), math.cos(turn)]])
+        centre = cam.ground_points(320.0, 264.0)[:2]
+        points = np.c_[np.asarray(arcs) @ rot.T + centre, np.zeros(len(arcs))]
+        uv, _ = cam.project(points)
+        mask = cv2.fillPoly(np.zeros((480, 640), np.uint8), [np.round(uv * 4).astype(np.int32)], 1, shift=2) > 0
+        cues = rectangle_cues([mask], ["card"], 640, 480, 50.0)
+        assert len(cues) == 1 and cues[0].pitch_deg == pytest.approx(pitch, abs=3.0), radius

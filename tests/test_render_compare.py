@@ -121,7 +121,12 @@ def _synthetic(pitch: float, width: int = 240, height: int = 180):
 
 
 @pytest.mark.parametrize("pitch", [30.0, 60.0])
-def test_the_search_recovers_the_pitch_of_a_synthetic_scene_the_cues_miss(pitch):
+def test_the_search_recovers_the_pitch_of_a_synthetic_scene_the_cues_miss(pitch, monkeypatch):
+    from physomni_usd.align import cues
+
+    # the book's corners read the pitch (test_a_lying_books_corners_read_the_pitch_the_search_would_find): left
+    # out here, so that nothing in the plain photo does
+    monkeypatch.setattr(cues, "rectangle_cues", lambda *a, **k: [])
     masks, labels, photo = _synthetic(pitch)
     names = [f"o{i}" for i in range(len(masks))]
     cues_only = lift_photo_scene(masks, labels, names, photo, BuildSettings(render_compare=False), {}, visible=masks)
@@ -134,11 +139,23 @@ def test_the_search_recovers_the_pitch_of_a_synthetic_scene_the_cues_miss(pitch)
     assert min(info["render_compare"]["score"]["silhouette_iou"]) > 0.8
 
 
+def test_a_lying_books_corners_read_the_pitch_the_search_would_find():
+    # its 3 cm of thickness counted: its outline's lower corners are its bottom's, cast onto the ground as its
+    # top's, they read 39.5° for 30°
+    masks, labels, photo = _synthetic(30.0)
+    found = lift_photo_scene(masks, labels, [f"o{i}" for i in range(len(masks))], photo,
+                             BuildSettings(render_compare=False), {}, visible=masks)
+    corners = [c for c in found.info["camera"]["cues"] if c["cue"] == "square corners"]
+    assert len(corners) == 1 and corners[0]["label"] == "book"
+    assert found.camera.pitch_deg == pytest.approx(30.0, abs=2.0)
+
+
 def test_where_no_cue_reads_the_pitch_the_feet_default_has_no_reading_to_defend(monkeypatch):
     # a plain photo: only the feet's least tilt, a default; the silhouettes replace it on a smaller gain than
     # a reading of the photo needs (a scene seen from 75° kept at the feet's 10° for want of 40 %)
-    from physomni_usd.align import photo_scene
+    from physomni_usd.align import cues as camera_cues, photo_scene
 
+    monkeypatch.setattr(camera_cues, "rectangle_cues", lambda *a, **k: [])  # the book's corners read one
     masks, labels, photo = _synthetic(60.0)
     asked = []
     real = photo_scene.search_pitch
