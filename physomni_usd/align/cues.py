@@ -929,6 +929,26 @@ def identical_cues(masks, labels, width: int, height: int, fov_deg: float) -> li
                                  "ground_size_spread": round(math.exp(0.5 * low), 4)}))
     return found
 
+
+def _agreed(c: Cue, others, confirms=lambda o: o.kind in SELF_STANDING) -> bool:
+    """Whether another reading of ``others`` that ``confirms`` (by default a self-standing cue) reads ``c``'s
+    pitch within AGREE_DEG: what a steep reading needs to keep its weight."""
+    return any(o is not c and o.pitch_deg is not None and abs(o.pitch_deg - c.pitch_deg) <= AGREE_DEG
+               and confirms(o) for o in others)
+
+
+def _uncorroborate(c: Cue) -> None:
+    """Cut ``c`` to UNCORROBORATED_WEIGHT, marked so in the report."""
+    c.weight, c.detail["uncorroborated"] = UNCORROBORATED_WEIGHT, True
+
+
+def _cap_total(cues, cap: float) -> None:
+    """Scale the weights of ``cues`` down together so that they sum to at most ``cap``."""
+    total = sum(c.weight for c in cues)
+    for c in cues if total > cap else ():
+        c.weight *= cap / total
+
+
 # square corners -----------------------------------------------------------------------------------
 
 def _quadrilateral(mask: np.ndarray, sides: bool = True) -> np.ndarray | None:
@@ -1054,9 +1074,7 @@ def rectangle_cues(masks, labels, width: int, height: int, fov_deg: float) -> li
         cues.append(Cue("square corners", pitch, RECT_WEIGHT,
                         detail={"label": label, "squareness": round(low, 3), "worst": round(high, 3),
                                 "photo_squareness": round(_squareness(quad), 3)}))
-    total = sum(c.weight for c in cues)
-    for c in cues if total > RECT_MAX_WEIGHT else ():
-        c.weight *= RECT_MAX_WEIGHT / total
+    _cap_total(cues, RECT_MAX_WEIGHT)
     return cues
 
 
@@ -1107,10 +1125,9 @@ def estimate_camera(photo: np.ndarray, masks, labels, foot_rows, fov_deg: float 
     # pitch that squares them
     sheared = [c for c in corners if c.detail["photo_squareness"] > RECT_SQUARE]
     for c in corners:
-        if c.pitch_deg > STEEP_DEG and not any(
-                o is not c and o.pitch_deg is not None and abs(o.pitch_deg - c.pitch_deg) <= AGREE_DEG
-                and (o.kind in SELF_STANDING or any(o is s for s in sheared)) for o in pitch_cues + corners):
-            c.weight, c.detail["uncorroborated"] = UNCORROBORATED_WEIGHT, True
+        if c.pitch_deg > STEEP_DEG and not _agreed(
+                c, pitch_cues + corners, lambda o: o.kind in SELF_STANDING or any(o is s for s in sheared)):
+            _uncorroborate(c)
     pitch_cues += corners
     groups = identical_cues(masks, labels, w, h, fov)
     for same in groups:
@@ -1121,7 +1138,7 @@ def estimate_camera(photo: np.ndarray, masks, labels, foot_rows, fov_deg: float 
             # near straight down two outlines' ground areas agree for any two of one image size, such as a
             # card on the table and its twin on the wall behind (nothing says both lie on the ground): a steep
             # pair needs the agreement of a cue that stands by itself (a weak or steep horizon does not)
-            same.weight, same.detail["uncorroborated"] = UNCORROBORATED_WEIGHT, True
+            _uncorroborate(same)
     # chosen after that check, so that a steep pair cut down does not hide a larger group
     same = max(groups, key=lambda c: c.weight, default=None)
     if same is not None:
@@ -1137,18 +1154,15 @@ def estimate_camera(photo: np.ndarray, masks, labels, foot_rows, fov_deg: float 
     # Two horizon points whose directions meet at right angles (they read the field of view) are ground lines.
     paired = any(c.kind == "orthogonal vanishing points" for c in fov_cues)
     for c in pitch_cues:
-        if c.kind == "horizon vanishing points" and c.pitch_deg > STEEP_DEG and not paired and not any(
-                o is not c and o.pitch_deg is not None and abs(o.pitch_deg - c.pitch_deg) <= AGREE_DEG
-                and o.kind in SELF_STANDING for o in pitch_cues):
-            c.weight, c.detail["uncorroborated"] = UNCORROBORATED_WEIGHT, True
+        if c.kind == "horizon vanishing points" and c.pitch_deg > STEEP_DEG and not paired \
+                and not _agreed(c, pitch_cues):
+            _uncorroborate(c)
     # readings too light to move the median alone must not add up to more than the feet: two unconfirmed
     # steep readings (0.03 each) that disagreed with each other took a generated scene to 51.5° (truth 34°)
     # while the source still named the feet. Together they weigh UNCORROBORATED_WEIGHT; they still anchor the
     # render-and-compare search
-    light = [c for c in pitch_cues if c.pitch_deg is not None and 0 < c.weight < FEET_WEIGHT]
-    total = sum(c.weight for c in light)
-    for c in light if total > UNCORROBORATED_WEIGHT else ():
-        c.weight *= UNCORROBORATED_WEIGHT / total
+    _cap_total([c for c in pitch_cues if c.pitch_deg is not None and 0 < c.weight < FEET_WEIGHT],
+               UNCORROBORATED_WEIGHT)
     cues = fov_cues + pitch_cues
     cues.append(Cue(FEET_CUE, max(MIN_AUTO_PITCH_DEG, lowest), FEET_WEIGHT,
                     detail={"min_pitch_deg": round(lowest, 3)}))

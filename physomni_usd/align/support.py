@@ -500,10 +500,13 @@ def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0, pho
                 raised = attempt(stood[0], longest_dimension(stood[0]))
                 if raised is None or raised[2] is not None:  # on the ground or on another: it lies as lifted
                     raised = stood = None
+        def stand(mesh):
+            lifted[i].vertices, lifted[i].faces = mesh
+            lifted[i].contact = mesh[0][np.argmin(mesh[0][:, 2])]
+
         if stood is not None:
             thickness = float(np.ptp(lifted[i].vertices[:, 2]))
-            lifted[i].vertices, lifted[i].faces = stood
-            lifted[i].contact = stood[0][np.argmin(stood[0][:, 2])]
+            stand(stood)
             longest[i] = longest_dimension(stood[0])
         else:
             raised = attempt(lifted[i].vertices, longest[i])
@@ -515,8 +518,7 @@ def raise_unseen(lifted, labels, supports: dict, camera, scale: float = 1.0, pho
             if entry.get("against_wall"):  # its back on the wall's plane
                 on = upright_plate(lifted[i].vertices, camera, wall[0], thickness)
                 if on is not None:
-                    lifted[i].vertices, lifted[i].faces = on
-                    lifted[i].contact = on[0][np.argmin(on[0][:, 2])]
+                    stand(on)
             out[i] |= {"upright": True, "base_m": round(float(lifted[i].vertices[:, 2].min()) * scale, 4)}
             lifted[i].info["raised"] = out[i]
     return out

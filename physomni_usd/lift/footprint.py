@@ -561,8 +561,7 @@ def upright_plate(vertices: np.ndarray, camera, plane=None, thickness: float | N
         along = d @ normal
         if np.any(along <= 1e-6):
             return None
-        back = camera.origin + ((point - camera.origin) @ normal / along)[:, None] * d
-        return _slab(back, normal, thickness, camera)
+        return _slab(_on_plane(camera, d, along, point, normal), normal, thickness, camera)
     lying = rectangularity(v[:, :2])
     point = 0.5 * (v.min(0) + v.max(0))
     facing = point - camera.origin
@@ -588,7 +587,7 @@ def upright_plate(vertices: np.ndarray, camera, plane=None, thickness: float | N
         along = d @ normal
         if np.any(along <= graze * np.linalg.norm(d, axis=1)):
             continue
-        on = camera.origin + ((point - camera.origin) @ normal / along)[:, None] * d
+        on = _on_plane(camera, d, along, point, normal)
         side = np.array([-normal[1], normal[0], 0.0])
         flat = np.c_[on @ side, on[:, 2]]
         if float(np.ptp(flat[:, 0])) > UPRIGHT_MAX_GROW * lying_long:
@@ -605,6 +604,12 @@ def upright_plate(vertices: np.ndarray, camera, plane=None, thickness: float | N
     _, _, on, normal = best
     # held up by nothing seen, the plane is its middle
     return _slab(on + 0.5 * thickness * normal, normal, thickness, camera)
+
+
+def _on_plane(camera, d: np.ndarray, along: np.ndarray, point: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """Where the rays ``d`` (n, 3) from the camera meet the plane through ``point`` with ``normal`` (``along``:
+    ``d @ normal``, each positive)."""
+    return camera.origin + ((point - camera.origin) @ normal / along)[:, None] * d
 
 
 def _slab(back: np.ndarray, normal: np.ndarray, thickness: float, camera) -> tuple[np.ndarray, np.ndarray]:
