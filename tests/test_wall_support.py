@@ -206,27 +206,36 @@ def test_a_card_held_up_with_no_wall_stands_at_its_own_size():
     assert done[2]["size_ratio"] < 4.0
 
 
+def _hung_card_read_lying(size, yaw: float, x: float) -> np.ndarray:
+    """A card ``size`` (m) hung turned ``yaw``° at ``x`` just in front of the wall, as the lift reads it where
+    no wall is found: a plate lying along the rays through its mask, at the card's own distance."""
+    o = CAMERA.origin
+    card = trimesh.creation.box(size)
+    card.apply_transform(trimesh.transformations.rotation_matrix(np.radians(yaw), [0, 0, 1]))
+    card.apply_translation([x, WALL_Y - 0.001, 0.35])
+    plate = _lying_plate(_mask(card), 0.002)
+    middle = 0.5 * (plate.min(0) + plate.max(0))
+    return o + np.linalg.norm(card.bounds.mean(0) - o) / np.linalg.norm(middle - o) * (plate - o)
+
+
+def _turn(vertices: np.ndarray) -> float:
+    """Degrees a stood plate's face is turned about the vertical from facing along the y axis."""
+    xy = vertices[:, :2] - vertices[:, :2].mean(0)
+    normal = np.linalg.eigh(xy.T @ xy)[1][:, 0]  # the least spread across it
+    return (np.degrees(np.arctan2(-normal[0], normal[1])) + 90.0) % 180.0 - 90.0
+
+
 def test_a_card_turned_on_a_wall_no_one_found_stands_turned_as_it_is():
     """A card 30 cm wide hung turned ±30° from facing the camera, where no wall is found: stood upright, its
     plane turns about the vertical within 10° of the card's (the turn picked by the best fill alone followed
     the mask's pixel steps: a card facing 20° stood 50° or 70° off)."""
     from physomni_usd.lift.footprint import upright_plate
 
-    o = CAMERA.origin
     for yaw in (-30.0, 30.0):
         for x in (0.05, 0.2):
-            card = trimesh.creation.box((0.3, 0.002, 0.2))
-            card.apply_transform(trimesh.transformations.rotation_matrix(np.radians(yaw), [0, 0, 1]))
-            card.apply_translation([x, WALL_Y - 0.001, 0.35])
-            plate = _lying_plate(_mask(card), 0.002)
-            middle = 0.5 * (plate.min(0) + plate.max(0))
-            held = o + np.linalg.norm(card.bounds.mean(0) - o) / np.linalg.norm(middle - o) * (plate - o)
-            stood = upright_plate(held, CAMERA)
+            stood = upright_plate(_hung_card_read_lying((0.3, 0.002, 0.2), yaw, x), CAMERA)
             assert stood is not None, (yaw, x)
-            xy = stood[0][:, :2] - stood[0][:, :2].mean(0)
-            normal = np.linalg.eigh(xy.T @ xy)[1][:, 0]  # the least spread across it
-            turned = np.degrees(np.arctan2(-normal[0], normal[1]))
-            turned = (turned + 90.0) % 180.0 - 90.0
+            turned = _turn(stood[0])
             assert abs(turned - yaw) <= 10.0, (yaw, x, turned)
             assert np.ptp(stood[0][:, 2]) == pytest.approx(0.2, rel=0.15)
 
@@ -237,24 +246,14 @@ def test_cards_turned_on_a_wall_no_one_found_stand_near_their_turn():
     followed those (a median 10° and up to 50° off); the middle of the near-best turns stays near the card's."""
     from physomni_usd.lift.footprint import upright_plate
 
-    o = CAMERA.origin
     off = []
     for yaw in (-30.0, -20.0, 20.0, 30.0):
         for x in (-0.3, 0.3):
             for size in ((0.15, 0.002, 0.1), (0.08, 0.002, 0.06), (0.3, 0.002, 0.2)):
-                card = trimesh.creation.box(size)
-                card.apply_transform(trimesh.transformations.rotation_matrix(np.radians(yaw), [0, 0, 1]))
-                card.apply_translation([x, WALL_Y - 0.001, 0.35])
-                plate = _lying_plate(_mask(card), 0.002)
-                middle = 0.5 * (plate.min(0) + plate.max(0))
-                held = o + np.linalg.norm(card.bounds.mean(0) - o) / np.linalg.norm(middle - o) * (plate - o)
-                stood = upright_plate(held, CAMERA)
+                stood = upright_plate(_hung_card_read_lying(size, yaw, x), CAMERA)
                 if stood is None:
                     continue
-                xy = stood[0][:, :2] - stood[0][:, :2].mean(0)
-                normal = np.linalg.eigh(xy.T @ xy)[1][:, 0]
-                turned = (np.degrees(np.arctan2(-normal[0], normal[1])) + 90.0) % 180.0 - 90.0
-                off.append(abs(turned - yaw))
+                off.append(abs(_turn(stood[0]) - yaw))
     assert len(off) >= 20
     assert np.median(off) <= 8.0 and max(off) <= 35.0 and sum(a > 15.5 for a in off) <= 4, sorted(off)
 
