@@ -436,6 +436,37 @@ def test_playing_with_nothing_touched_still_shows_the_photo(moto, tmp_path):
     assert score >= 0.9, score
 
 
+def test_card_clears_a_shared_shadow_only_once_both_objects_have_moved():
+    """The card's regions as ``render`` reveals the plate: a filled pixel an object owns is cleared once it
+    moves, unless another shares it (a contact shadow the other casts, ``texture.fill.hole_owners``); that is
+    cleared only once both have moved (the card used to clear it with the owner alone, showing the plate's lit
+    floor beside a box that stood)."""
+    from types import SimpleNamespace
+
+    from physomni_usd.preview.card import moved_regions, object_regions
+    from physomni_usd.rendering.video import _revealed
+
+    h, w = 4, 6
+    photo = np.zeros((h, w, 3), np.float32)
+    owner = np.zeros((h, w), np.int32)
+    owner[:, 3:] = 1
+    sharer = np.full((h, w), -1, np.int32)
+    share = np.zeros((h, w), np.float32)
+    sharer[:, 1], share[:, 1] = 1, 0.2  # the fading edge of a share: the plate mostly, once the owner moves
+    sharer[:, 2], share[:, 2] = 1, 1.0  # the other's shadow, nearer the first
+    renderer = SimpleNamespace(photo=photo, plate=photo + 50.0, owner=owner, sharer=sharer, share=share,
+                               objects=[SimpleNamespace(path="/a", origin=None), SimpleNamespace(path="/b",
+                                                                                                 origin=None)],
+                               height=h, width=w, to_frame=(1.0, 1.0))
+    regions = object_regions(renderer)
+    assert set(regions) == {"/a", "/b", ("/a", "/b")}
+    for moved in ({"/a"}, {"/b"}, {"/a", "/b"}, set()):
+        cleared = moved_regions(regions, moved, (h, w))
+        shown = _revealed(np.array([p in moved for p in ("/a", "/b")] + [False], np.float32), owner, sharer, share)
+        assert np.array_equal(cleared, shown > 0.5), moved
+    assert not moved_regions(regions, {"/a"}, (h, w))[:, 2].any()  # the shadow stays while its caster stands
+
+
 def test_opening_card_clears_only_where_the_pushed_box_went(shot):
     """Playing, the opening card (the first frame: the photo) stays over everything that has not moved and is
     cleared where the pushed box stood, where it is now and where its shadow lies, so that only there the live
@@ -456,7 +487,7 @@ def test_opening_card_clears_only_where_the_pushed_box_went(shot):
     assert np.linalg.norm(b - a) < 0.25  # the cup stood still, to a fraction of a pixel
     alpha = p.card_now()[..., 3]
     clear = alpha < 128
-    regions = {path.rsplit("/", 1)[-1]: r for path, r in p.regions.items()}
+    regions = {path.rsplit("/", 1)[-1]: r for path, r in p.regions.items() if isinstance(path, str)}
     assert clear[regions["box_1"]].mean() > 0.95  # where it stood: the plate
     u, v = (p.card.pixels(q1[box, :3])[0][0]).astype(int)
     assert clear[v, u]  # where it is now: its mesh

@@ -21,7 +21,7 @@ import numpy as np
 from ..errors import InputError, PhysOmniError
 from . import security
 from .limits import PREVIEW
-from .card import Mover, OpeningCard
+from .card import Mover, OpeningCard, moved_regions
 from .engine import Engine, field_label
 from .scene import (SHADOW_LIFT, GroundShadow, ShadowTrack, background_card, contact_decal, drawn_objects,
                     fitted_fov, mean_colour, opening_card, opening_frame, photo_view, shadow_blur_m, textured_glb)
@@ -196,7 +196,7 @@ class Preview:
                 if float(e.sim.model.body_inv_mass.numpy()[b]) > 0:
                     self._draggable(h, b)
                 self.handles[b] = h
-                self.movers[("body", b)] = Mover(_posed(d.points, q[b]), d.faces, self.regions.get(path))
+                self.movers[("body", b)] = Mover(_posed(d.points, q[b]), d.faces, path)
                 self._body_points[b] = d.points
                 tracks[b] = self._shadow_track(d, q[b])
             elif path in e.surfaces():
@@ -204,7 +204,7 @@ class Preview:
                 self.live_meshes[path] = s.scene.add_mesh_simple(
                     f"/objects/{d.name}", world.astype(np.float32), d.faces, color=mean_colour(d.texture),
                     side="double", cast_shadow=False, receive_shadow=False)
-                self.movers[("surface", path)] = Mover(world.copy(), d.faces, self.regions.get(path))
+                self.movers[("surface", path)] = Mover(world.copy(), d.faces, path)
         tracks = {b: t for b, t in tracks.items() if t is not None}
         if tracks:
             self.ground = GroundShadow(tracks)
@@ -218,7 +218,7 @@ class Preview:
                                                         colors=colour, point_size=float(e.sim.mpm.spacing),
                                                         point_shape="circle")
             path = next((p for p, d in self.drawn.items() if d.name == name), None)
-            self.movers[("particles", name)] = Mover(pts.copy(), None, self.regions.get(path),
+            self.movers[("particles", name)] = Mover(pts.copy(), None, path,
                                                      float(e.sim.mpm.spacing))
 
     def _shadow_track(self, d, pose) -> ShadowTrack | None:
@@ -261,6 +261,7 @@ class Preview:
         self._card_due = False
         hole = np.zeros((self.card.height, self.card.width), np.uint8)
         bodies = []
+        moved: set[str] = set()
         last, self._last_q = self._last_q, np.array(q, copy=True)
         for key, m in self.movers.items():
             kind, name = key
@@ -275,11 +276,13 @@ class Preview:
                 now = particles.get(name, m.start)
             if not self.card.moved(now, m.start):
                 continue
-            if m.region is not None:
-                hole |= m.region
+            if m.path is not None:
+                moved.add(m.path)
             self.card.silhouette(hole, now, m)
             if kind == "body":
                 bodies.append(name)
+        # what the moved objects leave: each one's own pixels, and a shadow another shares once both have moved
+        hole |= moved_regions(self.regions, moved, hole.shape)
         if bodies and self.ground is not None:
             self.card.shadow(hole, self.ground, self.ground.darkening(q, bodies), SHADOW_LIFT)
         image = self.card.rgba(hole)

@@ -20,6 +20,9 @@ from ..rendering.video import IN_PLACE_PX
 #: Plate and photo differ by more than this (levels 0–255, any channel) where the build filled an object, and
 #: the shadow it cast, out of the plate: those pixels change once the object moves.
 FILLED_LEVELS = 3
+#: A pixel another object shares at least this much (``texture.fill.hole_owners``: a contact shadow that object
+#: casts) is cleared only once both have moved, as ``render`` shows the plate there mostly only then.
+SHARED = 0.5
 #: Pixels by which a hole is widened, so that the resampled edges of what moved (in the browser, and in the
 #: plate's fill) never leave a fringe of the photo around it.
 HOLE_MARGIN = 2
@@ -33,26 +36,33 @@ TILE = 128
 @dataclass
 class Mover:
     """Something the preview moves: ``start`` (N, 3) its world points at frame 0, ``faces`` (M, 3) its
-    triangles (None for a particle set, drawn as discs ``radius`` metres across), and ``region`` (h, w) bool,
-    the card's pixels that show it in the photo or that the plate filled in its place (None: none known)."""
+    triangles (None for a particle set, drawn as discs ``radius`` metres across), and ``path``, its prim's, the
+    key of the card's pixels that show it in the photo or that the plate filled in its place
+    (:func:`object_regions`; None: none known)."""
     start: np.ndarray
     faces: np.ndarray | None
-    region: np.ndarray | None
+    path: str | None
     radius: float = 0.0
 
 
-def object_regions(renderer) -> dict[str, np.ndarray]:
+def object_regions(renderer) -> dict[str | tuple[str, str], np.ndarray]:
     """Per object prim path, the pixels of ``renderer``'s frame (a :class:`~physomni_usd.rendering.video.
     ShotRenderer` through the photo's camera) that change when that object moves: where the photo shows it
-    and where its plate was filled (its own shadow among them) nearer to it than to any other object."""
+    and where its plate was filled (its own shadow among them) nearer to it than to any other object; and per
+    pair of paths (owner, sharer), the filled pixels nearer the first that the second shares (a contact shadow
+    it casts, :data:`SHARED`), which change only once both have moved (:func:`moved_regions`)."""
     if renderer.photo is None:
         return {}
     h, w = renderer.height, renderer.width
     filled = np.abs(renderer.plate - renderer.photo).max(axis=2) > FILLED_LEVELS
+    shared = filled & (renderer.sharer >= 0) & (renderer.share >= SHARED)
     sx, sy = renderer.to_frame
-    out = {}
+    out: dict = {}
     for k, o in enumerate(renderer.objects):
-        region = filled & (renderer.owner == k)
+        mine = renderer.owner == k
+        region = filled & mine & ~shared
+        for j in np.unique(renderer.sharer[shared & mine]):
+            out[(o.path, renderer.objects[j].path)] = shared & mine & (renderer.sharer == j)
         if o.origin is not None:
             # the photo crop: 255 where the photo shows the object (254: what others hide, painted by build)
             a = (o.texture[:, : o.texture.shape[1] // 2 if o.two_sided else None, 3] == 255).astype(np.uint8)
@@ -63,6 +73,16 @@ def object_regions(renderer) -> dict[str, np.ndarray]:
                 m[y0:y0 + th, x0:x0 + tw] = a[:th, :tw]
                 region |= cv2.resize(m, (w, h), interpolation=cv2.INTER_NEAREST) > 0
         out[o.path] = region
+    return out
+
+
+def moved_regions(regions: dict, moved: set[str], shape: tuple[int, int]) -> np.ndarray:
+    """(h, w) bool of ``shape``: the pixels of ``regions`` (:func:`object_regions`) that have changed once the
+    objects whose prim paths are ``moved`` have moved: an object's own, and a pair's once both have."""
+    out = np.zeros(shape, bool)
+    for key, region in regions.items():
+        if (key in moved) if isinstance(key, str) else all(p in moved for p in key):
+            out |= region
     return out
 
 

@@ -72,8 +72,8 @@ def photo_view(stage: Usd.Stage) -> tuple[View, float]:
 def opening_frame(stage: Usd.Stage, regions: bool = False):
     """(H, W, 3) uint8: the shot's first frame as ``render`` draws it through the photo's camera, at the
     photo's size up to ``render``'s longest side (the photo itself wherever nothing has moved); with
-    ``regions``, also each object's pixels of it that change once the object moves (:func:`~.card.
-    object_regions`)."""
+    ``regions``, also each object's pixels of it that change once the object moves, and the pixels two objects
+    share keyed by the pair, which change once both have moved (:func:`~.card.object_regions`)."""
     from ..rendering.video import ShotRenderer
 
     renderer = ShotRenderer(stage)

@@ -131,7 +131,7 @@ def background_plate(photo: np.ndarray, masks, dilation: float, method: str = DE
     where the plate is the photo, 1 where it is the fill alone), which :func:`~.carry.carry_plate` needs: a
     pixel the plate left as the photo may lie beside one it keeps filled (:func:`_world_back`).
     """
-    hole, kept = _plate_parts(photo, masks, dilation, shadows)
+    hole, kept, _ = _plate_parts(photo, masks, dilation, shadows)
     feather = feather_px(photo.shape)
     wall = off_floor(photo, masks) if _top_down(method, camera) else None
     filled = fill_hole(photo, hole, method, feather, sources, camera, wall)
@@ -271,9 +271,12 @@ def plate_hole(photo: np.ndarray, masks, dilation: float, shadows: bool = True) 
     return _plate_parts(photo, masks, dilation, shadows)[0]
 
 
-def _plate_parts(photo: np.ndarray, masks, dilation: float, shadows: bool) -> tuple[np.ndarray, np.ndarray | None]:
-    """:func:`plate_hole`, and the part of it the plate shows filled (the masks widened by :data:`KEPT_EDGE`
-    and the shadows; the photo returns across a seam beyond it), None where that is the whole hole."""
+def _plate_parts(photo: np.ndarray, masks, dilation: float, shadows: bool
+                 ) -> tuple[np.ndarray, np.ndarray | None, list[np.ndarray | None]]:
+    """:func:`plate_hole`, the part of it the plate shows filled (the masks widened by :data:`KEPT_EDGE`
+    and the shadows; the photo returns across a seam beyond it), None where that is the whole hole, and the
+    contact shadow found under each mask (None each without ``shadows``). Each shadow is sought beside the
+    hole grown by those before it, so that no two share a pixel (:func:`hole_owners` reads them from here)."""
     h, w = photo.shape[:2]
     union = np.zeros((h, w), bool)
     for m in masks:
@@ -282,14 +285,79 @@ def _plate_parts(photo: np.ndarray, masks, dilation: float, shadows: bool) -> tu
     edge = kept_edge_px(photo.shape)
     hole = dilate(union, r)
     kept = dilate(union, edge) if r > edge else None
+    found: list[np.ndarray | None] = [None] * len(masks)
     if shadows:
         lum = cv2.cvtColor(photo, cv2.COLOR_RGB2Lab)[..., 0].astype(np.float32)
-        for m in masks:
+        for i, m in enumerate(masks):
             shadow = contact_shadow(lum, np.asarray(m, bool), hole)
+            found[i] = shadow
             hole |= shadow
             if kept is not None:
                 kept |= shadow
-    return (dilate(hole, feather_px(photo.shape)) if hole.any() else hole), kept
+    return (dilate(hole, feather_px(photo.shape)) if hole.any() else hole), kept, found
+
+
+#: How far beyond the seam round a contact shadow (:data:`FEATHER`) its caster still shares the pixels in full
+#: (:func:`hole_owners`), in pixels: the renderer finds the shadow again at the frame's size, where its edge
+#: falls a pixel or two from the plate's; and the ramp (pixels) beyond that over which the share fades (and over
+#: which it fades where it meets the owner's own shadow), so that where the photo kept for a caster that stands
+#: meets the fill of one that moved no hard edge shows.
+SHARE_SLACK = 3.0
+SHARE_RAMP = 3.0
+
+
+def hole_owners(photo: np.ndarray, masks, dilation: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per pixel of ``photo`` (H, W, 3) uint8, the object (index into ``masks``, (H, W) bool each or None)
+    whose part of the plate it is, and another that shares it, (H, W) int32 each, −1 for none, and how much
+    it shares it, (H, W) float32 0–1: a renderer shows the plate there only once both have moved.
+
+    The owner is the object whose mask the pixel lies in or nearest to. A contact shadow is also its
+    caster's: the plate removed it with its caster (the shadows are the plate's own, :func:`_plate_parts`),
+    so wherever it, or the seam the plate fades over round it, lies nearer another object, that object
+    shares it with the caster: the photo's shade is right while either stands. The share is whole up to the
+    seam and :data:`SHARE_SLACK` beyond it and fades over :data:`SHARE_RAMP` past that, and it fades the same
+    way where it meets the owner's own shadow, which the owner alone reveals (the nearer shadow decides): a
+    pushed object takes its own shade with it, and no hard edge shows where the photo kept for a caster that
+    stands meets the fill of one that left. A mask and its kept edge are never shared: an object's own pixels
+    leave with it.
+
+    One sharer per pixel: where the seams of several other objects' shadows cross, the nearest shadow's
+    caster shares the pixel and the others do not (their shade there shows the plate once the owner and that
+    caster have moved)."""
+    h, w = photo.shape[:2]
+    placed = [k for k, m in enumerate(masks) if m is not None and np.any(m)]
+    owner = np.full((h, w), -1, np.int32)
+    sharer = np.full((h, w), -1, np.int32)
+    share = np.zeros((h, w), np.float32)
+    if not placed:
+        return owner, sharer, share
+    fitted = [np.asarray(masks[k], bool) for k in placed]
+    _, _, shadows = _plate_parts(photo, fitted, dilation, True)
+    seam = float(feather_px(photo.shape)) + SHARE_SLACK
+    # the plate fills the masks' kept edge whatever the photo there (a rim the mask missed): it leaves with them
+    kept = dilate(np.any(fitted, axis=0), kept_edge_px(photo.shape))
+    dist = np.full((h, w), np.inf, np.float32)
+    for k, m in zip(placed, fitted):
+        d = cv2.distanceTransform((~m).astype(np.uint8), cv2.DIST_L2, 5)
+        nearer = d < dist
+        owner[nearer], dist[nearer] = k, d[nearer]
+    casters = [(k, cv2.distanceTransform((~s).astype(np.uint8), cv2.DIST_L2, 5))
+               for k, s in zip(placed, shadows) if s.any()]
+    own = np.full((h, w), np.inf, np.float32)  # how far each pixel lies from its owner's own shadow
+    for k, d in casters:
+        mine = owner == k
+        own[mine] = d[mine]
+    shade = np.full((h, w), np.inf, np.float32)
+    for k, d in casters:
+        claim = (d < seam + SHARE_RAMP) & (d < shade) & (owner != k) & ~kept
+        sharer[claim], shade[claim] = k, d[claim]
+    claimed = sharer >= 0
+    beyond = np.clip((seam + SHARE_RAMP - shade[claimed]) / SHARE_RAMP, 0.0, 1.0)
+    # half shared where the two shadows are equally near, so that the share fades across that line too
+    inner = np.clip((own[claimed] - shade[claimed]) / SHARE_RAMP + 0.5, 0.0, 1.0)
+    share[claimed] = beyond * inner
+    sharer[claimed & (share <= 0.0)] = -1
+    return owner, sharer, share
 
 
 def contact_shadow(lum: np.ndarray, mask: np.ndarray, hole: np.ndarray) -> np.ndarray:
