@@ -335,3 +335,157 @@ def test_a_card_with_rounded_corners_reads_the_pitch(pitch):
         mask = cv2.fillPoly(np.zeros((480, 640), np.uint8), [np.round(uv * 4).astype(np.int32)], 1, shift=2) > 0
         cues = rectangle_cues([mask], ["card"], 640, 480, 50.0)
         assert len(cues) == 1 and cues[0].pitch_deg == pytest.approx(pitch, abs=3.0), radius
+
+
+def _pastel_board(fov: float, pitch: float, turn_deg: float = 30.0):
+    """A 320×240 photo of a floor of squares in two hues of one grey level (a pastel checkerboard: the grey
+    image shows no edge), turned ``turn_deg`` about the vertical so that both directions of its lines meet on
+    the horizon, one each side; one small box as the object."""
+    import math
+
+    import cv2
+    import numpy as np
+
+    from physomni_usd.geometry.camera import PinholeCamera
+
+    cam = PinholeCamera(320, 240, fov, pitch, (0.0, 0.0, 1.0))
+    hues = [(200, 150, 150), (130, 185, 150)]  # grey 165 each (0.299 R + 0.587 G + 0.114 B)
+    img = np.full((240, 320, 3), hues[0], np.uint8)
+    c, s = math.cos(math.radians(turn_deg)), math.sin(math.radians(turn_deg))
+    side = 0.5
+    for i in range(-16, 16):
+        for j in range(0, 40):
+            if (i + j) % 2 == 0:
+                continue
+            corners = np.array([[(i + a) * side, (j + b) * side] for a, b in ((0, 0), (1, 0), (1, 1), (0, 1))])
+            world = np.c_[corners @ np.array([[c, s], [-s, c]]), np.zeros(4)] + np.array([0.0, 1.0, 0.0])
+            uv, z = cam.project(world)
+            if (z > 0.3).all():
+                cv2.fillConvexPoly(img, np.round(uv).astype(np.int32), hues[1], lineType=cv2.LINE_AA)
+    mask = np.zeros((240, 320), bool)
+    mask[190:215, 150:175] = True
+    img[mask] = (90, 90, 160)
+    return img, mask
+
+
+def test_a_board_of_one_grey_reads_the_field_of_view_from_its_colour_edges():
+    # generated scenes' floors of pastel squares, or a wall's hue against the floor's, showed the grey line
+    # detector nothing and were built under the default 50° (the truth 26-80°)
+    import cv2
+    import numpy as np
+
+    img, mask = _pastel_board(fov=36.0, pitch=25.0)
+    est = estimate_camera(img, [mask], ["box"], [foot_pixel(mask)[1]])
+    assert est.fov_source == "vanishing points", est.fov_source
+    assert est.fov_deg == pytest.approx(36.0, rel=0.10)
+    assert est.pitch_deg == pytest.approx(25.0, abs=3.0)
+    # the same photo in grey carries no edge to read: the default stands (what the colour channels add)
+    grey = np.repeat(cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)[..., None], 3, axis=2)
+    assert estimate_camera(grey, [mask], ["box"], [foot_pixel(mask)[1]]).fov_source.startswith("default")
+
+
+def test_a_colour_reading_on_few_edges_is_not_taken(monkeypatch):
+    # the colour channels add a ripple's or a shadow's edges, and a point on a few of them reads a false view.
+    # A plain photo (no grey edge) whose colour edges are fans of lines through the true vertical point and
+    # points on the true horizon: 12 a point read the view; 6 a point do not, nor do two horizon points of 6
+    # each whose 12 together would weigh as much as one of 12
+    import math
+
+    import numpy as np
+
+    from physomni_usd.align import cues
+    from physomni_usd.geometry.camera import PinholeCamera
+
+    fov, pitch = 40.0, 30.0
+    cam = PinholeCamera(320, 240, fov, pitch, (0.0, 0.0, 1.0))
+    f = cam.focal_px
+    vertical = np.array([160.0, 120.0 + f / math.tan(math.radians(pitch))])
+    horizon = np.array([400.0, 120.0 - f * math.tan(math.radians(pitch))])
+    mask = np.zeros((240, 320), bool)
+    mask[150:170, 150:170] = True
+
+    other = np.array([-240.0, horizon[1]])  # a second point on the horizon, left of the photo
+
+    def fans(n, split=False):
+        seg = []
+        points = [(vertical, 2 * n if split else n)] + ([(horizon, n), (other, n)] if split else [(horizon, n)])
+        for point, m in points:
+            for x in np.linspace(20, 300, m) if point is vertical else np.linspace(10, 230, m):
+                start = np.array([x, 60.0]) if point is vertical else np.array([310.0 if point is other else 10.0, x])
+                seg.append(np.r_[start, start + 0.25 * (point - start)])
+        return np.array(seg)
+
+    for n, split, read in ((12, False, True), (6, False, False), (6, True, False)):
+        monkeypatch.setattr(cues, "colour_segments", lambda photo, grey, k=1.0, n=n, split=split: fans(n, split))
+        est = estimate_camera(np.full((240, 320, 3), 200, np.uint8), [mask], ["box"], [foot_pixel(mask)[1]])
+        assert est.fov_source.startswith("default") != read, (n, split, est.fov_source)
+        if read:
+            assert est.fov_deg == pytest.approx(fov, rel=0.05)
+
+
+def test_coloured_dots_read_no_field_of_view():
+    # discs of four hues of one lightness: no line, but hundreds of short tangents on the colour channels, a
+    # dozen of which meet near some point by chance (a fixed count of 10 read 99.6° and a 29° pitch); a
+    # point must gather more than chance gives the search's tries among that many segments
+    import cv2
+    import numpy as np
+
+    from physomni_usd.align import cues
+
+    rng = np.random.default_rng(1)
+    hues = [(200, 150, 150), (130, 185, 150), (150, 160, 210), (175, 170, 110)]  # grey 163-168
+    img = np.full((240, 320, 3), hues[0], np.uint8)
+    for _ in range(60):
+        cv2.circle(img, (int(rng.integers(320)), int(rng.integers(240))), int(rng.integers(8, 40)),
+                   hues[rng.integers(1, 4)], -1, cv2.LINE_AA)
+    mask = np.zeros((240, 320), bool)
+    mask[190:215, 150:175] = True
+    seg = cues.colour_segments(img, cues.line_segments(img))
+    assert len(seg) > 150  # the texture the test is about: many colour edges
+    est = estimate_camera(img, [mask], ["box"], [foot_pixel(mask)[1]])
+    assert est.fov_source.startswith("default"), (est.fov_deg, est.pitch_deg, est.fov_source)
+
+
+def test_chance_count_holds_its_level_with_the_two_segments_every_try_rests_on():
+    # a try's point is where two segments cross, so both always count: a chance point gathers
+    # 2 + binomial(n − 2, p) segments; taking binomial(n, p) let chance through ~5 times as often as the level
+    import math
+
+    from physomni_usd.align import cues
+
+    p = 2.0 * cues.VP_ANGLE_DEG / 180.0
+    tries = cues.VP_POINTS * cues.VP_TRIES
+
+    def chance(n, k):  # how often the best of the tries gathers k or more of n segments: P(2 + X >= k)
+        m = n - 2
+        return tries * sum(math.comb(m, j) * p ** j * (1 - p) ** (m - j) for j in range(max(0, k - 2), m + 1))
+
+    for n in (60, 106, 150, 244, 400):
+        k = cues._chance_count(n)
+        assert chance(n, k) <= cues.CHANCE_LEVEL, (n, k)
+        assert k == cues.PAIR_MIN_SEGMENTS or chance(n, k - 1) > cues.CHANCE_LEVEL, (n, k)
+
+
+def test_a_chance_point_moves_no_pitch_of_a_colour_reading(monkeypatch):
+    # the chance test gates the points a colour reading rests on, not only its field of view: a horizon point on
+    # too few segments, weighed into the horizon's median, or one taken for the vertical point, would move the
+    # pitch that a tested field of view comes with
+    import numpy as np
+
+    from physomni_usd.align import cues
+
+    def point(u, v, inliers, length):
+        p = np.array([u, v, 1.0])
+        return {"point": p / np.linalg.norm(p), "inliers": inliers, "length": length, "segments": np.zeros((0, 4))}
+
+    strong = [point(160.0, 700.0, 30, 300.0), point(500.0, -100.0, 30, 300.0)]
+    weak = [point(165.0, 400.0, 5, 900.0), point(-200.0, 60.0, 5, 900.0)]  # a vertical and a horizon point
+    monkeypatch.setattr(cues, "vanishing_points", lambda seg, **kw: weak[:1] + strong + weak[1:])
+    seg = np.zeros((0, 4))
+    alone_pitch, alone_fov, alone_row = cues._vanishing_cues(seg, (240, 320), None, False, None)
+    monkeypatch.setattr(cues, "vanishing_points", lambda seg, **kw: strong)
+    want_pitch, want_fov, want_row = cues._vanishing_cues(seg, (240, 320), None, False, None)
+    assert alone_row != want_row  # what the test is about: the weak points move the reading when let in
+    monkeypatch.setattr(cues, "vanishing_points", lambda seg, **kw: weak[:1] + strong + weak[1:])
+    pitch, fov, row = cues._vanishing_cues(seg, (240, 320), None, False, None, least=10)
+    assert row == want_row and fov == want_fov and pitch == want_pitch

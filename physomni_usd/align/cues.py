@@ -30,7 +30,9 @@ The camera is a level pinhole (no roll) looking down by ``pitch``. Cues:
   (the vertical and horizon relation is that identity's special case), and
   such a pair says its lines lie on the ground, so a steep horizon it reads
   needs no other cue's word. A reading from two points weighs what the
-  weaker rests on.
+  weaker rests on. Where the grey image's edges read no field of view, the colour-opponent channels' edges
+  join them (a board of pastel squares of one lightness); a view read so must rest on points that gather
+  more segments than chance gives as many edges.
 - **horizon**: a straight edge crossing most of the photo above every
   object's foot (a sea or plain horizon, the far edge of a floor), weakly.
 - **identical objects** (weight up to 2): flat things of one label whose
@@ -129,8 +131,31 @@ MIN_SEGMENT = 0.025
 #: (``bench.photos.make_known_scene``) enlarged met 3-5° off.
 LSD_SMALL_PX = 400
 LSD_MAX_SIDE_PX = 1000
+#: Where the photo's brightness reads no field of view, its edges are read again on the colour-opponent
+#: channels (CIE Lab a* and b*, OpenCV's 8-bit scaling) together with the brightness: a board or tiles of
+#: pastel squares of one lightness, or a wall's hue against the floor's, has edges the grey image barely
+#: shows. The colour channels also add edges that are no lines (a dot's or a fruit's outline, a ripple, a
+#: shadow), so such a reading rests only on points that beat chance (:func:`_chance_count`). On
+#: generated scenes (bench general seeds 106400, 587774, 241611: 180 scenes; the camera estimated from each
+#: scene's photo and true masks, no build) the default view stood on 93 scenes against 105, the median
+#: |Δfov|/fov went 11.6 → 8.6 % and the pitch within 10° 72.2 → 73.9 %; all 12 scenes it changed read a view
+#: nearer the truth. No bundled example or real bench photo reads otherwise.
+COLOUR_CHANNELS = (1, 2)
 #: A segment belongs to a vanishing point when its direction is within this angle of the point (degrees).
 VP_ANGLE_DEG = 1.5
+#: Points each search for a vanishing point tries (RANSAC, two segments a try).
+VP_TRIES = 300
+#: Vanishing points a photo's segments are searched for, one after another (:func:`vanishing_points`).
+VP_POINTS = 3
+#: A colour reading's point must rest on a count of segments that chance gives the best of all the searches'
+#: VP_POINTS · VP_TRIES tries at most this often (:func:`_chance_count`): 60 discs of four hues of one
+#: lightness gave the colour channels ~260 short tangents and two chance points on 13 and 12 of them read
+#: 99.6° for a photo with no line.
+CHANCE_LEVEL = 0.01
+#: Segments of two channels are one edge when each end of the shorter lies within this many pixels (at the
+#: detector's scale) of the longer and their directions within VP_ANGLE_DEG: an edge of hue and lightness
+#: both shows in the grey, a* and b* images and would count three times towards a point.
+SAME_EDGE_PX = 2.0
 #: Outlines rounder than this have no meaningful axis; others must lie within MAX_AXIS_TURN_DEG of a
 #: ground circle's.
 ROUND_ENOUGH = 0.97
@@ -618,19 +643,33 @@ def ellipse_horizon_fov(outlines: list[RoundOutline], horizon_row: float, width:
 
 # vanishing points ---------------------------------------------------------------------------------
 
-def line_segments(photo: np.ndarray, enlarge: float = 1.0) -> np.ndarray:
-    """(N, 4) segments x0, y0, x1, y1 (the photo's pixels) of OpenCV's line-segment detector, run on the photo
-    at most :data:`LSD_MAX_SIDE_PX` on the long side, or ``enlarge`` times its size."""
-    gray = cv2.cvtColor(photo, cv2.COLOR_RGB2GRAY) if photo.ndim == 3 else photo
-    k = enlarge if enlarge != 1.0 else min(1.0, LSD_MAX_SIDE_PX / max(gray.shape))
-    small = gray if k == 1 else cv2.resize(gray, None, fx=k, fy=k,
+def _lsd_scale(shape, enlarge: float = 1.0) -> float:
+    """The factor the line-segment detector reads a photo of ``shape`` at (:func:`line_segments`)."""
+    return enlarge if enlarge != 1.0 else min(1.0, LSD_MAX_SIDE_PX / max(shape[:2]))
+
+
+def _resized(image: np.ndarray, k: float) -> np.ndarray:
+    return image if k == 1 else cv2.resize(image, None, fx=k, fy=k,
                                            interpolation=cv2.INTER_AREA if k < 1 else cv2.INTER_CUBIC)
-    found = cv2.createLineSegmentDetector().detect(small)[0]
+
+
+def _detect(small: np.ndarray, k: float, diagonal: float) -> np.ndarray:
+    """Segments of one channel already read at ``k`` times the photo's size, in the photo's pixels, at least
+    :data:`MIN_SEGMENT` of the photo's ``diagonal`` long."""
+    found = cv2.createLineSegmentDetector().detect(np.ascontiguousarray(small))[0]
     if found is None:
         return np.zeros((0, 4))
     seg = found.reshape(-1, 4).astype(float) / k
     length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
-    return seg[length >= MIN_SEGMENT * math.hypot(*gray.shape[:2])]
+    return seg[length >= MIN_SEGMENT * diagonal]
+
+
+def line_segments(photo: np.ndarray, enlarge: float = 1.0) -> np.ndarray:
+    """(N, 4) segments x0, y0, x1, y1 (the photo's pixels) of OpenCV's line-segment detector, run on the photo
+    at most :data:`LSD_MAX_SIDE_PX` on the long side, or ``enlarge`` times its size."""
+    gray = cv2.cvtColor(photo, cv2.COLOR_RGB2GRAY) if photo.ndim == 3 else photo
+    k = _lsd_scale(gray.shape, enlarge)
+    return _detect(_resized(gray, k), k, math.hypot(*gray.shape[:2]))
 
 
 def _consistent(seg: np.ndarray, vp: np.ndarray) -> np.ndarray:
@@ -655,7 +694,7 @@ def _off_objects(seg: np.ndarray, objects: np.ndarray) -> float:
     return float(length[off].sum() / max(length.sum(), 1e-9))
 
 
-def vanishing_points(seg: np.ndarray, max_points: int = 3, min_support: int = 6, seed: int = 0,
+def vanishing_points(seg: np.ndarray, max_points: int = VP_POINTS, min_support: int = 6, seed: int = 0,
                      with_segments: bool = False) -> list[dict]:
     """Sequential RANSAC: up to ``max_points`` vanishing points, each {point (3,), inliers, length}."""
     rng = np.random.default_rng(seed)
@@ -670,7 +709,7 @@ def vanishing_points(seg: np.ndarray, max_points: int = 3, min_support: int = 6,
         length = np.hypot(left[:, 2] - left[:, 0], left[:, 3] - left[:, 1])
         best, best_score = None, 0.0
         prob = length / length.sum()
-        for _ in range(300):
+        for _ in range(VP_TRIES):
             i, j = rng.choice(len(left), 2, replace=False, p=prob)
             vp = np.cross(lines[i], lines[j])
             if not np.all(np.isfinite(vp)) or np.linalg.norm(vp) < 1e-12:
@@ -699,6 +738,28 @@ def _support(*points) -> float:
     return min(3.0, sum(x["inliers"] for x in points) / 10.0)
 
 
+def _chance_count(n: int) -> int:
+    """The fewest of ``n`` segments that must meet at one point for the meeting not to be chance's.
+
+    A segment whose direction is random points within VP_ANGLE_DEG of a given point with probability
+    p = 2·VP_ANGLE_DEG/180 (its direction against the point's, folded onto 0-180°). A try's point is where two
+    of the segments cross, and those two always point at it, so a chance point gathers 2 + binomial(n − 2, p)
+    segments, not binomial(n, p): counting the two among the n random ones let chance through ~5 times as
+    often as promised. The search keeps the best of VP_TRIES such points for each of its VP_POINTS, so a count
+    k is taken only when VP_POINTS·VP_TRIES·P(2 + X ≥ k) ≤ CHANCE_LEVEL. The count grows with n, where a fixed
+    one does not: a textured photo gives hundreds of short edges and a few always agree by chance. At least
+    PAIR_MIN_SEGMENTS, the count a horizon pair of the grey image needs."""
+    p = 2.0 * VP_ANGLE_DEG / 180.0
+    m = max(0, n - 2)  # the segments other than the try's own two
+    tail, j = 1.0, 0  # P(X >= j), X ~ binomial(m, p)
+    term = (1.0 - p) ** m  # P(X = j)
+    while j < m and VP_POINTS * VP_TRIES * tail > CHANCE_LEVEL:
+        tail -= term
+        term *= (m - j) / (j + 1) * p / (1.0 - p)
+        j += 1
+    return max(PAIR_MIN_SEGMENTS, j + 2)
+
+
 def _orthogonal_pair(horizon: list[dict], cx: float, cy: float, height: int) -> Cue | None:
     """The field of view from two vanishing points on the horizon of ground directions at right angles (a
     board's or tiles' grid, a book's or a box's sides): with the principal point c, (p1 − c)·(p2 − c) = −f²,
@@ -724,28 +785,91 @@ def _orthogonal_pair(horizon: list[dict], cx: float, cy: float, height: int) -> 
 
 
 def vanishing_cues(photo: np.ndarray, fov_deg: float | None, fov_given: bool, objects: np.ndarray | None = None):
-    """(pitch cues, field-of-view cues, horizon row or None) from the vanishing points of the photo's edges;
-    a small photo whose edges read no field of view is read again doubled (:data:`LSD_SMALL_PX`).
+    """(pitch cues, field-of-view cues, horizon row or None) from the vanishing points of the photo's edges.
+
+    Where the grey photo's edges read no field of view, a small one is read again doubled
+    (:data:`LSD_SMALL_PX`), and then its edges are read together with its colour-opponent channels'
+    (:func:`colour_segments`, :data:`COLOUR_CHANNELS`); that colour reading, its pitch as its field of view,
+    rests only on points that gather more segments than chance would (:func:`_chance_count`).
 
     ``objects`` (H, W) bool marks the objects: lines meeting above the centre are taken for ground lines
     on the horizon only when most of their length lies off the objects (a camera tilted up sees standing
     things' verticals meet above the centre too).
     """
-    out = _vanishing_cues(line_segments(photo), photo.shape, fov_deg, fov_given, objects)
-    if out[1] or fov_given or max(photo.shape[:2]) > LSD_SMALL_PX:
+    grey = {1.0: line_segments(photo)}
+    out = _vanishing_cues(grey[1.0], photo.shape, fov_deg, fov_given, objects)
+    if out[1] or fov_given:
         return out
-    doubled = _vanishing_cues(line_segments(photo, 2.0), photo.shape, fov_deg, fov_given, objects)
-    return doubled if doubled[1] else out
+    sizes = (1.0, 2.0) if max(photo.shape[:2]) <= LSD_SMALL_PX else (1.0,)
+    if 2.0 in sizes:
+        grey[2.0] = line_segments(photo, 2.0)
+        doubled = _vanishing_cues(grey[2.0], photo.shape, fov_deg, fov_given, objects)
+        if doubled[1]:
+            return doubled
+    if photo.ndim == 3:
+        for k in sizes:
+            seg = colour_segments(photo, grey[k], k)
+            # the grey image's points are taken as they come; the colour channels add many edges that are no
+            # lines (a dot's tangent, a ripple, a shadow), so every point of theirs, for the pitch as for the
+            # view, must beat chance
+            again = _vanishing_cues(seg, photo.shape, fov_deg, fov_given, objects, least=_chance_count(len(seg)))
+            if again[1]:
+                return again
+    return out
 
 
-def _vanishing_cues(seg: np.ndarray, shape, fov_deg: float | None, fov_given: bool, objects: np.ndarray | None):
-    """:func:`vanishing_cues` from the segments ``seg`` of a photo of ``shape``."""
+def colour_segments(photo: np.ndarray, grey: np.ndarray, enlarge: float = 1.0) -> np.ndarray:
+    """The grey photo's segments ``grey`` (:func:`line_segments` at ``enlarge``) with those of its
+    colour-opponent channels (:data:`COLOUR_CHANNELS`) that are no edge already found: an edge between two
+    hues of one lightness shows on a colour channel alone, one of hue and lightness on all three and counts
+    once (:data:`SAME_EDGE_PX`)."""
+    k = _lsd_scale(photo.shape, enlarge)
+    lab = cv2.cvtColor(np.ascontiguousarray(_resized(photo[..., :3], k)), cv2.COLOR_RGB2LAB)
+    diagonal = math.hypot(*photo.shape[:2])
+    out = grey
+    for c in COLOUR_CHANNELS:
+        out = _add_new_edges(out, _detect(lab[..., c], k, diagonal), SAME_EDGE_PX / k)
+    return out
+
+
+def _add_new_edges(kept: np.ndarray, new: np.ndarray, tol: float) -> np.ndarray:
+    """``kept`` and those of ``new`` that are not one of its edges: each end of the shorter of the two within
+    ``tol`` pixels of the longer, their directions within VP_ANGLE_DEG."""
+    if not len(kept) or not len(new):
+        return np.vstack([kept.reshape(-1, 4), new.reshape(-1, 4)])
+    def ends_near(a, b):  # (len(a), len(b)): both ends of each a within tol of the segment b
+        p, q = b[None, :, :2], b[None, :, 2:]
+        d = q - p
+        t_len = (d * d).sum(-1) + 1e-12
+        near = np.ones((len(a), len(b)), bool)
+        for e in (a[:, None, :2], a[:, None, 2:]):
+            t = np.clip(((e - p) * d).sum(-1) / t_len, 0.0, 1.0)
+            near &= np.linalg.norm(e - (p + t[..., None] * d), axis=-1) <= tol
+        return near
+    dn, dk = new[:, 2:] - new[:, :2], kept[:, 2:] - kept[:, :2]
+    ln, lk = np.linalg.norm(dn, axis=1), np.linalg.norm(dk, axis=1)
+    cos = np.abs(dn @ dk.T) / (ln[:, None] * lk[None, :] + 1e-12)
+    parallel = cos >= math.cos(math.radians(VP_ANGLE_DEG))
+    shorter = ln[:, None] <= lk[None, :]
+    same = parallel & np.where(shorter, ends_near(new, kept), ends_near(kept, new).T)
+    return np.vstack([kept, new[~same.any(1)]])
+
+
+def _vanishing_cues(seg: np.ndarray, shape, fov_deg: float | None, fov_given: bool, objects: np.ndarray | None,
+                    least: int = 0):
+    """:func:`vanishing_cues` from the segments ``seg`` of a photo of ``shape``, read from the points that each
+    rest on at least ``least`` segments only. A chance point is dropped before it is read at all: the pitch
+    (the vertical point's row, the horizon's) comes from the same points as the field of view, and a horizon
+    row is a median over all the horizon's points, so one that fails the test but still stood among them would
+    move the pitch a tested field of view comes with."""
     h, w = shape[:2]
     cx, cy = 0.5 * w, 0.5 * h
     vps = vanishing_points(seg, with_segments=True)
     vertical, horizon, across = None, [], False
     diag = math.hypot(w, h)
     for vp in vps:
+        if vp["inliers"] < least:
+            continue
         p = vp["point"]
         far = abs(p[2]) < 1e-9 or math.hypot(p[0] / p[2] - cx, p[1] / p[2] - cy) > 100 * diag
         if far:
