@@ -35,7 +35,7 @@ from .cues import (ELLIPSE_IOU, FEET_CUE, FEET_WEIGHT, MAX_PITCH_DEG, estimate_c
 from .place import footprint, make_room, separate
 from .scale import fit_scale
 from .support import (TOP_BAND, find_supports, into_hollow, raise_unseen, reach_under, rests_on, riders, root_of,
-                      settle_on_supports, support_order)
+                      reaching_under, settle_on_supports, support_order, supports_from_above)
 
 #: Scale-and-lift rounds: an object's height from its prior depends on the scale, the scale on the lifted sizes.
 SCALE_ROUNDS = 3
@@ -573,8 +573,9 @@ def _lift_scaled(masks, labels, names, unit: PinholeCamera, settings: BuildSetti
     for _ in range(rounds):
         # every round judges the supports afresh: a first round's lift, at a guessed scale, can stand a cup
         # off its saucer's back, and a support dropped then would stay dropped
-        supports = dict(found)
-        lifted = lift_all(masks, labels, unit, settings, scale, supports, photo=photo, hides=hides,
+        seen = masks if visible is None else visible
+        supports = supports_from_above(masks, seen, hides, unit, found)
+        lifted = lift_all(reaching_under(masks, seen, supports), labels, unit, settings, scale, supports, photo=photo, hides=hides,
                           visible=visible, wall=wall, hollows=hollows, rims=rims)
         longest = [longest_dimension(m.vertices) for m in lifted]
         fit = fit_scale(names, labels, longest, user_sizes, settings.camera.height_m)
@@ -593,7 +594,9 @@ def _scored(lift_at, pitch: float, masks, labels, found):
         return None
     size_logs, thin = prior_terms([m.vertices for m in lifted], labels, scale, [_height_read(m) for m in lifted])
     # a foot on another's face is the weakest reading of a support: a pitch that cannot keep it is not worse
-    shown = [i for i, (_, how) in found.items() if how != "foot"]
+    # nor is one read the other way up under this pitch (from above, the one the feet put on top is beneath:
+    # ``support.supports_from_above``)
+    shown = [i for i, (j, how) in found.items() if how != "foot" and supports.get(j, (None,))[0] != i]
     lost = sum(i not in supports for i in shown) / len(shown) if shown else 0.0
     return score_scene([m.vertices for m in lifted], [m.faces for m in lifted], unit, masks, size_logs, thin, lost)
 

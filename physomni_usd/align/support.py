@@ -10,7 +10,10 @@ From the masks alone: object A rests on object B when
   object standing in front of B shows the ground below it instead); or
 - A's foot (its lowest tenth) lies on B's face, below B's top and above B's
   foot, though the rest of its lowest outline does not (a plant whose lowest
-  leaf hangs over its pot's front).
+  leaf hangs over its pot's front);
+- seen from nearly straight above (:func:`supports_from_above`, under each camera the pitch search tries), A
+  hides B over the middle of B's completed outline: from there a thing can only hide what is under it, and
+  the side view's readings, which look for A's foot, find none.
 
 The masks cannot tell a cup on a saucer from a cup hidden behind the saucer's
 rim; the first reading is taken, which the README states.
@@ -56,6 +59,11 @@ FOOT_BAND = 0.1
 FOOT_WEIGHT = 0.5
 #: Seen from the side, this fraction of A's columns must lie within B's (A may overhang B by the rest).
 WITHIN_FRACTION = 0.7
+#: Seen at least this steeply (every ray through A's outline this far below the horizontal), A that hides
+#: the middle of B's completed outline rests on B (:func:`supports_from_above`). From 60° down a thing on the
+#: ground hides at most 0.58 of its height of the ground behind it, so one beside B rarely covers B's middle;
+#: from 86° down two stacked boxes were built side by side on the ground, the upper one twice its width.
+ABOVE_MIN_DEG = 60.0
 
 
 def _lowest_outline(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -186,6 +194,64 @@ def touching_below(i: int, masks, hides, reach: int) -> dict[int, float]:
         t = np.array([b[min(r + 1, h - 1):min(r + 1 + reach, h), c].any() for c, r in zip(cols, rows)])
         if t.any():
             out[j] = float(t.mean())
+    return out
+
+
+def centre_depression_deg(mask: np.ndarray, camera) -> float:
+    """The angle (degrees) below the horizontal of the camera's ray through the centre of ``mask`` (H, W) bool."""
+    ys, xs = np.nonzero(mask)
+    d = camera.rays(float(xs.mean()) + 0.5, float(ys.mean()) + 0.5)
+    return float(np.degrees(np.arcsin(np.clip(-d[2], -1.0, 1.0))))
+
+
+def supports_from_above(masks, visible, hides, camera, found) -> dict[int, tuple[int, str]]:
+    """The supports ``found`` (:func:`find_supports`, which reads feet) as a steep view shows them: where
+    ``upper`` hides ``lower`` (``hides``: (occluder, occluded) pairs), is seen at least :data:`ABOVE_MIN_DEG`
+    down by ``camera`` through its centre, rests on nothing else in ``found`` and covers the centre of
+    ``lower``'s completed outline (``masks``, (H, W) bool) with its visible one's (``visible``) hull, it rests
+    on ``lower`` ('above'), and a reading of ``lower`` resting on it is dropped: from above, the lowest outline
+    the side view reads as a foot is the far side of the one beneath. Of several such lowers, the one it covers
+    most of. The lift judges each (``align.photo_scene.balances_on``): one that would topple off stands on the
+    ground."""
+    out = dict(found)
+    cover: dict[int, float] = {}
+    for i, j in hides:
+        if i in found or not visible[i].any() or not masks[j].any():
+            continue
+        if centre_depression_deg(visible[i], camera) < ABOVE_MIN_DEG:
+            continue
+        hull = cv2.fillConvexPoly(np.zeros(visible[i].shape, np.uint8),
+                                  cv2.convexHull(np.argwhere(visible[i])[:, ::-1].astype(np.int32)), 1) > 0
+        ys, xs = np.nonzero(masks[j])
+        if not hull[int(round(ys.mean())), int(round(xs.mean()))]:
+            continue
+        share = float((hull & masks[j]).sum() / masks[j].sum())
+        if share <= cover.get(i, 0.0):
+            continue
+        if out.get(j, (None,))[0] == i:
+            out.pop(j)
+        if rests_on(j, i, out):
+            continue
+        out[i], cover[i] = (j, "above"), share
+    return out
+
+
+def reaching_under(masks, visible, supports) -> list:
+    """``masks`` (completed outlines, (H, W) bool) with each lower of an 'above' support (:func:`supports_from_above`)
+    reaching, behind its upper, under that one's middle: the convex hull of its completed outline and the middle
+    half of its upper's visible outline (shrunk to half about its centre), cut to what the upper hides. Seen from
+    above, what holds a thing lies under its centre; a completion that closes the lower's visible sliver alone
+    (a strip beside the box on it) stood the upper off its top and both on the ground, side by side."""
+    out = list(masks)
+    for i, (j, how) in supports.items():
+        if how != "above":
+            continue
+        ys, xs = np.nonzero(visible[i])
+        middle = np.stack([0.5 * (xs + xs.mean()), 0.5 * (ys + ys.mean())], 1)
+        pts = np.concatenate([np.argwhere(out[j])[:, ::-1].astype(float), middle])
+        hull = cv2.fillConvexPoly(np.zeros(out[j].shape, np.uint8),
+                                  np.round(cv2.convexHull(pts.astype(np.float32))[:, 0, :]).astype(np.int32), 1) > 0
+        out[j] = out[j] | (hull & visible[i])
     return out
 
 
