@@ -334,3 +334,48 @@ def test_a_grape_read_on_the_back_fruit_of_a_pile_goes_with_it():
     assert 1 not in supports and supports[4][0] == 1
     for k in range(4):
         assert np.linalg.norm(out[k].vertices.mean(axis=0) - centres[k]) < 0.5 * radii[k], k
+
+
+def _stacked_boxes_seen(pitch_deg: float, stacked: bool = True):
+    """Ray-cast masks of a box (index 1) on a larger one (index 0), the upper shifted so the lower shows on one
+    side only (or, with ``stacked`` false, the two side by side on the ground), completed behind what hides
+    them; with their occlusion order, the feet's supports and a unit-height camera at ``pitch_deg``."""
+    import trimesh
+
+    from physomni_usd.bench.general_render import _camera
+    from physomni_usd.geometry.camera import PinholeCamera
+    from physomni_usd.geometry.raycast import SilhouetteRenderer
+    from physomni_usd.perceive.amodal import complete, occlusion_order
+
+    lower = trimesh.creation.box([0.25, 0.19, 0.18])
+    lower.apply_translation([0.0, 0.0, 0.09])
+    upper = trimesh.creation.box([0.19, 0.19, 0.16])
+    upper.apply_transform(trimesh.transformations.rotation_matrix(0.5, [0, 0, 1]))
+    upper.apply_translation([0.05, -0.01, 0.26] if stacked else [0.3, 0.0, 0.08])
+    cam = _camera(np.random.default_rng(0), [lower, upper], 320, 240, 0.2, pitch_deg, 60.0)
+    ids = SilhouetteRenderer([lower.vertices, upper.vertices], [lower.faces, upper.faces]).render(cam)
+    visible = [ids == 0, ids == 1]
+    order = occlusion_order(visible)
+    masks = [c.amodal for c in complete(visible, order)]
+    unit = PinholeCamera(cam.width, cam.height, cam.fov_deg, cam.pitch_deg, (0.0, 0.0, 1.0))
+    return masks, visible, order, find_supports(masks, order), unit
+
+
+def test_seen_from_straight_above_what_hides_the_middle_of_another_rests_on_it():
+    from physomni_usd.align.support import reaching_under, supports_from_above
+
+    masks, visible, order, found, unit = _stacked_boxes_seen(86.0)
+    assert (1, 0) in order
+    assert found.get(1, (None,))[0] != 0  # the feet alone do not see the upper box on the lower one
+    got = supports_from_above(masks, visible, order, unit, found)
+    assert got.get(1) == (0, "above") and 0 not in got
+    # the lower box reaches, behind the upper, under the upper's middle: the upper's centre is over it
+    reached = reaching_under(masks, visible, got)
+    ys, xs = np.nonzero(visible[1])
+    assert reached[0][int(ys.mean()), int(xs.mean())] and not masks[0][int(ys.mean()), int(xs.mean())]
+    assert not (reached[0] & ~masks[0] & ~visible[1]).any()  # only behind what hides it
+    # from the side the same stack keeps the feet's reading, and side by side nothing rests on anything
+    masks, visible, order, found, unit = _stacked_boxes_seen(35.0)
+    assert supports_from_above(masks, visible, order, unit, found) == found
+    masks, visible, order, found, unit = _stacked_boxes_seen(86.0, stacked=False)
+    assert supports_from_above(masks, visible, order, unit, found) == found == {}
