@@ -64,6 +64,8 @@ WITHIN_FRACTION = 0.7
 #: ground hides at most 0.58 of its height of the ground behind it, so one beside B rarely covers B's middle;
 #: from 86° down two stacked boxes were built side by side on the ground, the upper one twice its width.
 ABOVE_MIN_DEG = 60.0
+#: ... or that lies within B's completed outline's hull by this fraction of its visible pixels (on B's top).
+ABOVE_WITHIN = 0.8
 
 
 def _lowest_outline(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -223,7 +225,11 @@ def supports_from_above(masks, visible, hides, camera, found) -> dict[int, tuple
         hull = cv2.fillConvexPoly(np.zeros(visible[i].shape, np.uint8),
                                   cv2.convexHull(np.argwhere(visible[i])[:, ::-1].astype(np.int32)), 1) > 0
         ys, xs = np.nonzero(masks[j])
-        if not hull[int(round(ys.mean())), int(round(xs.mean()))]:
+        lower = cv2.fillConvexPoly(np.zeros(masks[j].shape, np.uint8),
+                                   cv2.convexHull(np.stack([xs, ys], 1).astype(np.int32)), 1) > 0
+        # over B's middle (a box on a box that hides most of it), or within B's outline (a cup on a book's edge)
+        within = float((lower & visible[i]).sum() / visible[i].sum())
+        if not hull[int(round(ys.mean())), int(round(xs.mean()))] and within < ABOVE_WITHIN:
             continue
         share = float((hull & masks[j]).sum() / masks[j].sum())
         if share <= cover.get(i, 0.0):
