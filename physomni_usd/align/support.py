@@ -12,7 +12,8 @@ From the masks alone: object A rests on object B when
   foot, though the rest of its lowest outline does not (a plant whose lowest
   leaf hangs over its pot's front);
 - seen from nearly straight above (:func:`supports_from_above`, under each camera the pitch search tries), A
-  hides B over the middle of B's completed outline: from there a thing can only hide what is under it, and
+  hides B over the middle of B's completed outline or lies within it: from there a thing can only hide what
+  is under it, and
   the side view's readings, which look for A's foot, find none.
 
 The masks cannot tell a cup on a saucer from a cup hidden behind the saucer's
@@ -210,7 +211,8 @@ def supports_from_above(masks, visible, hides, camera, found) -> dict[int, tuple
     """The supports ``found`` (:func:`find_supports`, which reads feet) as a steep view shows them: where
     ``upper`` hides ``lower`` (``hides``: (occluder, occluded) pairs), is seen at least :data:`ABOVE_MIN_DEG`
     down by ``camera`` through its centre, rests on nothing else in ``found`` and covers the centre of
-    ``lower``'s completed outline (``masks``, (H, W) bool) with its visible one's (``visible``) hull, it rests
+    ``lower``'s completed outline (``masks``, (H, W) bool) with its visible one's (``visible``) hull, or lies
+    within that outline's hull by :data:`ABOVE_WITHIN` of its visible pixels, it rests
     on ``lower`` ('above'), and a reading of ``lower`` resting on it is dropped: from above, the lowest outline
     the side view reads as a foot is the far side of the one beneath. Of several such lowers, the one it covers
     most of. The lift judges each (``align.photo_scene.balances_on``): one that would topple off stands on the
