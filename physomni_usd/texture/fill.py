@@ -248,7 +248,8 @@ def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str, sources: np.nda
 def fill_faded(photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
     """``hole`` (H, W) bool of ``photo`` (H, W, 3) uint8 RGB filled by the blend, its copies faded into their
     local mean with the depth into the hole (:data:`FADE`), and :data:`FADE_TELEA` of its low frequencies
-    replaced by those of Telea's fill.
+    replaced by those of Telea's fill, more where its copies are distrusted (:func:`~.blend.shift_trust`: their
+    shift does not map the surface beside them onto itself), all of them where none is trusted.
 
     Held against the true background a copy errs least where it continues the surface (a checked wall
     copied in step, at the hole's edge); deeper in, where its lines and spots fall between the true ones
