@@ -172,6 +172,7 @@ def _blend_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float, bu
         layers.append((None, None, rest))
     known8 = known.astype(np.uint8)
     trusted = np.zeros_like(weight)
+    smoothed = blur_over(src, known.astype(np.float32), TRUST_NOISE) if trust is not None else None
     for dy, dx, pick in layers:
         chose = np.zeros((h, w), np.float32)
         chose[ys[pick], xs[pick]] = 1.0
@@ -203,7 +204,8 @@ def _blend_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float, bu
         acc[r0:r1, c0:c1] += copy[inner] * wk[..., None]
         weight[r0:r1, c0:c1] += wk
         if trust is not None:
-            trusted[r0:r1, c0:c1] += wk * (1.0 if dy is None else shift_trust(src, known, chose, dy, dx, size))
+            tried = 1.0 if dy is None else shift_trust(src, known, chose, dy, dx, size, smoothed)
+            trusted[r0:r1, c0:c1] += wk * tried
     if trust is not None:  # the smooth fill is a mean already: nothing of it to distrust
         trust[box] = np.where(hole[box], (trusted + SMOOTH_WEIGHT) / weight, 1.0)
     out = img.copy()
@@ -214,7 +216,8 @@ def _blend_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float, bu
     return match_grain(img, out, hole)
 
 
-def shift_trust(src: np.ndarray, known: np.ndarray, chose: np.ndarray, dy: int, dx: int, size: int) -> float:
+def shift_trust(src: np.ndarray, known: np.ndarray, chose: np.ndarray, dy: int, dx: int, size: int,
+                smooth: np.ndarray | None = None) -> float:
     """How far a copy shifted by (``dy``, ``dx``) can be trusted to continue the surface in step, 0-1, read on
     the known surface beside the hole pixels that chose it (``chose`` (h, w) float32 1 there; ``src`` (h, w, 3)
     float32, ``known`` (h, w) bool): where the shift maps that surface onto itself (a copy along a ripple, by a
@@ -225,7 +228,8 @@ def shift_trust(src: np.ndarray, known: np.ndarray, chose: np.ndarray, dy: int, 
     and more deeper in, where the border's mean says less: the copy is trusted while r stays under
     :data:`TRUST_RATIO` times m, and less, steeply, beyond. Held as two guesses whose errors are
     independent. A copy out of step (tiles in perspective, ripples that bend)
-    errs more than the mean, and its lines and spots fall between the true ones."""
+    errs more than the mean, and its lines and spots fall between the true ones. ``smooth``: ``src`` low-passed
+    over ``known`` by :data:`TRUST_NOISE`, when the caller has it."""
     h, w = known.shape
     reach = max(TRUST_MIN, TRUST_REACH * float(np.hypot(h, w)))
     ys, xs = np.nonzero(chose)
@@ -233,7 +237,8 @@ def shift_trust(src: np.ndarray, known: np.ndarray, chose: np.ndarray, dy: int, 
     a0, a1, b0, b1 = max(0, ys.min() - g), min(h, ys.max() + 1 + g), max(0, xs.min() - g), min(w, xs.max() + 1 + g)
     near = cv2.distanceTransform((chose[a0:a1, b0:b1] <= 0).astype(np.uint8), cv2.DIST_L2, 5) <= reach
     # compared after a small low-pass over the known surface: the render's noise and the finest grain are no step
-    smooth = blur_over(src, known.astype(np.float32), TRUST_NOISE)
+    if smooth is None:  # the caller trying many shifts on one window passes it once
+        smooth = blur_over(src, known.astype(np.float32), TRUST_NOISE)
     here = smooth[a0:a1, b0:b1]
     shift = np.float32([[1, 0, dx + b0], [0, 1, dy + a0]])
     there = cv2.warpAffine(smooth, shift, (b1 - b0, a1 - a0), flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
