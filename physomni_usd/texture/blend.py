@@ -26,7 +26,7 @@ import numpy as np
 
 from .exemplar import NO_SHIFT, SHADING_DEPTH, SHADING_SIGMA, SHADING_TRUST, hole_windows, match_shading, shift_map
 from .grain import match_grain, odd_border
-from .pixels import blur, nearest_surrounding, within
+from .pixels import blur, blur_over, nearest_surrounding, within
 
 #: Width over which copies that meet are averaged, as a fraction of the hole's narrower side (at least 1.5 px).
 SEAM_SIGMA = 0.03
@@ -68,20 +68,38 @@ SMOOTH_WEIGHT = 0.02
 #: within :data:`~.pixels.SURROUND` of the diagonal of its part of the hole); a pixel farther is moved towards
 #: the nearest of them until it is this far (rounding to whole levels adds at most 0.87).
 COLOUR_CAP = 55.0
+#: How far from the hole pixels that chose a copy its shift is tried on the known surface (:func:`shift_trust`), as
+#: a fraction of the image diagonal (at least TRUST_MIN pixels), and the fewest known pixels it is read on (fewer:
+#: trusted as before).
+TRUST_REACH = 0.03
+TRUST_MIN = 6.0
+TRUST_PIXELS = 16
+TRUST_MEAN = 0.5
+TRUST_NOISE = 1.5
+TRUST_RATIO = 1.5
 #: The faded blend (the plate's default, ``fill.py``): the widest its copies are averaged (Gaussian sigma), as a
 #: fraction of the image diagonal.
 FADE_MAX = 0.025
 
 
-def fill_blend(photo: np.ndarray, hole: np.ndarray, fade: float = 0.0) -> np.ndarray:
+def fill_blend(photo: np.ndarray, hole: np.ndarray, fade: float = 0.0, trust: np.ndarray | None = None) -> np.ndarray:
     """``photo`` (H, W, 3) uint8 RGB with ``hole`` (H, W) bool filled as the module says, one window per
     connected part of the hole (as :func:`~.exemplar.fill_exemplar` makes them); with ``fade`` > 0 each window's
     fill is then faded into its local mean with the depth into the hole (:func:`fade_with_depth`) and its grain
-    matched to the surface's again (:func:`~.grain.match_grain`)."""
+    matched to the surface's again (:func:`~.grain.match_grain`). ``trust``: (H, W) float32 given by the caller;
+    the fill writes there, for each pixel of the hole, how far its copies can be trusted to continue the surface
+    in step (:func:`shift_trust`, weighed as the copies are; 1 where the smooth fill or shift-map's own result
+    took the pixel), and leaves it 1 elsewhere."""
     h, w = hole.shape
     out = photo.copy()
+    if trust is not None:
+        trust[...] = 1.0
     for (x0, y0, x1, y1), win_hole, own, size, budget in hole_windows(hole):
-        filled = _blend_window(photo[y0:y1, x0:x1], win_hole, size, SHADING_DEPTH * np.hypot(h, w), budget, own)
+        win_trust = np.ones(win_hole.shape, np.float32) if trust is not None else None
+        filled = _blend_window(photo[y0:y1, x0:x1], win_hole, size, SHADING_DEPTH * np.hypot(h, w), budget, own,
+                               win_trust)
+        if trust is not None:
+            trust[y0:y1, x0:x1][own] = win_trust[own]
         if fade > 0:  # the copies' detail faded, the surface's grain (not theirs) laid back where it went flat
             filled = match_grain(photo[y0:y1, x0:x1],
                                  fade_with_depth(filled, win_hole, fade, FADE_MAX * float(np.hypot(h, w))), win_hole)
@@ -114,9 +132,9 @@ def fade_with_depth(filled: np.ndarray, hole: np.ndarray, fade: float, most: flo
 
 
 def _blend_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float, budget: float,
-                  own: np.ndarray | None = None) -> np.ndarray:
+                  own: np.ndarray | None = None, trust: np.ndarray | None = None) -> np.ndarray:
     """The blend fill of ``hole`` in the window ``img`` (h, w, 3) RGB; ``size``, ``depth``, ``budget`` and ``own``
-    as the exemplar's window takes them."""
+    as the exemplar's window takes them; ``trust`` (h, w) float32, when given, receives :func:`fill_blend`'s."""
     coarse, offsets, unfilled = shift_map(img, hole, budget, own)
     src = img.astype(np.float32)
     known = ~hole
@@ -153,6 +171,8 @@ def _blend_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float, bu
     if rest.any():
         layers.append((None, None, rest))
     known8 = known.astype(np.uint8)
+    trusted = np.zeros_like(weight)
+    smoothed = blur_over(src, known.astype(np.float32), TRUST_NOISE) if trust is not None else None
     for dy, dx, pick in layers:
         chose = np.zeros((h, w), np.float32)
         chose[ys[pick], xs[pick]] = 1.0
@@ -183,12 +203,55 @@ def _blend_window(img: np.ndarray, hole: np.ndarray, size: int, depth: float, bu
         wk = spread * np.exp(-unlike ** 2) * np.clip(frequency(low) / TYPICAL, 0.0, 1.0)
         acc[r0:r1, c0:c1] += copy[inner] * wk[..., None]
         weight[r0:r1, c0:c1] += wk
+        if trust is not None:
+            tried = 1.0 if dy is None else shift_trust(src, known, chose, dy, dx, size, smoothed)
+            trusted[r0:r1, c0:c1] += wk * tried
+    if trust is not None:  # the smooth fill is a mean already: nothing of it to distrust
+        trust[box] = np.where(hole[box], (trusted + SMOOTH_WEIGHT) / weight, 1.0)
     out = img.copy()
     # the copies' share of the fill, beside the smooth fill's: their grain and structure, less their guesses
     laid = smooth[box] + COPY_SHARE * (acc / weight[..., None] - smooth[box])
     out[box] = np.where(hole[box][..., None], np.clip(laid + 0.5, 0, 255), img[box]).astype(np.uint8)
     out = match_shading(img, out, hole, max(3.0, SHADING_SIGMA * size), depth, SHADING_TRUST)
     return match_grain(img, out, hole)
+
+
+def shift_trust(src: np.ndarray, known: np.ndarray, chose: np.ndarray, dy: int, dx: int, size: int,
+                smooth: np.ndarray | None = None) -> float:
+    """How far a copy shifted by (``dy``, ``dx``) can be trusted to continue the surface in step, 0-1, read on
+    the known surface beside the hole pixels that chose it (``chose`` (h, w) float32 1 there; ``src`` (h, w, 3)
+    float32, ``known`` (h, w) bool): where the shift maps that surface onto itself (a copy along a ripple, by a
+    whole period of tiles) it errs by ``r``, the mean colour difference (levels) between each known pixel there and
+    the one the shift brings to it; a smooth fill errs about ``m`` there, the surface's mean difference from its
+    own local mean over the hole's scale (a Gaussian :data:`TRUST_MEAN` of ``size``, the hole's
+    narrower side in pixels, wide: a smooth fill's colour deep in the hole is the border's mean that far around),
+    and more deeper in, where the border's mean says less: the copy is trusted while r stays under
+    :data:`TRUST_RATIO` times m, and less, steeply, beyond. Held as two guesses whose errors are
+    independent. A copy out of step (tiles in perspective, ripples that bend)
+    errs more than the mean, and its lines and spots fall between the true ones. ``smooth``: ``src`` low-passed
+    over ``known`` by :data:`TRUST_NOISE`, when the caller has it."""
+    h, w = known.shape
+    reach = max(TRUST_MIN, TRUST_REACH * float(np.hypot(h, w)))
+    ys, xs = np.nonzero(chose)
+    g = int(np.ceil(reach)) + 2
+    a0, a1, b0, b1 = max(0, ys.min() - g), min(h, ys.max() + 1 + g), max(0, xs.min() - g), min(w, xs.max() + 1 + g)
+    near = cv2.distanceTransform((chose[a0:a1, b0:b1] <= 0).astype(np.uint8), cv2.DIST_L2, 5) <= reach
+    # compared after a small low-pass over the known surface: the render's noise and the finest grain are no step
+    if smooth is None:  # the caller trying many shifts on one window passes it once
+        smooth = blur_over(src, known.astype(np.float32), TRUST_NOISE)
+    here = smooth[a0:a1, b0:b1]
+    shift = np.float32([[1, 0, dx + b0], [0, 1, dy + a0]])
+    there = cv2.warpAffine(smooth, shift, (b1 - b0, a1 - a0), flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
+                           borderMode=cv2.BORDER_CONSTANT)
+    both = known[a0:a1, b0:b1] & near & (cv2.warpAffine(known.astype(np.uint8), shift, (b1 - b0, a1 - a0),
+                                                      flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
+                                                      borderMode=cv2.BORDER_CONSTANT) > 0)
+    if both.sum() < TRUST_PIXELS:
+        return 1.0
+    r = float(np.abs(there - here).mean(-1)[both].mean())
+    local = blur_over(here, known[a0:a1, b0:b1].astype(np.float32), max(2.0, TRUST_MEAN * size))
+    m = float(np.abs(here - local).mean(-1)[both].mean())
+    return 1.0 / (1.0 + (r / max(TRUST_RATIO * m, 1e-6)) ** 4)
 
 
 def _reach(spread: np.ndarray) -> tuple[int, int, int, int] | None:

@@ -248,7 +248,8 @@ def _fill_hole(photo: np.ndarray, hole: np.ndarray, method: str, sources: np.nda
 def fill_faded(photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
     """``hole`` (H, W) bool of ``photo`` (H, W, 3) uint8 RGB filled by the blend, its copies faded into their
     local mean with the depth into the hole (:data:`FADE`), and :data:`FADE_TELEA` of its low frequencies
-    replaced by those of Telea's fill.
+    replaced by those of Telea's fill, more where its copies are distrusted (:func:`~.blend.shift_trust`: their
+    shift does not map the surface beside them onto itself), all of them where none is trusted.
 
     Held against the true background a copy errs least where it continues the surface (a checked wall
     copied in step, at the hole's edge); deeper in, where its lines and spots fall between the true ones
@@ -256,11 +257,15 @@ def fill_faded(photo: np.ndarray, hole: np.ndarray) -> np.ndarray:
     local colour may come from elsewhere (a ripple's shaded side), Telea's from the border all round; Telea's
     is the worse guess more often than not, so it takes a small share. What is left of the copies' detail is
     the surface's grain at the edge."""
-    faded = fill_blend(photo, hole, fade=FADE).astype(np.float32)
+    trust = np.ones(hole.shape, np.float32)
+    faded = fill_blend(photo, hole, fade=FADE, trust=trust).astype(np.float32)
     telea = fill_telea(photo, hole).astype(np.float32)
     sigma = FADE_LOW * float(np.hypot(*hole.shape))
     low = lambda img: cv2.GaussianBlur(img, (0, 0), sigma)  # noqa: E731
-    out = faded + FADE_TELEA * (low(telea) - low(faded))
+    # where the copies' shifts do not map the surface beside them onto itself, their low frequencies are a
+    # guess out of step: Telea's smooth colour takes them over, as far as the copies are distrusted
+    share = FADE_TELEA + (1.0 - FADE_TELEA) * (1.0 - cv2.GaussianBlur(trust, (0, 0), sigma))
+    out = faded + share[..., None] * (low(telea) - low(faded))
     return np.where(hole[..., None], np.clip(out + 0.5, 0, 255), photo).astype(np.uint8)
 
 
