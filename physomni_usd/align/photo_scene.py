@@ -575,7 +575,8 @@ def _lift_scaled(masks, labels, names, unit: PinholeCamera, settings: BuildSetti
         # off its saucer's back, and a support dropped then would stay dropped
         seen = masks if visible is None else visible
         supports = supports_from_above(masks, seen, hides, unit, found)
-        lifted = lift_all(reaching_under(masks, seen, supports), labels, unit, settings, scale, supports, photo=photo, hides=hides,
+        lifted = lift_all(reaching_under(masks, seen, supports), labels, unit, settings, scale, supports,
+                          photo=photo, hides=hides,
                           visible=visible, wall=wall, hollows=hollows, rims=rims)
         longest = [longest_dimension(m.vertices) for m in lifted]
         fit = fit_scale(names, labels, longest, user_sizes, settings.camera.height_m)
