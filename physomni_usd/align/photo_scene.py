@@ -570,13 +570,16 @@ def _lift_scaled(masks, labels, names, unit: PinholeCamera, settings: BuildSetti
     agreeing (:data:`SCALE_ROUNDS`, from ``scale``): (lifted at unit height, supports kept, the scale's fit,
     its factor)."""
     fit = None
+    # what the masks say rests on what, and the outlines reaching under what rests on them, do not change with
+    # the scale: read once
+    seen = masks if visible is None else visible
+    above = supports_from_above(masks, seen, hides, unit, found)
+    reached = reaching_under(masks, seen, above)
     for _ in range(rounds):
         # every round judges the supports afresh: a first round's lift, at a guessed scale, can stand a cup
         # off its saucer's back, and a support dropped then would stay dropped
-        seen = masks if visible is None else visible
-        supports = supports_from_above(masks, seen, hides, unit, found)
-        lifted = lift_all(reaching_under(masks, seen, supports), labels, unit, settings, scale, supports,
-                          photo=photo, hides=hides,
+        supports = dict(above)
+        lifted = lift_all(reached, labels, unit, settings, scale, supports, photo=photo, hides=hides,
                           visible=visible, wall=wall, hollows=hollows, rims=rims)
         longest = [longest_dimension(m.vertices) for m in lifted]
         fit = fit_scale(names, labels, longest, user_sizes, settings.camera.height_m)
